@@ -1,0 +1,65 @@
+"""TCP pose -> 6D cell index, with yaw-first ZYX Euler orientation coordinates.
+
+``R = Rz(yaw) Ry(pitch) Rx(roll)``. A base rotation about z adds to the yaw
+only, so the inverse map for base yaw k*dyaw is the same grid with the yaw
+index shifted by k. Yaw and roll bins are centred on multiples of their width
+(yaw 0 and roll +-pi are bin centres, the top grasp sits mid-bin); pitch bins
+split [-pi/2, pi/2] into an odd count, so pitch 0 is a bin centre too.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def zyx_angles(T):
+    """(yaw, pitch, roll) [rad] of the rotation part of T (4, 4), R = Rz Ry Rx."""
+    sp = -T[2, 0]
+    if sp > 1.0:
+        sp = 1.0
+    elif sp < -1.0:
+        sp = -1.0
+    pitch = math.asin(sp)
+    yaw = math.atan2(T[1, 0], T[0, 0])
+    roll = math.atan2(T[2, 1], T[2, 2])
+    return yaw, pitch, roll
+
+
+@njit(cache=True, inline="always")
+def wrap_bin(angle, n):
+    """Bin of a periodic angle [rad] with n bins centred on multiples of 2 pi / n."""
+    k = int(math.floor(angle * (n / (2.0 * math.pi)) + 0.5))
+    k %= n
+    return k + n if k < 0 else k
+
+
+@njit(cache=True, inline="always")
+def pitch_bin(pitch, n):
+    """Bin of pitch in [-pi/2, pi/2] [rad] with n bins of width pi / n."""
+    k = int(math.floor((pitch + 0.5 * math.pi) * (n / math.pi)))
+    if k < 0:
+        return 0
+    if k >= n:
+        return n - 1
+    return k
+
+
+@njit(cache=True)
+def cell_index(T, origin, res, shape):
+    """Flat index of pose T (4, 4) in a grid (x, y, z, yaw, pitch, roll), or -1 outside.
+
+    origin: (3,) lower corner [m]; res: cell edge [m]; shape: (6,) int64 bin counts.
+    """
+    ix = int(math.floor((T[0, 3] - origin[0]) / res))
+    iy = int(math.floor((T[1, 3] - origin[1]) / res))
+    iz = int(math.floor((T[2, 3] - origin[2]) / res))
+    if ix < 0 or iy < 0 or iz < 0 or ix >= shape[0] or iy >= shape[1] or iz >= shape[2]:
+        return -1
+    yaw, pitch, roll = zyx_angles(T)
+    iyaw = wrap_bin(yaw, shape[3])
+    ip = pitch_bin(pitch, shape[4])
+    ir = wrap_bin(roll, shape[5])
+    return ((((ix * shape[1] + iy) * shape[2] + iz) * shape[3] + iyaw) * shape[4] + ip) * shape[5] + ir

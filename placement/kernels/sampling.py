@@ -1,0 +1,85 @@
+"""Map building: sample joint configurations, bin their TCP poses, keep the best value per cell.
+
+Race-free in two phases per block: threads compute (cell, value) per sample
+into their own slots while the grid is only read; then one pass applies the
+per-cell maximum. The maximum is order-independent and every sample's value is
+a pure function of (seed, sample index), so the map is bitwise identical for
+any thread count or block split. A sample whose value is proven not to exceed
+its cell's current value is dropped early (value -1): that cannot change the
+result either.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .grid import cell_index
+from .kinematics import fk_jacobian
+from .manipulability import extended_manipulability, joint_penalties
+from .rng import uniform
+
+
+@njit(cache=True, parallel=True)
+def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kind, tip_T,
+                 index, rot_scale, origin, res, shape, grid, out_cell, out_val):
+    """Evaluate samples start .. start+count-1 into out_cell (count,) and out_val (count,).
+
+    out_cell is -1 for a pose outside the grid; out_val is -1 for a sample proven
+    not to raise its cell. ``grid`` is the flat float32 map, read only here.
+    """
+    n = lower.shape[0]
+    n_chunks = (count + 1023) // 1024
+    for chunk in prange(n_chunks):
+        q = np.empty(n)
+        T = np.empty((4, 4))
+        J = np.empty((6, n))
+        work = np.empty((n + 3, 4, 4))
+        plo = np.empty(n)
+        phi = np.empty(n)
+        P = np.empty((6, n, 2))
+        G = np.empty((6, 6, 2, 2))
+        A = np.empty((6, 6))
+        lo = chunk * 1024
+        hi = min(count, lo + 1024)
+        for i in range(lo, hi):
+            sid = start + i
+            for j in range(n):
+                q[j] = lower[j] + (upper[j] - lower[j]) * uniform(seed, sid * n + j)
+            fk_jacobian(q, link_T, axis, kind, tip_T, T, J, work)
+            c = cell_index(T, origin, res, shape)
+            out_cell[i] = c
+            if c < 0:
+                out_val[i] = -1.0
+                continue
+            for j in range(n):
+                J[3, j] *= rot_scale
+                J[4, j] *= rot_scale
+                J[5, j] *= rot_scale
+            joint_penalties(q, lower, upper, continuous, plo, phi)
+            out_val[i] = extended_manipulability(J, plo, phi, index, np.float64(grid[c]), P, G, A)
+
+
+@njit(cache=True)
+def reduce_max(grid, cells, vals):
+    """grid[cells[i]] = max(grid[cells[i]], vals[i]) for valid samples; returns how many raised."""
+    raised = 0
+    for i in range(cells.shape[0]):
+        c = cells[i]
+        if c >= 0 and vals[i] > 0.0:
+            v = np.float32(vals[i])
+            if v > grid[c]:
+                grid[c] = v
+                raised += 1
+    return raised
+
+
+@njit(cache=True)
+def sample_configs(seed, start, count, lower, upper):
+    """The joint configurations (count, n) [rad/m] of samples start .. start+count-1."""
+    n = lower.shape[0]
+    out = np.empty((count, n))
+    for i in range(count):
+        for j in range(n):
+            out[i, j] = lower[j] + (upper[j] - lower[j]) * uniform(seed, (start + i) * n + j)
+    return out

@@ -1,0 +1,39 @@
+"""Map storage: Zarr v3 (default) and HDF5 behind one interface (see base.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import MapError
+from .base import Backend, StoredMap, atomic_replace, checksum
+from .hdf5 import Hdf5Backend
+from .zarr import ZarrBackend
+
+BACKENDS: dict[str, Backend] = {"zarr": ZarrBackend(), "hdf5": Hdf5Backend()}
+
+
+def backend(name: str) -> Backend:
+    """The backend called ``name`` ("zarr" or "hdf5")."""
+    try:
+        return BACKENDS[name]
+    except KeyError:
+        raise MapError(f"unknown map format '{name}'; choose from {', '.join(BACKENDS)}") from None
+
+
+def detect(path: str | Path) -> Backend:
+    """The backend that wrote ``path``; MapError if it is no map at all."""
+    path = Path(path)
+    if not path.exists():
+        raise MapError(f"{path}: no such map (build one with `placement maps build`)")
+    for b in BACKENDS.values():
+        if b.is_map(path):
+            return b
+    raise MapError(f"{path}: not a reachability map (no zarr.json and not an HDF5 file)")
+
+
+def open_store(path: str | Path) -> StoredMap:
+    """Open a stored map of either backend."""
+    return detect(path).open(Path(path))
+
+
+__all__ = ["BACKENDS", "Backend", "StoredMap", "atomic_replace", "backend", "checksum", "detect", "open_store"]

@@ -1,0 +1,91 @@
+"""HDF5 backend: one file, gzip-compressed chunks, metadata as JSON attributes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from ..errors import MapError
+from .base import ROOT_KEY, Backend, StoredMap, chunk_shape
+
+_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+class Hdf5Map(StoredMap):
+    def __init__(self, path: Path):
+        self.path = path
+        try:
+            self.file = h5py.File(path, "r")
+            self.root = json.loads(self.file.attrs.get(ROOT_KEY, "{}"))
+        except Exception as exc:
+            raise MapError(f"{path}: not a readable HDF5 map ({_first_line(exc)})") from None
+
+    def _dataset(self, arm: str):
+        try:
+            return self.file[arm]
+        except Exception as exc:
+            raise MapError(f"{self.path}: array for arm '{arm}' is missing or corrupt ({_first_line(exc)})") from None
+
+    def arm_meta(self, arm: str) -> dict:
+        try:
+            return json.loads(self._dataset(arm).attrs["meta"])
+        except MapError:
+            raise
+        except Exception as exc:
+            raise MapError(f"{self.path}: metadata of arm '{arm}' is corrupt ({_first_line(exc)})") from None
+
+    def read_chunk(self, arm: str, iz: int, ip: int, ir: int) -> np.ndarray:
+        try:
+            return np.asarray(self._dataset(arm)[:, :, iz, :, ip, ir])
+        except MapError:
+            raise
+        except Exception as exc:
+            raise MapError(f"{self.path}: chunk ({iz}, {ip}, {ir}) of arm '{arm}' is corrupt ({_first_line(exc)})") from None
+
+    def read_all(self, arm: str) -> np.ndarray:
+        try:
+            return np.asarray(self._dataset(arm)[...])
+        except MapError:
+            raise
+        except Exception as exc:
+            raise MapError(f"{self.path}: data of arm '{arm}' is corrupt ({_first_line(exc)})") from None
+
+    def chunks_present(self, arm: str) -> int | None:
+        return None
+
+    def close(self) -> None:
+        self.file.close()
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+class Hdf5Backend(Backend):
+    name = "hdf5"
+    suffix = ".h5"
+
+    def is_map(self, path: Path) -> bool:
+        path = Path(path)
+        if not path.is_file():
+            return False
+        with open(path, "rb") as fh:
+            return fh.read(8) == _SIGNATURE
+
+    def write(self, path: Path, root: dict, arms: dict) -> None:
+        with h5py.File(path, "w") as fh:
+            for arm, (values, meta) in arms.items():
+                ds = fh.create_dataset(arm, data=values, dtype="float32", chunks=chunk_shape(values.shape),
+                                       compression="gzip", compression_opts=1, shuffle=True, fillvalue=0.0)
+                ds.attrs["meta"] = json.dumps(meta)
+            root = dict(root)
+            root["complete"] = True
+            fh.attrs[ROOT_KEY] = json.dumps(root)
+            fh.flush()
+
+    def open(self, path: Path) -> StoredMap:
+        return Hdf5Map(Path(path))

@@ -1,0 +1,91 @@
+"""Zarr v3 backend: a directory store, zstd-compressed chunks."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import zarr
+from zarr.codecs import BloscCodec
+
+from ..errors import MapError
+from .base import ROOT_KEY, Backend, StoredMap, chunk_shape
+
+
+class ZarrMap(StoredMap):
+    def __init__(self, path: Path):
+        self.path = path
+        try:
+            self.group = zarr.open_group(store=str(path), mode="r")
+            self.root = dict(self.group.attrs.get(ROOT_KEY) or {})
+        except Exception as exc:
+            raise MapError(f"{path}: not a readable Zarr map ({_first_line(exc)})") from None
+
+    def _array(self, arm: str):
+        try:
+            return self.group[arm]
+        except Exception as exc:
+            raise MapError(f"{self.path}: array for arm '{arm}' is missing or corrupt ({_first_line(exc)})") from None
+
+    def arm_meta(self, arm: str) -> dict:
+        return dict(self._array(arm).attrs.asdict())
+
+    def read_chunk(self, arm: str, iz: int, ip: int, ir: int) -> np.ndarray:
+        try:
+            return np.asarray(self._array(arm)[:, :, iz, :, ip, ir])
+        except MapError:
+            raise
+        except Exception as exc:
+            raise MapError(f"{self.path}: chunk ({iz}, {ip}, {ir}) of arm '{arm}' is corrupt ({_first_line(exc)})") from None
+
+    def read_all(self, arm: str) -> np.ndarray:
+        try:
+            return np.asarray(self._array(arm)[...])
+        except MapError:
+            raise
+        except Exception as exc:
+            raise MapError(f"{self.path}: data of arm '{arm}' is corrupt ({_first_line(exc)})") from None
+
+    def chunks_present(self, arm: str) -> int | None:
+        chunk_dir = self.path / arm / "c"
+        if not chunk_dir.is_dir():
+            return 0
+        return sum(len(files) for _, _, files in _walk(chunk_dir))
+
+
+def _walk(path: Path):
+    import os
+    return os.walk(path)
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+class ZarrBackend(Backend):
+    name = "zarr"
+    suffix = ""
+
+    def is_map(self, path: Path) -> bool:
+        return (Path(path) / "zarr.json").is_file()
+
+    def write(self, path: Path, root: dict, arms: dict) -> None:
+        group = zarr.open_group(store=str(path), mode="w", zarr_format=3)
+        root = dict(root)
+        for arm, (values, meta) in arms.items():
+            arr = group.create_array(
+                arm, shape=values.shape, dtype="float32", chunks=chunk_shape(values.shape),
+                compressors=BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), fill_value=0.0,
+                dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
+            )
+            arr[...] = values
+            meta = dict(meta)
+            meta["stored_chunks"] = ZarrMap(path).chunks_present(arm)
+            arr.attrs.update(json.loads(json.dumps(meta)))
+        root["complete"] = True  # last: a map without it is half-written
+        group.attrs[ROOT_KEY] = json.loads(json.dumps(root))
+
+    def open(self, path: Path) -> StoredMap:
+        return ZarrMap(Path(path))
