@@ -1,0 +1,1 @@
+"""The `placement` command line (click). Nothing in the package imports this."""

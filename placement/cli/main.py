@@ -1,0 +1,25 @@
+"""Entry point: `placement maps ...` (offline maps)."""
+
+from __future__ import annotations
+
+import click
+
+from .. import __version__
+from .maps import maps
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="placement")
+def cli():
+    """Robot base placement for mobile manipulation."""
+
+
+cli.add_command(maps)
+
+
+def main():
+    cli(prog_name="placement")
+
+
+if __name__ == "__main__":
+    main()
