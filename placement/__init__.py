@@ -22,4 +22,7 @@ __all__ = sorted([
 
 from .rmap import ReachabilityMap, open_map, save_maps  # noqa: E402
 
-__all__ = sorted([*__all__, "ReachabilityMap", "open_map", "save_maps"])
+from .ik import IKResult, solve_ik  # noqa: E402
+from .accuracy import check_map  # noqa: E402
+
+__all__ = sorted([*__all__, "IKResult", "ReachabilityMap", "check_map", "open_map", "save_maps", "solve_ik"])

@@ -40,6 +40,11 @@ class ReachabilityMap:
             self._full = self.store.read_all(self.arm)
         return self
 
+    @property
+    def values(self) -> np.ndarray:
+        """The whole 6D float32 array (x, y, z, yaw, pitch, roll), read on first use."""
+        return self.load()._full
+
     def slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
         """Values (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""
         if self._full is not None:

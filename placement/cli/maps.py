@@ -138,7 +138,7 @@ def info(path, robot, arm, as_json, verbose, quiet):
     edges = [0.0, 0.01, 0.0235, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0]
     for a in arms:
         rmap = open_map(path, a, robot)
-        values = rmap.load()._full
+        values = rmap.values
         reached = values[values > 0]
         hist, _ = np.histogram(reached, bins=edges)
         out["arms"][a] = {

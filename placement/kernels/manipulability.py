@@ -80,13 +80,20 @@ def octant_gram(G, s, A):
 
 
 @njit(cache=True)
-def sym_eig_extremes(A):
-    """Smallest and largest eigenvalue of a symmetric (6, 6) matrix by cyclic Jacobi.
+def jacobi(A, V, want_vectors):
+    """Diagonalise a symmetric (6, 6) matrix in place by cyclic Jacobi rotations.
 
-    A is overwritten. Jacobi keeps small eigenvalues of positive semi-definite
-    matrices to high accuracy, which the isotropy ratio needs.
+    On return the diagonal of A holds the eigenvalues; if ``want_vectors``, V
+    (6, 6) holds the eigenvectors as columns. Jacobi keeps small eigenvalues of
+    positive semi-definite matrices to high relative accuracy, which the
+    isotropy ratio needs, and converges in one or two sweeps on nearly diagonal
+    input.
     """
     n = A.shape[0]
+    if want_vectors:
+        for i in range(n):
+            for j in range(n):
+                V[i, j] = 1.0 if i == j else 0.0
     for sweep in range(60):
         off = 0.0
         diag = 0.0
@@ -118,9 +125,21 @@ def sym_eig_extremes(A):
                         A[p, r] = A[r, p]
                         A[r, q] = arq + s * (arp - tau * arq)
                         A[q, r] = A[r, q]
+                if want_vectors:
+                    for r in range(n):
+                        vrp = V[r, p]
+                        vrq = V[r, q]
+                        V[r, p] = vrp - s * (vrq + tau * vrp)
+                        V[r, q] = vrq + s * (vrp - tau * vrq)
+
+
+@njit(cache=True)
+def sym_eig_extremes(A):
+    """Smallest and largest eigenvalue of a symmetric (6, 6) matrix (A is overwritten)."""
+    jacobi(A, A, False)
     lmin = A[0, 0]
     lmax = A[0, 0]
-    for p in range(1, n):
+    for p in range(1, A.shape[0]):
         lmin = min(lmin, A[p, p])
         lmax = max(lmax, A[p, p])
     return lmin, lmax
@@ -176,3 +195,187 @@ def extended_manipulability(J, pen_lo, pen_hi, index, threshold, P, G, A):
             if best <= threshold:
                 return -1.0
     return best
+
+
+# Relative safety margins of the proofs below: far above the rounding error of
+# the bounds (~1e-15 relative), so a pruned sample or octant is pruned in exact
+# arithmetic too and the result never depends on the cell's current value.
+_MARGIN = 1e-6
+_SMALLEST = 1e-3  # below this isotropy, prove nothing and compute exactly
+
+
+@njit(cache=True)
+def _pd(A, alpha, beta, L):
+    """Whether alpha * A + beta * I (symmetric (6, 6)) is positive definite, by Cholesky into L."""
+    for j in range(6):
+        d = alpha * A[j, j] + beta
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        ljj = math.sqrt(d)
+        L[j, j] = ljj
+        for i in range(j + 1, 6):
+            v = alpha * A[i, j]
+            for k in range(j):
+                v -= L[i, k] * L[j, k]
+            L[i, j] = v / ljj
+    return True
+
+
+@njit(cache=True)
+def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, ub):
+    """Isotropy index (min over octants of sigma_min/sigma_max), or -1.0 if proven <= threshold.
+
+    Returns the same value as :func:`extended_manipulability` with ``index=ISOTROPY``
+    (to rounding, ~1e-14), much faster, by proofs instead of eigenvalues:
+
+    - "octant s is below t": the Cholesky factorisation of ``A_s - t^2 d I``
+      fails, where ``d`` = the largest diagonal entry <= lambda_max; then
+      lambda_min < t^2 lambda_max. One such octant below the threshold means
+      the sample cannot raise its cell: stop.
+    - "octant s is not below the running minimum m": ``U I - A_s`` and
+      ``A_s - m^2 U I`` are both positive definite for some U (a Rayleigh
+      estimate of lambda_max from the eigenvectors of the first exact octant).
+    Only octants that neither proof settles get an exact Jacobi.
+    Scratch: P (6, n, 2), G (6, 6, 2, 2), A, V, B (6, 6), order (64,) int64, ub (64,).
+    """
+    n = J.shape[1]
+    gram_table(J, pen_lo, pen_hi, P, G)
+    # diagonal bound per octant: lambda_min <= min diag, lambda_max >= max diag
+    for s in range(64):
+        dmin = np.inf
+        dmax = 0.0
+        for r in range(6):
+            a = (s >> r) & 1
+            d = G[r, r, a, a]
+            dmin = min(dmin, d)
+            dmax = max(dmax, d)
+        ub[s] = dmin / dmax if dmax > 0.0 else 0.0
+        order[s] = s
+    _sort_by(order, ub)
+    t2 = threshold * threshold * (1.0 - _MARGIN)
+    if threshold >= _SMALLEST:
+        # the octant with every row on its more penalised side, then its neighbours
+        s_pen = 0
+        for r in range(6):
+            if G[r, r, 1, 1] < G[r, r, 0, 0]:
+                s_pen |= 1 << r
+        for k in range(7):
+            s = s_pen if k == 0 else s_pen ^ (1 << (k - 1))
+            if ub[s] <= t2:
+                return -1.0
+            octant_gram(G, s, A)
+            if not _pd(A, 1.0, -t2 * _lambda_max_lower(A), B):
+                return -1.0
+    # exact: the most promising octant first, with eigenvectors
+    s0 = order[0]
+    octant_gram(G, s0, A)
+    jacobi(A, V, True)
+    imin = 0
+    imax = 0
+    for p in range(1, 6):
+        if A[p, p] < A[imin, imin]:
+            imin = p
+        if A[p, p] > A[imax, imax]:
+            imax = p
+    lmin, lmax = A[imin, imin], A[imax, imax]
+    best = math.sqrt(lmin / lmax) if lmin > 0.0 and lmax > 0.0 else 0.0
+    if best <= threshold:
+        return -1.0
+    # Rayleigh quotients of every octant with those two vectors (Gray-code walk)
+    umin = np.empty(n)
+    umax = np.empty(n)
+    qmaxs = np.empty(64)
+    for j in range(n):
+        a = 0.0
+        b = 0.0
+        for r in range(6):
+            a += V[r, imin] * P[r, j, 0]
+            b += V[r, imax] * P[r, j, 0]
+        umin[j] = a
+        umax[j] = b
+    s = 0
+    for k in range(64):
+        if k > 0:
+            r = 0
+            while not (k >> r) & 1:
+                r += 1
+            new_bit = ((s >> r) & 1) ^ 1
+            for j in range(n):
+                d = P[r, j, new_bit] - P[r, j, 1 - new_bit]
+                umin[j] += V[r, imin] * d
+                umax[j] += V[r, imax] * d
+            s ^= 1 << r
+        qmin = 0.0
+        qmax = 0.0
+        for j in range(n):
+            qmin += umin[j] * umin[j]
+            qmax += umax[j] * umax[j]
+        ub[s] = min(ub[s], qmin / qmax) if qmax > 0.0 else 0.0
+        qmaxs[s] = qmax
+        order[s] = s
+    _sort_by(order, ub)
+    for k in range(64):
+        s = order[k]
+        if s == s0:
+            continue
+        m2 = best * best
+        if ub[s] < m2 * (1.0 - _MARGIN):
+            pass  # certainly a new minimum: compute it
+        elif best >= _SMALLEST:
+            octant_gram(G, s, A)
+            U = qmaxs[s] * 1.05
+            if not _pd(A, -1.0, U, B):
+                U = 0.0
+                for r in range(6):
+                    U += A[r, r]
+            if _pd(A, 1.0, -m2 * U * (1.0 + _MARGIN), B):
+                continue
+        octant_gram(G, s, A)
+        lmin, lmax = sym_eig_extremes(A)
+        v = math.sqrt(lmin / lmax) if lmin > 0.0 and lmax > 0.0 else 0.0
+        if v < best:
+            best = v
+            if best <= threshold:
+                return -1.0
+    return best
+
+
+@njit(cache=True, inline="always")
+def _sort_by(order, key):
+    """Insertion sort of ``order`` (64,) by ``key[order]``: stable, deterministic."""
+    for k in range(1, order.shape[0]):
+        x = order[k]
+        m = k - 1
+        while m >= 0 and key[order[m]] > key[x]:
+            order[m + 1] = order[m]
+            m -= 1
+        order[m + 1] = x
+
+
+@njit(cache=True, inline="always")
+def _lambda_max_lower(A):
+    """A lower bound of lambda_max of a PSD (6, 6) A: Rayleigh quotient after two power steps."""
+    k = 0
+    for r in range(1, 6):
+        if A[r, r] > A[k, k]:
+            k = r
+    x = np.empty(6)
+    y = np.empty(6)
+    for r in range(6):
+        x[r] = A[r, k]
+    for it in range(2):
+        for r in range(6):
+            acc = 0.0
+            for c in range(6):
+                acc += A[r, c] * x[c]
+            y[r] = acc
+        num = 0.0
+        den = 0.0
+        for r in range(6):
+            num += x[r] * y[r]
+            den += x[r] * x[r]
+        for r in range(6):
+            x[r] = y[r]
+    return max(num / den if den > 0.0 else 0.0, A[k, k])

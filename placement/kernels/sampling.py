@@ -16,7 +16,7 @@ from numba import njit, prange
 
 from .grid import cell_index
 from .kinematics import fk_jacobian
-from .manipulability import extended_manipulability, joint_penalties
+from .manipulability import ISOTROPY, extended_manipulability, isotropy_pruned, joint_penalties
 from .rng import uniform
 
 
@@ -40,6 +40,10 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
         P = np.empty((6, n, 2))
         G = np.empty((6, 6, 2, 2))
         A = np.empty((6, 6))
+        V = np.empty((6, 6))
+        B = np.empty((6, 6))
+        order = np.empty(64, dtype=np.int64)
+        ub = np.empty(64)
         lo = chunk * 1024
         hi = min(count, lo + 1024)
         for i in range(lo, hi):
@@ -57,7 +61,10 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
                 J[4, j] *= rot_scale
                 J[5, j] *= rot_scale
             joint_penalties(q, lower, upper, continuous, plo, phi)
-            out_val[i] = extended_manipulability(J, plo, phi, index, np.float64(grid[c]), P, G, A)
+            if index == ISOTROPY:
+                out_val[i] = isotropy_pruned(J, plo, phi, np.float64(grid[c]), P, G, A, V, B, order, ub)
+            else:
+                out_val[i] = extended_manipulability(J, plo, phi, index, np.float64(grid[c]), P, G, A)
 
 
 @njit(cache=True)

@@ -1,0 +1,115 @@
+"""Inverse kinematics (placement.ik): reaches FK poses within limits, reports failure honestly."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import random_configs
+
+from placement.errors import PlacementError
+from placement.ik import IKResult, solve_ik
+
+
+def _rot_angle(R1: np.ndarray, R2: np.ndarray) -> float:
+    """Angle [rad] of the rotation R1^T R2."""
+    c = (np.trace(R1.T @ R2) - 1.0) / 2.0
+    return math.acos(min(1.0, max(-1.0, c)))
+
+
+def _assert_in_limits(arm, q):
+    assert q.shape == (arm.dof,)
+    lim = ~arm.continuous
+    assert np.all(q[lim] >= arm.lower[lim] - 1e-12) and np.all(q[lim] <= arm.upper[lim] + 1e-12)
+    assert np.all(q[arm.continuous] >= -math.pi) and np.all(q[arm.continuous] < math.pi)
+
+
+@pytest.mark.parametrize("arm_name", ["right", "left"])
+def test_reaches_fk_poses_of_random_configurations(pr2, arm_name):
+    arm = pr2.arm(arm_name)
+    qs = random_configs(arm, 30, np.random.default_rng(42))
+    solved = 0
+    for q in qs:
+        T = pr2.tcp_pose(arm_name, q)
+        res = solve_ik(pr2, arm_name, T)
+        assert isinstance(res, IKResult)
+        _assert_in_limits(arm, res.q)
+        if not res.success:
+            continue
+        solved += 1
+        # Check with the reference FK, not the solver's own numbers.
+        T_ik = pr2.tcp_pose(arm_name, res.q)
+        pos_err = float(np.linalg.norm(T_ik[:3, 3] - T[:3, 3]))
+        rot_err = _rot_angle(T_ik[:3, :3], T[:3, :3])
+        assert pos_err < 1e-3
+        assert rot_err < 1e-2
+        assert res.pos_err == pytest.approx(pos_err, abs=1e-9)
+        assert res.rot_err == pytest.approx(rot_err, abs=1e-6)
+    # Random restarts make failures on reachable poses rare (~1 % with 8 seeds).
+    assert solved >= 28
+
+
+def test_seed_near_solution_converges_on_first_attempt(pr2):
+    arm = pr2.arm("right")
+    q = random_configs(arm, 1, np.random.default_rng(3))[0]
+    q = np.clip(q, arm.lower + 0.2, arm.upper - 0.2)
+    T = pr2.tcp_pose("right", q)
+    res = solve_ik(pr2, "right", T, q_seed=q + 0.05)
+    assert res.success and res.attempts == 1
+    assert res.iterations < 50
+
+
+def test_tight_tolerance(pr2):
+    arm = pr2.arm("right")
+    q = np.clip(random_configs(arm, 1, np.random.default_rng(5))[0], arm.lower + 0.2, arm.upper - 0.2)
+    T = pr2.tcp_pose("right", q)
+    res = solve_ik(pr2, "right", T, q_seed=q + 0.1, pos_tol=1e-6, rot_tol=1e-6)
+    assert res.success
+    T_ik = pr2.tcp_pose("right", res.q)
+    assert np.linalg.norm(T_ik[:3, 3] - T[:3, 3]) < 1e-6
+
+
+def test_impossible_target_reports_failure(pr2):
+    T = np.eye(4)
+    T[:3, 3] = (5.0, 0.0, 1.0)  # 5 m in front of the base: far out of reach
+    res = solve_ik(pr2, "right", T)
+    assert res.success is False
+    assert res.attempts == 8
+    assert res.pos_err > 3.0
+    _assert_in_limits(pr2.arm("right"), res.q)
+    # The reported error is the real error of the returned configuration.
+    assert res.pos_err == pytest.approx(np.linalg.norm(pr2.tcp_pose("right", res.q)[:3, 3] - T[:3, 3]), abs=1e-9)
+
+
+def test_deterministic(pr2):
+    arm = pr2.arm("right")
+    q = random_configs(arm, 1, np.random.default_rng(11))[0]
+    T = pr2.tcp_pose("right", q)
+    a = solve_ik(pr2, "right", T, rng_seed=7)
+    b = solve_ik(pr2, "right", T, rng_seed=7)
+    assert a.success == b.success and a.iterations == b.iterations
+    np.testing.assert_array_equal(a.q, b.q)
+
+
+def test_bad_inputs(pr2):
+    with pytest.raises(PlacementError):
+        solve_ik(pr2, "right", np.eye(3))
+    with pytest.raises(PlacementError):
+        solve_ik(pr2, "right", np.eye(4), q_seed=np.zeros(3))
+    with pytest.raises(PlacementError):
+        solve_ik(pr2, "right", np.eye(4), seeds=0)
+
+
+def test_armar6_8dof_non_root_base(armar6):
+    arm = armar6.arm("right")
+    qs = random_configs(arm, 10, np.random.default_rng(0))
+    solved = 0
+    for q in qs:
+        T = armar6.tcp_pose("right", q)
+        res = solve_ik(armar6, "right", T)
+        _assert_in_limits(arm, res.q)
+        if res.success:
+            solved += 1
+            assert np.linalg.norm(armar6.tcp_pose("right", res.q)[:3, 3] - T[:3, 3]) < 1e-3
+    assert solved >= 9
