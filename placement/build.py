@@ -57,7 +57,7 @@ def default_grid(robot: Robot, arm: str, resolution: float = 0.05, bins=DEFAULT_
 
 def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution: float = 0.05,
               bins=DEFAULT_BINS, index: str = "isotropy", block: int = 1 << 19,
-              progress: bool = True) -> BuiltMap:
+              progress: bool = True, on_block=None) -> BuiltMap:
     """Sample ``samples`` configurations of ``arm`` and keep the best value per 6D cell.
 
     Args:
@@ -70,6 +70,8 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
         index: "isotropy" (Simox default) or "volume".
         block: samples per parallel block (memory vs. pruning freshness; does not change the result).
         progress: show a tqdm bar on stderr.
+        on_block: optional ``f(samples_done, values_flat)`` called after each block
+            (for convergence curves); must not modify the array.
     """
     if not isinstance(samples, (int, np.integer)) or samples < 1:
         raise PlacementError(f"sample count must be a positive integer, got {samples!r}")
@@ -103,6 +105,8 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
             reduce_max(values, cells[:count], vals[:count])
             done += count
             bar.update(count)
+            if on_block is not None:
+                on_block(done, values)
     elapsed = time.perf_counter() - t0
     if outside:
         raise PlacementError(f"{outside} samples fell outside the grid: the reach bound is wrong")

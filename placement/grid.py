@@ -18,7 +18,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .errors import GridError
-from .kernels.grid import cell_index
+from .kernels.grid import cell_indices
 
 AXES = ("x", "y", "z", "yaw", "pitch", "roll")
 ORIENTATION = "zyx-euler: R = Rz(yaw) Ry(pitch) Rx(roll); yaw/roll bins centred on k*2pi/n; pitch bins split [-pi/2, pi/2]"
@@ -86,7 +86,7 @@ class Grid:
         """Flat cell indices of poses T (N, 4, 4) in the base frame; -1 outside the grid."""
         T = np.ascontiguousarray(T, dtype=float).reshape(-1, 4, 4)
         o, s = self.origin_array, self.shape_array
-        return np.array([cell_index(t, o, self.resolution, s) for t in T], dtype=np.int64)
+        return cell_indices(T, o, self.resolution, s)
 
     def centre(self, flat: np.ndarray) -> np.ndarray:
         """Poses (N, 4, 4) at the centres of the cells with flat indices ``flat`` (N,)."""

@@ -9,7 +9,6 @@ import numpy as np
 from .build import FORMAT_VERSION, BuiltMap
 from .errors import MapError, PlacementError
 from .grid import Grid
-from .kernels.grid import cell_index
 from .robots import Robot, load_robot
 from .storage import atomic_replace, backend, checksum, detect, open_store
 
@@ -62,8 +61,7 @@ class ReachabilityMap:
             raise PlacementError(f"poses must have shape (4, 4) or (N, 4, 4), got {T.shape}")
         T = T.reshape(-1, 4, 4)
         g = self.grid
-        o, s = g.origin_array, g.shape_array
-        flat = np.array([cell_index(t, o, g.resolution, s) for t in T], dtype=np.int64)
+        flat = g.index(T)
         out = np.zeros(len(flat), dtype=np.float64)
         ok = flat >= 0
         if not ok.any():

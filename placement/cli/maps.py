@@ -195,7 +195,7 @@ def check(path, robot, arm, samples, seed, as_json, verbose, quiet):
         out["arms"][a] = check_map(load_robot(robot or store.root.get("preset") or store.root["robot"]),
                                    rmap, samples=samples, seed=seed)
     emit(out, as_json, lambda d: "\n".join(
-        f"{d['path']} arm {a}: " + ", ".join(f"{k} {v}" for k, v in r.items() if not isinstance(v, dict))
+        f"{d['path']} arm {a}: " + ", ".join(f"{k} {v}" for k, v in r.items() if not isinstance(v, (dict, list)))
         for a, r in d["arms"].items()))
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 
@@ -63,3 +64,12 @@ def cell_index(T, origin, res, shape):
     ip = pitch_bin(pitch, shape[4])
     ir = wrap_bin(roll, shape[5])
     return ((((ix * shape[1] + iy) * shape[2] + iz) * shape[3] + iyaw) * shape[4] + ip) * shape[5] + ir
+
+
+@njit(cache=True)
+def cell_indices(T, origin, res, shape):
+    """Flat indices (N,) int64 of poses T (N, 4, 4); -1 outside the grid."""
+    out = np.empty(T.shape[0], dtype=np.int64)
+    for i in range(T.shape[0]):
+        out[i] = cell_index(T[i], origin, res, shape)
+    return out

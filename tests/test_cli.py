@@ -1,0 +1,118 @@
+"""The command line: JSON on stdout, one-line errors, and the README quick start verbatim."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(*args, cwd=None):
+    env = dict(os.environ)
+    return subprocess.run([sys.executable, "-m", "placement.cli.main", *args], capture_output=True,
+                          text=True, cwd=cwd, env=env)
+
+
+def _assert_one_line_error(proc, *words):
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
+    assert len(lines) == 1, proc.stderr
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
+def test_build_info_json(tmp_path):
+    out = tmp_path / "m"
+    p = run("maps", "build", "--robot", "pr2", "--arm", "left", "--samples", "3000", "--resolution", "0.1",
+            "--out", str(out), "--json", "-q")
+    assert p.returncode == 0, p.stderr
+    doc = json.loads(p.stdout)
+    assert doc["arms"]["left"]["samples"] == 3000
+    p = run("maps", "info", str(out), "--json")
+    info = json.loads(p.stdout)
+    arm = info["arms"]["left"]
+    assert arm["filled_cells"] > 0 and 0 < arm["fill_ratio"] < 1
+    assert sum(arm["value"]["histogram"]["counts"]) == arm["filled_cells"]
+    assert arm["meta"]["robot"] == "pr2" and arm["meta"]["seed"] == 0
+
+
+@pytest.mark.parametrize("args,words", [
+    (["maps", "build", "--robot", "pr3", "--out", "X"], ["pr3"]),
+    (["maps", "build", "--arm", "middle", "--out", "X"], ["middle", "right", "left"]),
+    (["maps", "build", "--samples", "0", "--out", "X"], ["samples"]),
+    (["maps", "build", "--resolution", "-1", "--out", "X"], ["resolution"]),
+    (["maps", "build", "--bins", "3,4,5", "--samples", "10", "--out", "X"], ["even"]),
+    (["maps", "info", "does-not-exist"], ["does-not-exist"]),
+])
+def test_bad_input_is_one_line(tmp_path, args, words):
+    args = [str(tmp_path / a) if a == "X" else a for a in args]
+    _assert_one_line_error(run(*args, cwd=tmp_path), *words)
+
+
+def test_build_refuses_to_overwrite_non_map(tmp_path):
+    target = tmp_path / "precious"
+    target.mkdir()
+    (target / "thesis.txt").write_text("do not delete")
+    _assert_one_line_error(run("maps", "build", "--samples", "10", "--out", str(target)), "not a map")
+    assert (target / "thesis.txt").read_text() == "do not delete"
+
+
+def test_bad_preset_names_the_key(tmp_path):
+    preset = tmp_path / "r.yaml"
+    preset.write_text("name: r\nurdf: x.urdf\nbase_frame: b\narms: {}\nwheels: 4\n")
+    _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "wheels")
+    preset.write_text("name: r\nurdf: x.urdf\nbase_frame: b\narms: {a: {joints: [j], tip_frame: t}}\n")
+    _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")
+    (tmp_path / "x.urdf").write_text("<robot name='r'><link name='l'/><joint")
+    _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")
+
+
+def test_bad_frame_names_the_frame(tmp_path):
+    from placement.robots.preset import PRESET_DIR
+    text = (PRESET_DIR / "pr2.yaml").read_text().replace("tip_frame: r_gripper_tool_frame",
+                                                       "tip_frame: r_gripper_tool_fram")
+    text = text.replace("package://", "package://")
+    preset = tmp_path / "pr2x.yaml"
+    preset.write_text(text)
+    _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--samples", "10",
+                               "--out", str(tmp_path / "m")), "r_gripper_tool_fram", "r_gripper_tool_frame")
+
+
+def _readme_blocks(lang):
+    text = (ROOT / "README.md").read_text()
+    start = text.index("## Quick start")
+    end = text.index("\n## ", start + 5)
+    return re.findall(rf"```{lang}\n(.*?)```", text[start:end], re.S)
+
+
+def test_readme_quick_start(tmp_path):
+    """Every `placement` command of the quick start runs as written (paths moved into tmp)."""
+    (bash,) = _readme_blocks("bash")
+    commands = [ln.split("#")[0].strip() for ln in bash.splitlines()]
+    placement_cmds = [c for c in commands if c.startswith(".venv/bin/placement")]
+    assert len(placement_cmds) >= 3
+    assert any(c.startswith("make test") for c in commands)
+    for cmd in placement_cmds:
+        args = shlex.split(cmd)[1:]
+        p = run(*args, cwd=tmp_path)
+        assert p.returncode == 0, (cmd, p.stderr[-2000:])
+        if "--json" in args:
+            json.loads(p.stdout)
+    (py,) = _readme_blocks("python")
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        ns: dict = {}
+        exec(compile(py, "README.md", "exec"), ns)
+        assert ns["rmap"].value(ns["T"]).shape == (1,)
+    finally:
+        os.chdir(cwd)

@@ -1,0 +1,188 @@
+"""`make bench`: kernel and end-to-end speed, map quality; prints a Markdown table.
+
+Every timing is the median of several runs on this machine; ratios compare
+against baselines measured in the same run. Writes docs/bench.md and
+docs/convergence.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+
+import placement
+from placement.build import default_grid
+from placement.kernels.kinematics import fk_jacobian_batch
+from placement.kernels.manipulability import extended_manipulability, isotropy_pruned, joint_penalties
+from placement.kernels.sampling import sample_configs
+from numba import njit
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def median_time(fn, runs=5):
+    times = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+@njit(cache=True)
+def _measure_all(Q, J, lower, upper, cont, mode, index):
+    """Evaluate the measure on all rows; mode 0 = direct 64 octants, 1 = pruned kernel (exact)."""
+    n = Q.shape[1]
+    plo = np.empty(n); phi = np.empty(n)
+    P = np.empty((6, n, 2)); G = np.empty((6, 6, 2, 2)); A = np.empty((6, 6))
+    V = np.empty((6, 6)); B = np.empty((6, 6)); order = np.empty(64, np.int64); ub = np.empty(64)
+    out = np.empty(Q.shape[0])
+    for i in range(Q.shape[0]):
+        joint_penalties(Q[i], lower, upper, cont, plo, phi)
+        if mode == 0:
+            out[i] = extended_manipulability(J[i], plo, phi, index, -1.0, P, G, A)
+        else:
+            out[i] = isotropy_pruned(J[i], plo, phi, -1.0, P, G, A, V, B, order, ub)
+    return out
+
+
+def machine() -> str:
+    cpu = platform.processor() or ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return (f"{cpu}, {os.cpu_count()} cores, numba threads {numba.get_num_threads()}, "
+            f"Python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--samples", type=int, default=4_000_000, help="end-to-end build samples (one arm)")
+    ap.add_argument("--spec", default=str(ROOT / "maps/pr2.yaml"))
+    ap.add_argument("--out", default=str(ROOT / "docs"))
+    ap.add_argument("--check", type=int, default=150, help="IK checks per class")
+    args = ap.parse_args(argv)
+    import yaml
+    spec = yaml.safe_load(Path(args.spec).read_text())
+    robot = placement.load_robot(spec["robot"])
+    arm = "right"
+    a = robot.arm(arm)
+    ch = a.chain
+    rows = []
+
+    # --- kernels -------------------------------------------------------
+    N = 200_000
+    Q = sample_configs(np.uint64(1), 0, N, a.lower, a.upper)
+    fk_jacobian_batch(Q[:10], ch.link_T, ch.axis, ch.kind, ch.tip_T)
+    t = median_time(lambda: fk_jacobian_batch(Q, ch.link_T, ch.axis, ch.kind, ch.tip_T))
+    rows.append(("FK + TCP Jacobian (1 thread)", f"{N / t / 1e6:.2f} M/s", ""))
+    _, J = fk_jacobian_batch(Q, ch.link_T, ch.axis, ch.kind, ch.tip_T)
+    J[:, 3:] *= 0.15
+    cont = a.continuous.astype(np.bool_)
+    M = 4000
+    _measure_all(Q[:10], J[:10], a.lower, a.upper, cont, 0, 0)
+    _measure_all(Q[:10], J[:10], a.lower, a.upper, cont, 1, 0)
+    t_direct = median_time(lambda: _measure_all(Q[:M], J[:M], a.lower, a.upper, cont, 0, 0), 3)
+    t_pruned = median_time(lambda: _measure_all(Q[:M], J[:M], a.lower, a.upper, cont, 1, 0), 3)
+    t_volume = median_time(lambda: _measure_all(Q[:M * 10], J[:M * 10], a.lower, a.upper, cont, 0, 1), 3)
+    d = _measure_all(Q[:M], J[:M], a.lower, a.upper, cont, 0, 0)
+    p = _measure_all(Q[:M], J[:M], a.lower, a.upper, cont, 1, 0)
+    rows.append(("isotropy, direct 64 octants (baseline, 1 thread)", f"{M / t_direct / 1e3:.1f} k/s", "1.00x"))
+    rows.append(("isotropy, pruned kernel, exact value (1 thread)", f"{M / t_pruned / 1e3:.1f} k/s",
+                 f"{t_direct / t_pruned:.2f}x (max diff {abs(d - p).max():.1e})"))
+    rows.append(("volume index, 64 octants (1 thread)", f"{10 * M / t_volume / 1e3:.1f} k/s", ""))
+
+    # --- end-to-end build with convergence ------------------------------
+    bins = tuple(spec.get("bins", (20, 9, 20)))
+    res = float(spec.get("resolution", 0.05))
+    curve = []
+    grid = default_grid(robot, arm, res, bins)
+    built = placement.build_map(robot, arm, samples=args.samples, seed=0, resolution=res, bins=bins,
+                                progress=False, block=1 << 19,
+                                on_block=lambda done, v: curve.append((done, int(np.count_nonzero(v)))))
+    rate = built.meta["samples_per_s"]
+    rows.append((f"end-to-end build, {args.samples / 1e6:.0f} M samples, {grid.shape} grid ({numba.get_num_threads()} threads)",
+                 f"{rate / 1e3:.0f} k samples/s", f"{built.meta['build_time_s']:.1f} s"))
+
+    tmp = Path(tempfile.mkdtemp())
+    try:
+        for fmt in ("zarr", "hdf5"):
+            path = tmp / ("map" + (".h5" if fmt == "hdf5" else ""))
+            t = time.perf_counter()
+            placement.save_maps(path, robot, {arm: built}, fmt)
+            t_save = time.perf_counter() - t
+            size = sum(f.stat().st_size for f in path.rglob("*")) if path.is_dir() else path.stat().st_size
+            T = robot.tcp_pose  # noqa: F841 (pinocchio FK is the reference; poses below from the kernel)
+            Qq = sample_configs(np.uint64(7), 0, 100_000, a.lower, a.upper)
+            poses, _ = fk_jacobian_batch(Qq, ch.link_T, ch.axis, ch.kind, ch.tip_T)
+
+            def query():
+                rm = placement.open_map(path, arm, robot)
+                return rm.value(poses)
+
+            query()
+            t_q = median_time(query, 3)
+            rows.append((f"{fmt}: write / size / open + 1e5 value() queries",
+                         f"{t_save:.1f} s / {size / 1e6:.1f} MB", f"{t_q * 1e3:.0f} ms"))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+    # --- quality against IK --------------------------------------------
+    chk = placement.check_map(robot, built, samples=args.check, seed=0)
+    rows.append(("map precision against IK (TP / (TP + FP))", f"{100 * (chk['precision'] or 0):.1f} %",
+                 f"{chk['true_positives']} TP, {chk['false_positives']} FP"))
+    rows.append(("map recall estimate against IK", f"{100 * (chk['recall_estimate'] or 0):.1f} %",
+                 f"NPV {100 * (chk['negative_predictive_value'] or 0):.1f} %"))
+    filled = curve[-1][1]
+    rows.append(("fill: cells reached / grid cells", f"{filled} / {grid.size}", f"{100 * filled / grid.size:.2f} %"))
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    _plot(curve, grid.size, out / "convergence.png", f"{robot.name}/{arm}, grid {grid.shape}")
+    table = ["| measurement | value | ratio / detail |", "|---|---|---|"]
+    table += [f"| {a} | {b} | {c} |" for a, b, c in rows]
+    text = "\n".join([f"Machine: {machine()}", "", *table, ""])
+    (out / "bench.md").write_text(text)
+    (out / "bench.json").write_text(json.dumps({"rows": rows, "curve": curve, "check": {
+        k: v for k, v in chk.items() if not isinstance(v, (list, dict))}}, indent=1, default=str))
+    print(text)
+
+
+def _plot(curve, cells, path, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    x = np.array([c[0] for c in curve])
+    y = np.array([c[1] for c in curve])
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(x / 1e6, y / 1e6, marker=".")
+    ax.set_xlabel("samples [millions]")
+    ax.set_ylabel("cells reached [millions]")
+    ax.set_title(f"Map fill vs. samples ({title})", fontsize=9)
+    ax.grid(True, alpha=0.3)
+    ax2 = ax.twinx()
+    ax2.plot(x / 1e6, 100 * y / cells, alpha=0)
+    ax2.set_ylabel("% of grid cells")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
