@@ -199,4 +199,3 @@ def check(path, robot, arm, samples, seed, as_json, verbose, quiet):
         for a, r in d["arms"].items()))
 
 
-os.environ.setdefault("NUMBA_CACHE_DIR", str(Path.home() / ".cache" / "placement-numba"))

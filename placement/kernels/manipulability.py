@@ -145,38 +145,111 @@ def sym_eig_extremes(A):
     return lmin, lmax
 
 
+# Below this isotropy the Gram-matrix route (which squares the condition number)
+# may lose ~1e-12 absolute; such octants are recomputed from J_s itself.
+_ACCURATE_BELOW = 1e-4
+
+
 @njit(cache=True)
-def chol_det(A):
-    """Determinant of a symmetric (6, 6) matrix by Cholesky; 0 if not positive definite."""
-    n = A.shape[0]
-    L = np.empty((n, n))
-    det = 1.0
+def _octant_r(P, s, R):
+    """R (6, 6) upper triangular with J_s^T = Q R (Householder QR of the (n, 6) J_s^T)."""
+    n = P.shape[1]
+    M = np.empty((n, 6))
     for j in range(n):
-        d = A[j, j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if d <= 0.0:
-            return 0.0
-        det *= d
-        L[j, j] = math.sqrt(d)
-        for i in range(j + 1, n):
-            v = A[i, j]
-            for k in range(j):
-                v -= L[i, k] * L[j, k]
-            L[i, j] = v / L[j, j]
-    return det
+        for r in range(6):
+            M[j, r] = P[r, j, (s >> r) & 1]
+    v = np.empty(n)
+    for k in range(6):
+        norm = 0.0
+        for i in range(k, n):
+            norm += M[i, k] * M[i, k]
+        norm = math.sqrt(norm)
+        if norm == 0.0:
+            continue
+        alpha = -norm if M[k, k] >= 0.0 else norm
+        vnorm = 0.0
+        for i in range(k, n):
+            v[i] = M[i, k]
+        v[k] -= alpha
+        for i in range(k, n):
+            vnorm += v[i] * v[i]
+        if vnorm == 0.0:
+            continue
+        for c in range(k, 6):
+            dot = 0.0
+            for i in range(k, n):
+                dot += v[i] * M[i, c]
+            f = 2.0 * dot / vnorm
+            for i in range(k, n):
+                M[i, c] -= f * v[i]
+    for r in range(6):
+        for c in range(6):
+            R[r, c] = M[r, c] if c >= r else 0.0
 
 
 @njit(cache=True)
-def octant_value(G, s, index, A):
+def _singular_extremes(R):
+    """Smallest and largest singular value of a (6, 6) matrix by one-sided Jacobi (R is overwritten)."""
+    for sweep in range(60):
+        rotated = False
+        for p in range(5):
+            for q in range(p + 1, 6):
+                a = 0.0
+                b = 0.0
+                c = 0.0
+                for i in range(6):
+                    a += R[i, p] * R[i, p]
+                    b += R[i, q] * R[i, q]
+                    c += R[i, p] * R[i, q]
+                if c == 0.0 or abs(c) <= 1e-15 * math.sqrt(a * b):
+                    continue
+                rotated = True
+                zeta = (b - a) / (2.0 * c)
+                t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+                cs = 1.0 / math.sqrt(1.0 + t * t)
+                sn = cs * t
+                for i in range(6):
+                    x = R[i, p]
+                    y = R[i, q]
+                    R[i, p] = cs * x - sn * y
+                    R[i, q] = sn * x + cs * y
+        if not rotated:
+            break
+    smin = np.inf
+    smax = 0.0
+    for c in range(6):
+        acc = 0.0
+        for i in range(6):
+            acc += R[i, c] * R[i, c]
+        sv = math.sqrt(acc)
+        smin = min(smin, sv)
+        smax = max(smax, sv)
+    return smin, smax
+
+
+@njit(cache=True)
+def _isotropy_from(lmin, lmax, P, s, R):
+    """sigma_min/sigma_max of octant s from its Gram eigenvalues, refined from J_s when small."""
+    v = math.sqrt(lmin / lmax) if lmin > 0.0 and lmax > 0.0 else 0.0
+    if v < _ACCURATE_BELOW:
+        _octant_r(P, s, R)
+        smin, smax = _singular_extremes(R)
+        v = smin / smax if smax > 0.0 else 0.0
+    return v
+
+
+@njit(cache=True)
+def octant_value(G, s, index, A, P):
     """The index value of one octant: sigma_min/sigma_max (isotropy) or prod sigma (volume)."""
-    octant_gram(G, s, A)
     if index == VOLUME:
-        return math.sqrt(chol_det(A))
+        _octant_r(P, s, A)
+        vol = 1.0
+        for r in range(6):
+            vol *= abs(A[r, r])
+        return vol
+    octant_gram(G, s, A)
     lmin, lmax = sym_eig_extremes(A)
-    if lmax <= 0.0 or lmin <= 0.0:
-        return 0.0
-    return math.sqrt(lmin / lmax)
+    return _isotropy_from(lmin, lmax, P, s, A)
 
 
 @njit(cache=True)
@@ -189,7 +262,7 @@ def extended_manipulability(J, pen_lo, pen_hi, index, threshold, P, G, A):
     gram_table(J, pen_lo, pen_hi, P, G)
     best = np.inf
     for s in range(N_OCTANTS):
-        v = octant_value(G, s, index, A)
+        v = octant_value(G, s, index, A, P)
         if v < best:
             best = v
             if best <= threshold:
@@ -279,8 +352,7 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, ub):
             imin = p
         if A[p, p] > A[imax, imax]:
             imax = p
-    lmin, lmax = A[imin, imin], A[imax, imax]
-    best = math.sqrt(lmin / lmax) if lmin > 0.0 and lmax > 0.0 else 0.0
+    best = _isotropy_from(A[imin, imin], A[imax, imax], P, s0, B)
     if best <= threshold:
         return -1.0
     # Rayleigh quotients of every octant with those two vectors (Gray-code walk)
@@ -334,7 +406,7 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, ub):
                 continue
         octant_gram(G, s, A)
         lmin, lmax = sym_eig_extremes(A)
-        v = math.sqrt(lmin / lmax) if lmin > 0.0 and lmax > 0.0 else 0.0
+        v = _isotropy_from(lmin, lmax, P, s, B)
         if v < best:
             best = v
             if best <= threshold:
