@@ -21,12 +21,20 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import MapError
+
 ROOT_KEY = "placement_map"
 
 
 def chunk_shape(shape) -> tuple[int, ...]:
     nx, ny, _, n_yaw, _, _ = shape
     return (nx, ny, 1, n_yaw, 1, 1)
+
+
+def first_line(exc: BaseException) -> str:
+    """The first line of an exception's message (for one-line errors)."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
 
 
 def checksum(values: np.ndarray) -> str:
@@ -45,12 +53,23 @@ class StoredMap(ABC):
         """The metadata of ``arm`` (as written by :func:`placement.build_map`)."""
 
     @abstractmethod
+    def _array(self, arm: str):
+        """The backend's array object of ``arm`` (sliceable); MapError if missing."""
+
     def read_chunk(self, arm: str, iz: int, ip: int, ir: int) -> np.ndarray:
         """Values (nx, ny, n_yaw) float32 of the slice z = iz, pitch = ip, roll = ir."""
+        return self._read(arm, f"chunk ({iz}, {ip}, {ir})", lambda a: a[:, :, iz, :, ip, ir])
 
-    @abstractmethod
     def read_all(self, arm: str) -> np.ndarray:
         """The whole 6D float32 array of ``arm``."""
+        return self._read(arm, "data", lambda a: a[...])
+
+    def _read(self, arm: str, what: str, take) -> np.ndarray:
+        array = self._array(arm)
+        try:
+            return np.asarray(take(array))
+        except Exception as exc:  # codec and I/O errors of either library
+            raise MapError(f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)})") from None
 
     @abstractmethod
     def chunks_present(self, arm: str) -> int | None:

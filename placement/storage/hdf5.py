@@ -9,7 +9,7 @@ import h5py
 import numpy as np
 
 from ..errors import MapError
-from .base import ROOT_KEY, Backend, StoredMap, chunk_shape
+from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line
 
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
@@ -21,37 +21,21 @@ class Hdf5Map(StoredMap):
             self.file = h5py.File(path, "r")
             self.root = json.loads(self.file.attrs.get(ROOT_KEY, "{}"))
         except Exception as exc:
-            raise MapError(f"{path}: not a readable HDF5 map ({_first_line(exc)})") from None
+            raise MapError(f"{path}: not a readable HDF5 map ({first_line(exc)})") from None
 
-    def _dataset(self, arm: str):
+    def _array(self, arm: str):
         try:
             return self.file[arm]
         except Exception as exc:
-            raise MapError(f"{self.path}: array for arm '{arm}' is missing or corrupt ({_first_line(exc)})") from None
+            raise MapError(f"{self.path}: array for arm '{arm}' is missing or corrupt ({first_line(exc)})") from None
 
     def arm_meta(self, arm: str) -> dict:
         try:
-            return json.loads(self._dataset(arm).attrs["meta"])
+            return json.loads(self._array(arm).attrs["meta"])
         except MapError:
             raise
         except Exception as exc:
-            raise MapError(f"{self.path}: metadata of arm '{arm}' is corrupt ({_first_line(exc)})") from None
-
-    def read_chunk(self, arm: str, iz: int, ip: int, ir: int) -> np.ndarray:
-        try:
-            return np.asarray(self._dataset(arm)[:, :, iz, :, ip, ir])
-        except MapError:
-            raise
-        except Exception as exc:
-            raise MapError(f"{self.path}: chunk ({iz}, {ip}, {ir}) of arm '{arm}' is corrupt ({_first_line(exc)})") from None
-
-    def read_all(self, arm: str) -> np.ndarray:
-        try:
-            return np.asarray(self._dataset(arm)[...])
-        except MapError:
-            raise
-        except Exception as exc:
-            raise MapError(f"{self.path}: data of arm '{arm}' is corrupt ({_first_line(exc)})") from None
+            raise MapError(f"{self.path}: metadata of arm '{arm}' is corrupt ({first_line(exc)})") from None
 
     def chunks_present(self, arm: str) -> int | None:
         return None
@@ -59,10 +43,6 @@ class Hdf5Map(StoredMap):
     def close(self) -> None:
         self.file.close()
 
-
-def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
 
 
 class Hdf5Backend(Backend):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ import zarr
 from zarr.codecs import BloscCodec
 
 from ..errors import MapError
-from .base import ROOT_KEY, Backend, StoredMap, chunk_shape
+from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line
 
 
 class ZarrMap(StoredMap):
@@ -20,48 +21,23 @@ class ZarrMap(StoredMap):
             self.group = zarr.open_group(store=str(path), mode="r")
             self.root = dict(self.group.attrs.get(ROOT_KEY) or {})
         except Exception as exc:
-            raise MapError(f"{path}: not a readable Zarr map ({_first_line(exc)})") from None
+            raise MapError(f"{path}: not a readable Zarr map ({first_line(exc)})") from None
 
     def _array(self, arm: str):
         try:
             return self.group[arm]
         except Exception as exc:
-            raise MapError(f"{self.path}: array for arm '{arm}' is missing or corrupt ({_first_line(exc)})") from None
+            raise MapError(f"{self.path}: array for arm '{arm}' is missing or corrupt ({first_line(exc)})") from None
 
     def arm_meta(self, arm: str) -> dict:
         return dict(self._array(arm).attrs.asdict())
-
-    def read_chunk(self, arm: str, iz: int, ip: int, ir: int) -> np.ndarray:
-        try:
-            return np.asarray(self._array(arm)[:, :, iz, :, ip, ir])
-        except MapError:
-            raise
-        except Exception as exc:
-            raise MapError(f"{self.path}: chunk ({iz}, {ip}, {ir}) of arm '{arm}' is corrupt ({_first_line(exc)})") from None
-
-    def read_all(self, arm: str) -> np.ndarray:
-        try:
-            return np.asarray(self._array(arm)[...])
-        except MapError:
-            raise
-        except Exception as exc:
-            raise MapError(f"{self.path}: data of arm '{arm}' is corrupt ({_first_line(exc)})") from None
 
     def chunks_present(self, arm: str) -> int | None:
         chunk_dir = self.path / arm / "c"
         if not chunk_dir.is_dir():
             return 0
-        return sum(len(files) for _, _, files in _walk(chunk_dir))
+        return sum(len(files) for _, _, files in os.walk(chunk_dir))
 
-
-def _walk(path: Path):
-    import os
-    return os.walk(path)
-
-
-def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
 
 
 class ZarrBackend(Backend):
