@@ -46,14 +46,14 @@ def _measure_all(Q, J, lower, upper, cont, mode, index):
     n = Q.shape[1]
     plo = np.empty(n); phi = np.empty(n)
     P = np.empty((6, n, 2)); G = np.empty((6, 6, 2, 2)); A = np.empty((6, 6))
-    V = np.empty((6, 6)); B = np.empty((6, 6)); order = np.empty(64, np.int64); ub = np.empty(64)
+    V = np.empty((6, 6)); B = np.empty((6, 6)); order = np.empty(64, np.int64); work = np.empty((4, 64))
     out = np.empty(Q.shape[0])
     for i in range(Q.shape[0]):
         joint_penalties(Q[i], lower, upper, cont, plo, phi)
         if mode == 0:
             out[i] = extended_manipulability(J[i], plo, phi, index, -1.0, P, G, A)
         else:
-            out[i] = isotropy_pruned(J[i], plo, phi, -1.0, P, G, A, V, B, order, ub)
+            out[i] = isotropy_pruned(J[i], plo, phi, -1.0, P, G, A, V, B, order, work)
     return out
 
 
@@ -127,7 +127,6 @@ def main(argv=None):
             placement.save_maps(path, robot, {arm: built}, fmt)
             t_save = time.perf_counter() - t
             size = sum(f.stat().st_size for f in path.rglob("*")) if path.is_dir() else path.stat().st_size
-            T = robot.tcp_pose  # noqa: F841 (pinocchio FK is the reference; poses below from the kernel)
             Qq = sample_configs(np.uint64(7), 0, 100_000, a.lower, a.upper)
             poses, _ = fk_jacobian_batch(Qq, ch.link_T, ch.axis, ch.kind, ch.tip_T)
 

@@ -297,7 +297,7 @@ def _pd(A, alpha, beta, L):
 
 
 @njit(cache=True)
-def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, ub):
+def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, work):
     """Isotropy index (min over octants of sigma_min/sigma_max), or -1.0 if proven <= threshold.
 
     Returns the same value as :func:`extended_manipulability` with ``index=ISOTROPY``
@@ -311,9 +311,14 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, ub):
       ``A_s - m^2 U I`` are both positive definite for some U (a Rayleigh
       estimate of lambda_max from the eigenvectors of the first exact octant).
     Only octants that neither proof settles get an exact Jacobi.
-    Scratch: P (6, n, 2), G (6, 6, 2, 2), A, V, B (6, 6), order (64,) int64, ub (64,).
+    Scratch: P (6, n, 2), G (6, 6, 2, 2), A, V, B (6, 6), order (64,) int64,
+    work (4, 64) (n <= 64); nothing is allocated per call.
     """
     n = J.shape[1]
+    ub = work[0]
+    qmaxs = work[1]
+    umin = work[2]
+    umax = work[3]
     gram_table(J, pen_lo, pen_hi, P, G)
     # diagonal bound per octant: lambda_min <= min diag, lambda_max >= max diag
     for s in range(64):
@@ -325,24 +330,23 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, ub):
             dmin = min(dmin, d)
             dmax = max(dmax, d)
         ub[s] = dmin / dmax if dmax > 0.0 else 0.0
-        order[s] = s
-    _sort_by(order, ub)
+    # the octant with every row on its more penalised side: a likely minimum
+    s_pen = 0
+    for r in range(6):
+        if G[r, r, 1, 1] < G[r, r, 0, 0]:
+            s_pen |= 1 << r
     t2 = threshold * threshold * (1.0 - _MARGIN)
     if threshold >= _SMALLEST:
-        # the octant with every row on its more penalised side, then its neighbours
-        s_pen = 0
-        for r in range(6):
-            if G[r, r, 1, 1] < G[r, r, 0, 0]:
-                s_pen |= 1 << r
+        # that octant and its neighbours
         for k in range(7):
             s = s_pen if k == 0 else s_pen ^ (1 << (k - 1))
             if ub[s] <= t2:
                 return -1.0
             octant_gram(G, s, A)
-            if not _pd(A, 1.0, -t2 * _lambda_max_lower(A), B):
+            if not _pd(A, 1.0, -t2 * _lambda_max_lower(A, B), B):
                 return -1.0
-    # exact: the most promising octant first, with eigenvectors
-    s0 = order[0]
+    # exact: the likely minimum first, with eigenvectors
+    s0 = s_pen
     octant_gram(G, s0, A)
     jacobi(A, V, True)
     imin = 0
@@ -356,9 +360,6 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, ub):
     if best <= threshold:
         return -1.0
     # Rayleigh quotients of every octant with those two vectors (Gray-code walk)
-    umin = np.empty(n)
-    umax = np.empty(n)
-    qmaxs = np.empty(64)
     for j in range(n):
         a = 0.0
         b = 0.0
@@ -427,14 +428,17 @@ def _sort_by(order, key):
 
 
 @njit(cache=True, inline="always")
-def _lambda_max_lower(A):
-    """A lower bound of lambda_max of a PSD (6, 6) A: Rayleigh quotient after two power steps."""
+def _lambda_max_lower(A, scratch):
+    """A lower bound of lambda_max of a PSD (6, 6) A: Rayleigh quotient after two power steps.
+
+    Rows 0 and 1 of ``scratch`` (6, 6) hold the iterates.
+    """
     k = 0
     for r in range(1, 6):
         if A[r, r] > A[k, k]:
             k = r
-    x = np.empty(6)
-    y = np.empty(6)
+    x = scratch[0]
+    y = scratch[1]
     for r in range(6):
         x[r] = A[r, k]
     for it in range(2):

@@ -43,7 +43,7 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
         V = np.empty((6, 6))
         B = np.empty((6, 6))
         order = np.empty(64, dtype=np.int64)
-        ub = np.empty(64)
+        iso_work = np.empty((4, 64))
         lo = chunk * 1024
         hi = min(count, lo + 1024)
         for i in range(lo, hi):
@@ -62,7 +62,7 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
                 J[5, j] *= rot_scale
             joint_penalties(q, lower, upper, continuous, plo, phi)
             if index == ISOTROPY:
-                out_val[i] = isotropy_pruned(J, plo, phi, np.float64(grid[c]), P, G, A, V, B, order, ub)
+                out_val[i] = isotropy_pruned(J, plo, phi, np.float64(grid[c]), P, G, A, V, B, order, iso_work)
             else:
                 out_val[i] = extended_manipulability(J, plo, phi, index, np.float64(grid[c]), P, G, A)
 
