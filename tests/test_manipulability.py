@@ -291,3 +291,49 @@ def test_bad_input(pr2):
         placement.extended_manipulability(pr2, "right", np.zeros(6))
     with pytest.raises(placement.ArmNotFound):
         placement.extended_manipulability(pr2, "middle", np.zeros(7))
+
+
+def test_sym_eig_extremes_matches_lapack():
+    """Tridiagonal QL extremes against LAPACK on well- and ill-conditioned 6x6 Gram matrices."""
+    from placement.kernels.manipulability import sym_eig_extremes
+
+    rng = np.random.default_rng(11)
+    for i in range(500):
+        X = rng.normal(size=(6, 7)) * rng.uniform(1e-3, 1.0, size=(6, 1))
+        if i % 3 == 0:
+            X[:, rng.integers(7)] *= 1e-6
+        A = X @ X.T
+        w = np.linalg.eigvalsh(A)
+        lmin, lmax = sym_eig_extremes(A.copy())
+        scale = np.abs(A).max()
+        assert abs(lmin - w[0]) <= 1e-13 * scale
+        assert abs(lmax - w[-1]) <= 1e-13 * scale
+
+
+def test_pruned_kernel_proves_or_matches(pr2):
+    """isotropy_pruned: -1 exactly when the value is <= threshold, else the direct kernel's value bitwise."""
+    from placement.kernels import manipulability as km
+    from placement.kernels.kinematics import fk_jacobian_batch
+
+    arm = pr2.arm("right")
+    Q = random_configs(arm, 400, np.random.default_rng(12))
+    ch = arm.chain
+    _, J = fk_jacobian_batch(Q, ch.link_T, ch.axis, ch.kind, ch.tip_T)
+    J[:, 3:] *= 0.15
+    n = arm.dof
+    plo, phi = np.empty(n), np.empty(n)
+    P, G, A, V, B = np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6))
+    order, work = np.empty(64, np.int64), np.empty((4, 64))
+    cont = arm.continuous.astype(bool)
+    thresholds = np.random.default_rng(13).choice([-1.0, 0.0, 0.01, 0.03, 0.06, 0.1, 0.2], size=len(Q))
+    proven = 0
+    for q, j, t in zip(Q, J, thresholds):
+        km.joint_penalties(q, arm.lower, arm.upper, cont, plo, phi)
+        exact = km.extended_manipulability(j, plo, phi, km.ISOTROPY, -1.0, P, G, A)
+        got = km.isotropy_pruned(j, plo, phi, t, P, G, A, V, B, order, work)
+        if got < 0:
+            assert exact <= t
+            proven += 1
+        else:
+            assert exact > t and got == exact
+    assert proven > 50  # the thresholds exercise both outcomes

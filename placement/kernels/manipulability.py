@@ -135,13 +135,102 @@ def jacobi(A, V, want_vectors):
 
 @njit(cache=True)
 def sym_eig_extremes(A):
-    """Smallest and largest eigenvalue of a symmetric (6, 6) matrix (A is overwritten)."""
-    jacobi(A, A, False)
-    lmin = A[0, 0]
-    lmax = A[0, 0]
-    for p in range(1, A.shape[0]):
-        lmin = min(lmin, A[p, p])
-        lmax = max(lmax, A[p, p])
+    """Smallest and largest eigenvalue of a symmetric (6, 6) matrix (A is overwritten).
+
+    Householder tridiagonalisation, then implicit QL with Wilkinson shifts
+    (eigenvalues only): backward stable, absolute error ~eps * |A|, about three
+    times cheaper than cyclic Jacobi.
+    """
+    n = 6
+    d = np.empty(n)
+    e = np.empty(n)
+    for i in range(n - 1, 0, -1):
+        l = i - 1
+        h = 0.0
+        if l > 0:
+            scale = 0.0
+            for k in range(l + 1):
+                scale += abs(A[i, k])
+            if scale == 0.0:
+                e[i] = A[i, l]
+            else:
+                for k in range(l + 1):
+                    A[i, k] /= scale
+                    h += A[i, k] * A[i, k]
+                f = A[i, l]
+                g = -math.sqrt(h) if f >= 0.0 else math.sqrt(h)
+                e[i] = scale * g
+                h -= f * g
+                A[i, l] = f - g
+                f = 0.0
+                for j in range(l + 1):
+                    g = 0.0
+                    for k in range(j + 1):
+                        g += A[j, k] * A[i, k]
+                    for k in range(j + 1, l + 1):
+                        g += A[k, j] * A[i, k]
+                    e[j] = g / h
+                    f += e[j] * A[i, j]
+                hh = f / (h + h)
+                for j in range(l + 1):
+                    f = A[i, j]
+                    g = e[j] - hh * f
+                    e[j] = g
+                    for k in range(j + 1):
+                        A[j, k] -= f * e[k] + g * A[i, k]
+        else:
+            e[i] = A[i, l]
+    for i in range(n):
+        d[i] = A[i, i]
+    for i in range(1, n):
+        e[i - 1] = e[i]
+    e[n - 1] = 0.0
+    for l in range(n):
+        for it in range(60):
+            m = l
+            while m < n - 1:
+                dd = abs(d[m]) + abs(d[m + 1])
+                if abs(e[m]) <= 1e-17 * dd:
+                    break
+                m += 1
+            if m == l:
+                break
+            g = (d[l + 1] - d[l]) / (2.0 * e[l])
+            r = math.hypot(g, 1.0)
+            g = d[m] - d[l] + e[l] / (g + (r if g >= 0.0 else -r))
+            s = 1.0
+            c = 1.0
+            p = 0.0
+            i = m - 1
+            underflow = False
+            while i >= l:
+                f = s * e[i]
+                b = c * e[i]
+                r = math.hypot(f, g)
+                e[i + 1] = r
+                if r == 0.0:
+                    d[i + 1] -= p
+                    e[m] = 0.0
+                    underflow = True
+                    break
+                s = f / r
+                c = g / r
+                g = d[i + 1] - p
+                r = (d[i] - g) * s + 2.0 * c * b
+                p = s * r
+                d[i + 1] = g + p
+                g = c * r - b
+                i -= 1
+            if underflow:
+                continue
+            d[l] -= p
+            e[l] = g
+            e[m] = 0.0
+    lmin = d[0]
+    lmax = d[0]
+    for p in range(1, n):
+        lmin = min(lmin, d[p])
+        lmax = max(lmax, d[p])
     return lmin, lmax
 
 
@@ -296,54 +385,53 @@ def _pd(A, alpha, beta, L):
     return True
 
 
+# Octants 0..63 ordered by Hamming distance from 0; XOR with a start octant to
+# visit that octant, then its neighbours, then the rest.
+_BY_DISTANCE = np.array(sorted(range(64), key=lambda s: (bin(s).count("1"), s)), dtype=np.int64)
+
+
 @njit(cache=True)
 def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, work):
     """Isotropy index (min over octants of sigma_min/sigma_max), or -1.0 if proven <= threshold.
 
     Returns the same value as :func:`extended_manipulability` with ``index=ISOTROPY``
-    (to rounding, ~1e-14), much faster, by proofs instead of eigenvalues:
+    (each octant that decides the result is computed by the same routine), much
+    faster, by proofs instead of eigenvalues:
 
-    - "octant s is below t": the Cholesky factorisation of ``A_s - t^2 d I``
-      fails, where ``d`` = the largest diagonal entry <= lambda_max; then
-      lambda_min < t^2 lambda_max. One such octant below the threshold means
-      the sample cannot raise its cell: stop.
-    - "octant s is not below the running minimum m": ``U I - A_s`` and
-      ``A_s - m^2 U I`` are both positive definite for some U (a Rayleigh
-      estimate of lambda_max from the eigenvectors of the first exact octant).
-    Only octants that neither proof settles get an exact Jacobi.
+    - "octant s is below t" (stage 1, only when the cell already holds t > 0):
+      the Cholesky factorisation of ``A_s - t^2 rho I`` fails, where rho <=
+      lambda_max is a Rayleigh quotient after two power steps; then lambda_min
+      < t^2 lambda_max. Octants are tried from the most penalised one outwards;
+      the first success means the sample cannot raise its cell.
+    - "octant s is not below the running minimum m" (stage 2): ``U I - A_s``
+      and ``A_s - m^2 U I`` are both positive definite, with U a slightly
+      inflated power-iteration estimate of lambda_max.
+    Only octants that neither proof settles get an exact Jacobi; octants are
+    visited by increasing Rayleigh upper bound so the running minimum is
+    close to the answer early.
     Scratch: P (6, n, 2), G (6, 6, 2, 2), A, V, B (6, 6), order (64,) int64,
     work (4, 64) (n <= 64); nothing is allocated per call.
     """
     n = J.shape[1]
     ub = work[0]
-    qmaxs = work[1]
+    rho = work[1]
     umin = work[2]
     umax = work[3]
     gram_table(J, pen_lo, pen_hi, P, G)
-    # diagonal bound per octant: lambda_min <= min diag, lambda_max >= max diag
-    for s in range(64):
-        dmin = np.inf
-        dmax = 0.0
-        for r in range(6):
-            a = (s >> r) & 1
-            d = G[r, r, a, a]
-            dmin = min(dmin, d)
-            dmax = max(dmax, d)
-        ub[s] = dmin / dmax if dmax > 0.0 else 0.0
     # the octant with every row on its more penalised side: a likely minimum
     s_pen = 0
     for r in range(6):
         if G[r, r, 1, 1] < G[r, r, 0, 0]:
             s_pen |= 1 << r
-    t2 = threshold * threshold * (1.0 - _MARGIN)
+    for s in range(64):
+        rho[s] = -1.0
     if threshold >= _SMALLEST:
-        # that octant and its neighbours
-        for k in range(7):
-            s = s_pen if k == 0 else s_pen ^ (1 << (k - 1))
-            if ub[s] <= t2:
-                return -1.0
+        t2 = threshold * threshold * (1.0 - _MARGIN)
+        for k in range(64):
+            s = s_pen ^ _BY_DISTANCE[k]
             octant_gram(G, s, A)
-            if not _pd(A, 1.0, -t2 * _lambda_max_lower(A, B), B):
+            rho[s] = _lambda_max_lower(A, B)
+            if not _pd(A, 1.0, -t2 * rho[s], B):
                 return -1.0
     # exact: the likely minimum first, with eigenvectors
     s0 = s_pen
@@ -356,18 +444,20 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, work):
             imin = p
         if A[p, p] > A[imax, imax]:
             imax = p
-    best = _isotropy_from(A[imin, imin], A[imax, imax], P, s0, B)
+    octant_gram(G, s0, B)
+    lmin, lmax = sym_eig_extremes(B)
+    best = _isotropy_from(lmin, lmax, P, s0, B)
     if best <= threshold:
         return -1.0
-    # Rayleigh quotients of every octant with those two vectors (Gray-code walk)
+    # Rayleigh upper bounds of every octant's isotropy with those two vectors (Gray-code walk)
     for j in range(n):
-        a = 0.0
-        b = 0.0
+        x = 0.0
+        y = 0.0
         for r in range(6):
-            a += V[r, imin] * P[r, j, 0]
-            b += V[r, imax] * P[r, j, 0]
-        umin[j] = a
-        umax[j] = b
+            x += V[r, imin] * P[r, j, 0]
+            y += V[r, imax] * P[r, j, 0]
+        umin[j] = x
+        umax[j] = y
     s = 0
     for k in range(64):
         if k > 0:
@@ -385,27 +475,18 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, work):
         for j in range(n):
             qmin += umin[j] * umin[j]
             qmax += umax[j] * umax[j]
-        ub[s] = min(ub[s], qmin / qmax) if qmax > 0.0 else 0.0
-        qmaxs[s] = qmax
+        ub[s] = qmin / qmax if qmax > 0.0 else 0.0
         order[s] = s
     _sort_by(order, ub)
     for k in range(64):
         s = order[k]
         if s == s0:
             continue
-        m2 = best * best
-        if ub[s] < m2 * (1.0 - _MARGIN):
-            pass  # certainly a new minimum: compute it
-        elif best >= _SMALLEST:
-            octant_gram(G, s, A)
-            U = qmaxs[s] * 1.05
-            if not _pd(A, -1.0, U, B):
-                U = 0.0
-                for r in range(6):
-                    U += A[r, r]
-            if _pd(A, 1.0, -m2 * U * (1.0 + _MARGIN), B):
-                continue
         octant_gram(G, s, A)
+        m2 = best * best
+        if ub[s] >= m2 * (1.0 - _MARGIN) and best >= _SMALLEST:
+            if _not_below(A, _lambda_max_from(A, V[:, imax], B), m2 * (1.0 + _MARGIN), B):
+                continue
         lmin, lmax = sym_eig_extremes(A)
         v = _isotropy_from(lmin, lmax, P, s, B)
         if v < best:
@@ -413,6 +494,48 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, work):
             if best <= threshold:
                 return -1.0
     return best
+
+
+@njit(cache=True)
+def _lambda_max_from(A, x0, scratch):
+    """Rayleigh quotient of A (6, 6) after three power steps from x0 (6,): <= lambda_max."""
+    x = scratch[0]
+    y = scratch[1]
+    for r in range(6):
+        x[r] = x0[r]
+    q = 0.0
+    for it in range(3):
+        num = 0.0
+        den = 0.0
+        for r in range(6):
+            acc = 0.0
+            for c in range(6):
+                acc += A[r, c] * x[c]
+            y[r] = acc
+            num += x[r] * acc
+            den += x[r] * x[r]
+        q = num / den if den > 0.0 else 0.0
+        for r in range(6):
+            x[r] = y[r]
+    return q
+
+
+@njit(cache=True)
+def _not_below(A, rho, m2, L):
+    """Proof that lambda_min(A) >= m2 * lambda_max(A), given rho ~ lambda_max(A) (A preserved).
+
+    Tries upper bounds U = rho * (1.001, 1.02, 1.2) of lambda_max (each
+    certified by U I - A > 0), then the trace, and tests A - m2 U I > 0.
+    """
+    U = 0.0
+    for f in (1.001, 1.02, 1.2):
+        if _pd(A, -1.0, rho * f, L):
+            U = rho * f
+            break
+    if U == 0.0:
+        for r in range(6):
+            U += A[r, r]
+    return _pd(A, 1.0, -m2 * U, L)
 
 
 @njit(cache=True, inline="always")
