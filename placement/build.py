@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import datetime as _dt
-import math
 import time
 from dataclasses import dataclass
 
@@ -15,7 +14,7 @@ from .errors import GridError, PlacementError
 from .grid import Grid
 from .kernels.sampling import reduce_max, sample_block
 from .manipulability import INDEX_NAMES, ROTATION_SCALE
-from .robots import Robot
+from .robots import Robot, load_robot
 
 FORMAT_VERSION = 1
 DEFAULT_BINS = (20, 9, 20)
@@ -55,9 +54,69 @@ def default_grid(robot: Robot, arm: str, resolution: float = 0.05, bins=DEFAULT_
     return Grid.around(centre, reach + resolution, resolution, tuple(bins))
 
 
+def sample_range(robot: Robot, arm: str, grid: Grid, values: np.ndarray, *, seed: int, start: int,
+                 count: int, index: str, block: int = 1 << 19, on_block=None) -> int:
+    """Fold samples ``start .. start+count-1`` of ``seed`` into ``values`` (flat float32, per-cell max).
+
+    The one sampling loop of both the local and the distributed build. Returns
+    how many samples fell outside the grid (0 unless the reach bound is wrong).
+    ``on_block(samples_done_in_range, values)`` is called after each block.
+    """
+    a = robot.arm(arm)
+    ch = a.chain
+    cont = a.continuous.astype(np.bool_)
+    block = int(max(1, min(block, count)))
+    cells = np.empty(block, dtype=np.int64)
+    vals = np.empty(block, dtype=np.float64)
+    done = 0
+    outside = 0
+    while done < count:
+        n = min(block, count - done)
+        sample_block(np.uint64(seed), start + done, n, a.lower, a.upper, cont, ch.link_T, ch.axis,
+                     ch.kind, ch.tip_T, INDEX_NAMES.index(index), ROTATION_SCALE,
+                     grid.origin_array, grid.resolution, grid.shape_array, values, cells[:n], vals[:n])
+        outside += int(np.count_nonzero(cells[:n] < 0))
+        reduce_max(values, cells[:n], vals[:n])
+        done += n
+        if on_block is not None:
+            on_block(done, values)
+    return outside
+
+
+def _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, bar) -> int:
+    from dask.distributed import as_completed
+
+    if tasks is None:
+        threads = sum(client.nthreads().values()) or 1
+        tasks = 4 * threads
+    tasks = int(max(1, min(tasks, samples)))
+    edges = np.linspace(0, samples, tasks + 1).astype(np.int64)
+    preset = robot.source
+    futures = {client.submit(_remote_range, preset, arm, grid.to_dict(), int(seed), int(lo), int(hi - lo),
+                             index, pure=False): int(hi - lo)
+               for lo, hi in zip(edges[:-1], edges[1:]) if hi > lo}
+    outside = 0
+    for fut in as_completed(futures):
+        idx, vals, out = fut.result()
+        np.maximum.at(values, idx, vals)
+        outside += out
+        bar.update(futures[fut])
+    return outside
+
+
+def _remote_range(preset: str, arm: str, grid_dict: dict, seed: int, start: int, count: int, index: str):
+    """Dask task: a sub-range into a private grid, returned sparse (flat indices int64, values float32)."""
+    robot = load_robot(preset)
+    grid = Grid.from_dict(grid_dict)
+    values = np.zeros(grid.size, dtype=np.float32)
+    outside = sample_range(robot, arm, grid, values, seed=seed, start=start, count=count, index=index)
+    idx = np.flatnonzero(values)
+    return idx, values[idx], outside
+
+
 def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution: float = 0.05,
               bins=DEFAULT_BINS, index: str = "isotropy", block: int = 1 << 19,
-              progress: bool = True, on_block=None) -> BuiltMap:
+              progress: bool = True, on_block=None, client=None, tasks: int | None = None) -> BuiltMap:
     """Sample ``samples`` configurations of ``arm`` and keep the best value per 6D cell.
 
     Args:
@@ -71,7 +130,12 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
         block: samples per parallel block (memory vs. pruning freshness; does not change the result).
         progress: show a tqdm bar on stderr.
         on_block: optional ``f(samples_done, values_flat)`` called after each block
-            (for convergence curves); must not modify the array.
+            (for convergence curves); must not modify the array. Local builds only.
+        client: a ``dask.distributed.Client``; the sample range is split into
+            ``tasks`` sub-ranges (default: 4 per worker thread), each worker runs the
+            same kernel into a private grid (one dense grid per running task) and
+            returns its reached cells; the maximum is merged here. The map is
+            bitwise identical to the local build.
     """
     if not isinstance(samples, (int, np.integer)) or samples < 1:
         raise PlacementError(f"sample count must be a positive integer, got {samples!r}")
@@ -85,28 +149,22 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
         values = np.zeros(grid.size, dtype=np.float32)
     except MemoryError:
         raise GridError(f"grid of {grid.size:.3g} cells does not fit in memory; use a coarser resolution") from None
-    ch = a.chain
-    cont = a.continuous.astype(np.bool_)
-    block = int(min(block, samples))
-    cells = np.empty(block, dtype=np.int64)
-    vals = np.empty(block, dtype=np.float64)
     t0 = time.perf_counter()
-    done = 0
-    outside = 0
     with tqdm(total=samples, desc=f"{robot.name}/{arm}", unit="sample", unit_scale=True,
               disable=not progress, leave=False) as bar:
-        while done < samples:
-            count = min(block, samples - done)
-            sample_block(np.uint64(seed), done, count, a.lower, a.upper, cont, ch.link_T, ch.axis,
-                         ch.kind, ch.tip_T, INDEX_NAMES.index(index), ROTATION_SCALE,
-                         grid.origin_array, grid.resolution, grid.shape_array, values,
-                         cells[:count], vals[:count])
-            outside += int(np.count_nonzero(cells[:count] < 0))
-            reduce_max(values, cells[:count], vals[:count])
-            done += count
-            bar.update(count)
-            if on_block is not None:
-                on_block(done, values)
+        if client is None:
+            last = [0]
+
+            def tick(done, vals):
+                bar.update(done - last[0])
+                last[0] = done
+                if on_block is not None:
+                    on_block(done, vals)
+
+            outside = sample_range(robot, arm, grid, values, seed=seed, start=0, count=samples,
+                                   index=index, block=block, on_block=tick)
+        else:
+            outside = _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, bar)
     elapsed = time.perf_counter() - t0
     if outside:
         raise PlacementError(f"{outside} samples fell outside the grid: the reach bound is wrong")

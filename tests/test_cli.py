@@ -116,3 +116,9 @@ def test_readme_quick_start(tmp_path):
         assert ns["rmap"].value(ns["T"]).shape == (1,)
     finally:
         os.chdir(cwd)
+
+
+def test_unreachable_dask_scheduler_is_one_line(tmp_path):
+    pytest.importorskip("dask.distributed")
+    _assert_one_line_error(run("maps", "build", "--samples", "10", "--dask", "tcp://127.0.0.1:9",
+                               "--out", str(tmp_path / "m")), "Dask scheduler")

@@ -56,10 +56,13 @@ def maps():
 @click.option("--index", type=click.Choice(["isotropy", "volume"]), default=None, help="Manipulability index.")
 @click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None, help="Storage backend.")
 @click.option("--out", required=True, type=click.Path(), help="Map directory (zarr) or file (hdf5).")
+@click.option("--dask", "dask_address", default=None, metavar="ADDRESS",
+              help="Spread sampling over a Dask cluster (scheduler address, e.g. tcp://host:8786).")
 @json_option
 @verbosity
 @one_line_errors
-def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, out, as_json, verbose, quiet):
+def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, out, dask_address, as_json,
+          verbose, quiet):
     """Sample each arm and write its 6D reachability map atomically."""
     setup_logging(verbose, quiet)
     spec = _read_spec(spec_path)
@@ -89,10 +92,11 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
     if fmt == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
         out_path = out_path.with_suffix(".h5")
     _refuse_foreign(out_path)
+    client = _dask_client(dask_address) if dask_address else None
     built = {}
     for a in arms:
         built[a] = m = build_map(robot, a, samples=samples, seed=seed, resolution=resolution, bins=bins,
-                                 index=index, progress=not quiet)
+                                 index=index, progress=not quiet, client=client)
         log.info("%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",
                  robot.name, a, samples, m.meta["build_time_s"], m.meta["samples_per_s"] or 0,
                  m.meta["filled_cells"])
@@ -103,6 +107,17 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
     emit(summary, as_json, lambda s: "\n".join(
         f"{s['path']}: {a} {v['samples']} samples, {v['build_time_s']} s, {v['filled_cells']} cells filled"
         for a, v in s["arms"].items()))
+
+
+def _dask_client(address: str):
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise PlacementError("--dask needs dask.distributed: pip install 'placement[dask]'") from None
+    try:
+        return Client(address, timeout="10s")
+    except Exception as exc:  # OSError / TimeoutError from the comm layer
+        raise PlacementError(f"cannot reach Dask scheduler at {address}: {str(exc).splitlines()[0]}") from None
 
 
 def _refuse_foreign(path: Path) -> None:
