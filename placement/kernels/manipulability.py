@@ -80,60 +80,6 @@ def octant_gram(G, s, A):
 
 
 @njit(cache=True)
-def jacobi(A, V, want_vectors):
-    """Diagonalise a symmetric (6, 6) matrix in place by cyclic Jacobi rotations.
-
-    On return the diagonal of A holds the eigenvalues; if ``want_vectors``, V
-    (6, 6) holds the eigenvectors as columns. Jacobi keeps small eigenvalues of
-    positive semi-definite matrices to high relative accuracy, which the
-    isotropy ratio needs, and converges in one or two sweeps on nearly diagonal
-    input.
-    """
-    n = A.shape[0]
-    if want_vectors:
-        for i in range(n):
-            for j in range(n):
-                V[i, j] = 1.0 if i == j else 0.0
-    for sweep in range(60):
-        off = 0.0
-        diag = 0.0
-        for p in range(n):
-            diag += A[p, p] * A[p, p]
-            for q in range(p + 1, n):
-                off += A[p, q] * A[p, q]
-        if off <= 1e-32 * diag or off == 0.0:
-            break
-        for p in range(n - 1):
-            for q in range(p + 1, n):
-                apq = A[p, q]
-                if apq == 0.0:
-                    continue
-                theta = (A[q, q] - A[p, p]) / (2.0 * apq)
-                t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
-                c = 1.0 / math.sqrt(t * t + 1.0)
-                s = t * c
-                tau = s / (1.0 + c)
-                A[p, p] -= t * apq
-                A[q, q] += t * apq
-                A[p, q] = 0.0
-                A[q, p] = 0.0
-                for r in range(n):
-                    if r != p and r != q:
-                        arp = A[r, p]
-                        arq = A[r, q]
-                        A[r, p] = arp - s * (arq + tau * arp)
-                        A[p, r] = A[r, p]
-                        A[r, q] = arq + s * (arp - tau * arq)
-                        A[q, r] = A[r, q]
-                if want_vectors:
-                    for r in range(n):
-                        vrp = V[r, p]
-                        vrq = V[r, q]
-                        V[r, p] = vrp - s * (vrq + tau * vrp)
-                        V[r, q] = vrq + s * (vrp - tau * vrq)
-
-
-@njit(cache=True)
 def sym_eig_extremes(A):
     """Smallest and largest eigenvalue of a symmetric (6, 6) matrix (A is overwritten).
 
@@ -406,7 +352,7 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, work):
     - "octant s is not below the running minimum m" (stage 2): ``U I - A_s``
       and ``A_s - m^2 U I`` are both positive definite, with U a slightly
       inflated power-iteration estimate of lambda_max.
-    Only octants that neither proof settles get an exact Jacobi; octants are
+    Only octants that neither proof settles get exact eigenvalues; octants are
     visited by increasing Rayleigh upper bound so the running minimum is
     close to the answer early.
     Scratch: P (6, n, 2), G (6, 6, 2, 2), A, V, B (6, 6), order (64,) int64,
@@ -433,29 +379,23 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, work):
             rho[s] = _lambda_max_lower(A, B)
             if not _pd(A, 1.0, -t2 * rho[s], B):
                 return -1.0
-    # exact: the likely minimum first, with eigenvectors
+    # exact: the likely minimum first
     s0 = s_pen
-    octant_gram(G, s0, A)
-    jacobi(A, V, True)
-    imin = 0
-    imax = 0
-    for p in range(1, 6):
-        if A[p, p] < A[imin, imin]:
-            imin = p
-        if A[p, p] > A[imax, imax]:
-            imax = p
     octant_gram(G, s0, B)
     lmin, lmax = sym_eig_extremes(B)
     best = _isotropy_from(lmin, lmax, P, s0, B)
     if best <= threshold:
         return -1.0
+    # approximate extreme eigenvectors of A_s0 (unit rows V[0] = bottom, V[1] = top)
+    octant_gram(G, s0, A)
+    _extreme_vectors(A, V, B)
     # Rayleigh upper bounds of every octant's isotropy with those two vectors (Gray-code walk)
     for j in range(n):
         x = 0.0
         y = 0.0
         for r in range(6):
-            x += V[r, imin] * P[r, j, 0]
-            y += V[r, imax] * P[r, j, 0]
+            x += V[0, r] * P[r, j, 0]
+            y += V[1, r] * P[r, j, 0]
         umin[j] = x
         umax[j] = y
     s = 0
@@ -467,8 +407,8 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, work):
             new_bit = ((s >> r) & 1) ^ 1
             for j in range(n):
                 d = P[r, j, new_bit] - P[r, j, 1 - new_bit]
-                umin[j] += V[r, imin] * d
-                umax[j] += V[r, imax] * d
+                umin[j] += V[0, r] * d
+                umax[j] += V[1, r] * d
             s ^= 1 << r
         qmin = 0.0
         qmax = 0.0
@@ -485,7 +425,7 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, work):
         octant_gram(G, s, A)
         m2 = best * best
         if ub[s] >= m2 * (1.0 - _MARGIN) and best >= _SMALLEST:
-            if _not_below(A, _lambda_max_from(A, V[:, imax], B), m2 * (1.0 + _MARGIN), B):
+            if _not_below(A, _lambda_max_from(A, V[1], B), m2 * (1.0 + _MARGIN), B):
                 continue
         lmin, lmax = sym_eig_extremes(A)
         v = _isotropy_from(lmin, lmax, P, s, B)
@@ -494,6 +434,61 @@ def isotropy_pruned(J, pen_lo, pen_hi, threshold, P, G, A, V, B, order, work):
             if best <= threshold:
                 return -1.0
     return best
+
+
+@njit(cache=True)
+def _extreme_vectors(A, V, L):
+    """Unit approximations of the bottom (V[0]) and top (V[1]) eigenvectors of SPD A (6, 6).
+
+    Three inverse-iteration steps (Cholesky in L) and four power steps: only
+    bounds are derived from them, so their accuracy affects speed, not results.
+    """
+    x = V[0]
+    y = V[1]
+    k = 0
+    for r in range(6):
+        x[r] = 1.0
+        if A[r, r] > A[k, k]:
+            k = r
+    for r in range(6):
+        y[r] = A[r, k]
+    tmp = V[2]
+    for it in range(4):
+        norm = 0.0
+        for r in range(6):
+            acc = 0.0
+            for c in range(6):
+                acc += A[r, c] * y[c]
+            tmp[r] = acc
+            norm += acc * acc
+        norm = math.sqrt(norm)
+        for r in range(6):
+            y[r] = tmp[r] / norm if norm > 0.0 else (1.0 if r == k else 0.0)
+    if not _pd(A, 1.0, 0.0, L):
+        kmin = 0
+        for r in range(6):
+            x[r] = 0.0
+            if A[r, r] < A[kmin, kmin]:
+                kmin = r
+        x[kmin] = 1.0
+        return
+    for it in range(3):
+        for r in range(6):  # L z = x
+            acc = x[r]
+            for c in range(r):
+                acc -= L[r, c] * tmp[c]
+            tmp[r] = acc / L[r, r]
+        for r in range(5, -1, -1):  # L^T x = z
+            acc = tmp[r]
+            for c in range(r + 1, 6):
+                acc -= L[c, r] * x[c]
+            x[r] = acc / L[r, r]
+        norm = 0.0
+        for r in range(6):
+            norm += x[r] * x[r]
+        norm = math.sqrt(norm)
+        for r in range(6):
+            x[r] /= norm
 
 
 @njit(cache=True)
