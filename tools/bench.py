@@ -72,7 +72,7 @@ def machine() -> str:
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--samples", type=int, default=4_000_000, help="end-to-end build samples (one arm)")
+    ap.add_argument("--samples", type=int, default=20_000_000, help="end-to-end build samples (one arm)")
     ap.add_argument("--spec", default=str(ROOT / "maps/pr2.yaml"))
     ap.add_argument("--out", default=str(ROOT / "docs"))
     ap.add_argument("--check", type=int, default=150, help="IK checks per class")
