@@ -1,0 +1,108 @@
+"""Navigation cost maps (paper section IV-A): distance to obstacles, velocity model, shortest paths.
+
+All maps are (ny, nx) arrays over a :class:`NavGrid`; row index = y, column = x.
+Distances and costs are in metres; ``cost / v_max`` is travel time in seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PlacementError
+from ..kernels.navigation import distance_transform, shortest_costs
+
+# Paper Eq. 4 defaults
+VELOCITY_LAMBDA = 1.3
+VELOCITY_K = 4
+D_MAX = 1.0  # [m]
+
+
+@dataclass(frozen=True)
+class NavGrid:
+    """A planar grid: ``origin`` (x, y) of the lower-left corner [m], cell ``resolution`` [m], (ny, nx)."""
+
+    origin: tuple[float, float]
+    resolution: float
+    shape: tuple[int, int]
+
+    def cell(self, x: float, y: float) -> tuple[int, int]:
+        """(iy, ix) of the cell containing (x, y) [m]; PlacementError outside the grid."""
+        ix = int(math.floor((x - self.origin[0]) / self.resolution))
+        iy = int(math.floor((y - self.origin[1]) / self.resolution))
+        if not (0 <= iy < self.shape[0] and 0 <= ix < self.shape[1]):
+            raise PlacementError(f"point ({x:.3f}, {y:.3f}) m is outside the navigation grid")
+        return iy, ix
+
+    def centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Cell centre coordinates: xs (nx,), ys (ny,) [m]."""
+        xs = self.origin[0] + (np.arange(self.shape[1]) + 0.5) * self.resolution
+        ys = self.origin[1] + (np.arange(self.shape[0]) + 0.5) * self.resolution
+        return xs, ys
+
+
+def distance_map(occupied: np.ndarray, resolution: float) -> np.ndarray:
+    """Exact Euclidean distance [m] from each cell centre to the nearest occupied cell centre.
+
+    occupied: (ny, nx) bool. Returns (ny, nx) float64 (inf if nothing is occupied).
+    """
+    occ = np.ascontiguousarray(occupied, dtype=np.bool_)
+    if occ.ndim != 2:
+        raise PlacementError(f"occupancy must be a 2D grid, got shape {occ.shape}")
+    return distance_transform(occ, float(resolution))
+
+
+def speed_factor(d_o: np.ndarray, lam: float = VELOCITY_LAMBDA, k: float = VELOCITY_K,
+                 d_max: float = D_MAX) -> np.ndarray:
+    """The slowdown ``1 + lam * d_s`` of Eq. 4: ``v = v_max / factor``.
+
+    ``d_s = (1 - d_o / d_max) ** k`` where ``d_o < d_max`` [m], else 0.
+    """
+    d_o = np.asarray(d_o, dtype=float)
+    d_s = np.where(d_o < d_max, np.clip(1.0 - d_o / d_max, 0.0, 1.0) ** k, 0.0)
+    return 1.0 + lam * d_s
+
+
+def navigation_cost(factor: np.ndarray, feasible: np.ndarray, starts, resolution: float,
+                    start_costs=None) -> tuple[np.ndarray, np.ndarray]:
+    """Minimal travel cost [m] from the start cells to every cell (Eq. 5, exact, Dijkstra).
+
+    Args:
+        factor: (ny, nx) slowdown per cell (>= 1), from :func:`speed_factor`.
+        feasible: (ny, nx) bool, cells the base may occupy.
+        starts: (k, 2) or (2,) integer (iy, ix) start cells.
+        resolution: cell size [m].
+        start_costs: optional (k,) initial costs [m] (0 by default).
+    Returns:
+        cost (ny, nx) [m] (inf where unreachable), pred (ny, nx) flat predecessor index.
+    """
+    starts = np.atleast_2d(np.asarray(starts, dtype=np.int64))
+    feas = np.ascontiguousarray(feasible, dtype=np.bool_)
+    fac = np.ascontiguousarray(factor, dtype=np.float64)
+    if fac.shape != feas.shape:
+        raise PlacementError(f"factor {fac.shape} and feasible {feas.shape} grids differ")
+    ny, nx = feas.shape
+    for iy, ix in starts:
+        if not (0 <= iy < ny and 0 <= ix < nx):
+            raise PlacementError(f"start cell ({iy}, {ix}) is outside the {ny} x {nx} grid")
+    if not feas[starts[:, 0], starts[:, 1]].any():
+        iy, ix = starts[0]
+        raise PlacementError(f"start cell ({iy}, {ix}) is inside an obstacle or too close to one for the base")
+    costs = np.zeros(len(starts)) if start_costs is None else np.asarray(start_costs, dtype=float)
+    return shortest_costs(fac, feas, starts, costs, float(resolution))
+
+
+def extract_path(pred: np.ndarray, goal) -> np.ndarray:
+    """Cells (m, 2) (iy, ix) from the source to ``goal`` (iy, ix) along the predecessor map."""
+    ny, nx = pred.shape
+    u = int(goal[0]) * nx + int(goal[1])
+    path = [u]
+    while pred.flat[u] >= 0:
+        u = int(pred.flat[u])
+        path.append(u)
+        if len(path) > pred.size:
+            raise PlacementError("predecessor map has a cycle")
+    path.reverse()
+    return np.array([(p // nx, p % nx) for p in path], dtype=np.int64)

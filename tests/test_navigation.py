@@ -1,0 +1,101 @@
+"""Navigation kernels against scipy (EDT, Dijkstra) and tiny literal grids."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import ndimage
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from placement.errors import PlacementError
+from placement.planning.navigation import distance_map, extract_path, navigation_cost, speed_factor
+
+S2 = math.sqrt(2.0)
+
+
+def _graph(factor, feasible, res):
+    ny, nx = factor.shape
+    rows, cols, w = [], [], []
+    for y in range(ny):
+        for x in range(nx):
+            if not feasible[y, x]:
+                continue
+            for dy in (-1, 0, 1):
+                for dx in (-1, 0, 1):
+                    vy, vx = y + dy, x + dx
+                    if (dy, dx) != (0, 0) and 0 <= vy < ny and 0 <= vx < nx and feasible[vy, vx]:
+                        rows.append(y * nx + x)
+                        cols.append(vy * nx + vx)
+                        w.append((res * S2 if dy and dx else res) * factor[vy, vx])
+    return csr_matrix((w, (rows, cols)), shape=(ny * nx, ny * nx))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_distance_map_matches_scipy(seed):
+    rng = np.random.default_rng(seed)
+    ny, nx = rng.integers(5, 70, size=2)
+    occ = rng.random((ny, nx)) < rng.uniform(0.01, 0.3)
+    occ[0, 0] = True
+    got = distance_map(occ, 0.05)
+    want = ndimage.distance_transform_edt(~occ) * 0.05
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+
+
+def test_distance_map_empty_is_inf():
+    assert np.isinf(distance_map(np.zeros((3, 4), bool), 0.1)).all()
+
+
+def test_speed_factor_literal():
+    d = np.array([0.0, 0.5, 1.0, 2.0])
+    np.testing.assert_allclose(speed_factor(d), [1 + 1.3, 1 + 1.3 * 0.5 ** 4, 1.0, 1.0])
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_costs_equal_scipy_dijkstra(seed):
+    rng = np.random.default_rng(100 + seed)
+    ny, nx = rng.integers(4, 40, size=2)
+    feas = rng.random((ny, nx)) > 0.25
+    fac = speed_factor(distance_map(~feas, 0.05))
+    starts = np.argwhere(feas)[rng.choice(feas.sum(), size=2, replace=False)]
+    cost, _ = navigation_cost(fac, feas, starts, 0.05)
+    ref = dijkstra(_graph(fac, feas, 0.05), indices=starts[:, 0] * nx + starts[:, 1], min_only=True)
+    ref = ref.reshape(ny, nx)
+    assert np.array_equal(np.isinf(cost), np.isinf(ref))
+    np.testing.assert_allclose(cost[np.isfinite(ref)], ref[np.isfinite(ref)], rtol=1e-12, atol=0)
+
+
+def test_tiny_literal_grid():
+    # 5 x 5, resolution 1 m, factor 1, start S, wall # (not enterable):
+    #   row 4: . . . . .
+    #   row 3: . # # # .
+    #   row 2: . . S # .
+    #   row 1: . # # # .
+    #   row 0: . . . . .
+    feas = np.ones((5, 5), bool)
+    for y, x in [(3, 1), (3, 2), (3, 3), (2, 3), (1, 1), (1, 2), (1, 3)]:
+        feas[y, x] = False
+    cost, pred = navigation_cost(np.ones((5, 5)), feas, (2, 2), 1.0)
+    inf = np.inf
+    # west 1, then diagonal around the wall ends, then along rows 0 / 4, down column 4
+    expected = np.array([
+        [2 + S2, 1 + 2 * S2, 2 + 2 * S2, 3 + 2 * S2, 4 + 2 * S2],  # row 0
+        [1 + S2, inf, inf, inf, 3 + 3 * S2],                       # row 1
+        [2, 1, 0, inf, 4 + 3 * S2],                                # row 2
+        [1 + S2, inf, inf, inf, 3 + 3 * S2],                       # row 3
+        [2 + S2, 1 + 2 * S2, 2 + 2 * S2, 3 + 2 * S2, 4 + 2 * S2],  # row 4
+    ])
+    np.testing.assert_allclose(cost, expected, rtol=1e-12)
+    path = extract_path(pred, (2, 4))
+    assert tuple(path[0]) == (2, 2) and tuple(path[-1]) == (2, 4)
+    steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
+    assert sum(S2 if s == 2 else 1.0 for s in steps) == pytest.approx(cost[2, 4])
+
+
+def test_start_in_obstacle_is_an_error():
+    feas = np.ones((3, 3), bool)
+    feas[1, 1] = False
+    with pytest.raises(PlacementError, match="inside an obstacle"):
+        navigation_cost(np.ones((3, 3)), feas, (1, 1), 0.05)
