@@ -1,0 +1,75 @@
+"""Manipulation cost maps (paper section IV-B) from reachability maps, without 6D inversion."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import PlacementError
+from ..grid import Grid
+from ..kernels.grid import pitch_bin, wrap_bin, zyx_angles
+from ..kernels.irm import trajectory_map
+from ..rmap import ReachabilityMap
+from .navigation import NavGrid
+
+
+def base_yaws(count: int) -> np.ndarray:
+    """``count`` base yaws [rad] evenly over [-pi, pi), starting at 0 (aligned with the yaw bins
+    whenever ``count`` is a multiple of the map's yaw bin count)."""
+    if count < 1:
+        raise PlacementError(f"yaw count must be positive, got {count}")
+    a = np.arange(count) * (2 * math.pi / count)
+    return np.where(a >= math.pi, a - 2 * math.pi, a)
+
+
+def manipulation_map(rmap: ReachabilityMap, tcp_world: np.ndarray, nav: NavGrid, yaws: np.ndarray,
+                     cells: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """IRM of a TCP trajectory: per base cell, the best yaw's worst map value along the trajectory.
+
+    Args:
+        rmap: the arm's reachability map (base frame on the floor).
+        tcp_world: (P, 4, 4) TCP poses in the world frame (z up, floor at z = 0).
+        nav: the navigation grid of base positions.
+        yaws: (K,) base yaws to try [rad] (see :func:`base_yaws`).
+        cells: optional (C,) flat base-cell indices to evaluate (default: those within the map's
+            horizontal reach of the first pose).
+    Returns:
+        value (ny, nx) float32 (0 = unreachable), yaw_index (ny, nx) int64 into ``yaws`` (-1).
+    """
+    T = np.asarray(tcp_world, dtype=float).reshape(-1, 4, 4)
+    g: Grid = rmap.grid
+    slices, xs, ys, ps = [], [], [], []
+    for pose in T:
+        yaw, pitch, roll = zyx_angles(pose)
+        iz = int(math.floor((pose[2, 3] - g.origin[2]) / g.resolution))
+        if not 0 <= iz < g.shape[2]:
+            return (np.zeros(nav.shape, np.float32), np.full(nav.shape, -1, np.int64))
+        slices.append(rmap.slice(iz, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5])))
+        xs.append(pose[0, 3])
+        ys.append(pose[1, 3])
+        ps.append(yaw)
+    ny, nx = nav.shape
+    if cells is None:
+        cells = cells_within(nav, T[0, 0, 3], T[0, 1, 3], reach_xy(g))
+    out_val = np.zeros(nav.shape, np.float32)
+    out_yaw = np.full(nav.shape, -1, np.int64)
+    trajectory_map(np.ascontiguousarray(np.stack(slices)), np.array(xs), np.array(ys), np.array(ps),
+                   np.array(g.origin[:2]), g.resolution, np.asarray(yaws, dtype=float),
+                   np.array(nav.origin, dtype=float), nav.resolution, ny, nx,
+                   np.asarray(cells, dtype=np.int64), out_val, out_yaw)
+    return out_val, out_yaw
+
+
+def reach_xy(g: Grid) -> float:
+    """Largest horizontal distance [m] from the base origin to any map cell."""
+    x0, y0 = g.origin[0], g.origin[1]
+    x1, y1 = x0 + g.shape[0] * g.resolution, y0 + g.shape[1] * g.resolution
+    return max(math.hypot(x, y) for x in (x0, x1) for y in (y0, y1))
+
+
+def cells_within(nav: NavGrid, x: float, y: float, radius: float) -> np.ndarray:
+    """Flat indices of navigation cells whose centre is within ``radius`` [m] of (x, y)."""
+    xs, ys = nav.centres()
+    mask = (xs[None, :] - x) ** 2 + (ys[:, None] - y) ** 2 <= radius * radius
+    return np.flatnonzero(mask)
