@@ -37,3 +37,8 @@ def test_place_candidates():
     ys = np.array([x.poses[1, :3, 1] for x in c])
     np.testing.assert_allclose(ys[:, :2], [[1, 0], [0, 1], [-1, 0], [0, -1]], atol=1e-12)
     assert all(np.allclose(x.poses[1, :3, 3], (0.5, 0.5, 0.9)) for x in c)
+
+
+def test_place_candidates_from_yaw_list():
+    c = place_candidates((0, 0, 1), yaws=[0.0, math.pi / 2])
+    np.testing.assert_allclose(c[1].poses[1, :3, 1], [0, 1, 0], atol=1e-12)

@@ -1,4 +1,4 @@
-"""Entry point: `placement maps ...` (offline maps)."""
+"""Entry point: `placement maps ...` (offline maps), `placement query` (online placements)."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import click
 
 from .. import __version__
 from .maps import maps
+from .query import query
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -15,6 +16,7 @@ def cli():
 
 
 cli.add_command(maps)
+cli.add_command(query)
 
 
 def main():

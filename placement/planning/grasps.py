@@ -48,10 +48,13 @@ def top_grasps(position, yaw: float, size, approach: float = APPROACH) -> list[C
             Candidate("top-flipped", _down(top, (-across[0], -across[1]), approach))]
 
 
-def place_candidates(position, yaws: int = 8, approach: float = APPROACH) -> list[Candidate]:
-    """Place trajectories down onto ``position`` (3,) [m] (the TCP target) at ``yaws`` gripper yaws."""
+def place_candidates(position, yaws=8, approach: float = APPROACH) -> list[Candidate]:
+    """Place trajectories down onto ``position`` (3,) [m] (the TCP target).
+
+    ``yaws``: a count of gripper yaws evenly over 2 pi, or a list of yaws [rad].
+    """
+    angles = [2 * math.pi * k / yaws for k in range(int(yaws))] if np.isscalar(yaws) else list(yaws)
     out = []
-    for k in range(yaws):
-        a = 2 * math.pi * k / yaws
+    for a in angles:
         out.append(Candidate(f"place-yaw{round(math.degrees(a))}", _down(position, (math.cos(a), math.sin(a)), approach)))
     return out

@@ -1,0 +1,50 @@
+"""`placement query SCENE`: best base placements for every step of a scene's task."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from ..planning.planner import METHODS, Planner
+from .options import emit, json_option, one_line_errors, setup_logging, verbosity
+
+
+@click.command()
+@click.argument("scene", type=click.Path())
+@click.option("--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`).")
+@click.option("--method", type=click.Choice(METHODS), default="sequential", show_default=True)
+@click.option("--plot", "plot_dir", default=None, type=click.Path(), help="Write PNG cost maps of each step here.")
+@json_option
+@verbosity
+@one_line_errors
+def query(scene, maps_path, method, plot_dir, as_json, verbose, quiet):
+    """Plan the base placement, arm, grasp and IK solution of every step."""
+    setup_logging(verbose, quiet)
+    planner = Planner(scene, method, maps_path)
+    result = planner.plan(keep_maps=plot_dir is not None)
+    if plot_dir:
+        from ..plotting import plot_steps
+
+        plot_steps(planner, result, plot_dir)
+    emit(result, as_json, _table)
+    if result["status"] != "ok":
+        bad = next(s for s in result["steps"] if s.get("status") == "infeasible")
+        click.echo(f"error: step {bad['step']} ({bad['action']} {bad['target']}) is infeasible: {bad['reason']}",
+                   err=True)
+        sys.exit(3)
+
+
+def _table(r: dict) -> str:
+    lines = [f"scene {r['scene']}  method {r['method']}  robot {r['robot']['name']}",
+             f"{'step':>4} {'action':<6} {'target':<12} {'arm':<6} {'grasp':<14} {'x [m]':>7} {'y [m]':>7} "
+             f"{'yaw [rad]':>9} {'manip':>7} {'cost':>7} {'travel [s]':>10} {'ms':>7}"]
+    for s in r["steps"]:
+        if s.get("status") == "infeasible":
+            lines.append(f"{s['step']:>4} {s['action']:<6} {s['target']:<12} infeasible: {s['reason']}")
+            continue
+        x, y, yaw = s["base"]
+        lines.append(f"{s['step']:>4} {s['action']:<6} {s['target']:<12} {s['arm']:<6} {s['grasp']:<14} "
+                     f"{x:7.3f} {y:7.3f} {yaw:9.3f} {s['manipulability']:7.4f} {s['cost']['total']:7.3f} "
+                     f"{s['travel_time_s']:10.2f} {s['timings_ms']['total']:7.1f}")
+    return "\n".join(lines)

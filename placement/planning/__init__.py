@@ -1,0 +1,1 @@
+"""Online placement planning: scenes, occupancy, navigation and manipulation cost maps."""

@@ -1,0 +1,449 @@
+"""Scene files (SPEC section 6) and ROS occupancy maps: parsing, strict validation, rasterisation."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from placement.errors import PlacementError
+from placement.planning.occupancy import (
+    OccupancyMap, OccupancyMapError, load_occupancy_map, parse_pgm, rasterize_occupancy,
+)
+from placement.planning.scene import (
+    PLANNER_KEYS, Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, TaskStep,
+    load_scene, parse_scene, save_scene,
+)
+
+# A 4 x 3 image, file order (top row = largest y). With p = (255 - v) / 255 and the default
+# thresholds (0.65 / 0.196): 0 -> occupied, 254 -> free, 205 (p 0.196) and 100 (p 0.61) -> unknown.
+PIXELS = [
+    [0, 254, 254, 205],
+    [254, 0, 254, 254],
+    [254, 254, 100, 0],
+]
+# row 0 = lowest y = the image's bottom row; unknown counts as occupied
+EXPECTED = np.array([
+    [False, False, True, True],
+    [False, True, False, False],
+    [True, False, False, True],
+])
+# negate: p = v / 255: 0 -> free, 254 and 205 -> occupied, 100 (p 0.39) -> unknown
+EXPECTED_NEGATE = np.array([
+    [True, True, True, False],
+    [True, False, True, True],
+    [False, True, True, True],
+])
+
+
+def write_pgm(path, pixels=PIXELS, kind="P5", maxval=255):
+    h, w = len(pixels), len(pixels[0])
+    if kind == "P5":
+        path.write_bytes(f"P5\n# written by the test\n{w} {h}\n{maxval}\n".encode()
+                         + bytes(v for row in pixels for v in row))
+    else:
+        body = "\n".join(" ".join(str(v) for v in row) for row in pixels)
+        path.write_text(f"P2\n# plain PGM\n{w} {h}\n# maxval next\n{maxval}\n{body}\n")
+    return path
+
+
+def write_map(tmp_path, name="floor", kind="P5", **overrides):
+    """Write NAME.pgm and NAME.yaml; an override None drops the key."""
+    write_pgm(tmp_path / f"{name}.pgm", kind=kind)
+    doc = {"image": f"{name}.pgm", "resolution": 0.5, "origin": [1.0, 2.0, 0.0], "negate": 0,
+           "occupied_thresh": 0.65, "free_thresh": 0.196}
+    doc.update(overrides)
+    doc = {k: v for k, v in doc.items() if v is not None}
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+FULL_SCENE = """\
+version: 1
+resolution: 0.1
+bounds: [-3.0, -3.0, 7.0, 5.0]
+robot:
+  preset: pr2
+  start: [0.0, 0.0, 1.5707963]
+maps: maps/pr2
+occupancy_map: floor.yaml
+obstacles:
+  - {name: table_1, box: {center: [2.0, 0.0, 0.375], size: [0.8, 0.6, 0.75], yaw: 0.1}, table: true}
+  - {name: pillar, cylinder: {center: [-1.0, 3.0, 1.0], radius: 0.2, height: 2.0}}
+  - {name: wall, polygon: [[-2.5, -2.5], [6.5, -2.5], [6.5, -2.4], [-2.5, -2.4]]}
+objects:
+  - {name: cup_1, position: [2.1, 0.1, 0.8], yaw: 0.3, size: [0.08, 0.08, 0.1]}
+  - {name: cup_2, position: [1.9, -0.1, 0.8], size: [0.06, 0.1, 0.12]}
+place_locations:
+  - {name: bin_a, position: [5.0, 1.0, 0.9]}
+  - {name: bin_b, position: [5.0, -1.0, 0.9]}
+task:
+  - {pick: cup_1, place: bin_a}
+  - {pick: cup_2, place: bin_b}
+planner: {lambda_n: 0.05, yaw_steps: 60, grasp_yaws: [0.0, 1.5707963]}
+"""
+
+
+@pytest.fixture
+def scene_file(tmp_path):
+    write_map(tmp_path)
+    path = tmp_path / "scene.yaml"
+    path.write_text(FULL_SCENE)
+    return path
+
+
+def test_full_scene_loads(scene_file, tmp_path):
+    s = load_scene(scene_file)
+    assert isinstance(s, Scene)
+    assert (s.version, s.name, s.resolution) == (1, "scene", 0.1)
+    assert s.bounds == (-3.0, -3.0, 7.0, 5.0)
+    assert s.robot_preset == "pr2"
+    assert s.start == (0.0, 0.0, 1.5707963)
+    assert s.maps == str(tmp_path / "maps" / "pr2")
+    assert s.occupancy_map == tmp_path / "floor.yaml"
+    assert s.source == scene_file
+    np.testing.assert_array_equal(s.occupancy.occupied, EXPECTED)
+    assert s.obstacles[0] == Obstacle("table_1", Box([2.0, 0.0, 0.375], [0.8, 0.6, 0.75], 0.1), True)
+    assert s.obstacles[1] == Obstacle("pillar", Cylinder([-1.0, 3.0, 1.0], 0.2, 2.0))
+    assert s.obstacles[2] == Obstacle("wall", Polygon([[-2.5, -2.5], [6.5, -2.5], [6.5, -2.4], [-2.5, -2.4]]))
+    assert s.objects == (SceneObject("cup_1", [2.1, 0.1, 0.8], 0.3, [0.08, 0.08, 0.1]),
+                         SceneObject("cup_2", [1.9, -0.1, 0.8], 0.0, [0.06, 0.1, 0.12]))
+    assert s.place_locations == (PlaceLocation("bin_a", [5.0, 1.0, 0.9]), PlaceLocation("bin_b", [5.0, -1.0, 0.9]))
+    assert s.task == (TaskStep("cup_1", "bin_a"), TaskStep("cup_2", "bin_b"))
+    assert s.planner == {"lambda_n": 0.05, "yaw_steps": 60, "grasp_yaws": [0.0, 1.5707963]}
+    assert s.tables == (s.obstacles[0],)
+    assert s.object("cup_2") is s.objects[1]
+    assert s.place_location("bin_b") is s.place_locations[1]
+    with pytest.raises(SceneError, match=r"no object 'mug'; objects: cup_1, cup_2"):
+        s.object("mug")
+    assert s.grid_shape == (80, 100)
+    assert not s.objects[0].position.flags.writeable  # frozen all the way down
+
+
+def test_round_trip(scene_file, tmp_path):
+    s = load_scene(scene_file)
+    # through a dict with absolute paths
+    assert parse_scene(s.to_dict(), "/", "scene") == s
+    # through a file in another directory, paths written relative to it
+    other = tmp_path / "copy"
+    other.mkdir()
+    out = save_scene(s, other / "scene.yaml")
+    again = load_scene(out)
+    assert again == s
+    assert again.occupancy_map == s.occupancy_map and again.maps == s.maps
+    assert yaml.safe_load(out.read_text())["maps"] == "../maps/pr2"
+    # and a change is seen
+    assert parse_scene({**s.to_dict(), "resolution": 0.05}, "/", "scene") != s
+
+
+def test_default_bounds_cover_everything_plus_a_metre():
+    doc = {
+        "version": 1,
+        "robot": {"start": [0.0, 0.0, 0.0]},
+        "obstacles": [
+            # rotated by 90 deg: footprint x 1.7 .. 2.3, y -0.5 .. 0.5
+            {"name": "t", "box": {"center": [2.0, 0.0, 0.4], "size": [1.0, 0.6, 0.8], "yaw": math.pi / 2}},
+            {"name": "c", "cylinder": {"center": [-1.0, 3.0, 0.5], "radius": 0.25, "height": 1.0}},
+            {"name": "w", "polygon": [[0.0, -2.0], [4.0, -2.0], [4.0, -1.9]]},
+        ],
+        "objects": [{"name": "o", "position": [2.0, 0.1, 0.85], "size": [0.06, 0.06, 0.1]}],
+        "place_locations": [{"name": "p", "position": [5.0, 1.0, 0.8]}],
+        "task": [{"pick": "o", "place": "p"}],
+    }
+    s = parse_scene(doc)
+    assert s.resolution == 0.05
+    assert s.robot_preset == "pr2"
+    assert s.bounds == pytest.approx((-2.25, -3.0, 6.0, 4.25))
+    assert s.maps is None and s.occupancy_map is None and s.planner == {}
+    assert s.grid_shape == (145, 165)
+
+
+def test_default_bounds_include_the_occupancy_map(tmp_path):
+    write_map(tmp_path)  # extent x 1 .. 3, y 2 .. 3.5
+    doc = {"version": 1, "robot": {"start": [0.0, 0.0, 0.0]}, "occupancy_map": "floor.yaml",
+           "objects": [{"name": "o", "position": [1.5, 0.5, 0.8], "size": [0.1, 0.1, 0.1]}],
+           "place_locations": [{"name": "p", "position": [0.5, 0.5, 0.8]}],
+           "task": [{"pick": "o", "place": "p"}]}
+    s = parse_scene(doc, tmp_path, "s")
+    assert s.bounds == pytest.approx((-1.0, -1.0, 4.0, 4.5))
+
+
+# -- validation ------------------------------------------------------------------------------------
+
+def _base() -> dict:
+    return yaml.safe_load(FULL_SCENE.replace("occupancy_map: floor.yaml\n", ""))
+
+
+def _set(path, value):
+    """Mutation setting the key at ``path`` (a list of keys/indices); value ``KeyError`` deletes it."""
+    def mutate(d):
+        for k in path[:-1]:
+            d = d[k]
+        if value is KeyError:
+            del d[path[-1]]
+        else:
+            d[path[-1]] = value
+    return mutate
+
+
+ERRORS = [
+    # unknown keys, with the allowed set
+    (_set(["obstacles", 0, "colour"], "red"),
+     "scene.yaml: unknown key 'obstacles[0].colour'; allowed: box, cylinder, name, polygon, table"),
+    (_set(["robots"], {}), "unknown key 'robots'; allowed: bounds, maps, objects, obstacles, occupancy_map, place_locations"),
+    (_set(["robot", "goal"], [0, 0, 0]), "unknown key 'robot.goal'; allowed: preset, start"),
+    (_set(["task", 0, "arm"], "left"), "unknown key 'task[0].arm'; allowed: pick, place"),
+    (_set(["place_locations", 1, "yaw"], 0.0), "unknown key 'place_locations[1].yaw'; allowed: name, position"),
+    (_set(["planner", "speed"], 2.0),
+     "unknown key 'planner.speed'; allowed: d_max, grasp_yaws, lambda_m, lambda_n, lambda_nh, threshold, "
+     "velocity_k, velocity_lambda, yaw_steps"),
+    # yaw only, no quaternions
+    (_set(["obstacles", 0, "box", "quaternion"], [0, 0, 0, 1]),
+     "unknown key 'obstacles[0].box.quaternion'; allowed: center, size, yaw (shapes and objects rotate about z only"),
+    (_set(["objects", 0, "orientation"], [0, 0, 0, 1]), "unknown key 'objects[0].orientation'"),
+    # missing required keys
+    (_set(["version"], KeyError), "scene.yaml: missing required key 'version'"),
+    (_set(["robot"], KeyError), "missing required key 'robot'"),
+    (_set(["robot", "start"], KeyError), "missing required key 'robot.start'"),
+    (_set(["task"], KeyError), "missing required key 'task'"),
+    (_set(["objects", 1, "size"], KeyError), "missing required key 'objects[1].size'"),
+    (_set(["obstacles", 1, "cylinder", "height"], KeyError), "missing required key 'obstacles[1].cylinder.height'"),
+    (_set(["task", 1, "place"], KeyError), "missing required key 'task[1].place'"),
+    # version
+    (_set(["version"], 2), "scene.yaml: version: unsupported scene format version 2; this build reads version 1"),
+    (_set(["version"], "1"), "version: expected an integer, got string '1'"),
+    # wrong types and shapes
+    (_set(["obstacles", 0, "box", "size"], [0.8, 0.6]), "scene.yaml: obstacles[0].box.size: expected 3 numbers, got 2"),
+    (_set(["robot", "start"], "origin"), "robot.start: expected a list of 3 numbers, got string 'origin'"),
+    (_set(["objects", 0, "yaw"], "0.3"), "objects[0].yaw: expected a number, got string '0.3'"),
+    (_set(["obstacles", 1, "cylinder", "radius"], True), "obstacles[1].cylinder.radius: expected a number, got bool"),
+    (_set(["obstacles", 0, "table"], 1), "obstacles[0].table: expected true or false, got int"),
+    (_set(["obstacles"], {"name": "x"}), "scene.yaml: obstacles: expected a list, got mapping"),
+    (_set(["objects", 0], "cup"), "objects[0]: expected a mapping, got string 'cup'"),
+    (_set(["objects", 0, "name"], ""), "objects[0].name: expected a non-empty string"),
+    (_set(["task"], {"pick": "cup_1"}), "task: expected a list of {pick, place} steps, got mapping"),
+    (_set(["task"], []), "task: expected at least one {pick, place} step"),
+    (_set(["maps"], 3), "maps: expected a non-empty string, got int"),
+    # non-finite numbers
+    (_set(["objects", 0, "position"], [float("nan"), 0.0, 0.8]),
+     "objects[0].position[0]: expected a finite number, got nan"),
+    (_set(["robot", "start"], [0.0, 0.0, float("inf")]), "robot.start[2]: expected a finite number, got inf"),
+    (_set(["resolution"], float("inf")), "resolution: expected a finite number, got inf"),
+    # non-positive sizes, radius, resolution
+    (_set(["resolution"], 0), "scene.yaml: resolution: must be > 0, got 0"),
+    (_set(["resolution"], -0.05), "resolution: must be > 0, got -0.05"),
+    (_set(["obstacles", 0, "box", "size"], [0.8, -0.6, 0.75]), "obstacles[0].box.size[1]: must be > 0, got -0.6"),
+    (_set(["obstacles", 1, "cylinder", "radius"], 0.0), "obstacles[1].cylinder.radius: must be > 0, got 0.0"),
+    (_set(["obstacles", 1, "cylinder", "height"], -1), "obstacles[1].cylinder.height: must be > 0, got -1"),
+    (_set(["objects", 0, "size"], [0.08, 0.08, 0]), "objects[0].size[2]: must be > 0, got 0"),
+    # shapes
+    (_set(["obstacles", 2, "polygon"], [[0, 0], [1, 0]]), "obstacles[2].polygon: expected at least 3 points, got 2"),
+    (_set(["obstacles", 2, "polygon"], [[0, 0], [1, 1], [2, 2]]), "obstacles[2].polygon: the polygon has zero area"),
+    (_set(["obstacles", 2, "polygon"], [[0, 0], [1, 0], [1]]), "obstacles[2].polygon[2]: expected 2 numbers, got 1"),
+    (_set(["obstacles", 1, "box"], {"center": [0, 0, 0], "size": [1, 1, 1]}),
+     "obstacles[1]: expected exactly one shape (box, cylinder, polygon), got box and cylinder"),
+    (_set(["obstacles", 1, "cylinder"], KeyError), "obstacles[1]: expected exactly one shape (box, cylinder, polygon), got none"),
+    (_set(["obstacles", 2, "table"], True), "obstacles[2].table: a polygon has no height"),
+    # names and task references
+    (_set(["objects", 1, "name"], "cup_1"), "objects[1].name: duplicate name 'cup_1' (already used by objects[0])"),
+    (_set(["place_locations", 0, "name"], "table_1"),
+     "place_locations[0].name: duplicate name 'table_1' (already used by obstacles[0])"),
+    (_set(["task", 0, "pick"], "mug"), "scene.yaml: task[0].pick: 'mug' is not an object; objects: cup_1, cup_2"),
+    (_set(["task", 1, "place"], "bin_c"),
+     "task[1].place: 'bin_c' is not a place location; place locations: bin_a, bin_b"),
+    (_set(["task", 0, "pick"], "bin_a"), "task[0].pick: 'bin_a' is not an object; objects: cup_1, cup_2"),
+    (_set(["task", 1, "pick"], "cup_1"), "task[1].pick: object 'cup_1' is already picked in task[0]"),
+    # planner values
+    (_set(["planner", "yaw_steps"], 0), "planner.yaw_steps: must be >= 1, got 0"),
+    (_set(["planner", "yaw_steps"], 10.5), "planner.yaw_steps: expected an integer, got float"),
+    (_set(["planner", "lambda_m"], -1.0), "planner.lambda_m: must be >= 0, got -1.0"),
+    (_set(["planner", "d_max"], 0), "planner.d_max: must be > 0, got 0"),
+    (_set(["planner", "grasp_yaws"], []), "planner.grasp_yaws: expected a count or a non-empty list"),
+    (_set(["planner"], [1, 2]), "planner: expected a mapping, got list"),
+    # bounds
+    (_set(["bounds"], [0.0, 0.0, 1.0]), "bounds: expected 4 numbers, got 3"),
+    (_set(["bounds"], [7.0, -3.0, -3.0, 5.0]), "bounds: expected [xmin, ymin, xmax, ymax] with xmin < xmax"),
+    (_set(["robot", "start"], [20.0, 0.0, 0.0]),
+     "scene.yaml: robot.start: the start position at (20, 0) is outside bounds [-3, -3, 7, 5]"),
+    (_set(["objects", 1, "position"], [1.9, -3.5, 0.8]),
+     "objects[1].position: object 'cup_2' at (1.9, -3.5) is outside bounds [-3, -3, 7, 5]"),
+    (_set(["place_locations", 0, "position"], [8.0, 1.0, 0.9]),
+     "place_locations[0].position: place location 'bin_a' at (8, 1) is outside bounds"),
+    (_set(["resolution"], 0.0001), "resolution: bounds [-3, -3, 7, 5] at 0.0001 m give a 100000 x 80000 grid"),
+    # files
+    (_set(["robot", "preset"], "pr3"), "robot.preset: unknown robot 'pr3'; built-in presets: pr2"),
+    (_set(["robot", "preset"], "robots/mine.yaml"), "robot.preset: robot preset file not found: "),
+    (_set(["occupancy_map"], "nowhere.yaml"), "occupancy_map: occupancy map not found: "),
+]
+
+
+@pytest.mark.parametrize("mutate, message", ERRORS, ids=[m for _, m in ERRORS])
+def test_invalid_scene(mutate, message, tmp_path):
+    doc = _base()
+    mutate(doc)
+    with pytest.raises(SceneError) as err:
+        parse_scene(copy.deepcopy(doc), tmp_path, "scene", source="scene.yaml")
+    msg = str(err.value)
+    assert message in msg
+    assert "\n" not in msg
+    assert isinstance(err.value, PlacementError)
+
+
+@pytest.mark.parametrize("text, message", [
+    (FULL_SCENE.replace("resolution: 0.1", "resolution: .nan"), "resolution: expected a finite number, got nan"),
+    (FULL_SCENE.replace("version: 1\n", "version: 1\nversion: 1\n"), "not valid YAML: duplicate key 'version' (line 2"),
+    (FULL_SCENE.replace("yaw: 0.3", "yaw: [0.3"), "not valid YAML"),
+    ("", "the scene is empty"),
+    ("- 1\n- 2\n", "expected a mapping, got list"),
+    (FULL_SCENE.replace("occupancy_map: floor.yaml", "occupancy_map: floor_rotated.yaml"),
+     "occupancy_map: "),
+])
+def test_invalid_scene_file(text, message, tmp_path):
+    write_map(tmp_path)
+    write_map(tmp_path, "floor_rotated", origin=[0.0, 0.0, 0.5])
+    path = tmp_path / "scene.yaml"
+    path.write_text(text)
+    with pytest.raises(SceneError) as err:
+        load_scene(path)
+    assert str(err.value).startswith(str(path) + ": ")
+    assert message in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_missing_scene_file(tmp_path):
+    with pytest.raises(SceneError, match="scene file not found"):
+        load_scene(tmp_path / "nope.yaml")
+
+
+def test_preset_path_is_relative_to_the_scene(tmp_path):
+    (tmp_path / "robots").mkdir()
+    (tmp_path / "robots" / "mine.yaml").write_text("name: mine\n")
+    doc = _base()
+    doc["robot"]["preset"] = "robots/mine.yaml"
+    s = parse_scene(doc, tmp_path, "s")
+    assert s.robot_preset == str(tmp_path / "robots" / "mine.yaml")
+
+
+def test_planner_keys_are_documented():
+    assert set(PLANNER_KEYS) == {"lambda_n", "lambda_m", "lambda_nh", "yaw_steps", "threshold", "velocity_lambda",
+                                 "velocity_k", "d_max", "grasp_yaws"}
+
+
+# -- occupancy maps --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kind", ["P5", "P2"])
+def test_occupancy_map(kind, tmp_path):
+    occ = load_occupancy_map(write_map(tmp_path, kind=kind))
+    assert isinstance(occ, OccupancyMap)
+    assert occ.occupied.dtype == bool
+    np.testing.assert_array_equal(occ.occupied, EXPECTED)
+    assert occ.resolution == 0.5
+    assert occ.origin == (1.0, 2.0, 0.0)
+    assert occ.extent == (1.0, 2.0, 3.0, 3.5)
+
+
+@pytest.mark.parametrize("kind", ["P5", "P2"])
+def test_occupancy_map_negate(kind, tmp_path):
+    occ = load_occupancy_map(write_map(tmp_path, kind=kind, negate=1))
+    np.testing.assert_array_equal(occ.occupied, EXPECTED_NEGATE)
+
+
+def test_occupancy_map_thresholds_and_defaults(tmp_path):
+    # free below p = 0.7: now 100 (p 0.61) and 205 (p 0.196) are free too
+    occ = load_occupancy_map(write_map(tmp_path, free_thresh=0.7, occupied_thresh=0.9, mode="scale"))
+    np.testing.assert_array_equal(occ.occupied, np.array([
+        [False, False, False, True],
+        [False, True, False, False],
+        [True, False, False, False],
+    ]))
+    # negate, thresholds and mode are optional (map_saver defaults 0.65 / 0.196, trinary)
+    occ = load_occupancy_map(write_map(tmp_path, negate=None, free_thresh=None, occupied_thresh=None))
+    np.testing.assert_array_equal(occ.occupied, EXPECTED)
+
+
+def test_pgm_maxval_scales(tmp_path):
+    # maxval 15: p = (15 - v) / 15
+    pixels, maxval = parse_pgm(b"P2 3 1 15\n0 15 12\n")
+    assert maxval == 15 and pixels.tolist() == [[0, 15, 12]]
+    write_pgm(tmp_path / "m.pgm", [[0, 15, 12]], kind="P5", maxval=15)
+    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 1\norigin: [0, 0, 0]\n")
+    # 12: p = 0.2 >= 0.196 -> unknown -> occupied
+    assert load_occupancy_map(tmp_path / "m.yaml").occupied.tolist() == [[True, False, True]]
+
+
+@pytest.mark.parametrize("data, message", [
+    (b"P5\n4 3\n255\n" + bytes(11), "raster truncated: 11 bytes for 4 x 3 = 12 pixels"),
+    (b"P5\n4 3\n255\n" + bytes(12) + b"junk", "4 bytes of trailing data"),
+    (b"P5\n4 3\n", "header ends early"),
+    (b"P5\n4 x3\n255\n" + bytes(12), "header field b'x3' is not a positive integer"),
+    (b"P5\n0 3\n255\n", "size 0 x 3"),
+    (b"P5\n2 1\n65535\n" + bytes(4), "16-bit) PGM is not supported"),
+    (b"P6\n1 1\n255\n" + bytes(3), "not a PGM image"),
+    (b"\x89PNG\r\n\x1a\n", "PNG images are not supported"),
+    (b"P2\n2 2\n255\n1 2 3\n", "3 values for 2 x 2 = 4 pixels"),
+    (b"P2\n2 1\n100\n1 200\n", "pixel value 200 exceeds maxval 100"),
+    (b"P2\n2 1\n255\n1 -2\n", "not a non-negative integer"),
+])
+def test_malformed_pgm(data, message):
+    with pytest.raises(OccupancyMapError) as err:
+        parse_pgm(data, "floor.pgm")
+    assert message in str(err.value)
+    assert str(err.value).startswith("floor.pgm: ")
+
+
+@pytest.mark.parametrize("overrides, message", [
+    ({"origin": [1.0, 2.0, 0.3]}, "origin yaw 0.3 rad is not supported yet"),
+    ({"image": "missing.pgm"}, "image 'missing.pgm' not found"),
+    ({"image": None}, "missing key 'image'"),
+    ({"resolution": 0}, "'resolution' must be > 0"),
+    ({"origin": [1.0, 2.0]}, "'origin' must be [x, y, yaw]"),
+    ({"negate": 2}, "'negate' must be 0 or 1"),
+    ({"mode": "raw"}, "mode 'raw' is not supported; supported: trinary, scale"),
+    ({"free_thresh": 0.8}, "0 <= free_thresh <= occupied_thresh <= 1"),
+])
+def test_invalid_occupancy_map(overrides, message, tmp_path):
+    with pytest.raises(OccupancyMapError) as err:
+        load_occupancy_map(write_map(tmp_path, **overrides))
+    assert message in str(err.value)
+    assert isinstance(err.value, PlacementError)
+
+
+def test_occupancy_map_not_found(tmp_path):
+    with pytest.raises(OccupancyMapError, match="occupancy map not found"):
+        load_occupancy_map(tmp_path / "floor.yaml")
+
+
+def test_rasterize_occupancy_nearest_cell():
+    occ = OccupancyMap(EXPECTED, 0.5, (1.0, 2.0, 0.0))
+    # target centres x: 0.85 (outside), 1.35, 1.85, 2.35, 2.85, 3.35 (outside)
+    #                y: 1.65 (outside), 2.15, 2.65, 3.15, 3.65 (outside)
+    out = rasterize_occupancy(occ, (0.6, 1.4), 0.5, (5, 6))
+    np.testing.assert_array_equal(out, np.array([
+        [False, False, False, False, False, False],
+        [False, False, False, True, True, False],
+        [False, False, True, False, False, False],
+        [False, True, False, False, True, False],
+        [False, False, False, False, False, False],
+    ]))
+
+
+def test_rasterize_occupancy_coarser_grid():
+    occ = OccupancyMap(EXPECTED, 0.5, (1.0, 2.0, 0.0))
+    # 1 m cells: x [0, 1] (left of the map, only touching it), [1, 2], [2, 3]; y [2, 3], [3, 4]
+    centre = rasterize_occupancy(occ, (0.0, 2.0), 1.0, (2, 3))
+    np.testing.assert_array_equal(centre, np.array([
+        [False, True, False],
+        [False, False, False],
+    ]))
+    any_cell = rasterize_occupancy(occ, (0.0, 2.0), 1.0, (2, 3), conservative=True)
+    np.testing.assert_array_equal(any_cell, np.array([
+        [False, True, True],
+        [False, True, True],
+    ]))
+    # same grid: both modes agree with the map itself
+    for conservative in (False, True):
+        np.testing.assert_array_equal(rasterize_occupancy(occ, (1.0, 2.0), 0.5, (3, 4), conservative), EXPECTED)
