@@ -25,4 +25,7 @@ from .rmap import ReachabilityMap, open_map, save_maps  # noqa: E402
 from .ik import IKResult, solve_ik  # noqa: E402
 from .accuracy import check_map  # noqa: E402
 
-__all__ = sorted([*__all__, "IKResult", "ReachabilityMap", "check_map", "open_map", "save_maps", "solve_ik"])
+from .planning.planner import Planner, plan  # noqa: E402
+
+__all__ = sorted([*__all__, "IKResult", "Planner", "ReachabilityMap", "check_map", "open_map", "plan", "save_maps",
+                  "solve_ik"])

@@ -36,6 +36,15 @@ def trajectory_map(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
     nyr = slices.shape[2]
     n_yaw = slices.shape[3]
     K = base_yaws.shape[0]
+    # per-yaw constants, shared by every cell
+    cs = np.empty(K)
+    sn = np.empty(K)
+    ybin = np.empty((K, P), dtype=np.int64)
+    for k in range(K):
+        cs[k] = math.cos(base_yaws[k])
+        sn[k] = math.sin(base_yaws[k])
+        for p in range(P):
+            ybin[k, p] = wrap_bin(tcp_yaw[p] - base_yaws[k], n_yaw)
     for ci in prange(cells.shape[0]):
         cell = cells[ci]
         iy = cell // nx
@@ -45,9 +54,8 @@ def trajectory_map(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
         best = np.float32(0.0)
         arg = -1
         for k in range(K):
-            a = base_yaws[k]
-            c = math.cos(a)
-            s = math.sin(a)
+            c = cs[k]
+            s = sn[k]
             m = np.float32(np.inf)
             for p in range(P):
                 dx = tcp_x[p] - bx
@@ -59,7 +67,7 @@ def trajectory_map(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
                 if jx < 0 or jy < 0 or jx >= nxr or jy >= nyr:
                     m = np.float32(0.0)
                     break
-                v = slices[p, jx, jy, wrap_bin(tcp_yaw[p] - a, n_yaw)]
+                v = slices[p, jx, jy, ybin[k, p]]
                 if v < m:
                     m = v
                 if m <= best:

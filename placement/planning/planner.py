@@ -32,7 +32,8 @@ log = logging.getLogger("placement")
 METHODS = ("sequential", "single-step", "irm")
 DEFAULTS = {"lambda_n": 1 / 20, "lambda_m": 0.002353, "lambda_nh": 1 / 20, "yaw_steps": 100,
             "threshold": 0.0235, "velocity_lambda": 1.3, "velocity_k": 4, "d_max": 1.0, "grasp_yaws": 8}
-IK_TRIES = 25  # candidate placements tried in cost order before a step is declared infeasible
+IK_TRIES = 25
+MIN_REGION = 0.02  # smallest feasible region (fraction of the step's feasible area) the heuristic steers to  # candidate placements tried in cost order before a step is declared infeasible
 
 
 @dataclass
@@ -78,7 +79,7 @@ class Planner:
             self.params["lambda_n"] = 0.0
         self.robot = load_robot(self.scene.robot_preset)
         map_path = Path(maps or self.scene.maps or Path("maps") / self.robot.name)
-        self.maps = {arm: open_map(map_path, arm, self.robot).load() for arm in self._mapped_arms(map_path)}
+        self.maps = {arm: open_map(map_path, arm, self.robot) for arm in self._mapped_arms(map_path)}
         p = self.params
         self.world = build_world(self.scene, self.robot.footprint_radius, p["velocity_lambda"], p["velocity_k"],
                                  p["d_max"])
@@ -119,8 +120,8 @@ class Planner:
             for arm, rmap in self.maps.items():
                 for cand in self.candidates(action, target):
                     cells = cells_within(nav, cand.poses[-1, 0, 3], cand.poses[-1, 1, 3], reach_xy(rmap.grid))
+                    cells = cells[self.world.feasible.flat[cells]]
                     value, yaw = manipulation_map(rmap, cand.poses, nav, self.yaws, cells)
-                    value[~self.world.feasible] = 0.0
                     opts.append(Option(arm, cand, value, yaw))
             self._options[i] = opts
         return self._options[i]
@@ -141,8 +142,12 @@ class Planner:
             if n == 0:
                 self._heuristic[i] = total
                 return total
-            area = region.sum()
-            for lab in range(1, n + 1):
+            sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
+            # regions under MIN_REGION of the feasible area would add a full cost map each for a
+            # negligible weight: they are dropped and the weights renormalised
+            keep = [lab + 1 for lab in range(n) if sizes[lab] >= MIN_REGION * sizes.sum()]
+            area = sum(sizes[lab - 1] for lab in keep)
+            for lab in keep:
                 cells = np.argwhere(labels == lab)
                 centroid = cells.mean(axis=0)
                 centre = cells[np.argmin(((cells - centroid) ** 2).sum(axis=1))]
