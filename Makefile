@@ -2,7 +2,7 @@
 PY ?= .venv/bin/python
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 
-.PHONY: install test maps bench clean
+.PHONY: install test maps demo bench clean
 
 install: .venv/installed
 
@@ -17,6 +17,13 @@ test: install
 
 maps: install
 	$(PY) -m placement.cli.main maps build --robot pr2 --spec maps/pr2.yaml --out maps/pr2
+
+maps/pr2/zarr.json:
+	$(MAKE) maps
+
+# Builds the default maps if they are missing, then plans the example scene.
+demo: install maps/pr2/zarr.json
+	.venv/bin/placement query examples/table_clearing.yaml --plot demo-plots
 
 bench: install
 	$(PY) tools/bench.py
