@@ -25,8 +25,9 @@ maps/pr2/zarr.json:
 demo: install maps/pr2/zarr.json
 	.venv/bin/placement query examples/table_clearing.yaml --plot demo-plots
 
-bench: install
+bench: install maps/pr2/zarr.json
 	$(PY) tools/bench.py
+	$(PY) tools/bench_query.py
 
 clean:
 	rm -rf .venv build *.egg-info .pytest_cache

@@ -200,10 +200,13 @@ class Planner:
         timings["navigation"] = (time.perf_counter() - t) * 1e3
         t = time.perf_counter()
         opts = self.options(i)
+        has_next = i + 1 < len(self.steps())
+        steer = has_next and p["lambda_nh"] > 0
+        if steer:
+            self.options(i + 1)  # the next step's IRMs: manipulation work, cached for that step
         timings["manipulation"] = (time.perf_counter() - t) * 1e3
         t = time.perf_counter()
-        has_next = i + 1 < len(self.steps())
-        heur = self.heuristic(i + 1) if has_next and p["lambda_nh"] > 0 else np.zeros(nav.shape)
+        heur = self.heuristic(i + 1) if steer else np.zeros(nav.shape)
         timings["heuristic"] = (time.perf_counter() - t) * 1e3
         t = time.perf_counter()
         ranked = []  # (cost, option index, flat cell)
