@@ -113,3 +113,25 @@ def test_armar6_8dof_non_root_base(armar6):
             solved += 1
             assert np.linalg.norm(armar6.tcp_pose("right", res.q)[:3, 3] - T[:3, 3]) < 1e-3
     assert solved >= 9
+
+
+def test_log3_kernel_matches_pinocchio():
+    """The IK kernel's rotation error equals pinocchio's log3, also near 0 and near pi."""
+    import pinocchio as pin
+
+    from placement.kernels.ik import _log3
+
+    rng = np.random.default_rng(21)
+    out = np.empty(3)
+    for i in range(300):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        angle = [rng.uniform(0, np.pi), 1e-8, np.pi - 1e-6, np.pi - 1e-3, np.pi][i % 5]
+        R = pin.exp3(axis * angle)
+        _log3(R, out)
+        want = pin.log3(R)
+        if angle > np.pi - 1e-5:  # +-axis*pi are the same rotation
+            assert np.linalg.norm(out) == pytest.approx(np.linalg.norm(want), abs=1e-6)
+            np.testing.assert_allclose(pin.exp3(out), R, atol=1e-6)
+        else:
+            np.testing.assert_allclose(out, want, atol=1e-7)

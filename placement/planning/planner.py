@@ -117,11 +117,14 @@ class Planner:
             action, target = self.steps()[i]
             opts = []
             nav = self.world.nav
+            near: dict[tuple, np.ndarray] = {}  # candidates of a step share their target position
             for arm, rmap in self.maps.items():
                 for cand in self.candidates(action, target):
-                    cells = cells_within(nav, cand.poses[-1, 0, 3], cand.poses[-1, 1, 3], reach_xy(rmap.grid))
-                    cells = cells[self.world.feasible.flat[cells]]
-                    value, yaw = manipulation_map(rmap, cand.poses, nav, self.yaws, cells)
+                    key = (cand.poses[-1, 0, 3], cand.poses[-1, 1, 3], reach_xy(rmap.grid))
+                    if key not in near:
+                        cells = cells_within(nav, *key)
+                        near[key] = cells[self.world.feasible.flat[cells]]
+                    value, yaw = manipulation_map(rmap, cand.poses, nav, self.yaws, near[key])
                     opts.append(Option(arm, cand, value, yaw))
             self._options[i] = opts
         return self._options[i]
