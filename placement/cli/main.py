@@ -7,6 +7,7 @@ import click
 from .. import __version__
 from .maps import maps
 from .query import query
+from .scenes import scenes
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -17,6 +18,7 @@ def cli():
 
 cli.add_command(maps)
 cli.add_command(query)
+cli.add_command(scenes)
 
 
 def main():
