@@ -99,3 +99,19 @@ def test_start_in_obstacle_is_an_error():
     feas[1, 1] = False
     with pytest.raises(PlacementError, match="inside an obstacle"):
         navigation_cost(np.ones((3, 3)), feas, (1, 1), 0.05)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_early_stop_is_exact_on_targets(seed):
+    rng = np.random.default_rng(200 + seed)
+    feas = rng.random((50, 60)) > 0.2
+    fac = speed_factor(distance_map(~feas, 0.05))
+    start = np.argwhere(feas)[0]
+    full, _ = navigation_cost(fac, feas, start, 0.05)
+    targets = np.zeros_like(feas)
+    targets[rng.integers(0, 50, 15), rng.integers(0, 60, 15)] = True
+    part, pred = navigation_cost(fac, feas, start, 0.05, targets=targets)
+    sel = targets & feas
+    assert np.array_equal(part[sel], full[sel])
+    assert np.all(np.isinf(part[~np.isfinite(full)]))
+    assert np.all((part == full) | np.isinf(part))  # unsettled cells are reported as inf, never wrong

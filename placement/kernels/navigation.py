@@ -117,7 +117,7 @@ def _pop(hk, hv, size):
 
 
 @njit(cache=True)
-def shortest_costs(factor, feasible, sources, source_costs, res):
+def shortest_costs(factor, feasible, sources, source_costs, res, targets):
     """Minimal path cost from the sources to every cell of an 8-connected grid (Dijkstra).
 
     The edge from cell i to its neighbour j costs ``|p_i - p_j| * factor[j]`` (res or
@@ -129,6 +129,9 @@ def shortest_costs(factor, feasible, sources, source_costs, res):
         feasible: (ny, nx) bool.
         sources: (k, 2) int64 (iy, ix) start cells; source_costs: (k,) their initial costs.
         res: cell size [m].
+        targets: (ny, nx) bool; the search stops once every feasible target cell is settled
+            (exact for them; cells not settled by then are returned as inf). An array with no
+            True cell means: settle everything.
     Returns:
         cost (ny, nx) float64 [m of free-space travel], pred (ny, nx) int64 flat index of the
         predecessor (-1 at sources and unreached cells).
@@ -146,6 +149,12 @@ def shortest_costs(factor, feasible, sources, source_costs, res):
         if feasible[y, x] and source_costs[s] < cost[y, x]:
             cost[y, x] = source_costs[s]
             size = _push(hk, hv, size, source_costs[s], y * nx + x)
+    remaining = 0
+    for y in range(ny):
+        for x in range(nx):
+            if targets[y, x] and feasible[y, x]:
+                remaining += 1
+    early = remaining > 0
     diag = res * math.sqrt(2.0)
     while size > 0:
         c, u, size = _pop(hk, hv, size)
@@ -154,6 +163,10 @@ def shortest_costs(factor, feasible, sources, source_costs, res):
         if done[uy, ux]:
             continue
         done[uy, ux] = True
+        if early and targets[uy, ux]:
+            remaining -= 1
+            if remaining == 0:
+                break
         for dy in range(-1, 2):
             vy = uy + dy
             if vy < 0 or vy >= ny:
@@ -170,4 +183,10 @@ def shortest_costs(factor, feasible, sources, source_costs, res):
                     cost[vy, vx] = nc
                     pred[vy, vx] = u
                     size = _push(hk, hv, size, nc, vy * nx + vx)
+    if early:
+        for y in range(ny):
+            for x in range(nx):
+                if not done[y, x]:
+                    cost[y, x] = _INF
+                    pred[y, x] = -1
     return cost, pred

@@ -66,7 +66,7 @@ def speed_factor(d_o: np.ndarray, lam: float = VELOCITY_LAMBDA, k: float = VELOC
 
 
 def navigation_cost(factor: np.ndarray, feasible: np.ndarray, starts, resolution: float,
-                    start_costs=None) -> tuple[np.ndarray, np.ndarray]:
+                    start_costs=None, targets: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Minimal travel cost [m] from the start cells to every cell (Eq. 5, exact, Dijkstra).
 
     Args:
@@ -75,6 +75,9 @@ def navigation_cost(factor: np.ndarray, feasible: np.ndarray, starts, resolution
         starts: (k, 2) or (2,) integer (iy, ix) start cells.
         resolution: cell size [m].
         start_costs: optional (k,) initial costs [m] (0 by default).
+        targets: optional (ny, nx) bool: only these cells are needed; the search stops when
+            they are all settled and every other cell is returned as inf (same costs on the
+            targets, less work).
     Returns:
         cost (ny, nx) [m] (inf where unreachable), pred (ny, nx) flat predecessor index.
     """
@@ -91,7 +94,10 @@ def navigation_cost(factor: np.ndarray, feasible: np.ndarray, starts, resolution
         iy, ix = starts[0]
         raise PlacementError(f"start cell ({iy}, {ix}) is inside an obstacle or too close to one for the base")
     costs = np.zeros(len(starts)) if start_costs is None else np.asarray(start_costs, dtype=float)
-    return shortest_costs(fac, feas, starts, costs, float(resolution))
+    tgt = np.zeros(feas.shape, dtype=np.bool_) if targets is None else np.ascontiguousarray(targets, dtype=np.bool_)
+    if tgt.shape != feas.shape:
+        raise PlacementError(f"targets {tgt.shape} and feasible {feas.shape} grids differ")
+    return shortest_costs(fac, feas, starts, costs, float(resolution), tgt)
 
 
 def extract_path(pred: np.ndarray, goal) -> np.ndarray:

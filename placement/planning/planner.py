@@ -85,7 +85,8 @@ class Planner:
                                  p["d_max"])
         self.yaws = base_yaws(int(p["yaw_steps"]))
         self._options: dict[int, list[Option]] = {}
-        self._heuristic: dict[int, np.ndarray] = {}
+        self._heuristic: dict[tuple[int, bool], np.ndarray] = {}
+        self._full_maps = False
 
     def _mapped_arms(self, path: Path) -> list[str]:
         from ..storage import open_store
@@ -136,14 +137,19 @@ class Planner:
             mask |= o.value >= self.params["threshold"]
         return mask
 
-    def heuristic(self, i: int) -> np.ndarray:
-        """Section IV-C: navigation cost towards step i's feasible regions, area-weighted (cached)."""
-        if i not in self._heuristic:
+    def heuristic(self, i: int, at: np.ndarray | None = None) -> np.ndarray:
+        """Section IV-C: navigation cost towards step i's feasible regions, area-weighted (cached).
+
+        ``at``: optional (ny, nx) bool of the cells where the heuristic will be read (the
+        previous step's candidates); the region cost maps then stop once those are settled.
+        """
+        key = (i, at is None)
+        if key not in self._heuristic:
             region = self.feasible_region(i)
             labels, n = ndimage.label(region, structure=np.ones((3, 3)))
             total = np.zeros(self.world.nav.shape)
             if n == 0:
-                self._heuristic[i] = total
+                self._heuristic[key] = total
                 return total
             sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
             # regions under MIN_REGION of the feasible area would add a full cost map each for a
@@ -154,10 +160,11 @@ class Planner:
                 cells = np.argwhere(labels == lab)
                 centroid = cells.mean(axis=0)
                 centre = cells[np.argmin(((cells - centroid) ** 2).sum(axis=1))]
-                cost, _ = navigation_cost(self.world.factor, self.world.feasible, centre, self.world.nav.resolution)
+                cost, _ = navigation_cost(self.world.factor, self.world.feasible, centre, self.world.nav.resolution,
+                                          targets=at)
                 total += (len(cells) / area) * cost
-            self._heuristic[i] = total
-        return self._heuristic[i]
+            self._heuristic[key] = total
+        return self._heuristic[key]
 
     # -- planning --------------------------------------------------------
     def plan(self, keep_maps: bool = False) -> dict:
@@ -166,6 +173,7 @@ class Planner:
         With ``keep_maps``, ``self.step_maps`` holds each step's cost maps (for plots).
         """
         self.step_maps: list[StepMaps] = []
+        self._full_maps = keep_maps
         start = self.scene.start
         nav = self.world.nav
         try:
@@ -199,17 +207,20 @@ class Planner:
         nav = self.world.nav
         timings = {}
         t = time.perf_counter()
-        nav_cost, pred = navigation_cost(self.world.factor, self.world.feasible, prev_cell, nav.resolution)
-        timings["navigation"] = (time.perf_counter() - t) * 1e3
-        t = time.perf_counter()
         opts = self.options(i)
         has_next = i + 1 < len(self.steps())
         steer = has_next and p["lambda_nh"] > 0
         if steer:
             self.options(i + 1)  # the next step's IRMs: manipulation work, cached for that step
         timings["manipulation"] = (time.perf_counter() - t) * 1e3
+        # only the candidate cells of this step are read from the cost maps (all cells for plots)
+        needed = None if self._full_maps else self.feasible_region(i)
         t = time.perf_counter()
-        heur = self.heuristic(i + 1) if steer else np.zeros(nav.shape)
+        nav_cost, pred = navigation_cost(self.world.factor, self.world.feasible, prev_cell, nav.resolution,
+                                         targets=needed)
+        timings["navigation"] = (time.perf_counter() - t) * 1e3
+        t = time.perf_counter()
+        heur = self.heuristic(i + 1, needed) if steer else np.zeros(nav.shape)
         timings["heuristic"] = (time.perf_counter() - t) * 1e3
         t = time.perf_counter()
         ranked = []  # (cost, option index, flat cell)
