@@ -2,7 +2,7 @@
 PY ?= .venv/bin/python
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 
-.PHONY: install test maps demo bench clean
+.PHONY: install test maps demo bench eval clean
 
 install: .venv/installed
 
@@ -28,6 +28,14 @@ demo: install maps/pr2/zarr.json
 bench: install maps/pr2/zarr.json
 	$(PY) tools/bench.py
 	$(PY) tools/bench_query.py
+
+# The paper's protocol: 45 scenes without and 30 with obstacles, all methods; results in docs/eval.
+eval: install maps/pr2/zarr.json
+	rm -rf build/eval-scenes
+	.venv/bin/placement scenes generate --seed 1 --count 45 --maps $(CURDIR)/maps/pr2 build/eval-scenes/free -q
+	.venv/bin/placement scenes generate --seed 1 --count 30 --obstacles --maps $(CURDIR)/maps/pr2 build/eval-scenes/obstacles -q
+	.venv/bin/placement evaluate build/eval-scenes/free --out docs/eval/free
+	.venv/bin/placement evaluate build/eval-scenes/obstacles --out docs/eval/obstacles
 
 clean:
 	rm -rf .venv build *.egg-info .pytest_cache

@@ -16,6 +16,8 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import yaml  # noqa: E402
 
+import placement  # noqa: E402
+
 ARMAR6_URDF = Path(__file__).resolve().parents[2] / "shared/robots/armar6/Armar6.urdf"
 
 _ARMAR6_JOINTS = ("arm_t12", "arm_t23", "arm_t34", "arm_t45", "arm_t56", "arm_t67", "arm_t78", "arm_t8")
@@ -78,3 +80,11 @@ def pr2():
 def random_configs(arm, n: int, rng: np.random.Generator) -> np.ndarray:
     """(n, dof) configurations uniform within the arm's limits ([-pi, pi] for continuous joints)."""
     return arm.lower + (arm.upper - arm.lower) * rng.random((n, arm.dof))
+
+
+@pytest.fixture(scope="session")
+def maps_dir(pr2, tmp_path_factory):
+    """Small PR2 maps (both arms) shared by the planning tests."""
+    built = {arm: placement.build_map(pr2, arm, samples=700_000, seed=1, resolution=0.1, bins=(10, 5, 10),
+                                      progress=False) for arm in ("right", "left")}
+    return placement.save_maps(tmp_path_factory.mktemp("maps") / "pr2", pr2, built)

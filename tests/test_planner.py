@@ -35,13 +35,6 @@ SCENE = {
 }
 
 
-@pytest.fixture(scope="module")
-def maps_dir(pr2, tmp_path_factory):
-    built = {arm: placement.build_map(pr2, arm, samples=700_000, seed=1, resolution=0.1, bins=(10, 5, 10),
-                                      progress=False) for arm in ("right", "left")}
-    return placement.save_maps(tmp_path_factory.mktemp("maps") / "pr2", pr2, built)
-
-
 def write_scene(tmp_path, maps_dir, **changes):
     scene = json.loads(json.dumps(SCENE))
     scene["maps"] = str(maps_dir)

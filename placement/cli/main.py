@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from .. import __version__
+from .evaluate import evaluate
 from .maps import maps
 from .query import query
 from .scenes import scenes
@@ -19,6 +20,7 @@ def cli():
 cli.add_command(maps)
 cli.add_command(query)
 cli.add_command(scenes)
+cli.add_command(evaluate)
 
 
 def main():

@@ -1,8 +1,9 @@
 """Seeded table-clearing benchmark scenes (SPEC section 8), written in the scene format.
 
 Layout (metres): a 10 x 8 room with walls; three pick tables in a row centred at
-(5, 4), each ``table_size`` = (length along the row, depth); two 0.8 x 0.8 place
-tables at (1.6, 1.6) and (8.4, 1.6) with the place location 0.1 m above their top;
+(5, 4), each ``table_size`` = (length along the row, depth); two place
+tables (0.5 m square for the PR2, 0.8 m otherwise) at (1.6, 1.6) and (8.4, 1.6) with the place location 0.1 m above their top (all five
+tables are ``table: true``: surfaces objects stand on, where the ``fixed`` baseline parks);
 ``objects`` boxes at random on the pick area, picked in order and placed
 alternately on the two place tables; a random start pose in the free band along
 the north wall. The obstacle variant adds boxes beside the pick tables that block
@@ -24,6 +25,8 @@ ROOM = (10.0, 8.0)
 TABLE_HEIGHT = 0.75
 #: pick table (length, depth) per robot preset [m]; the PR2 reaches ~0.37 m into a table (SPEC section 8)
 TABLE_SIZES = {"pr2": (0.8, 0.6), "armar6": (0.8, 0.8)}
+#: place table edge per robot [m]: the PR2 parked at its footprint radius reaches ~0.26 m into a table
+PLACE_TABLE_SIZES = {"pr2": 0.5, "armar6": 0.8}
 OBJECT_SIZES = [(0.06, 0.06, 0.10), (0.05, 0.12, 0.10), (0.07, 0.07, 0.12), (0.04, 0.09, 0.08)]
 
 
@@ -34,6 +37,7 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
         raise PlacementError(f"object count must be positive, got {objects}")
     rng = np.random.default_rng([int(seed), int(index), int(obstacles)])
     length, depth = table_size or TABLE_SIZES.get(preset, (0.8, 0.8))
+    place_edge = PLACE_TABLE_SIZES.get(preset, 0.8)
     w, h = ROOM
     cx, cy = 5.0, 4.0
     obs = [
@@ -48,8 +52,8 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
                             "size": [length, depth, TABLE_HEIGHT]}})
     places = []
     for name, (x, y) in (("a", (1.6, 1.6)), ("b", (8.4, 1.6))):
-        obs.append({"name": f"place_table_{name}", "box": {"center": [x, y, TABLE_HEIGHT / 2],
-                                                           "size": [0.8, 0.8, TABLE_HEIGHT]}})
+        obs.append({"name": f"place_table_{name}", "table": True, "box": {"center": [x, y, TABLE_HEIGHT / 2],
+                                                           "size": [place_edge, place_edge, TABLE_HEIGHT]}})
         places.append({"name": f"place_{name}", "position": [x, y, TABLE_HEIGHT + 0.10]})
     if obstacles:
         # two crates beside the long sides of the pick row, each hiding part of one side

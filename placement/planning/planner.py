@@ -29,11 +29,12 @@ from .world import build_world
 
 log = logging.getLogger("placement")
 
-METHODS = ("sequential", "single-step", "irm")
+METHODS = ("sequential", "single-step", "irm", "fixed")
 DEFAULTS = {"lambda_n": 1 / 20, "lambda_m": 0.002353, "lambda_nh": 1 / 20, "yaw_steps": 100,
             "threshold": 0.0235, "velocity_lambda": 1.3, "velocity_k": 4, "d_max": 1.0, "grasp_yaws": 8}
 IK_TRIES = 25
-MIN_REGION = 0.02  # smallest feasible region (fraction of the step's feasible area) the heuristic steers to  # candidate placements tried in cost order before a step is declared infeasible
+MIN_REGION = 0.02
+FIXED_MARGIN = 0.02  # [m] clearance of the fixed baseline's placements beyond the footprint radius  # smallest feasible region (fraction of the step's feasible area) the heuristic steers to  # candidate placements tried in cost order before a step is declared infeasible
 
 
 @dataclass
@@ -69,14 +70,7 @@ class Planner:
 
     def __init__(self, scene: Scene | str | Path, method: str = "sequential", maps: str | Path | None = None):
         self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
-        if method not in METHODS:
-            raise PlacementError(f"unknown method '{method}'; choose from {', '.join(METHODS)}")
-        self.method = method
-        self.params = {**DEFAULTS, **self.scene.planner}
-        if method != "sequential":
-            self.params["lambda_nh"] = 0.0
-        if method == "irm":
-            self.params["lambda_n"] = 0.0
+        self.set_method(method)
         self.robot = load_robot(self.scene.robot_preset)
         map_path = Path(maps or self.scene.maps or Path("maps") / self.robot.name)
         self.maps = {arm: open_map(map_path, arm, self.robot) for arm in self._mapped_arms(map_path)}
@@ -87,6 +81,18 @@ class Planner:
         self._options: dict[int, list[Option]] = {}
         self._heuristic: dict[tuple[int, bool], np.ndarray] = {}
         self._full_maps = False
+        self._fixed: list[tuple[int, float]] | None = None
+
+    def set_method(self, method: str) -> None:
+        """Switch the method (weights); the scene's maps, world and IRM caches are kept."""
+        if method not in METHODS:
+            raise PlacementError(f"unknown method '{method}'; choose from {', '.join(METHODS)}")
+        self.method = method
+        self.params = {**DEFAULTS, **self.scene.planner}
+        if method != "sequential":
+            self.params["lambda_nh"] = 0.0
+        if method in ("irm", "fixed"):
+            self.params["lambda_n"] = 0.0
 
     def _mapped_arms(self, path: Path) -> list[str]:
         from ..storage import open_store
@@ -214,7 +220,7 @@ class Planner:
             self.options(i + 1)  # the next step's IRMs: manipulation work, cached for that step
         timings["manipulation"] = (time.perf_counter() - t) * 1e3
         # only the candidate cells of this step are read from the cost maps (all cells for plots)
-        needed = None if self._full_maps else self.feasible_region(i)
+        needed = None if self._full_maps or self.method == "fixed" else self.feasible_region(i)
         t = time.perf_counter()
         nav_cost, pred = navigation_cost(self.world.factor, self.world.feasible, prev_cell, nav.resolution,
                                          targets=needed)
@@ -223,27 +229,31 @@ class Planner:
         heur = self.heuristic(i + 1, needed) if steer else np.zeros(nav.shape)
         timings["heuristic"] = (time.perf_counter() - t) * 1e3
         t = time.perf_counter()
-        ranked = []  # (cost, option index, flat cell)
         best_combined = np.full(nav.shape, np.inf)
-        for k, o in enumerate(opts):
-            ok = (o.value >= p["threshold"]) & np.isfinite(nav_cost) & np.isfinite(heur)
-            if not ok.any():
-                continue
-            c = np.full(nav.shape, np.inf)
-            c[ok] = p["lambda_n"] * nav_cost[ok] + p["lambda_m"] / o.value[ok] + p["lambda_nh"] * heur[ok]
-            np.minimum(best_combined, c, out=best_combined)
-            flat = np.flatnonzero(ok)
-            top = flat[np.argsort(c.flat[flat], kind="stable")[:IK_TRIES]]
-            ranked += [(float(c.flat[f]), k, int(f)) for f in top]
-        ranked.sort(key=lambda r: (r[0], r[1], r[2]))
+        if self.method == "fixed":
+            ranked = self._rank_fixed(opts)
+        else:
+            ranked = []  # (cost, option index, flat cell, base yaw)
+            for k, o in enumerate(opts):
+                ok = (o.value >= p["threshold"]) & np.isfinite(nav_cost) & np.isfinite(heur)
+                if not ok.any():
+                    continue
+                c = np.full(nav.shape, np.inf)
+                c[ok] = p["lambda_n"] * nav_cost[ok] + p["lambda_m"] / o.value[ok] + p["lambda_nh"] * heur[ok]
+                np.minimum(best_combined, c, out=best_combined)
+                flat = np.flatnonzero(ok)
+                top = flat[np.argsort(c.flat[flat], kind="stable")[:IK_TRIES]]
+                ranked += [(float(c.flat[f]), k, int(f), float(self.yaws[o.yaw_index.flat[f]])) for f in top]
+            ranked.sort(key=lambda r: (r[0], r[1], r[2]))
         timings["combine"] = (time.perf_counter() - t) * 1e3
         self.last_maps = StepMaps(nav_cost, heur, np.max([o.value for o in opts], axis=0) if opts else None,
                                   best_combined)
         t = time.perf_counter()
-        for cost, k, f in ranked[:IK_TRIES]:
+        for cost, k, f, yaw in ranked[:IK_TRIES]:
             o = opts[k]
             iy, ix = divmod(f, nav.shape[1])
-            yaw = float(self.yaws[o.yaw_index[iy, ix]])
+            if not np.isfinite(nav_cost[iy, ix]):
+                continue  # a fixed placement the base cannot get to from here
             xs, ys = nav.centres()
             base = (float(xs[ix]), float(ys[iy]), yaw)
             q = self._ik(o, base, prev_q[o.arm])
@@ -252,13 +262,57 @@ class Planner:
             timings["ik"] = (time.perf_counter() - t) * 1e3
             path = extract_path(pred, (iy, ix))
             self.last_maps.path = path
-            return self._step_json(i, action, target, o, base, q, cost, nav_cost[iy, ix], heur[iy, ix],
-                                   o.value[iy, ix], timings), (iy, ix), yaw, q
+            value = o.value[iy, ix] if self.method != "fixed" else -cost
+            return self._step_json(i, action, target, o, base, q, nav_cost[iy, ix], heur[iy, ix],
+                                   value, timings), (iy, ix), yaw, q
         timings["ik"] = (time.perf_counter() - t) * 1e3
         reason = ("no base placement reaches the target with the map threshold "
                   f"{p['threshold']}" if not ranked else f"IK failed for the best {min(len(ranked), IK_TRIES)} placements")
         return ({"step": i, "action": action, "target": target, "status": "infeasible", "reason": reason,
                  "timings_ms": {k: round(v, 3) for k, v in timings.items()}}, None, None, None)
+
+    def fixed_placements(self) -> list[tuple[int, float]]:
+        """The ``fixed`` baseline's placements: (flat cell, yaw [rad]) centred on each free side of
+        each ``table: true`` obstacle, facing it, the base centre ``footprint_radius + 0.02`` m from
+        the side (free: that cell is base-feasible)."""
+        if self._fixed is None:
+            out = []
+            nav = self.world.nav
+            standoff = self.robot.footprint_radius + FIXED_MARGIN
+            for ob in self.scene.tables:
+                sh = ob.shape
+                if hasattr(sh, "size"):
+                    c, s_ = math.cos(sh.yaw), math.sin(sh.yaw)
+                    half = (sh.size[0] / 2, sh.size[1] / 2)
+                    sides = [((c, s_), half[0]), ((-c, -s_), half[0]), ((-s_, c), half[1]), ((s_, -c), half[1])]
+                else:  # cylinder: four sides along the world axes
+                    sides = [((1.0, 0.0), sh.radius), ((-1.0, 0.0), sh.radius), ((0.0, 1.0), sh.radius),
+                             ((0.0, -1.0), sh.radius)]
+                for (nx_, ny_), h in sides:
+                    x = sh.center[0] + nx_ * (h + standoff)
+                    y = sh.center[1] + ny_ * (h + standoff)
+                    try:
+                        iy, ix = nav.cell(x, y)
+                    except PlacementError:
+                        continue
+                    if self.world.feasible[iy, ix]:
+                        out.append((iy * nav.shape[1] + ix, math.atan2(-ny_, -nx_)))
+            self._fixed = out
+        return self._fixed
+
+    def _rank_fixed(self, opts: list[Option]) -> list[tuple]:
+        """Fixed placements by decreasing manipulability of each (arm, candidate) at the placement's yaw."""
+        nav = self.world.nav
+        ranked = []
+        for flat, yaw in self.fixed_placements():
+            for k, o in enumerate(opts):
+                rmap = self.maps[o.arm]
+                v, _ = manipulation_map(rmap, o.candidate.poses, nav, np.array([yaw]), np.array([flat]))
+                value = float(v.flat[flat])
+                if value >= self.params["threshold"]:
+                    ranked.append((-value, k, flat, yaw))
+        ranked.sort(key=lambda r: (r[0], r[1], r[2]))
+        return ranked
 
     def _ik(self, o: Option, base, seed):
         x, y, yaw = base
@@ -274,8 +328,9 @@ class Planner:
             q = res.q
         return q
 
-    def _step_json(self, i, action, target, o, base, q, cost, nav_c, heur_c, value, timings):
+    def _step_json(self, i, action, target, o, base, q, nav_c, heur_c, value, timings):
         p = self.params
+        cost = p["lambda_n"] * float(nav_c) + p["lambda_m"] / float(value) + p["lambda_nh"] * float(heur_c)
         arm = self.robot.arm(o.arm)
         joints = {name: float(v) for name, v in zip(arm.joints, q)}
         joints.update(self.robot.fixed_joints)
