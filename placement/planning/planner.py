@@ -233,18 +233,26 @@ class Planner:
         if self.method == "fixed":
             ranked = self._rank_fixed(opts)
         else:
-            ranked = []  # (cost, option index, flat cell, base yaw)
+            ranked = []  # (tier, cost, option index, flat cell, base yaw)
             for k, o in enumerate(opts):
-                ok = (o.value >= p["threshold"]) & np.isfinite(nav_cost) & np.isfinite(heur)
-                if not ok.any():
+                reach = (o.value >= p["threshold"]) & np.isfinite(nav_cost) & np.isfinite(heur)
+                if not reach.any():
                     continue
                 c = np.full(nav.shape, np.inf)
-                c[ok] = p["lambda_n"] * nav_cost[ok] + p["lambda_m"] / o.value[ok] + p["lambda_nh"] * heur[ok]
+                c[reach] = (p["lambda_n"] * nav_cost[reach] + p["lambda_m"] / o.value[reach]
+                            + p["lambda_nh"] * heur[reach])
                 np.minimum(best_combined, c, out=best_combined)
-                flat = np.flatnonzero(ok)
-                top = flat[np.argsort(c.flat[flat], kind="stable")[:IK_TRIES]]
-                ranked += [(float(c.flat[f]), k, int(f), float(self.yaws[o.yaw_index.flat[f]])) for f in top]
-            ranked.sort(key=lambda r: (r[0], r[1], r[2]))
+                # tier 0: the threshold holds on the 3 x 3 cells around the placement; at the frontier
+                # of a map cell's reach the cell is reachable somewhere, not reliably at its centre,
+                # so frontier cells (tier 1) are only tried after the inner ones
+                inner = ndimage.minimum_filter(o.value, size=3, mode="constant", cval=0.0) >= p["threshold"]
+                for tier, mask in ((0, reach & inner), (1, reach & ~inner)):
+                    flat = np.flatnonzero(mask)
+                    top = flat[np.argsort(c.flat[flat], kind="stable")[:IK_TRIES]]
+                    ranked += [(tier, float(c.flat[f]), k, int(f), float(self.yaws[o.yaw_index.flat[f]]))
+                               for f in top]
+            ranked.sort(key=lambda r: (r[0], r[1], r[2], r[3]))
+            ranked = [r[1:] for r in ranked]
         timings["combine"] = (time.perf_counter() - t) * 1e3
         self.last_maps = StepMaps(nav_cost, heur, np.max([o.value for o in opts], axis=0) if opts else None,
                                   best_combined)
