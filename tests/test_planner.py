@@ -141,3 +141,17 @@ def test_generated_scenes_plan_and_verify(tmp_path, maps_dir, pr2, obstacles):
         assert np.linalg.norm(T[:3, 3] - np.array(s["tcp"][-1][:3])) < 0.01
         iy, ix = planner.world.nav.cell(s["base"][0], s["base"][1])
         assert planner.world.distance[iy, ix] >= pr2.footprint_radius
+
+
+def test_optimal_plans_verified_steps(tmp_path, maps_dir, pr2):
+    """The DP yardstick plans the whole task; every step is verified by independent FK."""
+    planner = Planner(write_scene(tmp_path, maps_dir), "optimal")
+    result = planner.plan()
+    assert result["status"] == "ok" and result["method"] == "optimal"
+    assert len(result["steps"]) == 4
+    for s in result["steps"]:
+        arm = pr2.arm(s["arm"])
+        q = np.array([s["joints"][j] for j in arm.joints])
+        T = _planar(*s["base"]) @ pr2.tcp_pose(s["arm"], q)
+        assert np.linalg.norm(T[:3, 3] - np.array(s["tcp"][-1][:3])) < 0.01
+        assert s["cost"]["heuristic"] == 0

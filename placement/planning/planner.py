@@ -29,7 +29,7 @@ from .world import build_world
 
 log = logging.getLogger("placement")
 
-METHODS = ("sequential", "single-step", "irm", "fixed")
+METHODS = ("sequential", "single-step", "irm", "fixed", "optimal")
 DEFAULTS = {"lambda_n": 1 / 20, "lambda_m": 0.002353, "lambda_nh": 1 / 20, "yaw_steps": 100,
             "threshold": 0.0235, "velocity_lambda": 1.3, "velocity_k": 4, "d_max": 1.0, "grasp_yaws": 8}
 IK_TRIES = 25
@@ -89,7 +89,7 @@ class Planner:
             raise PlacementError(f"unknown method '{method}'; choose from {', '.join(METHODS)}")
         self.method = method
         self.params = {**DEFAULTS, **self.scene.planner}
-        if method != "sequential":
+        if method not in ("sequential", "optimal"):
             self.params["lambda_nh"] = 0.0
         if method in ("irm", "fixed"):
             self.params["lambda_n"] = 0.0
@@ -189,6 +189,10 @@ class Planner:
         if not self.world.feasible[start_cell]:
             raise PlacementError(f"start pose ({start[0]:.2f}, {start[1]:.2f}) is inside an obstacle or closer "
                                  f"than the base footprint radius {self.robot.footprint_radius} m to one")
+        if self.method == "optimal":
+            from .optimal import plan_optimal
+
+            return plan_optimal(self, start_cell)
         prev_cell, prev_yaw = start_cell, float(start[2])
         prev_q = {arm: self.robot.arm(arm).home.copy() for arm in self.maps}
         steps_out = []
