@@ -26,7 +26,8 @@ def test_seeded_and_independent_of_count(tmp_path):
 def test_layout(tmp_path, obstacles):
     (path,) = write_scenes(tmp_path, seed=7, count=1, objects=6, obstacles=obstacles)
     scene = load_scene(path)
-    tables = [o for o in scene.obstacles if o.table]
+    assert len([o for o in scene.obstacles if o.table]) == 5  # pick and place tables
+    tables = [o for o in scene.obstacles if o.name.startswith("pick_table")]
     assert len(tables) == 3
     for t in tables:
         np.testing.assert_allclose(t.shape.size[:2], [0.8, 0.6])  # PR2 default
@@ -38,6 +39,12 @@ def test_layout(tmp_path, obstacles):
     assert [t.place for t in scene.task] == ["place_a", "place_b"] * 3
     crates = [o for o in scene.obstacles if o.name.startswith("crate")]
     assert len(crates) == (2 if obstacles else 0)
+    from placement.planning.generate import SHADOW
+
+    for o in scene.objects:  # no crate blocks the table edge in front of an object on its own side
+        for c in crates:
+            same_side = (c.shape.center[1] - 4.0) * (o.position[1] - 4.0) > 0
+            assert not (same_side and abs(c.shape.center[0] - o.position[0]) < SHADOW)
 
 
 def test_cli_generate_json(tmp_path):

@@ -7,7 +7,8 @@ tables are ``table: true``: surfaces objects stand on, where the ``fixed`` basel
 ``objects`` boxes at random on the pick area, picked in order and placed
 alternately on the two place tables; a random start pose in the free band along
 the north wall. The obstacle variant adds boxes beside the pick tables that block
-some placements. Scene k of seed s depends only on (s, k).
+some placements, but never the table edge in front of an object on the side it is
+nearest to (so every scene can be solved). Scene k of seed s depends only on (s, k).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ TABLE_HEIGHT = 0.75
 TABLE_SIZES = {"pr2": (0.8, 0.6), "armar6": (0.8, 0.8)}
 #: place table edge per robot [m]: the PR2 parked at its footprint radius reaches ~0.26 m into a table
 PLACE_TABLE_SIZES = {"pr2": 0.5, "armar6": 0.8}
+SHADOW = 0.55  # [m] half-width of the pick-table edge a crate blocks (crate half-size + arm clearance)
 OBJECT_SIZES = [(0.06, 0.06, 0.10), (0.05, 0.12, 0.10), (0.07, 0.07, 0.12), (0.04, 0.09, 0.08)]
 
 
@@ -65,10 +67,16 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
                                                           "size": [0.5, 0.5, 0.5]}})
     objs = []
     margin = 0.06
+    crates = [o["box"]["center"] for o in obs if o["name"].startswith("crate")]
     for k in range(objects):
         size = OBJECT_SIZES[int(rng.integers(len(OBJECT_SIZES)))]
-        x = cx + rng.uniform(-1.5 * length + margin, 1.5 * length - margin)
-        y = cy + rng.uniform(-depth / 2 + margin, depth / 2 - margin)
+        for _ in range(1000):
+            x = cx + rng.uniform(-1.5 * length + margin, 1.5 * length - margin)
+            y = cy + rng.uniform(-depth / 2 + margin, depth / 2 - margin)
+            # a crate may block a side, but never the side an object is nearest to within
+            # SHADOW of its x: every object stays reachable from its own side
+            if not any((c[1] - cy) * (y - cy) > 0 and abs(c[0] - x) < SHADOW for c in crates):
+                break
         objs.append({"name": f"object_{k + 1}", "position": [round(x, 3), round(y, 3), TABLE_HEIGHT + size[2] / 2],
                      "yaw": round(float(rng.uniform(-math.pi, math.pi)), 4), "size": list(size)})
     start = [round(float(rng.uniform(1.0, w - 1.0)), 3), round(float(rng.uniform(h - 1.8, h - 0.8)), 3),
