@@ -12,13 +12,12 @@ one that fails is removed and the DP rerun.
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
 from scipy import ndimage
 
-from .navigation import extract_path, navigation_cost
+from .navigation import navigation_cost
 
 CANDIDATES = 40
 LATTICE = 3
@@ -108,9 +107,10 @@ def plan_optimal(planner, start_cell) -> dict:
             if q is None:
                 failed = (i, j)
                 break
-            navc, pred = navigation_cost(planner.world.factor, planner.world.feasible, prev_cell, nav.resolution,
-                                         targets=np.isin(np.arange(nav.shape[0] * nav.shape[1]),
-                                                         [flat]).reshape(shape))
+            here = np.zeros(shape, bool)
+            here[iy, ix] = True
+            navc, _ = navigation_cost(planner.world.factor, planner.world.feasible, prev_cell, nav.resolution,
+                                      targets=here)
             action, target = steps[i]
             step = planner._step_json(i, action, target, o, base, q, navc[iy, ix], 0.0, value, {})
             out.append(step)
