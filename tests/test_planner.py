@@ -155,3 +155,37 @@ def test_optimal_plans_verified_steps(tmp_path, maps_dir, pr2):
         T = _planar(*s["base"]) @ pr2.tcp_pose(s["arm"], q)
         assert np.linalg.norm(T[:3, 3] - np.array(s["tcp"][-1][:3])) < 0.01
         assert s["cost"]["heuristic"] == 0
+
+
+def test_updates_redo_only_what_changed(tmp_path, maps_dir, pr2):
+    planner = Planner(write_scene(tmp_path, maps_dir))
+    first = planner.plan()
+    assert first["status"] == "ok"
+    cached_place = planner._options[1]  # the place step's IRMs do not depend on the cup
+    info = planner.update({"objects": [{"name": "cup", "position": [3.2, 2.5, 0.8]}]})
+    assert info["updated"] == ["cup"]
+    assert 0 not in planner._options and planner._options[1] is cached_place
+    moved = planner.plan()
+    assert moved["status"] == "ok"
+    assert moved["steps"][0]["tcp"][-1][:2] == pytest.approx([3.2, 2.5])
+    # a crate on the chosen placement: the new plan avoids it
+    x, y, _ = moved["steps"][0]["base"]
+    planner.update({"obstacles": {"add": [{"name": "crate", "box": {"center": [x, y, 0.3], "size": [0.4, 0.4, 0.6]}}]}})
+    again = planner.plan()
+    assert again["status"] == "ok"
+    assert math.hypot(again["steps"][0]["base"][0] - x, again["steps"][0]["base"][1] - y) > pr2.footprint_radius
+    with pytest.raises(placement.PlacementError, match="colour"):
+        planner.update({"colour": 1})
+    with pytest.raises(placement.PlacementError, match="unknown object 'mug'"):
+        planner.update({"objects": [{"name": "mug", "yaw": 1.0}]})
+
+
+def test_stream_mode(tmp_path, maps_dir):
+    env = dict(os.environ)
+    lines = '{"objects": [{"name": "cup", "yaw": 1.0}]}\nnot json\n'
+    p = subprocess.run([sys.executable, "-m", "placement.cli.main", "query", str(write_scene(tmp_path, maps_dir)),
+                        "--stream", "-q"], input=lines, capture_output=True, text=True, env=env)
+    assert p.returncode == 0, p.stderr
+    out = [json.loads(x) for x in p.stdout.splitlines()]
+    assert len(out) == 3 and out[0]["status"] == "ok" and out[1]["update"]["updated"] == ["cup"]
+    assert "error" in out[2] and "Traceback" not in p.stderr

@@ -15,13 +15,19 @@ from .options import emit, json_option, one_line_errors, setup_logging, verbosit
 @click.option("--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`).")
 @click.option("--method", type=click.Choice(METHODS), default="sequential", show_default=True)
 @click.option("--plot", "plot_dir", default=None, type=click.Path(), help="Write PNG cost maps of each step here.")
+@click.option("--stream", is_flag=True,
+              help="After the first plan, read scene updates as JSON lines on stdin and print a new plan "
+                   "(one JSON line) after each.")
 @json_option
 @verbosity
 @one_line_errors
-def query(scene, maps_path, method, plot_dir, as_json, verbose, quiet):
+def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
     """Plan the base placement, arm, grasp and IK solution of every step."""
     setup_logging(verbose, quiet)
     planner = Planner(scene, method, maps_path)
+    if stream:
+        _stream(planner)
+        return
     result = planner.plan(keep_maps=plot_dir is not None)
     if plot_dir:
         from ..plotting import plot_steps
@@ -48,3 +54,28 @@ def _table(r: dict) -> str:
                      f"{x:7.3f} {y:7.3f} {yaw:9.3f} {s['manipulability']:7.4f} {s['cost']['total']:7.3f} "
                      f"{s['travel_time_s']:10.2f} {s['timings_ms']['total']:7.1f}")
     return "\n".join(lines)
+
+
+def _stream(planner) -> None:
+    """JSON lines: the first plan, then one plan per update line read from stdin."""
+    import json
+    import time
+
+    from ..errors import PlacementError
+
+    click.echo(json.dumps(planner.plan()))
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        try:
+            change = json.loads(line)
+            info = planner.update(change)
+            t = time.perf_counter()
+            result = planner.plan()
+            info["timings_ms"]["replan"] = (time.perf_counter() - t) * 1e3
+            result["update"] = info
+            click.echo(json.dumps(result))
+        except (PlacementError, json.JSONDecodeError) as exc:
+            click.echo(f"error: {str(exc).splitlines()[0]}", err=True)
+            click.echo(json.dumps({"error": str(exc).splitlines()[0]}))
+        sys.stdout.flush()

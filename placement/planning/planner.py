@@ -94,6 +94,12 @@ class Planner:
         if method in ("irm", "fixed"):
             self.params["lambda_n"] = 0.0
 
+    def update(self, change: dict) -> dict:
+        """Apply a scene change (see planning/updates.py), redoing only what it invalidates."""
+        from .updates import apply_update
+
+        return apply_update(self, change)
+
     def _mapped_arms(self, path: Path) -> list[str]:
         from ..storage import open_store
 
