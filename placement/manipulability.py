@@ -42,10 +42,11 @@ def extended_manipulability(robot: Robot, arm: str, q, index: str = "isotropy") 
     T, J, work = np.empty((4, 4)), np.empty((6, n)), np.empty((n + 3, 4, 4))
     plo, phi, P, G, A = np.empty(n), np.empty(n), np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6))
     cont = a.continuous.astype(np.bool_)
+    de = np.empty((2, 6))
     out = np.empty(len(Q))
     for i, qi in enumerate(Q):
         fk_jacobian(qi, ch.link_T, ch.axis, ch.kind, ch.tip_T, T, J, work)
         J[3:] *= ROTATION_SCALE
         joint_penalties(qi, a.lower, a.upper, cont, plo, phi)
-        out[i] = _kernel(J, plo, phi, INDEX_NAMES.index(index), -1.0, P, G, A)
+        out[i] = _kernel(J, plo, phi, INDEX_NAMES.index(index), -1.0, P, G, A, de)
     return float(out[0]) if single else out

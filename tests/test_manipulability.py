@@ -304,7 +304,7 @@ def test_sym_eig_extremes_matches_lapack():
             X[:, rng.integers(7)] *= 1e-6
         A = X @ X.T
         w = np.linalg.eigvalsh(A)
-        lmin, lmax = sym_eig_extremes(A.copy())
+        lmin, lmax = sym_eig_extremes(A.copy(), np.empty((2, 6)))
         scale = np.abs(A).max()
         assert abs(lmin - w[0]) <= 1e-13 * scale
         assert abs(lmax - w[-1]) <= 1e-13 * scale
@@ -329,7 +329,7 @@ def test_pruned_kernel_proves_or_matches(pr2):
     proven = 0
     for q, j, t in zip(Q, J, thresholds):
         km.joint_penalties(q, arm.lower, arm.upper, cont, plo, phi)
-        exact = km.extended_manipulability(j, plo, phi, km.ISOTROPY, -1.0, P, G, A)
+        exact = km.extended_manipulability(j, plo, phi, km.ISOTROPY, -1.0, P, G, A, work[2:4])
         got = km.isotropy_pruned(j, plo, phi, t, P, G, A, V, B, order, work)
         if got < 0:
             assert exact <= t

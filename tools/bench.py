@@ -51,7 +51,7 @@ def _measure_all(Q, J, lower, upper, cont, mode, index):
     for i in range(Q.shape[0]):
         joint_penalties(Q[i], lower, upper, cont, plo, phi)
         if mode == 0:
-            out[i] = extended_manipulability(J[i], plo, phi, index, -1.0, P, G, A)
+            out[i] = extended_manipulability(J[i], plo, phi, index, -1.0, P, G, A, work[2:4])
         else:
             out[i] = isotropy_pruned(J[i], plo, phi, -1.0, P, G, A, V, B, order, work)
     return out

@@ -64,7 +64,7 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
             if index == ISOTROPY:
                 out_val[i] = isotropy_pruned(J, plo, phi, np.float64(grid[c]), P, G, A, V, B, order, iso_work)
             else:
-                out_val[i] = extended_manipulability(J, plo, phi, index, np.float64(grid[c]), P, G, A)
+                out_val[i] = extended_manipulability(J, plo, phi, index, np.float64(grid[c]), P, G, A, iso_work[2:4])
 
 
 @njit(cache=True)
