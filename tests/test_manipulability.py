@@ -310,30 +310,93 @@ def test_sym_eig_extremes_matches_lapack():
         assert abs(lmax - w[-1]) <= 1e-13 * scale
 
 
-def test_pruned_kernel_proves_or_matches(pr2):
-    """isotropy_pruned: -1 exactly when the value is <= threshold, else the direct kernel's value bitwise."""
+@pytest.mark.parametrize("robot_name, arm_name", [("pr2", "right"), ("armar6", "right")])
+def test_batched_kernel_proves_or_matches(robot_name, arm_name, request):
+    """isotropy_batched: -1 exactly when the value is <= threshold, else the direct kernel's value bitwise.
+
+    Thresholds cover 0 (empty cell), typical cell values, tiny values (where the
+    proofs' margins grow) and configurations at joint limits (zero penalties).
+    """
     from placement.kernels import manipulability as km
+    from placement.kernels.isotropy import W_ROWS, isotropy_batched
     from placement.kernels.kinematics import fk_jacobian_batch
 
-    arm = pr2.arm("right")
-    Q = random_configs(arm, 400, np.random.default_rng(12))
+    robot = request.getfixturevalue(robot_name)
+    arm = robot.arm(arm_name)
+    rng = np.random.default_rng(12)
+    Q = random_configs(arm, 600, rng)
+    limited = ~arm.continuous.astype(bool)
+    at_limit = rng.random(Q.shape) < 0.1
+    Q[:, limited] = np.where(at_limit[:, limited], arm.upper[limited], Q[:, limited])
     ch = arm.chain
     _, J = fk_jacobian_batch(Q, ch.link_T, ch.axis, ch.kind, ch.tip_T)
     J[:, 3:] *= 0.15
     n = arm.dof
     plo, phi = np.empty(n), np.empty(n)
-    P, G, A, V, B = np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6))
-    order, work = np.empty(64, np.int64), np.empty((4, 64))
+    P, G, A, B = np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6)), np.empty((6, 6))
+    Ag, W, de = np.empty((21, 64)), np.empty((W_ROWS, 64)), np.empty((2, 6))
     cont = arm.continuous.astype(bool)
-    thresholds = np.random.default_rng(13).choice([-1.0, 0.0, 0.01, 0.03, 0.06, 0.1, 0.2], size=len(Q))
-    proven = 0
+    thresholds = np.random.default_rng(13).choice([-1.0, 0.0, 1e-5, 3e-4, 0.01, 0.03, 0.06, 0.1, 0.2], size=len(Q))
+    proven = exact_count = 0
     for q, j, t in zip(Q, J, thresholds):
         km.joint_penalties(q, arm.lower, arm.upper, cont, plo, phi)
-        exact = km.extended_manipulability(j, plo, phi, km.ISOTROPY, -1.0, P, G, A, work[2:4])
-        got = km.isotropy_pruned(j, plo, phi, t, P, G, A, V, B, order, work)
+        exact = km.extended_manipulability(j, plo, phi, km.ISOTROPY, -1.0, P, G, A, de)
+        got = isotropy_batched(j, plo, phi, t, P, G, Ag, W, A, B, de)
         if got < 0:
             assert exact <= t
             proven += 1
         else:
             assert exact > t and got == exact
-    assert proven > 50  # the thresholds exercise both outcomes
+            exact_count += 1
+    assert proven > 50 and exact_count > 50  # the thresholds exercise both outcomes
+
+
+def test_octant_bounds_against_numpy(pr2):
+    """The vectorised 64-octant kernels: rho <= lambda_max, mu >= lambda_min, pd_flags = eigvalsh > 0."""
+    from placement.kernels import manipulability as km
+    from placement.kernels import octants as ko
+
+    arm = pr2.arm("right")
+    rng = np.random.default_rng(5)
+    for trial in range(30):
+        J = rng.normal(size=(6, 7)) * rng.uniform(0.05, 1.0, size=(6, 1))
+        plo, phi = rng.uniform(0.2, 1.0, 7), rng.uniform(0.2, 1.0, 7)
+        P, G = np.empty((6, 7, 2)), np.empty((6, 6, 2, 2))
+        km.gram_table(J, plo, phi, P, G)
+        Ag = np.empty((21, 64))
+        ko.fill_grams(G, Ag)
+        mats = np.empty((64, 6, 6))
+        for s in range(64):
+            km.octant_gram(G, s, mats[s])
+        lam = np.linalg.eigvalsh(mats)
+        rows = [(r, c) for r in range(6) for c in range(r + 1)]
+        assert np.array_equal(Ag, np.array([mats[:, r, c] for r, c in rows]))
+        rho, mu, flags, tr = np.empty(64), np.empty(64), np.empty(64), np.empty(64)
+        ko.lambda_max_lower(Ag, rng.normal(size=6), rho)  # bounds hold from any start
+        ko.lambda_min_upper(Ag, rng.normal(size=6), mu)
+        assert np.all(rho <= lam[:, -1] * (1 + 1e-12))
+        assert np.all(mu >= lam[:, 0] - 1e-13 * lam[:, -1])
+        w, U = np.linalg.eigh(mats[0])  # and are tight from octant 0's eigenvectors, as used
+        ko.lambda_max_lower(Ag, U[:, -1], rho)
+        ko.lambda_min_upper(Ag, U[:, 0], mu)
+        assert np.all(rho <= lam[:, -1] * (1 + 1e-12)) and np.median(rho / lam[:, -1]) > 0.9
+        assert np.all(mu >= lam[:, 0] - 1e-13 * lam[:, -1]) and np.median(mu / lam[:, 0]) < 2.0
+        ko.traces(Ag, tr)
+        assert np.allclose(tr, np.trace(mats, axis1=1, axis2=2))
+        beta = -lam[:, 0] * rng.uniform(0.5, 1.5, 64)  # about half of the shifted matrices are definite
+        ko.pd_flags(Ag, 1.0, beta, flags)
+        expect = lam[:, 0] + beta > 0
+        clear = np.abs(lam[:, 0] + beta) > 1e-9 * lam[:, -1]
+        assert np.array_equal((flags > 0)[clear], expect[clear]) and 5 < expect.sum() < 59
+
+
+def test_generated_octant_kernels_up_to_date():
+    """placement/kernels/octants.py is exactly what tools/gen_octants.py writes."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "tools" / "gen_octants.py"
+    spec = importlib.util.spec_from_file_location("gen_octants", path)
+    gen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(gen)
+    assert gen.OUT.read_text() == gen.generate(), "run python tools/gen_octants.py"

@@ -16,7 +16,8 @@ from numba import njit, prange
 
 from .grid import cell_index
 from .kinematics import fk_jacobian
-from .manipulability import ISOTROPY, extended_manipulability, isotropy_pruned, joint_penalties
+from .isotropy import W_ROWS, isotropy_batched
+from .manipulability import ISOTROPY, extended_manipulability, joint_penalties
 from .rng import uniform
 
 
@@ -40,10 +41,10 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
         P = np.empty((6, n, 2))
         G = np.empty((6, 6, 2, 2))
         A = np.empty((6, 6))
-        V = np.empty((6, 6))
         B = np.empty((6, 6))
-        order = np.empty(64, dtype=np.int64)
-        iso_work = np.empty((4, 64))
+        Ag = np.empty((21, 64))
+        W = np.empty((W_ROWS, 64))
+        de = np.empty((2, 6))
         lo = chunk * 1024
         hi = min(count, lo + 1024)
         for i in range(lo, hi):
@@ -62,9 +63,9 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
                 J[5, j] *= rot_scale
             joint_penalties(q, lower, upper, continuous, plo, phi)
             if index == ISOTROPY:
-                out_val[i] = isotropy_pruned(J, plo, phi, np.float64(grid[c]), P, G, A, V, B, order, iso_work)
+                out_val[i] = isotropy_batched(J, plo, phi, np.float64(grid[c]), P, G, Ag, W, A, B, de)
             else:
-                out_val[i] = extended_manipulability(J, plo, phi, index, np.float64(grid[c]), P, G, A, iso_work[2:4])
+                out_val[i] = extended_manipulability(J, plo, phi, index, np.float64(grid[c]), P, G, A, de)
 
 
 @njit(cache=True)

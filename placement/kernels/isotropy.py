@@ -1,0 +1,188 @@
+"""The exact 64-octant isotropy index, decided by batched proofs instead of 64 eigenproblems.
+
+Same value, bitwise, as ``extended_manipulability(..., ISOTROPY, -1, ...)``:
+the octants that decide the minimum are computed by the very same routine
+(``octant_value``); every other octant is *proven* not to be below the
+running minimum. The proofs are Cholesky factorisations of all 64 octants at
+once (``octants.py``):
+
+1. ``rho_s`` <= lambda_max(A_s) from power steps (any Rayleigh quotient is a
+   lower bound). With a threshold t (the cell's current value): if some
+   ``A_s - t^2 rho_s I`` is not positive definite, lambda_min(A_s) < t^2
+   lambda_max(A_s), so the sample cannot raise its cell: return -1.
+2. ``mu_s`` >= lambda_min(A_s) from inverse iteration; ``mu_s / rho_s``
+   bounds octant s's isotropy squared from above and ranks the octants.
+3. The best-ranked octant is computed exactly: m. ``U_s`` >= lambda_max(A_s)
+   is certified by ``U_s I - A_s`` > 0 (else the trace is used); then
+   ``A_s - m^2 U_s I`` > 0 proves octant s is not below m. Octants that no
+   proof settles are computed exactly, lowest bound first.
+
+Relative margins (``_margin``) far above rounding keep every proof valid in
+exact arithmetic.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from .manipulability import gram_table, octant_gram, octant_value
+from .octants import fill_grams, lambda_max_lower, lambda_min_upper, pd_flags, traces
+
+__all__ = ["W_ROWS", "isotropy_batched"]
+
+W_ROWS = 6
+
+_MARGIN = 1e-6  # smallest relative margin of a proof
+_U_SLACKS = (1.001, 1.03)  # U_s = rho_s * slack, certified by Cholesky
+
+
+@njit(cache=True, inline="always")
+def _margin(v):
+    """Relative margin of a proof at isotropy v.
+
+    A Cholesky that succeeds proves positive definiteness of A + E with
+    ||E|| < 5e-15 lambda_max; a proof at isotropy v must beat that by far,
+    so the margin (relative to v^2) grows as v shrinks: m^2 * margin >= 1e-12.
+    """
+    return max(_MARGIN, 1e-12 / (v * v))
+
+
+@njit(cache=True)
+def _pd(A, alpha, beta, L):
+    """Whether alpha * A + beta * I (symmetric (6, 6)) is positive definite, by Cholesky into L."""
+    for j in range(6):
+        d = alpha * A[j, j] + beta
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        ljj = math.sqrt(d)
+        L[j, j] = ljj
+        for i in range(j + 1, 6):
+            v = alpha * A[i, j]
+            for k in range(j):
+                v -= L[i, k] * L[j, k]
+            L[i, j] = v / ljj
+    return True
+
+
+@njit(cache=True)
+def _top_start(G, A, top, z):
+    """An approximate top eigenvector (6,) of octant 0 (A (6, 6), z (6,) scratch): the common power-step start."""
+    octant_gram(G, 0, A)
+    k = 0
+    for r in range(1, 6):
+        if A[r, r] > A[k, k]:
+            k = r
+    for r in range(6):
+        top[r] = A[r, k]
+    for it in range(4):
+        m = 0.0
+        for r in range(6):
+            acc = 0.0
+            for c in range(6):
+                acc += A[r, c] * top[c]
+            z[r] = acc
+            m = max(m, abs(acc))
+        if m == 0.0:
+            return
+        for r in range(6):
+            top[r] = z[r] / m
+
+
+@njit(cache=True)
+def _bottom_start(G, s, A, L, bottom, z):
+    """An approximate bottom eigenvector (6,) of octant s: three inverse steps (A, L (6, 6), z (6,) scratch)."""
+    octant_gram(G, s, A)
+    for r in range(6):
+        bottom[r] = 1.0
+    if not _pd(A, 1.0, 0.0, L):
+        return
+    for it in range(3):
+        for r in range(6):
+            acc = bottom[r]
+            for c in range(r):
+                acc -= L[r, c] * z[c]
+            z[r] = acc / L[r, r]
+        for r in range(5, -1, -1):
+            acc = z[r]
+            for c in range(r + 1, 6):
+                acc -= L[c, r] * bottom[c]
+            bottom[r] = acc / L[r, r]
+        m = 0.0
+        for r in range(6):
+            m = max(m, abs(bottom[r]))
+        for r in range(6):
+            bottom[r] /= m
+
+
+@njit(cache=True)
+def isotropy_batched(J, pen_lo, pen_hi, threshold, P, G, Ag, W, A, B, de):
+    """Isotropy index (min over octants of sigma_min/sigma_max), or -1.0 if proven <= threshold.
+
+    Args:
+        J: (6, n) TCP Jacobian, rotation rows scaled.
+        pen_lo, pen_hi: (n,) joint-limit penalty factors.
+        threshold: the cell's current value; < 0 computes the exact value always.
+        P (6, n, 2), G (6, 6, 2, 2), Ag (21, 64), W (W_ROWS, 64), A, B (6, 6), de (2, 6): scratch.
+    """
+    gram_table(J, pen_lo, pen_hi, P, G)
+    fill_grams(G, Ag)
+    rho, mu, flag, upper, beta, done = W[0], W[1], W[2], W[3], W[4], W[5]
+    _top_start(G, A, de[0], beta)
+    lambda_max_lower(Ag, de[0], rho)
+    t = threshold
+    if t > 0.0:
+        c = -t * t * (1.0 - _margin(t))
+        for s in range(64):
+            beta[s] = c * rho[s]
+        pd_flags(Ag, 1.0, beta, flag)
+        for s in range(64):
+            if flag[s] == 0.0:
+                return -1.0
+    # ranking: mu / rho >= (sigma_min / sigma_max)^2 of each octant
+    _bottom_start(G, 0, A, B, de[1], beta)
+    lambda_min_upper(Ag, de[1], mu)
+    ub = mu
+    for s in range(64):
+        ub[s] = mu[s] / rho[s] if rho[s] > 0.0 else 0.0
+    s0 = 0
+    for s in range(1, 64):
+        if ub[s] < ub[s0]:
+            s0 = s
+    best = octant_value(G, s0, 0, A, P, de)
+    if best <= t:
+        return -1.0
+    if best > 0.0:
+        # certified U_s >= lambda_max(A_s): the tightest of rho * slack that Cholesky accepts, else the trace
+        traces(Ag, upper)
+        for slack in _U_SLACKS:
+            for s in range(64):
+                beta[s] = slack * rho[s]
+            pd_flags(Ag, -1.0, beta, flag)
+            for s in range(64):
+                if flag[s] > 0.0 and beta[s] < upper[s]:
+                    upper[s] = beta[s]
+        c = -best * best * (1.0 + _margin(best))
+        for s in range(64):
+            beta[s] = c * upper[s]
+        pd_flags(Ag, 1.0, beta, done)
+    else:
+        for s in range(64):
+            done[s] = 0.0
+    done[s0] = 1.0
+    while True:
+        s = -1
+        for k in range(64):
+            if done[k] == 0.0 and (s < 0 or ub[k] < ub[s]):
+                s = k
+        if s < 0:
+            return best
+        done[s] = 1.0
+        v = octant_value(G, s, 0, A, P, de)
+        if v < best:
+            best = v
+            if best <= t:
+                return -1.0
