@@ -17,6 +17,7 @@ from pathlib import Path
 OUT = Path(__file__).resolve().parents[1] / "placement" / "kernels" / "octants.py"
 IND = " " * 8
 POWER_STEPS = 3    # power steps for rho (lower bound of lambda_max)
+REFINE_STEPS = 5   # further power steps when a sample needs its exact value
 INVERSE_STEPS = 2  # inverse-iteration steps for mu (upper bound of lambda_min)
 
 
@@ -87,15 +88,17 @@ def generate() -> str:
     pd = body(["b = beta[s]"] + load(True) + factor("b") + ["out[s] = 1.0 if pd else 0.0"])
     power = (["x%d = top[%d]" % (r, r) for r in range(6)] + load(False))
     # the iteration counts are unrolled: an inner loop would stop LLVM vectorising across octants
-    rho_lines = (power
-                 + (matvec("x", "y") + [f"x{r} = y{r}" for r in range(6)] + normalise("x")) * POWER_STEPS
-                 + matvec("x", "y") + rayleigh("x", "y", "rho[s]"))
+    step = matvec("x", "y") + [f"x{r} = y{r}" for r in range(6)] + normalise("x")
+    # (the iterates are not stored for a later continuation: a second output stream costs the vectorisation)
+    rho_lines = power + step * POWER_STEPS + matvec("x", "y") + rayleigh("x", "y", "rho[s]")
+    refine_lines = power + step * (POWER_STEPS + REFINE_STEPS) + matvec("x", "y") + rayleigh("x", "y", "rho[s]")
     mu_lines = (load(False) + factor(None)
                 + ["w%d = bottom[%d]" % (r, r) for r in range(6)]
                 + (solve("w") + normalise("w")) * INVERSE_STEPS
                 + matvec("w", "y") + rayleigh("w", "y", "m")
                 + ["mu[s] = m if pd else 0.0"])
     rho_body = body(rho_lines)
+    refine_body = body(refine_lines)
     mu_body = body(mu_lines)
     tr = body(["trace[s] = " + " + ".join(f"A[{p(r, r)}, s]" for r in range(6))])
     fill = '''
@@ -153,6 +156,13 @@ def lambda_max_lower(A, top, rho):
     """
     for s in range(64):
 {rho_body}
+
+
+@njit(cache=True, fastmath=_FM)
+def lambda_max_tight(A, top, rho):
+    """rho[s] <- as :func:`lambda_max_lower` with {POWER_STEPS + REFINE_STEPS} power steps: tighter, for exact values."""
+    for s in range(64):
+{refine_body}
 
 
 @njit(cache=True, fastmath=_FM)

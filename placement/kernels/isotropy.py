@@ -28,7 +28,7 @@ import math
 from numba import njit
 
 from .manipulability import gram_table, octant_gram, octant_value
-from .octants import fill_grams, lambda_max_lower, lambda_min_upper, pd_flags, traces
+from .octants import fill_grams, lambda_max_lower, lambda_max_tight, lambda_min_upper, pd_flags, traces
 
 __all__ = ["W_ROWS", "isotropy_batched"]
 
@@ -143,6 +143,7 @@ def isotropy_batched(J, pen_lo, pen_hi, threshold, P, G, Ag, W, A, B, de):
             if flag[s] == 0.0:
                 return -1.0
     # ranking: mu / rho >= (sigma_min / sigma_max)^2 of each octant
+    lambda_max_tight(Ag, de[0], rho)
     _bottom_start(G, 0, A, B, de[1], beta)
     lambda_min_upper(Ag, de[1], mu)
     ub = mu
