@@ -153,3 +153,28 @@ def test_armar6_fixed_torso_is_used(armar6):
     pin.framesForwardKinematics(model, data, qf)
     M0 = (data.oMf[model.getFrameId("platform")].inverse() * data.oMf[model.getFrameId("Hand L Palm")]).homogeneous
     assert np.linalg.norm(M0[:3, 3] - M[:3, 3]) == pytest.approx(0.2, abs=1e-9)
+
+
+def test_prismatic_joint_in_the_chain(tmp_path):
+    """An arm whose chain starts with a prismatic joint (PR2 torso lift + right arm): FK and J = pinocchio."""
+    import placement
+
+    preset = tmp_path / "pr2_lift.yaml"
+    preset.write_text(
+        "name: pr2_lift\n"
+        "urdf: package://example-robot-data/robots/pr2_description/urdf/pr2.urdf\n"
+        "base_frame: base_footprint\n"
+        "footprint_radius: 0.47\n"
+        "arms:\n"
+        "  right:\n"
+        "    joints: [torso_lift_joint, r_shoulder_pan_joint, r_shoulder_lift_joint, r_upper_arm_roll_joint,\n"
+        "             r_elbow_flex_joint, r_forearm_roll_joint, r_wrist_flex_joint, r_wrist_roll_joint]\n"
+        "    tip_frame: r_gripper_tool_frame\n")
+    robot = placement.load_robot(str(preset))
+    arm = robot.arm("right")
+    assert arm.chain.kind[0] == 1 and np.all(arm.chain.kind[1:] == 0)
+    Q = random_configs(arm, 100, np.random.default_rng(3))
+    T_ref, J_ref = pinocchio_reference(robot, "right", Q)
+    T, J = kernel(robot, "right", Q)
+    assert np.abs(T - T_ref).max() < TOL
+    assert np.abs(J - J_ref).max() < TOL
