@@ -21,6 +21,9 @@ from .manipulability import ISOTROPY, extended_manipulability, joint_penalties
 from .rng import uniform
 
 
+CHUNK = 256  # samples per parallel task; its buffers (q, J) stay in the L2 cache
+
+
 @njit(cache=True, parallel=True)
 def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kind, tip_T,
                  index, rot_scale, origin, res, shape, grid, out_cell, out_val):
@@ -30,11 +33,12 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
     not to raise its cell. ``grid`` is the flat float32 map, read only here.
     """
     n = lower.shape[0]
-    n_chunks = (count + 1023) // 1024
+    n_chunks = (count + CHUNK - 1) // CHUNK
     for chunk in prange(n_chunks):
-        q = np.empty(n)
+        q = np.empty((CHUNK, n))
         T = np.empty((4, 4))
-        J = np.empty((6, n))
+        J = np.empty((CHUNK, 6, n))
+        thr = np.empty(CHUNK)
         work = np.empty((n + 3, 4, 4))
         plo = np.empty(n)
         phi = np.empty(n)
@@ -45,27 +49,35 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
         Ag = np.empty((21, 64))
         W = np.empty((W_ROWS, 64))
         de = np.empty((2, 6))
-        lo = chunk * 1024
-        hi = min(count, lo + 1024)
+        lo = chunk * CHUNK
+        hi = min(count, lo + CHUNK)
+        # three passes per chunk: poses, then all the cells' current values (independent
+        # loads from a map far larger than the caches overlap), then the measure
         for i in range(lo, hi):
             sid = start + i
+            qi = q[i - lo]
             for j in range(n):
-                q[j] = lower[j] + (upper[j] - lower[j]) * uniform(seed, sid * n + j)
-            fk_jacobian(q, link_T, axis, kind, tip_T, T, J, work)
-            c = cell_index(T, origin, res, shape)
-            out_cell[i] = c
-            if c < 0:
+                qi[j] = lower[j] + (upper[j] - lower[j]) * uniform(seed, sid * n + j)
+            fk_jacobian(qi, link_T, axis, kind, tip_T, T, J[i - lo], work)
+            out_cell[i] = cell_index(T, origin, res, shape)
+        for i in range(lo, hi):
+            c = out_cell[i]
+            thr[i - lo] = np.float64(grid[c]) if c >= 0 else 0.0
+        for i in range(lo, hi):
+            if out_cell[i] < 0:
                 out_val[i] = -1.0
                 continue
+            Ji = J[i - lo]
+            qi = q[i - lo]
             for j in range(n):
-                J[3, j] *= rot_scale
-                J[4, j] *= rot_scale
-                J[5, j] *= rot_scale
-            joint_penalties(q, lower, upper, continuous, plo, phi)
+                Ji[3, j] *= rot_scale
+                Ji[4, j] *= rot_scale
+                Ji[5, j] *= rot_scale
+            joint_penalties(qi, lower, upper, continuous, plo, phi)
             if index == ISOTROPY:
-                out_val[i] = isotropy_batched(J, plo, phi, np.float64(grid[c]), P, G, Ag, W, A, B, de)
+                out_val[i] = isotropy_batched(Ji, plo, phi, thr[i - lo], P, G, Ag, W, A, B, de)
             else:
-                out_val[i] = extended_manipulability(J, plo, phi, index, np.float64(grid[c]), P, G, A, de)
+                out_val[i] = extended_manipulability(Ji, plo, phi, index, thr[i - lo], P, G, A, de)
 
 
 @njit(cache=True)
