@@ -88,13 +88,21 @@ def generate() -> str:
     pd = body(["b = beta[s]"] + load(True) + factor("b") + ["out[s] = 1.0 if pd else 0.0"])
     power = (["x%d = top[%d]" % (r, r) for r in range(6)] + load(False))
     # the iteration counts are unrolled: an inner loop would stop LLVM vectorising across octants
-    step = matvec("x", "y") + [f"x{r} = y{r}" for r in range(6)] + normalise("x")
+    step = matvec("x", "y") + [f"x{r} = y{r}" for r in range(6)]
+
+    def steps(k):
+        # Rayleigh quotients are scale-free: rescale only every 4 steps, against overflow
+        out = []
+        for i in range(k):
+            out += step + (normalise("x") if i % 4 == 3 else [])
+        return out
+
     # (the iterates are not stored for a later continuation: a second output stream costs the vectorisation)
-    rho_lines = power + step * POWER_STEPS + matvec("x", "y") + rayleigh("x", "y", "rho[s]")
-    refine_lines = power + step * (POWER_STEPS + REFINE_STEPS) + matvec("x", "y") + rayleigh("x", "y", "rho[s]")
+    rho_lines = power + steps(POWER_STEPS) + matvec("x", "y") + rayleigh("x", "y", "rho[s]")
+    refine_lines = power + steps(POWER_STEPS + REFINE_STEPS) + matvec("x", "y") + rayleigh("x", "y", "rho[s]")
     mu_lines = (load(False) + factor(None)
                 + ["w%d = bottom[%d]" % (r, r) for r in range(6)]
-                + (solve("w") + normalise("w")) * INVERSE_STEPS
+                + (solve("w") + normalise("w")) + solve("w") * (INVERSE_STEPS - 1)
                 + matvec("w", "y") + rayleigh("w", "y", "m")
                 + ["mu[s] = m if pd else 0.0"])
     rho_body = body(rho_lines)
