@@ -8,16 +8,16 @@ local variables: LLVM turns it into SIMD across octants (AVX2/AVX-512), about
 20x faster than one octant at a time. Packed Gram matrices: ``A`` (21, 64),
 entry (r, c), r >= c, in row ``r * (r + 1) // 2 + c``. Only bounds are
 computed here, so contracted multiply-adds are harmless; exact values come
-from ``manipulability.octant_value``.
+from ``manipulability.octant_value``. Factorisations are LDL^T (no square roots).
 """
 
 from __future__ import annotations
 
-import math
-
 from numba import njit
 
+# contracted multiply-adds only; error_model="numpy": a zero pivot gives inf, not an exception
 _FM = {"contract"}
+
 
 @njit(cache=True)
 def fill_grams(G, A):
@@ -36,7 +36,7 @@ def fill_grams(G, A):
                 A[k, s] = hi if (s >> r) & 1 else lo
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, error_model="numpy")
 def pd_flags(A, alpha, beta, out):
     """out[s] <- 1.0 if alpha * A_s + beta[s] * I is positive definite (Cholesky pivots > 0), else 0.0."""
     for s in range(64):
@@ -62,44 +62,53 @@ def pd_flags(A, alpha, beta, out):
         a53 = alpha * A[18, s]
         a54 = alpha * A[19, s]
         a55 = alpha * A[20, s]
+        u10 = a10
+        u20 = a20
+        u30 = a30
+        u40 = a40
+        u50 = a50
         d0 = a00 + b
-        l00 = math.sqrt(max(d0, 1e-300))
-        i0 = 1.0 / l00
-        l10 = (a10) * i0
-        l20 = (a20) * i0
-        l30 = (a30) * i0
-        l40 = (a40) * i0
-        l50 = (a50) * i0
-        d1 = a11 + b - l10 * l10
-        l11 = math.sqrt(max(d1, 1e-300))
-        i1 = 1.0 / l11
-        l21 = (a21 - l20 * l10) * i1
-        l31 = (a31 - l30 * l10) * i1
-        l41 = (a41 - l40 * l10) * i1
-        l51 = (a51 - l50 * l10) * i1
-        d2 = a22 + b - l20 * l20 - l21 * l21
-        l22 = math.sqrt(max(d2, 1e-300))
-        i2 = 1.0 / l22
-        l32 = (a32 - l30 * l20 - l31 * l21) * i2
-        l42 = (a42 - l40 * l20 - l41 * l21) * i2
-        l52 = (a52 - l50 * l20 - l51 * l21) * i2
-        d3 = a33 + b - l30 * l30 - l31 * l31 - l32 * l32
-        l33 = math.sqrt(max(d3, 1e-300))
-        i3 = 1.0 / l33
-        l43 = (a43 - l40 * l30 - l41 * l31 - l42 * l32) * i3
-        l53 = (a53 - l50 * l30 - l51 * l31 - l52 * l32) * i3
-        d4 = a44 + b - l40 * l40 - l41 * l41 - l42 * l42 - l43 * l43
-        l44 = math.sqrt(max(d4, 1e-300))
-        i4 = 1.0 / l44
-        l54 = (a54 - l50 * l40 - l51 * l41 - l52 * l42 - l53 * l43) * i4
-        d5 = a55 + b - l50 * l50 - l51 * l51 - l52 * l52 - l53 * l53 - l54 * l54
-        l55 = math.sqrt(max(d5, 1e-300))
-        i5 = 1.0 / l55
+        i0 = 1.0 / d0
+        l10 = u10 * i0
+        l20 = u20 * i0
+        l30 = u30 * i0
+        l40 = u40 * i0
+        l50 = u50 * i0
+        u21 = a21 - u20 * l10
+        u31 = a31 - u30 * l10
+        u41 = a41 - u40 * l10
+        u51 = a51 - u50 * l10
+        d1 = a11 + b - u10 * l10
+        i1 = 1.0 / d1
+        l21 = u21 * i1
+        l31 = u31 * i1
+        l41 = u41 * i1
+        l51 = u51 * i1
+        u32 = a32 - u30 * l20 - u31 * l21
+        u42 = a42 - u40 * l20 - u41 * l21
+        u52 = a52 - u50 * l20 - u51 * l21
+        d2 = a22 + b - u20 * l20 - u21 * l21
+        i2 = 1.0 / d2
+        l32 = u32 * i2
+        l42 = u42 * i2
+        l52 = u52 * i2
+        u43 = a43 - u40 * l30 - u41 * l31 - u42 * l32
+        u53 = a53 - u50 * l30 - u51 * l31 - u52 * l32
+        d3 = a33 + b - u30 * l30 - u31 * l31 - u32 * l32
+        i3 = 1.0 / d3
+        l43 = u43 * i3
+        l53 = u53 * i3
+        u54 = a54 - u50 * l40 - u51 * l41 - u52 * l42 - u53 * l43
+        d4 = a44 + b - u40 * l40 - u41 * l41 - u42 * l42 - u43 * l43
+        i4 = 1.0 / d4
+        l54 = u54 * i4
+        d5 = a55 + b - u50 * l50 - u51 * l51 - u52 * l52 - u53 * l53 - u54 * l54
+        i5 = 1.0 / d5
         pd = (d0 > 0.0) & (d1 > 0.0) & (d2 > 0.0) & (d3 > 0.0) & (d4 > 0.0) & (d5 > 0.0)
         out[s] = 1.0 if pd else 0.0
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, error_model="numpy")
 def lambda_max_lower(A, top, rho):
     """rho[s] <- a lower bound of lambda_max(A_s): Rayleigh quotient after 3 power steps from top (6,).
 
@@ -181,7 +190,7 @@ def lambda_max_lower(A, top, rho):
         rho[s] = num / den if den > 0.0 else 0.0
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, error_model="numpy")
 def lambda_max_tight(A, top, rho):
     """rho[s] <- as :func:`lambda_max_lower` with 8 power steps: tighter, for exact values."""
     for s in range(64):
@@ -335,7 +344,7 @@ def lambda_max_tight(A, top, rho):
         rho[s] = num / den if den > 0.0 else 0.0
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, error_model="numpy")
 def lambda_min_upper(A, bottom, mu):
     """mu[s] <- an upper bound of lambda_min(A_s): Rayleigh quotient after 2 inverse steps from bottom (6,).
 
@@ -364,39 +373,48 @@ def lambda_min_upper(A, bottom, mu):
         a53 = A[18, s]
         a54 = A[19, s]
         a55 = A[20, s]
+        u10 = a10
+        u20 = a20
+        u30 = a30
+        u40 = a40
+        u50 = a50
         d0 = a00
-        l00 = math.sqrt(max(d0, 1e-300))
-        i0 = 1.0 / l00
-        l10 = (a10) * i0
-        l20 = (a20) * i0
-        l30 = (a30) * i0
-        l40 = (a40) * i0
-        l50 = (a50) * i0
-        d1 = a11 - l10 * l10
-        l11 = math.sqrt(max(d1, 1e-300))
-        i1 = 1.0 / l11
-        l21 = (a21 - l20 * l10) * i1
-        l31 = (a31 - l30 * l10) * i1
-        l41 = (a41 - l40 * l10) * i1
-        l51 = (a51 - l50 * l10) * i1
-        d2 = a22 - l20 * l20 - l21 * l21
-        l22 = math.sqrt(max(d2, 1e-300))
-        i2 = 1.0 / l22
-        l32 = (a32 - l30 * l20 - l31 * l21) * i2
-        l42 = (a42 - l40 * l20 - l41 * l21) * i2
-        l52 = (a52 - l50 * l20 - l51 * l21) * i2
-        d3 = a33 - l30 * l30 - l31 * l31 - l32 * l32
-        l33 = math.sqrt(max(d3, 1e-300))
-        i3 = 1.0 / l33
-        l43 = (a43 - l40 * l30 - l41 * l31 - l42 * l32) * i3
-        l53 = (a53 - l50 * l30 - l51 * l31 - l52 * l32) * i3
-        d4 = a44 - l40 * l40 - l41 * l41 - l42 * l42 - l43 * l43
-        l44 = math.sqrt(max(d4, 1e-300))
-        i4 = 1.0 / l44
-        l54 = (a54 - l50 * l40 - l51 * l41 - l52 * l42 - l53 * l43) * i4
-        d5 = a55 - l50 * l50 - l51 * l51 - l52 * l52 - l53 * l53 - l54 * l54
-        l55 = math.sqrt(max(d5, 1e-300))
-        i5 = 1.0 / l55
+        i0 = 1.0 / d0
+        l10 = u10 * i0
+        l20 = u20 * i0
+        l30 = u30 * i0
+        l40 = u40 * i0
+        l50 = u50 * i0
+        u21 = a21 - u20 * l10
+        u31 = a31 - u30 * l10
+        u41 = a41 - u40 * l10
+        u51 = a51 - u50 * l10
+        d1 = a11 - u10 * l10
+        i1 = 1.0 / d1
+        l21 = u21 * i1
+        l31 = u31 * i1
+        l41 = u41 * i1
+        l51 = u51 * i1
+        u32 = a32 - u30 * l20 - u31 * l21
+        u42 = a42 - u40 * l20 - u41 * l21
+        u52 = a52 - u50 * l20 - u51 * l21
+        d2 = a22 - u20 * l20 - u21 * l21
+        i2 = 1.0 / d2
+        l32 = u32 * i2
+        l42 = u42 * i2
+        l52 = u52 * i2
+        u43 = a43 - u40 * l30 - u41 * l31 - u42 * l32
+        u53 = a53 - u50 * l30 - u51 * l31 - u52 * l32
+        d3 = a33 - u30 * l30 - u31 * l31 - u32 * l32
+        i3 = 1.0 / d3
+        l43 = u43 * i3
+        l53 = u53 * i3
+        u54 = a54 - u50 * l40 - u51 * l41 - u52 * l42 - u53 * l43
+        d4 = a44 - u40 * l40 - u41 * l41 - u42 * l42 - u43 * l43
+        i4 = 1.0 / d4
+        l54 = u54 * i4
+        d5 = a55 - u50 * l50 - u51 * l51 - u52 * l52 - u53 * l53 - u54 * l54
+        i5 = 1.0 / d5
         pd = (d0 > 0.0) & (d1 > 0.0) & (d2 > 0.0) & (d3 > 0.0) & (d4 > 0.0) & (d5 > 0.0)
         w0 = bottom[0]
         w1 = bottom[1]
@@ -404,18 +422,18 @@ def lambda_min_upper(A, bottom, mu):
         w3 = bottom[3]
         w4 = bottom[4]
         w5 = bottom[5]
-        z0 = (w0) * i0
-        z1 = (w1 - l10 * z0) * i1
-        z2 = (w2 - l20 * z0 - l21 * z1) * i2
-        z3 = (w3 - l30 * z0 - l31 * z1 - l32 * z2) * i3
-        z4 = (w4 - l40 * z0 - l41 * z1 - l42 * z2 - l43 * z3) * i4
-        z5 = (w5 - l50 * z0 - l51 * z1 - l52 * z2 - l53 * z3 - l54 * z4) * i5
-        w5 = (z5) * i5
-        w4 = (z4 - l54 * w5) * i4
-        w3 = (z3 - l43 * w4 - l53 * w5) * i3
-        w2 = (z2 - l32 * w3 - l42 * w4 - l52 * w5) * i2
-        w1 = (z1 - l21 * w2 - l31 * w3 - l41 * w4 - l51 * w5) * i1
-        w0 = (z0 - l10 * w1 - l20 * w2 - l30 * w3 - l40 * w4 - l50 * w5) * i0
+        z0 = w0
+        z1 = w1 - l10 * z0
+        z2 = w2 - l20 * z0 - l21 * z1
+        z3 = w3 - l30 * z0 - l31 * z1 - l32 * z2
+        z4 = w4 - l40 * z0 - l41 * z1 - l42 * z2 - l43 * z3
+        z5 = w5 - l50 * z0 - l51 * z1 - l52 * z2 - l53 * z3 - l54 * z4
+        w5 = z5 * i5
+        w4 = z4 * i4 - l54 * w5
+        w3 = z3 * i3 - l43 * w4 - l53 * w5
+        w2 = z2 * i2 - l32 * w3 - l42 * w4 - l52 * w5
+        w1 = z1 * i1 - l21 * w2 - l31 * w3 - l41 * w4 - l51 * w5
+        w0 = z0 * i0 - l10 * w1 - l20 * w2 - l30 * w3 - l40 * w4 - l50 * w5
         nm = max(max(max(abs(w0), abs(w1)), max(abs(w2), abs(w3))), max(abs(w4), abs(w5)))
         nm = 1.0 / nm if nm > 0.0 else 1.0
         w0 *= nm
@@ -424,18 +442,18 @@ def lambda_min_upper(A, bottom, mu):
         w3 *= nm
         w4 *= nm
         w5 *= nm
-        z0 = (w0) * i0
-        z1 = (w1 - l10 * z0) * i1
-        z2 = (w2 - l20 * z0 - l21 * z1) * i2
-        z3 = (w3 - l30 * z0 - l31 * z1 - l32 * z2) * i3
-        z4 = (w4 - l40 * z0 - l41 * z1 - l42 * z2 - l43 * z3) * i4
-        z5 = (w5 - l50 * z0 - l51 * z1 - l52 * z2 - l53 * z3 - l54 * z4) * i5
-        w5 = (z5) * i5
-        w4 = (z4 - l54 * w5) * i4
-        w3 = (z3 - l43 * w4 - l53 * w5) * i3
-        w2 = (z2 - l32 * w3 - l42 * w4 - l52 * w5) * i2
-        w1 = (z1 - l21 * w2 - l31 * w3 - l41 * w4 - l51 * w5) * i1
-        w0 = (z0 - l10 * w1 - l20 * w2 - l30 * w3 - l40 * w4 - l50 * w5) * i0
+        z0 = w0
+        z1 = w1 - l10 * z0
+        z2 = w2 - l20 * z0 - l21 * z1
+        z3 = w3 - l30 * z0 - l31 * z1 - l32 * z2
+        z4 = w4 - l40 * z0 - l41 * z1 - l42 * z2 - l43 * z3
+        z5 = w5 - l50 * z0 - l51 * z1 - l52 * z2 - l53 * z3 - l54 * z4
+        w5 = z5 * i5
+        w4 = z4 * i4 - l54 * w5
+        w3 = z3 * i3 - l43 * w4 - l53 * w5
+        w2 = z2 * i2 - l32 * w3 - l42 * w4 - l52 * w5
+        w1 = z1 * i1 - l21 * w2 - l31 * w3 - l41 * w4 - l51 * w5
+        w0 = z0 * i0 - l10 * w1 - l20 * w2 - l30 * w3 - l40 * w4 - l50 * w5
         y0 = a00 * w0 + a10 * w1 + a20 * w2 + a30 * w3 + a40 * w4 + a50 * w5
         y1 = a10 * w0 + a11 * w1 + a21 * w2 + a31 * w3 + a41 * w4 + a51 * w5
         y2 = a20 * w0 + a21 * w1 + a22 * w2 + a32 * w3 + a42 * w4 + a52 * w5
@@ -448,7 +466,7 @@ def lambda_min_upper(A, bottom, mu):
         mu[s] = m if pd else 0.0
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, error_model="numpy")
 def traces(A, trace):
     """trace[s] <- trace(A_s) >= lambda_max(A_s) for positive semi-definite A_s."""
     for s in range(64):
