@@ -366,8 +366,11 @@ def test_octant_bounds_against_numpy(pr2):
         Ag = np.empty((21, 64))
         ko.fill_grams(G, Ag)
         mats = np.empty((64, 6, 6))
+        direct = np.empty((6, 6))
         for s in range(64):
             km.octant_gram(G, s, mats[s])
+            km.octant_gram_direct(P, s, direct)
+            assert np.array_equal(direct, mats[s])
         lam = np.linalg.eigvalsh(mats)
         rows = [(r, c) for r in range(6) for c in range(r + 1)]
         assert np.array_equal(Ag, np.array([mats[:, r, c] for r, c in rows]))

@@ -27,7 +27,7 @@ import math
 
 from numba import njit
 
-from .manipulability import gram_table, octant_gram, octant_value
+from .manipulability import gram_from, octant_gram, octant_gram_direct, octant_value, penalised_rows
 from .octants import fill_grams, lambda_max_lower, lambda_max_tight, lambda_min_upper, pd_flags, traces
 
 __all__ = ["W_ROWS", "isotropy_batched"]
@@ -69,13 +69,13 @@ def _pd(A, alpha, beta, L):
 
 
 @njit(cache=True)
-def _below(G, s, t2, A, L, z):
+def _below(P, s, t2, A, L, z):
     """Proof that octant s has isotropy^2 < t2 / (1 - margin): A_s - t2 rho I is not positive definite.
 
     rho <= lambda_max(A_s) is the Rayleigh quotient after two power steps from
     A_s's largest column. A (6, 6), L (6, 6), z (12,) scratch.
     """
-    octant_gram(G, s, A)
+    octant_gram_direct(P, s, A)
     k = 0
     for r in range(1, 6):
         if A[r, r] > A[k, k]:
@@ -160,18 +160,25 @@ def isotropy_batched(J, pen_lo, pen_hi, threshold, P, G, Ag, W, A, B, de):
         threshold: the cell's current value; < 0 computes the exact value always.
         P (6, n, 2), G (6, 6, 2, 2), Ag (21, 64), W (W_ROWS, 64), A, B (6, 6), de (2, 6): scratch.
     """
-    gram_table(J, pen_lo, pen_hi, P, G)
+    penalised_rows(J, pen_lo, pen_hi, P)
     t = threshold
     if t > 0.0:
         # cheap first try: the most penalised octant and its complement, one at a time;
         # a sample far below its cell's value is usually settled here (~0.1 us each)
         t2 = t * t * (1.0 - _margin(t))
+        n = P.shape[1]
         s_pen = 0
         for r in range(6):
-            if G[r, r, 1, 1] < G[r, r, 0, 0]:
+            d0 = 0.0
+            d1 = 0.0
+            for j in range(n):
+                d0 += P[r, j, 0] * P[r, j, 0]
+                d1 += P[r, j, 1] * P[r, j, 1]
+            if d1 < d0:
                 s_pen |= 1 << r
-        if _below(G, s_pen, t2, A, B, W[4]) or _below(G, s_pen ^ 63, t2, A, B, W[4]):
+        if _below(P, s_pen, t2, A, B, W[4]) or _below(P, s_pen ^ 63, t2, A, B, W[4]):
             return -1.0
+    gram_from(P, G)
     fill_grams(G, Ag)
     rho, mu, flag, upper, beta, done = W[0], W[1], W[2], W[3], W[4], W[5]
     _top_start(G, A, de[0], beta)

@@ -48,8 +48,8 @@ def joint_penalties(q, lower, upper, continuous, pen_lo, pen_hi):
 
 
 @njit(cache=True)
-def gram_table(J, pen_lo, pen_hi, P, G):
-    """Fill P (6, n, 2) and G (6, 6, 2, 2) for the octant Gram matrices (sign index 0 = +, 1 = -)."""
+def penalised_rows(J, pen_lo, pen_hi, P):
+    """P (6, n, 2) <- each Jacobian entry times its penalty for either sign of its row (0 = +, 1 = -)."""
     n = J.shape[1]
     for r in range(6):
         for j in range(n):
@@ -57,6 +57,12 @@ def gram_table(J, pen_lo, pen_hi, P, G):
             # sign +: moving the row's coordinate up needs q_j up when J >= 0 -> towards hi
             P[r, j, 0] = v * (pen_lo[j] if v < 0.0 else pen_hi[j])
             P[r, j, 1] = v * (pen_hi[j] if v < 0.0 else pen_lo[j])
+
+
+@njit(cache=True)
+def gram_from(P, G):
+    """G (6, 6, 2, 2) <- all row products of P: the entries of every octant's Gram matrix."""
+    n = P.shape[1]
     for r in range(6):
         for c in range(r, 6):
             for a in range(2):
@@ -66,6 +72,28 @@ def gram_table(J, pen_lo, pen_hi, P, G):
                         acc += P[r, j, a] * P[c, j, b]
                     G[r, c, a, b] = acc
                     G[c, r, b, a] = acc
+
+
+@njit(cache=True)
+def gram_table(J, pen_lo, pen_hi, P, G):
+    """Fill P (6, n, 2) and G (6, 6, 2, 2) for the octant Gram matrices (sign index 0 = +, 1 = -)."""
+    penalised_rows(J, pen_lo, pen_hi, P)
+    gram_from(P, G)
+
+
+@njit(cache=True)
+def octant_gram_direct(P, s, A):
+    """A (6, 6) <- the Gram matrix of octant s straight from P (bitwise equal to :func:`octant_gram`)."""
+    n = P.shape[1]
+    for r in range(6):
+        a = (s >> r) & 1
+        for c in range(r, 6):
+            b = (s >> c) & 1
+            acc = 0.0
+            for j in range(n):
+                acc += P[r, j, a] * P[c, j, b]
+            A[r, c] = acc
+            A[c, r] = acc
 
 
 @njit(cache=True, inline="always")
