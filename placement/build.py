@@ -12,9 +12,10 @@ from tqdm import tqdm
 from . import __version__
 from .errors import GridError, PlacementError
 from .grid import Grid
-from .kernels.sampling import reduce_max, sample_block
+from .kernels.sampling import configs_at, reduce_max, sample_block
 from .manipulability import INDEX_NAMES, ROTATION_SCALE
 from .robots import Robot, load_robot
+from .selfcollision import SelfCollision
 
 FORMAT_VERSION = 1
 DEFAULT_BINS = (20, 9, 20)
@@ -55,12 +56,16 @@ def default_grid(robot: Robot, arm: str, resolution: float = 0.05, bins=DEFAULT_
 
 
 def sample_range(robot: Robot, arm: str, grid: Grid, values: np.ndarray, *, seed: int, start: int,
-                 count: int, index: str, block: int = 1 << 19, on_block=None) -> int:
+                 count: int, index: str, block: int = 1 << 19, on_block=None,
+                 self_collision: SelfCollision | None = None) -> int:
     """Fold samples ``start .. start+count-1`` of ``seed`` into ``values`` (flat float32, per-cell max).
 
     The one sampling loop of both the local and the distributed build. Returns
     how many samples fell outside the grid (0 unless the reach bound is wrong).
     ``on_block(samples_done_in_range, values)`` is called after each block.
+    With ``self_collision``, a sample that would raise its cell is dropped if
+    the arm collides with the robot; samples that cannot raise their cell need
+    no test, so the map is the maximum over collision-free samples exactly.
     """
     a = robot.arm(arm)
     ch = a.chain
@@ -76,6 +81,13 @@ def sample_range(robot: Robot, arm: str, grid: Grid, values: np.ndarray, *, seed
                      ch.kind, ch.tip_T, INDEX_NAMES.index(index), ROTATION_SCALE,
                      grid.origin_array, grid.resolution, grid.shape_array, values, cells[:n], vals[:n])
         outside += int(np.count_nonzero(cells[:n] < 0))
+        if self_collision is not None:
+            c, v = cells[:n], vals[:n]
+            raising = np.flatnonzero((c >= 0) & (v.astype(np.float32) > values[np.maximum(c, 0)]))
+            if raising.size:
+                ids = (start + done + raising).astype(np.int64)
+                hit = self_collision.collides(configs_at(np.uint64(seed), ids, a.lower, a.upper))
+                v[raising[hit]] = -1.0
         reduce_max(values, cells[:n], vals[:n])
         done += n
         if on_block is not None:
@@ -83,7 +95,7 @@ def sample_range(robot: Robot, arm: str, grid: Grid, values: np.ndarray, *, seed
     return outside
 
 
-def _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, bar) -> int:
+def _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, bar, self_collision) -> int:
     from dask.distributed import as_completed
 
     if tasks is None:
@@ -93,7 +105,7 @@ def _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, 
     edges = np.linspace(0, samples, tasks + 1).astype(np.int64)
     preset = robot.source
     futures = {client.submit(_remote_range, preset, arm, grid.to_dict(), int(seed), int(lo), int(hi - lo),
-                             index, pure=False): int(hi - lo)
+                             index, self_collision, pure=False): int(hi - lo)
                for lo, hi in zip(edges[:-1], edges[1:]) if hi > lo}
     outside = 0
     for fut in as_completed(futures):
@@ -104,19 +116,23 @@ def _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, 
     return outside
 
 
-def _remote_range(preset: str, arm: str, grid_dict: dict, seed: int, start: int, count: int, index: str):
+def _remote_range(preset: str, arm: str, grid_dict: dict, seed: int, start: int, count: int, index: str,
+                  self_collision: bool = False):
     """Dask task: a sub-range into a private grid, returned sparse (flat indices int64, values float32)."""
     robot = load_robot(preset)
     grid = Grid.from_dict(grid_dict)
     values = np.zeros(grid.size, dtype=np.float32)
-    outside = sample_range(robot, arm, grid, values, seed=seed, start=start, count=count, index=index)
+    checker = SelfCollision(robot, arm) if self_collision else None
+    outside = sample_range(robot, arm, grid, values, seed=seed, start=start, count=count, index=index,
+                           self_collision=checker)
     idx = np.flatnonzero(values)
     return idx, values[idx], outside
 
 
 def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution: float = 0.05,
               bins=DEFAULT_BINS, index: str = "isotropy", block: int = 1 << 19,
-              progress: bool = True, on_block=None, client=None, tasks: int | None = None) -> BuiltMap:
+              progress: bool = True, on_block=None, client=None, tasks: int | None = None,
+              self_collision: bool = False) -> BuiltMap:
     """Sample ``samples`` configurations of ``arm`` and keep the best value per 6D cell.
 
     Args:
@@ -136,6 +152,9 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
             same kernel into a private grid (one dense grid per running task) and
             returns its reached cells; the maximum is merged here. The map is
             bitwise identical to the local build.
+        self_collision: reject samples where the arm collides with the robot
+            (see :mod:`placement.selfcollision` for the geometry); much slower,
+            since every sample that would raise its cell is tested.
     """
     if not isinstance(samples, (int, np.integer)) or samples < 1:
         raise PlacementError(f"sample count must be a positive integer, got {samples!r}")
@@ -144,6 +163,7 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
     a = robot.arm(arm)
     if a.dof < 6:
         raise PlacementError(f"arm '{arm}' has {a.dof} joints; the extended manipulability needs at least 6")
+    checker = SelfCollision(robot, arm) if self_collision else None
     grid = default_grid(robot, arm, resolution, bins)
     try:
         values = np.zeros(grid.size, dtype=np.float32)
@@ -162,9 +182,10 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
                     on_block(done, vals)
 
             outside = sample_range(robot, arm, grid, values, seed=seed, start=0, count=samples,
-                                   index=index, block=block, on_block=tick)
+                                   index=index, block=block, on_block=tick, self_collision=checker)
         else:
-            outside = _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, bar)
+            outside = _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, bar,
+                                   self_collision)
     elapsed = time.perf_counter() - t0
     if outside:
         raise PlacementError(f"{outside} samples fell outside the grid: the reach bound is wrong")
@@ -183,7 +204,8 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
         "grid": grid.to_dict(),
         "measure": {"name": "extended_manipulability", "index": index,
                     "rotation_scale": ROTATION_SCALE, "joint_limit_penalty": True,
-                    "self_distance_penalty": False, "self_collision": False,
+                    "self_distance_penalty": False, "self_collision": checker is not None,
+                    "self_collision_geometry": checker.describe() if checker is not None else None,
                     "cell_value": "max over samples in the cell; 0 = never reached"},
         "samples": int(samples),
         "seed": int(seed),

@@ -19,7 +19,7 @@ from .options import arm_option, emit, json_option, one_line_errors, robot_optio
 
 log = logging.getLogger("placement")
 
-_SPEC_KEYS = {"robot", "arms", "samples", "seed", "resolution", "bins", "index", "format"}
+_SPEC_KEYS = {"robot", "arms", "samples", "seed", "resolution", "bins", "index", "format", "self_collision"}
 
 
 def _read_spec(path: str | None) -> dict:
@@ -58,11 +58,13 @@ def maps():
 @click.option("--out", required=True, type=click.Path(), help="Map directory (zarr) or file (hdf5).")
 @click.option("--dask", "dask_address", default=None, metavar="ADDRESS",
               help="Spread sampling over a Dask cluster (scheduler address, e.g. tcp://host:8786).")
+@click.option("--self-collision/--no-self-collision", default=None,
+              help="Reject samples where the arm hits the robot (URDF collision shapes; much slower).")
 @json_option
 @verbosity
 @one_line_errors
-def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, out, dask_address, as_json,
-          verbose, quiet):
+def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, out, dask_address, self_collision,
+          as_json, verbose, quiet):
     """Sample each arm and write its 6D reachability map atomically."""
     setup_logging(verbose, quiet)
     spec = _read_spec(spec_path)
@@ -88,6 +90,10 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
         raise PlacementError(f"--resolution must be between 0.005 and 1.0 m, got {resolution}")
     index = index or spec.get("index", "isotropy")
     fmt = fmt or spec.get("format", "zarr")
+    if self_collision is None:
+        self_collision = spec.get("self_collision", False)
+        if not isinstance(self_collision, bool):
+            raise PlacementError(f"build spec: self_collision must be true or false, got {self_collision!r}")
     out_path = Path(out)
     if fmt == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
         out_path = out_path.with_suffix(".h5")
@@ -96,7 +102,7 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
     built = {}
     for a in arms:
         built[a] = m = build_map(robot, a, samples=samples, seed=seed, resolution=resolution, bins=bins,
-                                 index=index, progress=not quiet, client=client)
+                                 index=index, progress=not quiet, client=client, self_collision=self_collision)
         log.info("%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",
                  robot.name, a, samples, m.meta["build_time_s"], m.meta["samples_per_s"] or 0,
                  m.meta["filled_cells"])

@@ -103,3 +103,14 @@ def sample_configs(seed, start, count, lower, upper):
         for j in range(n):
             out[i, j] = lower[j] + (upper[j] - lower[j]) * uniform(seed, (start + i) * n + j)
     return out
+
+
+@njit(cache=True)
+def configs_at(seed, ids, lower, upper):
+    """The joint configurations (len(ids), n) [rad/m] of the samples numbered ``ids``."""
+    n = lower.shape[0]
+    out = np.empty((ids.shape[0], n))
+    for i in range(ids.shape[0]):
+        for j in range(n):
+            out[i, j] = lower[j] + (upper[j] - lower[j]) * uniform(seed, ids[i] * n + j)
+    return out
