@@ -267,15 +267,25 @@ class Planner:
         self.last_maps = StepMaps(nav_cost, heur, np.max([o.value for o in opts], axis=0) if opts else None,
                                   best_combined)
         t = time.perf_counter()
-        for cost, k, f, yaw in ranked[:IK_TRIES]:
+        failed = []  # (option, row, column) of placements where IK failed
+        tries = 0
+        for cost, k, f, yaw in ranked:
+            if tries >= IK_TRIES:
+                break
             o = opts[k]
             iy, ix = divmod(f, nav.shape[1])
             if not np.isfinite(nav_cost[iy, ix]):
                 continue  # a fixed placement the base cannot get to from here
+            # the next cell of the same candidate almost always fails the same way: spend the
+            # IK budget on distinct placements instead
+            if any(fk == k and abs(fy - iy) <= 1 and abs(fx - ix) <= 1 for fk, fy, fx in failed):
+                continue
+            tries += 1
             xs, ys = nav.centres()
             base = (float(xs[ix]), float(ys[iy]), yaw)
             q = self._ik(o, base, prev_q[o.arm])
             if q is None:
+                failed.append((k, iy, ix))
                 continue
             timings["ik"] = (time.perf_counter() - t) * 1e3
             path = extract_path(pred, (iy, ix))
@@ -285,7 +295,7 @@ class Planner:
                                    value, timings), (iy, ix), yaw, q
         timings["ik"] = (time.perf_counter() - t) * 1e3
         reason = ("no base placement reaches the target with the map threshold "
-                  f"{p['threshold']}" if not ranked else f"IK failed for the best {min(len(ranked), IK_TRIES)} placements")
+                  f"{p['threshold']}" if not ranked else f"IK failed for the best {tries} distinct placements")
         return ({"step": i, "action": action, "target": target, "status": "infeasible", "reason": reason,
                  "timings_ms": {k: round(v, 3) for k, v in timings.items()}}, None, None, None)
 
