@@ -12,10 +12,10 @@ from tqdm import tqdm
 from . import __version__
 from .errors import GridError, PlacementError
 from .grid import Grid
-from .kernels.sampling import configs_at, reduce_max, sample_block
+from .kernels.sampling import configs_at, reduce_max, sample_block, sample_configs
 from .manipulability import INDEX_NAMES, ROTATION_SCALE
 from .robots import Robot, load_robot
-from .selfcollision import SelfCollision
+from .selfcollision import ALPHA, BETA, SelfCollision
 
 FORMAT_VERSION = 1
 DEFAULT_BINS = (20, 9, 20)
@@ -57,7 +57,7 @@ def default_grid(robot: Robot, arm: str, resolution: float = 0.05, bins=DEFAULT_
 
 def sample_range(robot: Robot, arm: str, grid: Grid, values: np.ndarray, *, seed: int, start: int,
                  count: int, index: str, block: int = 1 << 19, on_block=None,
-                 self_collision: SelfCollision | None = None) -> int:
+                 self_collision: SelfCollision | None = None, self_distance: bool = False) -> int:
     """Fold samples ``start .. start+count-1`` of ``seed`` into ``values`` (flat float32, per-cell max).
 
     The one sampling loop of both the local and the distributed build. Returns
@@ -66,6 +66,8 @@ def sample_range(robot: Robot, arm: str, grid: Grid, values: np.ndarray, *, seed
     With ``self_collision``, a sample that would raise its cell is dropped if
     the arm collides with the robot; samples that cannot raise their cell need
     no test, so the map is the maximum over collision-free samples exactly.
+    With ``self_distance`` as well (the checker is then required), every
+    sample gets its self-distance row penalties before it is evaluated.
     """
     a = robot.arm(arm)
     ch = a.chain
@@ -75,13 +77,17 @@ def sample_range(robot: Robot, arm: str, grid: Grid, values: np.ndarray, *, seed
     vals = np.empty(block, dtype=np.float64)
     done = 0
     outside = 0
+    no_rows = np.ones((0, 6, 2))
     while done < count:
         n = min(block, count - done)
+        rowfac = no_rows
+        if self_distance:
+            rowfac = self_collision.row_factors(sample_configs(np.uint64(seed), start + done, n, a.lower, a.upper))
         sample_block(np.uint64(seed), start + done, n, a.lower, a.upper, cont, ch.link_T, ch.axis,
                      ch.kind, ch.tip_T, INDEX_NAMES.index(index), ROTATION_SCALE,
-                     grid.origin_array, grid.resolution, grid.shape_array, values, cells[:n], vals[:n])
+                     grid.origin_array, grid.resolution, grid.shape_array, values, rowfac, cells[:n], vals[:n])
         outside += int(np.count_nonzero(cells[:n] < 0))
-        if self_collision is not None:
+        if self_collision is not None and not self_distance:  # (row_factors already rejected collisions)
             c, v = cells[:n], vals[:n]
             raising = np.flatnonzero((c >= 0) & (v.astype(np.float32) > values[np.maximum(c, 0)]))
             if raising.size:
@@ -95,7 +101,8 @@ def sample_range(robot: Robot, arm: str, grid: Grid, values: np.ndarray, *, seed
     return outside
 
 
-def _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, bar, self_collision) -> int:
+def _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, bar, self_collision,
+                 self_distance) -> int:
     from dask.distributed import as_completed
 
     if tasks is None:
@@ -105,7 +112,7 @@ def _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, 
     edges = np.linspace(0, samples, tasks + 1).astype(np.int64)
     preset = robot.source
     futures = {client.submit(_remote_range, preset, arm, grid.to_dict(), int(seed), int(lo), int(hi - lo),
-                             index, self_collision, pure=False): int(hi - lo)
+                             index, self_collision, self_distance, pure=False): int(hi - lo)
                for lo, hi in zip(edges[:-1], edges[1:]) if hi > lo}
     outside = 0
     for fut in as_completed(futures):
@@ -117,14 +124,14 @@ def _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, 
 
 
 def _remote_range(preset: str, arm: str, grid_dict: dict, seed: int, start: int, count: int, index: str,
-                  self_collision: bool = False):
+                  self_collision: bool = False, self_distance: bool = False):
     """Dask task: a sub-range into a private grid, returned sparse (flat indices int64, values float32)."""
     robot = load_robot(preset)
     grid = Grid.from_dict(grid_dict)
     values = np.zeros(grid.size, dtype=np.float32)
-    checker = SelfCollision(robot, arm) if self_collision else None
+    checker = SelfCollision(robot, arm) if (self_collision or self_distance) else None
     outside = sample_range(robot, arm, grid, values, seed=seed, start=start, count=count, index=index,
-                           self_collision=checker)
+                           self_collision=checker, self_distance=self_distance)
     idx = np.flatnonzero(values)
     return idx, values[idx], outside
 
@@ -132,7 +139,7 @@ def _remote_range(preset: str, arm: str, grid_dict: dict, seed: int, start: int,
 def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution: float = 0.05,
               bins=DEFAULT_BINS, index: str = "isotropy", block: int = 1 << 19,
               progress: bool = True, on_block=None, client=None, tasks: int | None = None,
-              self_collision: bool = False) -> BuiltMap:
+              self_collision: bool = False, self_distance: bool = False) -> BuiltMap:
     """Sample ``samples`` configurations of ``arm`` and keep the best value per 6D cell.
 
     Args:
@@ -155,6 +162,8 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
         self_collision: reject samples where the arm collides with the robot
             (see :mod:`placement.selfcollision` for the geometry); much slower,
             since every sample that would raise its cell is tested.
+        self_distance: also apply the self-distance penalty (implies
+            self_collision; every sample needs a distance query: slow).
     """
     if not isinstance(samples, (int, np.integer)) or samples < 1:
         raise PlacementError(f"sample count must be a positive integer, got {samples!r}")
@@ -163,7 +172,7 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
     a = robot.arm(arm)
     if a.dof < 6:
         raise PlacementError(f"arm '{arm}' has {a.dof} joints; the extended manipulability needs at least 6")
-    checker = SelfCollision(robot, arm) if self_collision else None
+    checker = SelfCollision(robot, arm) if (self_collision or self_distance) else None
     grid = default_grid(robot, arm, resolution, bins)
     try:
         values = np.zeros(grid.size, dtype=np.float32)
@@ -182,10 +191,11 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
                     on_block(done, vals)
 
             outside = sample_range(robot, arm, grid, values, seed=seed, start=0, count=samples,
-                                   index=index, block=block, on_block=tick, self_collision=checker)
+                                   index=index, block=block, on_block=tick, self_collision=checker,
+                                   self_distance=self_distance)
         else:
             outside = _distributed(client, robot, arm, grid, values, seed, samples, index, tasks, bar,
-                                   self_collision)
+                                   self_collision, self_distance)
     elapsed = time.perf_counter() - t0
     if outside:
         raise PlacementError(f"{outside} samples fell outside the grid: the reach bound is wrong")
@@ -204,7 +214,10 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
         "grid": grid.to_dict(),
         "measure": {"name": "extended_manipulability", "index": index,
                     "rotation_scale": ROTATION_SCALE, "joint_limit_penalty": True,
-                    "self_distance_penalty": False, "self_collision": checker is not None,
+                    "self_distance_penalty": ({"form": "exp(-alpha d) d^-beta on translational rows towards "
+                                                       "the nearest body part", "alpha_per_m": ALPHA, "beta": BETA}
+                                              if self_distance else False),
+                    "self_collision": checker is not None,
                     "self_collision_geometry": checker.describe() if checker is not None else None,
                     "cell_value": "max over samples in the cell; 0 = never reached"},
         "samples": int(samples),

@@ -14,7 +14,8 @@ INDEX_NAMES = ("isotropy", "volume")
 ROTATION_SCALE = 0.15  # Simox: rotational Jacobian rows are weighted against metres
 
 
-def extended_manipulability(robot: Robot, arm: str, q, index: str = "isotropy") -> np.ndarray | float:
+def extended_manipulability(robot: Robot, arm: str, q, index: str = "isotropy",
+                            row_factors=None) -> np.ndarray | float:
     """Simox's extended manipulability of ``arm`` at joint angles ``q``.
 
     Args:
@@ -23,6 +24,9 @@ def extended_manipulability(robot: Robot, arm: str, q, index: str = "isotropy") 
         q: (n,) or (N, n) joint values [rad, m], in the arm's joint order.
         index: "isotropy" (min over octants of sigma_min/sigma_max, default) or
             "volume" (min over octants of the product of singular values).
+        row_factors: optional (6, 2) or (N, 6, 2) penalty factor per Jacobian row
+            and octant sign (0 = +, 1 = -), e.g. the self-distance penalty of
+            :mod:`placement.selfcollision`; all ones by default.
 
     Returns:
         A float for (n,) input, else (N,) values; dimensionless (isotropy) or
@@ -43,10 +47,14 @@ def extended_manipulability(robot: Robot, arm: str, q, index: str = "isotropy") 
     plo, phi, P, G, A = np.empty(n), np.empty(n), np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6))
     cont = a.continuous.astype(np.bool_)
     de = np.empty((2, 6))
+    if row_factors is None:
+        rf = np.ones((len(Q), 6, 2))
+    else:
+        rf = np.broadcast_to(np.asarray(row_factors, dtype=float), (len(Q), 6, 2))
     out = np.empty(len(Q))
     for i, qi in enumerate(Q):
         fk_jacobian(qi, ch.link_T, ch.axis, ch.kind, ch.tip_T, T, J, work)
         J[3:] *= ROTATION_SCALE
         joint_penalties(qi, a.lower, a.upper, cont, plo, phi)
-        out[i] = _kernel(J, plo, phi, INDEX_NAMES.index(index), -1.0, P, G, A, de)
+        out[i] = _kernel(J, plo, phi, np.ascontiguousarray(rf[i]), INDEX_NAMES.index(index), -1.0, P, G, A, de)
     return float(out[0]) if single else out

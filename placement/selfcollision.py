@@ -1,4 +1,4 @@
-"""Optional self-collision rejection while building a map (SPEC section 3, item 5: a hard reject).
+"""Optional self-collision rejection and self-distance penalty while building a map (SPEC section 3, item 5).
 
 Geometry: the URDF's ``<collision>`` shapes (meshes and primitives) loaded by
 pinocchio, tested by coal (hpp-fcl) exactly as ``pinocchio.computeCollisions``
@@ -8,6 +8,15 @@ touch by design), minus the pairs the preset's SRDF disables, and minus shapes
 carried only by the other arms (they move during a task too, so a map of one
 arm does not depend on where another happens to be). The rest of the robot
 stands at its reference configuration: fixed joints as in the preset.
+
+Self-distance penalty: d = the smallest distance over those pairs [m] and n
+the unit direction from the nearest point on the arm to the nearest point on
+the other shape, in the TCP frame. With ``P(d) = exp(-alpha d) d^-beta``
+(alpha = 40 /m, beta = 1, as Simox), the translational row r of the Jacobian
+is scaled by ``1 / sqrt(1 + P(d) max(0, +n_r))`` in octants that move it in
++r and by ``1 / sqrt(1 + P(d) max(0, -n_r))`` in those that move it in -r:
+motion towards the body is penalised like motion towards a joint limit, in
+proportion to how directly it approaches. d <= 0 is a collision (rejected).
 """
 
 from __future__ import annotations
@@ -19,6 +28,14 @@ import pinocchio as pin
 
 from .errors import PlacementError
 from .robots import Robot
+
+ALPHA = 40.0  # [1/m] self-distance penalty decay
+BETA = 1.0    # self-distance penalty exponent
+
+
+def distance_penalty(d: np.ndarray | float) -> np.ndarray | float:
+    """Simox's self-distance penalty ``P(d) = exp(-alpha d) d^-beta`` for distances d > 0 [m]."""
+    return np.exp(-ALPHA * np.asarray(d, dtype=float)) * np.asarray(d, dtype=float) ** -BETA
 
 
 def _package_dirs(urdf: Path) -> list[str]:
@@ -69,6 +86,9 @@ class SelfCollision:
             geom.addCollisionPair(cp)
         self.geom = geom
         self.pairs = len(keep)
+        self._moved = moved
+        self._tip_id = robot.model.getFrameId(a.tip_frame)
+        self._tcp = pin.SE3(a.tcp_offset)
         self._data = model.createData()
         self._gdata = pin.GeometryData(geom)
         self._q = robot.reference_q()
@@ -99,6 +119,44 @@ class SelfCollision:
         for i, q in enumerate(Q):
             qf = self._with(self._q, self.arm, q)
             out[i] = pin.computeCollisions(self.robot.model, self._data, self.geom, self._gdata, qf, True)
+        return out
+
+    def row_factors(self, Q) -> np.ndarray:
+        """(N, 6, 2) self-distance row penalties of configurations Q (N, n) (see the module doc).
+
+        Row factors are 1 for rotation rows; [i, 0, 0] is -1 where Q[i] collides.
+        """
+        Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        out = np.ones((len(Q), 6, 2))
+        model, data, geom, gdata = self.robot.model, self._data, self.geom, self._gdata
+        pairs = geom.collisionPairs
+        for i, q in enumerate(Q):
+            qf = self._with(self._q, self.arm, q)
+            pin.computeDistances(model, data, geom, gdata, qf)
+            k = int(np.argmin([r.min_distance for r in gdata.distanceResults]))
+            res = gdata.distanceResults[k]
+            d = res.min_distance
+            if d <= 0.0:
+                out[i, 0, 0] = -1.0
+                continue
+            cp = pairs[k]
+            j1 = geom.geometryObjects[cp.first].parentJoint
+            j2 = geom.geometryObjects[cp.second].parentJoint
+            # the arm's point: the shape moved by the arm (the deeper one if both are)
+            first_is_arm = (j1 in self._moved) and (j2 not in self._moved or j1 > j2)
+            p_arm, p_other = ((res.getNearestPoint1(), res.getNearestPoint2()) if first_is_arm
+                              else (res.getNearestPoint2(), res.getNearestPoint1()))
+            v = np.asarray(p_other) - np.asarray(p_arm)
+            norm = np.linalg.norm(v)
+            if norm == 0.0:
+                continue
+            pin.updateFramePlacements(model, data)
+            R = (data.oMf[self._tip_id] * self._tcp).rotation
+            n = R.T @ (v / norm)
+            pen = float(distance_penalty(d))
+            for r in range(3):
+                out[i, r, 0] = 1.0 / np.sqrt(1.0 + pen * max(0.0, n[r]))
+                out[i, r, 1] = 1.0 / np.sqrt(1.0 + pen * max(0.0, -n[r]))
         return out
 
     def describe(self) -> str:

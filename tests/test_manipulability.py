@@ -61,14 +61,16 @@ def reference_penalties(q, lower, upper, continuous):
     return pen_lo, pen_hi
 
 
-def reference_measure(J, pen_lo, pen_hi, index: str) -> float:
+def reference_measure(J, pen_lo, pen_hi, index: str, rowfac=None) -> float:
+    """rowfac (6, 2): an extra factor per row and octant sign (0 = +, 1 = -), e.g. self-distance."""
+    rowfac = np.ones((6, 2)) if rowfac is None else rowfac
     values = []
     for s in SIGNS:
         Js = np.empty_like(J)
         for r in range(6):
             for j in range(J.shape[1]):
                 towards_hi = (s[r] >= 0) != (J[r, j] < 0)
-                Js[r, j] = J[r, j] * (pen_hi[j] if towards_hi else pen_lo[j])
+                Js[r, j] = J[r, j] * (pen_hi[j] if towards_hi else pen_lo[j]) * rowfac[r, 0 if s[r] >= 0 else 1]
         sv = np.linalg.svd(Js, compute_uv=False)
         values.append(sv.min() / sv.max() if index == "isotropy" else float(np.prod(sv)))
     return min(values)
@@ -335,13 +337,14 @@ def test_batched_kernel_proves_or_matches(robot_name, arm_name, request):
     plo, phi = np.empty(n), np.empty(n)
     P, G, A, B = np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6)), np.empty((6, 6))
     Ag, W, de = np.empty((21, 64)), np.empty((W_ROWS, 64)), np.empty((2, 6))
+    ones = np.ones((6, 2))
     cont = arm.continuous.astype(bool)
     thresholds = np.random.default_rng(13).choice([-1.0, 0.0, 1e-5, 3e-4, 0.01, 0.03, 0.06, 0.1, 0.2], size=len(Q))
     proven = exact_count = 0
     for q, j, t in zip(Q, J, thresholds):
         km.joint_penalties(q, arm.lower, arm.upper, cont, plo, phi)
-        exact = km.extended_manipulability(j, plo, phi, km.ISOTROPY, -1.0, P, G, A, de)
-        got = isotropy_batched(j, plo, phi, t, P, G, Ag, W, A, B, de)
+        exact = km.extended_manipulability(j, plo, phi, ones, km.ISOTROPY, -1.0, P, G, A, de)
+        got = isotropy_batched(j, plo, phi, ones, t, P, G, Ag, W, A, B, de)
         if got < 0:
             assert exact <= t
             proven += 1
@@ -362,7 +365,7 @@ def test_octant_bounds_against_numpy(pr2):
         J = rng.normal(size=(6, 7)) * rng.uniform(0.05, 1.0, size=(6, 1))
         plo, phi = rng.uniform(0.2, 1.0, 7), rng.uniform(0.2, 1.0, 7)
         P, G = np.empty((6, 7, 2)), np.empty((6, 6, 2, 2))
-        km.gram_table(J, plo, phi, P, G)
+        km.gram_table(J, plo, phi, np.ones((6, 2)), P, G)
         Ag = np.empty((21, 64))
         ko.fill_grams(G, Ag)
         mats = np.empty((64, 6, 6))
@@ -403,3 +406,37 @@ def test_generated_octant_kernels_up_to_date():
     gen = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(gen)
     assert gen.OUT.read_text() == gen.generate(), "run python tools/gen_octants.py"
+
+
+@pytest.mark.parametrize("robot,arm_name", [("pr2", "right"), ("armar6", "left")], indirect=["robot"])
+def test_row_penalties_match_reference(robot, arm_name):
+    """Per-row, per-sign factors (the self-distance penalty) against the numpy reference, both kernels."""
+    from placement.kernels import manipulability as km
+    from placement.kernels.isotropy import W_ROWS, isotropy_batched
+    from placement.kernels.kinematics import fk_jacobian_batch
+
+    arm = robot.arm(arm_name)
+    rng = np.random.default_rng(31)
+    Q = random_configs(arm, 60, rng)
+    rf = np.ones((len(Q), 6, 2))
+    rf[:, :3, :] = rng.uniform(0.2, 1.0, size=(len(Q), 3, 2))
+    got = placement.extended_manipulability(robot, arm_name, Q, row_factors=rf)
+    for q, g, f in zip(Q, got, rf):
+        J = reference_jacobian(robot, arm_name, q)
+        lo, hi = reference_penalties(q, arm.lower, arm.upper, arm.continuous)
+        assert abs(g - reference_measure(J, lo, hi, "isotropy", f)) < 1e-9
+    plain = placement.extended_manipulability(robot, arm_name, Q)
+    assert np.any(got > plain + 1e-6) and np.any(got < plain - 1e-6)  # can raise or lower the index
+    ch = arm.chain
+    _, Jk = fk_jacobian_batch(Q, ch.link_T, ch.axis, ch.kind, ch.tip_T)
+    Jk[:, 3:] *= 0.15
+    n = arm.dof
+    plo, phi = np.empty(n), np.empty(n)
+    P, G, A, B = np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6)), np.empty((6, 6))
+    Ag, W, de = np.empty((21, 64)), np.empty((W_ROWS, 64)), np.empty((2, 6))
+    cont = arm.continuous.astype(bool)
+    for q, j, f, exact in zip(Q, Jk, rf, got):
+        km.joint_penalties(q, arm.lower, arm.upper, cont, plo, phi)
+        assert isotropy_batched(j, plo, phi, f, -1.0, P, G, Ag, W, A, B, de) == exact
+        t = exact * 1.01
+        assert isotropy_batched(j, plo, phi, f, t, P, G, Ag, W, A, B, de) == -1.0

@@ -83,3 +83,62 @@ def test_map_with_self_collision_is_the_max_over_free_samples(pr2, checker):
 def test_missing_collision_geometry_is_one_clear_error(armar6):
     with pytest.raises(placement.PlacementError, match="collision geometry"):
         SelfCollision(armar6, "right")
+
+
+def test_distance_penalty_literal():
+    from placement.selfcollision import distance_penalty
+
+    assert distance_penalty(0.05) == pytest.approx(np.exp(-2.0) / 0.05, rel=1e-15)
+    assert distance_penalty(0.2) == pytest.approx(np.exp(-8.0) / 0.2, rel=1e-15)
+
+
+def test_row_factors_against_pinocchio_distances(checker, pr2):
+    """Rotation rows untouched; translational rows penalised towards the body only, by P(d) |n_r|."""
+    from placement.selfcollision import distance_penalty
+
+    arm = pr2.arm("right")
+    Q = random_configs(arm, 200, np.random.default_rng(8))
+    rf = checker.row_factors(Q)
+    hits = checker.collides(Q)
+    assert np.array_equal(rf[:, 0, 0] < 0, hits) and hits.any()
+    model, geom = pr2.model, checker.geom
+    data, gdata = model.createData(), pin.GeometryData(geom)
+    for q, f, hit in zip(Q, rf, hits):
+        if hit:
+            continue
+        assert np.all(f[3:] == 1.0) and np.all((f > 0) & (f <= 1.0))
+        assert np.all((f[:3, 0] == 1.0) | (f[:3, 1] == 1.0))  # only one sign of a row approaches
+        pin.computeDistances(model, data, geom, gdata, pr2.full_q("right", q))
+        d = min(r.min_distance for r in gdata.distanceResults)
+        # (1/f^2 - 1) = P(d) |n_r| summed over both signs, and |n| = 1
+        pn = (1.0 / f[:3, 0] ** 2 - 1.0) + (1.0 / f[:3, 1] ** 2 - 1.0)
+        assert np.sqrt(np.sum(pn ** 2)) == pytest.approx(distance_penalty(d), rel=1e-9, abs=1e-12)
+
+
+def test_map_with_self_distance_is_the_max_over_penalised_samples(pr2, checker):
+    """A build with the self-distance penalty equals the brute-force per-cell max of penalised values."""
+    from placement.build import default_grid
+    from placement.kernels.grid import cell_indices
+    from placement.kernels.kinematics import fk_jacobian_batch
+    from placement.kernels.sampling import sample_configs
+
+    n, res = 1500, 0.2
+    built = placement.build_map(pr2, "right", samples=n, seed=9, resolution=res, progress=False,
+                                self_distance=True, block=400)
+    assert built.meta["measure"]["self_distance_penalty"]["alpha_per_m"] == 40.0
+    arm = pr2.arm("right")
+    Q = sample_configs(np.uint64(9), 0, n, arm.lower, arm.upper)
+    rf = checker.row_factors(Q)
+    free = rf[:, 0, 0] >= 0
+    vals = np.float32(placement.extended_manipulability(pr2, "right", Q[free], row_factors=rf[free]))
+    ch = arm.chain
+    T, _ = fk_jacobian_batch(Q[free], ch.link_T, ch.axis, ch.kind, ch.tip_T)
+    grid = default_grid(pr2, "right", res)
+    cells = cell_indices(T, grid.origin_array, grid.resolution, grid.shape_array)
+    expect = np.zeros(grid.size, np.float32)
+    np.maximum.at(expect, cells, vals)
+    assert np.array_equal(built.values.ravel(), expect)
+    collision_only = placement.build_map(pr2, "right", samples=n, seed=9, resolution=res, progress=False,
+                                         self_collision=True)
+    assert np.any(built.values != collision_only.values)  # the penalty changes values
+    assert np.array_equal(built.values > 0, collision_only.values > 0)  # but not which cells are reached

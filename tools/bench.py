@@ -48,13 +48,14 @@ def _measure_all(Q, J, lower, upper, cont, mode, index):
     plo = np.empty(n); phi = np.empty(n)
     P = np.empty((6, n, 2)); G = np.empty((6, 6, 2, 2)); A = np.empty((6, 6))
     B = np.empty((6, 6)); Ag = np.empty((21, 64)); W = np.empty((W_ROWS, 64)); de = np.empty((2, 6))
+    ones = np.ones((6, 2))
     out = np.empty(Q.shape[0])
     for i in range(Q.shape[0]):
         joint_penalties(Q[i], lower, upper, cont, plo, phi)
         if mode == 0:
-            out[i] = extended_manipulability(J[i], plo, phi, index, -1.0, P, G, A, de)
+            out[i] = extended_manipulability(J[i], plo, phi, ones, index, -1.0, P, G, A, de)
         else:
-            out[i] = isotropy_batched(J[i], plo, phi, -1.0, P, G, Ag, W, A, B, de)
+            out[i] = isotropy_batched(J[i], plo, phi, ones, -1.0, P, G, Ag, W, A, B, de)
     return out
 
 

@@ -19,7 +19,8 @@ from .options import arm_option, emit, json_option, one_line_errors, robot_optio
 
 log = logging.getLogger("placement")
 
-_SPEC_KEYS = {"robot", "arms", "samples", "seed", "resolution", "bins", "index", "format", "self_collision"}
+_SPEC_KEYS = {"robot", "arms", "samples", "seed", "resolution", "bins", "index", "format", "self_collision",
+              "self_distance"}
 
 
 def _read_spec(path: str | None) -> dict:
@@ -60,11 +61,13 @@ def maps():
               help="Spread sampling over a Dask cluster (scheduler address, e.g. tcp://host:8786).")
 @click.option("--self-collision/--no-self-collision", default=None,
               help="Reject samples where the arm hits the robot (URDF collision shapes; much slower).")
+@click.option("--self-distance/--no-self-distance", default=None,
+              help="Penalise motion towards the robot's own body (implies --self-collision; slow).")
 @json_option
 @verbosity
 @one_line_errors
 def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, out, dask_address, self_collision,
-          as_json, verbose, quiet):
+          self_distance, as_json, verbose, quiet):
     """Sample each arm and write its 6D reachability map atomically."""
     setup_logging(verbose, quiet)
     spec = _read_spec(spec_path)
@@ -94,6 +97,10 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
         self_collision = spec.get("self_collision", False)
         if not isinstance(self_collision, bool):
             raise PlacementError(f"build spec: self_collision must be true or false, got {self_collision!r}")
+    if self_distance is None:
+        self_distance = spec.get("self_distance", False)
+        if not isinstance(self_distance, bool):
+            raise PlacementError(f"build spec: self_distance must be true or false, got {self_distance!r}")
     out_path = Path(out)
     if fmt == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
         out_path = out_path.with_suffix(".h5")
@@ -102,7 +109,8 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
     built = {}
     for a in arms:
         built[a] = m = build_map(robot, a, samples=samples, seed=seed, resolution=resolution, bins=bins,
-                                 index=index, progress=not quiet, client=client, self_collision=self_collision)
+                                 index=index, progress=not quiet, client=client, self_collision=self_collision,
+                                 self_distance=self_distance)
         log.info("%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",
                  robot.name, a, samples, m.meta["build_time_s"], m.meta["samples_per_s"] or 0,
                  m.meta["filled_cells"])

@@ -151,16 +151,17 @@ def _bottom_start(G, s, A, L, bottom, z):
 
 
 @njit(cache=True)
-def isotropy_batched(J, pen_lo, pen_hi, threshold, P, G, Ag, W, A, B, de):
+def isotropy_batched(J, pen_lo, pen_hi, rowfac, threshold, P, G, Ag, W, A, B, de):
     """Isotropy index (min over octants of sigma_min/sigma_max), or -1.0 if proven <= threshold.
 
     Args:
         J: (6, n) TCP Jacobian, rotation rows scaled.
         pen_lo, pen_hi: (n,) joint-limit penalty factors.
+        rowfac: (6, 2) penalty factor per row and sign (self-distance; ones without).
         threshold: the cell's current value; < 0 computes the exact value always.
         P (6, n, 2), G (6, 6, 2, 2), Ag (21, 64), W (W_ROWS, 64), A, B (6, 6), de (2, 6): scratch.
     """
-    penalised_rows(J, pen_lo, pen_hi, P)
+    penalised_rows(J, pen_lo, pen_hi, rowfac, P)
     t = threshold
     if t > 0.0:
         # cheap first try: the most penalised octant and its complement, one at a time;

@@ -48,15 +48,21 @@ def joint_penalties(q, lower, upper, continuous, pen_lo, pen_hi):
 
 
 @njit(cache=True)
-def penalised_rows(J, pen_lo, pen_hi, P):
-    """P (6, n, 2) <- each Jacobian entry times its penalty for either sign of its row (0 = +, 1 = -)."""
+def penalised_rows(J, pen_lo, pen_hi, rowfac, P):
+    """P (6, n, 2) <- each Jacobian entry times its penalties for either sign of its row (0 = +, 1 = -).
+
+    pen_lo, pen_hi (n,): joint-limit factors; rowfac (6, 2): a factor per row
+    and sign (the self-distance penalty; all ones without it).
+    """
     n = J.shape[1]
     for r in range(6):
+        f0 = rowfac[r, 0]
+        f1 = rowfac[r, 1]
         for j in range(n):
             v = J[r, j]
             # sign +: moving the row's coordinate up needs q_j up when J >= 0 -> towards hi
-            P[r, j, 0] = v * (pen_lo[j] if v < 0.0 else pen_hi[j])
-            P[r, j, 1] = v * (pen_hi[j] if v < 0.0 else pen_lo[j])
+            P[r, j, 0] = v * (pen_lo[j] if v < 0.0 else pen_hi[j]) * f0
+            P[r, j, 1] = v * (pen_hi[j] if v < 0.0 else pen_lo[j]) * f1
 
 
 @njit(cache=True)
@@ -75,9 +81,9 @@ def gram_from(P, G):
 
 
 @njit(cache=True)
-def gram_table(J, pen_lo, pen_hi, P, G):
+def gram_table(J, pen_lo, pen_hi, rowfac, P, G):
     """Fill P (6, n, 2) and G (6, 6, 2, 2) for the octant Gram matrices (sign index 0 = +, 1 = -)."""
-    penalised_rows(J, pen_lo, pen_hi, P)
+    penalised_rows(J, pen_lo, pen_hi, rowfac, P)
     gram_from(P, G)
 
 
@@ -316,13 +322,13 @@ def octant_value(G, s, index, A, P, de):
 
 
 @njit(cache=True)
-def extended_manipulability(J, pen_lo, pen_hi, index, threshold, P, G, A, de):
+def extended_manipulability(J, pen_lo, pen_hi, rowfac, index, threshold, P, G, A, de):
     """Worst case over the 64 octants, or -1.0 as soon as it is proven <= threshold.
 
     ``threshold`` < 0 computes the exact value always. Returning early is exact:
     the minimum over octants can only fall below any octant's value.
     """
-    gram_table(J, pen_lo, pen_hi, P, G)
+    gram_table(J, pen_lo, pen_hi, rowfac, P, G)
     best = np.inf
     for s in range(N_OCTANTS):
         v = octant_value(G, s, index, A, P, de)

@@ -26,11 +26,13 @@ CHUNK = 256  # samples per parallel task; its buffers (q, J) stay in the L2 cach
 
 @njit(cache=True, parallel=True)
 def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kind, tip_T,
-                 index, rot_scale, origin, res, shape, grid, out_cell, out_val):
+                 index, rot_scale, origin, res, shape, grid, rowfac, out_cell, out_val):
     """Evaluate samples start .. start+count-1 into out_cell (count,) and out_val (count,).
 
     out_cell is -1 for a pose outside the grid; out_val is -1 for a sample proven
     not to raise its cell. ``grid`` is the flat float32 map, read only here.
+    ``rowfac`` is (count, 6, 2): each sample's row penalties (self-distance), a
+    negative [i, 0, 0] rejecting the sample; or (0, 6, 2) for none.
     """
     n = lower.shape[0]
     n_chunks = (count + CHUNK - 1) // CHUNK
@@ -47,6 +49,7 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
         A = np.empty((6, 6))
         B = np.empty((6, 6))
         Ag = np.empty((21, 64))
+        ones = np.ones((6, 2))
         W = np.empty((W_ROWS, 64))
         de = np.empty((2, 6))
         lo = chunk * CHUNK
@@ -64,7 +67,8 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
             c = out_cell[i]
             thr[i - lo] = np.float64(grid[c]) if c >= 0 else 0.0
         for i in range(lo, hi):
-            if out_cell[i] < 0:
+            rf = rowfac[i] if rowfac.shape[0] > 0 else ones
+            if out_cell[i] < 0 or rf[0, 0] < 0.0:
                 out_val[i] = -1.0
                 continue
             Ji = J[i - lo]
@@ -75,9 +79,9 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
                 Ji[5, j] *= rot_scale
             joint_penalties(qi, lower, upper, continuous, plo, phi)
             if index == ISOTROPY:
-                out_val[i] = isotropy_batched(Ji, plo, phi, thr[i - lo], P, G, Ag, W, A, B, de)
+                out_val[i] = isotropy_batched(Ji, plo, phi, rf, thr[i - lo], P, G, Ag, W, A, B, de)
             else:
-                out_val[i] = extended_manipulability(Ji, plo, phi, index, thr[i - lo], P, G, A, de)
+                out_val[i] = extended_manipulability(Ji, plo, phi, rf, index, thr[i - lo], P, G, A, de)
 
 
 @njit(cache=True)
