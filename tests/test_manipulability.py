@@ -94,6 +94,20 @@ def assert_matches(robot, arm_name, Q, index):
     return got, want
 
 
+def kernel_inputs(arm, Q):
+    """Kernel Jacobians (N, 6, n) of configurations Q (rotation rows scaled) and one set of kernel scratch."""
+    from placement.kernels.isotropy import W_ROWS
+    from placement.kernels.kinematics import fk_jacobian_batch
+
+    ch = arm.chain
+    _, J = fk_jacobian_batch(Q, ch.link_T, ch.axis, ch.kind, ch.tip_T)
+    J[:, 3:] *= 0.15
+    n = arm.dof
+    scratch = (np.empty(n), np.empty(n), np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6)),
+               np.empty((6, 6)), np.empty((21, 64)), np.empty((W_ROWS, 64)), np.empty((2, 6)))
+    return J, scratch
+
+
 ROBOT_ARMS = [("pr2", "right"), ("pr2", "left"), ("armar6", "left"), ("armar6", "right")]
 
 
@@ -320,8 +334,7 @@ def test_batched_kernel_proves_or_matches(robot_name, arm_name, request):
     proofs' margins grow) and configurations at joint limits (zero penalties).
     """
     from placement.kernels import manipulability as km
-    from placement.kernels.isotropy import W_ROWS, isotropy_batched
-    from placement.kernels.kinematics import fk_jacobian_batch
+    from placement.kernels.isotropy import isotropy_batched
 
     robot = request.getfixturevalue(robot_name)
     arm = robot.arm(arm_name)
@@ -330,13 +343,7 @@ def test_batched_kernel_proves_or_matches(robot_name, arm_name, request):
     limited = ~arm.continuous.astype(bool)
     at_limit = rng.random(Q.shape) < 0.1
     Q[:, limited] = np.where(at_limit[:, limited], arm.upper[limited], Q[:, limited])
-    ch = arm.chain
-    _, J = fk_jacobian_batch(Q, ch.link_T, ch.axis, ch.kind, ch.tip_T)
-    J[:, 3:] *= 0.15
-    n = arm.dof
-    plo, phi = np.empty(n), np.empty(n)
-    P, G, A, B = np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6)), np.empty((6, 6))
-    Ag, W, de = np.empty((21, 64)), np.empty((W_ROWS, 64)), np.empty((2, 6))
+    J, (plo, phi, P, G, A, B, Ag, W, de) = kernel_inputs(arm, Q)
     ones = np.ones((6, 2))
     cont = arm.continuous.astype(bool)
     thresholds = np.random.default_rng(13).choice([-1.0, 0.0, 1e-5, 3e-4, 0.01, 0.03, 0.06, 0.1, 0.2], size=len(Q))
@@ -412,8 +419,7 @@ def test_generated_octant_kernels_up_to_date():
 def test_row_penalties_match_reference(robot, arm_name):
     """Per-row, per-sign factors (the self-distance penalty) against the numpy reference, both kernels."""
     from placement.kernels import manipulability as km
-    from placement.kernels.isotropy import W_ROWS, isotropy_batched
-    from placement.kernels.kinematics import fk_jacobian_batch
+    from placement.kernels.isotropy import isotropy_batched
 
     arm = robot.arm(arm_name)
     rng = np.random.default_rng(31)
@@ -427,13 +433,7 @@ def test_row_penalties_match_reference(robot, arm_name):
         assert abs(g - reference_measure(J, lo, hi, "isotropy", f)) < 1e-9
     plain = placement.extended_manipulability(robot, arm_name, Q)
     assert np.any(got > plain + 1e-6) and np.any(got < plain - 1e-6)  # can raise or lower the index
-    ch = arm.chain
-    _, Jk = fk_jacobian_batch(Q, ch.link_T, ch.axis, ch.kind, ch.tip_T)
-    Jk[:, 3:] *= 0.15
-    n = arm.dof
-    plo, phi = np.empty(n), np.empty(n)
-    P, G, A, B = np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6)), np.empty((6, 6))
-    Ag, W, de = np.empty((21, 64)), np.empty((W_ROWS, 64)), np.empty((2, 6))
+    Jk, (plo, phi, P, G, A, B, Ag, W, de) = kernel_inputs(arm, Q)
     cont = arm.continuous.astype(bool)
     for q, j, f, exact in zip(Q, Jk, rf, got):
         km.joint_penalties(q, arm.lower, arm.upper, cont, plo, phi)
