@@ -89,6 +89,13 @@ class SelfCollision:
         self._moved = moved
         self._tip_id = robot.model.getFrameId(a.tip_frame)
         self._tcp = pin.SE3(a.tcp_offset)
+        # bounding spheres (local frame) of the shapes, for lower bounds of pair distances
+        for go in geom.geometryObjects:
+            go.geometry.computeLocalAABB()
+        self._pair_ids = np.array([(cp.first, cp.second) for cp in geom.collisionPairs], dtype=int).reshape(-1, 2)
+        self._shapes = [int(g) for g in np.unique(self._pair_ids)]
+        self._centre = np.array([np.asarray(go.geometry.aabb_center) for go in geom.geometryObjects])
+        self._radius = np.array([go.geometry.aabb_radius for go in geom.geometryObjects])
         self._data = model.createData()
         self._gdata = pin.GeometryData(geom)
         self._q = robot.reference_q()
@@ -130,11 +137,11 @@ class SelfCollision:
         out = np.ones((len(Q), 6, 2))
         model, data, geom, gdata = self.robot.model, self._data, self.geom, self._gdata
         pairs = geom.collisionPairs
+        first, second = self._pair_ids[:, 0], self._pair_ids[:, 1]
+        centre = np.empty_like(self._centre)
         for i, q in enumerate(Q):
             qf = self._with(self._q, self.arm, q)
-            pin.computeDistances(model, data, geom, gdata, qf)
-            k = int(np.argmin([r.min_distance for r in gdata.distanceResults]))
-            res = gdata.distanceResults[k]
+            k, res = self._nearest_pair(qf, centre, first, second)
             d = res.min_distance
             if d <= 0.0:
                 out[i, 0, 0] = -1.0
@@ -158,6 +165,30 @@ class SelfCollision:
                 out[i, r, 0] = 1.0 / np.sqrt(1.0 + pen * max(0.0, n[r]))
                 out[i, r, 1] = 1.0 / np.sqrt(1.0 + pen * max(0.0, -n[r]))
         return out
+
+    def _nearest_pair(self, qf, centre, first, second):
+        """(pair index, coal DistanceResult) of the pair at the smallest distance, exactly.
+
+        Pairs are measured in order of a lower bound (distance of their bounding
+        spheres) until the bound exceeds the best distance found: the others
+        cannot be nearer. Same pair and result as measuring all pairs (ties go
+        to the lower index, as ``argmin`` would).
+        """
+        model, data, geom, gdata = self.robot.model, self._data, self.geom, self._gdata
+        pin.updateGeometryPlacements(model, data, geom, gdata, qf)
+        for g in self._shapes:
+            M = gdata.oMg[g]
+            centre[g] = M.rotation @ self._centre[g] + M.translation
+        lower = (np.linalg.norm(centre[first] - centre[second], axis=1)
+                 - self._radius[first] - self._radius[second])
+        best, best_k, best_res = np.inf, -1, None
+        for k in np.argsort(lower, kind="stable"):
+            if lower[k] > best:
+                break
+            res = pin.computeDistance(geom, gdata, int(k))
+            if res.min_distance < best or (res.min_distance == best and k < best_k):
+                best, best_k, best_res = res.min_distance, int(k), res
+        return best_k, best_res
 
     def describe(self) -> str:
         """One line for the map metadata: what geometry and pairs are used."""

@@ -109,7 +109,12 @@ def test_row_factors_against_pinocchio_distances(checker, pr2):
         assert np.all(f[3:] == 1.0) and np.all((f > 0) & (f <= 1.0))
         assert np.all((f[:3, 0] == 1.0) | (f[:3, 1] == 1.0))  # only one sign of a row approaches
         pin.computeDistances(model, data, geom, gdata, pr2.full_q("right", q))
-        d = min(r.min_distance for r in gdata.distanceResults)
+        all_d = [r.min_distance for r in gdata.distanceResults]
+        d = min(all_d)
+        # the bounding-sphere pruned search finds the same pair as measuring every pair
+        k, res = checker._nearest_pair(pr2.full_q("right", q), np.empty_like(checker._centre),
+                                       checker._pair_ids[:, 0], checker._pair_ids[:, 1])
+        assert k == int(np.argmin(all_d)) and res.min_distance == d
         # (1/f^2 - 1) = P(d) |n_r| summed over both signs, and |n| = 1
         pn = (1.0 / f[:3, 0] ** 2 - 1.0) + (1.0 / f[:3, 1] ** 2 - 1.0)
         assert np.sqrt(np.sum(pn ** 2)) == pytest.approx(distance_penalty(d), rel=1e-9, abs=1e-12)
