@@ -8,6 +8,7 @@ import numpy as np
 from numba import njit
 
 from .kinematics import fk_jacobian
+from .linalg6 import cho_solve6, cholesky6
 
 _TWO_PI = 2.0 * math.pi
 
@@ -112,27 +113,8 @@ def dls_attempt(q0, target, lower, upper, continuous, link_T, axis, kind, tip_T,
                     acc += J[r, j] * J[c, j]
                 A[r, c] = acc
                 A[c, r] = acc
-            A[r, r] += damping
-        for j in range(6):  # Cholesky (SPD by the damping)
-            d = A[j, j]
-            for k in range(j):
-                d -= L[j, k] * L[j, k]
-            L[j, j] = math.sqrt(d)
-            for i in range(j + 1, 6):
-                v = A[i, j]
-                for k in range(j):
-                    v -= L[i, k] * L[j, k]
-                L[i, j] = v / L[j, j]
-        for i in range(6):
-            v = e[i]
-            for k in range(i):
-                v -= L[i, k] * y[k]
-            y[i] = v / L[i, i]
-        for i in range(5, -1, -1):
-            v = y[i]
-            for k in range(i + 1, 6):
-                v -= L[k, i] * y[k]
-            y[i] = v / L[i, i]
+        cholesky6(A, 1.0, damping, L)  # positive definite by the damping
+        cho_solve6(L, e, y, y)
         norm = 0.0
         for j in range(n):
             acc = 0.0

@@ -23,10 +23,9 @@ exact arithmetic.
 
 from __future__ import annotations
 
-import math
-
 from numba import njit
 
+from .linalg6 import cho_solve6, cholesky6
 from .manipulability import gram_from, octant_gram, octant_gram_direct, octant_value, penalised_rows
 from .octants import fill_grams, lambda_max_lower, lambda_max_tight, lambda_min_upper, pd_flags, traces
 
@@ -49,23 +48,16 @@ def _margin(v):
     return max(_MARGIN, 1e-12 / (v * v))
 
 
-@njit(cache=True)
-def _pd(A, alpha, beta, L):
-    """Whether alpha * A + beta * I (symmetric (6, 6)) is positive definite, by Cholesky into L."""
-    for j in range(6):
-        d = alpha * A[j, j] + beta
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if not d > 0.0:
-            return False
-        ljj = math.sqrt(d)
-        L[j, j] = ljj
-        for i in range(j + 1, 6):
-            v = alpha * A[i, j]
-            for k in range(j):
-                v -= L[i, k] * L[j, k]
-            L[i, j] = v / ljj
-    return True
+@njit(cache=True, inline="always")
+def _largest_column(A, x):
+    """x[:6] <- the column of A (6, 6) with the largest diagonal entry; returns its index."""
+    k = 0
+    for r in range(1, 6):
+        if A[r, r] > A[k, k]:
+            k = r
+    for r in range(6):
+        x[r] = A[r, k]
+    return k
 
 
 @njit(cache=True)
@@ -76,12 +68,7 @@ def _below(P, s, t2, A, L, z):
     A_s's largest column. A (6, 6), L (6, 6), z (12,) scratch.
     """
     octant_gram_direct(P, s, A)
-    k = 0
-    for r in range(1, 6):
-        if A[r, r] > A[k, k]:
-            k = r
-    for r in range(6):
-        z[r] = A[r, k]
+    k = _largest_column(A, z)
     num = 0.0
     den = 0.0
     for it in range(2):
@@ -97,19 +84,14 @@ def _below(P, s, t2, A, L, z):
         for r in range(6):
             z[r] = z[6 + r]
     rho = max(num / den if den > 0.0 else 0.0, A[k, k])
-    return not _pd(A, 1.0, -t2 * rho, L)
+    return not cholesky6(A, 1.0, -t2 * rho, L)
 
 
 @njit(cache=True)
 def _top_start(G, A, top, z):
     """An approximate top eigenvector (6,) of octant 0 (A (6, 6), z (6,) scratch): the common power-step start."""
     octant_gram(G, 0, A)
-    k = 0
-    for r in range(1, 6):
-        if A[r, r] > A[k, k]:
-            k = r
-    for r in range(6):
-        top[r] = A[r, k]
+    _largest_column(A, top)
     for it in range(4):
         m = 0.0
         for r in range(6):
@@ -130,19 +112,10 @@ def _bottom_start(G, s, A, L, bottom, z):
     octant_gram(G, s, A)
     for r in range(6):
         bottom[r] = 1.0
-    if not _pd(A, 1.0, 0.0, L):
+    if not cholesky6(A, 1.0, 0.0, L):
         return
     for it in range(3):
-        for r in range(6):
-            acc = bottom[r]
-            for c in range(r):
-                acc -= L[r, c] * z[c]
-            z[r] = acc / L[r, r]
-        for r in range(5, -1, -1):
-            acc = z[r]
-            for c in range(r + 1, 6):
-                acc -= L[c, r] * bottom[c]
-            bottom[r] = acc / L[r, r]
+        cho_solve6(L, bottom, z, bottom)
         m = 0.0
         for r in range(6):
             m = max(m, abs(bottom[r]))
