@@ -81,6 +81,9 @@ class SelfCollision:
             adjacent = j1 == j2 or model.parents[j1] == j2 or model.parents[j2] == j1
             if not adjacent and (j1 in moved or j2 in moved) and j1 not in others and j2 not in others:
                 keep.append(cp)
+        if not keep:
+            raise PlacementError(f"robot '{robot.name}': no collision shape pair involves arm '{arm}' "
+                                 "(after same/adjacent links, SRDF and other arms); build without self-collision")
         geom.removeAllCollisionPairs()
         for cp in keep:
             geom.addCollisionPair(cp)
@@ -100,12 +103,6 @@ class SelfCollision:
         self._gdata = pin.GeometryData(geom)
         self._q = robot.reference_q()
 
-    def _with(self, qfull: np.ndarray, arm: str, q) -> np.ndarray:
-        out = qfull.copy()
-        for jid, v in zip(self.robot.arm(arm).joint_ids, np.asarray(q, dtype=float)):
-            self.robot._set(out, jid, float(v))
-        return out
-
     @staticmethod
     def _moved_joints(model, joint_ids) -> set[int]:
         """The arm's joints and every joint below them in the kinematic tree."""
@@ -124,7 +121,7 @@ class SelfCollision:
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         out = np.zeros(len(Q), dtype=bool)
         for i, q in enumerate(Q):
-            qf = self._with(self._q, self.arm, q)
+            qf = self.robot.full_q(self.arm, q, self._q)
             out[i] = pin.computeCollisions(self.robot.model, self._data, self.geom, self._gdata, qf, True)
         return out
 
@@ -140,7 +137,7 @@ class SelfCollision:
         first, second = self._pair_ids[:, 0], self._pair_ids[:, 1]
         centre = np.empty_like(self._centre)
         for i, q in enumerate(Q):
-            qf = self._with(self._q, self.arm, q)
+            qf = self.robot.full_q(self.arm, q, self._q)
             k, res = self._nearest_pair(qf, centre, first, second)
             d = res.min_distance
             if d <= 0.0:

@@ -147,3 +147,21 @@ def test_map_with_self_distance_is_the_max_over_penalised_samples(pr2, checker):
                                          self_collision=True)
     assert np.any(built.values != collision_only.values)  # the penalty changes values
     assert np.array_equal(built.values > 0, collision_only.values > 0)  # but not which cells are reached
+
+
+def test_no_pair_left_is_one_clear_error(tmp_path):
+    """Shapes only on the base and the first arm link (adjacent): nothing to test, a clear error."""
+    box = '<collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>'
+    links = "".join(f'<link name="l{i}">{box if i < 2 else ""}</link>' for i in range(8))
+    joints = "".join(
+        f'<joint name="j{i}" type="revolute"><parent link="l{i}"/><child link="l{i + 1}"/>'
+        f'<origin xyz="0 0 0.3"/><axis xyz="{"0 0 1" if i % 2 == 0 else "0 1 0"}"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>' for i in range(7))
+    urdf = tmp_path / "chain.urdf"
+    urdf.write_text(f'<robot name="chain">{links}{joints}</robot>')
+    preset = tmp_path / "chain.yaml"
+    preset.write_text(f"name: chain\nurdf: {urdf}\nbase_frame: l0\nfootprint_radius: 0.3\n"
+                      "arms:\n  a:\n    joints: [j0, j1, j2, j3, j4, j5, j6]\n    tip_frame: l7\n")
+    robot = placement.load_robot(str(preset))
+    with pytest.raises(placement.PlacementError, match="no collision shape pair involves arm 'a'"):
+        SelfCollision(robot, "a")

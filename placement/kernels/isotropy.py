@@ -62,7 +62,7 @@ def _largest_column(A, x):
 
 @njit(cache=True)
 def _below(P, s, t2, A, L, z):
-    """Proof that octant s has isotropy^2 < t2 / (1 - margin): A_s - t2 rho I is not positive definite.
+    """Proof that octant s's isotropy is below t: A_s - t2 rho I is not positive definite, t2 = t^2 (1 - margin).
 
     rho <= lambda_max(A_s) is the Rayleigh quotient after two power steps from
     A_s's largest column. A (6, 6), L (6, 6), z (12,) scratch.
@@ -136,10 +136,10 @@ def isotropy_batched(J, pen_lo, pen_hi, rowfac, threshold, P, G, Ag, W, A, B, de
     """
     penalised_rows(J, pen_lo, pen_hi, rowfac, P)
     t = threshold
+    t2 = t * t * (1.0 - _margin(t)) if t > 0.0 else 0.0
     if t > 0.0:
         # cheap first try: the most penalised octant and its complement, one at a time;
         # a sample far below its cell's value is usually settled here (~0.1 us each)
-        t2 = t * t * (1.0 - _margin(t))
         n = P.shape[1]
         s_pen = 0
         for r in range(6):
@@ -158,9 +158,8 @@ def isotropy_batched(J, pen_lo, pen_hi, rowfac, threshold, P, G, Ag, W, A, B, de
     _top_start(G, A, de[0], beta)
     lambda_max_lower(Ag, de[0], rho)
     if t > 0.0:
-        c = -t * t * (1.0 - _margin(t))
         for s in range(64):
-            beta[s] = c * rho[s]
+            beta[s] = -t2 * rho[s]
         pd_flags(Ag, 1.0, beta, flag)
         for s in range(64):
             if flag[s] == 0.0:

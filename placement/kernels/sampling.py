@@ -99,17 +99,6 @@ def reduce_max(grid, cells, vals):
 
 
 @njit(cache=True)
-def sample_configs(seed, start, count, lower, upper):
-    """The joint configurations (count, n) [rad/m] of samples start .. start+count-1."""
-    n = lower.shape[0]
-    out = np.empty((count, n))
-    for i in range(count):
-        for j in range(n):
-            out[i, j] = lower[j] + (upper[j] - lower[j]) * uniform(seed, (start + i) * n + j)
-    return out
-
-
-@njit(cache=True)
 def configs_at(seed, ids, lower, upper):
     """The joint configurations (len(ids), n) [rad/m] of the samples numbered ``ids``."""
     n = lower.shape[0]
@@ -118,3 +107,9 @@ def configs_at(seed, ids, lower, upper):
         for j in range(n):
             out[i, j] = lower[j] + (upper[j] - lower[j]) * uniform(seed, ids[i] * n + j)
     return out
+
+
+@njit(cache=True)
+def sample_configs(seed, start, count, lower, upper):
+    """The joint configurations (count, n) [rad/m] of samples start .. start+count-1."""
+    return configs_at(seed, np.arange(start, start + count), lower, upper)

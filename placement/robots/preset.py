@@ -202,10 +202,13 @@ class Robot:
         except KeyError:
             raise ArmNotFound(name, self.name, self.arms) from None
 
-    def full_q(self, arm: str, q) -> np.ndarray:
-        """Pinocchio configuration with ``q`` (n,) [rad/m] on ``arm`` and fixed joints set."""
+    def full_q(self, arm: str, q, reference: np.ndarray | None = None) -> np.ndarray:
+        """Pinocchio configuration with ``q`` (n,) [rad/m] on ``arm`` and fixed joints set.
+
+        ``reference``: a :meth:`reference_q` computed once, for callers in a loop.
+        """
         a = self.arm(arm)
-        out = self.reference_q()
+        out = self.reference_q() if reference is None else reference.copy()
         for jid, v in zip(a.joint_ids, np.asarray(q, dtype=float)):
             self._set(out, jid, float(v))
         return out
