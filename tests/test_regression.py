@@ -54,7 +54,7 @@ def _plans(maps_dir) -> dict:
         planner = Planner(scene, METHODS[0], maps_dir)
         for method in METHODS:
             planner.set_method(method)
-            out[f"{scene.stem}/{method}"] = _strip(planner.plan())
+            out[f"{scene.stem}/{method}"] = _strip(planner.plan().to_json())
     return out
 
 

@@ -6,6 +6,8 @@ import functools
 import json
 import logging
 import sys
+import tempfile
+from pathlib import Path
 
 import click
 
@@ -38,12 +40,37 @@ def setup_logging(verbose: int, quiet: bool) -> None:
     logging.basicConfig(stream=sys.stderr, level=level, format="%(message)s")
 
 
+def _json(data, indent) -> str:
+    try:
+        return json.dumps(data, indent=indent, sort_keys=False, allow_nan=False)
+    except ValueError:  # NaN or inf: JSON has no such numbers, and they would mean a silent wrong answer
+        raise PlacementError("the result holds a non-finite number (NaN or inf); refusing to print invalid "
+                             "JSON") from None
+
+
+def to_json_line(data) -> str:
+    """``data`` as one line of strict JSON (PlacementError if it holds NaN or inf)."""
+    return _json(data, None)
+
+
 def emit(data, as_json: bool, render) -> None:
-    """JSON on stdout, or a human-readable rendering."""
-    if as_json:
-        click.echo(json.dumps(data, indent=2, sort_keys=False))
-    else:
-        click.echo(render(data))
+    """Strict JSON on stdout, or a human-readable rendering."""
+    click.echo(_json(data, 2) if as_json else render(data))
+
+
+def writable_dir(path, option: str) -> Path:
+    """Create directory ``path`` (and parents) and prove it writable before any long work starts.
+
+    PlacementError naming ``option`` if it is below a file, read-only or otherwise unusable.
+    """
+    p = Path(path)
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=p):
+            pass
+    except OSError as exc:
+        raise PlacementError(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None
+    return p
 
 
 def one_line_errors(f):
@@ -62,6 +89,11 @@ def one_line_errors(f):
         except KeyboardInterrupt:
             click.echo("interrupted; nothing was written", err=True)
             sys.exit(130)
+        except OSError as exc:  # a file system error after the up-front checks (disk full, permissions)
+            if verbose > 1:
+                raise
+            click.echo(f"error: {exc.filename or ''}{': ' if exc.filename else ''}{exc.strerror or exc}", err=True)
+            sys.exit(2)
         except MemoryError:
             click.echo("error: out of memory; use a coarser --resolution or fewer --samples", err=True)
             sys.exit(2)

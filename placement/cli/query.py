@@ -6,8 +6,8 @@ import sys
 
 import click
 
-from ..planning.planner import METHODS, Planner
-from .options import emit, json_option, one_line_errors, setup_logging, verbosity
+from ..planning import METHODS, Planner
+from .options import emit, json_option, one_line_errors, setup_logging, to_json_line, verbosity, writable_dir
 
 
 @click.command()
@@ -28,17 +28,23 @@ def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
     if stream:
         _stream(planner)
         return
+    if plot_dir:
+        writable_dir(plot_dir, "--plot")
     result = planner.plan(keep_maps=plot_dir is not None)
     if plot_dir:
         from ..plotting import plot_steps
 
-        plot_steps(planner, result, plot_dir)
-    emit(result, as_json, _table)
-    if result["status"] != "ok":
-        bad = next(s for s in result["steps"] if s.get("status") == "infeasible")
-        click.echo(f"error: step {bad['step']} ({bad['action']} {bad['target']}) is infeasible: {bad['reason']}",
-                   err=True)
+        plot_steps(planner.world, result, plot_dir)
+    emit(result.to_json(), as_json, _table)
+    bad = result.failed_step
+    if bad is not None:
+        click.echo(f"error: step {bad.step} ({bad.action} {bad.target}) is infeasible: {bad.reason}", err=True)
         sys.exit(3)
+
+
+def main() -> None:
+    """The ``placement-query`` console script: the same command as ``placement query``."""
+    query(prog_name="placement-query")
 
 
 def _table(r: dict) -> str:
@@ -63,19 +69,24 @@ def _stream(planner) -> None:
 
     from ..errors import PlacementError
 
-    click.echo(json.dumps(planner.plan()))
-    for line in sys.stdin:
+    click.echo(to_json_line(planner.plan().to_json()))
+    for number, line in enumerate(sys.stdin, 1):
         if not line.strip():
             continue
         try:
-            change = json.loads(line)
+            try:
+                change = json.loads(line)
+            except (ValueError, RecursionError) as exc:  # RecursionError: absurdly deep nesting
+                raise PlacementError(f"line {number}: not valid JSON ({type(exc).__name__}: "
+                                     f"{str(exc)[:80] or 'too deeply nested'})") from None
             info = planner.update(change)
             t = time.perf_counter()
             result = planner.plan()
             info["timings_ms"]["replan"] = (time.perf_counter() - t) * 1e3
-            result["update"] = info
-            click.echo(json.dumps(result))
-        except (PlacementError, json.JSONDecodeError) as exc:
-            click.echo(f"error: {str(exc).splitlines()[0]}", err=True)
-            click.echo(json.dumps({"error": str(exc).splitlines()[0]}))
+            result.update = info
+            click.echo(to_json_line(result.to_json()))
+        except PlacementError as exc:
+            msg = (str(exc).splitlines() or ["error"])[0]
+            click.echo(f"error: {msg}", err=True)
+            click.echo(json.dumps({"error": msg}))
         sys.stdout.flush()

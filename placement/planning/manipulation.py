@@ -11,7 +11,7 @@ from ..grid import Grid
 from ..kernels.grid import pitch_bin, wrap_bin, zyx_angles
 from ..kernels.irm import trajectory_map
 from ..rmap import ReachabilityMap
-from .navigation import NavGrid
+from .navgrid import NavGrid
 
 
 def base_yaws(count: int) -> np.ndarray:

@@ -1,46 +1,15 @@
 """Navigation cost maps (paper section IV-A): distance to obstacles, velocity model, shortest paths.
 
-All maps are (ny, nx) arrays over a :class:`NavGrid`; row index = y, column = x.
+All maps are (ny, nx) arrays over a :class:`~placement.planning.navgrid.NavGrid`; row index = y, column = x.
 Distances and costs are in metres; ``cost / v_max`` is travel time in seconds.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..errors import PlacementError
 from ..kernels.navigation import distance_transform, shortest_costs
-
-# Paper Eq. 4 defaults
-VELOCITY_LAMBDA = 1.3
-VELOCITY_K = 4
-D_MAX = 1.0  # [m]
-
-
-@dataclass(frozen=True)
-class NavGrid:
-    """A planar grid: ``origin`` (x, y) of the lower-left corner [m], cell ``resolution`` [m], (ny, nx)."""
-
-    origin: tuple[float, float]
-    resolution: float
-    shape: tuple[int, int]
-
-    def cell(self, x: float, y: float) -> tuple[int, int]:
-        """(iy, ix) of the cell containing (x, y) [m]; PlacementError outside the grid."""
-        ix = int(math.floor((x - self.origin[0]) / self.resolution))
-        iy = int(math.floor((y - self.origin[1]) / self.resolution))
-        if not (0 <= iy < self.shape[0] and 0 <= ix < self.shape[1]):
-            raise PlacementError(f"point ({x:.3f}, {y:.3f}) m is outside the navigation grid")
-        return iy, ix
-
-    def centres(self) -> tuple[np.ndarray, np.ndarray]:
-        """Cell centre coordinates: xs (nx,), ys (ny,) [m]."""
-        xs = self.origin[0] + (np.arange(self.shape[1]) + 0.5) * self.resolution
-        ys = self.origin[1] + (np.arange(self.shape[0]) + 0.5) * self.resolution
-        return xs, ys
 
 
 def distance_map(occupied: np.ndarray, resolution: float) -> np.ndarray:
@@ -54,11 +23,11 @@ def distance_map(occupied: np.ndarray, resolution: float) -> np.ndarray:
     return distance_transform(occ, float(resolution))
 
 
-def speed_factor(d_o: np.ndarray, lam: float = VELOCITY_LAMBDA, k: float = VELOCITY_K,
-                 d_max: float = D_MAX) -> np.ndarray:
+def speed_factor(d_o: np.ndarray, lam: float, k: float, d_max: float) -> np.ndarray:
     """The slowdown ``1 + lam * d_s`` of Eq. 4: ``v = v_max / factor``.
 
-    ``d_s = (1 - d_o / d_max) ** k`` where ``d_o < d_max`` [m], else 0.
+    ``d_s = (1 - d_o / d_max) ** k`` where ``d_o < d_max`` [m], else 0 (defaults in
+    :class:`~placement.planning.config.PlannerConfig`).
     """
     d_o = np.asarray(d_o, dtype=float)
     d_s = np.where(d_o < d_max, np.clip(1.0 - d_o / d_max, 0.0, 1.0) ** k, 0.0)

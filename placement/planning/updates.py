@@ -1,82 +1,101 @@
-"""Dynamic updates (paper Table III): apply scene changes to a live planner, redoing only what changed.
+"""Dynamic updates (paper Table III): scene changes applied to a live planner, redoing only what changed.
 
-Changes use the scene-file vocabulary and are validated by the same parser:
+Changes use the scene-file vocabulary and are validated by the same parser, with key paths:
 
-* ``{"objects": [{"name": N, "position": [x, y, z], "yaw": a}, ...]}``: objects moved (the
-  manipulation maps of the steps that pick them are recomputed);
+* ``{"objects": [{"name": N, "position": [x, y, z], "yaw": a, "size": [sx, sy, sz]}, ...]}``:
+  objects moved (only the given keys change; the manipulation maps of the steps that pick them
+  are recomputed);
 * ``{"obstacles": {"add": [<scene obstacle>, ...], "remove": [name, ...]}}``: the distance map,
   feasibility and every cost map are recomputed (the reachability slices stay cached);
 * ``{"start": [x, y, yaw]}``: a new start pose (nothing cached changes).
+
+An update is all or nothing: the new scene, world and cache are built first and swapped in only
+when everything succeeded, so a failed update leaves the planner exactly as it was.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
+from typing import TYPE_CHECKING
 
-from ..errors import PlacementError
-from .scene import SceneError, parse_scene
+from .scene import Scene, SceneParser, check_scene
+from .scene.parse import OBJECT_KEYS
+from .scene.validate import type_name
 from .world import build_world
 
-_KEYS = {"objects", "obstacles", "start"}
+if TYPE_CHECKING:
+    from .planner import Planner
+
+UPDATE_KEYS = ("objects", "obstacles", "start")
+WHERE = "update"
 
 
-def apply_update(planner, change: dict) -> dict:
-    """Apply ``change`` to ``planner`` in place; returns {"updated": [...], "timings_ms": {...}}."""
+def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool]:
+    """The scene after ``change``, the names of moved objects, and whether obstacles changed.
+
+    Raises :class:`~placement.planning.scene.SceneError` (one line, ``update: KEY.PATH: problem``).
+    """
+    P = SceneParser(WHERE)
     if not isinstance(change, dict) or not change:
-        raise PlacementError("an update must be a non-empty mapping")
-    unknown = set(change) - _KEYS
-    if unknown:
-        raise PlacementError(f"unknown update key '{sorted(unknown)[0]}'; allowed: {', '.join(sorted(_KEYS))}")
-    t0 = time.perf_counter()
-    scene = planner.scene
-    doc = scene.to_dict()
+        P.fail("", "an update must be a non-empty mapping with keys " + ", ".join(UPDATE_KEYS))
+    P.mapping(change, "", UPDATE_KEYS)
+
+    def items(value, path: str) -> list:
+        if not isinstance(value, list):
+            P.fail(path, f"expected a list, got {type_name(value)}")
+        return value
+
+    objects = {o.name: o for o in scene.objects}
     moved: set[str] = set()
-    for o in change.get("objects", []):
-        if not isinstance(o, dict) or "name" not in o:
-            raise PlacementError("objects updates need a 'name'")
-        target = next((x for x in doc["objects"] if x["name"] == o["name"]), None)
-        if target is None:
-            raise PlacementError(f"update moves unknown object '{o['name']}'; objects: "
-                                 f"{', '.join(x['name'] for x in doc['objects'])}")
-        for key, value in o.items():
-            if key not in ("name", "position", "yaw", "size"):
-                raise PlacementError(f"unknown key 'objects.{key}' in update; allowed: name, position, yaw, size")
-            target[key] = value
-        moved.add(o["name"])
-    obstacles_changed = False
-    if "obstacles" in change:
-        ch = change["obstacles"]
-        if not isinstance(ch, dict) or set(ch) - {"add", "remove"}:
-            raise PlacementError("obstacles update must be {add: [...], remove: [...]}")
-        names = {x["name"] for x in doc["obstacles"]}
-        for name in ch.get("remove", []):
-            if name not in names:
-                raise PlacementError(f"update removes unknown obstacle '{name}'")
-        doc["obstacles"] = [x for x in doc["obstacles"] if x["name"] not in set(ch.get("remove", []))]
-        doc["obstacles"] += list(ch.get("add", []))
-        obstacles_changed = True
-    if "start" in change:
-        doc["robot"]["start"] = change["start"]
-    try:
-        new = parse_scene(doc, ".", scene.name, source=f"{scene.name} (update)")
-    except SceneError as exc:
-        raise PlacementError(str(exc)) from None
+    for i, item in enumerate(items(change.get("objects", []), "objects")):
+        p = f"objects[{i}]"
+        P.mapping(item, p, OBJECT_KEYS, ("name",))
+        name = P.string(item["name"], f"{p}.name")
+        if name not in objects:
+            P.fail(f"{p}.name", f"unknown object '{name}'; objects: {', '.join(objects) or '(none)'}")
+        if name in moved:
+            P.fail(f"{p}.name", f"object '{name}' is moved twice in one update")
+        o = objects[name]
+        objects[name] = replace(
+            o, position=P.coords(item["position"], f"{p}.position", 3) if "position" in item else o.position,
+            yaw=P.number(item["yaw"], f"{p}.yaw") if "yaw" in item else o.yaw,
+            size=P.sizes(item["size"], f"{p}.size", 3) if "size" in item else o.size)
+        moved.add(name)
+    obstacles = list(scene.obstacles)
+    changed = "obstacles" in change
+    if changed:
+        ch = P.mapping(change["obstacles"], "obstacles", ("add", "remove"))
+        removed = set()
+        for i, name in enumerate(items(ch.get("remove", []), "obstacles.remove")):
+            p = f"obstacles.remove[{i}]"
+            P.string(name, p)
+            if name not in {o.name for o in obstacles} or name in removed:
+                P.fail(p, f"unknown obstacle '{name}'; obstacles: {', '.join(o.name for o in obstacles) or '(none)'}")
+            removed.add(name)
+        obstacles = [o for o in obstacles if o.name not in removed]
+        for n in [*(o.name for o in obstacles), *objects, *(p.name for p in scene.place_locations)]:
+            P.names[n] = "the scene"
+        obstacles += [P.obstacle(item, f"obstacles.add[{i}]")
+                      for i, item in enumerate(items(ch.get("add", []), "obstacles.add"))]
+    start = P.coords(change["start"], "start", 3) if "start" in change else scene.start
+    new = replace(scene, objects=tuple(objects[o.name] for o in scene.objects), obstacles=tuple(obstacles),
+                  start=tuple(start))
+    return check_scene(new, WHERE), moved, changed
+
+
+def apply_update(planner: Planner, change) -> dict:
+    """Apply ``change`` to ``planner`` (all or nothing); returns {"updated": [...], "timings_ms": {...}}."""
+    t0 = time.perf_counter()
+    scene, moved, obstacles_changed = parse_update(change, planner.scene)
     timings = {}
-    planner.scene = new
+    world = planner.world
     if obstacles_changed:
         t = time.perf_counter()
-        p = planner.params
-        planner.world = build_world(new, planner.robot.footprint_radius, p["velocity_lambda"], p["velocity_k"],
-                                    p["d_max"])
+        world = build_world(scene, planner.robot.footprint_radius, planner.base_config)
         timings["distance"] = (time.perf_counter() - t) * 1e3
-        planner._options.clear()
-        planner._heuristic.clear()
-        planner._fixed = None
-    elif moved:
-        for i, (action, target) in enumerate(planner.steps()):
-            if action == "pick" and target in moved:
-                planner._options.pop(i, None)
-        planner._heuristic.clear()  # region maps of changed steps; the others are cheap to redo
+    problems = planner.problems.changed(scene, world, moved)
+    planner.replace_state(scene, world, problems)
     timings["update"] = (time.perf_counter() - t0) * 1e3
     return {"updated": sorted(moved) + (["obstacles"] if obstacles_changed else []) +
             (["start"] if "start" in change else []), "timings_ms": timings}

@@ -6,9 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .navigation import NavGrid, distance_map, speed_factor
-from .occupancy import rasterize_occupancy
+from .config import PlannerConfig
+from .navgrid import NavGrid
+from .navigation import distance_map, speed_factor
 from .scene import Box, Cylinder, Polygon, Scene
+from .scene.occupancy import rasterize_occupancy
 
 
 def _inside_polygon(px: np.ndarray, py: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -41,14 +43,15 @@ def shape_mask(shape, nav: NavGrid) -> np.ndarray:
     raise TypeError(f"unknown shape {type(shape).__name__}")
 
 
-@dataclass
+@dataclass(frozen=True)
 class World:
-    """The static navigation layers of a scene.
+    """The static navigation layers of a scene, all (ny, nx) over ``nav``.
 
     Attributes:
-        nav: the grid. occupied: (ny, nx) bool. distance: (ny, nx) distance to the nearest
-        obstacle [m]. feasible: (ny, nx) bool, base centre allowed (distance >= footprint radius).
-        factor: (ny, nx) slowdown of Eq. 4 (travel cost per metre).
+        nav: the grid. occupied: bool (obstacles, occupancy-map cells that are occupied or unknown,
+        and with an occupancy map every cell outside it). distance: distance to the nearest occupied
+        cell centre [m]. feasible: bool, base centre allowed (distance >= footprint radius).
+        factor: slowdown of Eq. 4 (travel cost per metre, >= 1).
     """
 
     nav: NavGrid
@@ -58,14 +61,19 @@ class World:
     factor: np.ndarray
 
 
-def build_world(scene: Scene, footprint_radius: float, lam: float = 1.3, k: float = 4, d_max: float = 1.0) -> World:
-    """Occupancy from the scene's obstacles (and occupancy map), then distance, feasibility, speed."""
+def build_world(scene: Scene, footprint_radius: float, config: PlannerConfig) -> World:
+    """Occupancy from the scene's obstacles (and occupancy map), then distance, feasibility, speed.
+
+    ``footprint_radius`` [m]; the velocity model's parameters come from ``config``.
+    """
     nav = scene.nav_grid()
     occ = np.zeros(nav.shape, dtype=bool)
     for ob in scene.obstacles:
         occ |= shape_mask(ob.shape, nav)
     if scene.occupancy is not None:
-        occ |= rasterize_occupancy(scene.occupancy, nav.origin, nav.resolution, nav.shape, conservative=True)
+        occ |= rasterize_occupancy(scene.occupancy, nav.origin, nav.resolution, nav.shape, conservative=True,
+                                   outside_occupied=True)
     dist = distance_map(occ, nav.resolution)
     feasible = dist >= footprint_radius
-    return World(nav, occ, dist, feasible, speed_factor(dist, lam, k, d_max))
+    factor = speed_factor(dist, config.velocity_lambda, config.velocity_k, config.d_max)
+    return World(nav, occ, dist, feasible, factor)

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..errors import PlacementError
+from ...errors import PlacementError
 
 log = logging.getLogger(__name__)
 
@@ -266,7 +266,7 @@ def _span(lo: np.ndarray, hi: np.ndarray, origin: float, res: float, n: int):
 
 
 def rasterize_occupancy(occ: OccupancyMap, origin_xy, resolution: float, shape,
-                        conservative: bool = False) -> np.ndarray:
+                        conservative: bool = False, outside_occupied: bool = False) -> np.ndarray:
     """Occupancy of a target grid: (ny, nx) bool.
 
     The target grid has its lower-left corner at ``origin_xy`` [m], square cells of ``resolution``
@@ -276,7 +276,9 @@ def rasterize_occupancy(occ: OccupancyMap, origin_xy, resolution: float, shape,
     By default each target cell takes the value of the occupancy cell that contains its centre
     (nearest-cell sampling). With ``conservative=True`` it is occupied if any occupancy cell that
     overlaps it is occupied, so that one-pixel walls of a finer map are never skipped.
-    Target cells outside the occupancy map are free.
+    Target cells outside the occupancy map are free, or with ``outside_occupied`` occupied (the
+    map says nothing there: unknown, which the planner treats as occupied); with ``conservative``
+    a cell only partly covered by the map counts as outside.
     """
     if occ.origin[2] != 0.0:
         raise OccupancyMapError(f"occupancy map origin yaw {occ.origin[2]} rad is not supported yet (only 0)")
@@ -287,7 +289,7 @@ def rasterize_occupancy(occ: OccupancyMap, origin_xy, resolution: float, shape,
     ox, oy = (float(v) for v in origin_xy)
     rows, cols = occ.occupied.shape
     mx, my, mres = occ.origin[0], occ.origin[1], occ.resolution
-    out = np.zeros((ny, nx), dtype=bool)
+    out = np.full((ny, nx), bool(outside_occupied))
     if ny == 0 or nx == 0 or rows == 0 or cols == 0:
         return out
     if not conservative:
@@ -299,6 +301,20 @@ def rasterize_occupancy(occ: OccupancyMap, origin_xy, resolution: float, shape,
         vr = (r >= 0) & (r < rows)
         out[np.ix_(vr, vc)] = occ.occupied[np.ix_(r[vr], c[vc])]
         return out
+    if outside_occupied:
+        eps = 1e-9
+        x0 = ox + np.arange(nx) * resolution
+        y0 = oy + np.arange(ny) * resolution
+        covered = ((y0 >= my - eps) & (y0 + resolution <= my + rows * mres + eps))[:, None] & \
+                  ((x0 >= mx - eps) & (x0 + resolution <= mx + cols * mres + eps))[None, :]
+        return _conservative(occ, ox, oy, resolution, ny, nx) | ~covered
+    return _conservative(occ, ox, oy, resolution, ny, nx)
+
+
+def _conservative(occ: OccupancyMap, ox: float, oy: float, resolution: float, ny: int, nx: int) -> np.ndarray:
+    """Occupied if any overlapping occupancy cell is occupied; cells outside the map are free."""
+    rows, cols = occ.occupied.shape
+    mx, my, mres = occ.origin[0], occ.origin[1], occ.resolution
     x0 = ox + np.arange(nx) * resolution
     y0 = oy + np.arange(ny) * resolution
     c0, c1, vc = _span(x0, x0 + resolution, mx, mres, cols)

@@ -1,0 +1,118 @@
+"""Per-step problems: each step's manipulation maps (IRMs) and heuristic, in one explicit cache.
+
+What a scene change invalidates (used by dynamic updates, paper Table III):
+
+* a moved object: the IRMs of the step that picks it, and every heuristic (they read those IRMs);
+* added or removed obstacles: everything (the feasible base cells changed);
+* a new start pose: nothing.
+
+Nothing here depends on the start pose or on the method's weights, so one cache serves all
+methods of a scene (evaluation plans each scene with every method).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..rmap import ReachabilityMap
+from .config import PlannerConfig
+from .grasps import Candidate
+from .heuristic import region_heuristic
+from .manipulation import cells_within, manipulation_map, reach_xy
+from .scene import Scene
+from .steps import Step, step_candidates, task_steps
+from .world import World
+
+
+@dataclass(frozen=True)
+class Option:
+    """One (arm, candidate) of a step and its manipulation map over the base grid.
+
+    Attributes:
+        arm: arm name. candidate: the TCP trajectory (world frame).
+        value: (ny, nx) float32, the IRM value of the best base yaw (0 = unreachable).
+        yaw_index: (ny, nx) int64, that yaw's index into the planner's base yaws (-1 if none).
+        out_of_range: True when a pose of the trajectory is outside the map's height range.
+    """
+
+    arm: str
+    candidate: Candidate
+    value: np.ndarray
+    yaw_index: np.ndarray
+    out_of_range: bool = False
+
+
+def height_range(rmap: ReachabilityMap) -> tuple[float, float]:
+    """The TCP heights [m] above the base frame that ``rmap`` covers."""
+    g = rmap.grid
+    return float(g.origin[2]), float(g.origin[2] + g.shape[2] * g.resolution)
+
+
+class StepProblems:
+    """The cache of a scene's per-step IRMs and heuristics (see the module docstring).
+
+    Args:
+        scene, world: the scene and its rasterised layers.
+        maps: arm -> reachability map. config: the planner configuration (threshold, grasp yaws).
+        yaws: (K,) base yaws tried per cell [rad].
+    """
+
+    def __init__(self, scene: Scene, world: World, maps: dict[str, ReachabilityMap], config: PlannerConfig,
+                 yaws: np.ndarray):
+        self.scene, self.world, self.maps, self.config, self.yaws = scene, world, maps, config, yaws
+        self.steps: list[Step] = task_steps(scene)
+        self._options: dict[int, list[Option]] = {}
+        self._heuristic: dict[tuple[int, bool], np.ndarray] = {}
+
+    def options(self, i: int) -> list[Option]:
+        """Manipulation maps of step i for every arm and candidate (cached)."""
+        if i not in self._options:
+            self._options[i] = self._compute_options(self.steps[i])
+        return self._options[i]
+
+    def _compute_options(self, step: Step) -> list[Option]:
+        nav = self.world.nav
+        opts = []
+        near: dict[tuple, np.ndarray] = {}  # candidates of a step share their target position
+        for arm, rmap in self.maps.items():
+            lo, hi = height_range(rmap)
+            for cand in step_candidates(self.scene, step, self.config):
+                key = (cand.poses[-1, 0, 3], cand.poses[-1, 1, 3], reach_xy(rmap.grid))
+                if key not in near:
+                    cells = cells_within(nav, *key)
+                    near[key] = cells[self.world.feasible.flat[cells]]
+                value, yaw = manipulation_map(rmap, cand.poses, nav, self.yaws, near[key])
+                z = cand.poses[:, 2, 3]
+                opts.append(Option(arm, cand, value, yaw, bool(np.any((z < lo) | (z >= hi)))))
+        return opts
+
+    def feasible_region(self, i: int) -> np.ndarray:
+        """(ny, nx) bool: base cells from which some arm and candidate of step i reach the threshold."""
+        mask = np.zeros(self.world.nav.shape, dtype=bool)
+        for o in self.options(i):
+            mask |= o.value >= self.config.threshold
+        return mask
+
+    def heuristic(self, i: int, at: np.ndarray | None = None) -> np.ndarray:
+        """Navigation cost [m] towards step i's feasible regions (cached); ``at``: optional (ny, nx)
+        bool of the cells that will be read (see :func:`region_heuristic`)."""
+        key = (i, at is None)
+        if key not in self._heuristic:
+            self._heuristic[key] = region_heuristic(self.feasible_region(i), self.world, self.config.min_region, at)
+        return self._heuristic[key]
+
+    def changed(self, scene: Scene, world: World, moved_objects: set[str]) -> StepProblems:
+        """A cache for the changed ``scene`` (and ``world``) that keeps what the change left valid.
+
+        A new ``world`` object means the obstacles changed: nothing is kept. Otherwise the IRMs
+        of steps that do not pick a moved object are kept. ``self`` is not modified.
+        """
+        new = StepProblems(scene, world, self.maps, self.config, self.yaws)
+        if world is self.world:
+            new._options = {i: o for i, o in self._options.items()
+                            if not (self.steps[i].action == "pick" and self.steps[i].target in moved_objects)}
+            if not moved_objects:
+                new._heuristic = dict(self._heuristic)
+        return new

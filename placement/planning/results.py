@@ -1,0 +1,160 @@
+"""Typed results of planning: one :class:`StepResult` per step, a :class:`PlanResult` per task.
+
+``to_json()`` gives the documents of SPEC section 7 (the only place they are assembled);
+``verify(robot)`` re-checks a plan with pinocchio's forward kinematics, independently of the
+planner's own kernels.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..robots import Robot, matrix_to_pose
+from .verify import base_matrix
+
+
+@dataclass
+class StepMaps:
+    """A step's (ny, nx) layers, kept for plots: navigation and heuristic cost [m], the best
+    manipulability over options (dimensionless), the combined cost (Eq. 6) and the path (m, 2)
+    of (iy, ix) cells from the previous placement."""
+
+    navigation: np.ndarray | None = None
+    heuristic: np.ndarray | None = None
+    manipulation: np.ndarray | None = None
+    combined: np.ndarray | None = None
+    path: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Cost:
+    """The terms of Eq. 6 for the chosen placement (weighted; their sum is ``total``)."""
+
+    navigation: float
+    manipulation: float
+    heuristic: float
+
+    @property
+    def total(self) -> float:
+        return self.navigation + self.manipulation + self.heuristic
+
+
+@dataclass
+class StepResult:
+    """One step: either planned (``status`` "ok") or infeasible with a ``reason``.
+
+    Attributes:
+        step, action, target: which step (index, "pick"/"place", object or place location name).
+        arm, grasp: the chosen arm and candidate trajectory name.
+        base: (x [m], y [m], yaw [rad]) of the base frame on the floor.
+        tcp: (P, 4, 4) TCP poses in the world frame, pre-pose first.
+        q: (n,) the arm's IK solution for the last TCP pose [rad or m]; joints: every arm joint and
+            every joint the preset holds fixed, by name.
+        manipulability: the IRM value at the placement (dimensionless). cost: Eq. 6's terms.
+        travel_time_s: navigation cost / v_max [s]. timings_ms: per stage [ms].
+        maps: the step's layers when they were kept (plots); not part of the JSON.
+    """
+
+    step: int
+    action: str
+    target: str
+    status: str = "ok"
+    reason: str | None = None
+    arm: str | None = None
+    grasp: str | None = None
+    base: tuple[float, float, float] | None = None
+    tcp: np.ndarray | None = None
+    q: np.ndarray | None = None
+    joints: dict[str, float] = field(default_factory=dict)
+    manipulability: float | None = None
+    cost: Cost | None = None
+    travel_time_s: float | None = None
+    timings_ms: dict[str, float] = field(default_factory=dict)
+    maps: StepMaps | None = field(default=None, repr=False)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    def to_json(self) -> dict:
+        timings = {k: round(v, 3) for k, v in self.timings_ms.items()}
+        if not self.ok:
+            return {"step": self.step, "action": self.action, "target": self.target, "status": self.status,
+                    "reason": self.reason, "timings_ms": timings}
+        return {
+            "step": self.step, "action": self.action, "target": self.target, "arm": self.arm, "grasp": self.grasp,
+            "base": [round(float(v), 6) for v in self.base],
+            "tcp": [matrix_to_pose(T) for T in self.tcp],
+            "joints": dict(self.joints),
+            "manipulability": float(self.manipulability),
+            "cost": {"total": self.cost.total, "navigation": self.cost.navigation,
+                     "manipulation": self.cost.manipulation, "heuristic": self.cost.heuristic},
+            "travel_time_s": float(self.travel_time_s),
+            "timings_ms": timings,
+        }
+
+
+def robot_info(robot: Robot, arms) -> dict:
+    """The ``robot`` block of the plan document for the mapped ``arms``."""
+    return {"name": robot.name, "base_frame": robot.base_frame,
+            "arms": {a: {"joints": list(robot.arm(a).joints), "tip_frame": robot.arm(a).tip_frame,
+                         "tcp_offset": matrix_to_pose(robot.arm(a).tcp_offset)} for a in arms}}
+
+
+@dataclass
+class PlanResult:
+    """A planned task: ``status`` "ok" when every step is planned, else "infeasible" (the steps up to
+    and including the first infeasible one)."""
+
+    scene: str
+    method: str
+    robot: dict
+    steps: list[StepResult]
+    update: dict | None = None
+
+    @property
+    def status(self) -> str:
+        return "ok" if self.steps and all(s.ok for s in self.steps) else "infeasible"
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    @property
+    def failed_step(self) -> StepResult | None:
+        """The first infeasible step, if any."""
+        return next((s for s in self.steps if not s.ok), None)
+
+    def to_json(self) -> dict:
+        out = {"scene": self.scene, "method": self.method, "robot": self.robot, "status": self.status,
+               "steps": [s.to_json() for s in self.steps]}
+        if self.update is not None:
+            out["update"] = self.update
+        return out
+
+    def verify(self, robot: Robot, pos_tol: float = 0.01, rot_tol: float = math.radians(3)) -> list[str]:
+        """Independent checks of every planned step with pinocchio FK: joints within limits, fixed
+        joints at their values, the TCP at the last pose of the trajectory (``pos_tol`` [m],
+        ``rot_tol`` [rad]). Returns the problems found (empty: the plan holds)."""
+        problems = []
+        for s in self.steps:
+            if not s.ok:
+                continue
+            arm = robot.arm(s.arm)
+            q = np.array([s.joints[j] for j in arm.joints])
+            where = f"step {s.step} ({s.action} {s.target})"
+            if np.any(q < arm.lower - 1e-9) or np.any(q > arm.upper + 1e-9):
+                problems.append(f"{where}: joints outside their limits")
+            for j, v in robot.fixed_joints.items():
+                if s.joints.get(j) != v:
+                    problems.append(f"{where}: fixed joint {j} is {s.joints.get(j)}, not {v}")
+            T = base_matrix(*s.base) @ robot.tcp_pose(s.arm, q)
+            want = np.asarray(s.tcp[-1])
+            err = float(np.linalg.norm(T[:3, 3] - want[:3, 3]))
+            ang = math.acos(float(np.clip((np.trace(T[:3, :3].T @ want[:3, :3]) - 1) / 2, -1, 1)))
+            if err > pos_tol or ang > rot_tol:
+                problems.append(f"{where}: TCP off by {err * 100:.1f} cm and {math.degrees(ang):.1f} deg")
+        return problems

@@ -1,0 +1,132 @@
+"""Reading and writing scene files (YAML): strict loading, and the scene back as a mapping."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from .model import Box, Cylinder, Obstacle, Scene, SceneError, is_path
+from .parse import parse_scene
+
+
+class UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that refuses duplicate mapping keys (PyYAML silently keeps the last one)."""
+
+
+def _construct_mapping(loader, node, deep=False):
+    seen = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        try:
+            duplicate = key in seen
+        except TypeError:
+            continue
+        if duplicate:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r}", key_node.start_mark)
+        seen.add(key)
+    return yaml.SafeLoader.construct_mapping(loader, node, deep)
+
+
+UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def read_yaml(path: Path, error: type[Exception]) -> Any:
+    """The YAML document at ``path``; ``error`` (one line with line and column) if it cannot be read."""
+    if not path.is_file():
+        raise error(f"{path}: no such file" if not path.exists() else f"{path}: not a file")
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(f"{path}: cannot read the file: {exc}") from None
+    try:
+        return yaml.load(text, Loader=UniqueKeyLoader)  # noqa: S506 (a SafeLoader subclass)
+    except (yaml.YAMLError, RecursionError) as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise error(f"{path}: not valid YAML: {problem}{where}") from None
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file (YAML, contract version 1); its name is the file stem.
+
+    Relative paths inside it are resolved against the file's directory. Raises :class:`SceneError`
+    (one line naming the file and the key path) for anything that is not a valid scene.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(f"scene file not found: {path}")
+    data = read_yaml(path, SceneError)
+    return parse_scene(data, path.parent, path.stem, source=path)
+
+
+def save_scene(scene: Scene, path: str | Path) -> Path:
+    """Write ``scene`` as a scene file (paths relative to its directory); returns the path."""
+    path = Path(path)
+    path.write_text(yaml.safe_dump(scene_to_dict(scene, relative_to=path.parent), sort_keys=False,
+                                   default_flow_style=None))
+    return path
+
+
+def _floats(a) -> list[float]:
+    return [float(v) for v in np.asarray(a).ravel()]
+
+
+def _plain(value):
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def obstacle_to_dict(o: Obstacle) -> dict:
+    """One obstacle as a scene-file mapping."""
+    s = o.shape
+    if isinstance(s, Box):
+        shape = {"box": {"center": _floats(s.center), "size": _floats(s.size), "yaw": s.yaw}}
+    elif isinstance(s, Cylinder):
+        shape = {"cylinder": {"center": _floats(s.center), "radius": s.radius, "height": s.height}}
+    else:
+        shape = {"polygon": [_floats(p) for p in s.points]}
+    out = {"name": o.name, **shape}
+    if o.table:
+        out["table"] = True
+    return out
+
+
+def scene_to_dict(scene: Scene, relative_to: str | Path | None = None) -> dict:
+    """The scene as a scene-file mapping (plain Python types, bounds always written).
+
+    Paths are absolute, or relative to ``relative_to`` (the directory the file will be in) when given.
+    """
+    def path(p) -> str:
+        if relative_to is None:
+            return str(p)
+        return os.path.relpath(p, Path(relative_to).absolute())
+
+    preset = scene.robot_preset
+    if is_path(preset):
+        preset = path(preset)
+    out: dict[str, Any] = {
+        "version": scene.version,
+        "resolution": scene.resolution,
+        "bounds": list(scene.bounds),
+        "robot": {"preset": preset, "start": list(scene.start)},
+    }
+    if scene.maps is not None:
+        out["maps"] = path(scene.maps)
+    if scene.occupancy_map is not None:
+        out["occupancy_map"] = path(scene.occupancy_map)
+    out["obstacles"] = [obstacle_to_dict(o) for o in scene.obstacles]
+    out["objects"] = [{"name": o.name, "position": _floats(o.position), "yaw": o.yaw,
+                       "size": _floats(o.size)} for o in scene.objects]
+    out["place_locations"] = [{"name": p.name, "position": _floats(p.position)} for p in scene.place_locations]
+    out["task"] = [{"pick": t.pick, "place": t.place} for t in scene.task]
+    out["planner"] = _plain(scene.planner)
+    return out
