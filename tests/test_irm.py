@@ -10,7 +10,7 @@ import pytest
 import placement
 from placement.grid import pose_from_zyx
 from placement.planning.manipulation import base_yaws, manipulation_map
-from placement.planning.navigation import NavGrid
+from placement.planning.navgrid import NavGrid
 
 
 @pytest.fixture(scope="module")

@@ -50,7 +50,7 @@ def test_distance_map_empty_is_inf():
 
 def test_speed_factor_literal():
     d = np.array([0.0, 0.5, 1.0, 2.0])
-    np.testing.assert_allclose(speed_factor(d), [1 + 1.3, 1 + 1.3 * 0.5 ** 4, 1.0, 1.0])
+    np.testing.assert_allclose(speed_factor(d, 1.3, 4, 1.0), [1 + 1.3, 1 + 1.3 * 0.5 ** 4, 1.0, 1.0])
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -58,7 +58,7 @@ def test_costs_equal_scipy_dijkstra(seed):
     rng = np.random.default_rng(100 + seed)
     ny, nx = rng.integers(4, 40, size=2)
     feas = rng.random((ny, nx)) > 0.25
-    fac = speed_factor(distance_map(~feas, 0.05))
+    fac = speed_factor(distance_map(~feas, 0.05), 1.3, 4, 1.0)
     starts = np.argwhere(feas)[rng.choice(feas.sum(), size=2, replace=False)]
     cost, _ = navigation_cost(fac, feas, starts, 0.05)
     ref = dijkstra(_graph(fac, feas, 0.05), indices=starts[:, 0] * nx + starts[:, 1], min_only=True)
@@ -105,7 +105,7 @@ def test_start_in_obstacle_is_an_error():
 def test_early_stop_is_exact_on_targets(seed):
     rng = np.random.default_rng(200 + seed)
     feas = rng.random((50, 60)) > 0.2
-    fac = speed_factor(distance_map(~feas, 0.05))
+    fac = speed_factor(distance_map(~feas, 0.05), 1.3, 4, 1.0)
     start = np.argwhere(feas)[0]
     full, _ = navigation_cost(fac, feas, start, 0.05)
     targets = np.zeros_like(feas)

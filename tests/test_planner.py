@@ -52,37 +52,55 @@ def _planar(x, y, yaw):
     return B
 
 
+def _check_fk(result, pr2, planner):
+    """Independent FK (pinocchio, not the planner's kernels) of every step, limits, base clearance."""
+    world = planner.world
+    for s in result.steps:
+        arm = pr2.arm(s.arm)
+        q = np.array([s.joints[j] for j in arm.joints])
+        assert np.all(q >= arm.lower - 1e-9) and np.all(q <= arm.upper + 1e-9)
+        assert s.joints["torso_lift_joint"] == pr2.fixed_joints["torso_lift_joint"]
+        T = _planar(*s.base) @ pr2.tcp_pose(s.arm, q)
+        target = np.asarray(s.tcp[-1])
+        assert np.linalg.norm(T[:3, 3] - target[:3, 3]) < 0.01
+        assert np.degrees(np.arccos(np.clip((np.trace(T[:3, :3].T @ target[:3, :3]) - 1) / 2, -1, 1))) < 3
+        iy, ix = world.nav.cell(s.base[0], s.base[1])
+        assert world.distance[iy, ix] >= pr2.footprint_radius
+    assert result.verify(pr2) == []
+
+
 def test_plan_is_verified_by_independent_fk(tmp_path, maps_dir, pr2):
     planner = Planner(write_scene(tmp_path, maps_dir))
     result = planner.plan()
-    assert result["status"] == "ok"
-    assert [(s["action"], s["target"]) for s in result["steps"]] == [
+    assert result.status == "ok"
+    assert [(s.action, s.target) for s in result.steps] == [
         ("pick", "cup"), ("place", "spot"), ("pick", "box"), ("place", "spot")]
-    world = planner.world
-    for s in result["steps"]:
-        arm = pr2.arm(s["arm"])
-        q = np.array([s["joints"][j] for j in arm.joints])
-        assert np.all(q >= arm.lower - 1e-9) and np.all(q <= arm.upper + 1e-9)
-        assert s["joints"]["torso_lift_joint"] == pr2.fixed_joints["torso_lift_joint"]
-        T = _planar(*s["base"]) @ pr2.tcp_pose(s["arm"], q)  # pinocchio FK, not the planner's
-        target = placement.robots.pose_to_matrix(s["tcp"][-1])
-        assert np.linalg.norm(T[:3, 3] - target[:3, 3]) < 0.01
-        assert np.degrees(np.arccos(np.clip((np.trace(T[:3, :3].T @ target[:3, :3]) - 1) / 2, -1, 1))) < 3
-        iy, ix = world.nav.cell(s["base"][0], s["base"][1])
-        assert world.distance[iy, ix] >= pr2.footprint_radius
+    _check_fk(result, pr2, planner)
+    doc = result.to_json()
+    for s in doc["steps"]:
         assert s["cost"]["total"] == pytest.approx(
             s["cost"]["navigation"] + s["cost"]["manipulation"] + s["cost"]["heuristic"])
-        assert s["travel_time_s"] >= 0
+
+
+def test_verify_catches_a_wrong_plan(tmp_path, maps_dir, pr2):
+    """PlanResult.verify is an oracle that can fail: a joint moved by 0.2 rad is caught."""
+    result = Planner(write_scene(tmp_path, maps_dir)).plan()
+    s = result.steps[0]
+    name = pr2.arm(s.arm).joints[1]
+    s.joints[name] += 0.2
+    assert any("TCP off" in p for p in result.verify(pr2))
 
 
 def test_methods_share_code_and_weights(tmp_path, maps_dir):
     path = write_scene(tmp_path, maps_dir)
     irm = Planner(path, "irm").plan()
-    assert irm["status"] == "ok"
-    for s in irm["steps"]:
-        assert s["cost"]["navigation"] == 0 and s["cost"]["heuristic"] == 0
+    assert irm.status == "ok"
+    for s in irm.steps:
+        assert s.cost.navigation == 0 and s.cost.heuristic == 0 and s.cost.manipulation > 0
     single = Planner(path, "single-step").plan()
-    assert all(s["cost"]["heuristic"] == 0 for s in single["steps"])
+    assert all(s.cost.heuristic == 0 and s.cost.navigation > 0 for s in single.steps)
+    sequential = Planner(path, "sequential").plan()
+    assert all(s.cost.heuristic > 0 for s in sequential.steps[:-1]) and sequential.steps[-1].cost.heuristic == 0
 
 
 def _run(*args):
@@ -111,7 +129,8 @@ def test_unreachable_object_is_reported_not_placed(tmp_path, maps_dir):
     assert p.returncode == 3
     doc = json.loads(p.stdout)
     assert doc["status"] == "infeasible"
-    assert doc["steps"][0]["status"] == "infeasible" and doc["steps"][0]["reason"]
+    assert doc["steps"][0]["status"] == "infeasible"
+    assert "outside the height range of the maps" in doc["steps"][0]["reason"]
     assert "infeasible" in p.stderr and "Traceback" not in p.stderr
 
 
@@ -133,59 +152,30 @@ def test_generated_scenes_plan_and_verify(tmp_path, maps_dir, pr2, obstacles):
     path.write_text(yaml.safe_dump(doc))
     planner = Planner(path)
     result = planner.plan()
-    assert result["status"] == "ok", result["steps"][-1]
-    for s in result["steps"]:
-        arm = pr2.arm(s["arm"])
-        q = np.array([s["joints"][j] for j in arm.joints])
-        T = _planar(*s["base"]) @ pr2.tcp_pose(s["arm"], q)
-        assert np.linalg.norm(T[:3, 3] - np.array(s["tcp"][-1][:3])) < 0.01
-        iy, ix = planner.world.nav.cell(s["base"][0], s["base"][1])
-        assert planner.world.distance[iy, ix] >= pr2.footprint_radius
+    assert result.status == "ok", result.steps[-1]
+    _check_fk(result, pr2, planner)
 
 
 def test_optimal_plans_verified_steps(tmp_path, maps_dir, pr2):
     """The DP yardstick plans the whole task; every step is verified by independent FK."""
     planner = Planner(write_scene(tmp_path, maps_dir), "optimal")
     result = planner.plan()
-    assert result["status"] == "ok" and result["method"] == "optimal"
-    assert len(result["steps"]) == 4
-    for s in result["steps"]:
-        arm = pr2.arm(s["arm"])
-        q = np.array([s["joints"][j] for j in arm.joints])
-        T = _planar(*s["base"]) @ pr2.tcp_pose(s["arm"], q)
-        assert np.linalg.norm(T[:3, 3] - np.array(s["tcp"][-1][:3])) < 0.01
-        assert s["cost"]["heuristic"] == 0
+    assert result.status == "ok" and result.method == "optimal"
+    assert len(result.steps) == 4
+    _check_fk(result, pr2, planner)
+    assert all(s.cost.heuristic == 0 for s in result.steps)
 
 
-def test_updates_redo_only_what_changed(tmp_path, maps_dir, pr2):
-    planner = Planner(write_scene(tmp_path, maps_dir))
-    first = planner.plan()
-    assert first["status"] == "ok"
-    cached_place = planner._options[1]  # the place step's IRMs do not depend on the cup
-    info = planner.update({"objects": [{"name": "cup", "position": [3.2, 2.5, 0.8]}]})
-    assert info["updated"] == ["cup"]
-    assert 0 not in planner._options and planner._options[1] is cached_place
-    moved = planner.plan()
-    assert moved["status"] == "ok"
-    assert moved["steps"][0]["tcp"][-1][:2] == pytest.approx([3.2, 2.5])
-    # a crate on the chosen placement: the new plan avoids it
-    x, y, _ = moved["steps"][0]["base"]
-    planner.update({"obstacles": {"add": [{"name": "crate", "box": {"center": [x, y, 0.3], "size": [0.4, 0.4, 0.6]}}]}})
-    again = planner.plan()
-    assert again["status"] == "ok"
-    assert math.hypot(again["steps"][0]["base"][0] - x, again["steps"][0]["base"][1] - y) > pr2.footprint_radius
-    with pytest.raises(placement.PlacementError, match="colour"):
-        planner.update({"colour": 1})
-    with pytest.raises(placement.PlacementError, match="unknown object 'mug'"):
-        planner.update({"objects": [{"name": "mug", "yaw": 1.0}]})
+def test_optimal_names_the_step_that_fails(tmp_path, maps_dir):
+    objects = json.loads(json.dumps(SCENE))["objects"]
+    objects[1]["position"] = [2.8, 2.4, 2.6]  # the second pick (step 2) is out of reach
+    result = Planner(write_scene(tmp_path, maps_dir, objects=objects), "optimal").plan()
+    assert result.status == "infeasible"
+    assert (result.failed_step.step, result.failed_step.target) == (2, "box")
 
 
-def test_stream_mode(tmp_path, maps_dir):
-    env = dict(os.environ)
-    lines = '{"objects": [{"name": "cup", "yaw": 1.0}]}\nnot json\n'
-    p = subprocess.run([sys.executable, "-m", "placement.cli.main", "query", str(write_scene(tmp_path, maps_dir)),
-                        "--stream", "-q"], input=lines, capture_output=True, text=True, env=env)
+def test_optimal_writes_plots(tmp_path, maps_dir):
+    path = write_scene(tmp_path, maps_dir)
+    p = _run("query", str(path), "--method", "optimal", "-q", "--plot", str(tmp_path / "plots"))
     assert p.returncode == 0, p.stderr
-    out = [json.loads(x) for x in p.stdout.splitlines()]
-    assert len(out) == 3 and out[0]["status"] == "ok" and out[1]["update"]["updated"] == ["cup"]
-    assert "error" in out[2] and "Traceback" not in p.stderr
+    assert len(list((tmp_path / "plots").glob("*.png"))) == 4

@@ -10,12 +10,13 @@ import pytest
 import yaml
 
 from placement.errors import PlacementError
-from placement.planning.occupancy import (
+from placement.planning.scene.occupancy import (
     OccupancyMap, OccupancyMapError, load_occupancy_map, parse_pgm, rasterize_occupancy,
 )
+from placement.planning.config import PLANNER_KEYS
 from placement.planning.scene import (
-    PLANNER_KEYS, Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, TaskStep,
-    load_scene, parse_scene, save_scene,
+    Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, TaskStep,
+    load_scene, parse_scene, save_scene, scene_to_dict,
 )
 
 # A 4 x 3 image, file order (top row = largest y). With p = (255 - v) / 255 and the default
@@ -77,7 +78,7 @@ obstacles:
   - {name: wall, polygon: [[-2.5, -2.5], [6.5, -2.5], [6.5, -2.4], [-2.5, -2.4]]}
 objects:
   - {name: cup_1, position: [2.1, 0.1, 0.8], yaw: 0.3, size: [0.08, 0.08, 0.1]}
-  - {name: cup_2, position: [1.9, -0.1, 0.8], size: [0.06, 0.1, 0.12]}
+  - {name: cup_2, position: [1.9, -0.1, 0.81], size: [0.06, 0.1, 0.12]}
 place_locations:
   - {name: bin_a, position: [5.0, 1.0, 0.9]}
   - {name: bin_b, position: [5.0, -1.0, 0.9]}
@@ -111,7 +112,7 @@ def test_full_scene_loads(scene_file, tmp_path):
     assert s.obstacles[1] == Obstacle("pillar", Cylinder([-1.0, 3.0, 1.0], 0.2, 2.0))
     assert s.obstacles[2] == Obstacle("wall", Polygon([[-2.5, -2.5], [6.5, -2.5], [6.5, -2.4], [-2.5, -2.4]]))
     assert s.objects == (SceneObject("cup_1", [2.1, 0.1, 0.8], 0.3, [0.08, 0.08, 0.1]),
-                         SceneObject("cup_2", [1.9, -0.1, 0.8], 0.0, [0.06, 0.1, 0.12]))
+                         SceneObject("cup_2", [1.9, -0.1, 0.81], 0.0, [0.06, 0.1, 0.12]))
     assert s.place_locations == (PlaceLocation("bin_a", [5.0, 1.0, 0.9]), PlaceLocation("bin_b", [5.0, -1.0, 0.9]))
     assert s.task == (TaskStep("cup_1", "bin_a"), TaskStep("cup_2", "bin_b"))
     assert s.planner == {"lambda_n": 0.05, "yaw_steps": 60, "grasp_yaws": [0.0, 1.5707963]}
@@ -127,7 +128,7 @@ def test_full_scene_loads(scene_file, tmp_path):
 def test_round_trip(scene_file, tmp_path):
     s = load_scene(scene_file)
     # through a dict with absolute paths
-    assert parse_scene(s.to_dict(), "/", "scene") == s
+    assert parse_scene(scene_to_dict(s), "/", "scene") == s
     # through a file in another directory, paths written relative to it
     other = tmp_path / "copy"
     other.mkdir()
@@ -137,7 +138,7 @@ def test_round_trip(scene_file, tmp_path):
     assert again.occupancy_map == s.occupancy_map and again.maps == s.maps
     assert yaml.safe_load(out.read_text())["maps"] == "../maps/pr2"
     # and a change is seen
-    assert parse_scene({**s.to_dict(), "resolution": 0.05}, "/", "scene") != s
+    assert parse_scene({**scene_to_dict(s), "resolution": 0.05}, "/", "scene") != s
 
 
 def test_default_bounds_cover_everything_plus_a_metre():
@@ -234,8 +235,8 @@ ERRORS = [
     (_set(["robot", "start"], [0.0, 0.0, float("inf")]), "robot.start[2]: expected a finite number, got inf"),
     (_set(["resolution"], float("inf")), "resolution: expected a finite number, got inf"),
     # non-positive sizes, radius, resolution
-    (_set(["resolution"], 0), "scene.yaml: resolution: must be > 0, got 0"),
-    (_set(["resolution"], -0.05), "resolution: must be > 0, got -0.05"),
+    (_set(["resolution"], 0), "scene.yaml: resolution: must be >= 0.001, got 0"),
+    (_set(["resolution"], -0.05), "resolution: must be >= 0.001, got -0.05"),
     (_set(["obstacles", 0, "box", "size"], [0.8, -0.6, 0.75]), "obstacles[0].box.size[1]: must be > 0, got -0.6"),
     (_set(["obstacles", 1, "cylinder", "radius"], 0.0), "obstacles[1].cylinder.radius: must be > 0, got 0.0"),
     (_set(["obstacles", 1, "cylinder", "height"], -1), "obstacles[1].cylinder.height: must be > 0, got -1"),
@@ -273,7 +274,11 @@ ERRORS = [
      "objects[1].position: object 'cup_2' at (1.9, -3.5) is outside bounds [-3, -3, 7, 5]"),
     (_set(["place_locations", 0, "position"], [8.0, 1.0, 0.9]),
      "place_locations[0].position: place location 'bin_a' at (8, 1) is outside bounds"),
-    (_set(["resolution"], 0.0001), "resolution: bounds [-3, -3, 7, 5] at 0.0001 m give a 100000 x 80000 grid"),
+    (_set(["resolution"], 0.001), "resolution: bounds [-3, -3, 7, 5] at 0.001 m give a 10000 x 8000 grid"),
+    (_set(["resolution"], 0.0001), "resolution: must be >= 0.001, got 0.0001"),
+    (_set(["bounds"], [0, 0, 1e300, 1]), "bounds[2]: must be within +-1e+06, got 1e+300"),
+    (_set(["planner", "lambda_m"], 1e308), "planner.lambda_m: must be <= 1e+06, got 1e+308"),
+    (_set(["planner", "threshold"], 0), "planner.threshold: must be > 0, got 0"),
     # files
     (_set(["robot", "preset"], "pr3"), "robot.preset: unknown robot 'pr3'; built-in presets: pr2"),
     (_set(["robot", "preset"], "robots/mine.yaml"), "robot.preset: robot preset file not found: "),

@@ -1,0 +1,135 @@
+"""Dynamic updates (paper Table III): what a change keeps, all-or-nothing updates, the stream mode."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import placement
+from placement.planning import Planner, SceneError
+from placement.planning.updates import parse_update
+from test_planner import write_scene
+
+
+@pytest.fixture(scope="module")
+def planner(tmp_path_factory, maps_dir):
+    return Planner(write_scene(tmp_path_factory.mktemp("updates"), maps_dir))
+
+
+def test_updates_redo_only_what_changed(tmp_path, maps_dir, pr2):
+    planner = Planner(write_scene(tmp_path, maps_dir))
+    first = planner.plan()
+    assert first.ok
+    cached_place = planner.problems.options(1)  # the place step's IRMs do not depend on the cup
+    cached_pick = planner.problems.options(0)
+    info = planner.update({"objects": [{"name": "cup", "position": [3.2, 2.5, 0.8]}]})
+    assert info["updated"] == ["cup"]
+    assert planner.problems.options(1) is cached_place and planner.problems.options(0) is not cached_pick
+    moved = planner.plan()
+    assert moved.ok
+    assert moved.steps[0].tcp[-1][:2, 3] == pytest.approx([3.2, 2.5])
+    # a crate on the chosen placement: the new plan avoids it
+    x, y, _ = moved.steps[0].base
+    planner.update({"obstacles": {"add": [{"name": "crate", "box": {"center": [x, y, 0.3], "size": [0.4, 0.4, 0.6]}}]}})
+    again = planner.plan()
+    assert again.ok
+    assert math.hypot(again.steps[0].base[0] - x, again.steps[0].base[1] - y) > pr2.footprint_radius
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"colour": 1}, "unknown key 'colour'; allowed: objects, obstacles, start"),
+    ({}, "an update must be a non-empty mapping"),
+    ([1, 2], "an update must be a non-empty mapping"),
+    ({"objects": None}, "objects: expected a list, got null"),
+    ({"objects": [{"name": "mug", "yaw": 1.0}]}, "objects[0].name: unknown object 'mug'; objects: cup, box"),
+    ({"objects": [{"yaw": 1.0}]}, "missing required key 'objects[0].name'"),
+    ({"objects": [{"name": "cup", "position": [1, 2]}]}, "objects[0].position: expected 3 numbers, got 2"),
+    ({"objects": [{"name": "cup", "position": [3.0, 2.5, 0.3]}]}, "object 'cup' is inside obstacle 'table'"),
+    ({"objects": [{"name": "cup", "yaw": "north"}]}, "objects[0].yaw: expected a number"),
+    ({"obstacles": {"add": None}}, "obstacles.add: expected a list, got null"),
+    ({"obstacles": {"remove": [["x"]]}}, "obstacles.remove[0]: expected a non-empty string, got list"),
+    ({"obstacles": {"remove": ["wall"]}}, "obstacles.remove[0]: unknown obstacle 'wall'"),
+    ({"obstacles": {"add": [{"name": "cup", "cylinder": {"center": [0, 0, 0], "radius": 1, "height": 1}}]}},
+     "obstacles.add[0].name: duplicate name 'cup'"),
+    ({"obstacles": []}, "obstacles: expected a mapping, got list"),
+    ({"start": [1, 2]}, "start: expected 3 numbers, got 2"),
+    ({"start": [100.0, 2.0, 0.0]}, "robot.start: the start position at (100, 2) is outside bounds"),
+])
+def test_bad_updates_are_one_line_and_change_nothing(planner, change, message):
+    before = (planner.scene, planner.world, planner.problems)
+    with pytest.raises(SceneError) as err:
+        planner.update(change)
+    assert message in str(err.value) and str(err.value).startswith("update: ") and "\n" not in str(err.value)
+    assert (planner.scene, planner.world, planner.problems) == before
+
+
+def test_failed_update_leaves_the_planner_as_it_was(tmp_path, maps_dir):
+    """A change that fails halfway (a good object move, then a bad obstacle) applies nothing."""
+    planner = Planner(write_scene(tmp_path, maps_dir))
+    want = planner.plan().to_json()
+    cup = planner.scene.object("cup")
+    with pytest.raises(placement.PlacementError):
+        planner.update({"objects": [{"name": "cup", "position": [3.2, 2.5, 0.8]}], "obstacles": {"remove": ["x"]}})
+    assert planner.scene.object("cup") is cup
+    got = planner.plan().to_json()
+    for a, b in zip(got["steps"], want["steps"]):
+        assert a["base"] == b["base"] and a["joints"] == b["joints"]
+
+
+# A recursive strategy: the JSON values a stream line can hold.
+_json = st.recursive(st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=True)
+                     | st.text(max_size=8),
+                     lambda children: st.lists(children, max_size=4) | st.dictionaries(
+                         st.sampled_from(["objects", "obstacles", "start", "name", "position", "yaw", "size",
+                                          "add", "remove", "box", "cylinder", "polygon", "center", "radius",
+                                          "height", "table", "x"]), children, max_size=4),
+                     max_leaves=20)
+_object_names = st.sampled_from(["cup", "box", "mug"])
+_vec3 = st.lists(st.floats(-10, 10) | st.integers(-10, 10) | st.text(max_size=2), min_size=2, max_size=4)
+_plausible = st.fixed_dictionaries({}, optional={
+    "objects": st.lists(st.fixed_dictionaries({"name": _object_names}, optional={
+        "position": _vec3, "yaw": st.floats(-4, 4), "size": _vec3}), max_size=2),
+    "obstacles": st.fixed_dictionaries({}, optional={
+        "remove": st.lists(st.sampled_from(["table", "shelf", "pillar", "cup"]) | _json, max_size=2),
+        "add": st.lists(st.fixed_dictionaries({"name": st.text(min_size=1, max_size=5)}, optional={
+            "box": st.fixed_dictionaries({"center": _vec3, "size": _vec3}),
+            "cylinder": st.fixed_dictionaries({"center": _vec3, "radius": st.floats(-1, 2), "height": st.floats(0, 2)}),
+            "polygon": st.lists(st.lists(st.floats(-1, 7), min_size=2, max_size=2), max_size=4)}), max_size=2)}),
+    "start": _vec3,
+})
+
+
+@settings(max_examples=2500, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                                                  HealthCheck.too_slow])
+@given(change=_json | _plausible)
+def test_any_update_is_a_clean_error_or_a_valid_scene(planner, change):
+    """Random and plausible-but-mutated update documents: SceneError or a valid scene, nothing else."""
+    try:
+        scene, moved, obstacles = parse_update(change, planner.scene)
+    except SceneError as exc:
+        assert "\n" not in str(exc)
+        return
+    assert moved <= {"cup", "box"} and isinstance(obstacles, bool)
+    assert {o.name for o in scene.objects} == {"cup", "box"}
+
+
+def test_stream_mode(tmp_path, maps_dir):
+    deep = "[" * 100_000 + "]" * 100_000
+    lines = "\n".join(['{"objects": [{"name": "cup", "yaw": 1.0}]}', "not json", '{"objects": null}',
+                       '{"obstacles": {"add": null}}', '{"obstacles": {"remove": [["x"]]}}', deep,
+                       '{"start": [1.5, 4.0, 0.0]}']) + "\n"
+    p = subprocess.run([sys.executable, "-m", "placement.cli.main", "query", str(write_scene(tmp_path, maps_dir)),
+                        "--stream", "-q"], input=lines, capture_output=True, text=True, env=dict(os.environ))
+    assert p.returncode == 0, p.stderr
+    out = [json.loads(x) for x in p.stdout.splitlines()]
+    assert len(out) == 8 and out[0]["status"] == "ok" and out[1]["update"]["updated"] == ["cup"]
+    assert all("error" in o for o in out[2:7]), out[2:7]
+    assert out[7]["status"] == "ok" and out[7]["update"]["updated"] == ["start"]
+    assert "Traceback" not in p.stderr
