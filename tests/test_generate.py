@@ -97,9 +97,9 @@ def test_layout(tmp_path, obstacles):
 
 
 def test_invariants_over_many_seeds(tmp_path):
-    """2 x 300 scenes of 12 objects: every object on its table, off and out of the shadow of the crates."""
+    """2 x 100 scenes of 12 objects: every object on its table, off and out of the shadow of the crates."""
     for obstacles in (False, True):
-        for p in write_scenes(tmp_path / str(obstacles), seed=12, count=300, objects=12, obstacles=obstacles):
+        for p in write_scenes(tmp_path / str(obstacles), seed=12, count=100, objects=12, obstacles=obstacles):
             assert_layout(load_scene(p))
 
 
@@ -170,7 +170,7 @@ def test_cli_records_default_maps_and_plans_from_another_cwd(tmp_path, maps_dir)
     assert json.loads(q.stdout)["status"] == "ok"
 
 
-@settings(max_examples=400, deadline=None)
+@settings(max_examples=250, deadline=None)
 @given(seed=st.integers(0, 2**63 - 1), index=st.integers(0, MAX_SCENES - 1), objects=st.integers(1, MAX_OBJECTS),
        obstacles=st.booleans())
 def test_property_generated_scenes_load_and_keep_invariants(seed, index, objects, obstacles):
@@ -184,13 +184,15 @@ def test_property_generated_scenes_load_and_keep_invariants(seed, index, objects
 
 
 @settings(max_examples=300, deadline=None)
-@given(length=st.floats(0.12, 2.0), depth=st.floats(0.12, 2.0), seed=st.integers(0, 2**32),
-       obstacles=st.booleans())
+@given(length=st.one_of(st.floats(0.1, 2.2), st.floats(allow_nan=True), st.integers(), st.text(max_size=2)),
+       depth=st.one_of(st.floats(0.1, 2.2), st.floats(allow_nan=True), st.none()),
+       seed=st.integers(0, 2**32), obstacles=st.booleans())
 def test_property_table_sizes_give_a_valid_scene_or_the_documented_error(length, depth, seed, obstacles):
+    """Any table size: a valid scene or one of the two documented errors, never another exception."""
     try:
         doc = generate_scene(seed, 0, objects=3, obstacles=obstacles, table_size=(length, depth))
     except PlacementError as exc:
-        assert obstacles and "found no position free of the crates' shadows" in str(exc)
+        assert str(exc).startswith("table_size: ") or (obstacles and "free of the crates' shadows" in str(exc))
         return
     xs = [o["position"][0] for o in doc["objects"]]
     assert all(abs(x - 5.0) <= 1.5 * length - MARGIN + 5e-4 for x in xs)

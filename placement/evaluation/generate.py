@@ -50,6 +50,10 @@ TRIES = 1000  # random positions tried per object before the scene is given up
 #: upper bounds of ``objects`` per scene and scenes per call: a benchmark, not a stress test
 MAX_OBJECTS = 50
 MAX_SCENES = 1000
+#: pick table length and depth bounds [m]: crates need 0.2 m of length, objects 2 * MARGIN of depth,
+#: and up to 2 m the row stays clear of the walls, the place tables and the start band
+TABLE_LENGTH = (0.2, 2.0)
+TABLE_DEPTH = (2 * MARGIN, 2.0)
 MAX_SEED = 2**63 - 1  # seeds are 0 .. MAX_SEED (numpy's SeedSequence takes any; YAML/JSON keep int64 exact)
 
 
@@ -71,6 +75,9 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
     check_counts(seed, objects)
     rng = np.random.default_rng([int(seed), int(index), int(obstacles)])
     length, depth = table_size or TABLE_SIZES.get(preset, (0.8, 0.8))
+    for name, value, (lo, hi) in (("length", length, TABLE_LENGTH), ("depth", depth, TABLE_DEPTH)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
+            raise PlacementError(f"table_size: {name} must be from {lo} to {hi} m, got {value!r}")
     place_edge = PLACE_TABLE_SIZES.get(preset, 0.8)
     w, h = ROOM
     cx, cy = 5.0, 4.0
