@@ -52,6 +52,7 @@ def test_cli_evaluate_writes_report(tmp_path, maps_dir):
     assert set(doc["methods"]) == {"sequential", "single-step"}
     for f in ("results.json", "summary.md", "summary.csv", "task_times.png"):
         assert (out / f).stat().st_size > 0
+    assert sorted(f.name for f in out.iterdir()) == ["results.json", "summary.csv", "summary.md", "task_times.png"]
 
 
 def test_check_methods():
