@@ -30,10 +30,11 @@ bench: install maps/pr2/zarr.json
 	$(PY) tools/bench_query.py
 
 # The paper's protocol: 45 scenes without and 30 with obstacles, all methods; results in docs/eval.
+# The scenes record maps/pr2 relative to themselves (the default of `scenes generate` run from here).
 eval: install maps/pr2/zarr.json
 	rm -rf build/eval-scenes
-	.venv/bin/placement scenes generate --seed 1 --count 45 --maps $(CURDIR)/maps/pr2 build/eval-scenes/free -q
-	.venv/bin/placement scenes generate --seed 1 --count 30 --obstacles --maps $(CURDIR)/maps/pr2 build/eval-scenes/obstacles -q
+	.venv/bin/placement scenes generate --seed 1 --count 45 build/eval-scenes/free -q
+	.venv/bin/placement scenes generate --seed 1 --count 30 --obstacles build/eval-scenes/obstacles -q
 	.venv/bin/placement evaluate build/eval-scenes/free --out docs/eval/free
 	.venv/bin/placement evaluate build/eval-scenes/obstacles --out docs/eval/obstacles
 

@@ -7,10 +7,12 @@ import os
 import subprocess
 import sys
 
+import pytest
 import yaml
 
-from placement.planning.evaluate import evaluate
-from placement.planning.generate import generate_scene
+from placement.errors import PlacementError
+from placement.evaluation.evaluate import check_methods, evaluate, plan_outcome
+from placement.evaluation.generate import generate_scene
 
 
 def _scenes(tmp_path, maps_dir, n=2):
@@ -50,3 +52,25 @@ def test_cli_evaluate_writes_report(tmp_path, maps_dir):
     assert set(doc["methods"]) == {"sequential", "single-step"}
     for f in ("results.json", "summary.md", "summary.csv", "task_times.png"):
         assert (out / f).stat().st_size > 0
+    assert sorted(f.name for f in out.iterdir()) == ["results.json", "summary.csv", "summary.md", "task_times.png"]
+
+
+def test_check_methods():
+    assert check_methods(("irm", "sequential")) == ["irm", "sequential"]
+    for bad, word in (([], "no method"), (["irm", " "], "empty"), (["irm", "irm"], "twice"), (["IRM"], "unknown")):
+        with pytest.raises(PlacementError, match=word):
+            check_methods(bad)
+
+
+def test_library_rejects_bad_workers_before_planning(tmp_path):
+    with pytest.raises(PlacementError, match="workers must be a whole number from 1 to 64"):
+        evaluate([tmp_path / "missing.yaml"], ["irm"], workers=0)
+
+
+def test_plan_outcome_names_the_first_infeasible_step():
+    plan = {"status": "infeasible", "steps": [
+        {"step": 0, "status": "ok"},
+        {"step": 1, "status": "infeasible", "action": "pick", "target": "cup", "reason": "below threshold"},
+        {"step": 2, "status": "infeasible", "action": "place", "target": "b", "reason": "no IK"}]}
+    assert plan_outcome(plan) == (3, "step 1 (pick cup): below threshold")
+    assert plan_outcome({"status": "error", "reason": "bad map", "steps": []}) == (0, "bad map")

@@ -144,7 +144,7 @@ def test_start_inside_obstacle_is_one_line(tmp_path, maps_dir):
 @pytest.mark.parametrize("obstacles", [False, True])
 def test_generated_scenes_plan_and_verify(tmp_path, maps_dir, pr2, obstacles):
     """Generated table-clearing scenes (2 objects): every step verified by independent FK."""
-    from placement.planning.generate import generate_scene
+    from placement.evaluation.generate import generate_scene
 
     doc = generate_scene(11, 0, objects=2, obstacles=obstacles, maps=str(maps_dir))
     doc["planner"] = {"threshold": 0.01, "yaw_steps": 40}

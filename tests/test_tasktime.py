@@ -1,9 +1,8 @@
 import math
 
-import numpy as np
 import pytest
 
-from placement.planning.tasktime import task_time
+from placement.evaluation.tasktime import task_time
 
 
 def _step(pr2, arm, base, q, travel):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 from pathlib import Path
@@ -9,34 +10,63 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
-from ..planning.evaluate import evaluate as run_evaluation
-from ..planning.evaluate import summary_rows
+from ..errors import PlacementError
+from ..evaluation.evaluate import MAX_WORKERS, check_methods, scene_files, summary_rows
+from ..evaluation.evaluate import evaluate as run_evaluation
+from ..evaluation.outdir import output_dir
 from ..planning.planner import METHODS
 from .options import emit, json_option, one_line_errors, setup_logging, verbosity
+from .params import Bounded, OneLineCommand
 
 
-@click.command()
+class MethodList(click.ParamType):
+    """Comma-separated method names: none empty, none repeated, each one of METHODS."""
+
+    name = "methods"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, list):
+            return value
+        try:
+            return check_methods(m.strip() for m in str(value).split(","))
+        except PlacementError as exc:
+            self.fail(str(exc), param, ctx)
+
+
+@click.command(cls=OneLineCommand)
 @click.argument("scenes", nargs=-1, required=True, type=click.Path())
-@click.option("--methods", default=",".join(METHODS), show_default=True, help="Comma-separated methods.")
+@click.option("--methods", type=MethodList(), default=",".join(METHODS), show_default=True,
+              help="Comma-separated methods, each at most once.")
 @click.option("--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: each scene's).")
-@click.option("--out", "out_dir", default=None, type=click.Path(), help="Write table (md, csv), JSON and box plot here.")
-@click.option("--workers", type=int, default=2, show_default=True, help="Scenes evaluated in parallel.")
+@click.option("--out", "out_dir", default=None, type=click.Path(),
+              help="Write table (md, csv), JSON and box plot here (created and checked before the evaluation).")
+@click.option("--workers", type=Bounded(1, MAX_WORKERS), default=2, show_default=True,
+              help=f"Scenes evaluated in parallel, 1 to {MAX_WORKERS}.")
 @json_option
 @verbosity
 @one_line_errors
 def evaluate(scenes, methods, maps_path, out_dir, workers, as_json, verbose, quiet):
     """Plan every scene with each method and compare task times (SPEC section 8)."""
     setup_logging(verbose, quiet)
-    methods = [m.strip() for m in methods.split(",") if m.strip()]
-    with tqdm(desc="scenes", unit="scene", disable=quiet, leave=False) as bar:
-        def progress(done, total):
-            bar.total = total
-            bar.n = done
-            bar.refresh()
+    files = scene_files(scenes)
+    bars = []
 
-        doc = run_evaluation(scenes, methods, maps_path, workers=workers, progress=progress)
-    if out_dir:
-        write_report(doc, Path(out_dir))
+    def progress(done, total):
+        if not bars:  # created once the scenes are checked, so that an early error stays one line
+            bars.append(tqdm(total=total, desc="scenes", unit="scene", disable=quiet, leave=False))
+        bars[0].n = done
+        bars[0].refresh()
+
+    with contextlib.ExitStack() as stack:
+        if out_dir:
+            stack.enter_context(output_dir(out_dir, "--out"))
+        try:
+            doc = run_evaluation(files, methods, maps_path, workers=workers, progress=progress)
+        finally:
+            for bar in bars:
+                bar.close()
+        if out_dir:
+            write_report(doc, Path(out_dir))
     emit(doc, as_json, lambda d: markdown_table(summary_rows(d)))
 
 
@@ -49,9 +79,9 @@ def markdown_table(rows: list[dict]) -> str:
 
 
 def write_report(doc: dict, out: Path) -> None:
-    from ..plotting import plot_task_times
+    """``results.json``, ``summary.md``, ``summary.csv`` and ``task_times.png`` in ``out``."""
+    from ..evaluation.plots import plot_task_times
 
-    out.mkdir(parents=True, exist_ok=True)
     rows = summary_rows(doc)
     (out / "results.json").write_text(json.dumps(doc, indent=1))
     (out / "summary.md").write_text(markdown_table(rows) + "\n")
@@ -60,3 +90,4 @@ def write_report(doc: dict, out: Path) -> None:
         w.writeheader()
         w.writerows(rows)
     plot_task_times(doc, out / "task_times.png")
+

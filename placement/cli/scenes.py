@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
-from ..planning.generate import write_scenes
-from .options import emit, json_option, one_line_errors, setup_logging, verbosity
+from ..evaluation.generate import MAX_OBJECTS, MAX_SCENES, MAX_SEED, write_scenes
+from ..evaluation.outdir import output_dir
+from ..robots import load_robot
+from .options import emit, json_option, log, one_line_errors, setup_logging, verbosity
+from .params import Bounded, OneLineCommand
 
 
 @click.group()
@@ -13,19 +18,30 @@ def scenes():
     """Benchmark scenes."""
 
 
-@scenes.command()
-@click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--count", type=int, default=10, show_default=True)
-@click.option("--objects", type=int, default=6, show_default=True, help="Objects per scene.")
+@scenes.command(cls=OneLineCommand)
+@click.option("--seed", type=Bounded(0, MAX_SEED), default=0, show_default=True, help="Seed, 0 to 2^63-1.")
+@click.option("--count", type=Bounded(1, MAX_SCENES), default=10, show_default=True,
+              help=f"Scenes, 1 to {MAX_SCENES}.")
+@click.option("--objects", type=Bounded(1, MAX_OBJECTS), default=6, show_default=True,
+              help=f"Objects per scene, 1 to {MAX_OBJECTS}.")
 @click.option("--obstacles", is_flag=True, help="Add crates beside the pick tables.")
-@click.option("--robot", "preset", default="pr2", show_default=True, help="Preset (sets the table size).")
-@click.option("--maps", default=None, help="Value of the scenes' `maps` key.")
+@click.option("--robot", "preset", default="pr2", show_default=True,
+              help="Preset name or preset YAML path (sets the table size); a path is recorded relative to the scenes.")
+@click.option("--maps", default=None, type=click.Path(),
+              help="Reachability maps the scenes record (relative to the scenes unless absolute) "
+                   "[default: maps/<robot name> in the current directory].")
 @click.argument("out_dir", type=click.Path())
 @json_option
 @verbosity
 @one_line_errors
 def generate(seed, count, objects, obstacles, preset, maps, out_dir, as_json, verbose, quiet):
-    """Write COUNT table-clearing scenes of SEED to OUT_DIR."""
+    """Write COUNT table-clearing scenes of SEED to OUT_DIR (created; checked before generating)."""
     setup_logging(verbose, quiet)
-    paths = write_scenes(out_dir, seed, count, objects=objects, obstacles=obstacles, preset=preset, maps=maps)
+    with output_dir(out_dir, "OUT_DIR"):
+        if maps is None:
+            # the planner's own default, seen from here: the scenes then plan from any directory
+            maps = str(Path("maps") / load_robot(preset).name)
+        paths = write_scenes(out_dir, seed, count, objects=objects, obstacles=obstacles, preset=preset, maps=maps)
+    if not Path(maps).exists():
+        log.warning("note: %s does not exist (yet); the scenes record it as their maps", maps)
     emit({"scenes": [str(p) for p in paths]}, as_json, lambda d: "\n".join(d["scenes"]))

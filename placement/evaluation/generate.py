@@ -9,18 +9,33 @@ alternately on the two place tables; a random start pose in the free band along
 the north wall. The obstacle variant adds boxes beside the pick tables that block
 some placements, but never the table edge in front of an object on the side it is
 nearest to (so every scene can be solved). Scene k of seed s depends only on (s, k).
+
+Invariants (tested over many seeds): every object's centre lies on the pick area at least
+``MARGIN`` from its edge (a yawed footprint corner may overhang by up to 5 mm: the largest
+half-diagonal, 0.065 m, minus the margin), outside every crate, and outside every crate's
+``SHADOW`` on the object's own side; place locations are above their place tables. When 1000
+positions for an object are all shadowed (only possible with a short ``table_size``), the
+generator raises :class:`~placement.errors.PlacementError` naming the scene and the object
+instead of keeping a blocked position.
+
+Paths: :func:`write_scenes` takes a preset path and ``maps`` as seen from the current directory
+and records them relative to the scene file (an absolute path stays absolute), so a scene loads
+from any working directory.
 """
 
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
 import yaml
 
 from ..errors import PlacementError
-from .scene import parse_scene
+from ..planning.scene import parse_scene
+from ..robots.preset import builtin_presets
+from .outdir import output_dir
 
 ROOM = (10.0, 8.0)
 TABLE_HEIGHT = 0.75
@@ -29,16 +44,40 @@ TABLE_SIZES = {"pr2": (0.8, 0.6), "armar6": (0.8, 0.8)}
 #: place table edge per robot [m]: the PR2 parked at its footprint radius reaches ~0.26 m into a table
 PLACE_TABLE_SIZES = {"pr2": 0.5, "armar6": 0.8}
 SHADOW = 0.55  # [m] half-width of the pick-table edge a crate blocks (crate half-size + arm clearance)
+MARGIN = 0.06  # [m] least distance of an object's centre from the pick area's edge
 OBJECT_SIZES = [(0.06, 0.06, 0.10), (0.05, 0.12, 0.10), (0.07, 0.07, 0.12), (0.04, 0.09, 0.08)]
+TRIES = 1000  # random positions tried per object before the scene is given up
+#: upper bounds of ``objects`` per scene and scenes per call: a benchmark, not a stress test
+MAX_OBJECTS = 50
+MAX_SCENES = 1000
+#: pick table length and depth bounds [m]: crates need 0.2 m of length, objects 2 * MARGIN of depth,
+#: and up to 2 m the row stays clear of the walls, the place tables and the start band
+TABLE_LENGTH = (0.2, 2.0)
+TABLE_DEPTH = (2 * MARGIN, 2.0)
+MAX_SEED = 2**63 - 1  # seeds are 0 .. MAX_SEED (numpy's SeedSequence takes any; YAML/JSON keep int64 exact)
+
+
+def check_counts(seed: int, objects: int, count: int = 1) -> None:
+    """Raise :class:`PlacementError` unless seed, objects and count are within their bounds."""
+    for name, value, lo, hi in (("seed", seed, 0, MAX_SEED), ("objects", objects, 1, MAX_OBJECTS),
+                                ("count", count, 1, MAX_SCENES)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
+            raise PlacementError(f"{name} must be a whole number from {lo} to {hi}, got {value!r}")
 
 
 def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bool = False,
                    preset: str = "pr2", table_size=None, maps: str | None = None) -> dict:
-    """One scene as a scene-file mapping (validated)."""
-    if objects < 1:
-        raise PlacementError(f"object count must be positive, got {objects}")
+    """Scene ``index`` of ``seed`` as a scene-file mapping (validated; paths as given, from the cwd).
+
+    ``table_size``: pick table (length, depth) [m] (default per preset, ``TABLE_SIZES``).
+    Raises :class:`PlacementError` for out-of-bounds counts or when an object finds no free position.
+    """
+    check_counts(seed, objects)
     rng = np.random.default_rng([int(seed), int(index), int(obstacles)])
     length, depth = table_size or TABLE_SIZES.get(preset, (0.8, 0.8))
+    for name, value, (lo, hi) in (("length", length, TABLE_LENGTH), ("depth", depth, TABLE_DEPTH)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
+            raise PlacementError(f"table_size: {name} must be from {lo} to {hi} m, got {value!r}")
     place_edge = PLACE_TABLE_SIZES.get(preset, 0.8)
     w, h = ROOM
     cx, cy = 5.0, 4.0
@@ -66,17 +105,19 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
             obs.append({"name": f"crate_{k + 1}", "box": {"center": [round(x, 3), round(y, 3), 0.25],
                                                           "size": [0.5, 0.5, 0.5]}})
     objs = []
-    margin = 0.06
     crates = [o["box"]["center"] for o in obs if o["name"].startswith("crate")]
     for k in range(objects):
         size = OBJECT_SIZES[int(rng.integers(len(OBJECT_SIZES)))]
-        for _ in range(1000):
-            x = cx + rng.uniform(-1.5 * length + margin, 1.5 * length - margin)
-            y = cy + rng.uniform(-depth / 2 + margin, depth / 2 - margin)
+        for _ in range(TRIES):
+            x = cx + rng.uniform(-1.5 * length + MARGIN, 1.5 * length - MARGIN)
+            y = cy + rng.uniform(-depth / 2 + MARGIN, depth / 2 - MARGIN)
             # a crate may block a side, but never the side an object is nearest to within
             # SHADOW of its x: every object stays reachable from its own side
             if not any((c[1] - cy) * (y - cy) > 0 and abs(c[0] - x) < SHADOW for c in crates):
                 break
+        else:
+            raise PlacementError(f"scene {index} of seed {seed}: object_{k + 1} found no position free of the "
+                                 f"crates' shadows in {TRIES} tries (pick tables {length} x {depth} m too short)")
         objs.append({"name": f"object_{k + 1}", "position": [round(x, 3), round(y, 3), TABLE_HEIGHT + size[2] / 2],
                      "yaw": round(float(rng.uniform(-math.pi, math.pi)), 4), "size": list(size)})
     start = [round(float(rng.uniform(1.0, w - 1.0)), 3), round(float(rng.uniform(h - 1.8, h - 0.8)), 3),
@@ -91,16 +132,37 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
     return doc
 
 
+def scene_path(value: str, scene_dir: Path) -> str:
+    """``value`` (a path from the current directory) as the scene file in ``scene_dir`` must record it.
+
+    An absolute path stays as it is; a relative one becomes relative to ``scene_dir``, computed
+    lexically as the scene loader resolves it, and keeps a ``/`` so that it reads as a path.
+    """
+    if os.path.isabs(os.path.expanduser(value)):
+        return value
+    rel = os.path.relpath(os.path.abspath(value), os.path.abspath(scene_dir))
+    return rel if ("/" in rel or rel.endswith((".yaml", ".yml"))) else "./" + rel
+
+
 def write_scenes(out_dir, seed: int, count: int, **kwargs) -> list[Path]:
-    """Write ``count`` scenes of ``seed`` to ``out_dir``; returns their paths."""
-    if count < 1:
-        raise PlacementError(f"scene count must be positive, got {count}")
+    """Write ``count`` scenes of ``seed`` to ``out_dir``; returns their paths.
+
+    ``kwargs`` go to :func:`generate_scene`; a preset path and ``maps`` are taken from the current
+    directory and written relative to ``out_dir``. ``out_dir`` is created and probed first, and
+    every scene is generated before the first file is written (a failure leaves no new directory).
+    """
+    check_counts(seed, kwargs.get("objects", 6), count)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    tag = "obstacles" if kwargs.get("obstacles") else "free"
-    paths = []
-    for k in range(count):
-        path = out / f"scene_{tag}_s{seed}_{k:03d}.yaml"
-        path.write_text(yaml.safe_dump(generate_scene(seed, k, **kwargs), sort_keys=False))
-        paths.append(path)
+    with output_dir(out, "scene directory"):
+        docs = [generate_scene(seed, k, **kwargs) for k in range(count)]
+        preset = kwargs.get("preset", "pr2")
+        for doc in docs:
+            if preset not in builtin_presets():
+                doc["robot"]["preset"] = scene_path(preset, out)
+            if doc.get("maps"):
+                doc["maps"] = scene_path(doc["maps"], out)
+        tag = "obstacles" if kwargs.get("obstacles") else "free"
+        paths = [out / f"scene_{tag}_s{seed}_{k:03d}.yaml" for k in range(count)]
+        for path, doc in zip(paths, docs):
+            path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return paths

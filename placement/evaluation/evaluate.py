@@ -10,8 +10,27 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PlacementError
-from .planner import METHODS, Planner
+from ..planning.planner import METHODS, Planner
+from ..planning.scene import load_scene
 from .tasktime import task_time
+
+MAX_WORKERS = 64  # processes; each holds its own maps and world
+
+
+def check_methods(methods) -> list[str]:
+    """``methods`` as a list, or :class:`PlacementError` for an empty, blank, repeated or unknown name."""
+    out = list(methods)
+    choose = f"choose from {', '.join(METHODS)}"
+    if not out:
+        raise PlacementError(f"no method given; {choose}")
+    for m in out:
+        if not isinstance(m, str) or not m.strip():
+            raise PlacementError(f"empty method name in {','.join(map(str, out))!r}; {choose}")
+        if m not in METHODS:
+            raise PlacementError(f"unknown method {m!r}; {choose}")
+        if out.count(m) > 1:
+            raise PlacementError(f"method {m!r} is given twice")
+    return out
 
 
 def scene_files(paths) -> list[Path]:
@@ -42,18 +61,23 @@ def evaluate_scene(path: str, methods: list[str], maps: str | None = None) -> di
             result = {"status": "error", "reason": str(exc), "steps": []}
         ms = (time.perf_counter() - t) * 1e3
         tt = task_time(planner.robot, result, planner.scene.start)
-        n = max(1, len(result["steps"]))
+        steps, reason = plan_outcome(result)
         out[m] = {"task_time_s": None if tt is None else tt["total_s"], "success": tt is not None,
-                  "planning_ms_per_placement": ms / n,
-                  "reason": None if tt is not None else _reason(result)}
+                  "planning_ms_per_placement": ms / max(1, steps),
+                  "reason": None if tt is not None else reason}
     return out
 
 
-def _reason(result: dict) -> str:
-    bad = [s for s in result.get("steps", []) if s.get("status") == "infeasible"]
+def plan_outcome(result: dict) -> tuple[int, str]:
+    """(number of steps, why the plan failed) of a plan document.
+
+    The only place here that reads the plan's fields (switch here to a typed ``PlanResult``).
+    """
+    steps = result.get("steps", [])
+    bad = [s for s in steps if s.get("status") == "infeasible"]
     if bad:
-        return f"step {bad[0]['step']} ({bad[0]['action']} {bad[0]['target']}): {bad[0]['reason']}"
-    return result.get("reason", "failed")
+        return len(steps), f"step {bad[0]['step']} ({bad[0]['action']} {bad[0]['target']}): {bad[0]['reason']}"
+    return len(steps), result.get("reason", "failed")
 
 
 def _worker_init():
@@ -67,12 +91,16 @@ def evaluate(paths, methods=METHODS, maps=None, workers: int = 2, progress=None)
 
     Returns the document of SPEC section 8: scenes, per-method lists, and ``reductions``:
     for method M and baseline B, ``1 - sum(T_M) / sum(T_B)`` over the scenes both solved.
+    Methods and every scene file are checked before the first scene is planned.
     """
-    methods = list(methods)
-    for m in methods:
-        if m not in METHODS:
-            raise PlacementError(f"unknown method '{m}'; choose from {', '.join(METHODS)}")
+    methods = check_methods(methods)
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= MAX_WORKERS:
+        raise PlacementError(f"workers must be a whole number from 1 to {MAX_WORKERS}, got {workers!r}")
     files = scene_files(paths)
+    for f in files:
+        load_scene(f)
+    if progress:
+        progress(0, len(files))
     results: list[dict | None] = [None] * len(files)
     if workers <= 1 or len(files) == 1:
         for k, f in enumerate(files):
@@ -81,12 +109,17 @@ def evaluate(paths, methods=METHODS, maps=None, workers: int = 2, progress=None)
                 progress(k + 1, len(files))
     else:
         ctx = mp.get_context("spawn")
-        with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init) as pool:
+        with cf.ProcessPoolExecutor(max_workers=min(workers, len(files)), mp_context=ctx,
+                                    initializer=_worker_init) as pool:
             futures = {pool.submit(evaluate_scene, str(f), methods, maps): k for k, f in enumerate(files)}
-            for done, fut in enumerate(cf.as_completed(futures), 1):
-                results[futures[fut]] = fut.result()
-                if progress:
-                    progress(done, len(files))
+            try:
+                for done, fut in enumerate(cf.as_completed(futures), 1):
+                    results[futures[fut]] = fut.result()
+                    if progress:
+                        progress(done, len(files))
+            except BaseException:
+                pool.shutdown(cancel_futures=True)  # an error stops the run instead of waiting for every scene
+                raise
     doc = {"scenes": [f.stem for f in files], "methods": {}, "reductions": {}}
     for m in methods:
         doc["methods"][m] = {key: [r[m][key] for r in results]

@@ -1,0 +1,27 @@
+"""Click parameter types with bounds, and a command class that reports a bad option in one line."""
+
+from __future__ import annotations
+
+import click
+
+
+class OneLineCommand(click.Command):
+    """A command whose bad options and arguments give one line ``error: ...`` and exit code 2,
+    like the package's own errors (click alone prints the usage and a hint around it)."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        try:
+            return super().parse_args(ctx, args)
+        except click.UsageError as exc:
+            click.echo(f"error: {exc.format_message()}", err=True)
+            ctx.exit(2)
+
+
+class Bounded(click.IntRange):
+    """A whole number from ``min`` to ``max``; anything else is rejected naming both bounds."""
+
+    def convert(self, value, param, ctx):
+        try:
+            return super().convert(value, param, ctx)
+        except click.BadParameter:
+            self.fail(f"{value!r} is not a whole number from {self.min} to {self.max}", param, ctx)

@@ -1,0 +1,22 @@
+"""Evaluation (SPEC section 8): generated benchmark scenes, the task time model, batch
+evaluation of the planning methods against each other, and its figures."""
+
+from .evaluate import check_methods, evaluate, evaluate_scene, scene_files, summary_rows
+from .generate import generate_scene, write_scenes
+from .outdir import output_dir, prepare_output_dir
+from .plots import plot_task_times
+from .tasktime import task_time
+
+__all__ = [
+    "check_methods",
+    "evaluate",
+    "evaluate_scene",
+    "generate_scene",
+    "output_dir",
+    "plot_task_times",
+    "prepare_output_dir",
+    "scene_files",
+    "summary_rows",
+    "task_time",
+    "write_scenes",
+]

@@ -1,0 +1,60 @@
+"""The task time model of SPEC section 8: base and arm move in parallel, steps add up."""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from ..robots import Robot
+
+
+class Move(NamedTuple):
+    """What the time model needs of one planned step."""
+
+    yaw: float  # base yaw of the placement [rad]
+    travel_s: float  # base travel time from the previous placement [s]
+    arm: str
+    joints: dict  # joint name -> IK solution [rad or m]
+
+
+def plan_moves(result: dict) -> list[Move] | None:
+    """The steps of a plan document as moves, or None unless the plan succeeded.
+
+    The only place that reads the plan's fields (switch here to a typed ``PlanResult``).
+    """
+    if result.get("status") != "ok":
+        return None
+    return [Move(float(s["base"][2]), float(s["travel_time_s"]), s["arm"], s["joints"]) for s in result["steps"]]
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def task_time(robot: Robot, result: dict, start) -> dict | None:
+    """Per-step and total time [s] of a planned task, or None if a step failed.
+
+    ``start``: the start pose (x [m], y [m], yaw [rad]). Step time = max(base time, arm time):
+    base time = max(travel cost / v_max, |yaw change| / omega_max) from the previous placement
+    (the start pose first); arm time = max over the step's arm joints of |q - q_prev| / URDF
+    velocity limit, from that arm's previous solution (its home configuration first); continuous
+    joints take the shorter way round. Grasping and releasing are excluded (constant).
+    """
+    moves = plan_moves(result)
+    if moves is None:
+        return None
+    prev_yaw = float(start[2])
+    prev_q = {arm: robot.arm(arm).home.copy() for arm in robot.arms}
+    steps = []
+    for m in moves:
+        base_s = max(m.travel_s, abs(_wrap(m.yaw - prev_yaw)) / robot.omega_max)
+        arm = robot.arm(m.arm)
+        q = np.array([m.joints[j] for j in arm.joints])
+        d = np.abs(q - prev_q[m.arm])
+        d = np.where(arm.continuous, np.abs((q - prev_q[m.arm] + math.pi) % (2 * math.pi) - math.pi), d)
+        arm_s = float(np.max(d / arm.velocity))
+        steps.append({"base_s": base_s, "arm_s": arm_s, "step_s": max(base_s, arm_s)})
+        prev_yaw, prev_q[m.arm] = m.yaw, q
+    return {"total_s": sum(x["step_s"] for x in steps), "steps": steps}
