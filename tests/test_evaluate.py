@@ -68,9 +68,11 @@ def test_library_rejects_bad_workers_before_planning(tmp_path):
 
 
 def test_plan_outcome_names_the_first_infeasible_step():
-    plan = {"status": "infeasible", "steps": [
-        {"step": 0, "status": "ok"},
-        {"step": 1, "status": "infeasible", "action": "pick", "target": "cup", "reason": "below threshold"},
-        {"step": 2, "status": "infeasible", "action": "place", "target": "b", "reason": "no IK"}]}
-    assert plan_outcome(plan) == (3, "step 1 (pick cup): below threshold")
-    assert plan_outcome({"status": "error", "reason": "bad map", "steps": []}) == (0, "bad map")
+    from placement.planning import PlanResult, StepResult
+
+    plan = PlanResult("s", "sequential", {}, [
+        StepResult(0, "pick", "box"),
+        StepResult(1, "pick", "cup", status="infeasible", reason="below threshold"),
+        StepResult(2, "place", "b", status="infeasible", reason="no IK")])
+    assert plan_outcome(plan, None) == (3, "step 1 (pick cup): below threshold")
+    assert plan_outcome(None, "bad map") == (0, "bad map")

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import PlacementError
-from ..planning.planner import METHODS, Planner
+from ..planning import METHODS, Planner, PlanResult
 from ..planning.scene import load_scene
 from .tasktime import task_time
 
@@ -56,28 +56,26 @@ def evaluate_scene(path: str, methods: list[str], maps: str | None = None) -> di
         planner.set_method(m)
         t = time.perf_counter()
         try:
-            result = planner.plan()
+            result, error = planner.plan(), None
         except PlacementError as exc:
-            result = {"status": "error", "reason": str(exc), "steps": []}
+            result, error = None, str(exc)
         ms = (time.perf_counter() - t) * 1e3
         tt = task_time(planner.robot, result, planner.scene.start)
-        steps, reason = plan_outcome(result)
+        steps, reason = plan_outcome(result, error)
         out[m] = {"task_time_s": None if tt is None else tt["total_s"], "success": tt is not None,
                   "planning_ms_per_placement": ms / max(1, steps),
                   "reason": None if tt is not None else reason}
     return out
 
 
-def plan_outcome(result: dict) -> tuple[int, str]:
-    """(number of steps, why the plan failed) of a plan document.
-
-    The only place here that reads the plan's fields (switch here to a typed ``PlanResult``).
-    """
-    steps = result.get("steps", [])
-    bad = [s for s in steps if s.get("status") == "infeasible"]
-    if bad:
-        return len(steps), f"step {bad[0]['step']} ({bad[0]['action']} {bad[0]['target']}): {bad[0]['reason']}"
-    return len(steps), result.get("reason", "failed")
+def plan_outcome(result: PlanResult | None, error: str | None) -> tuple[int, str]:
+    """(number of steps, why the plan failed) of a plan, or of the ``error`` that stopped it."""
+    if result is None:
+        return 0, error or "failed"
+    bad = result.failed_step
+    if bad is not None:
+        return len(result.steps), f"step {bad.step} ({bad.action} {bad.target}): {bad.reason}"
+    return len(result.steps), "failed"
 
 
 def _worker_init():

@@ -7,6 +7,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..planning.results import PlanResult
 from ..robots import Robot
 
 
@@ -19,21 +20,18 @@ class Move(NamedTuple):
     joints: dict  # joint name -> IK solution [rad or m]
 
 
-def plan_moves(result: dict) -> list[Move] | None:
-    """The steps of a plan document as moves, or None unless the plan succeeded.
-
-    The only place that reads the plan's fields (switch here to a typed ``PlanResult``).
-    """
-    if result.get("status") != "ok":
+def plan_moves(result: PlanResult | None) -> list[Move] | None:
+    """The steps of a plan as moves, or None unless the plan succeeded."""
+    if result is None or not result.ok:
         return None
-    return [Move(float(s["base"][2]), float(s["travel_time_s"]), s["arm"], s["joints"]) for s in result["steps"]]
+    return [Move(float(s.base[2]), float(s.travel_time_s), s.arm, s.joints) for s in result.steps]
 
 
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
-def task_time(robot: Robot, result: dict, start) -> dict | None:
+def task_time(robot: Robot, result: PlanResult | None, start) -> dict | None:
     """Per-step and total time [s] of a planned task, or None if a step failed.
 
     ``start``: the start pose (x [m], y [m], yaw [rad]). Step time = max(base time, arm time):
