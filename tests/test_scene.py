@@ -1,4 +1,4 @@
-"""Scene files (SPEC section 6) and ROS occupancy maps: parsing, strict validation, rasterisation."""
+"""Scene files (SPEC section 6): parsing, strict validation, defaults, round trips."""
 
 from __future__ import annotations
 
@@ -10,58 +10,12 @@ import pytest
 import yaml
 
 from placement.errors import PlacementError
-from placement.planning.scene.occupancy import (
-    OccupancyMap, OccupancyMapError, load_occupancy_map, parse_pgm, rasterize_occupancy,
-)
 from placement.planning.config import PLANNER_KEYS
 from placement.planning.scene import (
     Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, TaskStep,
     load_scene, parse_scene, save_scene, scene_to_dict,
 )
-
-# A 4 x 3 image, file order (top row = largest y). With p = (255 - v) / 255 and the default
-# thresholds (0.65 / 0.196): 0 -> occupied, 254 -> free, 205 (p 0.196) and 100 (p 0.61) -> unknown.
-PIXELS = [
-    [0, 254, 254, 205],
-    [254, 0, 254, 254],
-    [254, 254, 100, 0],
-]
-# row 0 = lowest y = the image's bottom row; unknown counts as occupied
-EXPECTED = np.array([
-    [False, False, True, True],
-    [False, True, False, False],
-    [True, False, False, True],
-])
-# negate: p = v / 255: 0 -> free, 254 and 205 -> occupied, 100 (p 0.39) -> unknown
-EXPECTED_NEGATE = np.array([
-    [True, True, True, False],
-    [True, False, True, True],
-    [False, True, True, True],
-])
-
-
-def write_pgm(path, pixels=PIXELS, kind="P5", maxval=255):
-    h, w = len(pixels), len(pixels[0])
-    if kind == "P5":
-        path.write_bytes(f"P5\n# written by the test\n{w} {h}\n{maxval}\n".encode()
-                         + bytes(v for row in pixels for v in row))
-    else:
-        body = "\n".join(" ".join(str(v) for v in row) for row in pixels)
-        path.write_text(f"P2\n# plain PGM\n{w} {h}\n# maxval next\n{maxval}\n{body}\n")
-    return path
-
-
-def write_map(tmp_path, name="floor", kind="P5", **overrides):
-    """Write NAME.pgm and NAME.yaml; an override None drops the key."""
-    write_pgm(tmp_path / f"{name}.pgm", kind=kind)
-    doc = {"image": f"{name}.pgm", "resolution": 0.5, "origin": [1.0, 2.0, 0.0], "negate": 0,
-           "occupied_thresh": 0.65, "free_thresh": 0.196}
-    doc.update(overrides)
-    doc = {k: v for k, v in doc.items() if v is not None}
-    path = tmp_path / f"{name}.yaml"
-    path.write_text(yaml.safe_dump(doc))
-    return path
-
+from test_occupancy import EXPECTED, write_map
 
 FULL_SCENE = """\
 version: 1
@@ -336,119 +290,3 @@ def test_preset_path_is_relative_to_the_scene(tmp_path):
 def test_planner_keys_are_documented():
     assert set(PLANNER_KEYS) == {"lambda_n", "lambda_m", "lambda_nh", "yaw_steps", "threshold", "velocity_lambda",
                                  "velocity_k", "d_max", "grasp_yaws"}
-
-
-# -- occupancy maps --------------------------------------------------------------------------------
-
-@pytest.mark.parametrize("kind", ["P5", "P2"])
-def test_occupancy_map(kind, tmp_path):
-    occ = load_occupancy_map(write_map(tmp_path, kind=kind))
-    assert isinstance(occ, OccupancyMap)
-    assert occ.occupied.dtype == bool
-    np.testing.assert_array_equal(occ.occupied, EXPECTED)
-    assert occ.resolution == 0.5
-    assert occ.origin == (1.0, 2.0, 0.0)
-    assert occ.extent == (1.0, 2.0, 3.0, 3.5)
-
-
-@pytest.mark.parametrize("kind", ["P5", "P2"])
-def test_occupancy_map_negate(kind, tmp_path):
-    occ = load_occupancy_map(write_map(tmp_path, kind=kind, negate=1))
-    np.testing.assert_array_equal(occ.occupied, EXPECTED_NEGATE)
-
-
-def test_occupancy_map_thresholds_and_defaults(tmp_path):
-    # free below p = 0.7: now 100 (p 0.61) and 205 (p 0.196) are free too
-    occ = load_occupancy_map(write_map(tmp_path, free_thresh=0.7, occupied_thresh=0.9, mode="scale"))
-    np.testing.assert_array_equal(occ.occupied, np.array([
-        [False, False, False, True],
-        [False, True, False, False],
-        [True, False, False, False],
-    ]))
-    # negate, thresholds and mode are optional (map_saver defaults 0.65 / 0.196, trinary)
-    occ = load_occupancy_map(write_map(tmp_path, negate=None, free_thresh=None, occupied_thresh=None))
-    np.testing.assert_array_equal(occ.occupied, EXPECTED)
-
-
-def test_pgm_maxval_scales(tmp_path):
-    # maxval 15: p = (15 - v) / 15
-    pixels, maxval = parse_pgm(b"P2 3 1 15\n0 15 12\n")
-    assert maxval == 15 and pixels.tolist() == [[0, 15, 12]]
-    write_pgm(tmp_path / "m.pgm", [[0, 15, 12]], kind="P5", maxval=15)
-    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 1\norigin: [0, 0, 0]\n")
-    # 12: p = 0.2 >= 0.196 -> unknown -> occupied
-    assert load_occupancy_map(tmp_path / "m.yaml").occupied.tolist() == [[True, False, True]]
-
-
-@pytest.mark.parametrize("data, message", [
-    (b"P5\n4 3\n255\n" + bytes(11), "raster truncated: 11 bytes for 4 x 3 = 12 pixels"),
-    (b"P5\n4 3\n255\n" + bytes(12) + b"junk", "4 bytes of trailing data"),
-    (b"P5\n4 3\n", "header ends early"),
-    (b"P5\n4 x3\n255\n" + bytes(12), "header field b'x3' is not a positive integer"),
-    (b"P5\n0 3\n255\n", "size 0 x 3"),
-    (b"P5\n2 1\n65535\n" + bytes(4), "16-bit) PGM is not supported"),
-    (b"P6\n1 1\n255\n" + bytes(3), "not a PGM image"),
-    (b"\x89PNG\r\n\x1a\n", "PNG images are not supported"),
-    (b"P2\n2 2\n255\n1 2 3\n", "3 values for 2 x 2 = 4 pixels"),
-    (b"P2\n2 1\n100\n1 200\n", "pixel value 200 exceeds maxval 100"),
-    (b"P2\n2 1\n255\n1 -2\n", "not a non-negative integer"),
-])
-def test_malformed_pgm(data, message):
-    with pytest.raises(OccupancyMapError) as err:
-        parse_pgm(data, "floor.pgm")
-    assert message in str(err.value)
-    assert str(err.value).startswith("floor.pgm: ")
-
-
-@pytest.mark.parametrize("overrides, message", [
-    ({"origin": [1.0, 2.0, 0.3]}, "origin yaw 0.3 rad is not supported yet"),
-    ({"image": "missing.pgm"}, "image 'missing.pgm' not found"),
-    ({"image": None}, "missing key 'image'"),
-    ({"resolution": 0}, "'resolution' must be > 0"),
-    ({"origin": [1.0, 2.0]}, "'origin' must be [x, y, yaw]"),
-    ({"negate": 2}, "'negate' must be 0 or 1"),
-    ({"mode": "raw"}, "mode 'raw' is not supported; supported: trinary, scale"),
-    ({"free_thresh": 0.8}, "0 <= free_thresh <= occupied_thresh <= 1"),
-])
-def test_invalid_occupancy_map(overrides, message, tmp_path):
-    with pytest.raises(OccupancyMapError) as err:
-        load_occupancy_map(write_map(tmp_path, **overrides))
-    assert message in str(err.value)
-    assert isinstance(err.value, PlacementError)
-
-
-def test_occupancy_map_not_found(tmp_path):
-    with pytest.raises(OccupancyMapError, match="occupancy map not found"):
-        load_occupancy_map(tmp_path / "floor.yaml")
-
-
-def test_rasterize_occupancy_nearest_cell():
-    occ = OccupancyMap(EXPECTED, 0.5, (1.0, 2.0, 0.0))
-    # target centres x: 0.85 (outside), 1.35, 1.85, 2.35, 2.85, 3.35 (outside)
-    #                y: 1.65 (outside), 2.15, 2.65, 3.15, 3.65 (outside)
-    out = rasterize_occupancy(occ, (0.6, 1.4), 0.5, (5, 6))
-    np.testing.assert_array_equal(out, np.array([
-        [False, False, False, False, False, False],
-        [False, False, False, True, True, False],
-        [False, False, True, False, False, False],
-        [False, True, False, False, True, False],
-        [False, False, False, False, False, False],
-    ]))
-
-
-def test_rasterize_occupancy_coarser_grid():
-    occ = OccupancyMap(EXPECTED, 0.5, (1.0, 2.0, 0.0))
-    # 1 m cells: x [0, 1] (left of the map, only touching it), [1, 2], [2, 3]; y [2, 3], [3, 4]
-    centre = rasterize_occupancy(occ, (0.0, 2.0), 1.0, (2, 3))
-    np.testing.assert_array_equal(centre, np.array([
-        [False, True, False],
-        [False, False, False],
-    ]))
-    any_cell = rasterize_occupancy(occ, (0.0, 2.0), 1.0, (2, 3), conservative=True)
-    np.testing.assert_array_equal(any_cell, np.array([
-        [False, True, True],
-        [False, True, True],
-    ]))
-    # same grid: both modes agree with the map itself
-    for conservative in (False, True):
-        np.testing.assert_array_equal(rasterize_occupancy(occ, (1.0, 2.0), 0.5, (3, 4), conservative), EXPECTED)
