@@ -16,7 +16,7 @@ from placement.planning.navigation import distance_map, extract_path, navigation
 S2 = math.sqrt(2.0)
 
 
-def _graph(factor, feasible, res):
+def grid_graph(factor, feasible, res):
     ny, nx = factor.shape
     rows, cols, w = [], [], []
     for y in range(ny):
@@ -61,7 +61,7 @@ def test_costs_equal_scipy_dijkstra(seed):
     fac = speed_factor(distance_map(~feas, 0.05), 1.3, 4, 1.0)
     starts = np.argwhere(feas)[rng.choice(feas.sum(), size=2, replace=False)]
     cost, _ = navigation_cost(fac, feas, starts, 0.05)
-    ref = dijkstra(_graph(fac, feas, 0.05), indices=starts[:, 0] * nx + starts[:, 1], min_only=True)
+    ref = dijkstra(grid_graph(fac, feas, 0.05), indices=starts[:, 0] * nx + starts[:, 1], min_only=True)
     ref = ref.reshape(ny, nx)
     assert np.array_equal(np.isinf(cost), np.isinf(ref))
     np.testing.assert_allclose(cost[np.isfinite(ref)], ref[np.isfinite(ref)], rtol=1e-12, atol=0)
