@@ -1,0 +1,43 @@
+"""Property tests of the scene parser: random and mutated scenes give a Scene or one clean error."""
+
+from __future__ import annotations
+
+import math
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from mutations import documents, mutated
+from placement.planning.scene import Scene, SceneError, parse_scene
+from test_scene import _base
+
+KEYS = ("version", "resolution", "bounds", "robot", "preset", "start", "maps", "obstacles", "objects",
+        "place_locations", "task", "planner", "name", "box", "cylinder", "polygon", "center", "size", "yaw",
+        "radius", "height", "table", "position", "pick", "place", "threshold", "yaw_steps", "grasp_yaws")
+BASE = _base()
+
+
+def _check(doc, tmp_path_factory=None) -> None:
+    try:
+        scene = parse_scene(doc, "/nonexistent-dir", "prop")
+    except SceneError as exc:
+        msg = str(exc)
+        assert msg.startswith("prop") and "\n" not in msg and len(msg) < 2000
+        return
+    assert isinstance(scene, Scene)
+    ny, nx = scene.grid_shape
+    assert 1 <= nx * ny <= 50_000_000
+    assert all(math.isfinite(b) for b in scene.bounds)
+
+
+@settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(doc=mutated(BASE, KEYS))
+def test_mutated_scenes(doc):
+    _check(doc)
+
+
+@settings(max_examples=1000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(doc=documents(KEYS) | st.fixed_dictionaries({"version": st.just(1), "robot": documents(KEYS),
+                                                     "task": documents(KEYS)}))
+def test_random_documents(doc):
+    _check(doc)
