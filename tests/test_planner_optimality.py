@@ -29,7 +29,7 @@ def _oracle_heuristic(planner, i, graph):
     """Area-weighted Dijkstra costs from the centre cells of step i's feasible regions."""
     region = np.zeros(planner.world.nav.shape, bool)
     for o in planner.problems.options(i):
-        region |= o.value >= planner.config.threshold
+        region |= o.full_value(region.shape) >= planner.config.threshold
     labels, n = ndimage.label(region, structure=np.ones((3, 3)))
     sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
     keep = [k for k in range(1, n + 1) if sizes[k - 1] >= planner.config.min_region * sizes.sum()]
@@ -66,14 +66,14 @@ def test_each_placement_minimises_eq6_over_the_ik_feasible_cells(tmp_path, maps_
                 + cfg.lambda_nh * heur[chosen])
         assert s.cost.total == pytest.approx(want, rel=1e-9)
         for o in planner.problems.options(s.step):
-            value = o.value.astype(float)
+            value = o.full_value(nav.shape).astype(float)
             inner = ndimage.minimum_filter(value, size=3, mode="constant", cval=0.0) >= cfg.threshold
             ok = (value >= cfg.threshold) & inner & np.isfinite(nav_cost) & np.isfinite(heur)
             cost = np.full(nav.shape, np.inf)
             cost[ok] = cfg.lambda_n * nav_cost[ok] + cfg.lambda_m / value[ok] + cfg.lambda_nh * heur[ok]
             for flat in np.flatnonzero(cost < s.cost.total - COST_TOL):
                 iy, ix = divmod(int(flat), nav.shape[1])
-                base = (float(xs[ix]), float(ys[iy]), float(planner.yaws[o.yaw_index[iy, ix]]))
+                base = (float(xs[ix]), float(ys[iy]), float(planner.yaws[o.yaw_at(iy, ix)]))
                 q = trajectory_ik(planner.robot, o.arm, o.candidate.poses, base, prev_q[o.arm])
                 assert q is None, (f"step {s.step}: {o.arm}/{o.candidate.name} at {base} costs "
                                    f"{cost[iy, ix]:.5f} < {s.cost.total:.5f} and IK solves it")

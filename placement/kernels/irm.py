@@ -18,7 +18,7 @@ from .grid import wrap_bin
 
 @njit(cache=True, parallel=True)
 def trajectory_map(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
-                   grid_origin, grid_res, ny, nx, cells, out_val, out_yaw):
+                   grid_origin, grid_res, ny, nx, cells, out_val, out_yaw, out_y0=0, out_x0=0):
     """Min over the trajectory, max over base yaws, of the map value, per base cell.
 
     Args:
@@ -28,8 +28,9 @@ def trajectory_map(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
         base_yaws: (K,) base yaws to try [rad].
         grid_origin: (2,) navigation grid corner [m]; grid_res [m]; ny, nx its shape.
         cells: (C,) int64 flat indices of the base cells to evaluate (others untouched).
-        out_val: (ny, nx) float32, best value (0 = unreachable); out_yaw: (ny, nx) int64,
-            index into base_yaws of the best yaw (-1 if unreachable).
+        out_val: (h, w) float32, best value (0 = unreachable); out_yaw: (h, w) int64,
+            index into base_yaws of the best yaw (-1 if unreachable): a window of the grid whose
+            cell (0, 0) is grid cell (out_y0, out_x0); it must contain every cell of ``cells``.
     """
     P = slices.shape[0]
     nxr = slices.shape[1]
@@ -75,5 +76,5 @@ def trajectory_map(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
             if m > best:
                 best = m
                 arg = k
-        out_val[iy, ix] = best
-        out_yaw[iy, ix] = arg
+        out_val[iy - out_y0, ix - out_x0] = best
+        out_yaw[iy - out_y0, ix - out_x0] = arg

@@ -11,7 +11,7 @@ from ..grid import Grid
 from ..kernels.grid import pitch_bin, wrap_bin, zyx_angles
 from ..kernels.irm import trajectory_map
 from ..rmap import ReachabilityMap
-from .navgrid import NavGrid
+from .navgrid import NavGrid, Window
 
 
 def base_yaws(count: int) -> np.ndarray:
@@ -24,7 +24,7 @@ def base_yaws(count: int) -> np.ndarray:
 
 
 def manipulation_map(rmap: ReachabilityMap, tcp_world: np.ndarray, nav: NavGrid, yaws: np.ndarray,
-                     cells: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                     cells: np.ndarray | None = None, window: Window | None = None) -> tuple[np.ndarray, np.ndarray]:
     """IRM of a TCP trajectory: per base cell, the best yaw's worst map value along the trajectory.
 
     Args:
@@ -34,17 +34,21 @@ def manipulation_map(rmap: ReachabilityMap, tcp_world: np.ndarray, nav: NavGrid,
         yaws: (K,) base yaws to try [rad] (see :func:`base_yaws`).
         cells: optional (C,) flat base-cell indices to evaluate (default: those within the map's
             horizontal reach of the first pose).
+        window: optional part of the grid to return (it must hold every cell of ``cells``);
+            default the whole grid.
     Returns:
-        value (ny, nx) float32 (0 = unreachable), yaw_index (ny, nx) int64 into ``yaws`` (-1).
+        value (h, w) float32 (0 = unreachable), yaw_index (h, w) int64 into ``yaws`` (-1), over
+        ``window`` ((ny, nx) by default).
     """
     T = np.asarray(tcp_world, dtype=float).reshape(-1, 4, 4)
     g: Grid = rmap.grid
+    window = window or Window(0, nav.shape[0], 0, nav.shape[1])
     slices, xs, ys, ps = [], [], [], []
     for pose in T:
         yaw, pitch, roll = zyx_angles(pose)
         iz = int(math.floor((pose[2, 3] - g.origin[2]) / g.resolution))
         if not 0 <= iz < g.shape[2]:
-            return (np.zeros(nav.shape, np.float32), np.full(nav.shape, -1, np.int64))
+            return (np.zeros(window.shape, np.float32), np.full(window.shape, -1, np.int64))
         slices.append(rmap.slice(iz, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5])))
         xs.append(pose[0, 3])
         ys.append(pose[1, 3])
@@ -52,12 +56,15 @@ def manipulation_map(rmap: ReachabilityMap, tcp_world: np.ndarray, nav: NavGrid,
     ny, nx = nav.shape
     if cells is None:
         cells = cells_within(nav, T[0, 0, 3], T[0, 1, 3], reach_xy(g))
-    out_val = np.zeros(nav.shape, np.float32)
-    out_yaw = np.full(nav.shape, -1, np.int64)
+    cells = np.asarray(cells, dtype=np.int64)
+    if cells.size and not window.holds(cells, nx):
+        raise PlacementError("manipulation_map: a cell to evaluate lies outside the window")
+    out_val = np.zeros(window.shape, np.float32)
+    out_yaw = np.full(window.shape, -1, np.int64)
     trajectory_map(np.ascontiguousarray(np.stack(slices)), np.array(xs), np.array(ys), np.array(ps),
                    np.array(g.origin[:2]), g.resolution, np.asarray(yaws, dtype=float),
                    np.array(nav.origin, dtype=float), nav.resolution, ny, nx,
-                   np.asarray(cells, dtype=np.int64), out_val, out_yaw)
+                   cells, out_val, out_yaw, window.y0, window.x0)
     return out_val, out_yaw
 
 
@@ -69,7 +76,15 @@ def reach_xy(g: Grid) -> float:
 
 
 def cells_within(nav: NavGrid, x: float, y: float, radius: float) -> np.ndarray:
-    """Flat indices of navigation cells whose centre is within ``radius`` [m] of (x, y)."""
+    """Flat indices (ascending) of navigation cells whose centre is within ``radius`` [m] of (x, y)."""
     xs, ys = nav.centres()
-    mask = (xs[None, :] - x) ** 2 + (ys[:, None] - y) ** 2 <= radius * radius
-    return np.flatnonzero(mask)
+    # only the bounding box of the disc is tested (plus a cell: the comparison below decides)
+    x0 = max(int(math.floor((x - radius - nav.origin[0]) / nav.resolution)) - 1, 0)
+    x1 = min(int(math.ceil((x + radius - nav.origin[0]) / nav.resolution)) + 2, nav.shape[1])
+    y0 = max(int(math.floor((y - radius - nav.origin[1]) / nav.resolution)) - 1, 0)
+    y1 = min(int(math.ceil((y + radius - nav.origin[1]) / nav.resolution)) + 2, nav.shape[0])
+    if x0 >= x1 or y0 >= y1:
+        return np.zeros(0, np.int64)
+    mask = (xs[None, x0:x1] - x) ** 2 + (ys[y0:y1, None] - y) ** 2 <= radius * radius
+    iy, ix = np.nonzero(mask)
+    return (iy + y0) * nav.shape[1] + ix + x0

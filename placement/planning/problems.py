@@ -21,6 +21,7 @@ from .config import PlannerConfig
 from .grasps import Candidate
 from .heuristic import region_heuristic
 from .manipulation import cells_within, manipulation_map, reach_xy
+from .navgrid import Window
 from .scene import Scene
 from .steps import Step, step_candidates, task_steps
 from .world import World
@@ -30,18 +31,40 @@ from .world import World
 class Option:
     """One (arm, candidate) of a step and its manipulation map over the base grid.
 
+    The map is kept only over ``window``, the part of the grid within the arm's reach of the
+    target (plus one cell): everywhere else it is 0, and a whole-grid copy per option and step
+    would dominate the planner's memory on large scenes.
+
     Attributes:
         arm: arm name. candidate: the TCP trajectory (world frame).
-        value: (ny, nx) float32, the IRM value of the best base yaw (0 = unreachable).
-        yaw_index: (ny, nx) int64, that yaw's index into the planner's base yaws (-1 if none).
+        window: where the map is kept.
+        value: (h, w) float32 over ``window``, the IRM value of the best base yaw (0 = unreachable).
+        yaw_index: (h, w) int64, that yaw's index into the planner's base yaws (-1 if none).
         out_of_range: True when a pose of the trajectory is outside the map's height range.
     """
 
     arm: str
     candidate: Candidate
+    window: Window
     value: np.ndarray
     yaw_index: np.ndarray
     out_of_range: bool = False
+
+    def value_at(self, iy: int, ix: int) -> float:
+        """The IRM value at grid cell (iy, ix) (0 outside the window)."""
+        w = self.window
+        return float(self.value[iy - w.y0, ix - w.x0]) if w.y0 <= iy < w.y1 and w.x0 <= ix < w.x1 else 0.0
+
+    def yaw_at(self, iy: int, ix: int) -> int:
+        """The best yaw's index at grid cell (iy, ix) (-1 outside the window)."""
+        w = self.window
+        return int(self.yaw_index[iy - w.y0, ix - w.x0]) if w.y0 <= iy < w.y1 and w.x0 <= ix < w.x1 else -1
+
+    def full_value(self, shape: tuple[int, int]) -> np.ndarray:
+        """The map over the whole grid of ``shape`` (ny, nx) (for plots)."""
+        out = np.zeros(shape, np.float32)
+        out[self.window.slices] = self.value
+        return out
 
 
 def height_range(rmap: ReachabilityMap) -> tuple[float, float]:
@@ -83,16 +106,17 @@ class StepProblems:
                 if key not in near:
                     cells = cells_within(nav, *key)
                     near[key] = cells[self.world.feasible.flat[cells]]
-                value, yaw = manipulation_map(rmap, cand.poses, nav, self.yaws, near[key])
+                window = Window.around(near[key], nav.shape)
+                value, yaw = manipulation_map(rmap, cand.poses, nav, self.yaws, near[key], window)
                 z = cand.poses[:, 2, 3]
-                opts.append(Option(arm, cand, value, yaw, bool(np.any((z < lo) | (z >= hi)))))
+                opts.append(Option(arm, cand, window, value, yaw, bool(np.any((z < lo) | (z >= hi)))))
         return opts
 
     def feasible_region(self, i: int) -> np.ndarray:
         """(ny, nx) bool: base cells from which some arm and candidate of step i reach the threshold."""
         mask = np.zeros(self.world.nav.shape, dtype=bool)
         for o in self.options(i):
-            mask |= o.value >= self.config.threshold
+            mask[o.window.slices] |= o.value >= self.config.threshold
         return mask
 
     def heuristic(self, i: int, at: np.ndarray | None = None) -> np.ndarray:

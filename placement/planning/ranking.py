@@ -38,18 +38,25 @@ def rank_by_cost(options: list[Option], nav_cost: np.ndarray, heuristic: np.ndar
     option index, then cell. Returns (ranked, combined (ny, nx) with inf where infeasible).
     """
     best = np.full(nav_cost.shape, np.inf)
+    nx = nav_cost.shape[1]
     ranked = []  # (tier, cost, option index, flat cell, base yaw)
     for k, o in enumerate(options):
-        reach = (o.value >= config.threshold) & np.isfinite(nav_cost) & np.isfinite(heuristic)
+        win = o.window.slices
+        nav_w, heur_w = nav_cost[win], heuristic[win]
+        reach = (o.value >= config.threshold) & np.isfinite(nav_w) & np.isfinite(heur_w)
         if not reach.any():
             continue
-        c = np.full(nav_cost.shape, np.inf)
-        c[reach] = combined_cost(config, nav_cost[reach], o.value[reach], heuristic[reach])
-        np.minimum(best, c, out=best)
+        c = np.full(o.value.shape, np.inf)
+        c[reach] = combined_cost(config, nav_w[reach], o.value[reach], heur_w[reach])
+        np.minimum(best[win], c, out=best[win])
+        # the window holds one cell of zeros around the reach, so the filter sees what it would
+        # see on the whole grid
         inner = ndimage.minimum_filter(o.value, size=3, mode="constant", cval=0.0) >= config.threshold
         for tier, mask in ((0, reach & inner), (1, reach & ~inner)):
             flat = np.flatnonzero(mask)
             top = flat[np.argsort(c.flat[flat], kind="stable")[:config.ik_tries]]
-            ranked += [(tier, float(c.flat[f]), k, int(f), float(yaws[o.yaw_index.flat[f]])) for f in top]
+            cells = o.window.to_global(top, nx)
+            ranked += [(tier, float(c.flat[f]), k, int(g), float(yaws[o.yaw_index.flat[f]]))
+                       for f, g in zip(top, cells)]
     ranked.sort(key=lambda r: (r[0], r[1], r[2], r[3]))
     return [Ranked(*r[1:]) for r in ranked], best

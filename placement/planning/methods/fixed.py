@@ -9,6 +9,7 @@ import numpy as np
 
 from ...errors import PlacementError
 from ..manipulation import manipulation_map
+from ..navgrid import Window
 from ..problems import Option
 from ..ranking import Ranked
 
@@ -52,8 +53,10 @@ def rank_fixed(planner: Planner, options: list[Option], nav_cost: np.ndarray,
     ranked = []
     for flat, yaw in fixed_placements(planner):
         for k, o in enumerate(options):
-            v, _ = manipulation_map(planner.maps[o.arm], o.candidate.poses, nav, np.array([yaw]), np.array([flat]))
-            value = float(v.flat[flat])
+            cell = np.array([flat])
+            v, _ = manipulation_map(planner.maps[o.arm], o.candidate.poses, nav, np.array([yaw]), cell,
+                                    Window.around(cell, nav.shape, margin=0))
+            value = float(v[0, 0])
             if value >= planner.config.threshold:
                 ranked.append((-value, k, flat, yaw))
     ranked.sort(key=lambda r: (r[0], r[1], r[2]))

@@ -41,16 +41,17 @@ def _candidates(planner: Planner, i: int):
     for k, o in enumerate(opts):
         inner = ndimage.minimum_filter(o.value, size=3, mode="constant", cval=0.0) >= threshold
         v = np.where(inner, o.value, 0.0)
-        better = v > best_val
-        best_val[better] = v[better]
-        best_opt[better] = k
+        bv, bo = best_val[o.window.slices], best_opt[o.window.slices]
+        better = v > bv
+        bv[better] = v[better]
+        bo[better] = k
     lattice = np.zeros(nav.shape, bool)
     lattice[::LATTICE, ::LATTICE] = True
     flat = np.flatnonzero(lattice & (best_opt >= 0))
     if flat.size == 0:  # tiny feasible set: fall back to every inner cell
         flat = np.flatnonzero(best_opt >= 0)
     flat = flat[np.argsort(-best_val.flat[flat], kind="stable")[:CANDIDATES]]
-    yaws = np.array([planner.yaws[opts[best_opt.flat[f]].yaw_index.flat[f]] for f in flat])
+    yaws = np.array([planner.yaws[opts[best_opt.flat[f]].yaw_at(*divmod(int(f), nav.shape[1]))] for f in flat])
     return flat, best_opt.flat[flat], yaws, best_val.flat[flat].astype(float)
 
 
@@ -122,7 +123,7 @@ def plan_optimal(planner: Planner, start_cell, keep_maps: bool = False) -> list[
             navc, pred = navigation_cost(world.factor, world.feasible, prev_cell, nav.resolution, targets=full)
             step = placed(planner, steps[i], o, base, q, float(navc[iy, ix]), 0.0, float(value), {})
             if keep_maps:
-                manip = np.max([p.value for p in planner.problems.options(i)], axis=0)
+                manip = np.max([p.full_value(nav.shape) for p in planner.problems.options(i)], axis=0)
                 step.maps = StepMaps(navc, np.zeros(nav.shape), manip, None, extract_path(pred, (iy, ix)))
             out.append(step)
             prev_cell = (iy, ix)

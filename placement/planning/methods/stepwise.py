@@ -74,7 +74,8 @@ def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranke
     timings["combine"] = (time.perf_counter() - t) * 1e3
     maps = None
     if keep_maps:
-        maps = StepMaps(nav_cost, heur, np.max([o.value for o in opts], axis=0) if opts else None, combined)
+        manip = np.max([o.full_value(nav.shape) for o in opts], axis=0) if opts else None
+        maps = StepMaps(nav_cost, heur, manip, combined)
     t = time.perf_counter()
     failed = []  # (option, row, column) of placements where IK failed
     tries = 0
@@ -99,7 +100,7 @@ def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranke
         timings["ik"] = (time.perf_counter() - t) * 1e3
         if maps is not None:
             maps.path = extract_path(pred, (iy, ix))
-        value = float(o.value[iy, ix]) if planner.method != "fixed" else -r.cost
+        value = o.value_at(iy, ix) if planner.method != "fixed" else -r.cost
         result = placed(planner, step, o, base, q, float(nav_cost[iy, ix]), float(heur[iy, ix]), value, timings)
         result.maps = maps
         return result, (iy, ix)
