@@ -20,6 +20,7 @@ import math
 from pathlib import Path
 from typing import Any, Iterable, Mapping, NoReturn
 
+import numpy as np
 import yaml
 
 
@@ -45,6 +46,13 @@ def describe(value: Any) -> str:
     return type(value).__name__
 
 
+def one_line(text: str) -> str:
+    """``text`` with every non-printable character (newline, tab, NUL, ...) escaped: an error stays one line."""
+    if text.isprintable():
+        return text
+    return "".join(ch if ch.isprintable() else ascii(ch)[1:-1] for ch in text)
+
+
 class Checker:
     """Checks of one document; every failure raises ``error("where: path: message")``.
 
@@ -59,7 +67,7 @@ class Checker:
 
     def fail(self, path: str, message: str) -> NoReturn:
         """Raise the error for ``path`` (may be empty for the whole document)."""
-        raise self.error(f"{self.where}: {path}: {message}" if path else f"{self.where}: {message}")
+        raise self.error(one_line(f"{self.where}: {path}: {message}" if path else f"{self.where}: {message}"))
 
     # -- containers ----------------------------------------------------
     def mapping(self, value: Any, path: str, allowed: Mapping[str, str] | Iterable[str],
@@ -160,6 +168,21 @@ class Checker:
         return list(items)
 
 
+def finite_array(values: Any, what: str, error: type[Exception]) -> np.ndarray:
+    """``values`` as a float array of any shape; anything but finite numbers raises ``error`` naming ``what``.
+
+    For the public wrappers of numeric code: a NaN that reaches a numba kernel
+    can end in a ZeroDivisionError or a silently wrong answer.
+    """
+    try:
+        out = np.array(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise error(one_line(f"{what} must be an array of numbers, got {values!r:.60}")) from None
+    if not np.all(np.isfinite(out)):
+        raise error(f"{what} must hold finite numbers, got {np.array2string(out, threshold=12)}")
+    return out
+
+
 class UniqueKeyLoader(yaml.SafeLoader):
     """SafeLoader that refuses duplicate mapping keys (PyYAML silently keeps the last one)."""
 
@@ -192,12 +215,12 @@ def parse_yaml(text: str, where: str, error: type[Exception]) -> Any:
         mark = exc.problem_mark or exc.context_mark
         at = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = " ".join(str(exc.problem or exc.context or "syntax error").split())
-        raise error(f"{where}: invalid YAML at {at}{problem}") from None
+        raise error(one_line(f"{where}: invalid YAML at {at}{problem}")) from None
     except (yaml.YAMLError, RecursionError, ValueError) as exc:
         # ValueError: PyYAML converts some scalars with int()/float() (e.g. huge timestamps)
-        raise error(f"{where}: invalid YAML: {' '.join(str(exc).split()) or type(exc).__name__}") from None
+        raise error(one_line(f"{where}: invalid YAML: {' '.join(str(exc).split()) or type(exc).__name__}")) from None
     if data is None:
-        raise error(f"{where}: the file is empty")
+        raise error(one_line(f"{where}: the file is empty"))
     return data
 
 
@@ -207,7 +230,7 @@ def read_yaml(path: str | Path, error: type[Exception], where: str | None = None
     try:
         text = Path(path).read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
-        raise error(f"{where}: not a UTF-8 text file (byte {exc.start})") from None
+        raise error(one_line(f"{where}: not a UTF-8 text file (byte {exc.start})")) from None
     except OSError as exc:
-        raise error(f"{where}: cannot be read: {exc.strerror or exc}") from None
+        raise error(one_line(f"{where}: cannot be read: {exc.strerror or exc}")) from None
     return parse_yaml(text, where, error)

@@ -27,7 +27,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
-from ..validation import Checker, read_yaml
+from ..validation import Checker, one_line, read_yaml
 from .chain import Chain, ancestors, extract_chain
 from .spec import ArmSpec, PresetSpec, parse_preset
 
@@ -83,7 +83,7 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
     try:
         data = path.read_bytes()
     except OSError as exc:
-        raise RobotError(f"{where}: urdf: cannot read {path}: {exc.strerror or exc}") from None
+        raise RobotError(one_line(f"{where}: urdf: cannot read {path}: {exc.strerror or exc}")) from None
     sha = hashlib.sha256(data).hexdigest()
     key = (str(path), sha)
     with _MODELS_LOCK:
@@ -94,10 +94,10 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
         try:
             model = pin.buildModelFromXML(data.decode("utf-8"))
         except UnicodeDecodeError as exc:
-            raise RobotError(f"{where}: urdf: {path} is not UTF-8 text (byte {exc.start})") from None
+            raise RobotError(one_line(f"{where}: urdf: {path} is not UTF-8 text (byte {exc.start})")) from None
         except Exception as exc:  # pinocchio raises plain RuntimeError/ValueError
             msg = " ".join(str(exc).split()) or type(exc).__name__
-            raise RobotError(f"{where}: urdf: {path} does not load: {msg}") from None
+            raise RobotError(one_line(f"{where}: urdf: URDF {path} does not load: {msg}")) from None
         hit = (model, _mimic_joints(data))
         with _MODELS_LOCK:
             _MODELS[key] = hit
@@ -108,7 +108,7 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
 
 def _located(exc: RobotError, where: str, key: str) -> RobotError:
     """``exc`` (keeping its class and attributes) with the preset file and key path in front."""
-    exc.args = (f"{where}: {key}: {exc}",)
+    exc.args = (one_line(f"{where}: {key}: {exc}"),)
     return exc
 
 

@@ -119,7 +119,7 @@ def _existing_file(c: Checker, value: Any, key: str, origin: Path) -> Path:
     except (OSError, ValueError, RuntimeError) as exc:  # NUL bytes, unknown ~user, too long
         c.fail(key, f"not a usable path: {' '.join(str(exc).split())}")
     if not found:
-        c.fail(key, f"file not found: {path}")
+        c.fail(key, f"{key.upper()} file not found: {path}")
     return path
 
 
