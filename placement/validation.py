@@ -183,8 +183,11 @@ def finite_array(values: Any, what: str, error: type[Exception]) -> np.ndarray:
     return out
 
 
-class UniqueKeyLoader(yaml.SafeLoader):
-    """SafeLoader that refuses duplicate mapping keys (PyYAML silently keeps the last one)."""
+class UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):
+    """Safe loader (libyaml's when installed: ~10x faster) that refuses duplicate mapping keys.
+
+    PyYAML silently keeps the last of two equal keys.
+    """
 
 
 def _construct_mapping(loader, node, deep=False):
@@ -198,7 +201,7 @@ def _construct_mapping(loader, node, deep=False):
         if duplicate:
             raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
         seen.add(key)
-    return yaml.SafeLoader.construct_mapping(loader, node, deep)
+    return yaml.constructor.SafeConstructor.construct_mapping(loader, node, deep)
 
 
 UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)

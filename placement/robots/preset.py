@@ -172,7 +172,8 @@ class Robot:
         self.footprint_radius = spec.footprint_radius
         self.v_max = spec.v_max
         self.omega_max = spec.omega_max
-        self._arms = {name: self._make_arm(a) for name, a in spec.arms.items()}
+        data = self.model.createData()
+        self._arms = {name: self._make_arm(a, data) for name, a in spec.arms.items()}
 
     # -- model helpers -------------------------------------------------
     def _frame_id(self, name: str, key: str | None = None) -> int:
@@ -240,7 +241,7 @@ class Robot:
         else:
             q[jm.idx_q] = value
 
-    def _make_arm(self, a: ArmSpec) -> Arm:
+    def _make_arm(self, a: ArmSpec, data: pin.Data) -> Arm:
         path = f"arms.{a.name}"
         jids = [self._joint_id(j, f"{path}.joints[{i}]", arm=True) for i, j in enumerate(a.joints)]
         tip_id = self._frame_id(a.tip_frame, f"{path}.tip_frame")
@@ -262,7 +263,7 @@ class Robot:
         q0 = self.reference_q()
         for jid in jids:
             self._set(q0, jid, 0.0)
-        chain = extract_chain(self.model, q0, self.base_frame_id, jids, tip_id, tcp, (self.name, a.name))
+        chain = extract_chain(self.model, q0, self.base_frame_id, jids, tip_id, tcp, (self.name, a.name), data)
         return Arm(a.name, list(a.joints), a.tip_frame, tcp, home, lower, upper, cont, vel, chain, jids)
 
     # -- public API ----------------------------------------------------
