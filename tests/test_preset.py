@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import copy
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -237,6 +239,16 @@ def test_fixed_joint_outside_its_limits(tmp_path):
                   "fixed_joints.torso_lift_joint: 0.5 is outside the URDF limits [0, 0.3")
     assert "torso_lift_joint" in msg
     assert placement.load_robot(write(tmp_path, changed(pr2_mapping(), fixed_joints={"torso_lift_joint": 0.0})))
+
+
+def test_cli_prints_one_error_line(tmp_path):
+    """Through the command line: exit 2, one `error:` line, nothing written."""
+    path = write(tmp_path, changed(pr2_mapping(), arms__right__home=[0, 0, math.nan, 0, 0, 0, 0]))
+    proc = subprocess.run([sys.executable, "-m", "placement.cli.main", "maps", "build", "--robot", path, "--out",
+                           str(tmp_path / "m")], capture_output=True, text=True)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    assert proc.stderr.strip() == f"error: {path}: arms.right.home[2]: expected a finite number, got nan"
+    assert not (tmp_path / "m").exists()
 
 
 # -- the URDF model cache ----------------------------------------------------------------------------

@@ -29,7 +29,7 @@ import pinocchio as pin
 from ..errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
 from ..validation import Checker, one_line, read_yaml
 from .chain import Chain, ancestors, extract_chain
-from .spec import ArmSpec, PresetSpec, parse_preset
+from .spec import QUATERNION_TOLERANCE, ArmSpec, PresetSpec, parse_preset
 
 PRESET_DIR = Path(__file__).parent / "presets"
 #: Parsed URDF models kept in memory, keyed by (path, sha256 of the bytes parsed).
@@ -45,7 +45,7 @@ def pose_to_matrix(pose) -> np.ndarray:
     """``[x, y, z, qx, qy, qz, qw]`` (metres, unit quaternion) -> (4, 4) homogeneous matrix."""
     x, y, z, qx, qy, qz, qw = (float(v) for v in pose)
     norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
-    if not abs(norm - 1.0) <= 1e-6:
+    if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
         raise ValueError(f"quaternion [{qx}, {qy}, {qz}, {qw}] is not unit length (norm {norm:.6g})")
     T = np.eye(4)
     T[:3, :3] = pin.Quaternion(qw, qx, qy, qz).toRotationMatrix()
