@@ -161,8 +161,8 @@ def test_mutated_preset_text(data):
             lines.insert(i, lines[i])
         elif op == "insert":
             j = data.draw(st.integers(0, len(lines[i])))
-            lines[i] = lines[i][:j] + data.draw(st.sampled_from(list(":-[]{}#&*!|>'\"%@`, \t\n")) | st.text(max_size=3)) \
-                + lines[i][j:]
+            stray = data.draw(st.sampled_from(list(":-[]{}#&*!|>'\"%@`, \t\n")) | st.text(max_size=3))
+            lines[i] = lines[i][:j] + stray + lines[i][j:]
         else:
             lines[i] = lines[i][: data.draw(st.integers(0, len(lines[i])))] + "\n"
         if not lines:
