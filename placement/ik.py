@@ -38,6 +38,7 @@ import pinocchio as pin
 from .errors import PlacementError, RobotError
 from .kernels.ik import dls_attempt
 from .robots import Robot
+from .validation import finite_array
 
 #: Damping lambda^2 of the least-squares step [m^2, rad^2].
 DAMPING = 1e-3
@@ -184,13 +185,18 @@ def solve_ik(robot: Robot, arm: str, T_target, q_seed=None, *, seeds: int = 8, r
     Joints other than the arm's are held as in :meth:`Robot.full_q`. The
     solver state is cached per (robot, arm); calls from several threads are safe.
     """
-    T = np.asarray(T_target, dtype=float)
-    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+    T = finite_array(T_target, "IK target", PlacementError)
+    if T.shape != (4, 4):
         raise PlacementError(f"IK target must be a finite (4, 4) pose, got shape {T.shape}")
-    if not (isinstance(seeds, (int, np.integer)) and seeds >= 1):
-        raise PlacementError(f"seeds must be a positive integer, got {seeds!r}")
-    if not (pos_tol > 0 and rot_tol > 0):
-        raise PlacementError(f"tolerances must be positive, got pos_tol={pos_tol}, rot_tol={rot_tol}")
+    for name, value in (("seeds", seeds), ("max_iter", max_iter)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise PlacementError(f"{name} must be a positive integer, got {value!r}")
+    if isinstance(rng_seed, bool) or not isinstance(rng_seed, (int, np.integer)) or rng_seed < 0:
+        raise PlacementError(f"rng_seed must be a non-negative integer, got {rng_seed!r}")
+    for name, value in (("pos_tol", pos_tol), ("rot_tol", rot_tol)):
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
+                or not (math.isfinite(value) and value > 0):
+            raise PlacementError(f"{name} must be a positive finite number, got {value!r}")
     s = _solver(robot, arm)
     a = s.arm
     R = T[:3, :3]
@@ -200,7 +206,11 @@ def solve_ik(robot: Robot, arm: str, T_target, q_seed=None, *, seeds: int = 8, r
     if np.linalg.det(R) < 0:
         raise PlacementError("IK target rotation is a reflection (determinant < 0)")
     oMt = s.oMbase * pin.SE3(R, T[:3, 3].copy())
-    q0 = np.array(a.home if q_seed is None else q_seed, dtype=float)
+    # a NaN start would reach the kernels' divisions (a NaN home once came in through a preset)
+    if q_seed is None:
+        q0 = finite_array(a.home, f"the home configuration of arm '{arm}'", PlacementError)
+    else:
+        q0 = finite_array(q_seed, "q_seed", PlacementError)
     if q0.shape != (a.dof,):
         raise PlacementError(f"q_seed must have {a.dof} values for arm '{arm}', got shape {q0.shape}")
     rng = np.random.default_rng(rng_seed)

@@ -9,6 +9,7 @@ from .kernels.kinematics import fk_jacobian
 from .kernels.manipulability import extended_manipulability as _kernel
 from .kernels.manipulability import joint_penalties
 from .robots import Robot
+from .validation import finite_array
 
 INDEX_NAMES = ("isotropy", "volume")
 ROTATION_SCALE = 0.15  # Simox: rotational Jacobian rows are weighted against metres
@@ -35,11 +36,11 @@ def extended_manipulability(robot: Robot, arm: str, q, index: str = "isotropy",
     if index not in INDEX_NAMES:
         raise PlacementError(f"unknown manipulability index '{index}'; choose from {', '.join(INDEX_NAMES)}")
     a = robot.arm(arm)
-    Q = np.asarray(q, dtype=float)
+    Q = finite_array(q, "joint values q", PlacementError)
     single = Q.ndim == 1
     Q = np.atleast_2d(Q)
-    if Q.shape[1] != a.dof:
-        raise PlacementError(f"arm '{arm}' has {a.dof} joints, got configurations of length {Q.shape[1]}")
+    if Q.ndim != 2 or Q.shape[1] != a.dof:
+        raise PlacementError(f"arm '{arm}' has {a.dof} joints, got configurations of shape {Q.shape[1:]}")
     if a.dof < 6:
         raise PlacementError(f"arm '{arm}' has {a.dof} joints; the extended manipulability needs at least 6")
     n, ch = a.dof, a.chain
@@ -50,7 +51,11 @@ def extended_manipulability(robot: Robot, arm: str, q, index: str = "isotropy",
     if row_factors is None:
         rf = np.ones((len(Q), 6, 2))
     else:
-        rf = np.broadcast_to(np.asarray(row_factors, dtype=float), (len(Q), 6, 2))
+        rf = finite_array(row_factors, "row_factors", PlacementError)
+        try:
+            rf = np.broadcast_to(rf, (len(Q), 6, 2))
+        except ValueError:
+            raise PlacementError(f"row_factors must have shape (6, 2) or ({len(Q)}, 6, 2), got {rf.shape}") from None
     out = np.empty(len(Q))
     for i, qi in enumerate(Q):
         fk_jacobian(qi, ch.link_T, ch.axis, ch.kind, ch.tip_T, T, J, work)

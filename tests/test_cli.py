@@ -70,7 +70,8 @@ def test_bad_preset_names_the_key(tmp_path):
     preset = tmp_path / "r.yaml"
     preset.write_text("name: r\nurdf: x.urdf\nbase_frame: b\narms: {}\nwheels: 4\n")
     _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "wheels")
-    preset.write_text("name: r\nurdf: x.urdf\nbase_frame: b\narms: {a: {joints: [j], tip_frame: t}}\n")
+    preset.write_text("name: r\nurdf: x.urdf\nbase_frame: b\nfootprint_radius: 0.4\nv_max: 0.5\nomega_max: 1.0\n"
+                      "arms: {a: {joints: [j1, j2, j3, j4, j5, j6], tip_frame: t}}\n")
     _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")
     (tmp_path / "x.urdf").write_text("<robot name='r'><link name='l'/><joint")
     _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")

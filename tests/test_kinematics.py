@@ -165,6 +165,8 @@ def test_prismatic_joint_in_the_chain(tmp_path):
         "urdf: package://example-robot-data/robots/pr2_description/urdf/pr2.urdf\n"
         "base_frame: base_footprint\n"
         "footprint_radius: 0.47\n"
+        "v_max: 0.5\n"
+        "omega_max: 1.0\n"
         "arms:\n"
         "  right:\n"
         "    joints: [torso_lift_joint, r_shoulder_pan_joint, r_shoulder_lift_joint, r_upper_arm_roll_joint,\n"

@@ -160,7 +160,7 @@ def test_no_pair_left_is_one_clear_error(tmp_path):
     urdf = tmp_path / "chain.urdf"
     urdf.write_text(f'<robot name="chain">{links}{joints}</robot>')
     preset = tmp_path / "chain.yaml"
-    preset.write_text(f"name: chain\nurdf: {urdf}\nbase_frame: l0\nfootprint_radius: 0.3\n"
+    preset.write_text(f"name: chain\nurdf: {urdf}\nbase_frame: l0\nfootprint_radius: 0.3\nv_max: 0.5\nomega_max: 1.0\n"
                       "arms:\n  a:\n    joints: [j0, j1, j2, j3, j4, j5, j6]\n    tip_frame: l7\n")
     robot = placement.load_robot(str(preset))
     with pytest.raises(placement.PlacementError, match="no collision shape pair involves arm 'a'"):

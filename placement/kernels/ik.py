@@ -46,6 +46,10 @@ def _log3(R, out):
             if vz < 0:
                 ax, ay, az = -ax, -ay, -az
         n = math.sqrt(ax * ax + ay * ay + az * az)
+        if not n > 0.0:
+            # only a non-rotation (NaN entries) gets here; numba would raise ZeroDivisionError
+            out[0], out[1], out[2] = math.nan, math.nan, math.nan
+            return
         out[0], out[1], out[2] = theta * ax / n, theta * ay / n, theta * az / n
         return
     f = theta / (2.0 * math.sin(theta))

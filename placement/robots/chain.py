@@ -54,12 +54,14 @@ def extract_chain(
     tip_frame_id: int,
     tcp_offset: np.ndarray,
     names: tuple[str, str],
+    data: pin.Data | None = None,
 ) -> Chain:
     """Build a :class:`Chain` from ``model`` at the reference configuration ``q0``.
 
     ``q0`` must hold the arm joints at zero motion; joints between the arm joints
     that are not arm joints keep their ``q0`` value (the preset's fixed joints).
-    ``names`` is (robot name, arm name) for error messages.
+    ``names`` is (robot name, arm name) for error messages. ``data``: a
+    ``model.createData()`` to reuse (creating one costs milliseconds on a large model).
     """
     robot, arm = names
     tip_chain = ancestors(model, model.frames[tip_frame_id].parentJoint)
@@ -84,7 +86,7 @@ def extract_chain(
             f"moves with arm joint '{model.names[min(moving)]}'"
         )
 
-    data = model.createData()
+    data = model.createData() if data is None else data
     pin.forwardKinematics(model, data, q0)
     pin.updateFramePlacements(model, data)
     pin.computeJointJacobians(model, data, q0)

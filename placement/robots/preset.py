@@ -4,33 +4,36 @@ Units: metres and radians; ``tcp_offset`` is ``[x, y, z, qx, qy, qz, qw]`` (ROS 
 A URDF path may be absolute, relative to the preset file, or
 ``package://example-robot-data/...`` (resolved inside the installed
 example-robot-data package).
+
+Loading runs in two stages, and the first failure is one error line
+``<preset file>: <key path>: <problem>``: :func:`placement.robots.spec.parse_preset`
+checks the YAML mapping alone (types, shapes, units, files), then :class:`Robot`
+checks it against the URDF model (frames, joints, the serial chain, limits).
 """
 
 from __future__ import annotations
 
 import difflib
 import hashlib
-import importlib.metadata
 import math
+import threading
+import xml.etree.ElementTree as ET
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import yaml
 
 from ..errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
-from .chain import Chain, extract_chain
+from ..validation import Checker, one_line, read_yaml
+from .chain import Chain, ancestors, extract_chain
+from .spec import QUATERNION_TOLERANCE, ArmSpec, PresetSpec, parse_preset
 
 PRESET_DIR = Path(__file__).parent / "presets"
-
-_TOP_KEYS = {
-    "name": str, "urdf": str, "srdf": str, "base_frame": str, "fixed_joints": dict,
-    "footprint_radius": float, "v_max": float, "omega_max": float, "arms": dict,
-}
-_REQUIRED = ("name", "urdf", "base_frame", "arms")
-_ARM_KEYS = {"joints": list, "tip_frame": str, "tcp_offset": list, "home": list}
+#: Parsed URDF models kept in memory, keyed by (path, sha256 of the bytes parsed).
+MODEL_CACHE_SIZE = 8
 
 
 def builtin_presets() -> list[str]:
@@ -38,23 +41,11 @@ def builtin_presets() -> list[str]:
     return sorted(p.stem for p in PRESET_DIR.glob("*.yaml"))
 
 
-def _share_dir() -> Path:
-    dist = importlib.metadata.distribution("example-robot-data")
-    return Path(dist.locate_file("cmeel.prefix/share"))
-
-
-def _resolve(path: str, origin: Path) -> Path:
-    if path.startswith("package://"):
-        return _share_dir() / path[len("package://"):]
-    p = Path(path).expanduser()
-    return p if p.is_absolute() else (origin / p)
-
-
 def pose_to_matrix(pose) -> np.ndarray:
     """``[x, y, z, qx, qy, qz, qw]`` (metres, unit quaternion) -> (4, 4) homogeneous matrix."""
     x, y, z, qx, qy, qz, qw = (float(v) for v in pose)
     norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
-    if abs(norm - 1.0) > 1e-6:
+    if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
         raise ValueError(f"quaternion [{qx}, {qy}, {qz}, {qw}] is not unit length (norm {norm:.6g})")
     T = np.eye(4)
     T[:3, :3] = pin.Quaternion(qw, qx, qy, qz).toRotationMatrix()
@@ -68,6 +59,59 @@ def matrix_to_pose(T: np.ndarray) -> list[float]:
     return [float(T[0, 3]), float(T[1, 3]), float(T[2, 3]), q.x, q.y, q.z, q.w]
 
 
+_MODELS: OrderedDict[tuple[str, str], tuple[pin.Model, dict[str, str]]] = OrderedDict()
+_MODELS_LOCK = threading.Lock()
+
+
+def _mimic_joints(xml: bytes) -> dict[str, str]:
+    """{mimic joint: the joint it follows} of a URDF document."""
+    try:
+        root = ET.fromstring(xml)
+    except ET.ParseError:  # pinocchio parsed it, so only an exotic encoding gets here: no mimic info
+        return {}
+    return {j.get("name"): j.find("mimic").get("joint", "?") for j in root.iter("joint")
+            if j.find("mimic") is not None}
+
+
+def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
+    """(model, {mimic joint: leader}, sha256) of the URDF file ``path`` as it is now.
+
+    The bytes are read once, hashed, and the model is parsed from those very
+    bytes, so the cache key always describes the cached model (an edited file
+    has a new hash). Each call returns its own copy of the model.
+    """
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise RobotError(one_line(f"{where}: urdf: cannot read {path}: {exc.strerror or exc}")) from None
+    sha = hashlib.sha256(data).hexdigest()
+    key = (str(path), sha)
+    with _MODELS_LOCK:
+        hit = _MODELS.get(key)
+        if hit is not None:
+            _MODELS.move_to_end(key)
+    if hit is None:
+        try:
+            model = pin.buildModelFromXML(data.decode("utf-8"))
+        except UnicodeDecodeError as exc:
+            raise RobotError(one_line(f"{where}: urdf: {path} is not UTF-8 text (byte {exc.start})")) from None
+        except Exception as exc:  # pinocchio raises plain RuntimeError/ValueError
+            msg = " ".join(str(exc).split()) or type(exc).__name__
+            raise RobotError(one_line(f"{where}: urdf: URDF {path} does not load: {msg}")) from None
+        hit = (model, _mimic_joints(data))
+        with _MODELS_LOCK:
+            _MODELS[key] = hit
+            while len(_MODELS) > MODEL_CACHE_SIZE:
+                _MODELS.popitem(last=False)
+    return pin.Model(hit[0]), dict(hit[1]), sha
+
+
+def _located(exc: RobotError, where: str, key: str) -> RobotError:
+    """``exc`` (keeping its class and attributes) with the preset file and key path in front."""
+    exc.args = (one_line(f"{where}: {key}: {exc}"),)
+    return exc
+
+
 @dataclass
 class Arm:
     """One arm of a robot: its joints in order, tip frame and canonical TCP.
@@ -78,7 +122,7 @@ class Arm:
         tip_frame: URDF frame the TCP is attached to.
         tcp_offset: (4, 4) fixed transform tip frame -> canonical TCP frame
             (z = approach direction, y = closing direction), metres.
-        home: (n,) home configuration [rad or m].
+        home: (n,) home configuration [rad or m], within the limits.
         lower, upper: (n,) joint limits [rad or m]; continuous joints get [-pi, pi].
         continuous: (n,) bool, True for joints without limits (never penalised).
         velocity: (n,) URDF velocity limits [rad/s or m/s].
@@ -103,47 +147,84 @@ class Arm:
 
 
 class Robot:
-    """A robot preset bound to its pinocchio model. Use :func:`load_robot`."""
+    """A robot preset bound to its pinocchio model. Use :func:`load_robot`.
 
-    def __init__(self, spec: dict, origin: Path, source: str):
-        self.source = source
-        self.name: str = spec["name"]
-        self.urdf_path = _resolve(spec["urdf"], origin)
-        self.srdf_path = _resolve(spec["srdf"], origin) if spec.get("srdf") else None
-        if not self.urdf_path.is_file():
-            raise RobotError(f"robot '{self.name}': URDF not found: {self.urdf_path}")
-        try:
-            self.model = pin.buildModelFromUrdf(str(self.urdf_path))
-        except Exception as exc:  # pinocchio raises plain RuntimeError/ValueError
-            msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise RobotError(f"robot '{self.name}': URDF {self.urdf_path} does not load: {msg}") from None
-        self.base_frame: str = spec["base_frame"]
-        self.base_frame_id = self._frame_id(self.base_frame)
+    Raises :class:`PresetError` (or :class:`JointNotFound`, :class:`FrameNotFound`)
+    naming the preset file and key path when the preset does not fit the URDF.
+    """
+
+    def __init__(self, spec: PresetSpec):
+        self.source = spec.where
+        self.name = spec.name
+        self.urdf_path = spec.urdf
+        self.srdf_path = spec.srdf
+        self._check = Checker(spec.where, PresetError)
+        self.model, self._mimic, self.urdf_sha256 = urdf_model(spec.urdf, spec.where)
+        self.base_frame = spec.base_frame
+        self.base_frame_id = self._frame_id(spec.base_frame, "base_frame")
         self.fixed_joints: dict[str, float] = {}
-        for jname, value in (spec.get("fixed_joints") or {}).items():
-            self._joint_id(jname)
-            self.fixed_joints[str(jname)] = float(value)
-        self.footprint_radius = float(spec.get("footprint_radius", 0.4))
-        self.v_max = float(spec.get("v_max", 0.5))
-        self.omega_max = float(spec.get("omega_max", 1.0))
-        for key in ("footprint_radius", "v_max", "omega_max"):
-            if not getattr(self, key) > 0:
-                raise PresetError(f"robot '{self.name}': {key} must be > 0, got {getattr(self, key)}")
-        self.urdf_sha256 = hashlib.sha256(self.urdf_path.read_bytes()).hexdigest()
-        self._arms = {name: self._make_arm(name, a) for name, a in spec["arms"].items()}
+        for jname, value in spec.fixed_joints.items():
+            key = f"fixed_joints.{jname}"
+            lower, upper, continuous = self._limits(self._joint_id(jname, key))
+            if not continuous and not lower <= value <= upper:
+                self._check.fail(key, f"{value:g} is outside the URDF limits [{lower:g}, {upper:g}] of '{jname}'")
+            self.fixed_joints[jname] = value
+        self.footprint_radius = spec.footprint_radius
+        self.v_max = spec.v_max
+        self.omega_max = spec.omega_max
+        data = self.model.createData()
+        self._arms = {name: self._make_arm(a, data) for name, a in spec.arms.items()}
 
     # -- model helpers -------------------------------------------------
-    def _frame_id(self, name: str) -> int:
+    def _frame_id(self, name: str, key: str | None = None) -> int:
         if not self.model.existFrame(name):
             names = [f.name for f in self.model.frames]
-            raise FrameNotFound(name, self.name, difflib.get_close_matches(name, names, 5, 0.4))
+            exc = FrameNotFound(name, self.name, difflib.get_close_matches(name, names, 5, 0.4))
+            raise (exc if key is None else _located(exc, self._check.where, key))
         return self.model.getFrameId(name)
 
-    def _joint_id(self, name: str) -> int:
-        if not self.model.existJointName(name):
-            names = list(self.model.names)[1:]
-            raise JointNotFound(name, self.name, difflib.get_close_matches(name, names, 5, 0.4))
-        return self.model.getJointId(name)
+    def _joint_id(self, name: str, key: str, arm: bool = False) -> int:
+        """Id of the 1-DoF joint ``name`` (``key``: its place in the preset, for errors)."""
+        m = self.model
+        if not m.existJointName(name):
+            if m.existFrame(name, pin.FrameType.FIXED_JOINT):
+                self._check.fail(key, f"'{name}' is a fixed joint in the URDF: it cannot move")
+            names = list(m.names)[1:]
+            exc = JointNotFound(name, self.name, difflib.get_close_matches(name, names, 5, 0.4))
+            raise _located(exc, self._check.where, key)
+        if arm and name in self._mimic:
+            self._check.fail(key, f"'{name}' is a mimic joint (it follows '{self._mimic[name]}'); "
+                                  "arm joints must move independently")
+        jid = m.getJointId(name)
+        nv = m.joints[jid].nv
+        if nv != 1:
+            self._check.fail(key, f"joint '{name}' has {nv} degrees of freedom; only revolute, "
+                                  "continuous and prismatic joints can be used")
+        return jid
+
+    def _limits(self, jid: int) -> tuple[float, float, bool]:
+        """(lower, upper [rad or m], continuous) of a 1-DoF joint; continuous joints get [-pi, pi]."""
+        jm = self.model.joints[jid]
+        if jm.nq == 2:
+            return -math.pi, math.pi, True
+        return float(self.model.lowerPositionLimit[jm.idx_q]), float(self.model.upperPositionLimit[jm.idx_q]), False
+
+    def _check_chain(self, a: ArmSpec, jids: list[int], tip_id: int) -> None:
+        """Every arm joint lies on the serial chain base frame -> tip frame, listed base first."""
+        tip_chain = ancestors(self.model, self.model.frames[tip_id].parentJoint)
+        base_chain = ancestors(self.model, self.model.frames[self.base_frame_id].parentJoint)
+        for i, (j, jid) in enumerate(zip(a.joints, jids)):
+            key = f"arms.{a.name}.joints[{i}]"
+            if jid not in tip_chain:
+                self._check.fail(key, f"joint '{j}' is not on the chain from base frame '{self.base_frame}' "
+                                      f"to tip frame '{a.tip_frame}' (it does not move the tip)")
+            if jid in base_chain:
+                self._check.fail(key, f"joint '{j}' moves the base frame '{self.base_frame}'; arm joints "
+                                      "must lie between the base frame and the tip frame")
+            # tip_chain is ordered tip first: a joint nearer the base has a larger index
+            if i and tip_chain.index(jid) > tip_chain.index(jids[i - 1]):
+                self._check.fail(key, f"joints must be listed from the base to the tip; '{j}' is nearer "
+                                      f"the base than '{a.joints[i - 1]}'")
 
     def reference_q(self) -> np.ndarray:
         """Pinocchio configuration: neutral, with the preset's fixed joints set."""
@@ -160,34 +241,30 @@ class Robot:
         else:
             q[jm.idx_q] = value
 
-    def _make_arm(self, name: str, a: dict) -> Arm:
-        jids = [self._joint_id(j) for j in a["joints"]]
-        tip_id = self._frame_id(a["tip_frame"])
-        tcp = pose_to_matrix(a.get("tcp_offset", [0, 0, 0, 0, 0, 0, 1]))
+    def _make_arm(self, a: ArmSpec, data: pin.Data) -> Arm:
+        path = f"arms.{a.name}"
+        jids = [self._joint_id(j, f"{path}.joints[{i}]", arm=True) for i, j in enumerate(a.joints)]
+        tip_id = self._frame_id(a.tip_frame, f"{path}.tip_frame")
+        self._check_chain(a, jids, tip_id)
         n = len(jids)
-        lower, upper, cont, vel = (np.zeros(n) for _ in range(4))
+        lower, upper, vel = np.zeros(n), np.zeros(n), np.zeros(n)
         cont = np.zeros(n, dtype=bool)
         for i, jid in enumerate(jids):
-            jm = self.model.joints[jid]
-            if jm.nq == 2:
-                cont[i], lower[i], upper[i] = True, -math.pi, math.pi
-            else:
-                lower[i] = self.model.lowerPositionLimit[jm.idx_q]
-                upper[i] = self.model.upperPositionLimit[jm.idx_q]
-                if not (np.isfinite(lower[i]) and np.isfinite(upper[i]) and lower[i] < upper[i]):
-                    raise RobotError(
-                        f"arm '{name}' of robot '{self.name}': joint '{a['joints'][i]}' has no usable "
-                        f"limits ({lower[i]}, {upper[i]})"
-                    )
-            vel[i] = self.model.velocityLimit[jm.idx_v]
-        home = np.asarray(a.get("home", (lower + upper) / 2 * ~cont), dtype=float)
-        if home.shape != (n,):
-            raise PresetError(f"robot '{self.name}': arms.{name}.home has {home.size} values, arm has {n} joints")
+            lower[i], upper[i], cont[i] = self._limits(jid)
+            if not (np.isfinite(lower[i]) and np.isfinite(upper[i]) and lower[i] < upper[i]):
+                self._check.fail(f"{path}.joints[{i}]", f"joint '{a.joints[i]}' has no usable limits "
+                                                        f"({lower[i]:g}, {upper[i]:g}) in the URDF")
+            vel[i] = self.model.velocityLimit[self.model.joints[jid].idx_v]
+        home = (lower + upper) / 2 * ~cont if a.home is None else np.array(a.home, dtype=float)
+        for i in np.flatnonzero(~cont & ((home < lower) | (home > upper))):
+            self._check.fail(f"{path}.home[{i}]", f"{home[i]:g} is outside the limits [{lower[i]:g}, "
+                                                  f"{upper[i]:g}] of joint '{a.joints[i]}'")
+        tcp = pose_to_matrix(a.tcp_offset)
         q0 = self.reference_q()
         for jid in jids:
             self._set(q0, jid, 0.0)
-        chain = extract_chain(self.model, q0, self.base_frame_id, jids, tip_id, tcp, (self.name, name))
-        return Arm(name, list(a["joints"]), a["tip_frame"], tcp, home, lower, upper, cont, vel, chain, jids)
+        chain = extract_chain(self.model, q0, self.base_frame_id, jids, tip_id, tcp, (self.name, a.name), data)
+        return Arm(a.name, list(a.joints), a.tip_frame, tcp, home, lower, upper, cont, vel, chain, jids)
 
     # -- public API ----------------------------------------------------
     @property
@@ -229,48 +306,22 @@ class Robot:
                 "fixed_joints": dict(self.fixed_joints)}
 
 
-def _check_keys(d: dict, allowed: dict, path: str) -> None:
-    for key, value in d.items():
-        if key not in allowed:
-            raise PresetError(f"unknown key '{path}{key}'; allowed: {', '.join(sorted(allowed))}")
-        want = allowed[key]
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool) if want is float else isinstance(value, want)
-        if not ok:
-            raise PresetError(f"key '{path}{key}' must be a {want.__name__}, got {type(value).__name__}")
-
-
 def load_robot(preset: str | Path = "pr2") -> Robot:
     """Load a robot from a built-in preset name or the path of a preset YAML.
 
-    Raises :class:`PresetError` for a malformed preset (naming the key path) and
-    :class:`RobotError` (or a subclass) for a URDF, frame, joint or arm problem.
+    Raises :class:`PresetError` for a preset that is malformed or does not fit
+    its URDF (naming the file and the key path) and :class:`RobotError` (or a
+    subclass) for a missing preset or a URDF that does not load.
     """
     preset = str(preset)
     path = PRESET_DIR / f"{preset}.yaml"
-    if not path.is_file():
-        path = Path(preset).expanduser()
-        if not path.is_file():
-            raise RobotError(
-                f"unknown robot '{preset}': not a built-in preset ({', '.join(builtin_presets())}) "
-                "nor a preset file"
-            )
     try:
-        spec = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise PresetError(f"robot preset {path} is not valid YAML: {str(exc).splitlines()[0]}") from None
-    if not isinstance(spec, dict):
-        raise PresetError(f"robot preset {path} must be a mapping")
-    _check_keys(spec, _TOP_KEYS, "")
-    for key in _REQUIRED:
-        if key not in spec:
-            raise PresetError(f"robot preset {path}: missing key '{key}'")
-    if not spec["arms"]:
-        raise PresetError(f"robot preset {path}: 'arms' is empty")
-    for name, a in spec["arms"].items():
-        if not isinstance(a, dict):
-            raise PresetError(f"key 'arms.{name}' must be a mapping")
-        _check_keys(a, _ARM_KEYS, f"arms.{name}.")
-        for key in ("joints", "tip_frame"):
-            if key not in a:
-                raise PresetError(f"robot preset {path}: missing key 'arms.{name}.{key}'")
-    return Robot(spec, path.parent, str(path))
+        if not path.is_file():
+            path = Path(preset).expanduser()
+        found = path.is_file()
+    except (OSError, ValueError, RuntimeError):  # NUL bytes, unknown ~user, name too long
+        found = False
+    if not found:
+        raise RobotError(f"unknown robot {preset!r}: not a built-in preset ({', '.join(builtin_presets())}) "
+                         "nor a preset file")
+    return Robot(parse_preset(read_yaml(path, PresetError), path.parent, str(path)))

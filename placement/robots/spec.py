@@ -1,0 +1,172 @@
+"""First stage of loading a preset: the parsed YAML mapping checked on its own, without the URDF.
+
+:func:`parse_preset` checks types, shapes, finiteness, signs and units, the
+quaternion of every ``tcp_offset``, duplicate and conflicting joint names and
+that the URDF/SRDF files exist, and returns a frozen :class:`PresetSpec`.
+Everything that needs the robot model (frames, joints, limits, the chain) is
+checked afterwards by :class:`placement.robots.preset.Robot`. Every failure is
+one :class:`PresetError` line ``<preset file>: <key path>: <problem>``.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..errors import PresetError
+from ..validation import Checker
+
+#: Top-level keys of a preset and what they hold (repeated when a required one is missing).
+TOP_KEYS = {
+    "name": "robot name",
+    "urdf": "URDF path: absolute, relative to the preset, or package://example-robot-data/...",
+    "srdf": "SRDF path, optional",
+    "base_frame": "URDF frame on the floor under the robot",
+    "fixed_joints": "{joint: value [rad or m]} held while mapping and planning",
+    "footprint_radius": "[m] circumscribed radius of the base plus margin",
+    "v_max": "[m/s] base translation speed",
+    "omega_max": "[rad/s] base rotation speed",
+    "arms": "{arm name: {joints, tip_frame, tcp_offset, home}}",
+}
+REQUIRED = ("name", "urdf", "base_frame", "footprint_radius", "v_max", "omega_max", "arms")
+ARM_KEYS = {
+    "joints": "joint names from the base to the tip",
+    "tip_frame": "URDF frame the TCP is attached to",
+    "tcp_offset": "[x y z qx qy qz qw] tip frame -> canonical TCP [m]",
+    "home": "[rad or m] one value per joint",
+}
+ARM_REQUIRED = ("joints", "tip_frame")
+#: The extended manipulability is defined on the 6 x n Jacobian.
+MIN_ARM_JOINTS = 6
+#: A ``tcp_offset`` quaternion whose norm is within this of 1 is accepted and normalised;
+#: any other is an error (it would scale or shear the TCP frame).
+QUATERNION_TOLERANCE = 1e-6
+IDENTITY_POSE = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class ArmSpec:
+    """One arm as written in the preset (checked, not yet bound to the model).
+
+    Attributes:
+        name: arm name.
+        joints: joint names, base to tip (distinct, >= :data:`MIN_ARM_JOINTS`).
+        tip_frame: URDF frame name.
+        tcp_offset: (7,) ``[x, y, z, qx, qy, qz, qw]`` [m], unit quaternion.
+        home: (n,) home configuration [rad or m], or None for the mid-range default.
+    """
+
+    name: str
+    joints: tuple[str, ...]
+    tip_frame: str
+    tcp_offset: tuple[float, ...]
+    home: tuple[float, ...] | None
+
+
+@dataclass(frozen=True)
+class PresetSpec:
+    """A preset whose mapping is valid; ``where`` names its file in every later error.
+
+    Attributes:
+        where: the preset file as the user gave it (first word of error messages).
+        name: robot name.
+        urdf: resolved URDF path (an existing file).
+        srdf: resolved SRDF path (an existing file) or None.
+        base_frame: base frame name.
+        fixed_joints: {joint: value [rad or m]}, in file order.
+        footprint_radius: [m], > 0.
+        v_max: [m/s], > 0.
+        omega_max: [rad/s], > 0.
+        arms: {arm name: ArmSpec}, in file order, at least one.
+    """
+
+    where: str
+    name: str
+    urdf: Path
+    srdf: Path | None
+    base_frame: str
+    fixed_joints: dict[str, float]
+    footprint_radius: float
+    v_max: float
+    omega_max: float
+    arms: dict[str, ArmSpec]
+
+
+def share_dir() -> Path:
+    """The ``share`` folder of the installed example-robot-data package (for ``package://`` paths)."""
+    dist = importlib.metadata.distribution("example-robot-data")
+    return Path(dist.locate_file("cmeel.prefix/share"))
+
+
+def resolve_path(path: str, origin: Path) -> Path:
+    """``path`` as written in a preset in folder ``origin``: ``package://``, ``~``, relative or absolute."""
+    if path.startswith("package://"):
+        return share_dir() / path[len("package://"):]
+    p = Path(path).expanduser()
+    return p if p.is_absolute() else (origin / p)
+
+
+def _existing_file(c: Checker, value: Any, key: str, origin: Path) -> Path:
+    text = c.string(value, key)
+    try:
+        path = resolve_path(text, origin)
+        found = path.is_file()
+    except importlib.metadata.PackageNotFoundError:
+        c.fail(key, f"{text} needs the example-robot-data package, which is not installed")
+    except (OSError, ValueError, RuntimeError) as exc:  # NUL bytes, unknown ~user, too long
+        c.fail(key, f"not a usable path: {' '.join(str(exc).split())}")
+    if not found:
+        c.fail(key, f"{key.upper()} file not found: {path}")
+    return path
+
+
+def _tcp_offset(c: Checker, value: Any, key: str) -> tuple[float, ...]:
+    x, y, z, *quat = c.vector(value, key, 7, "numbers [x y z qx qy qz qw]")
+    norm = math.sqrt(sum(v * v for v in quat))
+    if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
+        c.fail(key, f"the quaternion [qx qy qz qw] must have norm 1 (within {QUATERNION_TOLERANCE:g}), "
+                    f"got norm {norm:.9g}")
+    return (x, y, z, *(v / norm for v in quat))
+
+
+def _arm(c: Checker, name: str, value: Any, fixed: dict[str, float]) -> ArmSpec:
+    path = f"arms.{name}"
+    a = c.mapping(value, path, ARM_KEYS, ARM_REQUIRED)
+    joints = c.names(a["joints"], f"{path}.joints", MIN_ARM_JOINTS, "joint names")
+    for i, j in enumerate(joints):
+        if j in fixed:
+            c.fail(f"{path}.joints[{i}]", f"joint '{j}' is also held in fixed_joints; list it in one of the two")
+    tip = c.string(a["tip_frame"], f"{path}.tip_frame")
+    tcp = _tcp_offset(c, a["tcp_offset"], f"{path}.tcp_offset") if "tcp_offset" in a else IDENTITY_POSE
+    home = None
+    if "home" in a:
+        home = c.vector(a["home"], f"{path}.home", len(joints), f"values [rad or m], one per joint of {path}.joints")
+    return ArmSpec(name, tuple(joints), tip, tcp, home)
+
+
+def parse_preset(data: Any, origin: Path, where: str) -> PresetSpec:
+    """Check a parsed preset mapping (no URDF is loaded); raises :class:`PresetError`.
+
+    Args:
+        data: the parsed YAML document.
+        origin: folder of the preset file (relative URDF/SRDF paths start there).
+        where: the preset file as the user named it (for messages).
+    """
+    c = Checker(where, PresetError)
+    d = c.mapping(data, "", TOP_KEYS, REQUIRED)
+    name = c.string(d["name"], "name")
+    base_frame = c.string(d["base_frame"], "base_frame")
+    held = d.get("fixed_joints")
+    held = {} if held is None else c.keyed(held, "fixed_joints")
+    fixed = {j: c.number(v, f"fixed_joints.{j}") for j, v in held.items()}
+    footprint_radius = c.positive(d["footprint_radius"], "footprint_radius")
+    v_max = c.positive(d["v_max"], "v_max")
+    omega_max = c.positive(d["omega_max"], "omega_max")
+    arms = {n: _arm(c, n, a, fixed) for n, a in c.keyed(d["arms"], "arms", minimum=1).items()}
+    # the files last: a typo in the mapping is reported without touching the file system
+    urdf = _existing_file(c, d["urdf"], "urdf", origin)
+    srdf = _existing_file(c, d["srdf"], "srdf", origin) if d.get("srdf") is not None else None
+    return PresetSpec(where, name, urdf, srdf, base_frame, fixed, footprint_radius, v_max, omega_max, arms)

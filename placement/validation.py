@@ -1,0 +1,239 @@
+"""Validation of parsed YAML/JSON documents: one error line naming the file and the key path.
+
+A :class:`Checker` is bound to the file it checks (``where``, usually its path)
+and to the error class to raise (a :class:`~placement.errors.PlacementError`
+subclass), so that every message reads ``where: key.path[i]: what is wrong``.
+Each method returns the validated, converted value, so a parser reads as a
+list of checks::
+
+    c = Checker("my.yaml", PresetError)
+    doc = c.mapping(data, "", {"name": "robot name", "v_max": "[m/s] base speed"}, required=("name",))
+    speed = c.positive(doc["v_max"], "v_max")
+
+YAML is read with :func:`read_yaml`, which refuses duplicate keys and reports
+syntax errors with their line and column.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Iterable, Mapping, NoReturn
+
+import numpy as np
+import yaml
+
+
+def join(path: str, key: Any) -> str:
+    """Key path of ``key`` inside ``path``: ``"arms"`` + ``"right"`` -> ``"arms.right"``."""
+    return f"{path}.{key}" if path else str(key)
+
+
+def describe(value: Any) -> str:
+    """Short type description of a parsed value for error messages ("string 'abc'", "list", ...)."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return f"boolean {str(value).lower()}"
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, str):
+        return f"string {value[:30]!r}"
+    if isinstance(value, (int, float)):
+        return f"{value!r}"
+    return type(value).__name__
+
+
+def one_line(text: str) -> str:
+    """``text`` with every non-printable character (newline, tab, NUL, ...) escaped: an error stays one line."""
+    if text.isprintable():
+        return text
+    return "".join(ch if ch.isprintable() else ascii(ch)[1:-1] for ch in text)
+
+
+class Checker:
+    """Checks of one document; every failure raises ``error("where: path: message")``.
+
+    Args:
+        where: what is checked, first in every message (a file path or a name).
+        error: exception class to raise (one-argument constructor).
+    """
+
+    def __init__(self, where: str, error: type[Exception]):
+        self.where = where
+        self.error = error
+
+    def fail(self, path: str, message: str) -> NoReturn:
+        """Raise the error for ``path`` (may be empty for the whole document)."""
+        raise self.error(one_line(f"{self.where}: {path}: {message}" if path else f"{self.where}: {message}"))
+
+    # -- containers ----------------------------------------------------
+    def mapping(self, value: Any, path: str, allowed: Mapping[str, str] | Iterable[str],
+                required: Iterable[str] = ()) -> dict:
+        """A mapping with string keys among ``allowed`` and every key of ``required``.
+
+        ``allowed`` may map each key to a short description (with its unit), which
+        the message for a missing required key repeats.
+        """
+        if not isinstance(value, dict):
+            self.fail(path, f"expected a mapping, got {describe(value)}")
+        names = dict(allowed) if isinstance(allowed, Mapping) else dict.fromkeys(allowed, "")
+        for key in value:
+            if key not in names:
+                self.fail(join(path, key), f"unknown key; allowed keys: {', '.join(sorted(names))}")
+        for key in required:
+            if key not in value:
+                hint = f" ({names[key]})" if names.get(key) else ""
+                self.fail(join(path, key), f"missing required key{hint}")
+        return value
+
+    def keyed(self, value: Any, path: str, minimum: int = 0) -> dict:
+        """A mapping with non-empty string keys (names chosen by the user) and >= ``minimum`` entries."""
+        if not isinstance(value, dict):
+            self.fail(path, f"expected a mapping, got {describe(value)}")
+        for key in value:
+            if not isinstance(key, str) or not key.strip():
+                self.fail(join(path, key), f"expected a non-empty string as name, got {describe(key)}")
+        if len(value) < minimum:
+            self.fail(path, f"expected at least {minimum} entr{'y' if minimum == 1 else 'ies'}, got {len(value)}")
+        return value
+
+    def sequence(self, value: Any, path: str, length: int | None = None, minimum: int = 0,
+                 what: str = "values") -> list:
+        """A list of exactly ``length`` (if given) or at least ``minimum`` items."""
+        if not isinstance(value, list):
+            self.fail(path, f"expected a list of {what}, got {describe(value)}")
+        if length is not None and len(value) != length:
+            self.fail(path, f"expected {length} {what}, got {len(value)}")
+        if len(value) < minimum:
+            self.fail(path, f"expected at least {minimum} {what}, got {len(value)}")
+        return value
+
+    # -- scalars -------------------------------------------------------
+    def number(self, value: Any, path: str, minimum: float | None = None, strict: bool = False) -> float:
+        """A finite int or float (booleans refused), >= ``minimum`` (> if ``strict``)."""
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.fail(path, f"expected a number, got {describe(value)}")
+        try:
+            v = float(value)
+        except OverflowError:  # an int beyond the float range
+            self.fail(path, "expected a finite number, got a number too large for a float")
+        if not math.isfinite(v):
+            self.fail(path, f"expected a finite number, got {value}")
+        if minimum is not None and (v <= minimum if strict else v < minimum):
+            self.fail(path, f"must be {'>' if strict else '>='} {minimum:g}, got {value}")
+        return v
+
+    def positive(self, value: Any, path: str) -> float:
+        """A finite number > 0."""
+        return self.number(value, path, 0.0, strict=True)
+
+    def integer(self, value: Any, path: str, minimum: int | None = None) -> int:
+        """An int (booleans and floats such as 1.5 refused), >= ``minimum``."""
+        if isinstance(value, bool) or not isinstance(value, int):
+            self.fail(path, f"expected an integer, got {describe(value)}")
+        if minimum is not None and value < minimum:
+            self.fail(path, f"must be >= {minimum}, got {value}")
+        return value
+
+    def string(self, value: Any, path: str) -> str:
+        """A non-empty string."""
+        if not isinstance(value, str) or not value.strip():
+            self.fail(path, f"expected a non-empty string, got {describe(value)}")
+        return value
+
+    def boolean(self, value: Any, path: str) -> bool:
+        """``true`` or ``false``."""
+        if not isinstance(value, bool):
+            self.fail(path, f"expected true or false, got {describe(value)}")
+        return value
+
+    # -- compounds -----------------------------------------------------
+    def vector(self, value: Any, path: str, length: int | None = None, what: str = "numbers") -> tuple[float, ...]:
+        """A list of finite numbers, of exactly ``length`` items if given."""
+        items = self.sequence(value, path, length, what=what)
+        return tuple(self.number(v, f"{path}[{i}]") for i, v in enumerate(items))
+
+    def names(self, value: Any, path: str, minimum: int = 0, what: str = "names") -> list[str]:
+        """A list of distinct non-empty strings (at least ``minimum``)."""
+        items = self.sequence(value, path, minimum=minimum, what=what)
+        seen: dict[str, int] = {}
+        for i, v in enumerate(items):
+            self.string(v, f"{path}[{i}]")
+            if v in seen:
+                self.fail(f"{path}[{i}]", f"'{v}' is listed twice (also at [{seen[v]}])")
+            seen[v] = i
+        return list(items)
+
+
+def finite_array(values: Any, what: str, error: type[Exception]) -> np.ndarray:
+    """``values`` as a float array of any shape; anything but finite numbers raises ``error`` naming ``what``.
+
+    For the public wrappers of numeric code: a NaN that reaches a numba kernel
+    can end in a ZeroDivisionError or a silently wrong answer.
+    """
+    try:
+        out = np.array(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise error(one_line(f"{what} must be an array of numbers, got {values!r:.60}")) from None
+    if not np.all(np.isfinite(out)):
+        raise error(f"{what} must hold finite numbers, got {np.array2string(out, threshold=12)}")
+    return out
+
+
+class UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):
+    """Safe loader (libyaml's when installed: ~10x faster) that refuses duplicate mapping keys.
+
+    PyYAML silently keeps the last of two equal keys.
+    """
+
+
+def _construct_mapping(loader, node, deep=False):
+    seen = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        try:
+            duplicate = key in seen
+        except TypeError:  # an unhashable key: SafeLoader reports it itself
+            continue
+        if duplicate:
+            raise yaml.constructor.ConstructorError(None, None, f"duplicate key {key!r}", key_node.start_mark)
+        seen.add(key)
+    return yaml.constructor.SafeConstructor.construct_mapping(loader, node, deep)
+
+
+UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def parse_yaml(text: str, where: str, error: type[Exception]) -> Any:
+    """Parse YAML ``text``; a syntax error or duplicate key raises ``error`` with line and column.
+
+    An empty document also raises (there is nothing to check).
+    """
+    try:
+        data = yaml.load(text, Loader=UniqueKeyLoader)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        at = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
+        problem = " ".join(str(exc.problem or exc.context or "syntax error").split())
+        raise error(one_line(f"{where}: invalid YAML at {at}{problem}")) from None
+    except (yaml.YAMLError, RecursionError, ValueError) as exc:
+        # ValueError: PyYAML converts some scalars with int()/float() (e.g. huge timestamps)
+        raise error(one_line(f"{where}: invalid YAML: {' '.join(str(exc).split()) or type(exc).__name__}")) from None
+    if data is None:
+        raise error(one_line(f"{where}: the file is empty"))
+    return data
+
+
+def read_yaml(path: str | Path, error: type[Exception], where: str | None = None) -> Any:
+    """Read and parse the YAML file ``path`` (see :func:`parse_yaml`); ``where`` defaults to the path."""
+    where = str(path) if where is None else where
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise error(one_line(f"{where}: not a UTF-8 text file (byte {exc.start})")) from None
+    except OSError as exc:
+        raise error(one_line(f"{where}: cannot be read: {exc.strerror or exc}")) from None
+    return parse_yaml(text, where, error)

@@ -1,0 +1,316 @@
+"""Robot presets: every bad preset is one PresetError/RobotError line naming the file and the key path."""
+
+from __future__ import annotations
+
+import copy
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+from conftest import armar6_spec
+
+import placement
+from placement.errors import FrameNotFound, JointNotFound, PlacementError, PresetError, RobotError
+from placement.ik import solve_ik
+from placement.kernels.ik import dls_attempt
+from placement.robots.preset import PRESET_DIR
+from placement.robots.spec import parse_preset
+
+DELETE = object()
+
+
+def pr2_mapping() -> dict:
+    """The built-in PR2 preset as a mapping (its URDF path is package://, valid from any folder)."""
+    return yaml.safe_load((PRESET_DIR / "pr2.yaml").read_text())
+
+
+def changed(spec: dict, **changes) -> dict:
+    """A deep copy of ``spec`` with ``a__b__c=value`` set at spec[a][b][c] (DELETE removes the key)."""
+    out = copy.deepcopy(spec)
+    for dotted, value in changes.items():
+        *parents, last = dotted.split("__")
+        node = out
+        for k in parents:
+            node = node[k]
+        if value is DELETE:
+            del node[last]
+        else:
+            node[last] = value
+    return out
+
+
+def write(tmp_path, spec) -> str:
+    path = tmp_path / "my.yaml"
+    path.write_text(spec if isinstance(spec, str) else yaml.safe_dump(spec, sort_keys=False))
+    return str(path)
+
+
+def message(tmp_path, spec, cls=PresetError, *words) -> str:
+    """Load ``spec`` and return its error line: of class ``cls``, one line, naming the file and ``words``."""
+    path = write(tmp_path, spec)
+    with pytest.raises(cls) as info:
+        placement.load_robot(path)
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith(f"{path}: "), msg
+    for w in words:
+        assert w in msg, msg
+    return msg
+
+
+# -- the mapping alone -------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("value,words", [
+    ([0, 0, 0, 0, 0.5, 0, 0.5], ["norm 0.707106781", "norm 1"]),
+    ([0, 0, 0, 0, 0, 0, 0], ["norm 0"]),
+    ([0, 0, 0, 0, 0, 0], ["expected 7 numbers [x y z qx qy qz qw], got 6"]),
+    ([0, 0, "z", 0, 0, 0, 1], ["tcp_offset[2]", "expected a number, got string 'z'"]),
+    ([0, 0, 0, 0, 0, 0, math.nan], ["tcp_offset[6]", "finite"]),
+    ([math.inf, 0, 0, 0, 0, 0, 1], ["tcp_offset[0]", "finite"]),
+    ([0, 0, 0, 0, 0, True, 1], ["tcp_offset[5]", "boolean"]),
+    ("0 0 0 0 0 0 1", ["expected a list"]),
+])
+def test_bad_tcp_offset(tmp_path, value, words):
+    message(tmp_path, changed(pr2_mapping(), arms__right__tcp_offset=value), PresetError,
+            "arms.right.tcp_offset", *words)
+
+
+def test_near_unit_quaternion_is_normalised(tmp_path):
+    s = 1 + 5e-7
+    spec = changed(pr2_mapping(), arms__right__tcp_offset=[0, 0, 0, 0, 0.7071067811865476 * s, 0,
+                                                          0.7071067811865476 * s])
+    arm = placement.load_robot(write(tmp_path, spec)).arm("right")
+    R = arm.tcp_offset[:3, :3]
+    np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-15)
+    np.testing.assert_allclose(arm.tcp_offset, placement.load_robot("pr2").arm("right").tcp_offset, atol=1e-15)
+    message(tmp_path, changed(spec, arms__right__tcp_offset=[0, 0, 0, 0, 0, 0, 1 + 2e-6]), PresetError, "norm 1.000002")
+
+
+@pytest.mark.parametrize("key,value,words", [
+    ("home", [0, 0, "x", 0, 0, 0, 0], ["arms.right.home[2]", "string 'x'"]),
+    ("home", [0, 0, 0, math.nan, 0, 0, 0], ["arms.right.home[3]", "finite"]),
+    ("home", [0, 0, 0, 0, -math.inf, 0, 0], ["arms.right.home[4]", "finite"]),
+    ("home", [0, 0, 0, 0, 0, 0], ["arms.right.home", "expected 7 values", "got 6"]),
+    ("home", {"a": 1}, ["arms.right.home", "expected a list", "mapping"]),
+    ("joints", [1, 2, 3, 4, 5, 6, 7], ["arms.right.joints[0]", "expected a non-empty string, got 1"]),
+    ("joints", "r_shoulder_pan_joint", ["arms.right.joints", "expected a list of joint names"]),
+    ("joints", ["r_shoulder_pan_joint", "r_shoulder_lift_joint", "r_upper_arm_roll_joint", "r_elbow_flex_joint",
+                "r_forearm_roll_joint"], ["arms.right.joints", "at least 6 joint names, got 5"]),
+    ("tip_frame", ["r_gripper_tool_frame"], ["arms.right.tip_frame", "non-empty string"]),
+    ("grip", 1, ["arms.right.grip", "unknown key", "home, joints, tcp_offset, tip_frame"]),
+    ("joints", DELETE, ["arms.right.joints", "missing required key"]),
+])
+def test_bad_arm_values(tmp_path, key, value, words):
+    message(tmp_path, changed(pr2_mapping(), **{f"arms__right__{key}": value}), PresetError, *words)
+
+
+def test_duplicate_joint(tmp_path):
+    spec = pr2_mapping()
+    spec["arms"]["right"]["joints"][3] = spec["arms"]["right"]["joints"][1]
+    message(tmp_path, spec, PresetError, "arms.right.joints[3]", "'r_shoulder_lift_joint' is listed twice")
+
+
+def test_arm_joint_also_fixed(tmp_path):
+    spec = changed(pr2_mapping(), fixed_joints={"torso_lift_joint": 0.15, "r_elbow_flex_joint": -1.0})
+    message(tmp_path, spec, PresetError, "arms.right.joints[3]", "also held in fixed_joints")
+
+
+@pytest.mark.parametrize("value,words", [
+    ({"torso_lift_joint": "high"}, ["fixed_joints.torso_lift_joint", "string 'high'"]),
+    ({"torso_lift_joint": math.nan}, ["fixed_joints.torso_lift_joint", "finite"]),
+    ({"torso_lift_joint": math.inf}, ["fixed_joints.torso_lift_joint", "finite"]),
+    ({"torso_lift_joint": True}, ["fixed_joints.torso_lift_joint", "boolean"]),
+    ({7: 0.1}, ["fixed_joints.7", "expected a non-empty string as name, got 7"]),
+    (["torso_lift_joint", 0.15], ["fixed_joints", "expected a mapping, got a list"]),
+])
+def test_bad_fixed_joints(tmp_path, value, words):
+    message(tmp_path, changed(pr2_mapping(), fixed_joints=value), PresetError, *words)
+
+
+@pytest.mark.parametrize("key,unit", [("footprint_radius", "[m]"), ("v_max", "[m/s]"), ("omega_max", "[rad/s]")])
+def test_base_values_are_required_positive_finite(tmp_path, key, unit):
+    message(tmp_path, changed(pr2_mapping(), **{key: DELETE}), PresetError, f"{key}: missing required key", unit)
+    for bad, words in [(0, "> 0"), (-1.0, "> 0"), (math.inf, "finite"), (math.nan, "finite"), (True, "boolean"),
+                       ("fast", "string")]:
+        message(tmp_path, changed(pr2_mapping(), **{key: bad}), PresetError, key, words)
+
+
+def test_builtin_and_fixture_presets_give_the_base_values(pr2):
+    text = (PRESET_DIR / "pr2.yaml").read_text()
+    assert (pr2.footprint_radius, pr2.v_max, pr2.omega_max) == (0.47, 0.5, 1.0)
+    assert all(f"\n{k}:" in text for k in ("footprint_radius", "v_max", "omega_max"))
+    assert {"footprint_radius", "v_max", "omega_max"} <= set(armar6_spec())
+
+
+@pytest.mark.parametrize("spec,words", [
+    ("", ["the file is empty"]),
+    ("# only a comment\n", ["the file is empty"]),
+    ("- name: pr2\n", ["expected a mapping, got a list"]),
+    ("name: pr2\narms: [\n", ["invalid YAML at line 3, column 1"]),
+    ("name: a\nname: b\n", ["invalid YAML at line 2, column 1", "duplicate key 'name'"]),
+    ("name: pr2\nwheels: 4\n", ["wheels: unknown key; allowed keys: arms, base_frame, fixed_joints"]),
+])
+def test_bad_documents(tmp_path, spec, words):
+    message(tmp_path, spec, PresetError, *words)
+
+
+@pytest.mark.parametrize("key,value,words", [
+    ("arms", {}, ["arms: expected at least 1 entry, got 0"]),
+    ("arms", ["right"], ["arms: expected a mapping, got a list"]),
+    ("arms", {"right": ["r_shoulder_pan_joint"]}, ["arms.right: expected a mapping, got a list"]),
+    ("arms", {None: {}}, ["arms.None: expected a non-empty string as name, got null"]),
+    ("name", 6, ["name: expected a non-empty string, got 6"]),
+    ("base_frame", None, ["base_frame: expected a non-empty string, got null"]),
+    ("urdf", "missing.urdf", ["urdf: URDF file not found", "missing.urdf"]),
+    ("urdf", "a\0b\nc", ["urdf: URDF file not found", "a\\x00b\\nc"]),
+    ("srdf", "missing.srdf", ["srdf: SRDF file not found", "missing.srdf"]),
+])
+def test_bad_top_level_values(tmp_path, key, value, words):
+    message(tmp_path, changed(pr2_mapping(), **{key: value}), PresetError, *words)
+
+
+def test_mapping_is_checked_before_the_urdf(tmp_path):
+    """A broken URDF is never parsed when the mapping already fails, and parse_preset needs no model."""
+    (tmp_path / "bad.urdf").write_text("<robot")
+    spec = changed(pr2_mapping(), urdf="bad.urdf", v_max=-1)
+    message(tmp_path, spec, PresetError, "v_max")
+    with pytest.raises(PresetError, match="^x.yaml: arms.right.home"):
+        parse_preset(changed(spec, v_max=1, arms__right__home=[0]), tmp_path, "x.yaml")
+    assert parse_preset(changed(spec, v_max=1), tmp_path, "x.yaml").urdf == tmp_path / "bad.urdf"
+
+
+def test_urdf_that_does_not_load(tmp_path):
+    (tmp_path / "bad.urdf").write_text("<robot name='r'><link name='l'/><joint")
+    msg = message(tmp_path, changed(pr2_mapping(), urdf="bad.urdf"), RobotError, "urdf: URDF", "does not load")
+    (tmp_path / "bad.urdf").write_bytes(b"<robot name='\xff'/>")
+    message(tmp_path, changed(pr2_mapping(), urdf="bad.urdf"), RobotError, "urdf:", "not UTF-8")
+    assert "bad.urdf" in msg
+
+
+# -- against the model ---------------------------------------------------------------------------------
+
+def test_unknown_joint_and_frame_name_close_names(tmp_path):
+    spec = pr2_mapping()
+    spec["arms"]["right"]["joints"][2] = "r_upper_arm_rol_joint"
+    msg = message(tmp_path, spec, JointNotFound, "arms.right.joints[2]", "close names: r_upper_arm_roll_joint")
+    assert "'r_upper_arm_rol_joint' not found in robot 'pr2'" in msg
+    message(tmp_path, changed(pr2_mapping(), arms__left__tip_frame="l_gripper_tool_fram"), FrameNotFound,
+            "arms.left.tip_frame", "close names: l_gripper_tool_frame")
+    message(tmp_path, changed(pr2_mapping(), base_frame="base_foot"), FrameNotFound, "base_frame: frame 'base_foot'")
+    message(tmp_path, changed(pr2_mapping(), fixed_joints={"torso_lift": 0.1}), JointNotFound,
+            "fixed_joints.torso_lift", "torso_lift_joint")
+
+
+@pytest.mark.parametrize("index,joint,words", [
+    (0, "l_shoulder_pan_joint", ["is not on the chain from base frame 'base_footprint' to tip frame"]),
+    (0, "head_pan_joint", ["is not on the chain"]),
+    (6, "r_gripper_r_finger_joint", ["is a mimic joint (it follows 'r_gripper_l_finger_joint')"]),
+    (0, "base_footprint_joint", ["is a fixed joint in the URDF"]),
+    (6, "r_gripper_palm_joint", ["is a fixed joint in the URDF"]),
+])
+def test_joint_off_the_chain_fixed_or_mimic(tmp_path, index, joint, words):
+    spec = pr2_mapping()
+    spec["arms"]["right"]["joints"][index] = joint
+    message(tmp_path, spec, PresetError, f"arms.right.joints[{index}]", f"'{joint}'", *words)
+
+
+def test_joints_out_of_order_or_moving_the_base(tmp_path):
+    spec = pr2_mapping()
+    joints = spec["arms"]["right"]["joints"]
+    joints[1], joints[2] = joints[2], joints[1]
+    message(tmp_path, spec, PresetError, "arms.right.joints[2]", "listed from the base to the tip")
+    spec = changed(pr2_mapping(), base_frame="r_upper_arm_link")
+    message(tmp_path, spec, PresetError, "arms.right.joints[0]", "moves the base frame 'r_upper_arm_link'")
+
+
+def test_home_outside_the_limits(tmp_path):
+    spec = changed(pr2_mapping(), arms__right__home=[-0.5, 0.3, -1.5, 0.5, 0.0, -0.8, 0.0])
+    message(tmp_path, spec, PresetError, "arms.right.home[3]", "0.5 is outside the limits [",
+            "'r_elbow_flex_joint'")
+    # a continuous joint (forearm roll) takes any finite value
+    spec = changed(pr2_mapping(), arms__right__home=[-0.5, 0.3, -1.5, -1.6, 7.0, -0.8, -9.0])
+    assert placement.load_robot(write(tmp_path, spec)).arm("right").home[4] == 7.0
+
+
+def test_fixed_joint_outside_its_limits(tmp_path):
+    msg = message(tmp_path, changed(pr2_mapping(), fixed_joints={"torso_lift_joint": 0.5}), PresetError,
+                  "fixed_joints.torso_lift_joint: 0.5 is outside the URDF limits [0, 0.3")
+    assert "torso_lift_joint" in msg
+    assert placement.load_robot(write(tmp_path, changed(pr2_mapping(), fixed_joints={"torso_lift_joint": 0.0})))
+
+
+def test_cli_prints_one_error_line(tmp_path):
+    """Through the command line: exit 2, one `error:` line, nothing written."""
+    path = write(tmp_path, changed(pr2_mapping(), arms__right__home=[0, 0, math.nan, 0, 0, 0, 0]))
+    proc = subprocess.run([sys.executable, "-m", "placement.cli.main", "maps", "build", "--robot", path, "--out",
+                           str(tmp_path / "m")], capture_output=True, text=True)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    assert proc.stderr.strip() == f"error: {path}: arms.right.home[2]: expected a finite number, got nan"
+    assert not (tmp_path / "m").exists()
+
+
+# -- the URDF model cache ----------------------------------------------------------------------------
+
+def test_model_cache_follows_the_urdf_bytes(tmp_path):
+    from placement.robots.spec import resolve_path
+
+    urdf = tmp_path / "pr2.urdf"
+    text = resolve_path(pr2_mapping()["urdf"], tmp_path).read_text()
+    urdf.write_text(text)
+    path = write(tmp_path, changed(pr2_mapping(), urdf="pr2.urdf"))
+    a, b = placement.load_robot(path), placement.load_robot(path)
+    assert a.model is not b.model and a.urdf_sha256 == b.urdf_sha256
+    assert a.arm("right").upper[3] == b.arm("right").upper[3]
+    old = '<joint name="r_elbow_flex_joint" type="revolute">'
+    assert text.count(old) == 1
+    head, tail = text.split(old)
+    urdf.write_text(head + old + tail.replace('upper="0.00"', 'upper="0.25"', 1))
+    c = placement.load_robot(path)
+    assert c.urdf_sha256 != a.urdf_sha256 and c.arm("right").upper[3] == 0.25 != a.arm("right").upper[3]
+
+
+def test_file_preset_equals_builtin(tmp_path, pr2):
+    robot = placement.load_robot(write(tmp_path, pr2_mapping()))
+    for name in ("right", "left"):
+        a, b = robot.arm(name), pr2.arm(name)
+        for f in ("home", "lower", "upper", "continuous", "velocity", "tcp_offset"):
+            np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+        for f in ("link_T", "axis", "kind", "tip_T"):
+            np.testing.assert_array_equal(getattr(a.chain, f), getattr(b.chain, f))
+    assert robot.fingerprint == pr2.fingerprint
+
+
+# -- numeric wrappers refuse NaN -----------------------------------------------------------------------
+
+def test_ik_refuses_non_finite_input(pr2):
+    T = pr2.tcp_pose("right", pr2.arm("right").home)
+    for kwargs in ({"q_seed": [math.nan] * 7}, {"q_seed": ["a"] * 7}, {"pos_tol": math.nan},
+                   {"rot_tol": math.inf}, {"max_iter": 0}, {"seeds": 2.0}, {"rng_seed": -1}):
+        with pytest.raises(PlacementError, match=next(iter(kwargs))):
+            solve_ik(pr2, "right", T, **kwargs)
+    with pytest.raises(PlacementError, match="IK target"):
+        solve_ik(pr2, "right", np.full((4, 4), math.nan))
+    assert solve_ik(pr2, "right", T).success
+
+
+def test_ik_kernel_survives_nan(pr2):
+    """The guard in the rotation log: a NaN start ends as a failed attempt, not a ZeroDivisionError."""
+    a = pr2.arm("right")
+    ch = a.chain
+    q = a.home.copy()
+    q[0] = math.nan
+    ok, *_ = dls_attempt(q, np.eye(4), a.lower, a.upper, a.continuous, ch.link_T, ch.axis, ch.kind, ch.tip_T,
+                         1e-3, 1e-2, 50, 1e-3, 0.4, 20)
+    assert not ok
+
+
+def test_manipulability_refuses_non_finite_input(pr2):
+    q = pr2.arm("right").home.copy()
+    assert placement.extended_manipulability(pr2, "right", q) > 0
+    q[2] = math.nan
+    with pytest.raises(PlacementError, match="finite"):
+        placement.extended_manipulability(pr2, "right", q)
+    with pytest.raises(PlacementError, match="row_factors"):
+        placement.extended_manipulability(pr2, "right", pr2.arm("right").home, row_factors=np.full((6, 2), np.inf))
