@@ -176,13 +176,13 @@ ERRORS = [
     (_set(["robot", "start"], "origin"), "robot.start: expected a list of 3 numbers, got string 'origin'"),
     (_set(["objects", 0, "yaw"], "0.3"), "objects[0].yaw: expected a number, got string '0.3'"),
     (_set(["obstacles", 1, "cylinder", "radius"], True), "obstacles[1].cylinder.radius: expected a number, got bool"),
-    (_set(["obstacles", 0, "table"], 1), "obstacles[0].table: expected true or false, got int"),
-    (_set(["obstacles"], {"name": "x"}), "scene.yaml: obstacles: expected a list, got mapping"),
+    (_set(["obstacles", 0, "table"], 1), "obstacles[0].table: expected true or false, got 1"),
+    (_set(["obstacles"], {"name": "x"}), "scene.yaml: obstacles: expected a list, got a mapping"),
     (_set(["objects", 0], "cup"), "objects[0]: expected a mapping, got string 'cup'"),
     (_set(["objects", 0, "name"], ""), "objects[0].name: expected a non-empty string"),
-    (_set(["task"], {"pick": "cup_1"}), "task: expected a list of {pick, place} steps, got mapping"),
+    (_set(["task"], {"pick": "cup_1"}), "task: expected a list of {pick, place} steps, got a mapping"),
     (_set(["task"], []), "task: expected at least one {pick, place} step"),
-    (_set(["maps"], 3), "maps: expected a non-empty string, got int"),
+    (_set(["maps"], 3), "maps: expected a non-empty string, got 3"),
     # non-finite numbers
     (_set(["objects", 0, "position"], [float("nan"), 0.0, 0.8]),
      "objects[0].position[0]: expected a finite number, got nan"),
@@ -214,11 +214,11 @@ ERRORS = [
     (_set(["task", 1, "pick"], "cup_1"), "task[1].pick: object 'cup_1' is already picked in task[0]"),
     # planner values
     (_set(["planner", "yaw_steps"], 0), "planner.yaw_steps: must be >= 1, got 0"),
-    (_set(["planner", "yaw_steps"], 10.5), "planner.yaw_steps: expected an integer, got float"),
+    (_set(["planner", "yaw_steps"], 10.5), "planner.yaw_steps: expected an integer, got 10.5"),
     (_set(["planner", "lambda_m"], -1.0), "planner.lambda_m: must be >= 0, got -1.0"),
     (_set(["planner", "d_max"], 0), "planner.d_max: must be > 0, got 0"),
     (_set(["planner", "grasp_yaws"], []), "planner.grasp_yaws: expected a count or a non-empty list"),
-    (_set(["planner"], [1, 2]), "planner: expected a mapping, got list"),
+    (_set(["planner"], [1, 2]), "planner: expected a mapping, got a list"),
     # bounds
     (_set(["bounds"], [0.0, 0.0, 1.0]), "bounds: expected 4 numbers, got 3"),
     (_set(["bounds"], [7.0, -3.0, -3.0, 5.0]), "bounds: expected [xmin, ymin, xmax, ymax] with xmin < xmax"),
@@ -254,10 +254,10 @@ def test_invalid_scene(mutate, message, tmp_path):
 
 @pytest.mark.parametrize("text, message", [
     (FULL_SCENE.replace("resolution: 0.1", "resolution: .nan"), "resolution: expected a finite number, got nan"),
-    (FULL_SCENE.replace("version: 1\n", "version: 1\nversion: 1\n"), "not valid YAML: duplicate key 'version' (line 2"),
-    (FULL_SCENE.replace("yaw: 0.3", "yaw: [0.3"), "not valid YAML"),
+    (FULL_SCENE.replace("version: 1\n", "version: 1\nversion: 1\n"), "invalid YAML at line 2, column 1: duplicate key 'version'"),
+    (FULL_SCENE.replace("yaw: 0.3", "yaw: [0.3"), "invalid YAML at line 14"),
     ("", "the scene is empty"),
-    ("- 1\n- 2\n", "expected a mapping, got list"),
+    ("- 1\n- 2\n", "expected a mapping, got a list"),
     (FULL_SCENE.replace("occupancy_map: floor.yaml", "occupancy_map: floor_rotated.yaml"),
      "occupancy_map: "),
 ])

@@ -26,7 +26,7 @@ def _check(doc, tmp_path_factory=None) -> None:
         return
     assert isinstance(scene, Scene)
     ny, nx = scene.grid_shape
-    assert 1 <= nx * ny <= 50_000_000
+    assert 1 <= nx * ny <= 20_000_000
     assert all(math.isfinite(b) for b in scene.bounds)
 
 

@@ -54,11 +54,11 @@ def test_updates_redo_only_what_changed(tmp_path, maps_dir, pr2):
     ({"objects": [{"name": "cup", "position": [3.0, 2.5, 0.3]}]}, "object 'cup' is inside obstacle 'table'"),
     ({"objects": [{"name": "cup", "yaw": "north"}]}, "objects[0].yaw: expected a number"),
     ({"obstacles": {"add": None}}, "obstacles.add: expected a list, got null"),
-    ({"obstacles": {"remove": [["x"]]}}, "obstacles.remove[0]: expected a non-empty string, got list"),
+    ({"obstacles": {"remove": [["x"]]}}, "obstacles.remove[0]: expected a non-empty string, got a list"),
     ({"obstacles": {"remove": ["wall"]}}, "obstacles.remove[0]: unknown obstacle 'wall'"),
     ({"obstacles": {"add": [{"name": "cup", "cylinder": {"center": [0, 0, 0], "radius": 1, "height": 1}}]}},
      "obstacles.add[0].name: duplicate name 'cup'"),
-    ({"obstacles": []}, "obstacles: expected a mapping, got list"),
+    ({"obstacles": []}, "obstacles: expected a mapping, got a list"),
     ({"start": [1, 2]}, "start: expected 3 numbers, got 2"),
     ({"start": [100.0, 2.0, 0.0]}, "robot.start: the start position at (100, 2) is outside bounds"),
 ])

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 from .scene import Scene, SceneParser, check_scene
 from .scene.parse import OBJECT_KEYS
-from .scene.validate import type_name
+from ..validation import describe
 from .world import build_world
 
 if TYPE_CHECKING:
@@ -43,7 +43,7 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool]:
 
     def items(value, path: str) -> list:
         if not isinstance(value, list):
-            P.fail(path, f"expected a list, got {type_name(value)}")
+            P.fail(path, f"expected a list, got {describe(value)}")
         return value
 
     objects = {o.name: o for o in scene.objects}

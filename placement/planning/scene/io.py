@@ -9,47 +9,9 @@ from typing import Any
 import numpy as np
 import yaml
 
+from ...validation import one_line, parse_yaml
 from .model import Box, Cylinder, Obstacle, Scene, SceneError, is_path
 from .parse import parse_scene
-
-
-class UniqueKeyLoader(yaml.SafeLoader):
-    """SafeLoader that refuses duplicate mapping keys (PyYAML silently keeps the last one)."""
-
-
-def _construct_mapping(loader, node, deep=False):
-    seen = set()
-    for key_node, _ in node.value:
-        key = loader.construct_object(key_node, deep=True)
-        try:
-            duplicate = key in seen
-        except TypeError:
-            continue
-        if duplicate:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r}", key_node.start_mark)
-        seen.add(key)
-    return yaml.SafeLoader.construct_mapping(loader, node, deep)
-
-
-UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
-
-
-def read_yaml(path: Path, error: type[Exception]) -> Any:
-    """The YAML document at ``path``; ``error`` (one line with line and column) if it cannot be read."""
-    if not path.is_file():
-        raise error(f"{path}: no such file" if not path.exists() else f"{path}: not a file")
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise error(f"{path}: cannot read the file: {exc}") from None
-    try:
-        return yaml.load(text, Loader=UniqueKeyLoader)  # noqa: S506 (a SafeLoader subclass)
-    except (yaml.YAMLError, RecursionError) as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
-        problem = getattr(exc, "problem", None) or (str(exc).splitlines() or [type(exc).__name__])[0]
-        raise error(f"{path}: not valid YAML: {problem}{where}") from None
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -61,8 +23,13 @@ def load_scene(path: str | Path) -> Scene:
     path = Path(path)
     if not path.is_file():
         raise SceneError(f"scene file not found: {path}")
-    data = read_yaml(path, SceneError)
-    return parse_scene(data, path.parent, path.stem, source=path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(one_line(f"{path}: cannot read the scene file: {exc}")) from None
+    if not text.strip():
+        raise SceneError(f"{path}: the scene is empty")
+    return parse_scene(parse_yaml(text, str(path), SceneError), path.parent, path.stem, source=path)
 
 
 def save_scene(scene: Scene, path: str | Path) -> Path:

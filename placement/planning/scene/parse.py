@@ -62,13 +62,14 @@ from .model import (
     is_path,
 )
 from .occupancy import OccupancyMapError, load_occupancy_map
-from .validate import Validator, fmt, type_name
+from ...validation import describe
+from .validate import Validator, fmt
 
 SCENE_VERSION = 1
 DEFAULT_RESOLUTION = 0.05  # [m]
 DEFAULT_PRESET = "pr2"
 BOUNDS_MARGIN = 1.0  # [m]
-MAX_GRID_CELLS = 50_000_000
+MAX_GRID_CELLS = 20_000_000  # ~120 B per cell while planning: 20 M cells stay under 3 GB
 MAX_COORD = 1e6  # [m] |coordinate| and size bound: keeps grid arithmetic finite
 RESOLUTION_RANGE = (1e-3, 100.0)  # [m]
 
@@ -169,7 +170,7 @@ class SceneParser(Validator):
 
     def task(self, items, objects, places) -> list[TaskStep]:
         if not isinstance(items, list):
-            self.fail("task", f"expected a list of {{pick, place}} steps, got {type_name(items)}")
+            self.fail("task", f"expected a list of {{pick, place}} steps, got {describe(items)}")
         if not items:
             self.fail("task", "expected at least one {pick, place} step, got an empty list")
         object_names = [o.name for o in objects]
@@ -273,7 +274,7 @@ def parse_scene(data: Any, origin_dir: str | Path = ".", name: str = "scene",
 
     version = doc["version"]
     if isinstance(version, bool) or not isinstance(version, int):
-        P.fail("version", f"expected an integer, got {type_name(version)}")
+        P.fail("version", f"expected an integer, got {describe(version)}")
     if version != SCENE_VERSION:
         P.fail("version", f"unsupported scene format version {version}; this build reads version {SCENE_VERSION}")
 

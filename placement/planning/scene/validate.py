@@ -1,4 +1,4 @@
-"""A small validation library for documents read from YAML or JSON: one-line errors with key paths.
+"""The scene file's validator: the package's generic checks with the scene's conventions.
 
 Every check raises the error class it was given with ``WHERE: KEY.PATH: problem``, so a user sees
 the file (or stream line) and the key at once. Numbers must be finite; booleans are never numbers.
@@ -6,34 +6,13 @@ the file (or stream line) and the key at once. Numbers must be finite; booleans 
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ...errors import PlacementError
+from ...validation import Checker, describe, join
 
 #: Words that mean a 3D rotation; in version 1 scenes shapes rotate about z only.
 ROTATION_WORDS = ("orientation", "quaternion", "rotation", "rpy", "roll", "pitch", "euler")
-
-
-def join(path: str, key) -> str:
-    """``path.key`` (or ``key`` at the top level)."""
-    return f"{path}.{key}" if path else str(key)
-
-
-def type_name(v) -> str:
-    """A short description of a value's type for error messages."""
-    if v is None:
-        return "null"
-    if isinstance(v, bool):
-        return "bool"
-    if isinstance(v, dict):
-        return "mapping"
-    if isinstance(v, list):
-        return "list"
-    if isinstance(v, str):
-        return f"string {v[:30]!r}"
-    return type(v).__name__
 
 
 def fmt(v: float) -> str:
@@ -41,31 +20,28 @@ def fmt(v: float) -> str:
     return f"{v:.6g}"
 
 
-class Validator:
-    """Checks on parsed values; ``where`` names the document (a file path, or a stream line)."""
+class Validator(Checker):
+    """The package's :class:`~placement.validation.Checker` with the scene file's conventions: unknown
+    keys named with their whole path (and a hint for rotation words), upper bounds on numbers,
+    null lists read as empty, and point lists."""
 
     def __init__(self, where: str, error: type[PlacementError] = PlacementError):
-        self.where = where
-        self.error = error
-
-    def fail(self, path: str, msg: str):
-        raise self.error(f"{self.where}: {path}: {msg}" if path else f"{self.where}: {msg}")
+        super().__init__(where, error)  # a default error class: scene parts are parsed in updates too
 
     # -- structure -----------------------------------------------------
     def mapping(self, value, path: str, allowed, required=()) -> dict:
         """``value`` must be a mapping with string keys among ``allowed`` and every ``required`` key."""
         if not isinstance(value, dict):
-            self.fail(path, f"expected a mapping, got {type_name(value)}")
+            self.fail(path, f"expected a mapping, got {describe(value)}")
         for key in value:
             if key not in allowed:
                 hint = ""
                 if str(key).lower() in ROTATION_WORDS:
                     hint = " (shapes and objects rotate about z only: use 'yaw' [rad])"
-                raise self.error(f"{self.where}: unknown key '{join(path, key)}'; allowed: "
-                                 f"{', '.join(sorted(allowed))}{hint}")
+                self.fail("", f"unknown key '{join(path, key)}'; allowed: {', '.join(sorted(allowed))}{hint}")
         for key in required:
             if key not in value:
-                raise self.error(f"{self.where}: missing required key '{join(path, key)}'")
+                self.fail("", f"missing required key '{join(path, key)}'")
         return value
 
     def items(self, value, path: str) -> list:
@@ -73,23 +49,14 @@ class Validator:
         if value is None:
             return []
         if not isinstance(value, list):
-            self.fail(path, f"expected a list, got {type_name(value)}")
+            self.fail(path, f"expected a list, got {describe(value)}")
         return value
 
     # -- scalars -------------------------------------------------------
     def number(self, value, path: str, minimum: float | None = None, strict: bool = False,
                maximum: float | None = None) -> float:
         """A finite number, optionally ``>= minimum`` (``>`` with ``strict``) and ``<= maximum``."""
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(path, f"expected a number, got {type_name(value)}")
-        try:
-            v = float(value)
-        except OverflowError:
-            v = math.inf
-        if not math.isfinite(v):
-            self.fail(path, f"expected a finite number, got {value}")
-        if minimum is not None and (v <= minimum if strict else v < minimum):
-            self.fail(path, f"must be {'>' if strict else '>='} {minimum:g}, got {value}")
+        v = super().number(value, path, minimum, strict)
         if maximum is not None and v > maximum:
             self.fail(path, f"must be <= {maximum:g}, got {value}")
         return v
@@ -98,29 +65,16 @@ class Validator:
         return self.number(value, path, 0.0, strict=True, maximum=maximum)
 
     def integer(self, value, path: str, minimum: int, maximum: int | None = None) -> int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            self.fail(path, f"expected an integer, got {type_name(value)}")
-        if value < minimum:
-            self.fail(path, f"must be >= {minimum}, got {value}")
+        super().integer(value, path, minimum)
         if maximum is not None and value > maximum:
             self.fail(path, f"must be <= {maximum}, got {value}")
-        return value
-
-    def string(self, value, path: str) -> str:
-        if not isinstance(value, str) or not value.strip():
-            self.fail(path, f"expected a non-empty string, got {type_name(value)}")
-        return value
-
-    def boolean(self, value, path: str) -> bool:
-        if not isinstance(value, bool):
-            self.fail(path, f"expected true or false, got {type_name(value)}")
         return value
 
     def vector(self, value, path: str, n: int, positive: bool = False,
                maximum: float | None = None) -> tuple[float, ...]:
         """A list of ``n`` finite numbers (each > 0 with ``positive``, each |v| <= ``maximum``)."""
         if not isinstance(value, list):
-            self.fail(path, f"expected a list of {n} numbers, got {type_name(value)}")
+            self.fail(path, f"expected a list of {n} numbers, got {describe(value)}")
         if len(value) != n:
             self.fail(path, f"expected {n} numbers, got {len(value)}")
         out = []
@@ -135,7 +89,7 @@ class Validator:
     def points(self, value, path: str, minimum: int, maximum: float | None = None) -> np.ndarray:
         """A list of at least ``minimum`` [x, y] points -> (k, 2) array."""
         if not isinstance(value, list):
-            self.fail(path, f"expected a list of [x, y] points, got {type_name(value)}")
+            self.fail(path, f"expected a list of [x, y] points, got {describe(value)}")
         if len(value) < minimum:
             self.fail(path, f"expected at least {minimum} points, got {len(value)}")
         return np.array([self.vector(q, f"{path}[{i}]", 2, maximum=maximum) for i, q in enumerate(value)])
