@@ -15,26 +15,35 @@ class RobotError(PlacementError):
     """A robot preset or URDF that cannot be used."""
 
 
-class FrameNotFound(RobotError):
-    """A frame name that the robot model does not have."""
+class _NameNotFound(RobotError):
+    """A name the robot model does not have, with the closest names it does have."""
 
-    def __init__(self, frame: str, robot: str, candidates: list[str] | None = None):
-        hint = ""
-        if candidates:
-            hint = "; close names: " + ", ".join(candidates[:8])
-        super().__init__(f"frame '{frame}' not found in robot '{robot}'{hint}")
-        self.frame = frame
+    kind = "name"
+
+    def __init__(self, name: str, robot: str, candidates: list[str] | None = None):
+        hint = "; close names: " + ", ".join(candidates[:8]) if candidates else ""
+        super().__init__(f"{self.kind} '{name}' not found in robot '{robot}'{hint}")
+        self.name = name
 
 
-class JointNotFound(RobotError):
-    """A joint name that the robot model does not have."""
+class FrameNotFound(_NameNotFound):
+    """A frame name that the robot model does not have (``frame``: the name)."""
 
-    def __init__(self, joint: str, robot: str, candidates: list[str] | None = None):
-        hint = ""
-        if candidates:
-            hint = "; close names: " + ", ".join(candidates[:8])
-        super().__init__(f"joint '{joint}' not found in robot '{robot}'{hint}")
-        self.joint = joint
+    kind = "frame"
+
+    @property
+    def frame(self) -> str:
+        return self.name
+
+
+class JointNotFound(_NameNotFound):
+    """A joint name that the robot model does not have (``joint``: the name)."""
+
+    kind = "joint"
+
+    @property
+    def joint(self) -> str:
+        return self.name
 
 
 class ArmNotFound(RobotError):

@@ -12,6 +12,7 @@ from pathlib import Path
 import click
 
 from ..errors import PlacementError
+from ..validation import one_line
 
 log = logging.getLogger("placement")
 
@@ -81,19 +82,16 @@ def one_line_errors(f):
         verbose = kwargs.get("verbose", 0)
         try:
             return f(*args, **kwargs)
-        except PlacementError as exc:
+        except (PlacementError, OSError) as exc:  # OSError: a file system error after the up-front checks
             if verbose > 1:
                 raise
-            click.echo(f"error: {exc}", err=True)
+            if isinstance(exc, OSError):
+                exc = f"{exc.filename}: {exc.strerror or exc}" if exc.filename else (exc.strerror or str(exc))
+            click.echo(f"error: {one_line(str(exc))}", err=True)
             sys.exit(2)
         except KeyboardInterrupt:
             click.echo("interrupted; nothing was written", err=True)
             sys.exit(130)
-        except OSError as exc:  # a file system error after the up-front checks (disk full, permissions)
-            if verbose > 1:
-                raise
-            click.echo(f"error: {exc.filename or ''}{': ' if exc.filename else ''}{exc.strerror or exc}", err=True)
-            sys.exit(2)
         except MemoryError:
             click.echo("error: out of memory; use a coarser --resolution or fewer --samples", err=True)
             sys.exit(2)
