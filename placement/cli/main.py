@@ -7,11 +7,12 @@ import click
 from .. import __version__
 from .evaluate import evaluate
 from .maps import maps
+from .params import OneLineGroup
 from .query import query
 from .scenes import scenes
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=OneLineGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="placement")
 def cli():
     """Robot base placement for mobile manipulation."""

@@ -13,8 +13,34 @@ class OneLineCommand(click.Command):
         try:
             return super().parse_args(ctx, args)
         except click.UsageError as exc:
-            click.echo(f"error: {exc.format_message()}", err=True)
-            ctx.exit(2)
+            _usage_error(ctx, exc)
+
+
+class OneLineGroup(click.Group):
+    """A group whose unknown subcommands and bad options give one line, like :class:`OneLineCommand`;
+    its subcommands are :class:`OneLineCommand` unless they say otherwise."""
+
+    command_class = OneLineCommand
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        try:
+            return super().parse_args(ctx, args)
+        except click.UsageError as exc:
+            _usage_error(ctx, exc)
+
+    def resolve_command(self, ctx: click.Context, args: list[str]):
+        try:
+            return super().resolve_command(ctx, args)
+        except click.UsageError as exc:
+            _usage_error(ctx, exc)
+
+
+OneLineGroup.group_class = OneLineGroup
+
+
+def _usage_error(ctx: click.Context, exc: click.UsageError):
+    click.echo(f"error: {exc.format_message()} (see '{ctx.command_path} --help')", err=True)
+    ctx.exit(2)
 
 
 class Bounded(click.IntRange):

@@ -7,10 +7,11 @@ import sys
 import click
 
 from ..planning import METHODS, Planner
+from .params import OneLineCommand
 from .options import emit, json_option, one_line_errors, setup_logging, to_json_line, verbosity, writable_dir
 
 
-@click.command()
+@click.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("scene", type=click.Path())
 @click.option("--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`).")
 @click.option("--method", type=click.Choice(METHODS), default="sequential", show_default=True)
@@ -24,12 +25,12 @@ from .options import emit, json_option, one_line_errors, setup_logging, to_json_
 def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
     """Plan the base placement, arm, grasp and IK solution of every step."""
     setup_logging(verbose, quiet)
+    if plot_dir:
+        writable_dir(plot_dir, "--plot")
     planner = Planner(scene, method, maps_path)
     if stream:
         _stream(planner)
         return
-    if plot_dir:
-        writable_dir(plot_dir, "--plot")
     result = planner.plan(keep_maps=plot_dir is not None)
     if plot_dir:
         from ..plotting import plot_steps

@@ -10,10 +10,10 @@ from ..evaluation.generate import MAX_OBJECTS, MAX_SCENES, MAX_SEED, write_scene
 from ..evaluation.outdir import output_dir
 from ..robots import load_robot
 from .options import emit, json_option, log, one_line_errors, setup_logging, verbosity
-from .params import Bounded, OneLineCommand
+from .params import Bounded, OneLineCommand, OneLineGroup
 
 
-@click.group()
+@click.group(cls=OneLineGroup)
 def scenes():
     """Benchmark scenes."""
 

@@ -1,0 +1,89 @@
+"""`placement query` and `placement-query`: the same command, strict JSON, one-line errors, no work wasted."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from test_cli import _assert_one_line_error, run
+from test_planner import SCENE, write_scene
+from test_regression import _strip
+
+
+def _scene(tmp_path, maps_dir, **changes) -> Path:
+    doc = json.loads(json.dumps(SCENE))
+    doc["maps"] = str(maps_dir)
+    for key, value in changes.items():
+        doc[key] = value
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+def test_placement_query_console_script_equals_placement_query(tmp_path, maps_dir):
+    exe = shutil.which("placement-query", path=str(Path(sys.executable).parent))
+    assert exe, "the placement-query console script is not installed (pip install -e .)"
+    path = write_scene(tmp_path, maps_dir)
+    a = subprocess.run([exe, str(path), "--json", "-q"], capture_output=True, text=True)
+    b = run("query", str(path), "--json", "-q")
+    assert a.returncode == b.returncode == 0, a.stderr + b.stderr
+    assert _strip(json.loads(a.stdout)) == _strip(json.loads(b.stdout))
+    h = subprocess.run([exe, "--help"], capture_output=True, text=True)
+    assert h.returncode == 0 and "--method" in h.stdout and "--stream" in h.stdout
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"planner": {"lambda_m": 1e308}}, ["planner.lambda_m", "<= 1e+06"]),
+    ({"planner": {"threshold": 0}}, ["planner.threshold", "> 0"]),
+    ({"objects": [{"name": "cup", "position": [3.0, 2.5, 0.5], "size": [0.06, 0.06, 0.1]},
+                  {"name": "box", "position": [2.8, 2.4, 0.8], "yaw": 1.0, "size": [0.05, 0.12, 0.1]}]},
+     ["objects[0]", "inside obstacle 'table'"]),
+    ({"place_locations": [{"name": "spot", "position": [1.0, 0.8, 0.5]}]},
+     ["place_locations[0].position", "inside obstacle 'shelf'"]),
+    ({"bounds": [0, 0, 1e9, 1e9]}, ["bounds[2]"]),
+    ({"bounds": [0, 0, 400, 400]}, ["resolution", "at most 2e+07"]),
+    ({"robot": {"preset": "pr2", "start": [3.0, 2.5, 0.0]}}, ["start pose", "inside an obstacle"]),
+    ({"maps": "/nonexistent/maps"}, ["/nonexistent/maps"]),
+])
+def test_bad_scenes_are_one_line(tmp_path, maps_dir, changes, words):
+    _assert_one_line_error(run("query", str(_scene(tmp_path, maps_dir, **changes)), "--json", "-q"), *words)
+
+
+def test_plot_dir_below_a_file_fails_before_planning(tmp_path, maps_dir):
+    (tmp_path / "file").write_text("x")
+    p = run("query", str(_scene(tmp_path, maps_dir)), "--plot", str(tmp_path / "file" / "plots"), "-q")
+    _assert_one_line_error(p, "--plot", "file")
+    assert p.stdout == ""  # nothing planned, nothing printed
+
+
+def test_missing_maps_name_where_they_were_looked_for(tmp_path):
+    doc = json.loads(json.dumps(SCENE))
+    path = tmp_path / "deep" / "scene.yaml"
+    path.parent.mkdir()
+    path.write_text(yaml.safe_dump(doc))
+    p = run("query", str(path), "-q", cwd=tmp_path)
+    _assert_one_line_error(p, "no maps for robot 'pr2'", str(tmp_path / "deep" / "maps" / "pr2"))
+
+
+def test_maps_are_found_beside_the_scene_from_any_directory(tmp_path, maps_dir):
+    """A scene without ``maps:`` finds ``maps/<robot>`` in its folder or a parent, wherever it is run."""
+    root = tmp_path / "project"
+    (root / "maps").mkdir(parents=True)
+    (root / "maps" / "pr2").symlink_to(maps_dir, target_is_directory=True)
+    (root / "scenes").mkdir()
+    path = root / "scenes" / "scene.yaml"
+    path.write_text(yaml.safe_dump(json.loads(json.dumps(SCENE))))
+    p = run("query", str(path), "--json", "-q", cwd=tmp_path)
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout)["status"] == "ok"
+
+
+def test_unknown_option_and_command_are_one_line(tmp_path):
+    _assert_one_line_error(run("query", "x.yaml", "--method", "best"), "--method", "best")
+    _assert_one_line_error(run("frobnicate"), "frobnicate")
