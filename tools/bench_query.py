@@ -13,7 +13,7 @@ import sys
 import time
 from pathlib import Path
 
-from placement.planning.planner import Planner
+from placement.planning import Planner
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = {"navigation": 1.39, "manipulation": 1053.94, "heuristic": 58.20, "combine": 4.93, "total": 1118.49}
@@ -27,8 +27,8 @@ def main(argv=None):
     Planner(args.scene).plan()  # JIT warm-up
     per_stage: dict[str, list[float]] = {}
     for _ in range(args.runs):
-        for step in Planner(args.scene).plan()["steps"]:
-            for k, v in step["timings_ms"].items():
+        for step in Planner(args.scene).plan().steps:
+            for k, v in step.timings_ms.items():
                 per_stage.setdefault(k, []).append(v)
     t = time.perf_counter()
     subprocess.run([sys.executable, "-m", "placement.cli.main", "query", args.scene, "--json", "-q"],
