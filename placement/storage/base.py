@@ -82,8 +82,8 @@ class StoredMap(ABC):
         return data
 
     def _damaged(self, arm: str, chunk: tuple[int, int, int], count: int = 1) -> MapError:
-        more = f" and {count - 1} more" if count > 1 else ""
-        return MapError(f"{self.path}: chunk (z, pitch, roll) = {chunk}{more} of arm '{arm}' does not match its "
+        more = f" (and {count - 1} more)" if count > 1 else ""
+        return MapError(f"{self.path}: chunk (z, pitch, roll) = {chunk} of arm '{arm}'{more} does not match its "
                         f"checksum (changed, swapped or missing chunk data: corrupt); rebuild the map")
 
     def _read(self, arm: str, what: str, take) -> np.ndarray:
