@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -190,7 +191,7 @@ def check_target(path: str | Path, robot: Robot, fmt: str, what: str = "") -> No
         parent = parent.parent
     if not parent.is_dir():
         raise MapError(f"{name}: {parent} is a file, not a directory")
-    if not os.access(parent, os.W_OK | os.X_OK):
+    if not _writable(parent):
         raise MapError(f"{name}: directory {parent} is not writable")
     if not path.exists():
         return
@@ -206,6 +207,20 @@ def check_target(path: str | Path, robot: Robot, fmt: str, what: str = "") -> No
             validate_robot(path, old.root, robot)
     finally:
         old.close()
+
+
+def _writable(directory: Path) -> bool:
+    """Whether a map can be created in ``directory``: tried with an empty probe directory, removed at once.
+
+    access() alone says yes to root on read-only mounts and pseudo file systems (/proc).
+    """
+    if not os.access(directory, os.W_OK | os.X_OK):
+        return False
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".placement-probe-", dir=directory))
+    except OSError:
+        return False
+    return True
 
 
 def save_maps(path: str | Path, robot: Robot, maps: dict[str, BuiltMap], fmt: str = "zarr") -> Path:

@@ -15,7 +15,7 @@ from ..buildspec import (
     FORMATS, INDEXES, MAX_RESOLUTION, MAX_SAMPLES, MAX_SEED, MIN_RESOLUTION, BuildSpec, load_build_spec, parse_bins,
     parse_count, parse_length,
 )
-from ..errors import PlacementError
+from ..errors import ArmNotFound, PlacementError
 from ..rmap import check_root, check_target, open_map, save_maps
 from ..robots import load_robot
 from ..storage import open_store
@@ -107,7 +107,12 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
                "self_collision": self_collision, "self_distance": self_distance}
     spec = dataclasses.replace(spec, **{k: v for k, v in options.items() if v is not None})
     robot = load_robot(spec.robot)
-    arms = spec.arms_of(robot)
+    try:
+        arms = spec.arms_of(robot)
+    except ArmNotFound as exc:
+        if arm or not spec_path:
+            raise
+        raise PlacementError(f"build spec {spec_path}: arms: {exc}") from None
     for a in arms:
         build_grid(robot, a, spec.resolution, spec.bins)
     out_path = Path(out)
