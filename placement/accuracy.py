@@ -84,7 +84,7 @@ def check_map(robot: Robot, rmap, samples: int = 200, seed: int = 0, threshold: 
         denominator is 0 is None.
     """
     t_start = time.perf_counter()
-    if not isinstance(samples, (int, np.integer)) or not isinstance(seed, (int, np.integer)):
+    if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (samples, seed)):
         raise PlacementError(f"samples and seed must be integers, got {samples!r} and {seed!r}")
     samples = parse_count(int(samples), "samples", 1, MAX_CHECK_SAMPLES)
     seed = parse_count(int(seed), "seed", 0, MAX_SEED)

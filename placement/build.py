@@ -166,7 +166,7 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
         self_distance: also apply the self-distance penalty (implies
             self_collision; every sample needs a distance query: slow).
     """
-    if not isinstance(samples, (int, np.integer)) or not isinstance(seed, (int, np.integer)):
+    if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (samples, seed)):
         raise PlacementError(f"samples and seed must be integers, got {samples!r} and {seed!r}")
     samples = parse_count(int(samples), "samples", 1, MAX_SAMPLES)
     seed = parse_count(int(seed), "seed", 0, MAX_SEED)
