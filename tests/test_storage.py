@@ -256,3 +256,15 @@ def test_wrong_format_version(saved, version):
 def test_wrong_format_name(tmp_path, pr2, right_map):
     with pytest.raises(MapError, match="zarr.*hdf5|hdf5.*zarr"):
         placement.save_maps(tmp_path / "x", pr2, {"right": right_map}, "parquet")
+
+
+def test_chunk_crcs_are_per_chunk():
+    """The whole-array CRC table (used on save and by read_all) equals each chunk's own CRC (read_chunk)."""
+    from placement.storage.format import chunk_crc, chunk_crcs
+
+    values = np.random.default_rng(0).random((5, 4, 3, 4, 3, 2)).astype(np.float32)
+    table = chunk_crcs(values)
+    assert table.shape == (3, 3, 2) and table.dtype == np.uint32
+    for iz, ip, ir in np.ndindex(*table.shape):
+        assert table[iz, ip, ir] == chunk_crc(values[:, :, iz, :, ip, ir])
+    assert len(set(table.ravel().tolist())) == table.size  # distinct data, distinct CRCs

@@ -15,17 +15,7 @@ from placement.storage import backend
 from placement.storage.base import atomic_replace
 from placement.storage.format import FORMAT_VERSION
 from placement.storage.zarr import ZarrBackend
-from test_storage import FORMATS, SMALL, set_root, snapshot
-
-
-@pytest.fixture(scope="module")
-def right_map(pr2):
-    return placement.build_map(pr2, "right", samples=4000, seed=2, progress=False, **SMALL)
-
-
-@pytest.fixture(scope="module")
-def left_map(pr2):
-    return placement.build_map(pr2, "left", samples=1000, seed=3, progress=False, **SMALL)
+from test_storage import FORMATS, left_map, right_map, set_root, snapshot  # noqa: F401 - fixtures
 
 
 

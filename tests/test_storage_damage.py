@@ -19,14 +19,9 @@ import zarr
 
 import placement
 from placement import MapError
-from test_storage import SMALL, zarr_chunk_files
+from test_storage import right_map, zarr_chunk_files  # noqa: F401 - a fixture
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture(scope="module")
-def right_map(pr2):
-    return placement.build_map(pr2, "right", samples=4000, seed=2, progress=False, **SMALL)
 
 
 def chunk_index(path: Path, f: Path) -> tuple[int, int, int]:

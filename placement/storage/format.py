@@ -49,8 +49,11 @@ def chunk_crc(chunk: np.ndarray) -> int:
 def chunk_crcs(values: np.ndarray) -> np.ndarray:
     """CRC32 of every chunk of a 6D map -> (nz, n_pitch, n_roll) uint32, indexed by chunk index."""
     nx, ny, nz, n_yaw, n_pitch, n_roll = values.shape
-    # one copy in chunk order makes every chunk a contiguous run of bytes
-    runs = np.ascontiguousarray(np.asarray(values, dtype=np.float32).transpose(2, 4, 5, 0, 1, 3))
-    runs = runs.reshape(nz * n_pitch * n_roll, nx * ny * n_yaw)
-    out = np.fromiter((zlib.crc32(r) for r in runs), dtype=np.uint32, count=len(runs))
+    out = np.empty((nz, n_pitch * n_roll), dtype=np.uint32)
+    # one z slab at a time in chunk order makes every chunk a contiguous run of bytes without a
+    # second copy of the whole map (and the slab stays in cache)
+    slab = np.empty((n_pitch, n_roll, nx, ny, n_yaw), dtype=np.float32)
+    for iz in range(nz):
+        np.copyto(slab, values[:, :, iz].transpose(3, 4, 0, 1, 2))
+        out[iz] = [zlib.crc32(run) for run in slab.reshape(n_pitch * n_roll, -1)]
     return out.reshape(nz, n_pitch, n_roll)
