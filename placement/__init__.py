@@ -4,7 +4,7 @@ Public API (see README): :func:`load_robot`, :func:`open_map`,
 :func:`extended_manipulability`, :func:`build_map`.
 """
 
-__version__ = "0.1.0"
+from .version import __version__
 
 from .build import BuiltMap, build_map  # noqa: E402
 from .errors import (  # noqa: E402

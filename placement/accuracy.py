@@ -36,19 +36,14 @@ from typing import Callable
 
 import numpy as np
 
-from .build import BuiltMap, arm_reach
+from .build import arm_reach
 from .errors import MapError, PlacementError
+from .buildspec import MAX_SEED, parse_count
 from .ik import solve_ik
 from .robots import Robot
 
 _CHUNK = 1 << 24
-
-
-def _map_values(rmap) -> np.ndarray:
-    """The whole 6D float32 array of a :class:`BuiltMap` or :class:`ReachabilityMap`."""
-    if isinstance(rmap, BuiltMap):
-        return rmap.values
-    return rmap.values
+MAX_CHECK_SAMPLES = 100_000  # IK checks per class; ~10 ms each
 
 
 def _ratio(num: float, den: float) -> float | None:
@@ -65,9 +60,9 @@ def check_map(robot: Robot, rmap, samples: int = 200, seed: int = 0, threshold: 
         rmap: a :class:`placement.ReachabilityMap` (from :func:`placement.open_map`)
             or a :class:`placement.BuiltMap` (from :func:`placement.build_map`);
             its arm is ``rmap.meta["arm"]``. The whole array is read.
-        samples: cells drawn per class (positives and negatives each); fewer
-            if the class has fewer cells.
-        seed: seed of the cell draws and of the IK restarts (deterministic).
+        samples: cells drawn per class (positives and negatives each), 1 ..
+            MAX_CHECK_SAMPLES; fewer if the class has fewer cells.
+        seed: 0 .. 2^64 - 1, seed of the cell draws and of the IK restarts (deterministic).
         threshold: map value at or below which a cell counts as unreachable
             (0 = never reached; the planner's feasibility threshold otherwise).
         ik_seeds, max_iter: IK start configurations and iterations per start
@@ -89,15 +84,17 @@ def check_map(robot: Robot, rmap, samples: int = 200, seed: int = 0, threshold: 
         denominator is 0 is None.
     """
     t_start = time.perf_counter()
-    if not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise PlacementError(f"sample count must be a positive integer, got {samples!r}")
+    if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (samples, seed)):
+        raise PlacementError(f"samples and seed must be integers, got {samples!r} and {seed!r}")
+    samples = parse_count(int(samples), "samples", 1, MAX_CHECK_SAMPLES)
+    seed = parse_count(int(seed), "seed", 0, MAX_SEED)
     meta = rmap.meta
     arm = meta["arm"]
     if meta.get("robot") != robot.name or meta.get("urdf_sha256", robot.urdf_sha256) != robot.urdf_sha256:
         raise MapError(f"map of arm '{arm}' was built for robot '{meta.get('robot')}' "
                        f"(or another URDF), not '{robot.name}'")
     grid = rmap.grid
-    values = _map_values(rmap)
+    values = rmap.values
     if values.shape != grid.shape:
         raise MapError(f"map values have shape {values.shape}, its grid says {grid.shape}")
     flat = values.reshape(-1)

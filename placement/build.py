@@ -4,33 +4,20 @@ from __future__ import annotations
 
 import datetime as _dt
 import time
-from dataclasses import dataclass
-
 import numpy as np
 from tqdm import tqdm
 
-from . import __version__
+from .buildspec import DEFAULT_BINS, DEFAULT_RESOLUTION, INDEXES, MAX_SAMPLES, MAX_SEED, parse_choice, parse_count
 from .errors import GridError, PlacementError
 from .grid import Grid
 from .kernels.sampling import configs_at, reduce_max, sample_block, sample_configs
 from .manipulability import INDEX_NAMES, ROTATION_SCALE
 from .robots import Robot, load_robot
 from .selfcollision import ALPHA, BETA, SelfCollision
+from .storage.format import FORMAT_VERSION, BuiltMap
+from .version import __version__
 
-FORMAT_VERSION = 1
-DEFAULT_BINS = (20, 9, 20)
-
-
-@dataclass
-class BuiltMap:
-    """An arm's map in memory: values (6D float32, 0 = unreachable) and metadata."""
-
-    values: np.ndarray
-    meta: dict
-
-    @property
-    def grid(self) -> Grid:
-        return Grid.from_dict(self.meta["grid"])
+__all__ = ["DEFAULT_BINS", "BuiltMap", "arm_reach", "build_grid", "build_map", "default_grid", "sample_range"]
 
 
 def arm_reach(robot: Robot, arm: str) -> tuple[np.ndarray, float]:
@@ -49,10 +36,18 @@ def arm_reach(robot: Robot, arm: str) -> tuple[np.ndarray, float]:
     return centre, reach
 
 
-def default_grid(robot: Robot, arm: str, resolution: float = 0.05, bins=DEFAULT_BINS) -> Grid:
+def default_grid(robot: Robot, arm: str, resolution: float = DEFAULT_RESOLUTION, bins=DEFAULT_BINS) -> Grid:
     """The grid that covers every pose the arm can reach, at ``resolution`` [m]."""
     centre, reach = arm_reach(robot, arm)
     return Grid.around(centre, reach + resolution, resolution, tuple(bins))
+
+
+def build_grid(robot: Robot, arm: str, resolution: float = DEFAULT_RESOLUTION, bins=DEFAULT_BINS) -> Grid:
+    """The grid :func:`build_map` fills for ``arm``, after the checks it makes before sampling (cheap)."""
+    a = robot.arm(arm)
+    if a.dof < 6:
+        raise PlacementError(f"arm '{arm}' has {a.dof} joints; the extended manipulability needs at least 6")
+    return default_grid(robot, arm, resolution, bins)
 
 
 def sample_range(robot: Robot, arm: str, grid: Grid, values: np.ndarray, *, seed: int, start: int,
@@ -142,7 +137,7 @@ def _remote_range(preset: str, arm: str, grid_dict: dict, seed: int, start: int,
     return idx, values[idx], outside
 
 
-def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution: float = 0.05,
+def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution: float = DEFAULT_RESOLUTION,
               bins=DEFAULT_BINS, index: str = "isotropy", block: int = 1 << 19,
               progress: bool = True, on_block=None, client=None, tasks: int | None = None,
               self_collision: bool = False, self_distance: bool = False) -> BuiltMap:
@@ -151,9 +146,9 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
     Args:
         robot: the robot (see :func:`placement.load_robot`).
         arm: arm name.
-        samples: number of uniform joint samples (>= 1).
-        seed: sampling seed; same seed and samples give a bitwise-identical map.
-        resolution: position cell edge [m].
+        samples: number of uniform joint samples, 1 .. MAX_SAMPLES (1e11).
+        seed: sampling seed, 0 .. 2^64 - 1; same seed and samples give a bitwise-identical map.
+        resolution: position cell edge [m] (default 0.05, SPEC's 5 cm).
         bins: orientation bin counts (n_yaw even, n_pitch odd, n_roll even).
         index: "isotropy" (Simox default) or "volume".
         block: samples per parallel block (memory vs. pruning freshness; does not change the result).
@@ -171,15 +166,14 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
         self_distance: also apply the self-distance penalty (implies
             self_collision; every sample needs a distance query: slow).
     """
-    if not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise PlacementError(f"sample count must be a positive integer, got {samples!r}")
-    if index not in INDEX_NAMES:
-        raise PlacementError(f"unknown manipulability index '{index}'; choose from {', '.join(INDEX_NAMES)}")
+    if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (samples, seed)):
+        raise PlacementError(f"samples and seed must be integers, got {samples!r} and {seed!r}")
+    samples = parse_count(int(samples), "samples", 1, MAX_SAMPLES)
+    seed = parse_count(int(seed), "seed", 0, MAX_SEED)
+    parse_choice(index, "manipulability index", INDEXES)
+    grid = build_grid(robot, arm, resolution, bins)
     a = robot.arm(arm)
-    if a.dof < 6:
-        raise PlacementError(f"arm '{arm}' has {a.dof} joints; the extended manipulability needs at least 6")
     checker = SelfCollision(robot, arm) if (self_collision or self_distance) else None
-    grid = default_grid(robot, arm, resolution, bins)
     try:
         values = np.zeros(grid.size, dtype=np.float32)
     except MemoryError:

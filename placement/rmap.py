@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .build import FORMAT_VERSION, BuiltMap
 from .errors import MapError, PlacementError
 from .grid import Grid
 from .robots import Robot, load_robot
-from .storage import atomic_replace, backend, checksum, detect, open_store
+from .storage import atomic_replace, backend, detect, open_store
+from .storage.format import CRC_KEY, FORMAT_VERSION, ROOT_KEY, BuiltMap, chunk_crcs
+
+# stored and preset TCP offsets (4, 4) [m, dimensionless rotation] agree to this
+TCP_TOLERANCE = 1e-9
 
 
 class ReachabilityMap:
@@ -79,16 +84,14 @@ class ReachabilityMap:
         return out
 
     def verify(self) -> None:
-        """Read everything and compare with the stored checksum (MapError if corrupt)."""
-        data = self.store.read_all(self.arm)
-        want = self.meta.get("checksum")
-        if want and checksum(data) != want:
-            raise MapError(f"{self.path}: data of arm '{self.arm}' does not match its checksum (corrupt)")
+        """Read every chunk and compare it with its stored CRC32 (MapError if any is damaged)."""
+        self.store.read_all(self.arm)
 
 
-def _check_root(path: Path, root: dict) -> None:
+def check_root(path: Path, root: dict) -> None:
+    """MapError unless ``root`` is the metadata of a complete map of this format version."""
     if not root:
-        raise MapError(f"{path}: not a reachability map (no '{'placement_map'}' metadata)")
+        raise MapError(f"{path}: not a reachability map (no '{ROOT_KEY}' metadata)")
     if not root.get("complete"):
         raise MapError(f"{path}: map is half-written (an interrupted build); rebuild it")
     if root.get("format_version") != FORMAT_VERSION:
@@ -110,17 +113,45 @@ def validate_robot(path: Path, root: dict, robot: Robot) -> None:
                        f"holds {robot.fixed_joints}")
 
 
+def validate_arm(path: Path, meta: dict, robot: Robot, arm: str) -> None:
+    """MapError if the map of ``arm`` was built for other arm joints, tip frame or TCP offset than ``robot``'s."""
+    a = robot.arm(arm)
+    if meta.get("joints") != list(a.joints):
+        _differs(path, arm, "joints", meta.get("joints"), list(a.joints))
+    if meta.get("tip_frame") != a.tip_frame:
+        _differs(path, arm, "tip frame", meta.get("tip_frame"), a.tip_frame)
+    try:
+        tcp = np.asarray(meta.get("tcp_offset"), dtype=float)
+        same = tcp.shape == (4, 4) and bool(np.all(np.abs(tcp - a.tcp_offset) <= TCP_TOLERANCE))
+    except (TypeError, ValueError):
+        same = False
+    if not same:
+        _differs(path, arm, "TCP offset (4x4)", meta.get("tcp_offset"), a.tcp_offset)
+
+
+def _differs(path: Path, arm: str, field: str, stored, preset) -> None:
+    def show(v):
+        return np.round(np.asarray(v, dtype=float), 6).tolist() if isinstance(v, np.ndarray) else v
+
+    raise MapError(f"{path}: the map of arm '{arm}' was built for {field} {show(stored)}, the preset has "
+                   f"{show(preset)}; rebuild the map")
+
+
 def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> ReachabilityMap:
     """Open the map of ``arm`` at ``path`` (Zarr directory or HDF5 file), lazily.
 
     The map is validated against ``robot`` (a :class:`Robot` or preset name/path);
-    by default against the preset recorded in the map. Raises :class:`MapError`
-    for a missing, half-written, corrupt, foreign or outdated map.
+    by default against the preset recorded in the map. Checked here: the
+    metadata is complete, the format version, robot name, URDF hash, base frame
+    and fixed joints, the arm's joints (names, order, count), tip frame and TCP
+    offset (to 1e-9), the chunk checksum table and (Zarr) the stored chunk count.
+    Every later read checks each chunk's CRC32. Raises :class:`MapError` for a
+    missing, half-written, corrupt, foreign or outdated map.
     """
     path = Path(path)
     store = open_store(path)
     root = store.root
-    _check_root(path, root)
+    check_root(path, root)
     if robot is None:
         robot = root.get("preset") or root.get("robot")
     if not isinstance(robot, Robot):
@@ -129,36 +160,84 @@ def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> Re
     arms = list(root.get("arms") or [])
     if arm not in arms:
         raise MapError(f"{path}: no map for arm '{arm}'; it has: {', '.join(arms) or 'none'}")
-    rmap = ReachabilityMap(store, arm)
+    try:
+        rmap = ReachabilityMap(store, arm)
+        consistent = tuple(rmap.meta["grid"]["shape"]) == rmap.grid.shape and rmap.meta.get("arm") == arm
+    except (KeyError, TypeError, ValueError):
+        consistent = False
+    if not consistent:
+        raise MapError(f"{path}: metadata of arm '{arm}' is inconsistent (corrupt); rebuild the map")
+    validate_arm(path, rmap.meta, robot, arm)
+    store.expected_crcs(arm)
     want = rmap.meta.get("stored_chunks")
     have = store.chunks_present(arm)
     if want is not None and have is not None and have != want:
-        raise MapError(f"{path}: arm '{arm}' has {have} of {want} data chunks (half-written or corrupt)")
-    if tuple(rmap.meta["grid"]["shape"]) != rmap.grid.shape or rmap.meta.get("arm") != arm:
-        raise MapError(f"{path}: metadata of arm '{arm}' is inconsistent (corrupt)")
+        raise MapError(f"{path}: arm '{arm}' has {have} of {want} data chunks (half-written or corrupt); "
+                       f"rebuild the map")
     return rmap
 
 
-def save_maps(path: str | Path, robot: Robot, maps: dict[str, BuiltMap], fmt: str = "zarr") -> Path:
-    """Write ``maps`` (arm -> BuiltMap) to ``path`` atomically.
+def check_target(path: str | Path, robot: Robot, fmt: str, what: str = "") -> None:
+    """Fail now, before a build, if the map could not be saved to ``path`` (``what`` names the option).
 
-    Arms already in an existing map of the same robot at ``path`` are kept; a
-    path that holds something else is never overwritten (MapError).
+    The nearest existing ancestor must be a writable directory; an existing
+    ``path`` must be a map of the same format whose root metadata matches ``robot``.
+    """
+    path = Path(path)
+    name = f"{what} {path}" if what else str(path)
+    be = backend(fmt)
+    parent = path.absolute().parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise MapError(f"{name}: {parent} is a file, not a directory")
+    if not _writable(parent):
+        raise MapError(f"{name}: directory {parent} is not writable")
+    if not path.exists():
+        return
+    try:
+        existing = detect(path)
+    except MapError:
+        raise MapError(f"{name} exists and is not a map; refusing to overwrite it") from None
+    if existing.name != be.name:
+        raise MapError(f"{name} is a {existing.name} map; refusing to replace it with {fmt}")
+    old = existing.open(path)
+    try:
+        if old.root.get("complete"):
+            validate_robot(path, old.root, robot)
+    finally:
+        old.close()
+
+
+def _writable(directory: Path) -> bool:
+    """Whether a map can be created in ``directory``: tried with an empty probe directory, removed at once.
+
+    access() alone says yes to root on read-only mounts and pseudo file systems (/proc).
+    """
+    if not os.access(directory, os.W_OK | os.X_OK):
+        return False
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".placement-probe-", dir=directory))
+    except OSError:
+        return False
+    return True
+
+
+def save_maps(path: str | Path, robot: Robot, maps: dict[str, BuiltMap], fmt: str = "zarr") -> Path:
+    """Write ``maps`` (arm -> BuiltMap) to ``path`` atomically, with the CRC32 of every chunk.
+
+    Arms already in an existing complete map of the same robot and format
+    version at ``path`` are kept (and checked as they are read); a path that
+    holds something else is never overwritten (MapError).
     """
     path = Path(path)
     be = backend(fmt)
-    arms = {arm: (m.values, {**m.meta, "checksum": checksum(m.values)}) for arm, m in maps.items()}
+    check_target(path, robot, fmt)
+    arms = {arm: (m.values, {**m.meta, CRC_KEY: chunk_crcs(m.values).tolist()}) for arm, m in maps.items()}
     if path.exists():
-        try:
-            existing = detect(path)
-        except MapError:
-            raise MapError(f"{path} exists and is not a map; refusing to overwrite it") from None
-        if existing.name != be.name:
-            raise MapError(f"{path} is a {existing.name} map; refusing to replace it with {fmt}")
         old = open_store(path)
         try:
-            if old.root.get("complete"):
-                validate_robot(path, old.root, robot)
+            if old.root.get("complete") and old.root.get("format_version") == FORMAT_VERSION:
                 for arm in old.root.get("arms", []):
                     if arm not in arms:
                         arms[arm] = (old.read_all(arm), old.arm_meta(arm))

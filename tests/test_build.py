@@ -46,6 +46,11 @@ def assert_bitwise_equal(a: np.ndarray, b: np.ndarray):
 
 # --------------------------------------------------------------------------------------------
 
+def test_default_resolution_is_5cm(built):
+    """SPEC section 4: 5 cm cells by default (maps/pr2.yaml chooses 0.1 m explicitly)."""
+    assert built.grid.resolution == 0.05
+
+
 def test_map_is_not_trivial(built, built_small):
     for m, n in ((built, N), (built_small, N_SMALL)):
         v = m.values
@@ -176,8 +181,14 @@ def test_armar6_map_both_arms(armar6):
 
 
 def test_bad_arguments(pr2):
-    with pytest.raises(placement.PlacementError, match="sample count"):
-        placement.build_map(pr2, "right", samples=0, progress=False)
+    for samples in (0, -3, placement.buildspec.MAX_SAMPLES + 1):
+        with pytest.raises(placement.PlacementError, match="samples must be a whole number from 1"):
+            placement.build_map(pr2, "right", samples=samples, progress=False)
+    for kw in ({"samples": 10.0}, {"samples": True}, {"seed": 1.5}, {"seed": "1"}):
+        with pytest.raises(placement.PlacementError, match="must be integers"):
+            placement.build_map(pr2, "right", **{"samples": 10, **kw}, progress=False)
+    with pytest.raises(placement.PlacementError, match="seed must be a whole number from 0"):
+        placement.build_map(pr2, "right", samples=10, seed=-1, progress=False)
     with pytest.raises(placement.PlacementError, match="index"):
         placement.build_map(pr2, "right", samples=10, index="nope", progress=False)
     with pytest.raises(placement.ArmNotFound):

@@ -2,43 +2,67 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
-import os
 from pathlib import Path
 
 import click
 import numpy as np
-import yaml
 
-from ..build import DEFAULT_BINS, build_map
-from ..errors import MapError, PlacementError
-from ..rmap import open_map, save_maps
+from ..accuracy import MAX_CHECK_SAMPLES, check_map
+from ..build import build_grid, build_map
+from ..buildspec import (
+    FORMATS, INDEXES, MAX_RESOLUTION, MAX_SAMPLES, MAX_SEED, MIN_RESOLUTION, BuildSpec, load_build_spec, parse_bins,
+    parse_count, parse_length,
+)
+from ..errors import ArmNotFound, PlacementError
+from ..rmap import check_root, check_target, open_map, save_maps
 from ..robots import load_robot
 from ..storage import open_store
+from ..storage.format import CRC_KEY
 from .options import arm_option, emit, json_option, one_line_errors, robot_option, setup_logging, verbosity
 
 log = logging.getLogger("placement")
 
-_SPEC_KEYS = {"robot", "arms", "samples", "seed", "resolution", "bins", "index", "format", "self_collision",
-              "self_distance"}
+
+class OneLineError(click.ClickException):
+    """A bad option value: one `error: ...` line on stderr, exit code 2 (like every other bad input)."""
+
+    exit_code = 2
+
+    def show(self, file=None) -> None:
+        click.echo(f"error: {self.format_message()}", err=True)
 
 
-def _read_spec(path: str | None) -> dict:
-    if not path:
-        return {}
-    try:
-        spec = yaml.safe_load(Path(path).read_text()) or {}
-    except FileNotFoundError:
-        raise PlacementError(f"build spec {path} not found") from None
-    except yaml.YAMLError as exc:
-        raise PlacementError(f"build spec {path} is not valid YAML: {str(exc).splitlines()[0]}") from None
-    if not isinstance(spec, dict):
-        raise PlacementError(f"build spec {path} must be a mapping")
-    unknown = set(spec) - _SPEC_KEYS
-    if unknown:
-        raise PlacementError(f"build spec {path}: unknown key '{sorted(unknown)[0]}'; allowed: "
-                             f"{', '.join(sorted(_SPEC_KEYS))}")
-    return spec
+class OneLineCommand(click.Command):
+    """A command whose usage errors (missing or malformed options) are one `error:` line, not a usage page."""
+
+    def parse_args(self, ctx, args):
+        try:
+            return super().parse_args(ctx, args)
+        except click.UsageError as exc:
+            raise OneLineError(exc.format_message()) from None
+
+
+class Checked(click.ParamType):
+    """An option type checked by a :mod:`placement.buildspec` validator (same rules as in spec files)."""
+
+    def __init__(self, name: str, check):
+        self.name = name
+        self.check = check
+
+    def convert(self, value, param, ctx):
+        try:
+            return self.check(value, param.opts[-1] if param else self.name)
+        except PlacementError as exc:
+            raise OneLineError(str(exc)) from None
+
+
+def count_type(lo: int, hi: int) -> Checked:
+    return Checked("count", lambda v, w: parse_count(v, w, lo, hi))
+
+
+SEED = count_type(0, MAX_SEED)
 
 
 @click.group()
@@ -46,16 +70,20 @@ def maps():
     """Build and inspect reachability maps (offline)."""
 
 
-@maps.command()
+@maps.command(cls=OneLineCommand)
 @robot_option
 @arm_option
 @click.option("--spec", "spec_path", default=None, metavar="YAML", help="Build spec (maps/pr2.yaml); options override it.")
-@click.option("--samples", type=int, default=None, help="Joint samples per arm [count].")
-@click.option("--seed", type=int, default=None, help="Sampling seed (same seed + samples = same map).")
-@click.option("--resolution", type=float, default=None, help="Position cell edge [m] (default 0.05).")
-@click.option("--bins", default=None, metavar="YAW,PITCH,ROLL", help="Orientation bins (default 20,9,20).")
-@click.option("--index", type=click.Choice(["isotropy", "volume"]), default=None, help="Manipulability index.")
-@click.option("--format", "fmt", type=click.Choice(["zarr", "hdf5"]), default=None, help="Storage backend.")
+@click.option("--samples", type=count_type(1, MAX_SAMPLES), default=None,
+              help=f"Joint samples per arm [count, 1 to {MAX_SAMPLES:.0e}] (default 1e6).")
+@click.option("--seed", type=SEED, default=None, help="Sampling seed (same seed + samples = same map).")
+@click.option("--resolution", default=None,
+              type=Checked("length", lambda v, w: parse_length(v, w, MIN_RESOLUTION, MAX_RESOLUTION)),
+              help=f"Position cell edge [m, {MIN_RESOLUTION} to {MAX_RESOLUTION}] (default 0.05).")
+@click.option("--bins", type=Checked("bins", parse_bins), default=None, metavar="YAW,PITCH,ROLL",
+              help="Orientation bins (default 20,9,20).")
+@click.option("--index", type=click.Choice(INDEXES), default=None, help="Manipulability index.")
+@click.option("--format", "fmt", type=click.Choice(FORMATS), default=None, help="Storage backend.")
 @click.option("--out", required=True, type=click.Path(), help="Map directory (zarr) or file (hdf5).")
 @click.option("--dask", "dask_address", default=None, metavar="ADDRESS",
               help="Spread sampling over a Dask cluster (scheduler address, e.g. tcp://host:8786).")
@@ -68,54 +96,40 @@ def maps():
 @one_line_errors
 def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, out, dask_address, self_collision,
           self_distance, as_json, verbose, quiet):
-    """Sample each arm and write its 6D reachability map atomically."""
+    """Sample each arm and write its 6D reachability map atomically.
+
+    Everything (spec, robot, arms, grid, output path) is checked before sampling starts.
+    """
     setup_logging(verbose, quiet)
-    spec = _read_spec(spec_path)
-    robot = load_robot(robot or spec.get("robot", "pr2"))
-    arms = [arm] if arm else list(spec.get("arms") or robot.arms)
+    spec = load_build_spec(spec_path) if spec_path else BuildSpec()
+    options = {"robot": robot, "arms": (arm,) if arm else None, "samples": samples, "seed": seed,
+               "resolution": resolution, "bins": bins, "index": index, "format": fmt,
+               "self_collision": self_collision, "self_distance": self_distance}
+    spec = dataclasses.replace(spec, **{k: v for k, v in options.items() if v is not None})
+    robot = load_robot(spec.robot)
+    try:
+        arms = spec.arms_of(robot)
+    except ArmNotFound as exc:
+        if arm or not spec_path:
+            raise
+        raise PlacementError(f"build spec {spec_path}: arms: {exc}") from None
     for a in arms:
-        robot.arm(a)
-    samples = samples if samples is not None else int(spec.get("samples", 1_000_000))
-    seed = seed if seed is not None else int(spec.get("seed", 0))
-    resolution = resolution if resolution is not None else float(spec.get("resolution", 0.05))
-    if bins is not None:
-        try:
-            bins = tuple(int(b) for b in bins.split(","))
-        except ValueError:
-            raise PlacementError(f"--bins must be three integers YAW,PITCH,ROLL, got '{bins}'") from None
-    else:
-        bins = tuple(spec.get("bins", DEFAULT_BINS))
-    if len(bins) != 3:
-        raise PlacementError(f"orientation bins must be three counts (yaw, pitch, roll), got {bins}")
-    if samples < 1:
-        raise PlacementError(f"--samples must be a positive count, got {samples}")
-    if not (0.005 <= resolution <= 1.0):
-        raise PlacementError(f"--resolution must be between 0.005 and 1.0 m, got {resolution}")
-    index = index or spec.get("index", "isotropy")
-    fmt = fmt or spec.get("format", "zarr")
-    if self_collision is None:
-        self_collision = spec.get("self_collision", False)
-        if not isinstance(self_collision, bool):
-            raise PlacementError(f"build spec: self_collision must be true or false, got {self_collision!r}")
-    if self_distance is None:
-        self_distance = spec.get("self_distance", False)
-        if not isinstance(self_distance, bool):
-            raise PlacementError(f"build spec: self_distance must be true or false, got {self_distance!r}")
+        build_grid(robot, a, spec.resolution, spec.bins)
     out_path = Path(out)
-    if fmt == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
+    if spec.format == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
         out_path = out_path.with_suffix(".h5")
-    _refuse_foreign(out_path)
+    check_target(out_path, robot, spec.format, "--out")
     client = _dask_client(dask_address) if dask_address else None
     built = {}
     for a in arms:
-        built[a] = m = build_map(robot, a, samples=samples, seed=seed, resolution=resolution, bins=bins,
-                                 index=index, progress=not quiet, client=client, self_collision=self_collision,
-                                 self_distance=self_distance)
+        built[a] = m = build_map(robot, a, samples=spec.samples, seed=spec.seed, resolution=spec.resolution,
+                                 bins=spec.bins, index=spec.index, progress=not quiet, client=client,
+                                 self_collision=spec.self_collision, self_distance=spec.self_distance)
         log.info("%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",
-                 robot.name, a, samples, m.meta["build_time_s"], m.meta["samples_per_s"] or 0,
+                 robot.name, a, spec.samples, m.meta["build_time_s"], m.meta["samples_per_s"] or 0,
                  m.meta["filled_cells"])
-    save_maps(out_path, robot, built, fmt)
-    summary = {"path": str(out_path), "format": fmt, "robot": robot.name,
+    save_maps(out_path, robot, built, spec.format)
+    summary = {"path": str(out_path), "format": spec.format, "robot": robot.name,
                "arms": {a: {k: m.meta[k] for k in ("samples", "seed", "build_time_s", "samples_per_s",
                                                    "filled_cells", "max_value")} for a, m in built.items()}}
     emit(summary, as_json, lambda s: "\n".join(
@@ -134,23 +148,13 @@ def _dask_client(address: str):
         raise PlacementError(f"cannot reach Dask scheduler at {address}: {str(exc).splitlines()[0]}") from None
 
 
-def _refuse_foreign(path: Path) -> None:
-    """Fail before hours of sampling if the output path holds something that is not a map."""
-    if not path.exists():
-        return
-    try:
-        open_store(path).close()
-    except MapError:
-        raise MapError(f"{path} exists and is not a map; refusing to overwrite it") from None
-
-
 def _size(path: Path) -> int:
     if path.is_file():
         return path.stat().st_size
     return sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
 
 
-@maps.command()
+@maps.command(cls=OneLineCommand)
 @click.argument("path", type=click.Path())
 @robot_option
 @arm_option
@@ -158,20 +162,26 @@ def _size(path: Path) -> int:
 @verbosity
 @one_line_errors
 def info(path, robot, arm, as_json, verbose, quiet):
-    """Metadata, fill ratio and value histogram of a map."""
+    """Metadata, fill ratio and value histogram of a map; reads and checks every chunk of every arm."""
     setup_logging(verbose, quiet)
     store = open_store(path)
-    root = store.root
-    arms = [arm] if arm else list(root.get("arms") or [])
-    out = {"path": str(path), "size_bytes": _size(Path(path)), "root": root, "arms": {}}
+    check_root(Path(path), store.root)
+    stored = list(store.root.get("arms") or [])
+    store.close()
+    shown = [arm] if arm else stored
     edges = [0.0, 0.01, 0.0235, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0]
-    for a in arms:
+    out = {"path": str(path), "size_bytes": _size(Path(path)), "root": store.root, "arms": {}}
+    for a in dict.fromkeys([*shown, *stored]):  # the shown arm first: a wrong --arm fails before the reading
         rmap = open_map(path, a, robot)
-        values = rmap.values
+        values = rmap.values  # reads and checks every chunk
+        if a not in shown:
+            continue
         reached = values[values > 0]
         hist, _ = np.histogram(reached, bins=edges)
+        meta = {k: v for k, v in rmap.meta.items() if k != CRC_KEY}
         out["arms"][a] = {
-            "meta": rmap.meta,
+            "meta": meta,
+            "chunks_checked": int(np.prod(np.shape(rmap.meta[CRC_KEY]))),
             "cells": int(values.size),
             "filled_cells": int(reached.size),
             "fill_ratio": float(reached.size / values.size),
@@ -199,32 +209,26 @@ def _render_info(d: dict) -> str:
     return "\n".join(lines)
 
 
-@maps.command()
+@maps.command(cls=OneLineCommand)
 @click.argument("path", type=click.Path())
 @robot_option
 @arm_option
-@click.option("--samples", type=int, default=200, help="IK checks per class (reachable / unreachable).")
-@click.option("--seed", type=int, default=0)
+@click.option("--samples", type=count_type(1, MAX_CHECK_SAMPLES), default=200,
+              help=f"IK checks per class (reachable / unreachable) [count, 1 to {MAX_CHECK_SAMPLES:,}].")
+@click.option("--seed", type=SEED, default=0, help="Seed of the cell draws and IK restarts.")
 @json_option
 @verbosity
 @one_line_errors
 def check(path, robot, arm, samples, seed, as_json, verbose, quiet):
-    """Accuracy of a map against inverse kinematics on random poses."""
-    from ..accuracy import check_map
-
+    """Accuracy of a map against inverse kinematics on random poses (reads and checks every chunk first)."""
     setup_logging(verbose, quiet)
-    if samples < 1:
-        raise PlacementError(f"--samples must be a positive count, got {samples}")
     store = open_store(path)
     arms = [arm] if arm else list(store.root.get("arms") or [])
     out = {"path": str(path), "arms": {}}
     for a in arms:
-        rmap = open_map(path, a, robot)
-        rmap.verify()
+        rmap = open_map(path, a, robot).load()
         out["arms"][a] = check_map(load_robot(robot or store.root.get("preset") or store.root["robot"]),
                                    rmap, samples=samples, seed=seed)
     emit(out, as_json, lambda d: "\n".join(
         f"{d['path']} arm {a}: " + ", ".join(f"{k} {v}" for k, v in r.items() if not isinstance(v, (dict, list)))
         for a, r in d["arms"].items()))
-
-

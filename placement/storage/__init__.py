@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import MapError
-from .base import Backend, StoredMap, atomic_replace, checksum
+from .base import Backend, StoredMap, atomic_replace
 from .hdf5 import Hdf5Backend
 from .zarr import ZarrBackend
 
@@ -36,4 +36,4 @@ def open_store(path: str | Path) -> StoredMap:
     return detect(path).open(Path(path))
 
 
-__all__ = ["BACKENDS", "Backend", "StoredMap", "atomic_replace", "backend", "checksum", "detect", "open_store"]
+__all__ = ["BACKENDS", "Backend", "StoredMap", "atomic_replace", "backend", "detect", "open_store"]

@@ -1,10 +1,11 @@
-"""The storage interface shared by the Zarr and HDF5 backends.
+"""The storage interface shared by the Zarr and HDF5 backends (layout: see format.py).
 
-Layout (both backends): one group per robot; root attribute ``placement_map``
-holds the robot-level metadata and ``complete: true``, written last; one
-float32 array per arm, shape (nx, ny, nz, n_yaw, n_pitch, n_roll), chunked
-(nx, ny, 1, n_yaw, 1, 1) so one inverse-reachability query (fixed z, pitch,
-roll) reads exactly one chunk; the arm's metadata in the array's attributes.
+Integrity: every chunk's decoded data has a CRC32 in the arm's metadata; every
+read (:meth:`StoredMap.read_chunk`, :meth:`StoredMap.read_all`) compares it, so
+a chunk whose bytes changed, one swapped with another chunk or one deleted
+(which the libraries read back as the fill value) fails with a MapError instead
+of giving an answer. The backends' own byte checks (zarr crc32c, HDF5
+fletcher32) catch damage before decompression.
 
 Writes are atomic: everything goes to a sibling ``.partial`` path that is
 renamed over the target only when complete, so an interrupted build leaves
@@ -15,20 +16,15 @@ from __future__ import annotations
 
 import os
 import shutil
-import zlib
 from abc import ABC, abstractmethod
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import MapError
+from .format import CRC_KEY, ROOT_KEY, chunk_crc, chunk_crcs, chunk_shape
 
-ROOT_KEY = "placement_map"
-
-
-def chunk_shape(shape) -> tuple[int, ...]:
-    nx, ny, _, n_yaw, _, _ = shape
-    return (nx, ny, 1, n_yaw, 1, 1)
+__all__ = ["ROOT_KEY", "Backend", "StoredMap", "atomic_replace", "chunk_shape", "first_line"]
 
 
 def first_line(exc: BaseException) -> str:
@@ -37,39 +33,70 @@ def first_line(exc: BaseException) -> str:
     return text.splitlines()[0] if text else type(exc).__name__
 
 
-def checksum(values: np.ndarray) -> str:
-    """CRC32 of the array bytes (C order, float32), as hex."""
-    return f"{zlib.crc32(np.ascontiguousarray(values, dtype=np.float32).data) & 0xFFFFFFFF:08x}"
-
-
 class StoredMap(ABC):
-    """An opened map file or directory: metadata now, data on demand."""
+    """An opened map file or directory: metadata now, data on demand, every read checked."""
 
     path: Path
     root: dict
 
     @abstractmethod
     def arm_meta(self, arm: str) -> dict:
-        """The metadata of ``arm`` (as written by :func:`placement.build_map`)."""
+        """The metadata of ``arm`` (as written by :func:`placement.build_map` and :func:`placement.save_maps`)."""
 
     @abstractmethod
     def _array(self, arm: str):
         """The backend's array object of ``arm`` (sliceable); MapError if missing."""
 
+    def expected_crcs(self, arm: str) -> np.ndarray:
+        """The stored CRC32 of every chunk of ``arm``, (nz, n_pitch, n_roll) uint32; MapError if malformed."""
+        cache = self.__dict__.setdefault("_crcs", {})
+        if arm not in cache:
+            meta = self.arm_meta(arm)
+            try:
+                shape = tuple(int(s) for s in meta["grid"]["shape"])
+                crcs = np.asarray(meta[CRC_KEY], dtype=np.int64)
+                ok = crcs.shape == (shape[2], shape[4], shape[5]) and bool(np.all((crcs >= 0) & (crcs < 2 ** 32)))
+            except (KeyError, TypeError, ValueError, IndexError, OverflowError):
+                ok = False
+            if not ok:
+                raise MapError(f"{self.path}: the chunk checksums of arm '{arm}' are missing or malformed "
+                               f"(corrupt); rebuild the map")
+            cache[arm] = crcs.astype(np.uint32)
+        return cache[arm]
+
     def read_chunk(self, arm: str, iz: int, ip: int, ir: int) -> np.ndarray:
-        """Values (nx, ny, n_yaw) float32 of the slice z = iz, pitch = ip, roll = ir."""
-        return self._read(arm, f"chunk ({iz}, {ip}, {ir})", lambda a: a[:, :, iz, :, ip, ir])
+        """Values (nx, ny, n_yaw) float32 of the slice z = iz, pitch = ip, roll = ir, checked against its CRC32."""
+        want = self.expected_crcs(arm)[iz, ip, ir]
+        chunk = self._read(arm, f"chunk ({iz}, {ip}, {ir})", lambda a: a[:, :, iz, :, ip, ir])
+        if chunk_crc(chunk) != want:
+            raise self._damaged(arm, (iz, ip, ir))
+        return chunk
 
     def read_all(self, arm: str) -> np.ndarray:
-        """The whole 6D float32 array of ``arm``."""
-        return self._read(arm, "data", lambda a: a[...])
+        """The whole 6D float32 array of ``arm``, every chunk checked against its CRC32."""
+        want = self.expected_crcs(arm)
+        data = self._read(arm, "data", lambda a: a[...])
+        bad = np.argwhere(chunk_crcs(data) != want)
+        if len(bad):
+            raise self._damaged(arm, tuple(int(i) for i in bad[0]), len(bad))
+        return data
+
+    def _damaged(self, arm: str, chunk: tuple[int, int, int], count: int = 1) -> MapError:
+        more = f" (and {count - 1} more)" if count > 1 else ""
+        return MapError(f"{self.path}: chunk (z, pitch, roll) = {chunk} of arm '{arm}'{more} does not match its "
+                        f"checksum (changed, swapped or missing chunk data: corrupt); rebuild the map")
 
     def _read(self, arm: str, what: str, take) -> np.ndarray:
         array = self._array(arm)
         try:
-            return np.asarray(take(array))
+            return np.asarray(take(array), dtype=np.float32)
         except Exception as exc:  # codec and I/O errors of either library
-            raise MapError(f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)})") from None
+            self._settle()
+            raise MapError(f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)}); "
+                           f"rebuild the map") from None
+
+    def _settle(self) -> None:  # noqa: B027 - optional
+        """Let the library finish work a failed read left running (zarr: sibling chunk reads)."""
 
     @abstractmethod
     def chunks_present(self, arm: str) -> int | None:

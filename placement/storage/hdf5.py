@@ -1,4 +1,4 @@
-"""HDF5 backend: one file, gzip-compressed chunks, metadata as JSON attributes."""
+"""HDF5 backend: one file, gzip-compressed chunks with a fletcher32 checksum, metadata as JSON attributes."""
 
 from __future__ import annotations
 
@@ -6,8 +6,6 @@ import json
 from pathlib import Path
 
 import h5py
-import numpy as np
-
 from ..errors import MapError
 from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line
 
@@ -44,7 +42,6 @@ class Hdf5Map(StoredMap):
         self.file.close()
 
 
-
 class Hdf5Backend(Backend):
     name = "hdf5"
     suffix = ".h5"
@@ -60,7 +57,8 @@ class Hdf5Backend(Backend):
         with h5py.File(path, "w") as fh:
             for arm, (values, meta) in arms.items():
                 ds = fh.create_dataset(arm, data=values, dtype="float32", chunks=chunk_shape(values.shape),
-                                       compression="gzip", compression_opts=1, shuffle=True, fillvalue=0.0)
+                                       compression="gzip", compression_opts=1, shuffle=True, fletcher32=True,
+                                       fillvalue=0.0)
                 ds.attrs["meta"] = json.dumps(meta)
             root = dict(root)
             root["complete"] = True

@@ -1,17 +1,21 @@
-"""Zarr v3 backend: a directory store, zstd-compressed chunks."""
+"""Zarr v3 backend: a directory store, zstd-compressed chunks with a crc32c of their stored bytes."""
 
 from __future__ import annotations
 
+import asyncio
 import json
 import os
 from pathlib import Path
 
-import numpy as np
 import zarr
-from zarr.codecs import BloscCodec
+from zarr.codecs import BloscCodec, Crc32cCodec
+from zarr.core.sync import sync
 
 from ..errors import MapError
 from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line
+
+# a failed read leaves zarr's sibling chunk reads running; give them this long to finish [s]
+_SETTLE_TIMEOUT_S = 30.0
 
 
 class ZarrMap(StoredMap):
@@ -38,6 +42,17 @@ class ZarrMap(StoredMap):
             return 0
         return sum(len(files) for _, _, files in os.walk(chunk_dir))
 
+    def _settle(self) -> None:
+        # Without this, a process that exits right after the error finds those reads pending when
+        # zarr closes its event loop, and asyncio prints thousands of lines of tracebacks.
+        async def drain():
+            me = asyncio.current_task()
+            await asyncio.gather(*(t for t in asyncio.all_tasks() if t is not me), return_exceptions=True)
+
+        try:
+            sync(drain(), timeout=_SETTLE_TIMEOUT_S)
+        except Exception:  # noqa: S110 - the MapError being raised is what matters
+            pass
 
 
 class ZarrBackend(Backend):
@@ -53,8 +68,8 @@ class ZarrBackend(Backend):
         for arm, (values, meta) in arms.items():
             arr = group.create_array(
                 arm, shape=values.shape, dtype="float32", chunks=chunk_shape(values.shape),
-                compressors=BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), fill_value=0.0,
-                dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
+                compressors=[BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()],
+                fill_value=0.0, dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
             )
             arr[...] = values
             meta = dict(meta)

@@ -1,0 +1,59 @@
+"""The stored map format, shared by the builder and the reader without either importing the other.
+
+Layout (both backends): one group per robot; root attribute :data:`ROOT_KEY`
+holds the robot-level metadata and ``complete: true``, written last; one
+float32 array per arm, shape (nx, ny, nz, n_yaw, n_pitch, n_roll), chunked
+(nx, ny, 1, n_yaw, 1, 1) so one inverse-reachability query (fixed z, pitch,
+roll) reads exactly one chunk; the arm's metadata in the array's attributes,
+including ``chunk_crc32``: the CRC32 of every decoded chunk (see :func:`chunk_crcs`).
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..grid import Grid
+
+# 2: per-chunk CRC32 of the decoded data, crc32c (zarr) / fletcher32 (HDF5) on the stored bytes
+FORMAT_VERSION = 2
+ROOT_KEY = "placement_map"
+CRC_KEY = "chunk_crc32"
+
+
+@dataclass
+class BuiltMap:
+    """An arm's map in memory: values (6D float32, 0 = unreachable) and metadata."""
+
+    values: np.ndarray
+    meta: dict
+
+    @property
+    def grid(self) -> Grid:
+        return Grid.from_dict(self.meta["grid"])
+
+
+def chunk_shape(shape) -> tuple[int, ...]:
+    """Chunk of a (nx, ny, nz, n_yaw, n_pitch, n_roll) array: one (z, pitch, roll) slice."""
+    nx, ny, _, n_yaw, _, _ = shape
+    return (nx, ny, 1, n_yaw, 1, 1)
+
+
+def chunk_crc(chunk: np.ndarray) -> int:
+    """CRC32 of one decoded chunk, values (nx, ny, n_yaw) float32 in C order."""
+    return zlib.crc32(np.ascontiguousarray(chunk, dtype=np.float32).data) & 0xFFFFFFFF
+
+
+def chunk_crcs(values: np.ndarray) -> np.ndarray:
+    """CRC32 of every chunk of a 6D map -> (nz, n_pitch, n_roll) uint32, indexed by chunk index."""
+    nx, ny, nz, n_yaw, n_pitch, n_roll = values.shape
+    out = np.empty((nz, n_pitch * n_roll), dtype=np.uint32)
+    # one z slab at a time in chunk order makes every chunk a contiguous run of bytes without a
+    # second copy of the whole map (and the slab stays in cache)
+    slab = np.empty((n_pitch, n_roll, nx, ny, n_yaw), dtype=np.float32)
+    for iz in range(nz):
+        np.copyto(slab, values[:, :, iz].transpose(3, 4, 0, 1, 2))
+        out[iz] = [zlib.crc32(run) for run in slab.reshape(n_pitch * n_roll, -1)]
+    return out.reshape(nz, n_pitch, n_roll)
