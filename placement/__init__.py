@@ -1,31 +1,39 @@
 """Time-efficient robot base placement for mobile manipulation.
 
-Public API (see README): :func:`load_robot`, :func:`open_map`,
-:func:`extended_manipulability`, :func:`build_map`.
+Public API (see README): robots (:func:`load_robot`), the manipulability measure, reachability
+maps (:func:`build_map`, :func:`open_map`, :func:`check_map`), IK, and planning (:func:`plan`,
+:class:`Planner`, typed results). No viewer or plotting module is imported here.
 """
 
-from .version import __version__
-
-from .build import BuiltMap, build_map  # noqa: E402
-from .errors import (  # noqa: E402
+from .errors import (
     ArmNotFound, FrameNotFound, GridError, JointNotFound, MapError, PlacementError, PresetError, RobotError,
 )
-from .grid import Grid  # noqa: E402
-from .manipulability import extended_manipulability  # noqa: E402
-from .robots import Arm, Robot, load_robot  # noqa: E402
+from .grid import Grid
+from .ik import IKResult, solve_ik
+from .manipulability import extended_manipulability
+from .planning import PlannerConfig, PlanResult, StepResult
+from .planning.planner import Planner, plan
+from .rmap import ReachabilityMap, open_map, save_maps
+from .robots import Arm, Robot, load_robot
+from .storage.format import BuiltMap
+from .version import __version__
+
+# the map builder and the accuracy check pull in the sampler, tqdm and coal: loaded on first use, so
+# that opening a map (the online path) does not pay for them
+_LAZY = {"build_map": "build", "check_map": "accuracy"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module 'placement' has no attribute '{name}'")
+
 
 __all__ = sorted([
-    "Arm", "ArmNotFound", "BuiltMap", "FrameNotFound", "Grid", "GridError", "JointNotFound", "MapError",
-    "PlacementError", "PresetError", "Robot", "RobotError", "__version__", "build_map",
-    "extended_manipulability", "load_robot",
+    "Arm", "ArmNotFound", "BuiltMap", "FrameNotFound", "Grid", "GridError", "IKResult", "JointNotFound",
+    "MapError", "PlacementError", "PlanResult", "Planner", "PlannerConfig", "PresetError", "ReachabilityMap",
+    "Robot", "RobotError", "StepResult", "__version__", "build_map", "check_map", "extended_manipulability",
+    "load_robot", "open_map", "plan", "save_maps", "solve_ik",
 ])
-
-from .rmap import ReachabilityMap, open_map, save_maps  # noqa: E402
-
-from .ik import IKResult, solve_ik  # noqa: E402
-from .accuracy import check_map  # noqa: E402
-
-from .planning.planner import Planner, plan  # noqa: E402
-
-__all__ = sorted([*__all__, "IKResult", "Planner", "ReachabilityMap", "check_map", "open_map", "plan", "save_maps",
-                  "solve_ik"])

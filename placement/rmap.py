@@ -47,7 +47,8 @@ class ReachabilityMap:
     @property
     def values(self) -> np.ndarray:
         """The whole 6D float32 array (x, y, z, yaw, pitch, roll), read on first use."""
-        return self.load()._full
+        self.load()
+        return self._full
 
     def slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
         """Values (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""

@@ -16,20 +16,10 @@ from test_planner import SCENE, write_scene
 from test_regression import _strip
 
 
-def _scene(tmp_path, maps_dir, **changes) -> Path:
-    doc = json.loads(json.dumps(SCENE))
-    doc["maps"] = str(maps_dir)
-    for key, value in changes.items():
-        doc[key] = value
-    path = tmp_path / "scene.yaml"
-    path.write_text(yaml.safe_dump(doc))
-    return path
-
-
 def test_placement_query_console_script_equals_placement_query(tmp_path, maps_dir):
     exe = shutil.which("placement-query", path=str(Path(sys.executable).parent))
     assert exe, "the placement-query console script is not installed (pip install -e .)"
-    path = write_scene(tmp_path, maps_dir)
+    path = writewrite_scene(tmp_path, maps_dir)
     a = subprocess.run([exe, str(path), "--json", "-q"], capture_output=True, text=True)
     b = run("query", str(path), "--json", "-q")
     assert a.returncode == b.returncode == 0, a.stderr + b.stderr
@@ -52,12 +42,12 @@ def test_placement_query_console_script_equals_placement_query(tmp_path, maps_di
     ({"maps": "/nonexistent/maps"}, ["/nonexistent/maps"]),
 ])
 def test_bad_scenes_are_one_line(tmp_path, maps_dir, changes, words):
-    _assert_one_line_error(run("query", str(_scene(tmp_path, maps_dir, **changes)), "--json", "-q"), *words)
+    _assert_one_line_error(run("query", str(write_scene(tmp_path, maps_dir, **changes)), "--json", "-q"), *words)
 
 
 def test_plot_dir_below_a_file_fails_before_planning(tmp_path, maps_dir):
     (tmp_path / "file").write_text("x")
-    p = run("query", str(_scene(tmp_path, maps_dir)), "--plot", str(tmp_path / "file" / "plots"), "-q")
+    p = run("query", str(write_scene(tmp_path, maps_dir)), "--plot", str(tmp_path / "file" / "plots"), "-q")
     _assert_one_line_error(p, "--plot", "file")
     assert p.stdout == ""  # nothing planned, nothing printed
 

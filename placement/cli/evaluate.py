@@ -15,7 +15,7 @@ from ..evaluation.evaluate import MAX_WORKERS, check_methods, scene_files, summa
 from ..evaluation.evaluate import evaluate as run_evaluation
 from ..evaluation.outdir import output_dir
 from ..planning.planner import METHODS
-from .options import emit, json_option, one_line_errors, setup_logging, verbosity
+from .options import emit, setup_logging, standard_options
 from .params import Bounded, OneLineCommand
 
 
@@ -42,9 +42,7 @@ class MethodList(click.ParamType):
               help="Write table (md, csv), JSON and box plot here (created and checked before the evaluation).")
 @click.option("--workers", type=Bounded(1, MAX_WORKERS), default=2, show_default=True,
               help=f"Scenes evaluated in parallel, 1 to {MAX_WORKERS}.")
-@json_option
-@verbosity
-@one_line_errors
+@standard_options
 def evaluate(scenes, methods, maps_path, out_dir, workers, as_json, verbose, quiet):
     """Plan every scene with each method and compare task times (SPEC section 8)."""
     setup_logging(verbose, quiet)

@@ -20,42 +20,10 @@ from ..rmap import check_root, check_target, open_map, save_maps
 from ..robots import load_robot
 from ..storage import open_store
 from ..storage.format import CRC_KEY
-from .options import arm_option, emit, json_option, one_line_errors, robot_option, setup_logging, verbosity
+from .options import arm_option, emit, robot_option, setup_logging, standard_options
+from .params import Checked, OneLineCommand, OneLineGroup
 
 log = logging.getLogger("placement")
-
-
-class OneLineError(click.ClickException):
-    """A bad option value: one `error: ...` line on stderr, exit code 2 (like every other bad input)."""
-
-    exit_code = 2
-
-    def show(self, file=None) -> None:
-        click.echo(f"error: {self.format_message()}", err=True)
-
-
-class OneLineCommand(click.Command):
-    """A command whose usage errors (missing or malformed options) are one `error:` line, not a usage page."""
-
-    def parse_args(self, ctx, args):
-        try:
-            return super().parse_args(ctx, args)
-        except click.UsageError as exc:
-            raise OneLineError(exc.format_message()) from None
-
-
-class Checked(click.ParamType):
-    """An option type checked by a :mod:`placement.buildspec` validator (same rules as in spec files)."""
-
-    def __init__(self, name: str, check):
-        self.name = name
-        self.check = check
-
-    def convert(self, value, param, ctx):
-        try:
-            return self.check(value, param.opts[-1] if param else self.name)
-        except PlacementError as exc:
-            raise OneLineError(str(exc)) from None
 
 
 def count_type(lo: int, hi: int) -> Checked:
@@ -65,7 +33,7 @@ def count_type(lo: int, hi: int) -> Checked:
 SEED = count_type(0, MAX_SEED)
 
 
-@click.group()
+@click.group(cls=OneLineGroup)
 def maps():
     """Build and inspect reachability maps (offline)."""
 
@@ -91,9 +59,7 @@ def maps():
               help="Reject samples where the arm hits the robot (URDF collision shapes; much slower).")
 @click.option("--self-distance/--no-self-distance", default=None,
               help="Penalise motion towards the robot's own body (implies --self-collision; slow).")
-@json_option
-@verbosity
-@one_line_errors
+@standard_options
 def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, out, dask_address, self_collision,
           self_distance, as_json, verbose, quiet):
     """Sample each arm and write its 6D reachability map atomically.
@@ -158,9 +124,7 @@ def _size(path: Path) -> int:
 @click.argument("path", type=click.Path())
 @robot_option
 @arm_option
-@json_option
-@verbosity
-@one_line_errors
+@standard_options
 def info(path, robot, arm, as_json, verbose, quiet):
     """Metadata, fill ratio and value histogram of a map; reads and checks every chunk of every arm."""
     setup_logging(verbose, quiet)
@@ -216,9 +180,7 @@ def _render_info(d: dict) -> str:
 @click.option("--samples", type=count_type(1, MAX_CHECK_SAMPLES), default=200,
               help=f"IK checks per class (reachable / unreachable) [count, 1 to {MAX_CHECK_SAMPLES:,}].")
 @click.option("--seed", type=SEED, default=0, help="Seed of the cell draws and IK restarts.")
-@json_option
-@verbosity
-@one_line_errors
+@standard_options
 def check(path, robot, arm, samples, seed, as_json, verbose, quiet):
     """Accuracy of a map against inverse kinematics on random poses (reads and checks every chunk first)."""
     setup_logging(verbose, quiet)

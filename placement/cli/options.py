@@ -97,3 +97,8 @@ def one_line_errors(f):
             sys.exit(2)
 
     return wrapper
+
+
+def standard_options(f):
+    """``--json``, ``-v``/``-q`` and the one-line error contract: what every command takes."""
+    return json_option(verbosity(one_line_errors(f)))

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from ..errors import PlacementError
+
 
 class OneLineCommand(click.Command):
     """A command whose bad options and arguments give one line ``error: ...`` and exit code 2,
@@ -51,3 +53,26 @@ class Bounded(click.IntRange):
             return super().convert(value, param, ctx)
         except click.BadParameter:
             self.fail(f"{value!r} is not a whole number from {self.min} to {self.max}", param, ctx)
+
+
+class OneLineError(click.ClickException):
+    """A bad option value: one `error: ...` line on stderr, exit code 2 (like every other bad input)."""
+
+    exit_code = 2
+
+    def show(self, file=None) -> None:
+        click.echo(f"error: {self.format_message()}", err=True)
+
+
+class Checked(click.ParamType):
+    """An option type checked by a :mod:`placement.buildspec` validator (same rules as in spec files)."""
+
+    def __init__(self, name: str, check):
+        self.name = name
+        self.check = check
+
+    def convert(self, value, param, ctx):
+        try:
+            return self.check(value, param.opts[-1] if param else self.name)
+        except PlacementError as exc:
+            raise OneLineError(str(exc)) from None

@@ -8,7 +8,7 @@ import click
 
 from ..planning import METHODS, Planner
 from .params import OneLineCommand
-from .options import emit, json_option, one_line_errors, setup_logging, to_json_line, verbosity, writable_dir
+from .options import emit, setup_logging, standard_options, to_json_line, writable_dir
 
 
 @click.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
@@ -19,9 +19,7 @@ from .options import emit, json_option, one_line_errors, setup_logging, to_json_
 @click.option("--stream", is_flag=True,
               help="After the first plan, read scene updates as JSON lines on stdin and print a new plan "
                    "(one JSON line) after each.")
-@json_option
-@verbosity
-@one_line_errors
+@standard_options
 def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
     """Plan the base placement, arm, grasp and IK solution of every step."""
     setup_logging(verbose, quiet)

@@ -9,7 +9,7 @@ import click
 from ..evaluation.generate import MAX_OBJECTS, MAX_SCENES, MAX_SEED, write_scenes
 from ..evaluation.outdir import output_dir
 from ..robots import load_robot
-from .options import emit, json_option, log, one_line_errors, setup_logging, verbosity
+from .options import emit, log, setup_logging, standard_options
 from .params import Bounded, OneLineCommand, OneLineGroup
 
 
@@ -31,9 +31,7 @@ def scenes():
               help="Reachability maps the scenes record (relative to the scenes unless absolute) "
                    "[default: maps/<robot name> in the current directory].")
 @click.argument("out_dir", type=click.Path())
-@json_option
-@verbosity
-@one_line_errors
+@standard_options
 def generate(seed, count, objects, obstacles, preset, maps, out_dir, as_json, verbose, quiet):
     """Write COUNT table-clearing scenes of SEED to OUT_DIR (created; checked before generating)."""
     setup_logging(verbose, quiet)

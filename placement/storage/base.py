@@ -33,6 +33,14 @@ def first_line(exc: BaseException) -> str:
     return text.splitlines()[0] if text else type(exc).__name__
 
 
+def opened(path: Path, kind: str, open_fn):
+    """``open_fn()``, with any failure turned into one MapError line naming ``path`` and ``kind``."""
+    try:
+        return open_fn()
+    except Exception as exc:  # codec and I/O errors of either library
+        raise MapError(f"{path}: not a readable {kind} map ({first_line(exc)})") from None
+
+
 class StoredMap(ABC):
     """An opened map file or directory: metadata now, data on demand, every read checked."""
 
@@ -44,8 +52,15 @@ class StoredMap(ABC):
         """The metadata of ``arm`` (as written by :func:`placement.build_map` and :func:`placement.save_maps`)."""
 
     @abstractmethod
+    def _get(self, arm: str):
+        """The backend's array object of ``arm`` (sliceable); any exception if it is missing."""
+
     def _array(self, arm: str):
-        """The backend's array object of ``arm`` (sliceable); MapError if missing."""
+        """The backend's array object of ``arm``; MapError if it is missing or unreadable."""
+        try:
+            return self._get(arm)
+        except Exception as exc:
+            raise MapError(f"{self.path}: array for arm '{arm}' is missing or corrupt ({first_line(exc)})") from None
 
     def expected_crcs(self, arm: str) -> np.ndarray:
         """The stored CRC32 of every chunk of ``arm``, (nz, n_pitch, n_roll) uint32; MapError if malformed."""

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import h5py
 from ..errors import MapError
-from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line
+from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line, opened
 
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
@@ -15,17 +15,15 @@ _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 class Hdf5Map(StoredMap):
     def __init__(self, path: Path):
         self.path = path
-        try:
-            self.file = h5py.File(path, "r")
-            self.root = json.loads(self.file.attrs.get(ROOT_KEY, "{}"))
-        except Exception as exc:
-            raise MapError(f"{path}: not a readable HDF5 map ({first_line(exc)})") from None
 
-    def _array(self, arm: str):
-        try:
-            return self.file[arm]
-        except Exception as exc:
-            raise MapError(f"{self.path}: array for arm '{arm}' is missing or corrupt ({first_line(exc)})") from None
+        def read():
+            f = h5py.File(path, "r")
+            return f, json.loads(f.attrs.get(ROOT_KEY, "{}"))
+
+        self.file, self.root = opened(path, "HDF5", read)
+
+    def _get(self, arm: str):
+        return self.file[arm]
 
     def arm_meta(self, arm: str) -> dict:
         try:

@@ -11,8 +11,7 @@ import zarr
 from zarr.codecs import BloscCodec, Crc32cCodec
 from zarr.core.sync import sync
 
-from ..errors import MapError
-from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line
+from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, opened
 
 # a failed read leaves zarr's sibling chunk reads running; give them this long to finish [s]
 _SETTLE_TIMEOUT_S = 30.0
@@ -21,17 +20,15 @@ _SETTLE_TIMEOUT_S = 30.0
 class ZarrMap(StoredMap):
     def __init__(self, path: Path):
         self.path = path
-        try:
-            self.group = zarr.open_group(store=str(path), mode="r")
-            self.root = dict(self.group.attrs.get(ROOT_KEY) or {})
-        except Exception as exc:
-            raise MapError(f"{path}: not a readable Zarr map ({first_line(exc)})") from None
 
-    def _array(self, arm: str):
-        try:
-            return self.group[arm]
-        except Exception as exc:
-            raise MapError(f"{self.path}: array for arm '{arm}' is missing or corrupt ({first_line(exc)})") from None
+        def read():
+            group = zarr.open_group(store=str(path), mode="r")
+            return group, dict(group.attrs.get(ROOT_KEY) or {})
+
+        self.group, self.root = opened(path, "Zarr", read)
+
+    def _get(self, arm: str):
+        return self.group[arm]
 
     def arm_meta(self, arm: str) -> dict:
         return dict(self._array(arm).attrs.asdict())
