@@ -14,7 +14,7 @@ _TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True)
-def _log3(R, out):
+def log3(R, out):
     """Rotation vector (3,) of the rotation matrix R (3, 3) [rad]."""
     c = (R[0, 0] + R[1, 1] + R[2, 2] - 1.0) * 0.5
     c = min(1.0, max(-1.0, c))
@@ -94,7 +94,7 @@ def dls_attempt(q0, target, lower, upper, continuous, link_T, axis, kind, tip_T,
             e[r] = T[0, r] * dx + T[1, r] * dy + T[2, r] * dz
             for c in range(3):
                 Rerr[r, c] = T[0, r] * target[0, c] + T[1, r] * target[1, c] + T[2, r] * target[2, c]
-        _log3(Rerr, w)
+        log3(Rerr, w)
         e[3], e[4], e[5] = w[0], w[1], w[2]
         pe = math.sqrt(dx * dx + dy * dy + dz * dz)
         re = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
