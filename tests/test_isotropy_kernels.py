@@ -69,6 +69,7 @@ def test_octant_bounds_against_numpy(pr2):
     """The vectorised 64-octant kernels: rho <= lambda_max, mu >= lambda_min, pd_flags = eigvalsh > 0."""
     from placement.kernels import manipulability as km
     from placement.kernels import octants as ko
+    from placement.kernels import octants_refine as kr
 
     arm = pr2.arm("right")
     rng = np.random.default_rng(5)
@@ -90,13 +91,16 @@ def test_octant_bounds_against_numpy(pr2):
         assert np.array_equal(Ag, np.array([mats[:, r, c] for r, c in rows]))
         rho, mu, flags, tr = np.empty(64), np.empty(64), np.empty(64), np.empty(64)
         ko.lambda_max_lower(Ag, rng.normal(size=6), rho)  # bounds hold from any start
-        ko.lambda_min_upper(Ag, rng.normal(size=6), mu)
+        kr.lambda_min_upper(Ag, rng.normal(size=6), mu)
         assert np.all(rho <= lam[:, -1] * (1 + 1e-12))
         assert np.all(mu >= lam[:, 0] - 1e-13 * lam[:, -1])
         w, U = np.linalg.eigh(mats[0])  # and are tight from octant 0's eigenvectors, as used
         ko.lambda_max_lower(Ag, U[:, -1], rho)
-        ko.lambda_min_upper(Ag, U[:, 0], mu)
+        kr.lambda_min_upper(Ag, U[:, 0], mu)
         assert np.all(rho <= lam[:, -1] * (1 + 1e-12)) and np.median(rho / lam[:, -1]) > 0.9
+        tight = np.empty(64)
+        kr.lambda_max_tight(Ag, U[:, -1], tight)  # more steps: still a bound, and no looser
+        assert np.all(tight <= lam[:, -1] * (1 + 1e-12)) and np.all(tight >= rho * (1 - 1e-12))
         assert np.all(mu >= lam[:, 0] - 1e-13 * lam[:, -1]) and np.median(mu / lam[:, 0]) < 2.0
         ko.traces(Ag, tr)
         assert np.allclose(tr, np.trace(mats, axis1=1, axis2=2))
@@ -108,7 +112,7 @@ def test_octant_bounds_against_numpy(pr2):
 
 
 def test_generated_octant_kernels_up_to_date():
-    """placement/kernels/octants.py is exactly what tools/gen_octants.py writes."""
+    """placement/kernels/octants.py and octants_refine.py are exactly what tools/gen_octants.py writes."""
     import importlib.util
     from pathlib import Path
 
@@ -116,7 +120,8 @@ def test_generated_octant_kernels_up_to_date():
     spec = importlib.util.spec_from_file_location("gen_octants", path)
     gen = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(gen)
-    assert gen.OUT.read_text() == gen.generate(), "run python tools/gen_octants.py"
+    for path, text in gen.outputs().items():
+        assert path.read_text() == text, f"{path.name} is stale: run python tools/gen_octants.py"
 
 
 @pytest.mark.parametrize("robot,arm_name", [("pr2", "right"), ("armar6", "left")], indirect=["robot"])

@@ -27,7 +27,8 @@ from numba import njit
 
 from .linalg6 import cho_solve6, cholesky6
 from .manipulability import gram_from, octant_gram, octant_gram_direct, octant_value, penalised_rows
-from .octants import fill_grams, lambda_max_lower, lambda_max_tight, lambda_min_upper, pd_flags, traces
+from .octants import fill_grams, lambda_max_lower, pd_flags, traces
+from .octants_refine import lambda_max_tight, lambda_min_upper
 
 __all__ = ["W_ROWS", "isotropy_batched"]
 
