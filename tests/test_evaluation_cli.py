@@ -136,7 +136,7 @@ def test_evaluate_bad_scene_fails_before_planning_and_leaves_no_out(tmp_path, sc
     bad = tmp_path / "bad.yaml"
     bad.write_text("version: 1\nobjects: [\n")
     out = tmp_path / "report" / "deep"
-    assert_one_error(run(["evaluate", scene_file, bad, "--out", out]), "bad.yaml", "not valid YAML")
+    assert_one_error(run(["evaluate", scene_file, bad, "--out", out]), "bad.yaml", "invalid YAML")
     assert not (tmp_path / "report").exists()
     assert_one_error(run(["evaluate", tmp_path / "missing.yaml", "--out", out]), "missing.yaml")
     assert not (tmp_path / "report").exists()

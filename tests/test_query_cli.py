@@ -19,7 +19,7 @@ from test_regression import _strip
 def test_placement_query_console_script_equals_placement_query(tmp_path, maps_dir):
     exe = shutil.which("placement-query", path=str(Path(sys.executable).parent))
     assert exe, "the placement-query console script is not installed (pip install -e .)"
-    path = writewrite_scene(tmp_path, maps_dir)
+    path = write_scene(tmp_path, maps_dir)
     a = subprocess.run([exe, str(path), "--json", "-q"], capture_output=True, text=True)
     b = run("query", str(path), "--json", "-q")
     assert a.returncode == b.returncode == 0, a.stderr + b.stderr

@@ -59,10 +59,11 @@ def test_tip_frame_differs(saved, tmp_path):
         placement.open_map(saved, "right", robot=variant(tmp_path, edit))
 
 
-def test_five_joint_arm_against_a_seven_joint_map(saved, tmp_path):
+def test_six_joint_arm_against_a_seven_joint_map(saved, tmp_path):
+    """(A 5-joint arm is refused by the preset itself: arms need 6 joints.)"""
     def edit(arm):
-        arm["joints"] = arm["joints"][:5]
-        arm["home"] = arm["home"][:5]
+        arm["joints"] = arm["joints"][:6]
+        arm["home"] = arm["home"][:6]
     with pytest.raises(MapError, match="joints .*r_wrist_roll_joint.*the preset has"):
         placement.open_map(saved, "right", robot=variant(tmp_path, edit))
 
