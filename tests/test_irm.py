@@ -54,3 +54,25 @@ def test_sliced_irm_equals_direct_lookup(coarse_map):
             else:
                 assert arg[iy, ix] == -1
     assert reached > 20
+
+
+def test_candidates_evaluated_together_equal_each_alone(coarse_map):
+    """Place candidates (8 gripper yaws, one slice) and grasps at other heights, all in one call:
+    each result is bitwise the one-trajectory result (which the test above checks against 6D lookups)."""
+    from placement.planning.grasps import place_candidates, top_grasps
+    from placement.planning.manipulation import manipulation_maps
+    from placement.planning.navgrid import Window
+
+    nav = NavGrid((-1.5, -1.5), 0.1, (30, 30))
+    yaws = base_yaws(40)
+    trajs = [c.poses for c in place_candidates([0.1234, 0.2345, 0.9], 8)]
+    trajs += [c.poses for c in top_grasps([0.1234, 0.2345, 0.7], 0.4, [0.05, 0.1, 0.1])]
+    trajs.append(trajs[0].copy())
+    trajs[-1][:, 2, 3] += 5.0  # out of the map's height range: zeros
+    cells = np.arange(30, 870)
+    window = Window(1, 29, 0, 30)
+    together = manipulation_maps(coarse_map, trajs, nav, yaws, cells, window)
+    for T, (val, arg) in zip(trajs, together):
+        v1, a1 = manipulation_map(coarse_map, T, nav, yaws, cells, window)
+        assert np.array_equal(val, v1) and np.array_equal(arg, a1)
+    assert sum(int((v > 0).sum()) for v, _ in together[:8]) > 100 and not together[-1][0].any()

@@ -16,19 +16,29 @@ from numba import njit, prange
 from .grid import wrap_bin
 
 
+CHUNK = 64  # cells per parallel task: per-task scratch, no allocation per cell
+
+
 @njit(cache=True, parallel=True)
-def trajectory_map(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
-                   grid_origin, grid_res, ny, nx, cells, out_val, out_yaw, out_y0=0, out_x0=0):
-    """Min over the trajectory, max over base yaws, of the map value, per base cell.
+def trajectory_maps(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
+                    grid_origin, grid_res, ny, nx, cells, out_val, out_yaw, out_y0=0, out_x0=0):
+    """Min over the trajectory, max over base yaws, of the map value, per base cell, for C
+    trajectories at once that share their positions and map slices and differ only in yaw.
+
+    Candidates of one step (two top grasps, eight place yaws) hold the TCP at the same points with
+    the same tilt: the rotated position of a pose seen from a base pose is computed once and the map
+    row read there serves all C of them. Each candidate's result equals its own one-trajectory
+    evaluation exactly (same arithmetic, same early exits).
 
     Args:
         slices: (P, nx_rm, ny_rm, n_yaw) float32, the map slice of each TCP pose.
-        tcp_x, tcp_y, tcp_yaw: (P,) world position [m] and ZYX yaw [rad] of each pose.
+        tcp_x, tcp_y: (P,) world position of each pose [m]; tcp_yaw: (C, P) ZYX yaw of each
+            candidate's poses [rad].
         rm_origin: (2,) map grid lower corner (x, y) in the base frame [m]; rm_res [m].
         base_yaws: (K,) base yaws to try [rad].
         grid_origin: (2,) navigation grid corner [m]; grid_res [m]; ny, nx its shape.
-        cells: (C,) int64 flat indices of the base cells to evaluate (others untouched).
-        out_val: (h, w) float32, best value (0 = unreachable); out_yaw: (h, w) int64,
+        cells: (N,) int64 flat indices of the base cells to evaluate (others untouched).
+        out_val: (C, h, w) float32, best value (0 = unreachable); out_yaw: (C, h, w) int64,
             index into base_yaws of the best yaw (-1 if unreachable): a window of the grid whose
             cell (0, 0) is grid cell (out_y0, out_x0); it must contain every cell of ``cells``.
     """
@@ -37,44 +47,64 @@ def trajectory_map(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
     nyr = slices.shape[2]
     n_yaw = slices.shape[3]
     K = base_yaws.shape[0]
+    C = tcp_yaw.shape[0]
     # per-yaw constants, shared by every cell
     cs = np.empty(K)
     sn = np.empty(K)
-    ybin = np.empty((K, P), dtype=np.int64)
+    ybin = np.empty((K, P, C), dtype=np.int64)
     for k in range(K):
         cs[k] = math.cos(base_yaws[k])
         sn[k] = math.sin(base_yaws[k])
         for p in range(P):
-            ybin[k, p] = wrap_bin(tcp_yaw[p] - base_yaws[k], n_yaw)
-    for ci in prange(cells.shape[0]):
-        cell = cells[ci]
-        iy = cell // nx
-        ix = cell - iy * nx
-        bx = grid_origin[0] + (ix + 0.5) * grid_res
-        by = grid_origin[1] + (iy + 0.5) * grid_res
-        best = np.float32(0.0)
-        arg = -1
-        for k in range(K):
-            c = cs[k]
-            s = sn[k]
-            m = np.float32(np.inf)
-            for p in range(P):
-                dx = tcp_x[p] - bx
-                dy = tcp_y[p] - by
-                xr = c * dx + s * dy
-                yr = -s * dx + c * dy
-                jx = int(math.floor((xr - rm_origin[0]) / rm_res))
-                jy = int(math.floor((yr - rm_origin[1]) / rm_res))
-                if jx < 0 or jy < 0 or jx >= nxr or jy >= nyr:
-                    m = np.float32(0.0)
-                    break
-                v = slices[p, jx, jy, ybin[k, p]]
-                if v < m:
-                    m = v
-                if m <= best:
-                    break
-            if m > best:
-                best = m
-                arg = k
-        out_val[iy - out_y0, ix - out_x0] = best
-        out_yaw[iy - out_y0, ix - out_x0] = arg
+            for c in range(C):
+                ybin[k, p, c] = wrap_bin(tcp_yaw[c, p] - base_yaws[k], n_yaw)
+    n = cells.shape[0]
+    for chunk in prange((n + CHUNK - 1) // CHUNK):
+        best = np.empty(C, dtype=np.float32)
+        arg = np.empty(C, dtype=np.int64)
+        m = np.empty(C, dtype=np.float32)
+        alive = np.empty(C, dtype=np.bool_)
+        for ci in range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK)):
+            cell = cells[ci]
+            iy = cell // nx
+            ix = cell - iy * nx
+            bx = grid_origin[0] + (ix + 0.5) * grid_res
+            by = grid_origin[1] + (iy + 0.5) * grid_res
+            for c in range(C):
+                best[c] = np.float32(0.0)
+                arg[c] = -1
+            for k in range(K):
+                co = cs[k]
+                s = sn[k]
+                for c in range(C):
+                    m[c] = np.float32(np.inf)
+                    alive[c] = True
+                left = C
+                for p in range(P):
+                    dx = tcp_x[p] - bx
+                    dy = tcp_y[p] - by
+                    xr = co * dx + s * dy
+                    yr = -s * dx + co * dy
+                    jx = int(math.floor((xr - rm_origin[0]) / rm_res))
+                    jy = int(math.floor((yr - rm_origin[1]) / rm_res))
+                    if jx < 0 or jy < 0 or jx >= nxr or jy >= nyr:
+                        left = 0  # unreachable for all: m would be 0, never above best
+                        break
+                    for c in range(C):
+                        if alive[c]:
+                            v = slices[p, jx, jy, ybin[k, p, c]]
+                            if v < m[c]:
+                                m[c] = v
+                            if m[c] <= best[c]:
+                                alive[c] = False
+                                left -= 1
+                    if left == 0:
+                        break
+                if left > 0:
+                    for c in range(C):
+                        if alive[c] and m[c] > best[c]:
+                            best[c] = m[c]
+                            arg[c] = k
+            for c in range(C):
+                out_val[c, iy - out_y0, ix - out_x0] = best[c]
+                out_yaw[c, iy - out_y0, ix - out_x0] = arg[c]

@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import PlacementError
 from ..grid import Grid
 from ..kernels.grid import pitch_bin, wrap_bin, zyx_angles
-from ..kernels.irm import trajectory_map
+from ..kernels.irm import trajectory_maps
 from ..rmap import ReachabilityMap
 from .navgrid import NavGrid, Window
 
@@ -32,7 +32,7 @@ def manipulation_map(rmap: ReachabilityMap, tcp_world: np.ndarray, nav: NavGrid,
         tcp_world: (P, 4, 4) TCP poses in the world frame (z up, floor at z = 0).
         nav: the navigation grid of base positions.
         yaws: (K,) base yaws to try [rad] (see :func:`base_yaws`).
-        cells: optional (C,) flat base-cell indices to evaluate (default: those within the map's
+        cells: optional (N,) flat base-cell indices to evaluate (default: those within the map's
             horizontal reach of the first pose).
         window: optional part of the grid to return (it must hold every cell of ``cells``);
             default the whole grid.
@@ -41,31 +41,59 @@ def manipulation_map(rmap: ReachabilityMap, tcp_world: np.ndarray, nav: NavGrid,
         ``window`` ((ny, nx) by default).
     """
     T = np.asarray(tcp_world, dtype=float).reshape(-1, 4, 4)
+    if cells is None:
+        cells = cells_within(nav, T[0, 0, 3], T[0, 1, 3], reach_xy(rmap.grid))
+    return manipulation_maps(rmap, [T], nav, yaws, cells, window)[0]
+
+
+def _pose_keys(rmap: ReachabilityMap, T: np.ndarray) -> tuple | None:
+    """Per pose: (x, y, z bin, pitch bin, roll bin), and the yaws; None if a pose is outside the
+    map's height range."""
     g: Grid = rmap.grid
-    window = window or Window(0, nav.shape[0], 0, nav.shape[1])
-    slices, xs, ys, ps = [], [], [], []
+    keys, yaws = [], []
     for pose in T:
         yaw, pitch, roll = zyx_angles(pose)
         iz = int(math.floor((pose[2, 3] - g.origin[2]) / g.resolution))
         if not 0 <= iz < g.shape[2]:
-            return (np.zeros(window.shape, np.float32), np.full(window.shape, -1, np.int64))
-        slices.append(rmap.slice(iz, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5])))
-        xs.append(pose[0, 3])
-        ys.append(pose[1, 3])
-        ps.append(yaw)
+            return None
+        keys.append((float(pose[0, 3]), float(pose[1, 3]), iz, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5])))
+        yaws.append(yaw)
+    return tuple(keys), yaws
+
+
+def manipulation_maps(rmap: ReachabilityMap, trajectories: list[np.ndarray], nav: NavGrid, yaws: np.ndarray,
+                      cells: np.ndarray, window: Window | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`manipulation_map` of several trajectories over the same ``cells`` and ``window``.
+
+    Trajectories whose poses share positions and map slices (they differ only in the gripper's
+    yaw, like a step's grasp or place candidates) are evaluated in one pass; each result is the same
+    as its own evaluation. Returns (value, yaw_index) per trajectory, in order.
+    """
+    g: Grid = rmap.grid
+    window = window or Window(0, nav.shape[0], 0, nav.shape[1])
     ny, nx = nav.shape
-    if cells is None:
-        cells = cells_within(nav, T[0, 0, 3], T[0, 1, 3], reach_xy(g))
     cells = np.asarray(cells, dtype=np.int64)
     if cells.size and not window.holds(cells, nx):
         raise PlacementError("manipulation_map: a cell to evaluate lies outside the window")
-    out_val = np.zeros(window.shape, np.float32)
-    out_yaw = np.full(window.shape, -1, np.int64)
-    trajectory_map(np.ascontiguousarray(np.stack(slices)), np.array(xs), np.array(ys), np.array(ps),
-                   np.array(g.origin[:2]), g.resolution, np.asarray(yaws, dtype=float),
-                   np.array(nav.origin, dtype=float), nav.resolution, ny, nx,
-                   cells, out_val, out_yaw, window.y0, window.x0)
-    return out_val, out_yaw
+    out: list = [None] * len(trajectories)
+    groups: dict[tuple, list[tuple[int, list[float]]]] = {}
+    for i, T in enumerate(trajectories):
+        keyed = _pose_keys(rmap, np.asarray(T, dtype=float).reshape(-1, 4, 4))
+        if keyed is None:
+            out[i] = (np.zeros(window.shape, np.float32), np.full(window.shape, -1, np.int64))
+        else:
+            groups.setdefault(keyed[0], []).append((i, keyed[1]))
+    for keys, members in groups.items():
+        slices = np.ascontiguousarray(np.stack([rmap.slice(iz, ip, ir) for _, _, iz, ip, ir in keys]))
+        vals = np.zeros((len(members), *window.shape), np.float32)
+        args = np.full((len(members), *window.shape), -1, np.int64)
+        trajectory_maps(slices, np.array([k[0] for k in keys]), np.array([k[1] for k in keys]),
+                        np.array([m[1] for m in members], dtype=float), np.array(g.origin[:2]), g.resolution,
+                        np.asarray(yaws, dtype=float), np.array(nav.origin, dtype=float), nav.resolution, ny, nx,
+                        cells, vals, args, window.y0, window.x0)
+        for j, (i, _) in enumerate(members):
+            out[i] = (vals[j], args[j])
+    return out
 
 
 def reach_xy(g: Grid) -> float:

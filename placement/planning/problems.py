@@ -20,7 +20,7 @@ from ..rmap import ReachabilityMap
 from .config import PlannerConfig
 from .grasps import Candidate
 from .heuristic import region_heuristic
-from .manipulation import cells_within, manipulation_map, reach_xy
+from .manipulation import cells_within, manipulation_maps, reach_xy
 from .navgrid import Window
 from .scene import Scene
 from .steps import Step, step_candidates, task_steps
@@ -99,17 +99,24 @@ class StepProblems:
         nav = self.world.nav
         opts = []
         near: dict[tuple, np.ndarray] = {}  # candidates of a step share their target position
+        candidates = step_candidates(self.scene, step, self.config)
         for arm, rmap in self.maps.items():
             lo, hi = height_range(rmap)
-            for cand in step_candidates(self.scene, step, self.config):
+            by_cells: dict[tuple, list] = {}  # candidates of a step share their target position
+            for cand in candidates:
                 key = (cand.poses[-1, 0, 3], cand.poses[-1, 1, 3], reach_xy(rmap.grid))
                 if key not in near:
                     cells = cells_within(nav, *key)
                     near[key] = cells[self.world.feasible.flat[cells]]
+                by_cells.setdefault(key, []).append(cand)
+            results = {}
+            for key, cands in by_cells.items():
                 window = Window.around(near[key], nav.shape)
-                value, yaw = manipulation_map(rmap, cand.poses, nav, self.yaws, near[key], window)
+                maps = manipulation_maps(rmap, [c.poses for c in cands], nav, self.yaws, near[key], window)
+                results.update({id(c): (window, *m) for c, m in zip(cands, maps)})
+            for cand in candidates:
                 z = cand.poses[:, 2, 3]
-                opts.append(Option(arm, cand, window, value, yaw, bool(np.any((z < lo) | (z >= hi)))))
+                opts.append(Option(arm, cand, *results[id(cand)], bool(np.any((z < lo) | (z >= hi)))))
         return opts
 
     def feasible_region(self, i: int) -> np.ndarray:
