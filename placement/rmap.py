@@ -33,6 +33,7 @@ class ReachabilityMap:
         self.meta = store.arm_meta(arm)
         self.grid = Grid.from_dict(self.meta["grid"])
         self._slices: dict[tuple[int, int, int], np.ndarray] = {}
+        self._reach: dict[tuple[int, int, int], float] = {}
         self._full: np.ndarray | None = None
 
     def __repr__(self) -> str:
@@ -59,6 +60,25 @@ class ReachabilityMap:
         if s is None:
             s = self._slices[key] = self.store.read_chunk(self.arm, *key)
         return s
+
+    def slice_reach(self, iz: int, ip: int, ir: int) -> float:
+        """Largest horizontal distance [m] from the base origin to any point of a reached cell of
+        slice (iz, ip, ir), over every yaw bin; -1 if the slice is empty. A TCP pose of this slice
+        farther than that from the base is unreachable at every base yaw."""
+        key = (int(iz), int(ip), int(ir))
+        r = self._reach.get(key)
+        if r is None:
+            hit = np.nonzero(self.slice(*key).any(axis=2))
+            if hit[0].size == 0:
+                r = -1.0
+            else:
+                g = self.grid
+                # the farthest corner of each reached cell
+                xs = g.origin[0] + g.resolution * np.stack([hit[0], hit[0] + 1])
+                ys = g.origin[1] + g.resolution * np.stack([hit[1], hit[1] + 1])
+                r = float(np.sqrt(np.max(np.abs(xs), axis=0) ** 2 + np.max(np.abs(ys), axis=0) ** 2).max())
+            self._reach[key] = r
+        return r
 
     def value(self, T) -> np.ndarray:
         """Map values of TCP poses T (4, 4) or (N, 4, 4) in the base frame -> (N,); 0 = unreachable."""

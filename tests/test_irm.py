@@ -76,3 +76,21 @@ def test_candidates_evaluated_together_equal_each_alone(coarse_map):
         v1, a1 = manipulation_map(coarse_map, T, nav, yaws, cells, window)
         assert np.array_equal(val, v1) and np.array_equal(arg, a1)
     assert sum(int((v > 0).sum()) for v, _ in together[:8]) > 100 and not together[-1][0].any()
+
+
+def test_cells_beyond_the_slice_reach_are_zero(coarse_map):
+    """Skipping base cells farther than the target slice's reach changes nothing: evaluated on every
+    cell, those are exactly the cells left at 0 / -1."""
+    from placement.planning.grasps import top_grasps
+    from placement.planning.manipulation import cells_within, pose_reach
+
+    nav = NavGrid((-2.0, -2.0), 0.05, (80, 80))
+    yaws = base_yaws(40)
+    for z in (0.55, 0.8, 1.1):
+        T = top_grasps([0.1234, 0.2345, z], 0.4, [0.05, 0.1, 0.1])[0].poses
+        r = pose_reach(coarse_map, T[-1])
+        assert 0 < r < math.hypot(2.0, 2.0)
+        full = manipulation_map(coarse_map, T, nav, yaws, cells=np.arange(80 * 80))
+        near = manipulation_map(coarse_map, T, nav, yaws, cells=cells_within(nav, T[-1, 0, 3], T[-1, 1, 3], r))
+        assert np.array_equal(full[0], near[0]) and np.array_equal(full[1], near[1])
+        assert (full[0] > 0).sum() > 0

@@ -96,6 +96,19 @@ def manipulation_maps(rmap: ReachabilityMap, trajectories: list[np.ndarray], nav
     return out
 
 
+def pose_reach(rmap: ReachabilityMap, pose: np.ndarray) -> float:
+    """Largest distance [m] between a base position and the TCP ``pose`` (4, 4, world frame) at which
+    the map holds any value for the pose's slice (see ``ReachabilityMap.slice_reach``); -1 if none
+    (the slice is empty, or the pose is outside the map's height range)."""
+    g: Grid = rmap.grid
+    _, pitch, roll = zyx_angles(pose)
+    iz = int(math.floor((pose[2, 3] - g.origin[2]) / g.resolution))
+    if not 0 <= iz < g.shape[2]:
+        return -1.0
+    r = rmap.slice_reach(iz, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5]))
+    return r + 1e-6 if r >= 0 else r  # a micrometre of slack against rounding in the distance test
+
+
 def reach_xy(g: Grid) -> float:
     """Largest horizontal distance [m] from the base origin to any map cell."""
     x0, y0 = g.origin[0], g.origin[1]
@@ -104,7 +117,10 @@ def reach_xy(g: Grid) -> float:
 
 
 def cells_within(nav: NavGrid, x: float, y: float, radius: float) -> np.ndarray:
-    """Flat indices (ascending) of navigation cells whose centre is within ``radius`` [m] of (x, y)."""
+    """Flat indices (ascending) of navigation cells whose centre is within ``radius`` [m] of (x, y)
+    (none for a negative radius)."""
+    if radius < 0:
+        return np.zeros(0, np.int64)
     xs, ys = nav.centres()
     # only the bounding box of the disc is tested (plus a cell: the comparison below decides)
     x0 = max(int(math.floor((x - radius - nav.origin[0]) / nav.resolution)) - 1, 0)

@@ -20,7 +20,7 @@ from ..rmap import ReachabilityMap
 from .config import PlannerConfig
 from .grasps import Candidate
 from .heuristic import region_heuristic
-from .manipulation import cells_within, manipulation_maps, reach_xy
+from .manipulation import cells_within, manipulation_maps, pose_reach
 from .navgrid import Window
 from .scene import Scene
 from .steps import Step, step_candidates, task_steps
@@ -104,7 +104,9 @@ class StepProblems:
             lo, hi = height_range(rmap)
             by_cells: dict[tuple, list] = {}  # candidates of a step share their target position
             for cand in candidates:
-                key = (cand.poses[-1, 0, 3], cand.poses[-1, 1, 3], reach_xy(rmap.grid))
+                # base cells farther from the target than the target slice's reach get 0 from
+                # the kernel anyway: they are not evaluated (the results are the same)
+                key = (cand.poses[-1, 0, 3], cand.poses[-1, 1, 3], pose_reach(rmap, cand.poses[-1]))
                 if key not in near:
                     cells = cells_within(nav, *key)
                     near[key] = cells[self.world.feasible.flat[cells]]
