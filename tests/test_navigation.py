@@ -115,3 +115,30 @@ def test_early_stop_is_exact_on_targets(seed):
     assert np.array_equal(part[sel], full[sel])
     assert np.all(np.isinf(part[~np.isfinite(full)]))
     assert np.all((part == full) | np.isinf(part))  # unsettled cells are reported as inf, never wrong
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_start_costs_and_predecessors(seed):
+    """Sources with different start costs (a virtual super-source in scipy's graph) and uniform
+    factors (many equal-cost paths): costs equal scipy's, and every predecessor lies on a shortest
+    path (cost[v] = cost[pred] + edge, exactly as the search added it)."""
+    rng = np.random.default_rng(300 + seed)
+    ny, nx = rng.integers(5, 40, size=2)
+    feas = rng.random((ny, nx)) > 0.2
+    fac = np.ones((ny, nx)) if seed % 2 else speed_factor(distance_map(~feas, 0.05), 1.3, 4, 1.0)
+    starts = np.argwhere(feas)[rng.choice(feas.sum(), size=3, replace=False)]
+    start_costs = rng.uniform(0, 2.0, 3)
+    cost, pred = navigation_cost(fac, feas, starts, 0.05, start_costs=start_costs)
+    g = grid_graph(fac, feas, 0.05).tolil()
+    g.resize((ny * nx + 1, ny * nx + 1))
+    for (y, x), c in zip(starts, start_costs):
+        g[ny * nx, y * nx + x] = c
+    ref = dijkstra(g.tocsr(), indices=ny * nx)[:-1].reshape(ny, nx)
+    assert np.array_equal(np.isinf(cost), np.isinf(ref))
+    np.testing.assert_allclose(cost[np.isfinite(ref)], ref[np.isfinite(ref)], rtol=1e-12, atol=0)
+    for v in np.flatnonzero(pred.ravel() >= 0):
+        u = pred.flat[v]
+        (vy, vx), (uy, ux) = divmod(v, nx), divmod(u, nx)
+        step = 0.05 * (S2 if vy != uy and vx != ux else 1.0)
+        assert max(abs(vy - uy), abs(vx - ux)) == 1
+        assert cost.flat[v] == cost.flat[u] + step * fac[vy, vx]

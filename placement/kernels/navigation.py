@@ -78,45 +78,6 @@ def distance_transform(occupied, res):
 
 
 @njit(cache=True)
-def _push(hk, hv, size, key, val):
-    i = size
-    hk[i] = key
-    hv[i] = val
-    while i > 0:
-        p = (i - 1) >> 1
-        if hk[p] < hk[i] or (hk[p] == hk[i] and hv[p] <= hv[i]):
-            break
-        hk[p], hk[i] = hk[i], hk[p]
-        hv[p], hv[i] = hv[i], hv[p]
-        i = p
-    return size + 1
-
-
-@njit(cache=True)
-def _pop(hk, hv, size):
-    key = hk[0]
-    val = hv[0]
-    size -= 1
-    hk[0] = hk[size]
-    hv[0] = hv[size]
-    i = 0
-    while True:
-        left = 2 * i + 1
-        if left >= size:
-            break
-        c = left
-        right = left + 1
-        if right < size and (hk[right] < hk[left] or (hk[right] == hk[left] and hv[right] < hv[left])):
-            c = right
-        if hk[i] < hk[c] or (hk[i] == hk[c] and hv[i] <= hv[c]):
-            break
-        hk[c], hk[i] = hk[i], hk[c]
-        hv[c], hv[i] = hv[i], hv[c]
-        i = c
-    return key, val, size
-
-
-@njit(cache=True)
 def shortest_costs(factor, feasible, sources, source_costs, res, targets):
     """Minimal path cost from the sources to every cell of an 8-connected grid (Dijkstra).
 
@@ -136,57 +97,116 @@ def shortest_costs(factor, feasible, sources, source_costs, res, targets):
         cost (ny, nx) float64 [m of free-space travel], pred (ny, nx) int64 flat index of the
         predecessor (-1 at sources and unreached cells).
     """
+    # Dijkstra with a bucket queue instead of a heap (Dial's algorithm with buckets narrower than
+    # the shortest edge): every edge costs at least ``res * min(factor)``, so no cell of the lowest
+    # non-empty bucket can be improved by another cell of that bucket or a later one: all its
+    # labels are final and the bucket is settled in any order. Costs equal Dijkstra's exactly (a
+    # cell's cost is the minimum of cost[u] + w over the neighbours u settled before it, the same
+    # set either way); among equal-cost paths the predecessor may differ.
     ny, nx = factor.shape
-    cost = np.full((ny, nx), _INF)
-    pred = np.full((ny, nx), -1, dtype=np.int64)
-    done = np.zeros((ny, nx), dtype=np.bool_)
-    cap = 8 * ny * nx + sources.shape[0] + 1
-    hk = np.empty(cap)
-    hv = np.empty(cap, dtype=np.int64)
-    size = 0
-    for s in range(sources.shape[0]):
-        y, x = sources[s, 0], sources[s, 1]
-        if feasible[y, x] and source_costs[s] < cost[y, x]:
-            cost[y, x] = source_costs[s]
-            size = _push(hk, hv, size, source_costs[s], y * nx + x)
+    W = nx + 2
+    N = (ny + 2) * W
+    feas = np.zeros(N, dtype=np.bool_)  # padded: a border of infeasible cells, no bounds checks
+    fac = np.empty(N)
+    tgt = np.zeros(N, dtype=np.bool_)
     remaining = 0
+    fmin = _INF
+    fmax = 0.0
     for y in range(ny):
         for x in range(nx):
-            if targets[y, x] and feasible[y, x]:
-                remaining += 1
+            i = (y + 1) * W + x + 1
+            feas[i] = feasible[y, x]
+            fac[i] = factor[y, x]
+            if feasible[y, x]:
+                fmin = min(fmin, factor[y, x])
+                fmax = max(fmax, factor[y, x])
+                if targets[y, x]:
+                    tgt[i] = True
+                    remaining += 1
     early = remaining > 0
+    cost = np.full(N, _INF)
+    prev = np.full(N, -1, dtype=np.int64)
+    done = np.zeros(N, dtype=np.bool_)
     diag = res * math.sqrt(2.0)
-    while size > 0:
-        c, u, size = _pop(hk, hv, size)
-        uy = u // nx
-        ux = u - uy * nx
-        if done[uy, ux]:
-            continue
-        done[uy, ux] = True
-        if early and targets[uy, ux]:
-            remaining -= 1
-            if remaining == 0:
-                break
-        for dy in range(-1, 2):
-            vy = uy + dy
-            if vy < 0 or vy >= ny:
+    delta = res * fmin / (1.0 + 1e-9)  # a hair below the shortest edge, against rounding
+    # entries: (cell, next entry in its bucket); a cell is entered again when its cost drops
+    cap = 9 * N + sources.shape[0] + 1
+    ent_cell = np.empty(cap, dtype=np.int64)
+    ent_next = np.empty(cap, dtype=np.int64)
+    n_ent = 0
+    lo = _INF
+    hi = 0.0
+    for s in range(sources.shape[0]):
+        i = (sources[s, 0] + 1) * W + sources[s, 1] + 1
+        if feas[i] and source_costs[s] < cost[i]:
+            cost[i] = source_costs[s]
+    for s in range(sources.shape[0]):
+        i = (sources[s, 0] + 1) * W + sources[s, 1] + 1
+        if feas[i] and cost[i] == source_costs[s]:
+            lo = min(lo, cost[i])
+            hi = max(hi, cost[i])
+    if lo == _INF:
+        return np.full((ny, nx), _INF), np.full((ny, nx), -1, dtype=np.int64)
+    # live labels span at most (sources' spread + the longest edge): a ring of buckets that wide
+    nb = int((hi - lo + diag * fmax) / delta) + 3
+    head = np.full(nb, -1, dtype=np.int64)
+    base = lo
+    live = 0
+    for s in range(sources.shape[0]):
+        i = (sources[s, 0] + 1) * W + sources[s, 1] + 1
+        if feas[i] and cost[i] == source_costs[s] and not done[i]:
+            b = int((cost[i] - base) / delta) % nb
+            ent_cell[n_ent] = i
+            ent_next[n_ent] = head[b]
+            head[b] = n_ent
+            n_ent += 1
+            live += 1
+    offs = np.array([-W - 1, -W, -W + 1, -1, 1, W - 1, W, W + 1])
+    steps = np.array([diag, res, diag, res, res, diag, res, diag])
+    k = 0
+    stop = False
+    while live > 0 and not stop:
+        b = k % nb
+        while head[b] >= 0:
+            e = head[b]
+            head[b] = ent_next[e]
+            live -= 1
+            u = ent_cell[e]
+            if done[u]:
                 continue
-            for dx in range(-1, 2):
-                if dy == 0 and dx == 0:
+            done[u] = True
+            if early and tgt[u]:
+                remaining -= 1
+                if remaining == 0:
+                    stop = True
+                    break
+            c = cost[u]
+            for j in range(8):
+                v = u + offs[j]
+                if not feas[v] or done[v]:
                     continue
-                vx = ux + dx
-                if vx < 0 or vx >= nx or not feasible[vy, vx] or done[vy, vx]:
-                    continue
-                step = diag if dy != 0 and dx != 0 else res
-                nc = c + step * factor[vy, vx]
-                if nc < cost[vy, vx]:
-                    cost[vy, vx] = nc
-                    pred[vy, vx] = u
-                    size = _push(hk, hv, size, nc, vy * nx + vx)
-    if early:
-        for y in range(ny):
-            for x in range(nx):
-                if not done[y, x]:
-                    cost[y, x] = _INF
-                    pred[y, x] = -1
-    return cost, pred
+                nc = c + steps[j] * fac[v]
+                if nc < cost[v]:
+                    cost[v] = nc
+                    prev[v] = u
+                    kb = int((nc - base) / delta)
+                    if kb <= k:  # cannot happen (edges are longer than a bucket): never lose a cell
+                        kb = k + 1
+                    bb = kb % nb
+                    ent_cell[n_ent] = v
+                    ent_next[n_ent] = head[bb]
+                    head[bb] = n_ent
+                    n_ent += 1
+                    live += 1
+        k += 1
+    out = np.full((ny, nx), _INF)
+    pred = np.full((ny, nx), -1, dtype=np.int64)
+    for y in range(ny):
+        for x in range(nx):
+            i = (y + 1) * W + x + 1
+            if done[i] or not early:
+                out[y, x] = cost[i]
+                p = prev[i]
+                if p >= 0:
+                    pred[y, x] = (p // W - 1) * nx + (p % W - 1)
+    return out, pred
