@@ -46,9 +46,9 @@ def fixed_placements(planner: Planner) -> list[tuple[int, float]]:
 
 
 def rank_fixed(planner: Planner, options: list[Option], nav_cost: np.ndarray,
-               heuristic: np.ndarray) -> tuple[list[Ranked], np.ndarray]:
+               heuristic: np.ndarray) -> list[Ranked]:
     """Fixed placements by decreasing manipulability of each (arm, candidate) at the placement's yaw
-    (``cost`` = minus that value). The combined map is all inf: the baseline has no cost map."""
+    (``cost`` = minus that value)."""
     nav = planner.world.nav
     ranked = []
     for flat, yaw in fixed_placements(planner):
@@ -60,4 +60,4 @@ def rank_fixed(planner: Planner, options: list[Option], nav_cost: np.ndarray,
             if value >= planner.config.threshold:
                 ranked.append((-value, k, flat, yaw))
     ranked.sort(key=lambda r: (r[0], r[1], r[2]))
-    return [Ranked(*r) for r in ranked], np.full(nav.shape, np.inf)
+    return [Ranked(*r) for r in ranked]

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..navigation import extract_path, navigation_cost
 from ..problems import Option, height_range
-from ..ranking import Ranked, rank_by_cost
+from ..ranking import Ranked, combined_map, rank_by_cost
 from ..results import Cost, StepMaps, StepResult
 from ..steps import Step
 from ..verify import trajectory_ik
@@ -21,12 +21,12 @@ from ..verify import trajectory_ik
 if TYPE_CHECKING:
     from ..planner import Planner
 
-#: ranker(planner, options, navigation cost, heuristic) -> (ranked placements, combined cost map)
-Ranker = Callable[["Planner", list, np.ndarray, np.ndarray], tuple[list[Ranked], np.ndarray]]
+#: ranker(planner, options, navigation cost, heuristic) -> ranked placements
+Ranker = Callable[["Planner", list, np.ndarray, np.ndarray], list[Ranked]]
 
 
 def rank_eq6(planner: Planner, options: list[Option], nav_cost: np.ndarray,
-             heuristic: np.ndarray) -> tuple[list[Ranked], np.ndarray]:
+             heuristic: np.ndarray) -> list[Ranked]:
     """Eq. 6 with the method's weights (see :func:`~placement.planning.ranking.rank_by_cost`)."""
     return rank_by_cost(options, nav_cost, heuristic, planner.config, planner.yaws)
 
@@ -70,11 +70,12 @@ def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranke
     heur = problems.heuristic(step.index + 1, needed) if steer else np.zeros(nav.shape)
     timings["heuristic"] = (time.perf_counter() - t) * 1e3
     t = time.perf_counter()
-    ranked, combined = rank(planner, opts, nav_cost, heur)
+    ranked = rank(planner, opts, nav_cost, heur)
     timings["combine"] = (time.perf_counter() - t) * 1e3
     maps = None
     if keep_maps:
         manip = np.max([o.full_value(nav.shape) for o in opts], axis=0) if opts else None
+        combined = combined_map(opts, nav_cost, heur, cfg) if planner.method != "fixed" else None
         maps = StepMaps(nav_cost, heur, manip, combined)
     t = time.perf_counter()
     failed = []  # (option, row, column) of placements where IK failed
