@@ -12,65 +12,18 @@ methods of a scene (evaluation plans each scene with every method).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..rmap import ReachabilityMap
 from .config import PlannerConfig
-from .grasps import Candidate
 from .heuristic import region_heuristic
 from .manipulation import cells_within, manipulation_maps, pose_reach
 from .navgrid import Window
+from .option import Option, height_range
+from .refresh import refreshed_options
 from .scene import Scene
 from .steps import Step, step_candidates, task_steps
 from .world import World
-
-
-@dataclass(frozen=True)
-class Option:
-    """One (arm, candidate) of a step and its manipulation map over the base grid.
-
-    The map is kept only over ``window``, the part of the grid within the arm's reach of the
-    target (plus one cell): everywhere else it is 0, and a whole-grid copy per option and step
-    would dominate the planner's memory on large scenes.
-
-    Attributes:
-        arm: arm name. candidate: the TCP trajectory (world frame).
-        window: where the map is kept.
-        value: (h, w) float32 over ``window``, the IRM value of the best base yaw (0 = unreachable).
-        yaw_index: (h, w) int64, that yaw's index into the planner's base yaws (-1 if none).
-        out_of_range: True when a pose of the trajectory is outside the map's height range.
-    """
-
-    arm: str
-    candidate: Candidate
-    window: Window
-    value: np.ndarray
-    yaw_index: np.ndarray
-    out_of_range: bool = False
-
-    def value_at(self, iy: int, ix: int) -> float:
-        """The IRM value at grid cell (iy, ix) (0 outside the window)."""
-        w = self.window
-        return float(self.value[iy - w.y0, ix - w.x0]) if w.y0 <= iy < w.y1 and w.x0 <= ix < w.x1 else 0.0
-
-    def yaw_at(self, iy: int, ix: int) -> int:
-        """The best yaw's index at grid cell (iy, ix) (-1 outside the window)."""
-        w = self.window
-        return int(self.yaw_index[iy - w.y0, ix - w.x0]) if w.y0 <= iy < w.y1 and w.x0 <= ix < w.x1 else -1
-
-    def full_value(self, shape: tuple[int, int]) -> np.ndarray:
-        """The map over the whole grid of ``shape`` (ny, nx) (for plots)."""
-        out = np.zeros(shape, np.float32)
-        out[self.window.slices] = self.value
-        return out
-
-
-def height_range(rmap: ReachabilityMap) -> tuple[float, float]:
-    """The TCP heights [m] above the base frame that ``rmap`` covers."""
-    g = rmap.grid
-    return float(g.origin[2]), float(g.origin[2] + g.shape[2] * g.resolution)
 
 
 class StepProblems:
@@ -139,13 +92,16 @@ class StepProblems:
     def changed(self, scene: Scene, world: World, moved_objects: set[str]) -> StepProblems:
         """A cache for the changed ``scene`` (and ``world``) that keeps what the change left valid.
 
-        A new ``world`` object means the obstacles changed: nothing is kept. Otherwise the IRMs
-        of steps that do not pick a moved object are kept. ``self`` is not modified.
+        The IRMs of steps that do not pick a moved object are kept; a new ``world`` (obstacles
+        changed) refreshes them on the cells whose feasibility changed (see refresh.py) and drops
+        the heuristics. ``self`` is not modified.
         """
         new = StepProblems(scene, world, self.maps, self.config, self.yaws)
-        if world is self.world:
-            new._options = {i: o for i, o in self._options.items()
-                            if not (self.steps[i].action == "pick" and self.steps[i].target in moved_objects)}
-            if not moved_objects:
-                new._heuristic = dict(self._heuristic)
+        new._options = {i: o for i, o in self._options.items()
+                        if not (self.steps[i].action == "pick" and self.steps[i].target in moved_objects)}
+        if world is not self.world:
+            new._options = {i: refreshed_options(o, self.maps, world.nav, self.yaws, self.world.feasible,
+                                                 world.feasible) for i, o in new._options.items()}
+        elif not moved_objects:
+            new._heuristic = dict(self._heuristic)
         return new

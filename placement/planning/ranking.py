@@ -9,7 +9,7 @@ import numpy as np
 from ..kernels.ranking import rank_window
 
 from .config import PlannerConfig
-from .problems import Option
+from .option import Option
 
 
 class Ranked(NamedTuple):

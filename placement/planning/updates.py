@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 from .scene import Scene, SceneParser, check_scene
 from .scene.parse import OBJECT_KEYS
 from ..validation import describe
-from .world import build_world
+from .world import add_shape, build_world, world_from_occupancy
 
 if TYPE_CHECKING:
     from .planner import Planner
@@ -31,8 +31,9 @@ UPDATE_KEYS = ("objects", "obstacles", "start")
 WHERE = "update"
 
 
-def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool]:
-    """The scene after ``change``, the names of moved objects, and whether obstacles changed.
+def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
+    """The scene after ``change``, the names of moved objects, whether obstacles changed, and
+    whether some were removed (additions alone only add occupied cells).
 
     Raises :class:`~placement.planning.scene.SceneError` (one line, ``update: KEY.PATH: problem``).
     """
@@ -63,6 +64,7 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool]:
             size=P.sizes(item["size"], f"{p}.size", 3) if "size" in item else o.size)
         moved.add(name)
     obstacles = list(scene.obstacles)
+    added = []
     changed = "obstacles" in change
     if changed:
         ch = P.mapping(change["obstacles"], "obstacles", ("add", "remove"))
@@ -76,23 +78,31 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool]:
         obstacles = [o for o in obstacles if o.name not in removed]
         for n in [*(o.name for o in obstacles), *objects, *(p.name for p in scene.place_locations)]:
             P.names[n] = "the scene"
-        obstacles += [P.obstacle(item, f"obstacles.add[{i}]")
-                      for i, item in enumerate(items(ch.get("add", []), "obstacles.add"))]
+        added = [P.obstacle(item, f"obstacles.add[{i}]")
+                 for i, item in enumerate(items(ch.get("add", []), "obstacles.add"))]
+        obstacles += added
     start = P.coords(change["start"], "start", 3) if "start" in change else scene.start
     new = replace(scene, objects=tuple(objects[o.name] for o in scene.objects), obstacles=tuple(obstacles),
                   start=tuple(start))
-    return check_scene(new, WHERE), moved, changed
+    removed_any = changed and len(obstacles) - len(added) < len(scene.obstacles)
+    return check_scene(new, WHERE, moved, {o.name for o in added}), moved, changed, removed_any
 
 
 def apply_update(planner: Planner, change) -> dict:
     """Apply ``change`` to ``planner`` (all or nothing); returns {"updated": [...], "timings_ms": {...}}."""
     t0 = time.perf_counter()
-    scene, moved, obstacles_changed = parse_update(change, planner.scene)
+    scene, moved, obstacles_changed, removed = parse_update(change, planner.scene)
     timings = {}
     world = planner.world
     if obstacles_changed:
         t = time.perf_counter()
-        world = build_world(scene, planner.robot.footprint_radius, planner.base_config)
+        if removed:
+            world = build_world(scene, planner.robot.footprint_radius, planner.base_config)
+        else:  # only additions: the old occupancy plus the new shapes
+            occupied = world.occupied.copy()
+            for ob in scene.obstacles[len(planner.scene.obstacles):]:
+                add_shape(occupied, ob.shape, world.nav)
+            world = world_from_occupancy(world.nav, occupied, planner.robot.footprint_radius, planner.base_config)
         timings["distance"] = (time.perf_counter() - t) * 1e3
     problems = planner.problems.changed(scene, world, moved)
     planner.replace_state(scene, world, problems)

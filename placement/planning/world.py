@@ -29,18 +29,39 @@ def _inside_polygon(px: np.ndarray, py: np.ndarray, pts: np.ndarray) -> np.ndarr
 
 def shape_mask(shape, nav: NavGrid) -> np.ndarray:
     """(ny, nx) bool: cells whose centre lies inside the shape's footprint."""
+    out = np.zeros(nav.shape, dtype=bool)
+    add_shape(out, shape, nav)
+    return out
+
+
+def add_shape(occupied: np.ndarray, shape, nav: NavGrid) -> None:
+    """Mark in ``occupied`` (ny, nx) the cells whose centre lies inside the shape's footprint.
+
+    Only the cells of the footprint's bounding box (plus one) are tested: the same decisions as
+    testing every cell, at the cost of the shape's size rather than the grid's.
+    """
     xs, ys = nav.centres()
-    X, Y = np.meshgrid(xs, ys)
+    x0, y0, x1, y1 = shape.bounds_xy()
+    r = nav.resolution
+    i0 = max(int(np.floor((x0 - nav.origin[0]) / r)) - 1, 0)
+    i1 = min(int(np.ceil((x1 - nav.origin[0]) / r)) + 1, nav.shape[1])
+    j0 = max(int(np.floor((y0 - nav.origin[1]) / r)) - 1, 0)
+    j1 = min(int(np.ceil((y1 - nav.origin[1]) / r)) + 1, nav.shape[0])
+    if i0 >= i1 or j0 >= j1:
+        return
+    X, Y = np.meshgrid(xs[i0:i1], ys[j0:j1])
     if isinstance(shape, Box):
         c, s = np.cos(shape.yaw), np.sin(shape.yaw)
         dx, dy = X - shape.center[0], Y - shape.center[1]
         lx, ly = c * dx + s * dy, -s * dx + c * dy
-        return (np.abs(lx) <= shape.size[0] / 2) & (np.abs(ly) <= shape.size[1] / 2)
-    if isinstance(shape, Cylinder):
-        return (X - shape.center[0]) ** 2 + (Y - shape.center[1]) ** 2 <= shape.radius ** 2
-    if isinstance(shape, Polygon):
-        return _inside_polygon(X, Y, np.asarray(shape.points))
-    raise TypeError(f"unknown shape {type(shape).__name__}")
+        inside = (np.abs(lx) <= shape.size[0] / 2) & (np.abs(ly) <= shape.size[1] / 2)
+    elif isinstance(shape, Cylinder):
+        inside = (X - shape.center[0]) ** 2 + (Y - shape.center[1]) ** 2 <= shape.radius ** 2
+    elif isinstance(shape, Polygon):
+        inside = _inside_polygon(X, Y, np.asarray(shape.points))
+    else:
+        raise TypeError(f"unknown shape {type(shape).__name__}")
+    occupied[j0:j1, i0:i1] |= inside
 
 
 @dataclass(frozen=True)
@@ -69,10 +90,15 @@ def build_world(scene: Scene, footprint_radius: float, config: PlannerConfig) ->
     nav = scene.nav_grid()
     occ = np.zeros(nav.shape, dtype=bool)
     for ob in scene.obstacles:
-        occ |= shape_mask(ob.shape, nav)
+        add_shape(occ, ob.shape, nav)
     if scene.occupancy is not None:
         occ |= rasterize_occupancy(scene.occupancy, nav.origin, nav.resolution, nav.shape, conservative=True,
                                    outside_occupied=True)
+    return world_from_occupancy(nav, occ, footprint_radius, config)
+
+
+def world_from_occupancy(nav: NavGrid, occ: np.ndarray, footprint_radius: float, config: PlannerConfig) -> World:
+    """Distance, feasibility and speed from an occupancy grid (ny, nx) bool."""
     dist = distance_map(occ, nav.resolution)
     feasible = dist >= footprint_radius
     factor = speed_factor(dist, config.velocity_lambda, config.velocity_k, config.d_max)

@@ -10,7 +10,7 @@ import numpy as np
 from ...errors import PlacementError
 from ..manipulation import manipulation_map
 from ..navgrid import Window
-from ..problems import Option
+from ..option import Option
 from ..ranking import Ranked
 
 if TYPE_CHECKING:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from ..navigation import extract_path, navigation_cost
-from ..problems import Option, height_range
+from ..option import Option, height_range
 from ..ranking import Ranked, combined_map, rank_by_cost
 from ..results import Cost, StepMaps, StepResult
 from ..steps import Step

@@ -61,8 +61,15 @@ def _rect_overlaps(corners: np.ndarray, shape) -> bool:
     return any(_segments_cross(a, b, c, d) for a, b in zip(corners, np.roll(corners, -1, axis=0)) for c, d in edges)
 
 
+def _apart(a, b) -> bool:
+    """Whether two (xmin, ymin, xmax, ymax) boxes are separated by more than :data:`TOLERANCE`."""
+    return a[2] < b[0] - TOLERANCE or b[2] < a[0] - TOLERANCE or a[3] < b[1] - TOLERANCE or b[3] < a[1] - TOLERANCE
+
+
 def box_penetrates(box: Box, shape) -> bool:
     """Whether ``box`` enters the solid ``shape`` by more than :data:`TOLERANCE` (touching is fine)."""
+    if _apart(box.bounds_xy(), shape.bounds_xy()):
+        return False
     lo, hi = _z_range(shape)
     if min(hi, box.center[2] + box.size[2] / 2) - max(lo, box.center[2] - box.size[2] / 2) <= TOLERANCE:
         return False
@@ -72,6 +79,8 @@ def box_penetrates(box: Box, shape) -> bool:
 
 def point_inside(p, shape) -> bool:
     """Whether the point ``p`` (3,) [m] lies inside the solid ``shape``, deeper than :data:`TOLERANCE`."""
+    if _apart((p[0], p[1], p[0], p[1]), shape.bounds_xy()):
+        return False
     lo, hi = _z_range(shape)
     if not lo + TOLERANCE < p[2] < hi - TOLERANCE:
         return False

@@ -221,9 +221,19 @@ def default_bounds(scene: Scene) -> tuple[float, float, float, float]:
     return (extent[0] - m, extent[1] - m, extent[2] + m, extent[3] + m)
 
 
-def check_scene(scene: Scene, where: str) -> Scene:
+def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
+                new_obstacles: set[str] | None = None) -> Scene:
     """The checks that need the whole scene: the grid size, everything inside ``bounds``, nothing
-    inside an obstacle's volume. Raises :class:`SceneError` naming the key path."""
+    inside an obstacle's volume. Raises :class:`SceneError` naming the key path.
+
+    For a change to a scene that passed: ``objects`` (the moved objects) and ``new_obstacles`` (the
+    added ones) limit the volume checks to the pairs the change can affect; None checks them all.
+    """
+    def pair(name: str, obstacle: str) -> bool:
+        if objects is None and new_obstacles is None:
+            return True
+        return name in (objects or ()) or obstacle in (new_obstacles or ())
+
     P = Validator(where, SceneError)
     bounds, resolution = scene.bounds, scene.resolution
     ny, nx = grid_shape(bounds, resolution)
@@ -241,13 +251,13 @@ def check_scene(scene: Scene, where: str) -> Scene:
     for i, o in enumerate(scene.objects):
         inside(o.position, f"objects[{i}].position", f"object '{o.name}'")
         for ob in scene.obstacles:
-            if box_penetrates(o.box, ob.shape):
+            if pair(o.name, ob.name) and box_penetrates(o.box, ob.shape):
                 P.fail(f"objects[{i}]", f"object '{o.name}' is inside obstacle '{ob.name}' (its bounding box enters "
                                         "the obstacle's volume; objects may only touch, e.g. stand on a table)")
     for i, pl in enumerate(scene.place_locations):
         inside(pl.position, f"place_locations[{i}].position", f"place location '{pl.name}'")
         for ob in scene.obstacles:
-            if point_inside(pl.position, ob.shape):
+            if pair(pl.name, ob.name) and point_inside(pl.position, ob.shape):
                 P.fail(f"place_locations[{i}].position", f"place location '{pl.name}' is inside obstacle "
                                                          f"'{ob.name}'")
     return scene
