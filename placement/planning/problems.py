@@ -102,6 +102,9 @@ class StepProblems:
         if world is not self.world:
             new._options = {i: refreshed_options(o, self.maps, world.nav, self.yaws, self.world.feasible,
                                                  world.feasible) for i, o in new._options.items()}
-        elif not moved_objects:
-            new._heuristic = dict(self._heuristic)
+        else:
+            # step i's heuristic reads step i's regions and stops once step i - 1's cells are settled
+            stale = {j for j in range(len(self.steps)) if j not in new._options} | {
+                j + 1 for j in range(len(self.steps)) if j not in new._options}
+            new._heuristic = {k: h for k, h in self._heuristic.items() if k[0] not in stale}
         return new
