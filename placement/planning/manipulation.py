@@ -61,6 +61,12 @@ def _pose_keys(rmap: ReachabilityMap, T: np.ndarray) -> tuple | None:
     return tuple(keys), yaws
 
 
+def pose_slices(rmap: ReachabilityMap, T: np.ndarray) -> list[tuple[int, int, int]]:
+    """The (z, pitch, roll) bins of the map slices the poses T (P, 4, 4) read (those in range)."""
+    keyed = _pose_keys(rmap, np.asarray(T, dtype=float).reshape(-1, 4, 4))
+    return [] if keyed is None else [k[2:] for k in keyed[0]]
+
+
 def manipulation_maps(rmap: ReachabilityMap, trajectories: list[np.ndarray], nav: NavGrid, yaws: np.ndarray,
                       cells: np.ndarray, window: Window | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
     """:func:`manipulation_map` of several trajectories over the same ``cells`` and ``window``.

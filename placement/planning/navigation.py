@@ -50,7 +50,7 @@ def navigation_cost(factor: np.ndarray, feasible: np.ndarray, starts, resolution
     Returns:
         cost (ny, nx) [m] (inf where unreachable), pred (ny, nx) flat predecessor index.
     """
-    starts = np.atleast_2d(np.asarray(starts, dtype=np.int64))
+    starts = np.ascontiguousarray(np.atleast_2d(np.asarray(starts, dtype=np.int64)))
     feas = np.ascontiguousarray(feasible, dtype=np.bool_)
     fac = np.ascontiguousarray(factor, dtype=np.float64)
     if fac.shape != feas.shape:

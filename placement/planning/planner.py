@@ -24,6 +24,7 @@ from .manipulation import base_yaws
 from .methods.fixed import rank_fixed
 from .methods.optimal import plan_optimal
 from .methods.stepwise import plan_stepwise, rank_eq6
+from .prepare import prefetch_slices, warm_kernels
 from .problems import StepProblems
 from .results import PlanResult, robot_info
 from .scene import Scene, load_scene
@@ -87,6 +88,9 @@ class Planner:
         self.world: World = build_world(self.scene, self.robot.footprint_radius, self.base_config)
         self.yaws = base_yaws(self.base_config.yaw_steps)
         self.problems = StepProblems(self.scene, self.world, self.maps, self.base_config, self.yaws)
+        # once per planner: kernels loaded and slices read here, not in the first step
+        warm_kernels(self.problems, self.robot)
+        prefetch_slices(self.problems)
 
     def set_method(self, method: str) -> None:
         """Switch the method (its weights); maps, world and caches are kept."""

@@ -1,0 +1,54 @@
+"""Readying a planner before its first step: the kernels loaded, the map slices of every step read.
+
+A fresh process pays once for loading each numba kernel from the disk cache and for starting the
+thread pool (about 20 ms each), and every map slice is read and checked on first use. Doing that
+when the planner is built keeps it out of the first step's time; the work is the same.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..ik import solve_ik
+from .manipulation import manipulation_maps, pose_slices
+from .navgrid import NavGrid, Window
+from .navigation import navigation_cost
+from .ranking import rank_by_cost
+
+_warm = False
+
+
+def warm_kernels(problems, robot) -> None:
+    """Run each planning kernel once on a tiny problem of the real types (once per process)."""
+    global _warm
+    if _warm:
+        return
+    from .config import PlannerConfig
+    from .option import Option
+
+    nav = NavGrid((0.0, 0.0), 0.05, (3, 3))
+    ones = np.ones(nav.shape)
+    cost, _ = navigation_cost(ones, np.ones(nav.shape, bool), (1, 1), nav.resolution, targets=np.eye(3, dtype=bool))
+    step = problems.steps[0]
+    from .steps import step_candidates
+
+    cand = step_candidates(problems.scene, step, problems.config)[0]
+    for arm, rmap in problems.maps.items():
+        window = Window(0, 3, 0, 3)
+        value, yaw = manipulation_maps(rmap, [cand.poses], nav, problems.yaws[:1], np.array([4]), window)[0]
+        option = Option(arm, cand, window, value, yaw)
+        rank_by_cost([option], cost, np.zeros(nav.shape), PlannerConfig(), problems.yaws[:1])
+        a = robot.arm(arm)
+        solve_ik(robot, arm, robot.tcp_pose(arm, a.home), a.home, seeds=1, max_iter=1)
+    _warm = True
+
+
+def prefetch_slices(problems) -> None:
+    """Read (and check) every map slice the task's candidates will use."""
+    from .steps import step_candidates
+
+    for step in problems.steps:
+        for cand in step_candidates(problems.scene, step, problems.config):
+            for rmap in problems.maps.values():
+                for key in pose_slices(rmap, cand.poses):
+                    rmap.slice(*key)
