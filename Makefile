@@ -2,7 +2,7 @@
 PY ?= .venv/bin/python
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 
-.PHONY: install test maps demo bench eval clean
+.PHONY: install test maps maps-armar6 demo bench eval clean
 
 install: .venv/installed
 
@@ -21,11 +21,18 @@ maps: install
 maps/pr2/zarr.json:
 	$(MAKE) maps
 
+# ARMAR-6 (the paper's robot; its URDF is test data in ../shared/robots/armar6) for `make bench`.
+maps-armar6: install
+	$(PY) -m placement.cli.main maps build --spec maps/armar6.yaml --out maps/armar6
+
+maps/armar6/zarr.json:
+	$(MAKE) maps-armar6
+
 # Builds the default maps if they are missing, then plans the example scene.
 demo: install maps/pr2/zarr.json
 	.venv/bin/placement query examples/table_clearing.yaml --plot demo-plots
 
-bench: install maps/pr2/zarr.json
+bench: install maps/pr2/zarr.json maps/armar6/zarr.json
 	$(PY) tools/bench.py
 	$(PY) tools/bench_query.py
 
