@@ -10,10 +10,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..ik import solve_ik
+from .config import PlannerConfig
 from .manipulation import manipulation_maps, pose_slices
 from .navgrid import NavGrid, Window
 from .navigation import navigation_cost
+from .option import Option
 from .ranking import rank_by_cost
+from .steps import step_candidates
 
 _warm = False
 
@@ -23,15 +26,10 @@ def warm_kernels(problems, robot) -> None:
     global _warm
     if _warm:
         return
-    from .config import PlannerConfig
-    from .option import Option
-
     nav = NavGrid((0.0, 0.0), 0.05, (3, 3))
     ones = np.ones(nav.shape)
     cost, _ = navigation_cost(ones, np.ones(nav.shape, bool), (1, 1), nav.resolution, targets=np.eye(3, dtype=bool))
     step = problems.steps[0]
-    from .steps import step_candidates
-
     cand = step_candidates(problems.scene, step, problems.config)[0]
     for arm, rmap in problems.maps.items():
         window = Window(0, 3, 0, 3)
@@ -45,8 +43,6 @@ def warm_kernels(problems, robot) -> None:
 
 def prefetch_slices(problems) -> None:
     """Read (and check) every map slice the task's candidates will use."""
-    from .steps import step_candidates
-
     for step in problems.steps:
         for cand in step_candidates(problems.scene, step, problems.config):
             for rmap in problems.maps.values():
