@@ -117,7 +117,8 @@ def dls_attempt(q0, target, lower, upper, continuous, link_T, axis, kind, tip_T,
                     acc += J[r, j] * J[c, j]
                 A[r, c] = acc
                 A[c, r] = acc
-        cholesky6(A, 1.0, damping, L)  # positive definite by the damping
+        if not cholesky6(A, 1.0, damping, L):  # positive definite by the damping, unless NaN came in
+            break
         cho_solve6(L, e, y, y)
         norm = 0.0
         for j in range(n):
