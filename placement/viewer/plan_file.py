@@ -1,0 +1,162 @@
+"""The steps a view shows: from a planner's :class:`~placement.planning.PlanResult`, or from a plan
+document (the JSON of ``placement query --json``, SPEC section 7) read from a file and checked."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..robots import pose_to_matrix
+from .server import ViewerError
+
+
+class PlanFileError(ViewerError):
+    """A plan file that cannot be shown; the one-line message names the file and the key."""
+
+
+@dataclass(frozen=True)
+class ShownStep:
+    """One step as the viewer draws it.
+
+    Attributes:
+        step, action, target: index, "pick"/"place", object or place location name.
+        ok, reason: planned, or infeasible with a reason.
+        arm, grasp: chosen arm and grasp (None if infeasible).
+        base: (x [m], y [m], yaw [rad]) or None. tcp: (P, 4, 4) TCP poses in the world [m] or None.
+        q: (n,) the arm's joint values [rad or m] or None. manipulability (dimensionless), cost
+        (Eq. 6 total, dimensionless), travel_time_s [s]: None when unknown.
+        maps: the step's :class:`~placement.planning.results.StepMaps`, when the planner kept them.
+    """
+
+    step: int
+    action: str
+    target: str
+    ok: bool
+    reason: str | None = None
+    arm: str | None = None
+    grasp: str | None = None
+    base: tuple[float, float, float] | None = None
+    tcp: np.ndarray | None = None
+    q: np.ndarray | None = None
+    manipulability: float | None = None
+    cost: float | None = None
+    travel_time_s: float | None = None
+    maps: object = None
+
+    @property
+    def title(self) -> str:
+        what = f"step {self.step}: {self.action} {self.target}"
+        return f"{what} ({self.arm} arm, {self.grasp})" if self.ok else f"{what} (infeasible: {self.reason})"
+
+
+def steps_from_result(result) -> list[ShownStep]:
+    """The steps of a :class:`~placement.planning.PlanResult` (maps kept if it was planned with them)."""
+    out = []
+    for s in result.steps:
+        if not s.ok:
+            out.append(ShownStep(s.step, s.action, s.target, False, s.reason, maps=s.maps))
+            continue
+        out.append(ShownStep(s.step, s.action, s.target, True, None, s.arm, s.grasp,
+                             tuple(float(v) for v in s.base), np.asarray(s.tcp, dtype=float),
+                             np.asarray(s.q, dtype=float), float(s.manipulability), float(s.cost.total),
+                             float(s.travel_time_s), s.maps))
+    return out
+
+
+def _need(cond: bool, where: str, msg: str) -> None:
+    if not cond:
+        raise PlanFileError(f"{where}: {msg}")
+
+
+def _number(v, where: str) -> float:
+    _need(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v), where,
+          f"must be a finite number, got {json.dumps(v)[:40] if _jsonable(v) else type(v).__name__}")
+    return float(v)
+
+
+def _jsonable(v) -> bool:
+    try:
+        json.dumps(v)
+        return True
+    except (TypeError, ValueError, RecursionError):
+        return False
+
+
+def _text(d: dict, key: str, where: str) -> str:
+    v = d.get(key)
+    _need(isinstance(v, str) and v != "", f"{where}.{key}", "must be a non-empty string")
+    return v
+
+
+def _numbers(v, n: int | None, where: str) -> list[float]:
+    _need(isinstance(v, list) and (n is None or len(v) == n), where,
+          f"must be a list of {n if n is not None else 'some'} numbers")
+    return [_number(x, f"{where}[{i}]") for i, x in enumerate(v)]
+
+
+def parse_step(d, where: str, robot) -> ShownStep:
+    """One step of a plan document; ``robot`` names the arms and joints it may use."""
+    _need(isinstance(d, dict), where, "must be a mapping")
+    step = d.get("step")
+    _need(isinstance(step, int) and not isinstance(step, bool) and step >= 0, f"{where}.step",
+          "must be a step index (an integer >= 0)")
+    action, target = _text(d, "action", where), _text(d, "target", where)
+    if d.get("status", "ok") != "ok":
+        _need(d.get("status") == "infeasible", f"{where}.status", "must be 'ok' or 'infeasible'")
+        reason = d.get("reason")
+        return ShownStep(step, action, target, False, reason if isinstance(reason, str) else "no reason given")
+    arm = _text(d, "arm", where)
+    _need(arm in robot.arms, f"{where}.arm", f"no arm '{arm}' on robot '{robot.name}'; arms: {', '.join(robot.arms)}")
+    base = tuple(_numbers(d.get("base"), 3, f"{where}.base"))
+    tcp = d.get("tcp")
+    _need(isinstance(tcp, list) and len(tcp) > 0, f"{where}.tcp", "must be a non-empty list of poses [x, y, z, qx, qy, qz, qw]")
+    poses = []
+    for i, p in enumerate(tcp):
+        v = _numbers(p, 7, f"{where}.tcp[{i}]")
+        _need(np.linalg.norm(v[3:]) > 1e-6, f"{where}.tcp[{i}]", "has a zero quaternion")
+        poses.append(pose_to_matrix(v))
+    joints = d.get("joints")
+    _need(isinstance(joints, dict), f"{where}.joints", "must be a mapping of joint name to value")
+    names = robot.arm(arm).joints
+    missing = [j for j in names if j not in joints]
+    _need(not missing, f"{where}.joints", f"lacks joint(s) {', '.join(missing)} of the {arm} arm")
+    q = np.array([_number(joints[j], f"{where}.joints.{j}") for j in names])
+    extra = {}
+    for key in ("manipulability", "travel_time_s"):
+        extra[key] = _number(d[key], f"{where}.{key}") if key in d else None
+    cost = d.get("cost")
+    total = _number(cost.get("total"), f"{where}.cost.total") if isinstance(cost, dict) and "total" in cost else None
+    grasp = d.get("grasp") if isinstance(d.get("grasp"), str) else "?"
+    return ShownStep(step, action, target, True, None, arm, grasp, base, np.stack(poses), q,
+                     extra["manipulability"], total, extra["travel_time_s"])
+
+
+def parse_plan(doc, where: str, robot) -> list[ShownStep]:
+    """The steps of a plan document ``doc`` (parsed JSON) read from ``where``; PlanFileError if it is
+    not one, or uses an arm or joint ``robot`` lacks."""
+    _need(isinstance(doc, dict), where, "not a plan document (a JSON object with 'steps')")
+    steps = doc.get("steps")
+    _need(isinstance(steps, list) and len(steps) > 0, f"{where}: steps",
+          "must be a non-empty list (write one with `placement query SCENE --json > plan.json`)")
+    name = (doc.get("robot") or {}).get("name") if isinstance(doc.get("robot"), dict) else None
+    _need(name in (None, robot.name), f"{where}: robot.name",
+          f"the plan is for robot '{name}', the scene's robot is '{robot.name}'")
+    return [parse_step(s, f"{where}: steps[{i}]", robot) for i, s in enumerate(steps)]
+
+
+def load_plan(path, robot) -> list[ShownStep]:
+    """The steps of the plan file at ``path`` (PlanFileError naming the file if it is unreadable)."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PlanFileError(f"--plan {p}: cannot read it ({getattr(exc, 'strerror', None) or exc})") from None
+    try:
+        doc = json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise PlanFileError(f"--plan {p}: not JSON ({type(exc).__name__}: {str(exc)[:80]})") from None
+    return parse_plan(doc, str(p), robot)
