@@ -33,7 +33,7 @@ class Scale:
 
     def rgb(self, values: np.ndarray) -> np.ndarray:
         """(..., 3) uint8 colours of ``values``."""
-        return (colormap(self.cmap)(self.normalise(values))[..., :3] * 255).astype(np.uint8)
+        return (np.asarray(colormap(self.cmap)(self.normalise(values)))[..., :3] * 255).astype(np.uint8)
 
     def html(self) -> str:
         """The scale as a small HTML block: a CSS gradient between its end values and the unit."""
