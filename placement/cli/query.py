@@ -33,7 +33,7 @@ def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
     if plot_dir:
         from ..plotting import plot_steps
 
-        plot_steps(planner.world, result, plot_dir)
+        plot_steps(planner.world, result, plot_dir, planner.scene.start, planner.robot.footprint_radius)
     emit(result.to_json(), as_json, _table)
     bad = result.failed_step
     if bad is not None:
