@@ -117,8 +117,10 @@ def parse_step(d, where: str, robot) -> ShownStep:
     poses = []
     for i, p in enumerate(tcp):
         v = _numbers(p, 7, f"{where}.tcp[{i}]")
-        _need(np.linalg.norm(v[3:]) > 1e-6, f"{where}.tcp[{i}]", "has a zero quaternion")
-        poses.append(pose_to_matrix(v))
+        try:
+            poses.append(pose_to_matrix(v))
+        except ValueError as exc:  # not a unit quaternion
+            raise PlanFileError(f"{where}.tcp[{i}]: {exc}") from None
     joints = d.get("joints")
     _need(isinstance(joints, dict), f"{where}.joints", "must be a mapping of joint name to value")
     names = robot.arm(arm).joints
