@@ -97,7 +97,7 @@ class MapView:
         if not len(pts):  # viser needs a point; an invisible one at the origin
             pts, vals = np.zeros((1, 3), np.float32), np.zeros(1)
         colors = self.scale.rgb(vals)
-        size = float(self.rmap.grid.resolution) * 0.8
+        size = float(self.rmap.grid.resolution) * 0.5  # gaps between the points: the inner cells show through
         self.points = self.server.scene.add_point_cloud("/map/cells", pts, colors, point_size=size,
                                                         point_shape="square", visible=self.shown > 0)
         sub = f" (a uniform sample of {len(self.all_points):,})" if self.reached > len(self.all_points) else ""

@@ -20,9 +20,37 @@ def find_browser() -> str | None:
     return next((p for p in map(shutil.which, BROWSERS) if p), None)
 
 
-def screenshot(url: str, out, size=(1280, 800), budget_ms: int = 10_000, timeout_s: float = 180) -> Path:
+def panel_filled(path) -> bool:
+    """Whether a screenshot shows a loaded, connected page: a page caught loading has an empty GUI
+    panel (top right), one whose connection dropped a red icon and a greyed-out scene."""
+    import numpy as np
+    from PIL import Image
+
+    img = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    w = img.shape[1]
+    icon = img[20:50, w - 330:w - 290]  # the connection icon: green when connected, red when not
+    connected = bool(np.any((icon[..., 1] > icon[..., 0] + 60) & (icon[..., 1] > icon[..., 2] + 20)))
+    text = img[60:130, w - 330:w - 20].min() < 90  # the first lines of the panel, filled in once loaded
+    return connected and bool(text)
+
+
+def screenshot(url: str, out, size=(1280, 800), budget_ms: int = 10_000, timeout_s: float = 120,
+               tries: int = 3) -> Path:
     """Load ``url`` in headless Chromium, let it run ``budget_ms`` of virtual time, and write a PNG of
-    ``size`` (width, height) [px] to ``out``. ViewerError if there is no browser or no picture."""
+    ``size`` (width, height) [px] to ``out``; taken again (up to ``tries`` times) while the page shows
+    no GUI yet, which happens when the machine is busy. ViewerError if there is no browser or no picture."""
+    for _ in range(tries - 1):
+        try:
+            if panel_filled(capture(url, out, size, budget_ms, timeout_s)):
+                return Path(out)
+        except ViewerError as exc:
+            if "took more than" not in str(exc):  # a hung browser (a busy machine) is worth another try
+                raise
+    return capture(url, out, size, budget_ms, timeout_s)
+
+
+def capture(url: str, out, size, budget_ms: int, timeout_s: float) -> Path:
+    """One headless Chromium screenshot of ``url`` (see :func:`screenshot`)."""
     browser = find_browser()
     if browser is None:
         raise ViewerError(f"no browser for screenshots: none of {', '.join(BROWSERS)} is on PATH "
