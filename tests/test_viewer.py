@@ -185,6 +185,11 @@ def test_map_view_threshold_and_direction(maps_dir):
         mv.threshold.value = float(np.median(mv.all_values))
         mv.draw()
         assert 0 < mv.shown < mv.reached
+        mv.threshold.value = 0.0
+        mv.section.value = float(np.median(mv.all_points[:, 1]))
+        mv.draw()
+        assert 0 < mv.shown < mv.reached
+        mv.section.value = mv.section.min
         mv.select("down")
         assert 0 < mv.reached and "(down)" in mv.scale.label
         assert v.timings["render_s"] < 30

@@ -14,6 +14,8 @@ import statistics
 import time
 from pathlib import Path
 
+import numpy as np
+
 from .api import view_map, view_scene
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "table_clearing.yaml"
@@ -62,6 +64,7 @@ def bench_map(path, arm=None, shots: Path | None = None) -> dict:
         if shots is not None:
             from .screenshot import screenshot
 
+            mv.section.value = float(np.median(mv.all_points[:, 1]))  # cut open at the middle
             screenshot(v.url, shots / "viewer_map.png")
     finally:
         v.stop()

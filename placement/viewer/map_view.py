@@ -71,12 +71,16 @@ class MapView:
                          f"of {g.resolution * 100:.0f} cm, {'x'.join(map(str, g.shape[3:]))} orientations")
         self.direction = gui.add_dropdown("TCP direction", tuple(DIRECTIONS), initial_value=direction)
         self.threshold = gui.add_slider("threshold", 0.0, 1.0, 0.001, 0.0)
+        # a cut through the cloud: cells nearer the default camera (lower y) hidden, to see inside
+        y0, y1 = g.origin[1], g.origin[1] + g.shape[1] * g.resolution
+        self.section = gui.add_slider("hide y < [m]", round(y0, 2), round(y1, 2), g.resolution / 2, round(y0, 2))
         self.info = gui.add_markdown("")
         self.scale_html = gui.add_html("")
         self.points = None
         self.select(direction)
         self.direction.on_update(lambda _: self.select(self.direction.value))
         self.threshold.on_update(lambda _: self.draw())
+        self.section.on_update(lambda _: self.draw())
 
     def select(self, direction: str) -> None:
         """Recompute the best values for a TCP ``direction`` (a key of DIRECTIONS) and redraw."""
@@ -91,7 +95,7 @@ class MapView:
 
     def draw(self) -> None:
         t = time.perf_counter()
-        keep = self.all_values >= float(self.threshold.value)
+        keep = (self.all_values >= float(self.threshold.value)) & (self.all_points[:, 1] >= float(self.section.value))
         pts, vals = self.all_points[keep], self.all_values[keep]
         self.shown = len(pts)
         if not len(pts):  # viser needs a point; an invisible one at the origin
