@@ -16,7 +16,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 
 from mutations import documents, mutated
-from placement.viewer.plan_file import PlanFileError, ShownStep, parse_plan
+from placement.planning import StepResult
+from placement.viewer.plan_file import PlanFileError, parse_plan
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yaml"
 ROOT = Path(__file__).resolve().parents[1]
@@ -110,7 +111,7 @@ def check(doc, robot) -> None:
     except PlanFileError as exc:
         assert "\n" not in str(exc) and str(exc).startswith("plan.json")
         return
-    assert steps and all(isinstance(s, ShownStep) for s in steps)
+    assert steps and all(isinstance(s, StepResult) for s in steps)
     for s in steps:
         assert not s.ok or (len(s.base) == 3 and s.tcp.shape[1:] == (4, 4) and s.q.shape == (7,))
 
@@ -128,7 +129,8 @@ VALID = {"robot": {"name": "pr2"}, "steps": [
      "joints": {f"r_{j}": 0.1 for j in ("shoulder_pan_joint", "shoulder_lift_joint", "upper_arm_roll_joint",
                                         "elbow_flex_joint", "forearm_roll_joint", "wrist_flex_joint",
                                         "wrist_roll_joint")},
-     "manipulability": 0.05, "cost": {"total": 0.4}, "travel_time_s": 3.0},
+     "manipulability": 0.05, "cost": {"total": 0.4, "navigation": 0.2, "manipulation": 0.15, "heuristic": 0.05},
+     "travel_time_s": 3.0},
     {"step": 1, "action": "place", "target": "a", "status": "infeasible", "reason": "no placement"}]}
 
 
@@ -142,3 +144,4 @@ def test_the_valid_plan_parses(pr2):
     steps = parse_plan(VALID, "plan.json", pr2)
     assert [s.ok for s in steps] == [True, False] and steps[0].base == (1.0, 2.0, 0.5)
     assert steps[1].reason == "no placement" and steps[0].tcp.shape == (2, 4, 4)
+    assert abs(steps[0].cost.total - 0.4) < 1e-12 and steps[0].joints["r_elbow_flex_joint"] == 0.1

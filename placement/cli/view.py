@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import json
 import sys
 
 import click
 
-from ..errors import PlacementError
 from ..planning import METHODS
 from .options import setup_logging, standard_options, to_json_line
 from .params import Bounded, OneLineCommand, OneLineError
+from .query import stream_plans
 
 PORT = Bounded(0, 65535)
 
@@ -55,38 +54,12 @@ def view(scene, maps_path, method, plan_path, stream, port, timeout, as_json, ve
     if stream:
         click.echo(f"viewer at {v.url}; reading updates from stdin", err=True)
         try:
-            stream_updates(v)
+            # as `placement query --stream`, and each new plan is shown
+            stream_plans(v.planner, keep_maps=True, on_result=lambda result: v.content.set_steps(result.steps))
         except BaseException:
             v.stop()
             raise
     serve(v, as_json and not stream, "viewer", timeout)
-
-
-def stream_updates(v) -> None:
-    """Apply each JSON-line scene update read from stdin to the view's planner and show the new plan;
-    print the plan (or ``{"error": ...}``) as one JSON line, as `placement query --stream` does."""
-    from ..viewer.plan_file import steps_from_result
-
-    planner = v.planner
-    click.echo(to_json_line(planner.plan().to_json()))
-    for number, line in enumerate(sys.stdin, 1):
-        if not line.strip():
-            continue
-        try:
-            try:
-                change = json.loads(line)
-            except (ValueError, RecursionError) as exc:
-                raise PlacementError(f"line {number}: not valid JSON ({type(exc).__name__})") from None
-            info = planner.update(change)
-            result = planner.plan(keep_maps=True)
-            result.update = info
-            v.content.set_steps(steps_from_result(result))
-            click.echo(to_json_line(result.to_json()))
-        except PlacementError as exc:
-            msg = (str(exc).splitlines() or ["error"])[0]
-            click.echo(f"error: {msg}", err=True)
-            click.echo(json.dumps({"error": msg}))
-        sys.stdout.flush()
 
 
 @click.command("view", cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})

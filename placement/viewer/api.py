@@ -22,7 +22,7 @@ def view_scene(scene, maps=None, method: str = "sequential", plan=None, port: in
     from ..planning import Planner
     from ..planning.scene import Scene, load_scene
     from ..robots import load_robot
-    from .plan_file import load_plan, steps_from_result
+    from .plan_file import load_plan
     from .plan_view import PlanView
     from .scene_view import draw_scene
 
@@ -39,7 +39,7 @@ def view_scene(scene, maps=None, method: str = "sequential", plan=None, port: in
     server = start_server(port, label=f"placement: {scene.name}")
     try:
         if planner is not None:
-            steps = steps_from_result(planner.plan(keep_maps=True))
+            steps = planner.plan(keep_maps=True).steps
         server.initial_camera.look_at = ((scene.bounds[0] + scene.bounds[2]) / 2, (scene.bounds[1] + scene.bounds[3]) / 2, 0.0)
         server.initial_camera.position = (scene.bounds[0] - 1.0, scene.bounds[1] - 2.5, 6.0)
         server.initial_camera.up = (0.0, 0.0, 1.0)

@@ -1,15 +1,15 @@
-"""The steps a view shows: from a planner's :class:`~placement.planning.PlanResult`, or from a plan
-document (the JSON of ``placement query --json``, SPEC section 7) read from a file and checked."""
+"""Plan files for the viewer: a plan document (the JSON of ``placement query --json``, SPEC section 7)
+read and checked into :class:`~placement.planning.StepResult` objects, as the planner makes them."""
 
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ..planning.results import Cost, StepResult
 from ..robots import pose_to_matrix
 from .server import ViewerError
 
@@ -18,53 +18,11 @@ class PlanFileError(ViewerError):
     """A plan file that cannot be shown; the one-line message names the file and the key."""
 
 
-@dataclass(frozen=True)
-class ShownStep:
-    """One step as the viewer draws it.
-
-    Attributes:
-        step, action, target: index, "pick"/"place", object or place location name.
-        ok, reason: planned, or infeasible with a reason.
-        arm, grasp: chosen arm and grasp (None if infeasible).
-        base: (x [m], y [m], yaw [rad]) or None. tcp: (P, 4, 4) TCP poses in the world [m] or None.
-        q: (n,) the arm's joint values [rad or m] or None. manipulability (dimensionless), cost
-        (Eq. 6 total, dimensionless), travel_time_s [s]: None when unknown.
-        maps: the step's :class:`~placement.planning.results.StepMaps`, when the planner kept them.
-    """
-
-    step: int
-    action: str
-    target: str
-    ok: bool
-    reason: str | None = None
-    arm: str | None = None
-    grasp: str | None = None
-    base: tuple[float, float, float] | None = None
-    tcp: np.ndarray | None = None
-    q: np.ndarray | None = None
-    manipulability: float | None = None
-    cost: float | None = None
-    travel_time_s: float | None = None
-    maps: object = None
-
-    @property
-    def title(self) -> str:
-        what = f"step {self.step}: {self.action} {self.target}"
-        return f"{what} ({self.arm} arm, {self.grasp})" if self.ok else f"{what} (infeasible: {self.reason})"
-
-
-def steps_from_result(result) -> list[ShownStep]:
-    """The steps of a :class:`~placement.planning.PlanResult` (maps kept if it was planned with them)."""
-    out = []
-    for s in result.steps:
-        if not s.ok:
-            out.append(ShownStep(s.step, s.action, s.target, False, s.reason, maps=s.maps))
-            continue
-        out.append(ShownStep(s.step, s.action, s.target, True, None, s.arm, s.grasp,
-                             tuple(float(v) for v in s.base), np.asarray(s.tcp, dtype=float),
-                             np.asarray(s.q, dtype=float), float(s.manipulability), float(s.cost.total),
-                             float(s.travel_time_s), s.maps))
-    return out
+def title(s) -> str:
+    """One line naming a :class:`~placement.planning.StepResult`: step, action, target, arm and grasp
+    (or why it is infeasible)."""
+    what = f"step {s.step}: {s.action} {s.target}"
+    return f"{what} ({s.arm} arm, {s.grasp})" if s.ok else f"{what} (infeasible: {s.reason})"
 
 
 def _need(cond: bool, where: str, msg: str) -> None:
@@ -98,7 +56,7 @@ def _numbers(v, n: int | None, where: str) -> list[float]:
     return [_number(x, f"{where}[{i}]") for i, x in enumerate(v)]
 
 
-def parse_step(d, where: str, robot) -> ShownStep:
+def parse_step(d, where: str, robot) -> StepResult:
     """One step of a plan document; ``robot`` names the arms and joints it may use."""
     _need(isinstance(d, dict), where, "must be a mapping")
     step = d.get("step")
@@ -108,7 +66,7 @@ def parse_step(d, where: str, robot) -> ShownStep:
     if d.get("status", "ok") != "ok":
         _need(d.get("status") == "infeasible", f"{where}.status", "must be 'ok' or 'infeasible'")
         reason = d.get("reason")
-        return ShownStep(step, action, target, False, reason if isinstance(reason, str) else "no reason given")
+        return StepResult(step, action, target, "infeasible", reason if isinstance(reason, str) else "no reason given")
     arm = _text(d, "arm", where)
     _need(arm in robot.arms, f"{where}.arm", f"no arm '{arm}' on robot '{robot.name}'; arms: {', '.join(robot.arms)}")
     base = tuple(_numbers(d.get("base"), 3, f"{where}.base"))
@@ -127,17 +85,17 @@ def parse_step(d, where: str, robot) -> ShownStep:
     missing = [j for j in names if j not in joints]
     _need(not missing, f"{where}.joints", f"lacks joint(s) {', '.join(missing)} of the {arm} arm")
     q = np.array([_number(joints[j], f"{where}.joints.{j}") for j in names])
-    extra = {}
-    for key in ("manipulability", "travel_time_s"):
-        extra[key] = _number(d[key], f"{where}.{key}") if key in d else None
-    cost = d.get("cost")
-    total = _number(cost.get("total"), f"{where}.cost.total") if isinstance(cost, dict) and "total" in cost else None
+    extra = {key: _number(d[key], f"{where}.{key}") if key in d else None
+             for key in ("manipulability", "travel_time_s")}
+    cost = d.get("cost") if isinstance(d.get("cost"), dict) else {}
+    terms = ("navigation", "manipulation", "heuristic")
+    cost = Cost(*(_number(cost[t], f"{where}.cost.{t}") for t in terms)) if all(t in cost for t in terms) else None
     grasp = d.get("grasp") if isinstance(d.get("grasp"), str) else "?"
-    return ShownStep(step, action, target, True, None, arm, grasp, base, np.stack(poses), q,
-                     extra["manipulability"], total, extra["travel_time_s"])
+    return StepResult(step, action, target, "ok", None, arm, grasp, base, np.stack(poses), q,
+                      {j: float(v) for j, v in zip(names, q)}, extra["manipulability"], cost, extra["travel_time_s"])
 
 
-def parse_plan(doc, where: str, robot) -> list[ShownStep]:
+def parse_plan(doc, where: str, robot) -> list[StepResult]:
     """The steps of a plan document ``doc`` (parsed JSON) read from ``where``; PlanFileError if it is
     not one, or uses an arm or joint ``robot`` lacks."""
     _need(isinstance(doc, dict), where, "not a plan document (a JSON object with 'steps')")
@@ -150,7 +108,7 @@ def parse_plan(doc, where: str, robot) -> list[ShownStep]:
     return [parse_step(s, f"{where}: steps[{i}]", robot) for i, s in enumerate(steps)]
 
 
-def load_plan(path, robot) -> list[ShownStep]:
+def load_plan(path, robot) -> list[StepResult]:
     """The steps of the plan file at ``path`` (PlanFileError naming the file if it is unreadable)."""
     p = Path(path)
     try:

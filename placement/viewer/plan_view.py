@@ -10,6 +10,7 @@ import numpy as np
 
 from .colors import Scale, layer_image, scale_of
 from .geometry import polyline_segments, ring_segments, yaw_wxyz
+from .plan_file import title
 from .robot_view import RobotDrawing, config_of
 
 PATH = (220, 40, 40)
@@ -23,7 +24,7 @@ DISTANCE_CAP = 2.0  # [m] farther than this is all the same to the velocity mode
 
 
 class PlanView:
-    """Draws ``steps`` (a list of :class:`~placement.viewer.plan_file.ShownStep`) of a plan over the
+    """Draws ``steps`` (a list of :class:`~placement.planning.StepResult`) of a plan over the
     scene's ``world`` (its World, or None without maps) in ``server``; ``robot`` is the placement Robot.
 
     Attributes: step_ms (the last step switch's drawing time [ms]).
@@ -103,13 +104,15 @@ class PlanView:
 
     def describe(self, s) -> str:
         if not s.ok:
-            return f"**{s.title}**"
+            return f"**{title(s)}**"
         x, y, yaw = s.base
-        lines = [f"**{s.title}**", f"base x {x:.2f} m, y {y:.2f} m, yaw {np.degrees(yaw):.0f} deg"]
+        lines = [f"**{title(s)}**", f"base x {x:.2f} m, y {y:.2f} m, yaw {np.degrees(yaw):.0f} deg"]
         if s.manipulability is not None:
             lines.append(f"manipulability {s.manipulability:.4f}")
-        if s.cost is not None and s.travel_time_s is not None:
-            lines.append(f"cost {s.cost:.3f}, travel {s.travel_time_s:.1f} s")
+        if s.cost is not None:
+            lines.append(f"cost {s.cost.total:.3f} (Eq. 6, dimensionless)")
+        if s.travel_time_s is not None:
+            lines.append(f"travel {s.travel_time_s:.1f} s")
         return "  \n".join(lines)
 
     def draw_layers(self, index: int) -> None:
