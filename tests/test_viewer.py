@@ -148,6 +148,34 @@ def test_polygon_prism_is_closed_and_covers_a_concave_polygon():
     assert set(edges.values()) == {2}  # every edge shared by two faces: watertight
 
 
+def test_every_kind_of_obstacle_and_the_occupancy_map_are_drawn(tmp_path):
+    from test_occupancy import write_map
+    from test_scene import FULL_SCENE
+
+    from placement.planning.scene import load_scene
+    from placement.viewer.scene_view import draw_scene
+    from placement.viewer.server import start_server
+
+    write_map(tmp_path)
+    (tmp_path / "scene.yaml").write_text(FULL_SCENE)
+    scene = load_scene(tmp_path / "scene.yaml")
+    server = start_server(0)
+    try:
+        nodes = draw_scene(server, scene, 0.47)
+    finally:
+        server.stop()
+    assert set(nodes) == {"/scene/tables/table_1", "/scene/obstacles/pillar", "/scene/obstacles/wall",
+                          "/scene/occupancy", "/scene/objects/cup_1", "/scene/objects/cup_2"}
+    pillar = nodes["/scene/obstacles/pillar"]
+    v = np.asarray(pillar.vertices)
+    r = np.hypot(v[:, 0] + 1.0, v[:, 1] - 3.0)
+    assert np.allclose(r, 0.2) and v[:, 2].min() == 0.0 and v[:, 2].max() == 2.0  # upright, its size
+    occ = scene.occupancy
+    img = np.asarray(nodes["/scene/occupancy"].image)
+    assert img.shape[:2] == occ.occupied.shape
+    np.testing.assert_array_equal(img[..., 3] > 0, occ.occupied)  # occupied dark, free transparent
+
+
 def test_direction_bins_point_the_tcp_that_way(maps_dir):
     from placement import open_map
 

@@ -28,33 +28,32 @@ def draw_floor(server, bounds) -> None:
                           position=(*centre, 0.001), shadow_opacity=0.0)
 
 
-def draw_shape(server, name: str, shape, color, opacity: float | None = None) -> None:
-    """One Box, Cylinder or Polygon of the scene model."""
+def draw_shape(server, name: str, shape, color, opacity: float | None = None):
+    """One Box, Cylinder or Polygon of the scene model; returns its scene node."""
     kind = type(shape).__name__
     if kind == "Box":
-        server.scene.add_box(name, color=color, dimensions=tuple(shape.size), position=tuple(shape.center),
-                             wxyz=yaw_wxyz(shape.yaw), opacity=opacity)
+        return server.scene.add_box(name, color=color, dimensions=tuple(shape.size), position=tuple(shape.center),
+                                    wxyz=yaw_wxyz(shape.yaw), opacity=opacity)
     elif kind == "Cylinder":
         # a prism of many sides, so the axis is z whatever a library's cylinder convention is
         z0 = float(shape.center[2] - shape.height / 2)
         v, f = prism(circle(shape.radius) + shape.center[:2], z0, z0 + shape.height)
-        server.scene.add_mesh_simple(name, v, f, color=color, opacity=opacity, flat_shading=False)
+        return server.scene.add_mesh_simple(name, v, f, color=color, opacity=opacity, flat_shading=False)
     elif kind == "Polygon":
         v, f = prism(shape.points, 0.0, POLYGON_HEIGHT)
-        server.scene.add_mesh_simple(name, v, f, color=color, opacity=0.85 if opacity is None else opacity)
-    else:
-        raise TypeError(f"unknown shape {kind}")
+        return server.scene.add_mesh_simple(name, v, f, color=color, opacity=0.85 if opacity is None else opacity)
+    raise TypeError(f"unknown shape {kind}")
 
 
-def draw_occupancy(server, occupancy) -> None:
-    """The occupancy map's occupied cells as a dark floor layer (free cells transparent)."""
+def draw_occupancy(server, occupancy):
+    """The occupancy map's occupied cells as a dark floor layer (free cells transparent); its node."""
     occ = np.asarray(occupancy.occupied)
     rows, cols = occ.shape
     res = occupancy.resolution
     ox, oy = occupancy.origin[:2]
     img = layer_image(np.where(occ, 0.8, np.nan), OCCUPIED, alpha=200)
-    server.scene.add_image("/scene/occupancy", img, cols * res, rows * res, format="png",
-                           position=(ox + cols * res / 2, oy + rows * res / 2, 0.003), cast_shadow=False)
+    return server.scene.add_image("/scene/occupancy", img, cols * res, rows * res, format="png",
+                                  position=(ox + cols * res / 2, oy + rows * res / 2, 0.003), cast_shadow=False)
 
 
 def draw_start(server, start, footprint_radius: float) -> None:
@@ -68,17 +67,19 @@ def draw_start(server, start, footprint_radius: float) -> None:
     server.scene.add_label("/scene/start/label", "start", position=(x, y, 0.3))
 
 
-def draw_scene(server, scene, footprint_radius: float) -> None:
+def draw_scene(server, scene, footprint_radius: float) -> dict:
     """Everything of ``scene`` (a :class:`placement.planning.scene.Scene`) that does not change
-    between steps. ``footprint_radius`` [m] of the robot, for the start pose."""
+    between steps. ``footprint_radius`` [m] of the robot, for the start pose. Returns the nodes of the
+    obstacles, objects and occupancy map by node name."""
     draw_floor(server, scene.bounds)
+    nodes = {}
     for ob in scene.obstacles:
-        draw_shape(server, f"/scene/{'tables' if ob.table else 'obstacles'}/{ob.name}", ob.shape,
-                   TABLE if ob.table else OBSTACLE)
+        name = f"/scene/{'tables' if ob.table else 'obstacles'}/{ob.name}"
+        nodes[name] = draw_shape(server, name, ob.shape, TABLE if ob.table else OBSTACLE)
     if scene.occupancy is not None:
-        draw_occupancy(server, scene.occupancy)
+        nodes["/scene/occupancy"] = draw_occupancy(server, scene.occupancy)
     for o in scene.objects:
-        draw_shape(server, f"/scene/objects/{o.name}", o.box, OBJECT)
+        nodes[f"/scene/objects/{o.name}"] = draw_shape(server, f"/scene/objects/{o.name}", o.box, OBJECT)
         server.scene.add_label(f"/scene/objects/{o.name}/label", o.name,
                                position=(o.position[0], o.position[1], o.position[2] + o.size[2] / 2 + 0.08))
     for p in scene.place_locations:
@@ -87,3 +88,4 @@ def draw_scene(server, scene, footprint_radius: float) -> None:
         server.scene.add_label(f"/scene/places/{p.name}/label", p.name,
                                position=(p.position[0], p.position[1], p.position[2] + 0.08))
     draw_start(server, scene.start, footprint_radius)
+    return nodes
