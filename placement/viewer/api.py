@@ -49,10 +49,7 @@ def view_scene(scene, maps=None, method: str = "sequential", plan=None, port: in
     except BaseException:
         server.stop()
         raise
-    view = View(server, content)
-    view.planner = planner
-    view.timings = {"load_s": t1 - t0, "first_step_s": time.perf_counter() - t1}
-    return view
+    return View(server, content, planner, {"load_s": t1 - t0, "first_step_s": time.perf_counter() - t1})
 
 
 def view_map(path, arm: str | None = None, direction: str = "best", port: int = 0,
@@ -87,9 +84,7 @@ def view_map(path, arm: str | None = None, direction: str = "best", port: int = 
     except BaseException:
         server.stop()
         raise
-    view = View(server, content)
-    view.timings = {"render_s": time.perf_counter() - t0}
-    return view
+    return View(server, content, timings={"render_s": time.perf_counter() - t0})
 
 
 def view(target, **options) -> View:

@@ -47,12 +47,15 @@ def start_server(port: int = 0, label: str = "placement"):
 
 
 class View:
-    """A running view: ``url`` to open, ``server`` (the viser server), ``stop()``; ``wait()`` serves
-    until Ctrl-C (or ``timeout`` [s])."""
+    """A running view: ``url`` to open, ``server`` (the viser server), ``content`` (what it shows),
+    ``planner`` (for a planned scene), ``timings`` [s]; ``stop()``; ``wait()`` serves until Ctrl-C (or
+    ``timeout`` [s])."""
 
-    def __init__(self, server, content=None):
+    def __init__(self, server, content=None, planner=None, timings: dict | None = None):
         self.server = server
         self.content = content
+        self.planner = planner
+        self.timings = dict(timings or {})
         self.url = f"http://{HOST}:{server.get_port()}"
         self._stopped = threading.Event()
 
