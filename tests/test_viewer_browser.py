@@ -45,6 +45,9 @@ def shots(maps_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("shots")
     v = view_scene(EXAMPLE, maps=maps_dir, port=0)
     try:
+        for box in v.content.toggles.values():  # no cost layer: its viridis blues would pass for the robot
+            box.value = False
+        v.content.show(0)
         with_robot = screenshot(v.url, out / "robot.png")
         v.content.robot_drawing.visible = False
         without = screenshot(v.url, out / "no_robot.png")
@@ -64,10 +67,11 @@ def test_the_scene_is_drawn(shots):
 def test_the_robot_is_drawn(shots):
     with_robot, without = shots
     blue_with, blue_without = robot_blue(with_robot).sum(), robot_blue(without).sum()
-    assert blue_with > 800 and blue_without < blue_with / 3, (blue_with, blue_without)
+    assert blue_with > 800 and blue_without < blue_with / 3, (blue_with, blue_without)  # the footprint is blue too
     changed = np.abs(with_robot.astype(int) - without.astype(int)).max(axis=2) > 30
     assert changed.sum() > 800  # the robot, and only a part of the picture
     assert changed.mean() < 0.2
+    assert robot_blue(with_robot)[changed].mean() > 0.5  # what the robot adds is mostly its blue
     # the second page is as vivid as the first (a lost connection greys the whole canvas out)
     assert table_brown(without).sum() > 0.7 * table_brown(with_robot).sum()
 

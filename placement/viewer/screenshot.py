@@ -3,8 +3,11 @@ the README's pictures and the viewer benchmark. WebGL is drawn in software (Swif
 
 from __future__ import annotations
 
+import os
 import shutil
+import signal
 import subprocess
+import tempfile
 from pathlib import Path
 
 from .server import ViewerError
@@ -55,15 +58,22 @@ def capture(url: str, out, size, budget_ms: int, timeout_s: float) -> Path:
     if browser is None:
         raise ViewerError(f"no browser for screenshots: none of {', '.join(BROWSERS)} is on PATH "
                           "(apt-get install chromium)")
-    out = Path(out)
+    out = Path(out).resolve()
     out.unlink(missing_ok=True)
-    cmd = [browser, *FLAGS, f"--screenshot={out}", f"--window-size={size[0]},{size[1]}",
-           f"--virtual-time-budget={budget_ms}", url]
-    try:
-        r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        raise ViewerError(f"{browser} took more than {timeout_s:.0f} s to take a screenshot of {url}") from None
+    # a profile of its own: a browser already running on the default profile would take the request over
+    with tempfile.TemporaryDirectory(prefix="placement-chromium-", ignore_cleanup_errors=True) as profile:
+        cmd = [browser, *FLAGS, f"--user-data-dir={profile}", f"--screenshot={out}",
+               f"--window-size={size[0]},{size[1]}", f"--virtual-time-budget={budget_ms}", url]
+        # a session of its own, so that a hung browser is ended with every process it started
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                             start_new_session=True)
+        try:
+            _, err = p.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.communicate()
+            raise ViewerError(f"{browser} took more than {timeout_s:.0f} s to take a screenshot of {url}") from None
     if not out.is_file():
-        tail = " ".join(r.stderr.split())[-200:]
-        raise ViewerError(f"{browser} wrote no screenshot (exit {r.returncode}): {tail}")
+        tail = " ".join(err.split())[-200:]
+        raise ViewerError(f"{browser} wrote no screenshot (exit {p.returncode}): {tail}")
     return out
