@@ -20,7 +20,7 @@ from .version import __version__
 
 # the map builder and the accuracy check pull in the sampler, tqdm and coal: loaded on first use, so
 # that opening a map (the online path) does not pay for them
-_LAZY = {"build_map": "build", "check_map": "accuracy"}
+_LAZY = {"build_map": "build", "check_map": "accuracy", "view": "viewer"}
 
 
 def __getattr__(name: str):

@@ -1,4 +1,5 @@
-"""PNG figures of each step's cost maps (like the paper's Fig. 2 and 3). Never imported by algorithms."""
+"""PNG figures of each step's cost maps (like the paper's Fig. 2 and 3), readable at a glance: 150 dpi,
+a legend for every marker, units on every colour bar, no empty panels. Never imported by algorithms."""
 
 from __future__ import annotations
 
@@ -6,55 +7,129 @@ from pathlib import Path
 
 import numpy as np
 
+DPI = 150
+DISTANCE_CAP = 2.0  # [m] the distance panel saturates here: farther is all open floor
+# (StepMaps field or "distance", panel title, colour bar label, colour map)
+PANELS = (("distance", "distance to obstacles", "distance [m]", "magma"),
+          ("navigation", "navigation cost", "navigation cost [m]", "viridis"),
+          ("manipulation", "manipulability (IRM)", "manipulability [dimensionless]", "viridis"),
+          ("heuristic", "heuristic cost to the next step", "heuristic cost [m]", "cividis"),
+          ("combined", "combined cost (Eq. 6)", "combined cost [dimensionless]", "viridis"))
 
-def plot_steps(world, result, out_dir) -> list[Path]:
-    """One PNG per step of ``result`` (a PlanResult planned with ``keep_maps``) over ``world``
-    (the planner's World): distance, navigation, manipulation, heuristic and combined cost, with
-    the chosen placement (arrow) and the path from the previous placement."""
+
+def panel_data(key: str, world, maps) -> np.ma.MaskedArray | None:
+    """The masked (ny, nx) layer of a panel, or None when it would be an empty panel (no layer, or
+    a single value everywhere, such as the heuristic of the last step, which has no next step)."""
+    layer = np.minimum(world.distance, DISTANCE_CAP) if key == "distance" else getattr(maps, key)
+    if layer is None:
+        return None
+    data = np.ma.masked_invalid(np.asarray(layer, dtype=float))
+    if key == "manipulation":
+        data = np.ma.masked_less_equal(data, 0.0)
+    if not data.count() or float(data.max()) == float(data.min()):
+        return None
+    return data
+
+
+def draw_markers(ax, world, step, maps, start, footprint_radius) -> None:
+    """Obstacles, the infeasible area, the path, the start, the target and the chosen placement."""
+    from matplotlib.patches import Circle
+
+    nav = world.nav
+    xs, ys = nav.centres()
+    blocked = np.ma.masked_where(world.feasible, np.ones(world.feasible.shape))
+    ax.imshow(blocked, origin="lower", extent=extent_of(nav), cmap="Greys", vmin=0, vmax=3, alpha=0.55,
+              interpolation="nearest")
+    ax.contour(xs, ys, world.occupied.astype(float), levels=[0.5], colors="k", linewidths=0.8)
+    if maps.path is not None and len(maps.path):
+        ax.plot(xs[maps.path[:, 1]], ys[maps.path[:, 0]], "-", color="red", lw=1.6)
+    if start is not None:
+        ax.plot(start[0], start[1], "o", color="white", mec="k", ms=7)
+    if step.ok:
+        x, y, yaw = step.base
+        r = footprint_radius or 0.3
+        ax.add_patch(Circle((x, y), r, fill=False, ec="red", lw=1.6))
+        ax.annotate("", (x + r * np.cos(yaw), y + r * np.sin(yaw)), (x, y),
+                    arrowprops={"arrowstyle": "-|>", "color": "red", "lw": 1.6})
+        ax.plot(step.tcp[-1][0, 3], step.tcp[-1][1, 3], "*", color="white", mec="k", ms=13)
+
+
+def extent_of(nav) -> tuple[float, float, float, float]:
+    return (nav.origin[0], nav.origin[0] + nav.shape[1] * nav.resolution,
+            nav.origin[1], nav.origin[1] + nav.shape[0] * nav.resolution)
+
+
+def legend_handles(step, start, has_path: bool) -> list:
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    h = [Line2D([], [], color="k", lw=0.8, label="obstacle outline"),
+         Patch(color="0.55", alpha=0.55, label="infeasible for the base\n(obstacle or closer than footprint)")]
+    if has_path:
+        h.append(Line2D([], [], color="red", lw=1.6, label="path from the previous placement"))
+    if start is not None:
+        h.append(Line2D([], [], ls="", marker="o", color="white", mec="k", ms=7, label="start pose"))
+    if step.ok:
+        h += [Line2D([], [], ls="", marker="o", mfc="none", mec="red", ms=12, mew=1.6,
+                     label="chosen placement: footprint\n(arrow: heading)"),
+              Line2D([], [], ls="", marker="*", color="white", mec="k", ms=13, label=f"target ({step.target})")]
+    return h
+
+
+def plot_step(world, step, path, start=None, footprint_radius: float | None = None) -> Path | None:
+    """One PNG of ``step`` (a StepResult with ``maps``) over ``world`` at ``path``; None without maps.
+
+    ``start`` (x [m], y [m], yaw [rad]) and ``footprint_radius`` [m] add the start pose and the true
+    footprint size."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    maps = step.maps
+    if maps is None:
+        return None
+    panels = [(title, label, cmap, data) for key, title, label, cmap in PANELS
+              if (data := panel_data(key, world, maps)) is not None]
+    cols = 3
+    rows = (len(panels) + 1 + cols - 1) // cols  # one cell more for the legend
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.4 * rows), squeeze=False)
+    axes = axes.ravel()
+    for ax, (title, label, cmap, data) in zip(axes, panels):
+        im = ax.imshow(data, origin="lower", extent=extent_of(world.nav), cmap=cmap, interpolation="nearest")
+        fig.colorbar(im, ax=ax, fraction=0.046, pad=0.03).set_label(label, fontsize=10)
+        draw_markers(ax, world, step, maps, start, footprint_radius)
+        ax.set_title(title, fontsize=12)
+        ax.set_xlabel("x [m]", fontsize=10)
+        ax.set_ylabel("y [m]", fontsize=10)
+        ax.set_aspect("equal")
+    legend_ax = axes[len(panels)]
+    legend_ax.axis("off")
+    has_path = maps.path is not None and len(maps.path) > 0
+    legend_ax.legend(handles=legend_handles(step, start, has_path), loc="center", fontsize=10, frameon=False)
+    for ax in axes[len(panels) + 1:]:
+        ax.remove()
+    dropped = [t for k, t, _, _ in PANELS if panel_data(k, world, maps) is None]
+    note = f"\n(not shown, a single value everywhere: {', '.join(dropped)})" if dropped else ""
+    fig.suptitle(f"step {step.step}: {step.action} {step.target}"
+                 + (f" ({step.arm} arm, {step.grasp})" if step.ok else f" (infeasible: {step.reason})") + note,
+                 fontsize=14)
+    fig.tight_layout()
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return Path(path)
+
+
+def plot_steps(world, result, out_dir, start=None, footprint_radius: float | None = None) -> list[Path]:
+    """One PNG per step of ``result`` (a PlanResult planned with ``keep_maps``) over ``world`` (the
+    planner's World) in ``out_dir``: distance, navigation, manipulability, heuristic and combined cost
+    (panels that would be empty are left out), with the path, start, target and chosen placement."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    nav = world.nav
-    extent = (nav.origin[0], nav.origin[0] + nav.shape[1] * nav.resolution,
-              nav.origin[1], nav.origin[1] + nav.shape[0] * nav.resolution)
-    xs, ys = nav.centres()
     files = []
     for step in result.steps:
-        maps = step.maps
-        if maps is None:
-            continue
-        layers = [("distance to obstacles [m]", np.minimum(world.distance, 2.0)),
-                  ("navigation cost [m]", maps.navigation),
-                  ("manipulability (IRM)", maps.manipulation),
-                  ("heuristic cost [m]", maps.heuristic),
-                  ("combined cost (Eq. 6)", maps.combined)]
-        fig, axes = plt.subplots(1, 5, figsize=(22, 4.6))
-        for ax, (title, layer) in zip(axes, layers):
-            data = np.ma.masked_invalid(np.asarray(layer, dtype=float)) if layer is not None else None
-            if data is not None and data.count():
-                if title.startswith("manip"):
-                    data = np.ma.masked_less_equal(data, 0.0)
-                im = ax.imshow(data, origin="lower", extent=extent, cmap="viridis")
-                fig.colorbar(im, ax=ax, fraction=0.046)
-            ax.contour(xs, ys, world.occupied.astype(float), levels=[0.5], colors="k", linewidths=0.6)
-            if step.ok:
-                x, y, yaw = step.base
-                ax.arrow(x, y, 0.4 * np.cos(yaw), 0.4 * np.sin(yaw), color="red", width=0.04)
-                ax.plot(step.tcp[-1][0, 3], step.tcp[-1][1, 3], "w*", ms=9, mec="k")
-            if maps.path is not None and len(maps.path):
-                ax.plot(xs[maps.path[:, 1]], ys[maps.path[:, 0]], "r-", lw=1)
-            ax.set_title(title, fontsize=9)
-            ax.set_xlabel("x [m]")
-        axes[0].set_ylabel("y [m]")
-        fig.suptitle(f"step {step.step}: {step.action} {step.target}"
-                     + (f" ({step.arm} arm, {step.grasp})" if step.ok else " (infeasible)"))
-        fig.tight_layout()
-        path = out / f"step{step.step:02d}_{step.action}_{step.target}.png"
-        fig.savefig(path, dpi=80)
-        plt.close(fig)
-        files.append(path)
+        path = plot_step(world, step, out / f"step{step.step:02d}_{step.action}_{step.target}.png", start,
+                         footprint_radius)
+        if path is not None:
+            files.append(path)
     return files

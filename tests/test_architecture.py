@@ -55,7 +55,8 @@ LAYERS = [
     ("placement.storage", ("placement.planning", "placement.cli", "placement.evaluation", "placement.build",
                            "placement.plotting")),
     ("placement.rmap", ("placement.build", "placement.planning", "placement.cli", "tqdm", "placement.selfcollision")),
-    ("placement.planning", ("placement.cli", "placement.evaluation", "placement.plotting", "matplotlib", "viser")),
+    ("placement.planning", ("placement.cli", "placement.evaluation", "placement.plotting", "placement.viewer",
+                            "matplotlib", "viser")),
     ("placement.evaluation", ("placement.cli",)),
     ("placement.robots", ("placement.planning", "placement.cli", "placement.storage")),
 ]
@@ -67,7 +68,7 @@ def test_dependencies_point_one_way(path):
     for module, _ in _imports(path):
         if not name.startswith("placement.cli"):
             assert not module.startswith("placement.cli"), f"{name} imports the CLI ({module})"
-        if not name.startswith(("placement.cli", "placement.plotting")):
+        if not name.startswith(("placement.cli", "placement.plotting", "placement.viewer")):
             assert not module.startswith("viser"), f"{name} imports a viewer ({module})"
         for prefix, forbidden in LAYERS:
             if name == prefix or name.startswith(prefix + "."):
@@ -80,7 +81,8 @@ def test_opening_a_map_does_not_import_the_builder():
     import sys
 
     code = ("import sys, placement; placement.open_map; placement.plan; "
-            "print(sorted(m for m in ('placement.build', 'tqdm', 'placement.selfcollision') if m in sys.modules))")
+            "print(sorted(m for m in ('placement.build', 'tqdm', 'placement.selfcollision', 'placement.viewer', "
+            "'viser') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"

@@ -1,4 +1,4 @@
-"""Entry point: `placement maps ...` (offline maps), `placement query` (online placements)."""
+"""Entry point: `placement maps ...` (offline maps), `placement query` (online placements), `placement view`."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from .maps import maps
 from .params import OneLineGroup
 from .query import query
 from .scenes import scenes
+from .view import view
 
 
 @click.group(cls=OneLineGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -22,6 +23,7 @@ cli.add_command(maps)
 cli.add_command(query)
 cli.add_command(scenes)
 cli.add_command(evaluate)
+cli.add_command(view)
 
 
 def main():

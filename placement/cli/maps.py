@@ -1,4 +1,4 @@
-"""`placement maps build | info | check`."""
+"""`placement maps build | info | check | view`."""
 
 from __future__ import annotations
 
@@ -22,6 +22,7 @@ from ..storage import open_store
 from ..storage.format import CRC_KEY
 from .options import arm_option, emit, robot_option, setup_logging, standard_options
 from .params import Checked, OneLineCommand, OneLineGroup
+from .view import maps_view
 
 log = logging.getLogger("placement")
 
@@ -194,3 +195,5 @@ def check(path, robot, arm, samples, seed, as_json, verbose, quiet):
     emit(out, as_json, lambda d: "\n".join(
         f"{d['path']} arm {a}: " + ", ".join(f"{k} {v}" for k, v in r.items() if not isinstance(v, (dict, list)))
         for a, r in d["arms"].items()))
+
+maps.add_command(maps_view)

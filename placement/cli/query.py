@@ -27,13 +27,13 @@ def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
         writable_dir(plot_dir, "--plot")
     planner = Planner(scene, method, maps_path)
     if stream:
-        _stream(planner)
+        stream_plans(planner)
         return
     result = planner.plan(keep_maps=plot_dir is not None)
     if plot_dir:
         from ..plotting import plot_steps
 
-        plot_steps(planner.world, result, plot_dir)
+        plot_steps(planner.world, result, plot_dir, planner.scene.start, planner.robot.footprint_radius)
     emit(result.to_json(), as_json, _table)
     bad = result.failed_step
     if bad is not None:
@@ -61,8 +61,9 @@ def _table(r: dict) -> str:
     return "\n".join(lines)
 
 
-def _stream(planner) -> None:
-    """JSON lines: the first plan, then one plan per update line read from stdin."""
+def stream_plans(planner, keep_maps: bool = False, on_result=None) -> None:
+    """JSON lines: the first plan, then one plan per update line read from stdin; each new PlanResult
+    (planned with ``keep_maps``) is also passed to ``on_result`` (the viewer shows it)."""
     import json
     import time
 
@@ -80,9 +81,11 @@ def _stream(planner) -> None:
                                      f"{str(exc)[:80] or 'too deeply nested'})") from None
             info = planner.update(change)
             t = time.perf_counter()
-            result = planner.plan()
+            result = planner.plan(keep_maps=keep_maps)
             info["timings_ms"]["replan"] = (time.perf_counter() - t) * 1e3
             result.update = info
+            if on_result is not None:
+                on_result(result)
             click.echo(to_json_line(result.to_json()))
         except PlacementError as exc:
             msg = (str(exc).splitlines() or ["error"])[0]

@@ -1,0 +1,82 @@
+"""`placement view SCENE` and `placement maps view MAP`: interactive 3D views in the browser (viser)."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from ..planning import METHODS
+from .options import setup_logging, standard_options, to_json_line
+from .params import Bounded, OneLineCommand, OneLineError
+from .query import stream_plans
+
+PORT = Bounded(0, 65535)
+
+
+def port_option(f):
+    return click.option("--port", type=PORT, default=8080, show_default=True,
+                        help="Port on 127.0.0.1 (0: any free one; a busy port: the next free one).")(f)
+
+
+def serve(view, as_json: bool, what: str, timeout: float | None = None) -> None:
+    """Print where the view is, then serve it until Ctrl-C (or ``timeout`` [s])."""
+    info = {"url": view.url, "timings_s": {k: round(v, 3) for k, v in view.timings.items()}}
+    click.echo(to_json_line(info) if as_json else f"{what} at {view.url} (Ctrl-C to stop)", err=not as_json)
+    sys.stdout.flush()
+    try:
+        view.wait(timeout)
+    finally:
+        view.stop()
+
+
+@click.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("scene", type=click.Path())
+@click.option("--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`).")
+@click.option("--method", type=click.Choice(METHODS), default=None, help="Planning method (default sequential).")
+@click.option("--plan", "plan_path", default=None, type=click.Path(),
+              help="Show this plan (JSON of `placement query --json`) instead of planning; no maps needed.")
+@click.option("--stream", is_flag=True,
+              help="Read scene updates as JSON lines on stdin (as `placement query --stream`), show each new "
+                   "plan live and print it as one JSON line.")
+@port_option
+@click.option("--timeout", type=float, default=None, hidden=True, help="Stop after this many seconds (tests).")
+@standard_options
+def view(scene, maps_path, method, plan_path, stream, port, timeout, as_json, verbose, quiet):
+    """Serve a 3D view of a scene and its plan: robot, TCP paths, base paths, cost maps per step."""
+    setup_logging(verbose, quiet)
+    if plan_path and (method or stream or maps_path):
+        given = [o for o, v in (("--method", method), ("--stream", stream), ("--maps", maps_path)) if v]
+        raise OneLineError(f"--plan shows a plan file; it cannot be combined with {', '.join(given)}")
+    from ..viewer import view_scene
+
+    v = view_scene(scene, maps=maps_path, method=method or "sequential", plan=plan_path, port=port)
+    if stream:
+        click.echo(f"viewer at {v.url}; reading updates from stdin", err=True)
+        try:
+            # as `placement query --stream`, and each new plan is shown
+            stream_plans(v.planner, keep_maps=True, on_result=lambda result: v.content.set_steps(result.steps))
+        except BaseException:
+            v.stop()
+            raise
+    serve(v, as_json and not stream, "viewer", timeout)
+
+
+@click.command("view", cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("path", type=click.Path())
+@click.option("--arm", default=None, metavar="ARM", help="Arm to show (default: the first mapped arm).")
+@click.option("--direction", default="best", show_default=True,
+              type=click.Choice(["best", "down", "up", "forward", "backward", "left", "right"]),
+              help="Colour by the best value over all orientations, or for this TCP approach direction.")
+@click.option("--max-points", type=Bounded(1000, 5_000_000), default=200_000, show_default=True,
+              help="Reached cells drawn at most (a uniform sample beyond).")
+@port_option
+@click.option("--timeout", type=float, default=None, hidden=True, help="Stop after this many seconds (tests).")
+@standard_options
+def maps_view(path, arm, direction, max_points, port, timeout, as_json, verbose, quiet):
+    """Serve a 3D view of a reachability map: reached cells coloured by value, the robot at home."""
+    setup_logging(verbose, quiet)
+    from ..viewer import view_map
+
+    serve(view_map(path, arm=arm, direction=direction, port=port, max_points=max_points), as_json, "map viewer",
+          timeout)

@@ -1,0 +1,84 @@
+"""Triangle meshes of the scene's shapes for the viewer: boxes, vertical cylinders, polygon prisms,
+the footprint ring. Vertices (n, 3) float32 [m], faces (m, 3) int32."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# polygons are unbounded in height in the scene model; they are drawn this tall [m]
+POLYGON_HEIGHT = 2.0
+
+
+def pose_matrix(x: float, y: float, yaw: float, z: float = 0.0) -> np.ndarray:
+    """(4, 4) pose at (x, y, z) [m] turned by ``yaw`` [rad] about z."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0, x], [s, c, 0, y], [0, 0, 1, z], [0, 0, 0, 1]], dtype=float)
+
+
+def yaw_wxyz(yaw: float) -> tuple[float, float, float, float]:
+    """Quaternion (w, x, y, z) of a turn by ``yaw`` [rad] about z."""
+    return (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+
+
+def ear_clip(points: np.ndarray) -> np.ndarray:
+    """(k - 2, 3) triangles of a simple polygon ``points`` (k, 2), either orientation."""
+    pts = np.asarray(points, dtype=float)
+    area = 0.5 * float(np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1]))
+    idx = list(range(len(pts))) if area >= 0 else list(range(len(pts)))[::-1]
+    tris = []
+    guard = 0
+    while len(idx) > 3 and guard < 10 * len(pts) ** 2:
+        guard += 1
+        for n in range(len(idx)):
+            a, b, c = idx[n - 1], idx[n], idx[(n + 1) % len(idx)]
+            pa, pb, pc = pts[a], pts[b], pts[c]
+            if (pb[0] - pa[0]) * (pc[1] - pa[1]) - (pb[1] - pa[1]) * (pc[0] - pa[0]) <= 1e-12:
+                continue  # reflex or flat corner: not an ear
+            if any(_inside(pts[o], pa, pb, pc) for o in idx if o not in (a, b, c)):
+                continue
+            tris.append((a, b, c))
+            idx.pop(n)
+            break
+        else:
+            break  # self-intersecting: what is left is drawn as a fan rather than not at all
+    tris += [(idx[0], idx[i], idx[i + 1]) for i in range(1, len(idx) - 1)]
+    return np.array(tris, dtype=np.int32).reshape(-1, 3)
+
+
+def _inside(p, a, b, c) -> bool:
+    def side(u, v, w):
+        return (v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])
+    return side(a, b, p) >= 0 and side(b, c, p) >= 0 and side(c, a, p) >= 0
+
+
+def prism(points: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray, np.ndarray]:
+    """The closed prism over polygon ``points`` (k, 2) from height ``z0`` to ``z1`` [m]."""
+    pts = np.asarray(points, dtype=float)
+    k = len(pts)
+    verts = np.vstack([np.c_[pts, np.full(k, z0)], np.c_[pts, np.full(k, z1)]]).astype(np.float32)
+    cap = ear_clip(pts)
+    faces = [cap[:, ::-1], cap + k]
+    for i in range(k):
+        j = (i + 1) % k
+        faces.append(np.array([[i, j, k + j], [i, k + j, k + i]]))
+    return verts, np.vstack(faces).astype(np.int32)
+
+
+def circle(radius: float, n: int = 48) -> np.ndarray:
+    """(n, 2) points on a circle of ``radius`` [m] around the origin, counter-clockwise."""
+    a = np.linspace(0, 2 * math.pi, n, endpoint=False)
+    return radius * np.c_[np.cos(a), np.sin(a)]
+
+
+def ring_segments(radius: float, z: float = 0.0, n: int = 48) -> np.ndarray:
+    """(n, 2, 3) line segments of a circle of ``radius`` [m] at height ``z`` around the origin."""
+    p = np.c_[circle(radius, n), np.full(n, z)]
+    return np.stack([p, np.roll(p, -1, axis=0)], axis=1).astype(np.float32)
+
+
+def polyline_segments(points: np.ndarray) -> np.ndarray:
+    """(m - 1, 2, 3) line segments joining consecutive ``points`` (m, 3)."""
+    p = np.asarray(points, dtype=np.float32).reshape(-1, 3)
+    return np.stack([p[:-1], p[1:]], axis=1) if len(p) > 1 else np.zeros((0, 2, 3), np.float32)

@@ -1,0 +1,110 @@
+"""A reachability map in the viewer: reached cells as a point cloud coloured by value, a threshold
+slider, a TCP direction choice, and the robot at home (the map's base frame is the world frame)."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..grid import pose_from_zyx
+from .colors import scale_of
+from .robot_view import RobotDrawing, home_config
+
+# approach (TCP z) directions in the base frame; "best" takes every orientation
+DIRECTIONS = {"best": None, "down": (0, 0, -1), "up": (0, 0, 1), "forward": (1, 0, 0), "backward": (-1, 0, 0),
+              "left": (0, 1, 0), "right": (0, -1, 0)}
+DIRECTION_TOLERANCE = math.radians(30)  # orientation bins whose approach is this close count as the direction
+DEFAULT_POINTS = 200_000  # more points than this are subsampled: the browser stays responsive
+
+
+def approach_bins(grid, direction) -> np.ndarray:
+    """(n_yaw, n_pitch, n_roll) bool: orientation bins whose TCP approach axis (z) lies within
+    DIRECTION_TOLERANCE of ``direction`` (3,) (the nearest bins if none does); all bins for None."""
+    n_yaw, n_pitch, n_roll = grid.shape[3:]
+    if direction is None:
+        return np.ones((n_yaw, n_pitch, n_roll), dtype=bool)
+    dyaw, dpitch, droll = grid.angle_steps
+    y, p, r = np.meshgrid(np.arange(n_yaw) * dyaw, -math.pi / 2 + (np.arange(n_pitch) + 0.5) * dpitch,
+                          np.arange(n_roll) * droll, indexing="ij")
+    z = pose_from_zyx(np.zeros((y.size, 3)), y.ravel(), p.ravel(), r.ravel())[:, :3, 2]
+    angle = np.arccos(np.clip(z @ np.asarray(direction, dtype=float), -1, 1)).reshape(y.shape)
+    return angle <= max(DIRECTION_TOLERANCE, float(angle.min()) + 1e-9)
+
+
+def best_values(values: np.ndarray, bins: np.ndarray) -> np.ndarray:
+    """(nx, ny, nz) best value over the selected orientation ``bins`` of a 6D map array."""
+    out = np.zeros(values.shape[:3], dtype=np.float32)
+    for iy, ip, ir in zip(*np.nonzero(bins)):
+        np.maximum(out, values[:, :, :, iy, ip, ir], out=out)
+    return out
+
+
+def cloud(grid, best: np.ndarray, max_points: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+    """(points (k, 3) cell centres [m], values (k,), reached cell count) of the cells with a value > 0,
+    a seeded uniform subsample when more than ``max_points`` are reached."""
+    flat = np.flatnonzero(best > 0)
+    reached = len(flat)
+    if reached > max_points:
+        flat = np.sort(np.random.default_rng(seed).choice(flat, max_points, replace=False))
+    idx = np.stack(np.unravel_index(flat, best.shape), axis=-1)
+    pts = np.asarray(grid.origin) + (idx + 0.5) * grid.resolution
+    return pts.astype(np.float32), best.ravel()[flat], reached
+
+
+class MapView:
+    """Draws one arm's map (a :class:`~placement.rmap.ReachabilityMap`) and ``robot`` in ``server``.
+
+    Attributes: scale (the current colour :class:`Scale`), shown (points drawn now), reached (cells
+    with a value for the direction), update_ms (the last redraw [ms]).
+    """
+
+    def __init__(self, server, rmap, robot, direction: str = "best", max_points: int = DEFAULT_POINTS):
+        self.server, self.rmap, self.robot, self.max_points = server, rmap, robot, max_points
+        self.update_ms = float("nan")
+        self.robot_drawing = RobotDrawing(server, robot)
+        self.robot_drawing.show((0.0, 0.0, 0.0), home_config(robot))
+        gui = server.gui
+        g = rmap.grid
+        gui.add_markdown(f"**map {rmap.path.name}, {rmap.arm} arm**  \n{'x'.join(map(str, g.shape[:3]))} positions "
+                         f"of {g.resolution * 100:.0f} cm, {'x'.join(map(str, g.shape[3:]))} orientations")
+        self.direction = gui.add_dropdown("TCP direction", tuple(DIRECTIONS), initial_value=direction)
+        self.threshold = gui.add_slider("threshold", 0.0, 1.0, 0.001, 0.0)
+        # a cut through the cloud: cells nearer the default camera (lower y) hidden, to see inside
+        y0, y1 = g.origin[1], g.origin[1] + g.shape[1] * g.resolution
+        self.section = gui.add_slider("hide y < [m]", round(y0, 2), round(y1, 2), g.resolution / 2, round(y0, 2))
+        self.info = gui.add_markdown("")
+        self.scale_html = gui.add_html("")
+        self.points = None
+        self.select(direction)
+        self.direction.on_update(lambda _: self.select(self.direction.value))
+        self.threshold.on_update(lambda _: self.draw())
+        self.section.on_update(lambda _: self.draw())
+
+    def select(self, direction: str) -> None:
+        """Recompute the best values for a TCP ``direction`` (a key of DIRECTIONS) and redraw."""
+        best = best_values(self.rmap.values, approach_bins(self.rmap.grid, DIRECTIONS[direction]))
+        self.all_points, self.all_values, self.reached = cloud(self.rmap.grid, best, self.max_points)
+        self.scale = scale_of(self.all_values, f"manipulability ({direction})", "dimensionless")
+        if self.scale.hi > 0:
+            self.threshold.max = float(self.scale.hi)
+            self.threshold.step = float(self.scale.hi) / 200
+        self.scale_html.content = self.scale.html()
+        self.draw()
+
+    def draw(self) -> None:
+        t = time.perf_counter()
+        keep = (self.all_values >= float(self.threshold.value)) & (self.all_points[:, 1] >= float(self.section.value))
+        pts, vals = self.all_points[keep], self.all_values[keep]
+        self.shown = len(pts)
+        if not len(pts):  # viser needs a point; an invisible one at the origin
+            pts, vals = np.zeros((1, 3), np.float32), np.zeros(1)
+        colors = self.scale.rgb(vals)
+        size = float(self.rmap.grid.resolution) * 0.5  # gaps between the points: the inner cells show through
+        self.points = self.server.scene.add_point_cloud("/map/cells", pts, colors, point_size=size,
+                                                        point_shape="square", visible=self.shown > 0)
+        sub = f" (a uniform sample of {len(self.all_points):,})" if self.reached > len(self.all_points) else ""
+        self.info.content = (f"{self.reached:,} position cells reached{sub}; {self.shown:,} shown at value "
+                             f">= {float(self.threshold.value):.3g}")
+        self.update_ms = (time.perf_counter() - t) * 1e3

@@ -1,0 +1,129 @@
+"""The robot drawn from its URDF's visual meshes (pinocchio's geometry model) at a base pose and a
+configuration. Node names start with the drawing's root (``/robot``)."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from .geometry import pose_matrix
+
+log = logging.getLogger("placement")
+
+ROBOT = (70, 130, 225)  # one colour for every part: the robot stands out from the scene's greys and browns
+
+
+def package_dirs(urdf: Path) -> list[str]:
+    """Folders where ``package://NAME/...`` mesh paths of ``urdf`` may resolve: its folder and parents
+    (a package's own folder sits a few levels above its URDF)."""
+    urdf = Path(urdf).resolve()
+    return [str(p) for p in list(urdf.parents)[:6]]
+
+
+def geometry_mesh(obj):
+    """(vertices (n, 3), faces (m, 3)) of one pinocchio GeometryObject in its own frame [m], or None
+    for a shape the viewer does not draw."""
+    import coal
+    import trimesh
+
+    g = obj.geometry
+    if isinstance(g, coal.Box):
+        m = trimesh.creation.box(extents=2.0 * np.asarray(g.halfSide))
+    elif isinstance(g, coal.Sphere):
+        m = trimesh.creation.icosphere(subdivisions=2, radius=g.radius)
+    elif isinstance(g, coal.Cylinder):
+        m = trimesh.creation.cylinder(radius=g.radius, height=2.0 * g.halfLength, sections=24)
+    elif obj.meshPath and Path(obj.meshPath).is_file():
+        m = trimesh.load(obj.meshPath, force="mesh")
+        m.apply_scale(np.asarray(obj.meshScale))
+    else:
+        return None
+    return np.asarray(m.vertices, dtype=np.float32), np.asarray(m.faces, dtype=np.int32)
+
+
+def wxyz(R: np.ndarray) -> np.ndarray:
+    """Quaternion (w, x, y, z) of a rotation matrix."""
+    x, y, z, w = pin.Quaternion(np.asarray(R, dtype=float)).coeffs()
+    return np.array([w, x, y, z])
+
+
+class RobotDrawing:
+    """A robot in a viser scene under the node ``root``; :meth:`show` places it.
+
+    The meshes are sent once; a new pose or configuration only moves nodes. A URDF whose meshes
+    cannot be loaded is drawn as a stick figure of its joints instead (with a warning).
+    """
+
+    def __init__(self, server, robot, root: str = "/robot", color=ROBOT):
+        self.server, self.robot, self.root = server, robot, root
+        self.data = robot.model.createData()
+        self.frame = server.scene.add_frame(root, show_axes=False)
+        self.nodes = []
+        self.geom = None
+        try:
+            self.geom = pin.buildGeomFromUrdf(robot.model, str(robot.urdf_path), pin.GeometryType.VISUAL,
+                                              package_dirs=package_dirs(robot.urdf_path))
+        except (ValueError, RuntimeError) as exc:
+            log.warning("robot %s: visual meshes not loaded (%s); drawing its joints only", robot.name,
+                        " ".join(str(exc).split())[:120])
+        if self.geom is not None:
+            self.geom_data = pin.GeometryData(self.geom)
+            for i, obj in enumerate(self.geom.geometryObjects):
+                mesh = geometry_mesh(obj)
+                if mesh is not None:
+                    self.nodes.append((i, server.scene.add_mesh_simple(f"{root}/{i:03d}_{obj.name}", *mesh,
+                                                                       color=color, flat_shading=False)))
+        self.sticks = None if self.nodes else server.scene.add_line_segments(
+            f"{root}/joints", np.zeros((1, 2, 3), np.float32), color, thickness=0.03)
+
+    @property
+    def visible(self) -> bool:
+        return self.frame.visible
+
+    @visible.setter
+    def visible(self, value: bool) -> None:
+        self.frame.visible = bool(value)
+
+    def show(self, base, q: np.ndarray) -> None:
+        """Draw the robot with its base frame at ``base`` (x [m], y [m], yaw [rad]) on the floor, in the
+        pinocchio configuration ``q`` (model.nq,)."""
+        model = self.robot.model
+        pin.forwardKinematics(model, self.data, q)
+        B = pin.updateFramePlacement(model, self.data, self.robot.base_frame_id).homogeneous
+        # the model's root is wherever the URDF puts it; this places the base frame at the base pose
+        root = pose_matrix(*base) @ np.linalg.inv(B)
+        with self.server.atomic():
+            self.frame.position = root[:3, 3]
+            self.frame.wxyz = wxyz(root[:3, :3])
+            if self.nodes:
+                pin.updateGeometryPlacements(model, self.data, self.geom, self.geom_data)
+                for i, node in self.nodes:
+                    M = self.geom_data.oMg[i]
+                    node.position = M.translation
+                    node.wxyz = wxyz(M.rotation)
+            else:
+                p = np.array([self.data.oMi[j].translation for j in range(model.njoints)])
+                parents = list(model.parents)
+                self.sticks.points = np.stack([p[parents[1:]], p[1:]], axis=1).astype(np.float32)
+            self.frame.visible = True
+
+
+def config_of(robot, arm: str, q) -> np.ndarray:
+    """Pinocchio configuration with ``q`` on ``arm``, every other arm at its home pose and the
+    preset's fixed joints set."""
+    ref = None
+    for other in robot.arms:
+        if other != arm:
+            ref = robot.full_q(other, robot.arm(other).home, reference=ref)
+    return robot.full_q(arm, q, reference=ref)
+
+
+def home_config(robot) -> np.ndarray:
+    """Pinocchio configuration with every arm at its home pose."""
+    q = None
+    for arm in robot.arms:
+        q = robot.full_q(arm, robot.arm(arm).home, reference=q)
+    return q

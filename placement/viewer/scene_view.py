@@ -1,0 +1,91 @@
+"""The scene drawn in a viser server: floor, obstacles and tables, the occupancy map as a floor layer,
+objects, place locations and the start pose. Node names start with ``/scene``."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .colors import Scale, layer_image
+from .geometry import POLYGON_HEIGHT, circle, polyline_segments, prism, ring_segments, yaw_wxyz
+
+FLOOR = (222, 222, 216)
+OBSTACLE = (130, 134, 142)
+TABLE = (176, 124, 74)
+OBJECT = (235, 140, 30)
+PLACE = (40, 170, 80)
+START = (60, 60, 60)
+OCCUPIED = Scale("occupied", "", 0.0, 1.0, "Greys")
+
+
+def draw_floor(server, bounds) -> None:
+    """A floor slab under the scene ``bounds`` (xmin, ymin, xmax, ymax) [m] with a 1 m grid on it."""
+    xmin, ymin, xmax, ymax = bounds
+    w, h = xmax - xmin, ymax - ymin
+    centre = ((xmin + xmax) / 2, (ymin + ymax) / 2)
+    server.scene.add_box("/scene/floor", color=FLOOR, dimensions=(w, h, 0.02), position=(*centre, -0.011),
+                         flat_shading=False, cast_shadow=False)
+    server.scene.add_grid("/scene/grid", width=w, height=h, cell_size=0.5, section_size=1.0,
+                          position=(*centre, 0.001), shadow_opacity=0.0)
+
+
+def draw_shape(server, name: str, shape, color, opacity: float | None = None):
+    """One Box, Cylinder or Polygon of the scene model; returns its scene node."""
+    kind = type(shape).__name__
+    if kind == "Box":
+        return server.scene.add_box(name, color=color, dimensions=tuple(shape.size), position=tuple(shape.center),
+                                    wxyz=yaw_wxyz(shape.yaw), opacity=opacity)
+    elif kind == "Cylinder":
+        # a prism of many sides, so the axis is z whatever a library's cylinder convention is
+        z0 = float(shape.center[2] - shape.height / 2)
+        v, f = prism(circle(shape.radius) + shape.center[:2], z0, z0 + shape.height)
+        return server.scene.add_mesh_simple(name, v, f, color=color, opacity=opacity, flat_shading=False)
+    elif kind == "Polygon":
+        v, f = prism(shape.points, 0.0, POLYGON_HEIGHT)
+        return server.scene.add_mesh_simple(name, v, f, color=color, opacity=0.85 if opacity is None else opacity)
+    raise TypeError(f"unknown shape {kind}")
+
+
+def draw_occupancy(server, occupancy):
+    """The occupancy map's occupied cells as a dark floor layer (free cells transparent); its node."""
+    occ = np.asarray(occupancy.occupied)
+    rows, cols = occ.shape
+    res = occupancy.resolution
+    ox, oy = occupancy.origin[:2]
+    img = layer_image(np.where(occ, 0.8, np.nan), OCCUPIED, alpha=200)
+    return server.scene.add_image("/scene/occupancy", img, cols * res, rows * res, format="png",
+                                  position=(ox + cols * res / 2, oy + rows * res / 2, 0.003), cast_shadow=False)
+
+
+def draw_start(server, start, footprint_radius: float) -> None:
+    """The start pose: the footprint circle, a heading line and a label."""
+    x, y, yaw = start
+    server.scene.add_line_segments("/scene/start/ring", ring_segments(footprint_radius, 0.01), START,
+                                   thickness=0.02, position=(x, y, 0.0))
+    head = np.array([[0, 0, 0.01], [footprint_radius, 0, 0.01]])
+    server.scene.add_line_segments("/scene/start/heading", polyline_segments(head), START, thickness=0.03,
+                                   position=(x, y, 0.0), wxyz=yaw_wxyz(yaw))
+    server.scene.add_label("/scene/start/label", "start", position=(x, y, 0.3))
+
+
+def draw_scene(server, scene, footprint_radius: float) -> dict:
+    """Everything of ``scene`` (a :class:`placement.planning.scene.Scene`) that does not change
+    between steps. ``footprint_radius`` [m] of the robot, for the start pose. Returns the nodes of the
+    obstacles, objects and occupancy map by node name."""
+    draw_floor(server, scene.bounds)
+    nodes = {}
+    for ob in scene.obstacles:
+        name = f"/scene/{'tables' if ob.table else 'obstacles'}/{ob.name}"
+        nodes[name] = draw_shape(server, name, ob.shape, TABLE if ob.table else OBSTACLE)
+    if scene.occupancy is not None:
+        nodes["/scene/occupancy"] = draw_occupancy(server, scene.occupancy)
+    for o in scene.objects:
+        nodes[f"/scene/objects/{o.name}"] = draw_shape(server, f"/scene/objects/{o.name}", o.box, OBJECT)
+        server.scene.add_label(f"/scene/objects/{o.name}/label", o.name,
+                               position=(o.position[0], o.position[1], o.position[2] + o.size[2] / 2 + 0.08))
+    for p in scene.place_locations:
+        server.scene.add_cylinder(f"/scene/places/{p.name}", radius=0.06, height=0.01, color=PLACE,
+                                  position=tuple(p.position))
+        server.scene.add_label(f"/scene/places/{p.name}/label", p.name,
+                               position=(p.position[0], p.position[1], p.position[2] + 0.08))
+    draw_start(server, scene.start, footprint_radius)
+    return nodes

@@ -1,0 +1,87 @@
+"""The viewer in a real browser: headless Chromium opens the page served on loopback, and the
+screenshots show the scene and the robot (not a blank canvas)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("viser", reason="the viewer extra is not installed: pip install 'placement[view]'")
+
+from placement.viewer import view_map, view_scene  # noqa: E402
+from placement.viewer.screenshot import find_browser, screenshot  # noqa: E402
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yaml"
+pytestmark = pytest.mark.skipif(find_browser() is None,
+                                reason="no chromium on PATH (.ci/run installs Debian's chromium)")
+
+
+def pixels(path: Path) -> np.ndarray:
+    """(h, w, 3) uint8 of the 3D canvas part of a screenshot: the GUI panel (right) and the software
+    rendering notice (top left) cut away."""
+    from PIL import Image
+
+    img = np.asarray(Image.open(path).convert("RGB"))
+    img = img[:, :930].copy()
+    img[:160, :330] = 255
+    return img
+
+
+def robot_blue(img: np.ndarray) -> np.ndarray:
+    r, g, b = (img[..., i].astype(int) for i in range(3))
+    return (b > r + 60) & (b > g + 15) & (b > 120)
+
+
+def table_brown(img: np.ndarray) -> np.ndarray:
+    r, g, b = (img[..., i].astype(int) for i in range(3))
+    return (r > g + 15) & (g > b + 15) & (r > 120)
+
+
+@pytest.fixture(scope="module")
+def shots(maps_dir, tmp_path_factory):
+    """Screenshots of the example scene's first step with and without the robot."""
+    out = tmp_path_factory.mktemp("shots")
+    v = view_scene(EXAMPLE, maps=maps_dir, port=0)
+    try:
+        for box in v.content.toggles.values():  # no cost layer: its viridis blues would pass for the robot
+            box.value = False
+        v.content.show(0)
+        with_robot = screenshot(v.url, out / "robot.png")
+        v.content.robot_drawing.visible = False
+        without = screenshot(v.url, out / "no_robot.png")
+    finally:
+        v.stop()
+    return pixels(with_robot), pixels(without)
+
+
+def test_the_scene_is_drawn(shots):
+    img = shots[0]
+    colours = len(np.unique(img.reshape(-1, 3), axis=0))
+    assert colours > 200, f"only {colours} colours: a blank or flat canvas"
+    assert (img.min(axis=2) < 200).mean() > 0.15  # the room covers a good part of the canvas
+    assert table_brown(img).sum() > 300  # the tables
+
+
+def test_the_robot_is_drawn(shots):
+    with_robot, without = shots
+    blue_with, blue_without = robot_blue(with_robot).sum(), robot_blue(without).sum()
+    assert blue_with > 800 and blue_without < blue_with / 3, (blue_with, blue_without)  # the footprint is blue too
+    changed = np.abs(with_robot.astype(int) - without.astype(int)).max(axis=2) > 30
+    assert changed.sum() > 800  # the robot, and only a part of the picture
+    assert changed.mean() < 0.2
+    assert robot_blue(with_robot)[changed].mean() > 0.5  # what the robot adds is mostly its blue
+    # the second page is as vivid as the first (a lost connection greys the whole canvas out)
+    assert table_brown(without).sum() > 0.7 * table_brown(with_robot).sum()
+
+
+def test_the_map_cloud_is_drawn(maps_dir, tmp_path):
+    v = view_map(maps_dir, port=0)
+    try:
+        img = pixels(screenshot(v.url, tmp_path / "map.png"))
+    finally:
+        v.stop()
+    r, g, b = (img[..., i].astype(int) for i in range(3))
+    coloured = (np.abs(r - g) + np.abs(g - b) > 60).sum()  # viridis points, not the white background
+    assert coloured > 3000, coloured
