@@ -85,7 +85,7 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
     if spec.format == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
         out_path = out_path.with_suffix(".h5")
     check_target(out_path, robot, spec.format, "--out")
-    client = _dask_client(dask_address) if dask_address else None
+    client = dask_client(dask_address) if dask_address else None
     built = {}
     for a in arms:
         built[a] = m = build_map(robot, a, samples=spec.samples, seed=spec.seed, resolution=spec.resolution,
@@ -103,7 +103,8 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
         for a, v in s["arms"].items()))
 
 
-def _dask_client(address: str):
+def dask_client(address: str):
+    """A ``dask.distributed.Client`` of the scheduler at ``address``, or a one-line PlacementError."""
     try:
         from dask.distributed import Client
     except ImportError:
