@@ -14,6 +14,7 @@ converging as the build goes on.
 from __future__ import annotations
 
 import math
+import time
 
 from tqdm import tqdm
 
@@ -81,11 +82,11 @@ class EtaBar(tqdm):
         kwargs.setdefault("bar_format", "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}<{eta}, {rate_fmt}{postfix}]")
         self.eta = eta or Eta()
         super().__init__(*args, **kwargs)
-        self.eta.start(self._time())
+        self.eta.start(time.monotonic())
 
     def update(self, n=1):
         if not self.disable:  # recorded first: the update below redraws the bar
-            self.eta.add(self.n + n, self._time())
+            self.eta.add(self.n + n, time.monotonic())
         return super().update(n)
 
     @property

@@ -20,6 +20,7 @@ from ..rmap import check_root, check_target, open_map, save_maps
 from ..robots import load_robot
 from ..storage import open_store
 from ..storage.format import CRC_KEY
+from ..warmup import BUILD_COMPILE_S, announce_compilation
 from .options import arm_option, emit, robot_option, setup_logging, standard_options
 from .params import Checked, OneLineCommand, OneLineGroup
 
@@ -86,6 +87,7 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
         out_path = out_path.with_suffix(".h5")
     check_target(out_path, robot, spec.format, "--out")
     client = dask_client(dask_address) if dask_address else None
+    announce_compilation(BUILD_COMPILE_S)
     built = {}
     for a in arms:
         built[a] = m = build_map(robot, a, samples=spec.samples, seed=spec.seed, resolution=spec.resolution,
