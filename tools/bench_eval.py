@@ -15,8 +15,10 @@ Then the same three for a map build (``--build-samples`` of the PR2's right arm 
 
 Local and Dask runs alternate (local, dask, dask, local, ...) ``--repeat`` times each and the
 best wall time of each counts: on a shared machine other work only ever slows a run down.
-Prints the wall times, dask/local, the efficiency per core (serial / (workers * wall)) and
-whether all result documents are identical (timings aside); exits 1 if they are not.
+Prints the wall times, dask/local, the efficiency per core (serial / (workers * wall)), the
+CPU time of each run (this process, its pool and the Dask workers: a measure of the work done
+that other load hardly changes) and whether all results are identical (timings aside); exits 1
+if they are not.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
+import statistics
 import sys
 import tempfile
 import time
@@ -48,15 +52,25 @@ def timed(fn):
     return out, time.perf_counter() - t
 
 
-def report(runs: dict[str, list[float]], n: int) -> dict[str, float]:
-    """Print the best wall time of each run kind and its efficiency per core; return the best times."""
+def cpu_seconds(client) -> float:
+    """CPU time [s] so far of this process, its finished child processes and the Dask workers:
+    unlike wall time, hardly changed by other work on a shared machine."""
+    own = time.process_time()
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own + children.ru_utime + children.ru_stime + sum(client.run(time.process_time).values())
+
+
+def report(runs: dict[str, list[float]], cpu: dict[str, list[float]], n: int) -> dict[str, float]:
+    """Print the best wall time of each run kind, its efficiency per core and its median CPU time;
+    return the best times."""
     walls = {name: min(times) for name, times in runs.items() if times}
-    print("| run | wall [s] (all runs) | efficiency per core |")
-    print("|---|---|---|")
+    print("| run | wall [s] (all runs) | efficiency per core | CPU [s], median |")
+    print("|---|---|---|---|")
     for name, wall in walls.items():
         cores = 1 if name == "serial" else n
         eff = f"{walls['serial'] / (cores * wall):.2f}" if "serial" in walls else "-"
-        print(f"| {name} | {wall:.1f} ({', '.join(f'{w:.1f}' for w in runs[name])}) | {eff} |")
+        print(f"| {name} | {wall:.1f} ({', '.join(f'{w:.1f}' for w in runs[name])}) | {eff} | "
+              f"{statistics.median(cpu[name]):.1f} |")
     ratio = walls["dask"] / walls["local"]
     print(f"dask / local wall time: {ratio:.3f} ({'within' if ratio <= TARGET else 'NOT within'} "
           f"the {100 * (TARGET - 1):.0f} % target)")
@@ -74,11 +88,13 @@ def bench_evaluation(args, client) -> bool:
     """The scene evaluation: serial, local processes, Dask. True if every document is the same."""
     with tempfile.TemporaryDirectory() as tmp:
         files = write_scenes(Path(tmp) / "free", args.seed, args.count, maps=os.path.abspath(args.maps))
-        docs, runs = [], {"serial": [], "local": [], "dask": []}
+        docs, runs, cpu = [], {"serial": [], "local": [], "dask": []}, {"serial": [], "local": [], "dask": []}
 
         def run(name):
             kwargs = {"serial": {"workers": 1}, "local": {"workers": args.workers}, "dask": {"client": client}}
+            c = cpu_seconds(client)
             doc, wall = timed(lambda: evaluate(files, **kwargs[name]))
+            cpu[name].append(cpu_seconds(client) - c)
             docs.append(doc)
             runs[name].append(wall)
             print(f"evaluation {name}: {wall:.1f} s", file=sys.stderr)
@@ -89,7 +105,7 @@ def bench_evaluation(args, client) -> bool:
     same = all(without_timings(d) == without_timings(docs[0]) for d in docs)
     print(f"\nEvaluation: {args.count} scenes (seed {args.seed}), {len(docs[0]['methods'])} methods, "
           f"maps {args.maps}")
-    report(runs, args.workers)
+    report(runs, cpu, args.workers)
     print(f"results identical (timings aside): {'yes' if same else 'NO'}")
     return same
 
@@ -104,13 +120,15 @@ def bench_build(args, client) -> bool:
 
     robot = placement.load_robot("pr2")
     kwargs = dict(samples=args.build_samples, seed=0, resolution=0.1, bins=(20, 9, 20), progress=False)
-    maps, runs = [], {"serial": [], "local": [], "dask": []}
+    maps, runs, cpu = [], {"serial": [], "local": [], "dask": []}, {"serial": [], "local": [], "dask": []}
     threads = numba.get_num_threads()
 
     def run(name):
         numba.set_num_threads(1 if name == "serial" else threads)
+        c = cpu_seconds(client)
         built, wall = timed(lambda: placement.build_map(robot, "right", client=client if name == "dask" else None,
                                                         **kwargs))
+        cpu[name].append(cpu_seconds(client) - c)
         numba.set_num_threads(threads)
         maps.append(built.values)
         runs[name].append(wall)
@@ -122,7 +140,7 @@ def bench_build(args, client) -> bool:
     same = all(np.array_equal(m, maps[0]) for m in maps)
     print(f"\nMap build: PR2 right arm, {args.build_samples:,} samples at 0.1 m, bins 20,9,20 "
           f"(local: one process, {threads} numba threads)")
-    report(runs, args.workers)
+    report(runs, cpu, args.workers)
     print(f"maps identical: {'yes' if same else 'NO'}")
     return same
 
@@ -135,7 +153,7 @@ def main(argv=None) -> int:
     ap.add_argument("--build-samples", type=int, default=10_000_000,
                     help="samples of the map build comparison (default 10 M; 0: none)")
     ap.add_argument("--workers", type=int, default=2, help="local processes = Dask workers (default 2)")
-    ap.add_argument("--repeat", type=int, default=2, help="runs of local and of dask each (default 2)")
+    ap.add_argument("--repeat", type=int, default=3, help="runs of local and of dask each (default 3)")
     ap.add_argument("--no-serial", action="store_true", help="skip the serial runs (no efficiency then)")
     args = ap.parse_args(argv)
     if args.count and not Path(args.maps, "zarr.json").is_file() and not Path(args.maps).is_file():
