@@ -13,7 +13,7 @@ install: .venv/installed $(NUMBA_CACHE_DIR)/warm
 	touch $@
 
 # Compiles every numba kernel into the cache, so that no command compiles on first use
-# (about 1.5 min on 2 cores; again whenever a kernel's source changes).
+# (84 s on 2 shared cores; again whenever a kernel source changes).
 $(NUMBA_CACHE_DIR)/warm: .venv/installed $(wildcard placement/kernels/*.py)
 	$(PY) -m placement.warmup
 	touch $@

@@ -31,10 +31,11 @@ from numba.core.registry import CPUDispatcher
 
 log = logging.getLogger("placement")
 
-# Cold-cache compile times [s] on the 2-core development machine, from the stage times that
-# `python -m placement.warmup` prints with an empty NUMBA_CACHE_DIR (rounded up).
-BUILD_COMPILE_S = 30
-QUERY_COMPILE_S = 60
+# Cold-cache compile times [s] on the 2-core development machine (shared, load 3.5 to 5): the
+# stage times `python -m placement.warmup` printed with an empty NUMBA_CACHE_DIR (28 to 56 s for the
+# build kernels, 24 s for the query ones, each including a few seconds of tiny real work).
+BUILD_COMPILE_S = 40
+QUERY_COMPILE_S = 20
 
 
 class CompileNotice(event.Listener):
