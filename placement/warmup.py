@@ -9,11 +9,11 @@ first query compile for tens of seconds before they do anything visible.
   ``numba:compile`` event, which numba fires only after its disk cache missed; so it
   costs nothing and stays silent when every kernel comes from the cache (no guessing
   from the cache files' names).
-* ``python -m placement.warmup`` (run by ``make install``) compiles every kernel by
-  running the real entry points on tiny inputs (a map build, with and without the
-  self-collision options; zarr and HDF5 maps; every planning method on scenes with
-  and without obstacles; the map accuracy check), and names any
-  kernel that still has no compiled version.
+* ``python -m placement.warmup`` (run by ``make install``) compiles every kernel the
+  package calls from Python by running the real entry points on tiny inputs (a map
+  build, with and without the self-collision options; zarr and HDF5 maps; every
+  planning method on scenes with and without obstacles; the map accuracy check), and
+  names any such kernel that still has no compiled version.
 """
 
 from __future__ import annotations

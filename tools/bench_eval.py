@@ -3,7 +3,8 @@
 Generates the scenes of ``placement scenes generate --seed 1 --count 45`` (every method, as
 ``make eval`` runs them), then times, on this machine:
 
-* serial: one process (the reference for the efficiency per core),
+* serial: one process, numba on its default thread count (the reference for the efficiency
+  per core),
 * local: ``--workers`` processes (``placement evaluate --workers N``),
 * dask: a LocalCluster of ``--workers`` processes with one thread each on loopback
   (``placement evaluate --dask ADDRESS``); the cluster's start is timed apart, since a
