@@ -11,10 +11,11 @@ import click
 from tqdm import tqdm
 
 from ..errors import PlacementError
-from ..evaluation.evaluate import MAX_WORKERS, check_methods, scene_files, summary_rows
+from ..evaluation.evaluate import MAX_WORKERS, check_methods, check_scenes, summary_rows
 from ..evaluation.evaluate import evaluate as run_evaluation
 from ..evaluation.outdir import output_dir
 from ..planning.planner import METHODS
+from .maps import dask_client
 from .options import emit, setup_logging, standard_options
 from .params import Bounded, OneLineCommand
 
@@ -42,11 +43,16 @@ class MethodList(click.ParamType):
               help="Write table (md, csv), JSON and box plot here (created and checked before the evaluation).")
 @click.option("--workers", type=Bounded(1, MAX_WORKERS), default=2, show_default=True,
               help=f"Scenes evaluated in parallel, 1 to {MAX_WORKERS}.")
+@click.option("--dask", "dask_address", default=None, metavar="ADDRESS",
+              help="Spread the scenes over a Dask cluster (scheduler address, e.g. tcp://host:8786) instead of "
+                   "local processes; its workers must see the scene and map files at the same paths.")
 @standard_options
-def evaluate(scenes, methods, maps_path, out_dir, workers, as_json, verbose, quiet):
+def evaluate(scenes, methods, maps_path, out_dir, workers, dask_address, as_json, verbose, quiet):
     """Plan every scene with each method and compare task times (SPEC section 8)."""
     setup_logging(verbose, quiet)
-    files = scene_files(scenes)
+    if dask_address and click.get_current_context().get_parameter_source("workers").name != "DEFAULT":
+        raise PlacementError("--workers and --dask exclude each other: the cluster's workers run the scenes")
+    files = check_scenes(scenes)
     bars = []
 
     def progress(done, total):
@@ -58,8 +64,12 @@ def evaluate(scenes, methods, maps_path, out_dir, workers, as_json, verbose, qui
     with contextlib.ExitStack() as stack:
         if out_dir:
             stack.enter_context(output_dir(out_dir, "--out"))
+        client = None
+        if dask_address:
+            client = dask_client(dask_address)
+            stack.callback(client.close)
         try:
-            doc = run_evaluation(files, methods, maps_path, workers=workers, progress=progress)
+            doc = run_evaluation(files, methods, maps_path, workers=workers, progress=progress, client=client)
         finally:
             for bar in bars:
                 bar.close()

@@ -20,6 +20,7 @@ from ..rmap import check_root, check_target, open_map, save_maps
 from ..robots import load_robot
 from ..storage import open_store
 from ..storage.format import CRC_KEY
+from ..warmup import BUILD_COMPILE_S, announce_compilation
 from .options import arm_option, emit, robot_option, setup_logging, standard_options
 from .params import Checked, OneLineCommand, OneLineGroup
 from .view import maps_view
@@ -86,7 +87,8 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
     if spec.format == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
         out_path = out_path.with_suffix(".h5")
     check_target(out_path, robot, spec.format, "--out")
-    client = _dask_client(dask_address) if dask_address else None
+    client = dask_client(dask_address) if dask_address else None
+    announce_compilation(BUILD_COMPILE_S)
     built = {}
     for a in arms:
         built[a] = m = build_map(robot, a, samples=spec.samples, seed=spec.seed, resolution=spec.resolution,
@@ -104,7 +106,8 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
         for a, v in s["arms"].items()))
 
 
-def _dask_client(address: str):
+def dask_client(address: str):
+    """A ``dask.distributed.Client`` of the scheduler at ``address``, or a one-line PlacementError."""
     try:
         from dask.distributed import Client
     except ImportError:

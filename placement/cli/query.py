@@ -7,6 +7,7 @@ import sys
 import click
 
 from ..planning import METHODS, Planner
+from ..warmup import QUERY_COMPILE_S, announce_compilation
 from .params import OneLineCommand
 from .options import emit, setup_logging, standard_options, to_json_line, writable_dir
 
@@ -25,6 +26,7 @@ def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
     setup_logging(verbose, quiet)
     if plot_dir:
         writable_dir(plot_dir, "--plot")
+    announce_compilation(QUERY_COMPILE_S)
     planner = Planner(scene, method, maps_path)
     if stream:
         stream_plans(planner)

@@ -1,7 +1,9 @@
 """Evaluation (SPEC section 8): generated benchmark scenes, the task time model, batch
 evaluation of the planning methods against each other, and its figures."""
 
-from .evaluate import check_methods, evaluate, evaluate_scene, scene_files, summary_rows
+from .evaluate import (
+    check_methods, check_scenes, evaluate, evaluate_scene, scene_files, scene_task, summary_rows,
+)
 from .generate import generate_scene, write_scenes
 from .outdir import output_dir, prepare_output_dir
 from .plots import plot_task_times
@@ -9,6 +11,7 @@ from .tasktime import task_time
 
 __all__ = [
     "check_methods",
+    "check_scenes",
     "evaluate",
     "evaluate_scene",
     "generate_scene",
@@ -16,6 +19,7 @@ __all__ = [
     "plot_task_times",
     "prepare_output_dir",
     "scene_files",
+    "scene_task",
     "summary_rows",
     "task_time",
     "write_scenes",

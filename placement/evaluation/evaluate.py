@@ -48,6 +48,14 @@ def scene_files(paths) -> list[Path]:
     return out
 
 
+def check_scenes(paths) -> list[Path]:
+    """:func:`scene_files`, each loaded and checked (PlacementError naming the file)."""
+    files = scene_files(paths)
+    for f in files:
+        load_scene(f)
+    return files
+
+
 def evaluate_scene(path: str, methods: list[str], maps: str | None = None) -> dict:
     """All methods on one scene, sharing one planner (maps, world, IRMs). Failures are results."""
     planner = Planner(path, methods[0], maps)
@@ -78,46 +86,84 @@ def plan_outcome(result: PlanResult | None, error: str | None) -> tuple[int, str
     return len(result.steps), "failed"
 
 
-def _worker_init():
+def scene_task(path: str, methods: list[str], maps: str | None = None) -> dict:
+    """:func:`evaluate_scene` in a worker (process pool or Dask): numba on one thread, since the
+    workers already run one scene per core and more threads would only compete for it."""
     import numba
 
-    numba.set_num_threads(1)  # one scene per process: no oversubscription
+    numba.set_num_threads(1)
+    return evaluate_scene(path, methods, maps)
 
 
-def evaluate(paths, methods=METHODS, maps=None, workers: int = 2, progress=None) -> dict:
+def _in_process(files, methods, maps, progress) -> list[dict]:
+    out = []
+    for k, f in enumerate(files):
+        out.append(evaluate_scene(str(f), methods, maps))
+        if progress:
+            progress(k + 1, len(files))
+    return out
+
+
+def _in_pool(files, methods, maps, workers, progress) -> list[dict]:
+    results: list[dict | None] = [None] * len(files)
+    ctx = mp.get_context("spawn")
+    with cf.ProcessPoolExecutor(max_workers=min(workers, len(files)), mp_context=ctx) as pool:
+        futures = {pool.submit(scene_task, str(f), methods, maps): k for k, f in enumerate(files)}
+        try:
+            for done, fut in enumerate(cf.as_completed(futures), 1):
+                results[futures[fut]] = fut.result()
+                if progress:
+                    progress(done, len(files))
+        except BaseException:
+            pool.shutdown(cancel_futures=True)  # an error stops the run instead of waiting for every scene
+            raise
+    return results
+
+
+def _on_dask(client, files, methods, maps, progress) -> list[dict]:
+    from dask.distributed import as_completed
+
+    # absolute paths: a worker's working directory need not be ours
+    maps = None if maps is None else str(Path(maps).resolve())
+    futures = {client.submit(scene_task, str(f.resolve()), methods, maps, pure=False): k
+               for k, f in enumerate(files)}
+    results: list[dict | None] = [None] * len(files)
+    try:
+        for done, fut in enumerate(as_completed(futures), 1):
+            results[futures[fut]] = fut.result()
+            if progress:
+                progress(done, len(files))
+    except BaseException:
+        client.cancel(list(futures))  # an error stops the run instead of waiting for every scene
+        raise
+    return results
+
+
+def evaluate(paths, methods=METHODS, maps=None, workers: int = 2, progress=None, client=None) -> dict:
     """Evaluate ``methods`` on every scene; ``progress(done, total)`` after each scene.
 
     Returns the document of SPEC section 8: scenes, per-method lists, and ``reductions``:
     for method M and baseline B, ``1 - sum(T_M) / sum(T_B)`` over the scenes both solved.
     Methods and every scene file are checked before the first scene is planned.
+
+    Scenes run in ``workers`` local processes, or with ``client`` (a
+    ``dask.distributed.Client``, whose workers must see the scene and map files
+    at the same absolute paths) one task per scene on the cluster, ``workers``
+    unused. Every path runs the same per-scene function, so the documents agree
+    except for the planning times.
     """
     methods = check_methods(methods)
     if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= MAX_WORKERS:
         raise PlacementError(f"workers must be a whole number from 1 to {MAX_WORKERS}, got {workers!r}")
-    files = scene_files(paths)
-    for f in files:
-        load_scene(f)
+    files = check_scenes(paths)
     if progress:
         progress(0, len(files))
-    results: list[dict | None] = [None] * len(files)
-    if workers <= 1 or len(files) == 1:
-        for k, f in enumerate(files):
-            results[k] = evaluate_scene(str(f), methods, maps)
-            if progress:
-                progress(k + 1, len(files))
+    if client is not None:
+        results = _on_dask(client, files, methods, maps, progress)
+    elif workers <= 1 or len(files) == 1:
+        results = _in_process(files, methods, maps, progress)
     else:
-        ctx = mp.get_context("spawn")
-        with cf.ProcessPoolExecutor(max_workers=min(workers, len(files)), mp_context=ctx,
-                                    initializer=_worker_init) as pool:
-            futures = {pool.submit(evaluate_scene, str(f), methods, maps): k for k, f in enumerate(files)}
-            try:
-                for done, fut in enumerate(cf.as_completed(futures), 1):
-                    results[futures[fut]] = fut.result()
-                    if progress:
-                        progress(done, len(files))
-            except BaseException:
-                pool.shutdown(cancel_futures=True)  # an error stops the run instead of waiting for every scene
-                raise
+        results = _in_pool(files, methods, maps, workers, progress)
     doc = {"scenes": [f.stem for f in files], "methods": {}, "reductions": {}}
     for m in methods:
         doc["methods"][m] = {key: [r[m][key] for r in results]
