@@ -98,8 +98,8 @@ def test_kernel_list_is_what_python_calls():
     from placement.warmup import kernel_dispatchers, uncompiled_kernels
 
     names = kernel_dispatchers()
-    assert {"placement.kernels.sampling.sample_block", "placement.kernels.irm.trajectory_map",
+    assert {"placement.kernels.sampling.sample_block", "placement.kernels.irm.trajectory_maps",
             "placement.kernels.navigation.shortest_costs", "placement.kernels.ik.dls_attempt"} <= set(names)
     # called only from other kernels: compiled into them, never on their own
-    assert not any(n.startswith(("placement.kernels.rng.", "placement.kernels.octants")) for n in names)
+    assert not any(n.startswith(("placement.kernels.rng.", "placement.kernels.octants")) for n in names)  # and octants_refine
     assert set(uncompiled_kernels()) <= set(names)
