@@ -168,3 +168,18 @@ def parse_update_scene(planner, tmp_path):
     from placement.planning import save_scene
 
     return save_scene(planner.scene, tmp_path / "changed.yaml")
+
+
+def test_chained_obstacle_updates_before_a_plan_equal_a_fresh_planner(tmp_path, maps_dir):
+    """IRMs are refreshed lazily: two obstacle changes in a row (no plan between) still refresh from
+    the cells the maps were computed for."""
+    planner = Planner(write_scene(tmp_path, maps_dir))
+    planner.plan()
+    planner.update({"obstacles": {"add": [{"name": "a", "box": {"center": [2.5, 2.5, 0.3], "size": [0.4, 0.4, 0.6]}}]}})
+    planner.update({"obstacles": {"remove": ["a", "shelf"],
+                                  "add": [{"name": "b", "box": {"center": [3.6, 2.5, 0.3], "size": [0.4, 0.4, 0.6]}}]}})
+    fresh = Planner(parse_update_scene(planner, tmp_path), maps=maps_dir)
+    for i in range(len(planner.problems.steps)):
+        for a, b in zip(planner.problems.options(i), fresh.problems.options(i)):
+            assert a.window == b.window and np.array_equal(a.value, b.value)
+    assert [s.base for s in planner.plan().steps] == [s.base for s in fresh.plan().steps]

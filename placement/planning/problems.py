@@ -40,12 +40,19 @@ class StepProblems:
         self.scene, self.world, self.maps, self.config, self.yaws = scene, world, maps, config, yaws
         self.steps: list[Step] = task_steps(scene)
         self._options: dict[int, list[Option]] = {}
+        # options computed for other feasible cells (obstacles changed since): refreshed when used
+        self._stale: dict[int, tuple[list[Option], np.ndarray]] = {}
         self._heuristic: dict[tuple[int, bool], np.ndarray] = {}
 
     def options(self, i: int) -> list[Option]:
         """Manipulation maps of step i for every arm and candidate (cached)."""
         if i not in self._options:
-            self._options[i] = self._compute_options(self.steps[i])
+            if i in self._stale:
+                opts, was = self._stale.pop(i)
+                self._options[i] = refreshed_options(opts, self.maps, self.world.nav, self.yaws, was,
+                                                     self.world.feasible)
+            else:
+                self._options[i] = self._compute_options(self.steps[i])
         return self._options[i]
 
     def _compute_options(self, step: Step) -> list[Option]:
@@ -92,19 +99,19 @@ class StepProblems:
     def changed(self, scene: Scene, world: World, moved_objects: set[str]) -> StepProblems:
         """A cache for the changed ``scene`` (and ``world``) that keeps what the change left valid.
 
-        The IRMs of steps that do not pick a moved object are kept; a new ``world`` (obstacles
-        changed) refreshes them on the cells whose feasibility changed (see refresh.py) and drops
-        the heuristics. ``self`` is not modified.
+        The IRMs of steps that do not pick a moved object are kept; with a new ``world`` (obstacles
+        changed) they are refreshed on the cells whose feasibility changed (see refresh.py) when a
+        step first needs them, and the heuristics are dropped. ``self`` is not modified.
         """
         new = StepProblems(scene, world, self.maps, self.config, self.yaws)
-        new._options = {i: o for i, o in self._options.items()
-                        if not (self.steps[i].action == "pick" and self.steps[i].target in moved_objects)}
-        if world is not self.world:
-            new._options = {i: refreshed_options(o, self.maps, world.nav, self.yaws, self.world.feasible,
-                                                 world.feasible) for i, o in new._options.items()}
+        moved = {i for i, s in enumerate(self.steps) if s.action == "pick" and s.target in moved_objects}
+        kept = {i: o for i, o in self._options.items() if i not in moved}
+        new._stale = {i: v for i, v in self._stale.items() if i not in moved}
+        if world is not self.world:  # refreshed on first use: an update touches only what it re-plans
+            new._stale.update({i: (o, self.world.feasible) for i, o in kept.items()})
         else:
+            new._options = kept
             # step i's heuristic reads step i's regions and stops once step i - 1's cells are settled
-            stale = {j for j in range(len(self.steps)) if j not in new._options} | {
-                j + 1 for j in range(len(self.steps)) if j not in new._options}
+            stale = moved | {i + 1 for i in moved}
             new._heuristic = {k: h for k, h in self._heuristic.items() if k[0] not in stale}
         return new
