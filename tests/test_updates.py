@@ -143,6 +143,8 @@ def test_stream_mode(tmp_path, maps_dir):
                                                                              "radius": 0.25, "height": 0.8}}]}},
     {"objects": [{"name": "box", "position": [3.1, 2.6, 0.8]}]},
     {"objects": [{"name": "cup", "yaw": 1.2}], "start": [1.5, 4.2, 0.5]},
+    {"obstacles": {"remove": ["shelf"], "add": [{"name": "shelf", "box": {"center": [1.3, 0.8, 0.375],
+                                                                           "size": [0.6, 0.6, 0.75]}}]}},
 ])
 def test_updates_equal_a_fresh_planner(tmp_path, maps_dir, change):
     """Refreshed IRMs (only cells whose feasibility changed), the incremental occupancy and the

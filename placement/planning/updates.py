@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 from .scene import Scene, SceneParser, check_scene
 from .scene.parse import OBJECT_KEYS
 from ..validation import describe
-from .world import add_shape, build_world, world_from_occupancy
+from .world import build_world, changed_occupancy, world_from_occupancy
 
 if TYPE_CHECKING:
     from .planner import Planner
@@ -96,12 +96,16 @@ def apply_update(planner: Planner, change) -> dict:
     world = planner.world
     if obstacles_changed:
         t = time.perf_counter()
-        if removed:
+        if removed and scene.occupancy is not None:  # cleared cells would need the map raster again
             world = build_world(scene, planner.robot.footprint_radius, planner.base_config)
-        else:  # only additions: the old occupancy plus the new shapes
-            occupied = world.occupied.copy()
-            for ob in scene.obstacles[len(planner.scene.obstacles):]:
-                add_shape(occupied, ob.shape, world.nav)
+        else:
+            # by identity: a name removed and added again in one change is a different obstacle
+            old = {id(o) for o in planner.scene.obstacles}
+            new = {id(o) for o in scene.obstacles}
+            occupied = changed_occupancy(world.occupied, world.nav,
+                                         [o for o in planner.scene.obstacles if id(o) not in new],
+                                         [o for o in scene.obstacles if id(o) in old],
+                                         [o for o in scene.obstacles if id(o) not in old])
             world = world_from_occupancy(world.nav, occupied, planner.robot.footprint_radius, planner.base_config)
         timings["distance"] = (time.perf_counter() - t) * 1e3
     problems = planner.problems.changed(scene, world, moved)

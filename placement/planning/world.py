@@ -34,6 +34,35 @@ def shape_mask(shape, nav: NavGrid) -> np.ndarray:
     return out
 
 
+def shape_window(shape, nav: NavGrid) -> tuple[int, int, int, int]:
+    """Rows j0..j1-1 and columns i0..i1-1 (j0, j1, i0, i1) holding every cell whose centre can lie in
+    the shape's footprint: its bounding box plus one cell, clipped to the grid."""
+    x0, y0, x1, y1 = shape.bounds_xy()
+    r = nav.resolution
+    i0 = max(int(np.floor((x0 - nav.origin[0]) / r)) - 1, 0)
+    i1 = min(int(np.ceil((x1 - nav.origin[0]) / r)) + 1, nav.shape[1])
+    j0 = max(int(np.floor((y0 - nav.origin[1]) / r)) - 1, 0)
+    j1 = min(int(np.ceil((y1 - nav.origin[1]) / r)) + 1, nav.shape[0])
+    return j0, j1, i0, i1
+
+
+def changed_occupancy(occupied: np.ndarray, nav: NavGrid, removed: list, kept: list, added: list) -> np.ndarray:
+    """The occupancy after obstacles changed, from the old one (no occupancy map involved): the cells
+    of removed shapes are cleared and every kept shape that reaches them is drawn again, then the
+    added shapes are drawn; the same grid as rasterising everything anew."""
+    out = occupied.copy()
+    windows = [shape_window(ob.shape, nav) for ob in removed]
+    for j0, j1, i0, i1 in windows:
+        out[j0:j1, i0:i1] = False
+    for ob in kept:
+        a0, a1, b0, b1 = shape_window(ob.shape, nav)
+        if any(a0 < j1 and j0 < a1 and b0 < i1 and i0 < b1 for j0, j1, i0, i1 in windows):
+            add_shape(out, ob.shape, nav)
+    for ob in added:
+        add_shape(out, ob.shape, nav)
+    return out
+
+
 def add_shape(occupied: np.ndarray, shape, nav: NavGrid) -> None:
     """Mark in ``occupied`` (ny, nx) the cells whose centre lies inside the shape's footprint.
 
@@ -41,12 +70,7 @@ def add_shape(occupied: np.ndarray, shape, nav: NavGrid) -> None:
     testing every cell, at the cost of the shape's size rather than the grid's.
     """
     xs, ys = nav.centres()
-    x0, y0, x1, y1 = shape.bounds_xy()
-    r = nav.resolution
-    i0 = max(int(np.floor((x0 - nav.origin[0]) / r)) - 1, 0)
-    i1 = min(int(np.ceil((x1 - nav.origin[0]) / r)) + 1, nav.shape[1])
-    j0 = max(int(np.floor((y0 - nav.origin[1]) / r)) - 1, 0)
-    j1 = min(int(np.ceil((y1 - nav.origin[1]) / r)) + 1, nav.shape[0])
+    j0, j1, i0, i1 = shape_window(shape, nav)
     if i0 >= i1 or j0 >= j1:
         return
     X, Y = np.meshgrid(xs[i0:i1], ys[j0:j1])
