@@ -314,3 +314,37 @@ def test_manipulability_refuses_non_finite_input(pr2):
         placement.extended_manipulability(pr2, "right", q)
     with pytest.raises(PlacementError, match="row_factors"):
         placement.extended_manipulability(pr2, "right", pr2.arm("right").home, row_factors=np.full((6, 2), np.inf))
+
+
+# a 0.6 x 0.4 m rectangle, clockwise, with the base frame 0.1 m behind its centre
+RECTANGLE = [[0.4, 0.2], [0.4, -0.2], [-0.2, -0.2], [-0.2, 0.2]]
+
+
+def test_footprint_polygon_is_stored_counter_clockwise_with_its_radius(tmp_path):
+    from placement.robots import load_robot
+    from placement.robots.footprint import inscribed_radius, signed_area
+    robot = load_robot(write(tmp_path, changed(pr2_mapping(), footprint_radius=DELETE, footprint=RECTANGLE)))
+    assert robot.footprint.shape == (4, 2) and signed_area(robot.footprint) > 0
+    assert robot.footprint_radius == pytest.approx(math.hypot(0.4, 0.2))
+    assert inscribed_radius(robot.footprint) == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize("value,words", [
+    (RECTANGLE, ["footprint_radius", "exactly one of footprint_radius"]),
+])
+def test_footprint_and_radius_exclude_each_other(tmp_path, value, words):
+    message(tmp_path, changed(pr2_mapping(), footprint=value), PresetError, *words)
+
+
+@pytest.mark.parametrize("value,words", [
+    ([[0.3, 0.3], [-0.3, 0.3]], ["footprint", "at least 3"]),
+    ([[0.3, 0.3], [-0.3, 0.3], [0.0]], ["footprint[2]", "expected 2"]),
+    ([[0.3, 0.3], [-0.3, "a"], [0.0, -0.3]], ["footprint[1][1]", "number"]),
+    ([[0.3, 0.3], [-0.3, -0.3], [0.3, -0.3], [-0.3, 0.3]], ["footprint", "crosses itself"]),
+    ([[0.01, 0.01], [-0.01, 0.01], [-0.01, -0.01], [0.01, -0.01]], ["footprint", "area", "metres"]),
+    ([[1.3, 0.3], [0.7, 0.3], [0.7, -0.3], [1.3, -0.3]], ["footprint", "origin (0, 0) is not inside"]),
+    ([[0.3, 0.3], [0.3, 0.3], [-0.3, 0.0], [0.3, -0.3]], ["footprint[1]", "repeats"]),
+    ("square", ["footprint", "expected a list"]),
+])
+def test_bad_footprints_are_one_line_errors(tmp_path, value, words):
+    message(tmp_path, changed(pr2_mapping(), footprint_radius=DELETE, footprint=value), PresetError, *words)

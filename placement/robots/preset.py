@@ -151,6 +151,10 @@ class Robot:
 
     Raises :class:`PresetError` (or :class:`JointNotFound`, :class:`FrameNotFound`)
     naming the preset file and key path when the preset does not fit the URDF.
+
+    Base attributes: ``footprint_radius`` [m] (a round base's radius, or the circumscribed radius
+    of the polygon), ``footprint`` (k, 2) [m] counter-clockwise polygon in the base frame or None
+    (round base), ``v_max`` [m/s], ``omega_max`` [rad/s].
     """
 
     def __init__(self, spec: PresetSpec):
@@ -170,6 +174,7 @@ class Robot:
                 self._check.fail(key, f"{value:g} is outside the URDF limits [{lower:g}, {upper:g}] of '{jname}'")
             self.fixed_joints[jname] = value
         self.footprint_radius = spec.footprint_radius
+        self.footprint = None if spec.footprint is None else np.array(spec.footprint, dtype=float)
         self.v_max = spec.v_max
         self.omega_max = spec.omega_max
         data = self.model.createData()

@@ -18,6 +18,7 @@ from typing import Any
 
 from ..errors import PresetError
 from ..validation import Checker
+from .footprint import circumradius, parse_footprint
 
 #: Top-level keys of a preset and what they hold (repeated when a required one is missing).
 TOP_KEYS = {
@@ -26,12 +27,13 @@ TOP_KEYS = {
     "srdf": "SRDF path, optional",
     "base_frame": "URDF frame on the floor under the robot",
     "fixed_joints": "{joint: value [rad or m]} held while mapping and planning",
-    "footprint_radius": "[m] circumscribed radius of the base plus margin",
+    "footprint_radius": "[m] radius of a round base plus margin (or give footprint)",
+    "footprint": "[[x, y], ...] [m] base outline polygon in the base frame, Nav2 convention (or footprint_radius)",
     "v_max": "[m/s] base translation speed",
     "omega_max": "[rad/s] base rotation speed",
     "arms": "{arm name: {joints, tip_frame, tcp_offset, home}}",
 }
-REQUIRED = ("name", "urdf", "base_frame", "footprint_radius", "v_max", "omega_max", "arms")
+REQUIRED = ("name", "urdf", "base_frame", "v_max", "omega_max", "arms")
 ARM_KEYS = {
     "joints": "joint names from the base to the tip",
     "tip_frame": "URDF frame the TCP is attached to",
@@ -77,7 +79,8 @@ class PresetSpec:
         srdf: resolved SRDF path (an existing file) or None.
         base_frame: base frame name.
         fixed_joints: {joint: value [rad or m]}, in file order.
-        footprint_radius: [m], > 0.
+        footprint_radius: [m], > 0: the circle's radius, or the polygon's circumscribed radius.
+        footprint: ((x, y), ...) [m] polygon in the base frame, counter-clockwise, or None for a circle.
         v_max: [m/s], > 0.
         omega_max: [rad/s], > 0.
         arms: {arm name: ArmSpec}, in file order, at least one.
@@ -90,6 +93,7 @@ class PresetSpec:
     base_frame: str
     fixed_joints: dict[str, float]
     footprint_radius: float
+    footprint: tuple[tuple[float, float], ...] | None
     v_max: float
     omega_max: float
     arms: dict[str, ArmSpec]
@@ -147,6 +151,18 @@ def _arm(c: Checker, name: str, value: Any, fixed: dict[str, float]) -> ArmSpec:
     return ArmSpec(name, tuple(joints), tip, tcp, home)
 
 
+def _base_shape(c: Checker, d: dict) -> tuple[float, tuple | None]:
+    """(radius [m], polygon or None) from exactly one of ``footprint_radius`` and ``footprint``."""
+    if ("footprint" in d) == ("footprint_radius" in d):
+        c.fail("footprint" if "footprint" in d else "footprint_radius",
+               "give exactly one of footprint_radius ([m] round base) and footprint ([[x, y], ...] [m] polygon)"
+               if "footprint" in d else f"missing required key ({TOP_KEYS['footprint_radius']})")
+    if "footprint_radius" in d:
+        return c.positive(d["footprint_radius"], "footprint_radius"), None
+    polygon = parse_footprint(c, d["footprint"], "footprint")
+    return circumradius(polygon), polygon
+
+
 def parse_preset(data: Any, origin: Path, where: str) -> PresetSpec:
     """Check a parsed preset mapping (no URDF is loaded); raises :class:`PresetError`.
 
@@ -162,11 +178,11 @@ def parse_preset(data: Any, origin: Path, where: str) -> PresetSpec:
     held = d.get("fixed_joints")
     held = {} if held is None else c.keyed(held, "fixed_joints")
     fixed = {j: c.number(v, f"fixed_joints.{j}") for j, v in held.items()}
-    footprint_radius = c.positive(d["footprint_radius"], "footprint_radius")
+    footprint_radius, footprint = _base_shape(c, d)
     v_max = c.positive(d["v_max"], "v_max")
     omega_max = c.positive(d["omega_max"], "omega_max")
     arms = {n: _arm(c, n, a, fixed) for n, a in c.keyed(d["arms"], "arms", minimum=1).items()}
     # the files last: a typo in the mapping is reported without touching the file system
     urdf = _existing_file(c, d["urdf"], "urdf", origin)
     srdf = _existing_file(c, d["srdf"], "srdf", origin) if d.get("srdf") is not None else None
-    return PresetSpec(where, name, urdf, srdf, base_frame, fixed, footprint_radius, v_max, omega_max, arms)
+    return PresetSpec(where, name, urdf, srdf, base_frame, fixed, footprint_radius, footprint, v_max, omega_max, arms)
