@@ -1,0 +1,13 @@
+"""Collision-free arms: the robot's URDF collision shapes against the scene and against itself.
+
+``SceneCollision(robot, scene).check(arm, qs, base, grasped)`` -> :class:`CollisionResult`; see
+:mod:`placement.collision.checker` for the pairs and rules, :mod:`.robot` and :mod:`.scene` for the geometry.
+"""
+
+from .checker import CLEARANCE_CAP, CollisionResult, SceneCollision, base_matrix
+from .robot import CollisionGeometryWarning, RobotGeometry, load_geometry, moved_joints, robot_geometry
+from .scene import PRISM_HEIGHT, OccupancyCells, SceneShape, scene_shapes
+
+__all__ = sorted(["CLEARANCE_CAP", "CollisionGeometryWarning", "CollisionResult", "OccupancyCells",
+                  "PRISM_HEIGHT", "RobotGeometry", "SceneCollision", "SceneShape", "base_matrix",
+                  "load_geometry", "moved_joints", "robot_geometry", "scene_shapes"])

@@ -1,0 +1,286 @@
+"""Is an arm trajectory at a base placement free of collisions with the scene and with the robot itself?
+
+The robot stands with its base frame on the floor at (x, y), heading yaw; the checked arm takes each
+configuration of the trajectory, the preset's fixed joints keep their values, every other arm is at
+home and every other joint at pinocchio's neutral value.
+
+Pairs checked (coal, on the URDF's collision shapes, see :mod:`placement.collision.robot`):
+
+* robot-scene: every robot shape against every scene piece (:mod:`placement.collision.scene`), except
+  the gripper (the shapes moved by the arm's last joint or carrying its tip frame) against the
+  ``grasped`` object: it is being grasped, or held in a place step. The rest of the arm is checked
+  against it. A pair collides when its distance is below ``padding`` [m].
+* self: every shape moved by the arm against every other shape, except shapes on the same or adjacent
+  links, the SRDF's disabled pairs and pairs already in contact with every arm at home (they touch by
+  design or through the model's slack). A pair collides when the shapes overlap (no padding).
+
+Speed: each robot shape is bounded by a sphere, each scene piece by an axis-aligned box; a pair whose
+bound distance exceeds what it could change is never given to coal. Overlapping bounds are tested with
+coal's boolean collision first (most likely pairs first, stopping at the first collision); only a free
+trajectory gets distance queries, in order of the bound, until the bound exceeds the best distance.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from ..errors import PlacementError
+from ..robots import Robot
+from .robot import robot_geometry
+from .scene import OccupancyCells, SceneShape, scene_shapes
+
+#: Distances are measured up to this [m]; a free trajectory farther from everything reports it.
+CLEARANCE_CAP = 0.2
+
+#: [m] a convex hull this much farther than the best distance so far is not measured exactly.
+HULL_SLACK = 1e-5
+
+_CORNERS = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=bool)
+
+
+@dataclass(frozen=True)
+class CollisionResult:
+    """Outcome of :meth:`SceneCollision.check`.
+
+    Attributes:
+        free: no pair collides.
+        clearance_m: free: the smallest distance over the checked pairs, capped at the checker's
+            ``clearance_cap`` [m]; colliding: the signed distance of ``culprit`` (negative: penetration
+            depth; >= 0 only when it is within ``padding``).
+        culprit: ``"r_gripper_palm_link vs table_1"``: the first colliding pair found, or when free the
+            closest pair (None when nothing is within the cap). Robot shapes are named by their link,
+            occupancy cells as ``occupancy[row,col]``.
+        pose: index of the trajectory pose of ``culprit``, None for a part of the robot the arm does
+            not move (or no culprit).
+    """
+
+    free: bool
+    clearance_m: float
+    culprit: str | None
+    pose: int | None = None
+
+
+def base_matrix(x: float, y: float, yaw: float) -> np.ndarray:
+    """(4, 4) pose of the base frame on the floor at (x, y) [m], heading ``yaw`` [rad]."""
+    B = np.eye(4)
+    c, s = np.cos(yaw), np.sin(yaw)
+    B[:2, :2] = [[c, -s], [s, c]]
+    B[:2, 3] = (x, y)
+    return B
+
+
+def box_distance(centres: np.ndarray, aabb: np.ndarray) -> np.ndarray:
+    """(N, S) distances [m] from points (N, 3) to boxes (S, 2, 3) (0 inside)."""
+    lo, hi = aabb[None, :, 0], aabb[None, :, 1]
+    p = centres[:, None, :]
+    return np.linalg.norm(np.maximum(lo - p, 0.0) + np.maximum(p - hi, 0.0), axis=2)
+
+
+def model_aabb(aabb: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """(S, 2, 3) boxes ``aabb`` (S, 2, 3) moved by ``A`` (4, 4), bounded again by axis-aligned boxes."""
+    corners = np.where(_CORNERS[None], aabb[:, None, 1], aabb[:, None, 0])  # (S, 8, 3)
+    moved = corners @ A[:3, :3].T + A[:3, 3]
+    return np.stack([moved.min(axis=1), moved.max(axis=1)], axis=1)
+
+
+class SceneCollision:
+    """Collision checker of one robot in one scene (see the module doc).
+
+    Args:
+        robot: the robot (its collision shapes load once per robot object; missing meshes warn).
+        scene: a :class:`~placement.planning.scene.Scene` (obstacles, tables, objects, occupancy map).
+        padding: robot-scene pairs closer than this [m] collide.
+        clearance_cap: distances are measured up to this [m].
+        package_dirs: extra folders holding the URDF's ``package://`` meshes.
+    """
+
+    def __init__(self, robot: Robot, scene, padding: float = 0.0, clearance_cap: float = CLEARANCE_CAP,
+                 package_dirs=()):
+        if not (np.isfinite(padding) and padding >= 0) or not (np.isfinite(clearance_cap) and clearance_cap > 0):
+            raise PlacementError(f"collision check: padding ({padding}) must be >= 0 and clearance_cap "
+                                 f"({clearance_cap}) > 0 [m]")
+        self.robot = robot
+        self.geometry = robot_geometry(robot, package_dirs)
+        self.padding, self.cap = float(padding), float(clearance_cap)
+        self._data = robot.model.createData()
+        self._gdata = pin.GeometryData(self.geometry.geom)
+        self._scene_req = coal.CollisionRequest()
+        self._scene_req.security_margin = self.padding
+        self._self_req = coal.CollisionRequest()
+        self._cres, self._dreq, self._dres = coal.CollisionResult(), coal.DistanceRequest(), coal.DistanceResult()
+        home = self.geometry.home_placements
+        self._home_R = np.array([M.rotation for M in home]).reshape(-1, 3, 3)
+        self._home_t = np.array([M.translation for M in home]).reshape(-1, 3)
+        self.update(scene)
+
+    def update(self, scene) -> None:
+        """Take the scene's obstacles, objects and occupancy map as they are now (after moves)."""
+        self.shapes: list[SceneShape] = scene_shapes(scene)
+        names = {o.name for o in scene.objects}
+        self._object_of = [s.name if s.name in names else None for s in self.shapes]
+        self._aabb = np.array([s.aabb for s in self.shapes]).reshape(-1, 2, 3)
+        occ = getattr(scene, "occupancy", None)
+        self.cells = OccupancyCells(occ) if occ is not None else None
+
+    # -- the check -----------------------------------------------------
+    def check(self, arm: str, qs, base, grasped: str | None = None) -> CollisionResult:
+        """Check the configurations ``qs`` (P, n) [rad/m] of ``arm`` with the base at ``base``
+        (x [m], y [m], yaw [rad]); the gripper may touch the object named ``grasped``."""
+        shapes = self.geometry.arm_shapes(arm)
+        qs = np.atleast_2d(np.asarray(qs, dtype=float))
+        n = self.robot.arm(arm).dof
+        if qs.ndim != 2 or qs.shape[1] != n or not np.all(np.isfinite(qs)):
+            raise PlacementError(f"collision check: qs must be (poses, {n}) finite joint values of arm '{arm}', "
+                                 f"got shape {qs.shape}")
+        A = self.geometry.base_in_model @ np.linalg.inv(base_matrix(*(float(v) for v in base)))
+        inst = self._instances(arm, qs, shapes)
+        scene = self._scene_in_model(A, inst)
+        pairs = self._pairs(inst, scene, shapes, grasped)
+        hit = self._first_collision(pairs, inst, scene)
+        if hit is not None:
+            return hit
+        return self._closest(pairs, inst, scene)
+
+    def _instances(self, arm: str, qs: np.ndarray, shapes) -> dict:
+        """Robot shapes to test, in the model frame: the static ones once, the moving ones per pose."""
+        model, geo = self.robot.model, self.geometry
+        ids = [shapes.static]
+        poses = [np.full(len(shapes.static), -1)]
+        R, t = [self._home_R[shapes.static]], [self._home_t[shapes.static]]
+        for p, q in enumerate(qs):
+            pin.updateGeometryPlacements(model, self._data, geo.geom, self._gdata,
+                                         self.robot.full_q(arm, q, geo.home_q))
+            Ms = [self._gdata.oMg[int(g)] for g in shapes.moving]
+            ids.append(shapes.moving)
+            poses.append(np.full(len(shapes.moving), p))
+            R.append(np.array([M.rotation for M in Ms]).reshape(-1, 3, 3))
+            t.append(np.array([M.translation for M in Ms]).reshape(-1, 3))
+        ids, R, t = np.concatenate(ids).astype(int), np.concatenate(R), np.concatenate(t)
+        centre = np.einsum("nij,nj->ni", R, geo.centre[ids]) + t
+        gripper = np.isin(ids, shapes.gripper)
+        return {"id": ids, "pose": np.concatenate(poses), "poses": len(qs), "R": R, "t": t, "centre": centre,
+                "radius": geo.radius[ids], "gripper": gripper, "tf": {}}
+
+    def _scene_in_model(self, A: np.ndarray, inst: dict) -> dict:
+        """Scene pieces near the robot in the model frame: the shapes and the occupancy cells in reach."""
+        shapes = list(self.shapes)
+        aabb = self._aabb
+        if self.cells is not None and len(inst["id"]):
+            reach = inst["radius"].max() + self.cap + self.padding
+            Ainv = np.linalg.inv(A)
+            world = inst["centre"] @ Ainv[:3, :3].T + Ainv[:3, 3]
+            lo, hi = world.min(axis=0) - reach, world.max(axis=0) + reach
+            rows, cols = self.cells.near(lo[0], lo[1], hi[0], hi[1])
+            if len(rows):
+                c = self.cells.centres(rows, cols)
+                half = np.array([self.cells.resolution / 2, self.cells.resolution / 2, self.cells.height / 2])
+                aabb = np.concatenate([aabb, np.stack([c - half, c + half], axis=1)])
+                shapes += [(int(r), int(k)) for r, k in zip(rows, cols)]  # made into pieces when needed
+        return {"shapes": shapes, "aabb": model_aabb(aabb, A) if len(aabb) else aabb, "A": A, "tf": {}}
+
+    def _pairs(self, inst: dict, scene: dict, shapes, grasped) -> dict:
+        """Candidate pairs with a lower bound of their distance [m]: robot-scene then self."""
+        lb = box_distance(inst["centre"], scene["aabb"]) - inst["radius"][:, None]  # (N, S)
+        if grasped is not None:
+            held = np.zeros(len(scene["shapes"]), dtype=bool)
+            held[:len(self.shapes)] = [o == grasped for o in self._object_of]
+            lb[np.ix_(inst["gripper"], held)] = np.inf
+        a, b = np.nonzero(lb <= self.cap)
+        sa, sb = self._self_instances(shapes, inst["poses"])
+        c, r = inst["centre"], inst["radius"]
+        self_lb = np.linalg.norm(c[sa] - c[sb], axis=1) - r[sa] - r[sb]
+        keep = self_lb <= self.cap
+        return {"a": np.concatenate([a, sa[keep]]), "b": np.concatenate([b, sb[keep]]),
+                "self": np.concatenate([np.zeros(len(a), bool), np.ones(int(keep.sum()), bool)]),
+                "lb": np.concatenate([lb[a, b], self_lb[keep]])}
+
+    def _self_instances(self, shapes, poses: int) -> tuple[np.ndarray, np.ndarray]:
+        """Instance indices (see :meth:`_instances`) of both shapes of every self pair at every pose."""
+        G = self.geometry.geom.ngeoms
+        slot = np.full(G, -1)
+        slot[shapes.static] = np.arange(len(shapes.static))
+        mslot = np.full(G, -1)
+        mslot[shapes.moving] = np.arange(len(shapes.moving))
+        out = []
+        for col in (shapes.self_pairs[:, 0], shapes.self_pairs[:, 1]):
+            moves = mslot[col] >= 0
+            first = np.where(moves, len(shapes.static) + mslot[col], slot[col])
+            step = np.where(moves, len(shapes.moving), 0)
+            out.append((first[None, :] + np.arange(poses)[:, None] * step[None, :]).ravel())
+        return out[0], out[1]
+
+    # -- narrow phase --------------------------------------------------
+    def _robot(self, inst: dict, k: int):
+        """(shape, its convex hull, hull is the shape, coal transform) of robot instance ``k``."""
+        hit = inst["tf"].get(k)
+        if hit is None:
+            g = int(inst["id"][k])
+            geo = self.geometry
+            hit = inst["tf"][k] = (geo.geom.geometryObjects[g].geometry, geo.hulls[g], bool(geo.exact[g]),
+                                   coal.Transform3s(inst["R"][k], inst["t"][k]))
+        return hit
+
+    def _scene(self, scene: dict, s: int):
+        hit = scene["tf"].get(s)
+        if hit is None:
+            piece = scene["shapes"][s]
+            if isinstance(piece, tuple):
+                piece = scene["shapes"][s] = self.cells.shape(*piece)
+            T = scene["A"] @ piece.pose
+            hit = scene["tf"][s] = (piece.geometry, piece.geometry, True, coal.Transform3s(T[:3, :3], T[:3, 3]))
+        return hit
+
+    def _operands(self, pairs, k, inst, scene):
+        a, b = int(pairs["a"][k]), int(pairs["b"][k])
+        return self._robot(inst, a), (self._robot(inst, b) if pairs["self"][k] else self._scene(scene, b))
+
+    def _name(self, pairs, k, inst, scene) -> tuple[str, int | None]:
+        a, b = int(pairs["a"][k]), int(pairs["b"][k])
+        names = self.geometry.names
+        other = names[int(inst["id"][b])] if pairs["self"][k] else scene["shapes"][b].name
+        p = max(int(inst["pose"][a]), int(inst["pose"][b]) if pairs["self"][k] else -1)
+        return f"{names[int(inst['id'][a])]} vs {other}", (None if p < 0 else p)
+
+    def _distance(self, g1, T1, g2, T2) -> float:
+        self._dres.clear()
+        return float(coal.distance(g1, T1, g2, T2, self._dreq, self._dres))
+
+    def _collide(self, g1, T1, g2, T2, req) -> bool:
+        self._cres.clear()
+        return bool(coal.collide(g1, T1, g2, T2, req, self._cres))
+
+    def _first_collision(self, pairs, inst, scene) -> CollisionResult | None:
+        margin = np.where(pairs["self"], 0.0, self.padding)
+        near = np.flatnonzero(pairs["lb"] <= margin)
+        for k in near[np.argsort(pairs["lb"][near], kind="stable")]:
+            (g1, h1, e1, T1), (g2, h2, e2, T2) = self._operands(pairs, k, inst, scene)
+            req = self._self_req if pairs["self"][k] else self._scene_req
+            # hulls apart means the shapes are apart
+            if not self._collide(h1, T1, h2, T2, req) or not (e1 and e2 or self._collide(g1, T1, g2, T2, req)):
+                continue
+            name, pose = self._name(pairs, k, inst, scene)
+            return CollisionResult(False, self._distance(g1, T1, g2, T2), name, pose)
+        return None
+
+    def _closest(self, pairs, inst, scene) -> CollisionResult:
+        best, best_k = self.cap, -1
+        for k in np.argsort(pairs["lb"], kind="stable"):
+            if pairs["lb"][k] >= best:
+                break
+            (g1, h1, e1, T1), (g2, h2, e2, T2) = self._operands(pairs, k, inst, scene)
+            d = self._distance(h1, T1, h2, T2)
+            if not (e1 and e2):
+                # GJK's tolerance is far below HULL_SLACK: a hull farther than that cannot hold the minimum
+                if d > best + HULL_SLACK:
+                    continue
+                d = self._distance(g1, T1, g2, T2)
+            if d < best:
+                best, best_k = d, int(k)
+        if best_k < 0:
+            return CollisionResult(True, self.cap, None, None)
+        name, pose = self._name(pairs, best_k, inst, scene)
+        return CollisionResult(True, best, name, pose)

@@ -1,0 +1,242 @@
+"""The robot's collision model: the URDF's ``<collision>`` shapes loaded by pinocchio (meshes through coal).
+
+Mesh files are looked up before pinocchio sees the URDF: ``package://name/rest`` in the given package
+folders, then in ``ROS_PACKAGE_PATH`` and the URDF's ancestor folders; ``file://`` and plain paths
+(relative to the URDF). With ``strict=False`` (collision checking) a ``<collision>`` element whose mesh
+is not found is left out and one :class:`CollisionGeometryWarning` names its links: the check then uses
+the shapes that exist (none at all for a URDF without meshes: it always finds the arm free). With
+``strict=True`` (map building) a missing mesh is a :class:`~placement.PlacementError`.
+
+Links that carry only a ``<visual>`` have no body for collision checking, as in pinocchio.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+import weakref
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from ..errors import PlacementError
+from ..robots import Robot
+
+
+class CollisionGeometryWarning(UserWarning):
+    """Some (or all) of a robot's collision shapes could not be loaded; the check uses the rest."""
+
+
+def package_dirs(urdf: Path, extra=()) -> list[str]:
+    """Folders searched for ``package://name/...``: ``extra``, ``ROS_PACKAGE_PATH``, the URDF's ancestors."""
+    ros = [p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+    return [str(p) for p in extra] + ros + [str(p) for p in Path(urdf).resolve().parents]
+
+
+def resolve_mesh(filename: str, urdf: Path, dirs: list[str]) -> Path | None:
+    """The file a URDF mesh ``filename`` names, or None if it does not exist."""
+    if filename.startswith("package://"):
+        rest = filename[len("package://"):]
+        for d in dirs:
+            p = Path(d) / rest
+            if p.is_file():
+                return p
+        return None
+    if filename.startswith("file://"):
+        filename = filename[len("file://"):]
+    p = Path(filename)
+    p = p if p.is_absolute() else Path(urdf).resolve().parent / p
+    return p if p.is_file() else None
+
+
+def usable_urdf(urdf: Path, dirs: list[str]) -> tuple[str, list[str], list[str]]:
+    """(URDF text with every mesh path made absolute and unfound meshes' ``<collision>`` removed,
+    links that lost a shape, mesh names not found)."""
+    root = ET.fromstring(Path(urdf).read_bytes())
+    lost, missing = [], []
+    for link in root.iter("link"):
+        for col in link.findall("collision"):
+            mesh = col.find("geometry/mesh")
+            if mesh is None:
+                continue
+            found = resolve_mesh(mesh.get("filename", ""), urdf, dirs)
+            if found is None:
+                link.remove(col)
+                missing.append(mesh.get("filename", ""))
+                if link.get("name") not in lost:
+                    lost.append(link.get("name"))
+            else:
+                mesh.set("filename", str(found))
+    return ET.tostring(root, encoding="unicode"), lost, missing
+
+
+def load_geometry(robot: Robot, extra_dirs=(), strict: bool = False) -> tuple[pin.GeometryModel, list[str]]:
+    """(collision GeometryModel without pairs, links whose shapes were left out) of ``robot``.
+
+    Raises :class:`PlacementError` naming the robot when the URDF's geometry does not load, and with
+    ``strict`` also when a mesh is missing or there is no shape at all.
+    """
+    dirs = package_dirs(robot.urdf_path, extra_dirs)
+    try:
+        text, lost, missing = usable_urdf(robot.urdf_path, dirs)
+        if strict and missing:
+            raise PlacementError(f"robot '{robot.name}': collision geometry of {robot.urdf_path} does not load "
+                                 f"(mesh {missing[0]} not found); build without self-collision")
+        geom = pin.buildGeomFromUrdfString(robot.model, text, pin.GeometryType.COLLISION, None, dirs)
+    except PlacementError:
+        raise
+    except Exception as exc:  # ET.ParseError, pinocchio's ValueError/RuntimeError with multi-line messages
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise PlacementError(f"robot '{robot.name}': collision geometry of {robot.urdf_path} "
+                             f"does not load ({first})") from None
+    if strict and geom.ngeoms == 0:
+        raise PlacementError(f"robot '{robot.name}': the URDF has no <collision> shapes (collision geometry); "
+                             "build without self-collision")
+    return geom, lost
+
+
+def moved_joints(model: pin.Model, joint_ids) -> set[int]:
+    """The joints ``joint_ids`` and every joint below them in the kinematic tree."""
+    moved = set(int(j) for j in joint_ids)
+    for j in range(1, model.njoints):
+        k = j
+        while k > 0:
+            if k in moved:
+                moved.add(j)
+                break
+            k = model.parents[k]
+    return moved
+
+
+def adjacent(model: pin.Model, j1: int, j2: int) -> bool:
+    """Shapes on the same or on parent/child joints touch by design."""
+    return j1 == j2 or model.parents[j1] == j2 or model.parents[j2] == j1
+
+
+def convex_hull(geometry: coal.CollisionGeometry) -> tuple[coal.CollisionGeometry, bool]:
+    """(convex hull of a mesh, False), or (the geometry itself, True) for primitives and convex shapes."""
+    if isinstance(geometry, coal.BVHModelBase):
+        try:
+            geometry.buildConvexHull(False, "Qt")
+            return geometry.convex, False
+        except Exception:  # qhull fails on flat or degenerate meshes: then the mesh is its own bound
+            return geometry, True
+    return geometry, True
+
+
+def transform(M: pin.SE3) -> coal.Transform3s:
+    return coal.Transform3s(M.rotation, M.translation)
+
+
+@dataclass(frozen=True)
+class ArmShapes:
+    """Shape indices of one arm: ``moving`` (moved by its joints), ``gripper`` (moved by its last joint
+    or carrying the tip frame), ``static`` (the rest) and ``self_pairs`` (K, 2) checked against each other."""
+
+    moving: np.ndarray
+    gripper: np.ndarray
+    static: np.ndarray
+    self_pairs: np.ndarray
+
+
+class RobotGeometry:
+    """A robot's collision shapes and what the scene checker needs of them. Use :func:`robot_geometry`.
+
+    Attributes:
+        geom: pinocchio GeometryModel (no collision pairs registered).
+        names: (G,) link name of each shape (culprit names).
+        lost: links whose shapes were left out (missing meshes).
+        centre, radius: (G, 3), (G,) bounding sphere of each shape in its own frame [m].
+        home_q: pinocchio configuration: the preset's fixed joints, every arm at home.
+        base_in_model: (4, 4) pose of the base frame in the model's root frame at ``home_q``.
+    """
+
+    def __init__(self, robot: Robot, extra_dirs=()):
+        self.robot = robot
+        model = robot.model
+        self.geom, self.lost = load_geometry(robot, extra_dirs, strict=False)
+        if self.lost or self.geom.ngeoms == 0:
+            what = (f"links without their collision meshes: {', '.join(self.lost)}" if self.lost
+                    else "the URDF has no <collision> shapes")
+            warnings.warn(f"robot '{robot.name}': {what}; collision checks use the {self.geom.ngeoms} "
+                          "shapes that loaded", CollisionGeometryWarning, stacklevel=3)
+        objs = self.geom.geometryObjects
+        self.names = [model.frames[o.parentFrame].name for o in objs]
+        self.joint = np.array([o.parentJoint for o in objs], dtype=int)
+        for o in objs:
+            o.geometry.computeLocalAABB()
+        # convex hulls of the meshes: GJK on them is 10-100x faster than on the triangles, and their
+        # distances are lower bounds of the meshes' (exact queries are made only when that can matter)
+        hulls = [convex_hull(o.geometry) for o in objs]
+        self.hulls = [h for h, _ in hulls]
+        self.exact = np.array([e for _, e in hulls], dtype=bool)  # the hull is the shape itself
+        self.centre = np.array([np.asarray(o.geometry.aabb_center) for o in objs]).reshape(-1, 3)
+        self.radius = np.array([o.geometry.aabb_radius for o in objs], dtype=float)
+        q = robot.reference_q()
+        for name in robot.arms:
+            q = robot.full_q(name, robot.arm(name).home, q)
+        self.home_q = q
+        self.data = model.createData()
+        self.gdata = pin.GeometryData(self.geom)
+        pin.framesForwardKinematics(model, self.data, q)
+        self.base_in_model = self.data.oMf[robot.base_frame_id].homogeneous.copy()
+        pin.updateGeometryPlacements(model, self.data, self.geom, self.gdata, q)
+        self.home_placements = [pin.SE3(M) for M in self.gdata.oMg]
+        self._arms: dict[str, ArmShapes] = {}
+
+    def arm_shapes(self, arm: str) -> ArmShapes:
+        """The :class:`ArmShapes` of ``arm`` (computed once)."""
+        if arm not in self._arms:
+            self._arms[arm] = self._make_arm(arm)
+        return self._arms[arm]
+
+    def _make_arm(self, arm: str) -> ArmShapes:
+        robot, model, geom = self.robot, self.robot.model, self.geom
+        a = robot.arm(arm)
+        moved = moved_joints(model, a.joint_ids)
+        tip_joint = model.frames[model.getFrameId(a.tip_frame)].parentJoint
+        hand = moved_joints(model, [a.joint_ids[-1], tip_joint])
+        moving = np.array([g for g in range(geom.ngeoms) if int(self.joint[g]) in moved], dtype=int)
+        gripper = np.array([g for g in range(geom.ngeoms) if int(self.joint[g]) in hand], dtype=int)
+        static = np.array([g for g in range(geom.ngeoms) if int(self.joint[g]) not in moved], dtype=int)
+        return ArmShapes(moving, gripper, static, self._self_pairs(moved))
+
+    def _self_pairs(self, moved: set[int]) -> np.ndarray:
+        """Pairs with a shape moved by the arm, minus same/adjacent links, the SRDF's disabled pairs and
+        pairs already in contact with every arm at home (they touch by design or by the model's slack)."""
+        robot, model = self.robot, self.robot.model
+        work = pin.GeometryModel()
+        for o in self.geom.geometryObjects:
+            work.addGeometryObject(o)
+        work.addAllCollisionPairs()
+        if robot.srdf_path is not None:
+            pin.removeCollisionPairs(model, work, str(robot.srdf_path))
+        req, res = coal.CollisionRequest(), coal.CollisionResult()
+        keep = []
+        for cp in work.collisionPairs:
+            i, j = cp.first, cp.second
+            ji, jj = int(self.joint[i]), int(self.joint[j])
+            if adjacent(model, ji, jj) or (ji not in moved and jj not in moved):
+                continue
+            res.clear()
+            if coal.collide(self.geom.geometryObjects[i].geometry, transform(self.home_placements[i]),
+                            self.geom.geometryObjects[j].geometry, transform(self.home_placements[j]), req, res):
+                continue
+            keep.append((i, j))
+        return np.array(keep, dtype=int).reshape(-1, 2)
+
+
+_CACHE: "weakref.WeakKeyDictionary[Robot, dict]" = weakref.WeakKeyDictionary()
+
+
+def robot_geometry(robot: Robot, extra_dirs=()) -> RobotGeometry:
+    """The :class:`RobotGeometry` of ``robot`` (loaded once per robot object and package folders)."""
+    per_robot = _CACHE.setdefault(robot, {})
+    key = tuple(str(d) for d in extra_dirs)
+    if key not in per_robot:
+        per_robot[key] = RobotGeometry(robot, extra_dirs)
+    return per_robot[key]
