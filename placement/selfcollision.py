@@ -1,7 +1,7 @@
 """Optional self-collision rejection and self-distance penalty while building a map (SPEC section 3, item 5).
 
 Geometry: the URDF's ``<collision>`` shapes (meshes and primitives) loaded by
-pinocchio, tested by coal (hpp-fcl) exactly as ``pinocchio.computeCollisions``
+pinocchio (:func:`placement.collision.robot.load_geometry`, strict: a missing mesh is an error), tested by coal (hpp-fcl) exactly as ``pinocchio.computeCollisions``
 does. Pairs tested: every pair with at least one shape moved by the arm's
 joints, minus pairs on the same or adjacent links (parent/child joints, which
 touch by design), minus the pairs the preset's SRDF disables, and minus shapes
@@ -21,11 +21,10 @@ proportion to how directly it approaches. d <= 0 is a collision (rejected).
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pinocchio as pin
 
+from .collision.robot import adjacent, load_geometry, moved_joints
 from .errors import PlacementError
 from .robots import Robot
 
@@ -36,11 +35,6 @@ BETA = 1.0    # self-distance penalty exponent
 def distance_penalty(d: np.ndarray | float) -> np.ndarray | float:
     """Simox's self-distance penalty ``P(d) = exp(-alpha d) d^-beta`` for distances d > 0 [m]."""
     return np.exp(-ALPHA * np.asarray(d, dtype=float)) * np.asarray(d, dtype=float) ** -BETA
-
-
-def _package_dirs(urdf: Path) -> list[str]:
-    """Folders that may hold the URDF's ``package://name/...`` packages: its ancestors."""
-    return [str(p) for p in urdf.resolve().parents]
 
 
 class SelfCollision:
@@ -54,16 +48,7 @@ class SelfCollision:
         a = robot.arm(arm)
         self.robot, self.arm = robot, arm
         model = robot.model
-        try:
-            geom = pin.buildGeomFromUrdf(model, str(robot.urdf_path), pin.GeometryType.COLLISION,
-                                         package_dirs=_package_dirs(robot.urdf_path))
-        except Exception as exc:  # pinocchio raises ValueError/RuntimeError with a multi-line message
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise PlacementError(f"robot '{robot.name}': collision geometry of {robot.urdf_path} "
-                                 f"does not load ({first}); build without self-collision") from None
-        if geom.ngeoms == 0:
-            raise PlacementError(f"robot '{robot.name}': the URDF has no <collision> shapes; "
-                                 "build without self-collision")
+        geom, _ = load_geometry(robot, strict=True)
         geom.addAllCollisionPairs()
         if robot.srdf_path is not None:
             pin.removeCollisionPairs(model, geom, str(robot.srdf_path))
@@ -78,8 +63,7 @@ class SelfCollision:
         for cp in geom.collisionPairs:
             j1 = geom.geometryObjects[cp.first].parentJoint
             j2 = geom.geometryObjects[cp.second].parentJoint
-            adjacent = j1 == j2 or model.parents[j1] == j2 or model.parents[j2] == j1
-            if not adjacent and (j1 in moved or j2 in moved) and j1 not in others and j2 not in others:
+            if not adjacent(model, j1, j2) and (j1 in moved or j2 in moved) and j1 not in others and j2 not in others:
                 keep.append(cp)
         if not keep:
             raise PlacementError(f"robot '{robot.name}': no collision shape pair involves arm '{arm}' "
@@ -106,15 +90,7 @@ class SelfCollision:
     @staticmethod
     def _moved_joints(model, joint_ids) -> set[int]:
         """The arm's joints and every joint below them in the kinematic tree."""
-        moved = set(int(j) for j in joint_ids)
-        for j in range(1, model.njoints):
-            k = j
-            while k > 0:
-                if k in moved:
-                    moved.add(j)
-                    break
-                k = model.parents[k]
-        return moved
+        return moved_joints(model, joint_ids)
 
     def collides(self, Q) -> np.ndarray:
         """(N,) bool: True where configuration Q[i] (n,) [rad/m] of the arm collides with the robot."""

@@ -22,6 +22,7 @@ trajectory gets distance queries, in order of the bound, until the bound exceeds
 
 from __future__ import annotations
 
+import heapq
 from dataclasses import dataclass
 
 import coal
@@ -267,20 +268,28 @@ class SceneCollision:
         return None
 
     def _closest(self, pairs, inst, scene) -> CollisionResult:
-        best, best_k = self.cap, -1
-        for k in np.argsort(pairs["lb"], kind="stable"):
-            if pairs["lb"][k] >= best:
-                break
-            (g1, h1, e1, T1), (g2, h2, e2, T2) = self._operands(pairs, k, inst, scene)
-            d = self._distance(h1, T1, h2, T2)
-            if not (e1 and e2):
-                # GJK's tolerance is far below HULL_SLACK: a hull farther than that cannot hold the minimum
-                if d > best + HULL_SLACK:
-                    continue
-                d = self._distance(g1, T1, g2, T2)
-            if d < best:
-                best, best_k = d, int(k)
-        if best_k < 0:
-            return CollisionResult(True, self.cap, None, None)
-        name, pose = self._name(pairs, best_k, inst, scene)
-        return CollisionResult(True, best, name, pose)
+        """The pair at the smallest distance below the cap, best first: each pair's key is a lower bound
+        of its distance (bounding volumes, then its convex hulls' distance, then the exact distance); the
+        pair with the smallest key is refined until an exact distance comes first: no other pair can be
+        nearer. Coal's GJK tolerance is far below HULL_SLACK, so hull keys are lowered by it."""
+        order = np.argsort(pairs["lb"], kind="stable")
+        lbs = pairs["lb"][order]
+        heap: list[tuple[float, int, int]] = []  # (key, stage 1 hull / 2 exact, pair)
+        nxt = 0
+        while True:
+            top = heap[0][0] if heap else np.inf
+            if nxt < len(order) and lbs[nxt] < min(top, self.cap):
+                k = int(order[nxt])
+                nxt += 1
+                (_, h1, e1, T1), (_, h2, e2, T2) = self._operands(pairs, k, inst, scene)
+                d = self._distance(h1, T1, h2, T2)
+                heapq.heappush(heap, (d, 2, k) if e1 and e2 else (d - HULL_SLACK, 1, k))
+                continue
+            if not heap or top >= self.cap:
+                return CollisionResult(True, self.cap, None, None)
+            key, stage, k = heapq.heappop(heap)
+            if stage == 2:
+                name, pose = self._name(pairs, k, inst, scene)
+                return CollisionResult(True, key, name, pose)
+            (g1, _, _, T1), (g2, _, _, T2) = self._operands(pairs, k, inst, scene)
+            heapq.heappush(heap, (self._distance(g1, T1, g2, T2), 2, k))
