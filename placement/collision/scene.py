@@ -120,8 +120,9 @@ def inside_triangle(p, a, b, c) -> bool:
 
 def prism(points: np.ndarray, height: float) -> coal.ConvexBase:
     """A convex prism over the convex polygon ``points`` (k, 2), z from 0 to ``height``."""
-    verts = [np.array([x, y, z]) for z in (0.0, height) for x, y in points]
-    return coal.Convex.convexHull(coal.StdVec_Vec3s(verts), False, None)
+    verts = coal.StdVec_Vec3s()
+    verts.extend([np.array([x, y, z]) for z in (0.0, height) for x, y in points])
+    return coal.Convex.convexHull(verts, False, None)
 
 
 def polygon_shapes(name: str, points, height: float = PRISM_HEIGHT) -> list[SceneShape]:
