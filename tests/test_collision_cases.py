@@ -205,6 +205,8 @@ def test_bad_input_is_one_clear_error(checker, pr2):
         checker.check("right", np.zeros((2, 6)), BASE)
     with pytest.raises(placement.PlacementError, match=r"qs must be \(poses, 7\)"):
         checker.check("right", [np.full(7, np.nan)], BASE)
+    with pytest.raises(placement.PlacementError, match="grasped object 'mug' is not in the scene; objects: cup_1, cup_2"):
+        checker.check("right", [np.zeros(7)], BASE, grasped="mug")
     with pytest.raises(placement.PlacementError, match="padding"):
         SceneCollision(pr2, table_scene(), padding=-0.1)
     bad = dataclasses.replace(table_scene(), obstacles=(Obstacle("blob", types.SimpleNamespace(mass=1.0)),))

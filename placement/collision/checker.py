@@ -121,8 +121,8 @@ class SceneCollision:
     def update(self, scene) -> None:
         """Take the scene's obstacles, objects and occupancy map as they are now (after moves)."""
         self.shapes: list[SceneShape] = scene_shapes(scene)
-        names = {o.name for o in scene.objects}
-        self._object_of = [s.name if s.name in names else None for s in self.shapes]
+        self.objects = [o.name for o in scene.objects]
+        self._object_of = [s.name if s.name in self.objects else None for s in self.shapes]
         self._aabb = np.array([s.aabb for s in self.shapes]).reshape(-1, 2, 3)
         occ = getattr(scene, "occupancy", None)
         self.cells = OccupancyCells(occ) if occ is not None else None
@@ -137,6 +137,9 @@ class SceneCollision:
         if qs.ndim != 2 or qs.shape[1] != n or not np.all(np.isfinite(qs)):
             raise PlacementError(f"collision check: qs must be (poses, {n}) finite joint values of arm '{arm}', "
                                  f"got shape {qs.shape}")
+        if grasped is not None and grasped not in self.objects:
+            raise PlacementError(f"collision check: grasped object '{grasped}' is not in the scene; objects: "
+                                 f"{', '.join(self.objects) or '(none)'}")
         A = self.geometry.base_in_model @ np.linalg.inv(base_matrix(*(float(v) for v in base)))
         inst = self._instances(arm, qs, shapes)
         scene = self._scene_in_model(A, inst)
