@@ -10,7 +10,7 @@ direction are kept:
   axis.
 
 A :class:`Band` gives the heights z [m] above the base frame (the floor) and the horizontal distances
-r [m] from the base frame's vertical axis of those samples (the :data:`QUANTILE` and ``1 -
+r [m] from the base frame's vertical axis of those samples beyond the base (the :data:`QUANTILE` and ``1 -
 QUANTILE`` quantiles, so one lucky sample does not stretch the band), and a per-height profile in
 slices of :data:`SLICE` [m]. The planner uses it to say why a pose is out of reach.
 """
@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .chain import PRISMATIC, Chain
+from .footprint import inscribed_radius
 
 #: Largest angle between the TCP's approach axis and the wanted direction [rad].
 APPROACH_TOLERANCE = math.radians(15)
@@ -123,9 +124,10 @@ class Band:
                 "matched": self.matched, "profile": self.profile, "held": dict(self.held)}
 
 
-def band_of(T: np.ndarray, approach: str, arm: str = "", held: dict | None = None) -> Band:
-    """The :class:`Band` of the TCP poses ``T`` (m, 4, 4) [m] in the base frame."""
-    keep = T[approach_mask(T, approach)]
+def band_of(T: np.ndarray, approach: str, arm: str = "", held: dict | None = None, min_distance: float = 0.0) -> Band:
+    """The :class:`Band` of the TCP poses ``T`` (m, 4, 4) [m] in the base frame that are at least
+    ``min_distance`` [m] from the base frame's vertical axis."""
+    keep = T[approach_mask(T, approach) & (np.hypot(T[:, 0, 3], T[:, 1, 3]) >= min_distance)]
     held = dict(held or {})
     if len(keep) == 0:
         nan = math.nan
@@ -151,12 +153,19 @@ def arm_poses(robot, arm: str, samples: int = SAMPLES, seed: int = 0) -> np.ndar
     return chain_fk(a.chain, sample_configs(a.lower, a.upper, samples, seed))
 
 
+def base_clearance(robot) -> float:
+    """[m] the inscribed radius of the robot's footprint (its radius for a round base): a TCP nearer the
+    base's vertical axis is above the base itself, not above anything beside it."""
+    return robot.footprint_radius if robot.footprint is None else inscribed_radius(robot.footprint)
+
+
 def reach_band(robot, arm: str, approach: str = "down", samples: int = SAMPLES, seed: int = 0) -> Band:
     """The band of heights and distances ``arm`` of ``robot`` reaches with ``approach`` ("down" or
-    "horizontal"), with the robot's fixed joints as the preset holds them."""
+    "horizontal") beyond the base (:func:`base_clearance`), with the robot's fixed joints as the preset
+    holds them."""
     if approach not in APPROACHES:
         raise ValueError(f"approach must be one of {', '.join(APPROACHES)}, got {approach!r}")
-    return band_of(arm_poses(robot, arm, samples, seed), approach, arm, robot.fixed_joints)
+    return band_of(arm_poses(robot, arm, samples, seed), approach, arm, robot.fixed_joints, base_clearance(robot))
 
 
 def table_cells(T: np.ndarray, z_low: float, z_high: float, cell: float = SLICE) -> int:
