@@ -81,6 +81,11 @@ def collision_boxes(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip:
     return np.array(boxes), ""
 
 
+def _turn(a, b, c) -> float:
+    """z of (b - a) x (c - a): positive for a left turn."""
+    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+
 def hull(points: np.ndarray) -> np.ndarray:
     """(k, 2) counter-clockwise convex hull of (m, 2) points (monotone chain)."""
     pts = sorted(set(map(tuple, np.round(points, 9))))
@@ -90,7 +95,7 @@ def hull(points: np.ndarray) -> np.ndarray:
     def half(seq):
         out = []
         for p in seq:
-            while len(out) >= 2 and np.cross(np.subtract(out[-1], out[-2]), np.subtract(p, out[-2])) <= 0:
+            while len(out) >= 2 and _turn(out[-2], out[-1], p) <= 0:
                 out.pop()
             out.append(p)
         return out
