@@ -15,8 +15,9 @@ def _link(name: str, box: str | None = None) -> str:
     return (f'<link name="{name}"><collision><geometry><box size="{box}"/></geometry></collision></link>')
 
 
-def arm_urdf(name: str = "toy", joints: int = 6) -> str:
-    """URDF text: base_footprint -> base_link (0.6 x 0.5 m box) -> ``joints`` revolute joints ->
+def arm_urdf(name: str = "toy", joints: int = 6, mount: float = 0.5) -> str:
+    """URDF text: base_footprint -> base_link (0.6 x 0.5 m box) -> ``joints`` revolute joints (the first
+    ``mount`` [m] above the base link's centre) ->
     gripper_tool_frame and two prismatic finger joints (the right one a mimic) along +x."""
     parts = [f'<robot name="{name}">', _link("base_footprint"), _link("base_link", "0.6 0.5 0.3"),
              '<joint name="base_joint" type="fixed"><parent link="base_footprint"/><child link="base_link"/>'
@@ -25,7 +26,7 @@ def arm_urdf(name: str = "toy", joints: int = 6) -> str:
     for i in range(joints):
         parts.append(_link(f"link_{i + 1}"))
         parts.append(f'<joint name="joint_{i + 1}" type="revolute"><parent link="{parent}"/>'
-                     f'<child link="link_{i + 1}"/><origin xyz="{OFFSETS[i % 6]}"/><axis xyz="{AXES[i % 6]}"/>'
+                     f'<child link="link_{i + 1}"/><origin xyz="{f"0 0 {mount}" if i == 0 else OFFSETS[i % 6]}"/><axis xyz="{AXES[i % 6]}"/>'
                      '<limit lower="-2" upper="2" effort="10" velocity="1"/></joint>')
         parent = f"link_{i + 1}"
     parts += [_link("gripper_tool_frame"),
