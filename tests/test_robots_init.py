@@ -231,3 +231,10 @@ def test_preset_naming_a_broken_xacro_is_one_line(tmp_path):
                       "omega_max: 1\narms: {arm: {joints: [joint_1, joint_2, joint_3, joint_4, joint_5, joint_6], "
                       "tip_frame: gripper_tool_frame}}\n")
     one_line_error(run("robots", "check", str(preset)), "p.yaml: urdf", "does not expand")
+
+
+def test_unusable_out_is_refused_before_any_work(tmp_path):
+    src = tmp_path / "toy.urdf"
+    src.write_text(arm_urdf())
+    one_line_error(run("robots", "init", str(src), "--out", str(tmp_path / "no" / "x.yaml")), "does not exist")
+    one_line_error(run("robots", "init", str(src), "--out", str(tmp_path)), "is a directory")

@@ -19,18 +19,20 @@ def robots():
     """Robot presets: propose one from a URDF, check one."""
 
 
-def write_atomic(path: Path, text: str, force: bool) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder (never half a file);
-    an existing file only with ``force``."""
-    if path.exists() and not force:
-        raise PlacementError(f"--out {path}: exists; give --force to overwrite it")
+def check_out(path: Path, force: bool) -> None:
+    """Refuse an ``--out`` that exists (without ``force``), is a directory or has no folder, before any work."""
     if path.is_dir():
         raise PlacementError(f"--out {path}: is a directory; give a .yaml file name")
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise PlacementError(f"--out {path}: folder {folder} does not exist")
+    if path.exists() and not force:
+        raise PlacementError(f"--out {path}: exists; give --force to overwrite it")
+    if not path.resolve().parent.is_dir():
+        raise PlacementError(f"--out {path}: folder {path.parent} does not exist")
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder (never half a file)."""
     try:
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".tmp")
+        fd, tmp = tempfile.mkstemp(dir=path.resolve().parent, prefix=f".{path.name}.", suffix=".tmp")
         with os.fdopen(fd, "w") as fh:
             fh.write(text)
         os.replace(tmp, path)
@@ -50,13 +52,13 @@ def init(urdf, out, force, as_json, verbose, quiet):
     from ..robots.init_render import render
 
     out_path = Path(out) if out else None
-    if out_path is not None and out_path.exists() and not force:  # before any work
-        raise PlacementError(f"--out {out_path}: exists; give --force to overwrite it")
+    if out_path is not None:
+        check_out(out_path, force)
     proposal = propose(urdf, out_path)
     command = "placement robots init " + shlex.quote(str(urdf)) + (f" --out {shlex.quote(str(out))}" if out else "")
     text = render(proposal, command)
     if out_path is not None:
-        write_atomic(out_path, text, force)
+        write_atomic(out_path, text)
     for w in proposal.warnings:
         log.warning("warning: %s", w)
     if as_json:
