@@ -238,3 +238,9 @@ def test_unusable_out_is_refused_before_any_work(tmp_path):
     src.write_text(arm_urdf())
     one_line_error(run("robots", "init", str(src), "--out", str(tmp_path / "no" / "x.yaml")), "does not exist")
     one_line_error(run("robots", "init", str(src), "--out", str(tmp_path)), "is a directory")
+
+
+def test_package_paths_are_resolved():
+    p = propose("package://example-robot-data/robots/panda_description/urdf/panda.urdf")
+    assert p.urdf == "package://example-robot-data/robots/panda_description/urdf/panda.urdf"
+    assert [a.name for a in p.arms] == ["arm"]

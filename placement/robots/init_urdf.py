@@ -87,7 +87,15 @@ class Description:
 
 
 def load_description(path: str | Path) -> Description:
-    """Read and parse a URDF or xacro file; one-line :class:`RobotError` for anything unusable."""
+    """Read and parse a URDF or xacro file (a path, or ``package://example-robot-data/...``); one-line
+    :class:`RobotError` for anything unusable."""
+    if str(path).startswith("package://"):
+        from .spec import resolve_path
+
+        try:
+            path = resolve_path(str(path), Path.cwd())
+        except Exception:  # example-robot-data is not installed
+            raise RobotError(f"{path}: needs the example-robot-data package, which is not installed") from None
     path = Path(path).expanduser()
     where = str(path)
     if not path.exists():
