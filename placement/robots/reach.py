@@ -139,7 +139,7 @@ def band_of(T: np.ndarray, approach: str, arm: str = "", held: dict | None = Non
     idx = np.floor(z / SLICE).astype(np.int64)
     for k in np.unique(idx):
         rk = r[idx == k]
-        profile.append({"z": [round(k * SLICE, 4), round((k + 1) * SLICE, 4)],
+        profile.append({"z": [round(float(k) * SLICE, 4), round(float(k + 1) * SLICE, 4)],
                         "r_min": round(float(rk.min()), 4), "r_max": round(float(rk.max()), 4),
                         "count": int(len(rk))})
     return Band(arm, approach, float(np.quantile(z, lo)), float(np.quantile(z, hi)), float(np.quantile(r, lo)),
