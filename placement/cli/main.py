@@ -9,6 +9,7 @@ from .evaluate import evaluate
 from .maps import maps
 from .params import OneLineGroup
 from .query import query
+from .robots import robots
 from .scenes import scenes
 from .view import view
 
@@ -24,6 +25,7 @@ cli.add_command(query)
 cli.add_command(scenes)
 cli.add_command(evaluate)
 cli.add_command(view)
+cli.add_command(robots)
 
 
 def main():

@@ -29,6 +29,7 @@ import pinocchio as pin
 from ..errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
 from ..validation import Checker, one_line, read_yaml
 from .chain import Chain, ancestors, extract_chain
+from .init_urdf import expand_xacro, is_xacro
 from .spec import QUATERNION_TOLERANCE, ArmSpec, PresetSpec, parse_preset
 
 PRESET_DIR = Path(__file__).parent / "presets"
@@ -80,10 +81,13 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
     bytes, so the cache key always describes the cached model (an edited file
     has a new hash). Each call returns its own copy of the model.
     """
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise RobotError(one_line(f"{where}: urdf: cannot read {path}: {exc.strerror or exc}")) from None
+    if is_xacro(path):  # expanded on every load: its includes may have changed
+        data = expand_xacro(path, f"{where}: urdf")
+    else:
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise RobotError(one_line(f"{where}: urdf: cannot read {path}: {exc.strerror or exc}")) from None
     sha = hashlib.sha256(data).hexdigest()
     key = (str(path), sha)
     with _MODELS_LOCK:

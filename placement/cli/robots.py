@@ -1,0 +1,92 @@
+"""`placement robots init | check`: onboard a robot from its URDF and see what it reaches."""
+
+from __future__ import annotations
+
+import os
+import shlex
+import tempfile
+from pathlib import Path
+
+import click
+
+from ..errors import PlacementError
+from .options import emit, log, setup_logging, standard_options, writable_dir
+from .params import OneLineCommand, OneLineGroup
+
+
+@click.group(cls=OneLineGroup)
+def robots():
+    """Robot presets: propose one from a URDF, check one."""
+
+
+def check_out(path: Path, force: bool) -> None:
+    """Refuse an ``--out`` that exists (without ``force``), is a directory or has no folder, before any work."""
+    if path.is_dir():
+        raise PlacementError(f"--out {path}: is a directory; give a .yaml file name")
+    if path.exists() and not force:
+        raise PlacementError(f"--out {path}: exists; give --force to overwrite it")
+    if not path.resolve().parent.is_dir():
+        raise PlacementError(f"--out {path}: folder {path.parent} does not exist")
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder (never half a file)."""
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.resolve().parent, prefix=f".{path.name}.", suffix=".tmp")
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise PlacementError(f"--out {path}: cannot write ({exc.strerror or exc})") from None
+
+
+@robots.command(cls=OneLineCommand)
+@click.argument("urdf", type=click.Path())
+@click.option("--out", default=None, type=click.Path(), help="Write the preset YAML here (default: stdout).")
+@click.option("--force", is_flag=True, help="Overwrite --out if it exists.")
+@standard_options
+def init(urdf, out, force, as_json, verbose, quiet):
+    """Propose a commented preset for the robot in URDF (a .urdf or .xacro file)."""
+    setup_logging(verbose, quiet)
+    from ..robots.init import propose
+    from ..robots.init_render import render
+
+    out_path = Path(out) if out else None
+    if out_path is not None:
+        check_out(out_path, force)
+    proposal = propose(urdf, out_path)
+    command = "placement robots init " + shlex.quote(str(urdf)) + (f" --out {shlex.quote(str(out))}" if out else "")
+    text = render(proposal, command)
+    if out_path is not None:
+        write_atomic(out_path, text)
+    for w in proposal.warnings:
+        log.warning("warning: %s", w)
+    if as_json:
+        emit({**proposal.to_json(), "out": str(out_path) if out_path else None, "yaml": text}, True, str)
+    elif out_path is None:
+        click.echo(text, nl=False)
+    else:
+        click.echo(f"{out_path}: preset for {proposal.name} with arms {', '.join(a.name for a in proposal.arms)} "
+                   f"({proposal.seconds:.1f} s); check it with: placement robots check {out_path}")
+
+
+@robots.command(cls=OneLineCommand)
+@click.argument("preset")
+@click.option("--plot", "plot_dir", default=None, type=click.Path(),
+              help="Write a side view with the reach bands and a TCP close-up per arm (PNG) here.")
+@standard_options
+def check(preset, plot_dir, as_json, verbose, quiet):
+    """Load PRESET and show the heights and distances each arm reaches top-down and horizontally."""
+    setup_logging(verbose, quiet)
+    from ..robots import load_robot
+    from ..robots.check import check_robot, render_table
+
+    if plot_dir:
+        writable_dir(plot_dir, "--plot")
+    robot = load_robot(preset)
+    doc = check_robot(robot)
+    if plot_dir:
+        from ..robots.check_plot import plot_check
+
+        doc["plots"] = plot_check(robot, doc, Path(plot_dir))
+    emit(doc, as_json, render_table)

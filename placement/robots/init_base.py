@@ -1,0 +1,156 @@
+"""The base of a robot read by ``placement robots init``: the frame on the floor and the footprint.
+
+Base frame: a root-level frame named ``*footprint*``, else the root link when it is on the floor (its
+origin within :data:`ON_FLOOR` of the lowest point of the robot's collision shapes), else (a root
+above the floor, as a humanoid's pelvis) the frame on the floor nearest the root's vertical axis.
+
+Footprint: the convex hull of the floor projection of the bounding boxes of every collision shape
+the arms do not move (through pinocchio/coal geometry), in the base frame, rounded outwards to the
+millimetre; without loadable collision shapes, a circle around the links' origins plus
+:data:`RADIUS_MARGIN`.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from ..validation import one_line
+from .footprint import contains_origin
+from .spec import share_dir
+
+#: A root link whose origin is this close to the floor [m] is on the floor.
+ON_FLOOR = 0.05
+#: Added to the links' origins when the footprint cannot come from collision shapes [m].
+RADIUS_MARGIN = 0.1
+
+
+@dataclass
+class Base:
+    """What init found about the base.
+
+    Attributes:
+        frame: base frame name.
+        footprint: (k, 2) [m] counter-clockwise polygon in the base frame, or None (use ``radius``).
+        radius: [m] circumscribed radius (of the polygon, or the circle when footprint is None).
+        notes: plain words on how each value was found; warnings: what was guessed.
+    """
+
+    frame: str
+    footprint: np.ndarray | None
+    radius: float
+    notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+def package_dirs(urdf: Path) -> list[str]:
+    """Folders to resolve ``package://`` mesh paths: example-robot-data's and the URDF's parents."""
+    out = [str(p) for p in list(Path(urdf).resolve().parents)[:3]]
+    try:
+        out.insert(0, str(share_dir()))
+    except Exception:  # example-robot-data not installed: only the URDF's own folders
+        pass
+    return out
+
+
+def collision_boxes(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip: set[int]):
+    """((m, 8, 3) corners [m] of the bounding boxes of collision shapes not on joints ``skip``, in the
+    root frame at ``q``) or (None, reason)."""
+    try:
+        geom = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION, package_dirs=package_dirs(urdf))
+    except Exception as exc:  # a mesh that cannot be found or read
+        return None, one_line(" ".join(str(exc).split()))[:160]
+    gdata = geom.createData()
+    data = model.createData()
+    pin.updateGeometryPlacements(model, data, geom, gdata, q)
+    boxes = []
+    for k, obj in enumerate(geom.geometryObjects):
+        if obj.parentJoint in skip:
+            continue
+        obj.geometry.computeLocalAABB()
+        lo, hi = np.array(obj.geometry.aabb_local.min_), np.array(obj.geometry.aabb_local.max_)
+        corners = np.array(list(itertools.product(*zip(lo, hi))))
+        M = gdata.oMg[k]
+        boxes.append(corners @ M.rotation.T + M.translation)
+    if not boxes:
+        return None, "no collision shapes outside the arms"
+    return np.array(boxes), ""
+
+
+def _turn(a, b, c) -> float:
+    """z of (b - a) x (c - a): positive for a left turn."""
+    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+
+def hull(points: np.ndarray) -> np.ndarray:
+    """(k, 2) counter-clockwise convex hull of (m, 2) points (monotone chain)."""
+    pts = sorted(set(map(tuple, np.round(points, 9))))
+    if len(pts) < 3:
+        return np.array(pts)
+
+    def half(seq):
+        out = []
+        for p in seq:
+            while len(out) >= 2 and _turn(out[-2], out[-1], p) <= 0:
+                out.pop()
+            out.append(p)
+        return out
+    lower, upper = half(pts), half(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def find_base(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, arm_joints: set[int]) -> Base:
+    """Base frame and footprint of ``model`` at ``q``; ``arm_joints``: joints of the arms and hands."""
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    boxes, why = collision_boxes(model, xml, urdf, q, arm_joints)
+    frames_z = [data.oMf[i].translation[2] for i in range(len(model.frames))]
+    floor = float(min(frames_z) if boxes is None else min(boxes[..., 2].min(), min(frames_z)))
+    root = next(i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY)
+    notes, warnings = [], []
+    prints = [i for i, f in enumerate(model.frames) if f.parentJoint == 0 and "footprint" in f.name.lower()]
+    root_z = float(data.oMf[root].translation[2]) - floor
+    if prints:
+        base = prints[0]
+        notes.append(f"base frame '{model.frames[base].name}': named as a footprint, on the root")
+    elif root_z <= ON_FLOOR:
+        base = root
+        notes.append(f"base frame '{model.frames[base].name}': the root link, {root_z:.3f} m above the robot's "
+                     "lowest point")
+    else:
+        axis = data.oMf[root].translation[:2]
+        low = [i for i in range(len(model.frames)) if model.frames[i].type == pin.FrameType.BODY
+               and model.frames[i].parentJoint not in arm_joints and frames_z[i] - floor <= ON_FLOOR]
+        if low:
+            base = min(low, key=lambda i: (np.linalg.norm(data.oMf[i].translation[:2] - axis), i))
+            off = float(np.linalg.norm(data.oMf[base].translation[:2] - axis))
+            warnings.append(f"the root link '{model.frames[root].name}' is {root_z:.2f} m above the floor; the base "
+                            f"frame is '{model.frames[base].name}' on the floor, {off:.3f} m off the root's "
+                            "vertical axis (with every other joint at its neutral value)")
+        else:
+            base = root
+            warnings.append(f"the root link '{model.frames[root].name}' is {root_z:.2f} m above the robot's lowest "
+                            "point and no frame lies on the floor: heights are measured from the root; edit base_frame")
+    B = data.oMf[base].inverse()
+    if boxes is None:
+        pts = np.array([(B * data.oMf[i]).translation[:2] for i in range(len(model.frames))
+                        if model.frames[i].parentJoint not in arm_joints])
+        radius = float(np.max(np.hypot(pts[:, 0], pts[:, 1]))) + RADIUS_MARGIN
+        warnings.append(f"no collision geometry for the footprint ({why}); footprint_radius is the farthest "
+                        f"link origin + {RADIUS_MARGIN} m: measure the base")
+        return Base(model.frames[base].name, None, round(radius, 3), notes, warnings)
+    flat = boxes.reshape(-1, 3) @ B.rotation.T + B.translation
+    poly = hull(flat[:, :2])
+    poly = np.sign(poly) * np.ceil(np.abs(poly) * 1000) / 1000
+    if len(poly) < 3 or not contains_origin(poly):
+        radius = float(np.max(np.hypot(flat[:, 0], flat[:, 1])))
+        warnings.append("the collision shapes' outline does not surround the base frame's origin; footprint_radius "
+                        "is their farthest point: check the base frame")
+        return Base(model.frames[base].name, None, round(radius + 0.005, 3), notes, warnings)
+    notes.append(f"footprint: convex hull of the floor projection of the bounding boxes of {len(boxes)} collision "
+                 "shapes the arms do not move")
+    return Base(model.frames[base].name, poly, float(np.max(np.hypot(poly[:, 0], poly[:, 1]))), notes, warnings)

@@ -1,0 +1,200 @@
+"""Onboard robots from their URDFs end to end and print a markdown table (issue 9, generality).
+
+For each robot: ``placement robots init`` -> ``examples/robots/<robot>.yaml`` (unedited), a build spec
+``maps/<robot>.yaml`` (written when missing), ``placement maps build`` -> ``maps/<robot>`` (skipped when
+the maps exist, unless --rebuild), a table-clearing scene sized for the robot from its top-down reach
+band -> ``examples/table_clearing_<robot>.yaml``, planned with ``Planner`` and every planned step checked by
+``PlanResult.verify`` (independent pinocchio FK); a step the planner calls infeasible is tried by an
+independent randomized IK search over base poses (:func:`independent_search`).
+
+    python tools/onboard_robots.py [ROBOT ...] [--samples N] [--rebuild] [--objects K]
+
+ROBOT is a key of :data:`ROBOTS` or a path to a URDF/xacro file. Run from the repository root.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from placement.robots import load_robot  # noqa: E402
+from placement.robots.init import propose  # noqa: E402
+from placement.robots.init_render import render  # noqa: E402
+from placement.robots.reach import reach_band  # noqa: E402
+from placement.robots.spec import share_dir  # noqa: E402
+
+ERD = "example-robot-data/robots/"
+ROBOTS = {"tiago": ERD + "tiago_description/robots/tiago.urdf",
+          "talos_reduced": ERD + "talos_data/robots/talos_reduced.urdf",
+          "romeo": ERD + "romeo_description/urdf/romeo.urdf"}
+#: Gap between the base's edge and the table edge [m], and the largest table depth used [m].
+GAP, MAX_DEPTH = 0.05, 0.8
+#: Height above the table top [m] a top-down pre-grasp needs (object centre ~5 cm up, 10-15 cm above it).
+PRE_GRASP_TOP = 0.25
+SPEC = """# Build spec of the {name} maps of the onboarding check (issue 9, tools/onboard_robots.py). Units: m, rad.
+# The preset is the unedited output of `placement robots init`; 10 M samples per arm at 0.1 m keep the
+# build to minutes on the 2-core machine.
+robot: examples/robots/{name}.yaml
+arms: [{arms}]
+samples: {samples}
+seed: 0
+resolution: 0.1
+bins: [20, 9, 20]
+index: isotropy
+format: zarr
+"""
+
+
+def table_depth(robot, height: float) -> float:
+    """Pick/place table depth [m] for tables ``height`` [m] high: twice what the best arm reaches top-down
+    into a table from its grasp to its pre-grasp height, beyond the base's circumscribed circle plus :data:`GAP` (objects
+    are approached from both long sides)."""
+    best = 0.0
+    for arm in robot.arms:
+        band = reach_band(robot, arm, "down")
+        rows = [s["r_max"] for s in band.profile if height <= s["z"][0] < height + PRE_GRASP_TOP]
+        if len(rows) >= 2:
+            # the circumscribed radius: the arm's reach may point where the base sticks out most
+            best = max(best, min(rows) - robot.footprint_radius - GAP)
+    return round(min(max(2 * best, 0.2), MAX_DEPTH), 2)
+
+
+def table_height(robot) -> float:
+    """Table height [m]: the generator's 0.75 m when every arm's top-down band reaches a pre-grasp
+    :data:`PRE_GRASP_TOP` above it, else lowered in 5 cm steps until the best arm's does (a small robot)."""
+    from placement.evaluation.generate import TABLE_HEIGHT
+
+    top = max(reach_band(robot, arm, "down").z_max for arm in robot.arms)
+    return round(min(TABLE_HEIGHT, math.floor((top - PRE_GRASP_TOP) / 0.05) * 0.05), 2)
+
+
+def make_scene(name: str, robot, objects: int) -> Path:
+    """``examples/table_clearing_<name>.yaml``: the seeded generator's scene with tables ``table_depth``
+    deep and ``table_height`` high."""
+    from placement.evaluation.generate import TABLE_HEIGHT, generate_scene
+
+    height = table_height(robot)
+    depth = table_depth(robot, height)
+    doc = generate_scene(0, 0, objects=objects, preset=f"examples/robots/{name}.yaml", table_size=(0.8, depth),
+                         maps=f"maps/{name}")
+    for o in doc["obstacles"]:
+        if o["name"].startswith("place_table"):
+            o["box"]["size"][:2] = [depth, depth]
+        if o.get("table"):
+            o["box"]["center"][2], o["box"]["size"][2] = height / 2, height
+    for o in doc["objects"] + doc["place_locations"]:
+        o["position"][2] = round(o["position"][2] - TABLE_HEIGHT + height, 4)
+    doc["robot"]["preset"] = f"robots/{name}.yaml"
+    doc["maps"] = f"../maps/{name}"
+    path = ROOT / "examples" / f"table_clearing_{name}.yaml"
+    head = (f"# Table clearing sized for {name} (tools/onboard_robots.py): tables {depth} m deep (twice its top-down "
+            f"reach into a table) and {height} m high.\n# Units: metres, radians.\n")
+    path.write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None))
+    return path
+
+
+def independent_search(robot, scene: Path, step, tries: int = 3000, seed: int = 0) -> str:
+    """Whether a failed step is really infeasible: random base poses 0.1-0.9 m from the target, clear of
+    every obstacle box by the base's circumscribed radius, each tried with IK (1 cm, 0.05 rad, 4 seeds)
+    on every candidate trajectory and arm. Returns 'N of M base poses work'."""
+    from placement.ik import solve_ik
+    from placement.planning.grasps import place_candidates, top_grasps
+
+    doc = yaml.safe_load(scene.read_text())
+    if step.action == "pick":
+        o = next(o for o in doc["objects"] if o["name"] == step.target)
+        cands = top_grasps(o["position"], o["yaw"], o["size"])
+        p = o["position"]
+    else:
+        p = next(x for x in doc["place_locations"] if x["name"] == step.target)["position"]
+        cands = place_candidates(p)
+    rng = np.random.default_rng(seed)
+    found = tried = 0
+    for _ in range(tries):
+        ang, d, yaw = rng.uniform(-math.pi, math.pi), rng.uniform(0.1, 0.9), rng.uniform(-math.pi, math.pi)
+        x, y = p[0] + d * math.cos(ang), p[1] + d * math.sin(ang)
+        if any(math.hypot(max(abs(x - b["center"][0]) - b["size"][0] / 2, 0),
+                          max(abs(y - b["center"][1]) - b["size"][1] / 2, 0)) < robot.footprint_radius
+               for b in (o["box"] for o in doc["obstacles"])):
+            continue
+        tried += 1
+        B = np.eye(4)
+        B[:2, :2] = [[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]]
+        B[:2, 3] = x, y
+        Bi = np.linalg.inv(B)
+        found += any(all(solve_ik(robot, arm, Bi @ P, seeds=4, pos_tol=0.01, rot_tol=0.05).success for P in c.poses)
+                     for c in cands for arm in robot.arms)
+    return f"{found} of {tried} clear base poses work"
+
+
+def onboard(name: str, urdf: Path, samples: int, rebuild: bool, objects: int) -> dict:
+    row = {"robot": name}
+    preset = ROOT / "examples" / "robots" / f"{name}.yaml"
+    t = time.perf_counter()
+    p = propose(urdf, preset)
+    rel = f"package://{urdf.relative_to(share_dir())}" if str(urdf).startswith(str(share_dir())) else str(urdf)
+    preset.write_text(render(p, f"placement robots init {rel} --out examples/robots/{name}.yaml"))
+    row["init s"] = round(time.perf_counter() - t, 1)
+    robot = load_robot(preset)
+    row["arms"] = ", ".join(robot.arms)
+    row["dof"] = ", ".join(str(len(robot.arm(a).joints)) for a in robot.arms)
+    spec = ROOT / "maps" / f"{name}.yaml"
+    if not spec.exists():
+        spec.write_text(SPEC.format(name=name, arms=", ".join(robot.arms), samples=samples))
+    out = ROOT / "maps" / name
+    row["build s"] = "-"
+    if rebuild or not out.exists():
+        t = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "placement.cli.main", "maps", "build", "--spec",
+                               str(spec.relative_to(ROOT)), "--out", str(out.relative_to(ROOT)), "-q"], cwd=ROOT,
+                              capture_output=True, text=True)
+        if proc.returncode:
+            row["result"] = f"build failed: {proc.stderr.strip()[:200]}"
+            return row
+        row["build s"] = round(time.perf_counter() - t, 1)
+    from placement.planning import Planner
+
+    scene = make_scene(name, robot, objects)
+    result = Planner(scene, "sequential").plan()
+    planned = [s for s in result.steps if s.ok]
+    problems = result.verify(robot)
+    row["steps planned / verified"] = f"{len(planned)}/{len(result.steps)} / {len(planned) - len(problems)}"
+    bad = result.failed_step
+    row["result"] = "ok" if bad is None and not problems else (
+        f"step {bad.step} ({bad.action} {bad.target}): {bad.reason}; independent IK search: "
+        f"{independent_search(robot, scene, bad)}" if bad is not None else "; ".join(problems))
+    return row
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("robots", nargs="*", default=list(ROBOTS))
+    ap.add_argument("--samples", type=int, default=10_000_000, help="samples per arm for a new build spec")
+    ap.add_argument("--rebuild", action="store_true", help="build the maps even when they exist")
+    ap.add_argument("--objects", type=int, default=4, help="objects per scene")
+    args = ap.parse_args(argv)
+    rows = []
+    for name in args.robots:
+        urdf = share_dir() / ROBOTS[name] if name in ROBOTS else Path(name)
+        rows.append(onboard(name if name in ROBOTS else urdf.stem.split(".")[0], urdf, args.samples, args.rebuild,
+                            args.objects))
+        print(rows[-1], file=sys.stderr)
+    keys = ["robot", "arms", "dof", "init s", "build s", "steps planned / verified", "result"]
+    print("| " + " | ".join(keys) + " |\n|" + "---|" * len(keys))
+    for r in rows:
+        print("| " + " | ".join(str(r.get(k, "-")) for k in keys) + " |")
+    return 0 if all(r.get("result") == "ok" for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
