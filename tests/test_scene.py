@@ -159,7 +159,8 @@ ERRORS = [
     # yaw only, no quaternions
     (_set(["obstacles", 0, "box", "quaternion"], [0, 0, 0, 1]),
      "unknown key 'obstacles[0].box.quaternion'; allowed: center, size, yaw (shapes and objects rotate about z only"),
-    (_set(["objects", 0, "orientation"], [0, 0, 0, 1]), "unknown key 'objects[0].orientation'"),
+    (_set(["objects", 0, "orientation"], [0, 0, 0, 1]),
+     "scene.yaml: objects[0].orientation: 'orientation' needs version: 2 (this scene has version: 1)"),
     # missing required keys
     (_set(["version"], KeyError), "scene.yaml: missing required key 'version'"),
     (_set(["robot"], KeyError), "missing required key 'robot'"),
@@ -169,7 +170,7 @@ ERRORS = [
     (_set(["obstacles", 1, "cylinder", "height"], KeyError), "missing required key 'obstacles[1].cylinder.height'"),
     (_set(["task", 1, "place"], KeyError), "missing required key 'task[1].place'"),
     # version
-    (_set(["version"], 2), "scene.yaml: version: unsupported scene format version 2; this build reads version 1"),
+    (_set(["version"], 3), "scene.yaml: version: unsupported scene format version 3; this build reads versions 1, 2"),
     (_set(["version"], "1"), "version: expected an integer, got string '1'"),
     # wrong types and shapes
     (_set(["obstacles", 0, "box", "size"], [0.8, 0.6]), "scene.yaml: obstacles[0].box.size: expected 3 numbers, got 2"),
