@@ -300,6 +300,15 @@ def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
             if pair(o.name, ob.name) and object_penetrates(o, ob.shape):
                 P.fail(f"objects[{i}]", f"object '{o.name}' is inside obstacle '{ob.name}' (its bounding box enters "
                                         "the obstacle's volume; objects may only touch, e.g. stand on a table)")
+    if scene.version >= V2:
+        from ..grasps import GRIPPER_OPENING, box_grasps  # grasps imports scene.poses: circular at the top
+        picked = {t.pick for t in scene.task if t.pick is not None}
+        for i, o in enumerate(scene.objects):
+            if o.name in picked and not o.grasps and (objects is None or o.name in objects) \
+                    and not box_grasps(o.pose, o.size):
+                P.fail(f"objects[{i}].size", f"object '{o.name}' is wider than the gripper opening "
+                                             f"({GRIPPER_OPENING} m) across every side: no grasp can be generated; "
+                                             "give its 'grasps'")
     for i, pl in enumerate(scene.place_locations):
         inside(pl.position, f"place_locations[{i}].position", f"place location '{pl.name}'")
         for ob in scene.obstacles:
