@@ -7,6 +7,8 @@ A pose is ``[x, y, z, qx, qy, qz, qw]`` ([m], quaternion in ROS order); a quater
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ...validation import describe
@@ -39,7 +41,7 @@ class PoseParser(Validator):
     def quaternion(self, value, path: str) -> np.ndarray:
         """A unit quaternion [x, y, z, w] (norm within the tolerance) -> (4,) normalised."""
         q = np.array(self.vector(value, path, 4))
-        n = float(np.linalg.norm(q))
+        n = math.hypot(*q)  # no overflow for huge components
         if abs(n - 1.0) > UNIT_TOLERANCE:
             self.fail(path, f"expected a unit quaternion [x, y, z, w] (ROS order), got norm {fmt(n)} "
                             f"(must be 1 within {UNIT_TOLERANCE:g})")
