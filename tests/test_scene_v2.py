@@ -61,6 +61,10 @@ def test_v2_scene_parses():
         s.trajectory("x")
     # the footprint of the lying can: 0.07 along x, 0.12 along y
     np.testing.assert_allclose(can.bounds_xy(), (1.965, 0.04, 2.035, 0.16), atol=1e-9)
+    # default bounds: everything, trajectories too, plus a metre
+    far = v2_doc()
+    far["trajectories"][0]["poses"].insert(0, [-4.0, 7.0, 1.0, 0, 0, 0, 1])
+    assert parse_scene(far).bounds == pytest.approx((-5.0, -1.3, 3.4, 8.0))
 
 
 def test_orientation_is_normalised_and_yaw_derived():
@@ -150,6 +154,8 @@ ERRORS = [
     (_set(["place_locations", 0, "orientations"], []), "place_locations[0].orientations: expected a list of quatern"),
     (_set(["place_locations", 0, "orientations"], [[1, 1, 0, 0]]),
      "place_locations[0].orientations[0]: expected a unit quaternion"),
+    (lambda d: d.update(bounds=[-1, -1, 3, 3]) or d["trajectories"][1]["poses"].append([3.5, 1, 1, 0, 0, 0, 1]),
+     "trajectories[1].poses[2]: the end of trajectory 'door2' at (3.5, 1) is outside bounds [-1, -1, 3, 3]"),
     # the lying can sunk 2 cm into the table: only its 6D box says so (its yaw-only box is 12 cm tall)
     (_set(["objects", 0, "position"], [2.0, 0.1, 0.765]), "object 'can' is inside obstacle 'table'"),
     (lambda d: d["objects"][0].update(size=[0.1, 0.2, 0.1], position=[2.0, 0.1, 0.85]),

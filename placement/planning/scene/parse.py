@@ -24,17 +24,7 @@ and the file gains grasps, place orientations and reach steps (see v2.py and bel
       - {pick: cup_1, place: bin_a}
     planner: {}                      # optional overrides, keys in PLANNER_KEYS (config.py)
 
-Version 2 adds (a version 1 file using them gets "needs version: 2")::
-
-    objects:
-      - {name: can, position: [x, y, z], orientation: [qx, qy, qz, qw], size: [sx, sy, sz],
-         grasps: [{name: g, poses: [[x, y, z, qx, qy, qz, qw], ...]}]}   # object frame, pre-pose first
-    place_locations:
-      - {name: shelf, position: [x, y, z], orientations: [[qx, qy, qz, qw], ...]}   # allowed TCP rotations
-    trajectories:                    # world frame, pre-pose first
-      - {name: drawer, poses: [[x, y, z, qx, qy, qz, qw], ...]}
-    task:
-      - {reach: drawer}              # or {reach: [drawer_a, drawer_b]}: the planner picks one
+Version 2 adds keys (6D objects, grasps, place orientations, trajectories, reach steps): see v2.py.
 
 Decisions (where the SPEC is silent):
 
@@ -50,10 +40,10 @@ Decisions (where the SPEC is silent):
   vertical prism from the floor of unbounded height, given counter-clockwise or clockwise
   (at least 3 points, non-zero area). ``table: true`` needs a box or a cylinder (a surface).
 * Default ``bounds``: the axis-aligned extent of all obstacles (rotated box corners, cylinder
-  discs, polygon points), objects (rotated footprints), place locations, the start position and the
-  occupancy map, grown by 1 m on every side. The start, every object and every place location must
-  lie inside ``bounds``. The grid (``bounds`` / ``resolution``) may not exceed ``MAX_GRID_CELLS``;
-  coordinates and sizes are within +-``MAX_COORD`` and the resolution within ``RESOLUTION_RANGE``.
+  discs, polygon points), objects (rotated footprints), place locations, the start position, the
+  occupancy map and trajectory positions, grown by 1 m on every side. The start, every object, every
+  place location and the end of every trajectory must lie inside ``bounds``. The grid (``bounds`` /
+  ``resolution``) may not exceed ``MAX_GRID_CELLS``; coordinates and sizes are within +-``MAX_COORD`` and the resolution within ``RESOLUTION_RANGE``.
 * Objects may touch obstacles (stand on a table) but not enter their volume, and place locations
   may not lie inside one (see checks.py).
 """
@@ -260,6 +250,8 @@ def default_bounds(scene: Scene) -> tuple[float, float, float, float]:
         extent = _extend(extent, o.bounds_xy())
     for pl in scene.place_locations:
         extent = _extend(extent, (pl.position[0], pl.position[1]) * 2)
+    for t in scene.trajectories:
+        extent = _extend(extent, (*t.poses[:, :2].min(axis=0), *t.poses[:, :2].max(axis=0)))
     extent = _extend(extent, (scene.start[0], scene.start[1]) * 2)
     if scene.occupancy is not None:
         extent = _extend(extent, scene.occupancy.extent)
@@ -300,6 +292,8 @@ def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
             if pair(o.name, ob.name) and object_penetrates(o, ob.shape):
                 P.fail(f"objects[{i}]", f"object '{o.name}' is inside obstacle '{ob.name}' (its bounding box enters "
                                         "the obstacle's volume; objects may only touch, e.g. stand on a table)")
+    for i, t in enumerate(scene.trajectories):
+        inside(t.poses[-1], f"trajectories[{i}].poses[{len(t.poses) - 1}]", f"the end of trajectory '{t.name}'")
     if scene.version >= V2:
         from ..grasps import GRIPPER_OPENING, box_grasps  # grasps imports scene.poses: circular at the top
         picked = {t.pick for t in scene.task if t.pick is not None}
@@ -384,7 +378,8 @@ def parse_scene(data: Any, origin_dir: str | Path = ".", name: str = "scene",
         version=version, name=name, resolution=resolution, bounds=(0.0, 0.0, 1.0, 1.0),
         robot_preset=preset, start=tuple(start), maps=maps, occupancy_map=occ_path,
         obstacles=tuple(obstacles), objects=tuple(objects), place_locations=tuple(places), task=tuple(task),
-        planner=planner, trajectories=tuple(trajectories), source=Path(source) if source is not None else None, occupancy=occupancy,
+        planner=planner, trajectories=tuple(trajectories), source=Path(source) if source is not None else None,
+        occupancy=occupancy,
     )
     if doc.get("bounds") is not None:
         bounds = P.coords(doc["bounds"], "bounds", 4)

@@ -1,4 +1,18 @@
-"""The parts of the scene file that version 2 adds: quaternions, poses and named TCP trajectories.
+"""The parts of the scene file that version 2 adds: quaternions, poses and named TCP trajectories::
+
+    objects:
+      - {name: can, position: [x, y, z], orientation: [qx, qy, qz, qw], size: [sx, sy, sz],
+         grasps: [{name: g, poses: [[x, y, z, qx, qy, qz, qw], ...]}]}   # object frame, pre-pose first
+    place_locations:
+      - {name: shelf, position: [x, y, z], orientations: [[qx, qy, qz, qw], ...]}   # allowed TCP rotations
+    trajectories:                    # world frame, pre-pose first
+      - {name: drawer, poses: [[x, y, z, qx, qy, qz, qw], ...]}
+    task:
+      - {reach: drawer}              # or {reach: [drawer_a, drawer_b]}: the planner picks one
+
+A version 1 file using one of these keys gets "'KEY' needs version: 2". ``orientation`` and ``yaw``
+exclude each other; an object without ``grasps`` gets generated ones (grasps.py), and a picked
+object for which none fits the gripper is an error.
 
 A pose is ``[x, y, z, qx, qy, qz, qw]`` ([m], quaternion in ROS order); a quaternion must have norm
 1 within :data:`~.poses.UNIT_TOLERANCE` and is normalised. A trajectory is ``{name, poses}`` with
