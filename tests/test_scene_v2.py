@@ -123,7 +123,8 @@ def test_v2_keys_need_version_2(path, where):
     _set([p if not isinstance(p, int) else 0 for p in path], value)(doc)
     with pytest.raises(SceneError) as err:
         parse_scene(doc, "/", "s")
-    assert str(err.value) == f"s: {where.replace('[1]', '[0]')}: '{path[-1]}' needs version: 2 (this scene has version: 1)"
+    where = where.replace("[1]", "[0]")  # the version 1 scene has one object
+    assert str(err.value) == f"s: {where}: '{path[-1]}' needs version: 2 (this scene has version: 1)"
 
 
 ERRORS = [
@@ -227,7 +228,8 @@ def test_update_may_turn_an_object():
         with pytest.raises(SceneError) as err:
             parse_update(change, s)
         assert str(err.value).startswith("update: ") and message in str(err.value)
-    v1 = parse_scene({**{k: v for k, v in v2_doc().items() if k != "trajectories"}, "version": 1, "objects": [{"name": "cup", "position": [1.9, -0.1, 0.8],
+    v1_doc = {k: v for k, v in v2_doc().items() if k != "trajectories"}
+    v1 = parse_scene({**v1_doc, "version": 1, "objects": [{"name": "cup", "position": [1.9, -0.1, 0.8],
                                                              "size": [0.06, 0.06, 0.1]}],
                       "place_locations": [{"name": "bin", "position": [2.2, 0.2, 0.85]}],
                       "task": [{"pick": "cup", "place": "bin"}]})

@@ -9,7 +9,7 @@ from .parse import MAX_GRID_CELLS, SCENE_VERSION, SCENE_VERSIONS, SceneParser, c
 
 __all__ = sorted([
     "Box", "Cylinder", "MAX_GRID_CELLS", "Obstacle", "OccupancyMap", "OccupancyMapError", "PlaceLocation",
-    "Polygon", "SCENE_VERSION", "SCENE_VERSIONS", "Scene", "SceneError", "SceneObject", "SceneParser", "Shape", "TaskStep",
-    "Trajectory", "check_scene", "load_occupancy_map", "load_scene", "obstacle_to_dict", "parse_scene", "save_scene",
+    "Polygon", "SCENE_VERSION", "SCENE_VERSIONS", "Scene", "SceneError", "SceneObject", "SceneParser", "Shape",
+    "TaskStep", "Trajectory", "check_scene", "load_occupancy_map", "load_scene", "obstacle_to_dict", "parse_scene", "save_scene",
     "scene_to_dict",
 ])

@@ -43,7 +43,8 @@ Decisions (where the SPEC is silent):
   discs, polygon points), objects (rotated footprints), place locations, the start position, the
   occupancy map and trajectory positions, grown by 1 m on every side. The start, every object, every
   place location and the end of every trajectory must lie inside ``bounds``. The grid (``bounds`` /
-  ``resolution``) may not exceed ``MAX_GRID_CELLS``; coordinates and sizes are within +-``MAX_COORD`` and the resolution within ``RESOLUTION_RANGE``.
+  ``resolution``) may not exceed ``MAX_GRID_CELLS``; coordinates and sizes are within
+  +-``MAX_COORD`` and the resolution within ``RESOLUTION_RANGE``.
 * Objects may touch obstacles (stand on a table) but not enter their volume, and place locations
   may not lie inside one (see checks.py).
 """
