@@ -9,14 +9,14 @@ from hypothesis import strategies as st
 
 from mutations import documents, mutated
 from placement.planning.scene import Scene, SceneError, parse_scene
-from test_scene import _base
+from test_scene import base_doc
 from test_scene_v2 import v2_doc
 
 KEYS = ("version", "resolution", "bounds", "robot", "preset", "start", "maps", "obstacles", "objects",
         "place_locations", "task", "planner", "name", "box", "cylinder", "polygon", "center", "size", "yaw",
         "radius", "height", "table", "position", "pick", "place", "threshold", "yaw_steps", "grasp_yaws",
         "orientation", "grasps", "poses", "orientations", "trajectories", "reach")
-BASE = _base()
+BASE = base_doc()
 BASE_V2 = v2_doc()
 
 

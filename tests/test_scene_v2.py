@@ -16,6 +16,7 @@ from placement.planning.scene import SceneError, TaskStep, load_scene, parse_sce
 from placement.planning.scene.checks import TOLERANCE, object_penetrates
 from placement.planning.scene.model import Box, SceneObject
 from placement.planning.updates import parse_update
+from test_scene import set_key
 
 KITCHEN = Path(__file__).resolve().parents[1] / "examples" / "kitchen.yaml"
 S = math.sqrt(0.5)
@@ -92,18 +93,6 @@ def test_round_trip(tmp_path):
     assert parse_scene(changed) != s2
 
 
-def _set(path, value):
-    def mutate(doc):
-        d = doc
-        for k in path[:-1]:
-            d = d[k]
-        if value is KeyError:
-            del d[path[-1]]
-        else:
-            d[path[-1]] = value
-    return mutate
-
-
 V1_KEYS = [(["objects", 0, "orientation"], "objects[0].orientation"), (["objects", 1, "grasps"], "objects[1].grasps"),
            (["place_locations", 0, "orientations"], "place_locations[0].orientations"),
            (["trajectories"], "trajectories"), (["task", 0, "reach"], "task[0].reach")]
@@ -120,7 +109,7 @@ def test_v2_keys_need_version_2(path, where):
            "place_locations": [{"name": "bin", "position": [2.2, 0.2, 0.85]}]}
     del doc["trajectories"]
     parse_scene(doc)  # valid as version 1
-    _set([p if not isinstance(p, int) else 0 for p in path], value)(doc)
+    set_key([p if not isinstance(p, int) else 0 for p in path], value)(doc)
     with pytest.raises(SceneError) as err:
         parse_scene(doc, "/", "s")
     where = where.replace("[1]", "[0]")  # the version 1 scene has one object
@@ -128,37 +117,37 @@ def test_v2_keys_need_version_2(path, where):
 
 
 ERRORS = [
-    (_set(["objects", 0, "yaw"], 0.1), "objects[0]: give 'orientation' [x, y, z, w] or 'yaw' [rad], not both"),
-    (_set(["objects", 0, "orientation"], [0, 0, 0, 2]),
+    (set_key(["objects", 0, "yaw"], 0.1), "objects[0]: give 'orientation' [x, y, z, w] or 'yaw' [rad], not both"),
+    (set_key(["objects", 0, "orientation"], [0, 0, 0, 2]),
      "objects[0].orientation: expected a unit quaternion [x, y, z, w] (ROS order), got norm 2"),
-    (_set(["objects", 0, "orientation"], [0, 0, 1]), "objects[0].orientation: expected 4 numbers, got 3"),
-    (_set(["objects", 0, "orientation"], [0, 0, 0, float("nan")]), "objects[0].orientation[3]: expected a finite"),
-    (_set(["objects", 0, "quaternion"], [0, 0, 0, 1]), "unknown key 'objects[0].quaternion'"),
-    (_set(["objects", 1, "grasps"], []), "objects[1].grasps: expected a list of grasps {name, poses}, got an empty"),
-    (_set(["objects", 1, "grasps", 0, "poses"], []), "objects[1].grasps[0].poses: expected a list of 1 to 100 poses"),
-    (_set(["objects", 1, "grasps", 0, "poses"], [[0, 0, 0, 0, 0, 1]] * 2),
+    (set_key(["objects", 0, "orientation"], [0, 0, 1]), "objects[0].orientation: expected 4 numbers, got 3"),
+    (set_key(["objects", 0, "orientation"], [0, 0, 0, float("nan")]), "objects[0].orientation[3]: expected a finite"),
+    (set_key(["objects", 0, "quaternion"], [0, 0, 0, 1]), "unknown key 'objects[0].quaternion'"),
+    (set_key(["objects", 1, "grasps"], []), "objects[1].grasps: expected a list of grasps {name, poses}, got an empty"),
+    (set_key(["objects", 1, "grasps", 0, "poses"], []), "objects[1].grasps[0].poses: expected a list of 1 to 100 poses"),
+    (set_key(["objects", 1, "grasps", 0, "poses"], [[0, 0, 0, 0, 0, 1]] * 2),
      "objects[1].grasps[0].poses[0]: expected a pose [x, y, z, qx, qy, qz, qw], got 6 numbers"),
-    (_set(["objects", 1, "grasps", 0, "poses", 1], [0, 0, 0, 0, 0, 0, 0]),
+    (set_key(["objects", 1, "grasps", 0, "poses", 1], [0, 0, 0, 0, 0, 0, 0]),
      "objects[1].grasps[0].poses[1][3:7]: expected a unit quaternion"),
     (lambda d: d["objects"][1]["grasps"].append({"name": "rim", "poses": [[0, 0, 0, 0, 0, 0, 1]]}),
      "objects[1].grasps[1].name: duplicate grasp name 'rim'"),
-    (_set(["objects", 1, "grasps", 0, "colour"], 1), "unknown key 'objects[1].grasps[0].colour'; allowed: name, poses"),
-    (_set(["trajectories", 1, "name"], "table"), "trajectories[1].name: duplicate name 'table'"),
-    (_set(["trajectories", 0, "poses"], [[0, 0, 0, 0, 0, 0, 1]] * 101), "expected at most 100 poses, got 101"),
-    (_set(["task", 0, "reach"], ["door", "drawer"]),
+    (set_key(["objects", 1, "grasps", 0, "colour"], 1), "unknown key 'objects[1].grasps[0].colour'; allowed: name, poses"),
+    (set_key(["trajectories", 1, "name"], "table"), "trajectories[1].name: duplicate name 'table'"),
+    (set_key(["trajectories", 0, "poses"], [[0, 0, 0, 0, 0, 0, 1]] * 101), "expected at most 100 poses, got 101"),
+    (set_key(["task", 0, "reach"], ["door", "drawer"]),
      "task[0].reach[1]: 'drawer' is not a trajectory; trajectories: door, door2"),
-    (_set(["task", 0, "reach"], ["door", "door"]), "task[0].reach[1]: trajectory 'door' is listed twice"),
-    (_set(["task", 0, "reach"], []), "task[0].reach: expected a trajectory name or a non-empty list"),
-    (_set(["task", 3, "reach"], 3), "task[3].reach: expected a non-empty string, got"),
-    (_set(["task", 0, "pick"], "can"), "task[0]: a step is {pick, place} or {reach}, not both"),
-    (_set(["task", 1, "reach"], "door"), "task[1]: a step is {pick, place} or {reach}, not both"),
-    (_set(["place_locations", 0, "orientations"], []), "place_locations[0].orientations: expected a list of quatern"),
-    (_set(["place_locations", 0, "orientations"], [[1, 1, 0, 0]]),
+    (set_key(["task", 0, "reach"], ["door", "door"]), "task[0].reach[1]: trajectory 'door' is listed twice"),
+    (set_key(["task", 0, "reach"], []), "task[0].reach: expected a trajectory name or a non-empty list"),
+    (set_key(["task", 3, "reach"], 3), "task[3].reach: expected a non-empty string, got"),
+    (set_key(["task", 0, "pick"], "can"), "task[0]: a step is {pick, place} or {reach}, not both"),
+    (set_key(["task", 1, "reach"], "door"), "task[1]: a step is {pick, place} or {reach}, not both"),
+    (set_key(["place_locations", 0, "orientations"], []), "place_locations[0].orientations: expected a list of quatern"),
+    (set_key(["place_locations", 0, "orientations"], [[1, 1, 0, 0]]),
      "place_locations[0].orientations[0]: expected a unit quaternion"),
     (lambda d: d.update(bounds=[-1, -1, 3, 3]) or d["trajectories"][1]["poses"].append([3.5, 1, 1, 0, 0, 0, 1]),
      "trajectories[1].poses[2]: the end of trajectory 'door2' at (3.5, 1) is outside bounds [-1, -1, 3, 3]"),
     # the lying can sunk 2 cm into the table: only its 6D box says so (its yaw-only box is 12 cm tall)
-    (_set(["objects", 0, "position"], [2.0, 0.1, 0.765]), "object 'can' is inside obstacle 'table'"),
+    (set_key(["objects", 0, "position"], [2.0, 0.1, 0.765]), "object 'can' is inside obstacle 'table'"),
     (lambda d: d["objects"][0].update(size=[0.1, 0.2, 0.1], position=[2.0, 0.1, 0.85]),
      "objects[0].size: object 'can' is wider than the gripper opening (0.09 m) across every side"),
 ]
