@@ -8,7 +8,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mutations import documents, mutated
-from placement.planning.scene import Scene, SceneError, parse_scene
+from placement.planning.scene import Scene, SceneError, parse_scene, scene_to_dict
 from test_scene import base_doc
 from test_scene_v2 import v2_doc
 
@@ -20,7 +20,7 @@ BASE = base_doc()
 BASE_V2 = v2_doc()
 
 
-def _check(doc, tmp_path_factory=None) -> None:
+def _check(doc, round_trip: bool = False) -> None:
     try:
         scene = parse_scene(doc, "/nonexistent-dir", "prop")
     except SceneError as exc:
@@ -31,6 +31,8 @@ def _check(doc, tmp_path_factory=None) -> None:
     ny, nx = scene.grid_shape
     assert 1 <= nx * ny <= 20_000_000
     assert all(math.isfinite(b) for b in scene.bounds)
+    if round_trip:
+        assert parse_scene(scene_to_dict(scene), "/nonexistent-dir", "prop") == scene
 
 
 @settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -49,7 +51,7 @@ def test_random_documents(doc):
 @settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(doc=mutated(BASE_V2, KEYS))
 def test_mutated_v2_scenes(doc):
-    _check(doc)
+    _check(doc, round_trip=True)
 
 
 @settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -88,6 +88,14 @@ def test_round_trip(tmp_path):
     assert again_doc["task"][0] == {"reach": ["drawer_left", "drawer_right"]}
     s2 = parse_scene(v2_doc())
     assert parse_scene(scene_to_dict(s2)) == s2
+    # yaws that a quaternion would not give back bit for bit (or wrapped) stay yaws
+    for yaw in (4.0, 0.1, -7.5, 1e-300):
+        doc = v2_doc()
+        doc["objects"][1]["yaw"] = yaw
+        doc["objects"][0]["orientation"] = [0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)]
+        doc["objects"][0]["size"] = [0.07, 0.07, 0.07]
+        s3 = parse_scene(doc)
+        assert s3.objects[1].yaw == yaw and parse_scene(scene_to_dict(s3)) == s3
     changed = scene_to_dict(s2)
     changed["objects"][0]["orientation"] = [0.0, S, 0.0, S]  # lying along x instead of y
     assert parse_scene(changed) != s2

@@ -12,6 +12,7 @@ import yaml
 from ...validation import one_line, parse_yaml
 from .model import Box, Cylinder, Obstacle, Scene, SceneError, SceneObject, Trajectory, is_path
 from .parse import parse_scene
+from .poses import yaw_quaternion
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -73,13 +74,14 @@ def trajectory_to_dict(t: Trajectory) -> dict:
 
 
 def object_to_dict(o: SceneObject, version: int) -> dict:
-    """One object as a scene-file mapping: with ``orientation`` (and its grasps) in version 2, so
-    that reading it back gives the same numbers; with ``yaw`` in version 1."""
+    """One object as a scene-file mapping, so that reading it back gives the same numbers: with
+    ``yaw`` when that is what its orientation was made from (always in version 1), else with
+    ``orientation``; and its own grasps."""
     out: dict[str, Any] = {"name": o.name, "position": _floats(o.position)}
-    if version >= 2:
-        out["orientation"] = _floats(o.orientation)
-    else:
+    if version < 2 or np.array_equal(o.orientation, yaw_quaternion(o.yaw)):
         out["yaw"] = o.yaw
+    else:
+        out["orientation"] = _floats(o.orientation)
     out["size"] = _floats(o.size)
     if o.grasps:
         out["grasps"] = [trajectory_to_dict(g) for g in o.grasps]
