@@ -1,11 +1,17 @@
-"""The version 2 kitchen example planned end to end (small test maps), every step checked by pinocchio FK."""
+"""Version 2 scenes with the small test maps: the kitchen example planned end to end, every step checked
+by pinocchio FK, and side grasps' inverse reachability confirmed by IK."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from placement.planning import Planner
-from placement.planning.verify import base_matrix
+from placement.planning.grasps import box_grasps
+from placement.planning.manipulation import base_yaws, manipulation_map
+from placement.planning.navgrid import NavGrid
+from placement.planning.scene import SceneObject
+from placement.planning.verify import base_matrix, trajectory_ik
+from placement.rmap import open_map
 from test_scene_v2 import KITCHEN
 
 
@@ -30,3 +36,28 @@ def test_kitchen_plans_with_reach_side_grasps_and_orientations(maps_dir, pr2):
         target = np.asarray(s.tcp[-1])
         assert np.linalg.norm(T[:3, 3] - target[:3, 3]) < 0.01
         assert np.trace(T[:3, :3].T @ target[:3, :3]) > 1 + 2 * np.cos(np.radians(3))
+
+
+def test_side_grasp_irms_are_confirmed_by_ik(maps_dir, pr2):
+    """For side grasps in several directions and heights, the map's best placements are reachable:
+    IK (pinocchio) succeeds at one of the 5 best, its FK on the face centre."""
+    rmap = open_map(maps_dir, "right", pr2)
+    nav = NavGrid((-1.5, -1.5), 0.05, (60, 60))
+    yaws = base_yaws(40)
+    xs, ys = nav.centres()
+    for yaw, height in ((0.0, 0.8), (1.0, 0.95), (2.0, 1.05), (-2.5, 0.9)):
+        o = SceneObject("o", [0.0, 0.0, height], yaw, [0.06, 0.07, 0.15])
+        (c,) = [c for c in box_grasps(o.pose, o.size) if c.name == "side--x"]
+        value, yaw_index = manipulation_map(rmap, c.poses, nav, yaws)
+        assert (value > 0).sum() > 100
+        found = False
+        for flat in np.argsort(-value.ravel())[:5]:
+            iy, ix = np.unravel_index(flat, value.shape)
+            base = (float(xs[ix]), float(ys[iy]), float(yaws[yaw_index[iy, ix]]))
+            q = trajectory_ik(pr2, "right", c.poses, base, pr2.arm("right").home)
+            if q is not None:
+                T = base_matrix(*base) @ pr2.tcp_pose("right", q)
+                assert np.linalg.norm(T[:3, 3] - c.poses[-1, :3, 3]) < 3e-3
+                found = True
+                break
+        assert found, (yaw, height)
