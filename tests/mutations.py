@@ -1,5 +1,5 @@
 """Hypothesis strategies shared by the parser property tests: random documents and mutations of
-valid ones (a value replaced, a key deleted or added, a list item duplicated or dropped)."""
+valid ones (a value replaced, scaled or nudged, a key deleted or added, a list item duplicated or dropped)."""
 
 from __future__ import annotations
 
@@ -47,7 +47,7 @@ def mutated(draw, base: dict, keys=("name",), max_mutations: int = 3) -> dict:
             break
         path = draw(st.sampled_from(paths))
         parent, last = _at(doc, path[:-1]), path[-1]
-        kind = draw(st.sampled_from(["replace", "delete", "add_key", "duplicate", "scale", "nested"]))
+        kind = draw(st.sampled_from(["replace", "delete", "add_key", "duplicate", "scale", "nudge", "nested"]))
         if kind == "replace":
             parent[last] = draw(LEAVES)
         elif kind == "nested":
@@ -60,4 +60,7 @@ def mutated(draw, base: dict, keys=("name",), max_mutations: int = 3) -> dict:
             parent.append(copy.deepcopy(parent[last]))
         elif kind == "scale" and isinstance(parent[last], (int, float)) and not isinstance(parent[last], bool):
             parent[last] = parent[last] * draw(st.sampled_from([-1, 0, 1e6, 1e-6, 1e300, float("nan")]))
+        elif kind == "nudge" and isinstance(parent[last], (int, float)) and not isinstance(parent[last], bool):
+            # just inside and just outside tolerances such as a quaternion's unit norm (1e-6)
+            parent[last] = parent[last] * (1 + draw(st.sampled_from([5e-7, -5e-7, 3e-6, -3e-6, 1e-3])))
     return doc

@@ -129,11 +129,11 @@ def test_default_bounds_include_the_occupancy_map(tmp_path):
 
 # -- validation ------------------------------------------------------------------------------------
 
-def _base() -> dict:
+def base_doc() -> dict:
     return yaml.safe_load(FULL_SCENE.replace("occupancy_map: floor.yaml\n", ""))
 
 
-def _set(path, value):
+def set_key(path, value):
     """Mutation setting the key at ``path`` (a list of keys/indices); value ``KeyError`` deletes it."""
     def mutate(d):
         for k in path[:-1]:
@@ -147,102 +147,103 @@ def _set(path, value):
 
 ERRORS = [
     # unknown keys, with the allowed set
-    (_set(["obstacles", 0, "colour"], "red"),
+    (set_key(["obstacles", 0, "colour"], "red"),
      "scene.yaml: unknown key 'obstacles[0].colour'; allowed: box, cylinder, name, polygon, table"),
-    (_set(["robots"], {}), "unknown key 'robots'; allowed: bounds, maps, objects, obstacles, occupancy_map, place_locations"),
-    (_set(["robot", "goal"], [0, 0, 0]), "unknown key 'robot.goal'; allowed: preset, start"),
-    (_set(["task", 0, "arm"], "left"), "unknown key 'task[0].arm'; allowed: pick, place"),
-    (_set(["place_locations", 1, "yaw"], 0.0), "unknown key 'place_locations[1].yaw'; allowed: name, position"),
-    (_set(["planner", "speed"], 2.0),
+    (set_key(["robots"], {}), "unknown key 'robots'; allowed: bounds, maps, objects, obstacles, occupancy_map, place_locations"),
+    (set_key(["robot", "goal"], [0, 0, 0]), "unknown key 'robot.goal'; allowed: preset, start"),
+    (set_key(["task", 0, "arm"], "left"), "unknown key 'task[0].arm'; allowed: pick, place"),
+    (set_key(["place_locations", 1, "yaw"], 0.0), "unknown key 'place_locations[1].yaw'; allowed: name, position"),
+    (set_key(["planner", "speed"], 2.0),
      "unknown key 'planner.speed'; allowed: d_max, grasp_yaws, lambda_m, lambda_n, lambda_nh, threshold, "
      "velocity_k, velocity_lambda, yaw_steps"),
     # yaw only, no quaternions
-    (_set(["obstacles", 0, "box", "quaternion"], [0, 0, 0, 1]),
+    (set_key(["obstacles", 0, "box", "quaternion"], [0, 0, 0, 1]),
      "unknown key 'obstacles[0].box.quaternion'; allowed: center, size, yaw (shapes and objects rotate about z only"),
-    (_set(["objects", 0, "orientation"], [0, 0, 0, 1]), "unknown key 'objects[0].orientation'"),
+    (set_key(["objects", 0, "orientation"], [0, 0, 0, 1]),
+     "scene.yaml: objects[0].orientation: 'orientation' needs version: 2 (this scene has version: 1)"),
     # missing required keys
-    (_set(["version"], KeyError), "scene.yaml: missing required key 'version'"),
-    (_set(["robot"], KeyError), "missing required key 'robot'"),
-    (_set(["robot", "start"], KeyError), "missing required key 'robot.start'"),
-    (_set(["task"], KeyError), "missing required key 'task'"),
-    (_set(["objects", 1, "size"], KeyError), "missing required key 'objects[1].size'"),
-    (_set(["obstacles", 1, "cylinder", "height"], KeyError), "missing required key 'obstacles[1].cylinder.height'"),
-    (_set(["task", 1, "place"], KeyError), "missing required key 'task[1].place'"),
+    (set_key(["version"], KeyError), "scene.yaml: missing required key 'version'"),
+    (set_key(["robot"], KeyError), "missing required key 'robot'"),
+    (set_key(["robot", "start"], KeyError), "missing required key 'robot.start'"),
+    (set_key(["task"], KeyError), "missing required key 'task'"),
+    (set_key(["objects", 1, "size"], KeyError), "missing required key 'objects[1].size'"),
+    (set_key(["obstacles", 1, "cylinder", "height"], KeyError), "missing required key 'obstacles[1].cylinder.height'"),
+    (set_key(["task", 1, "place"], KeyError), "missing required key 'task[1].place'"),
     # version
-    (_set(["version"], 2), "scene.yaml: version: unsupported scene format version 2; this build reads version 1"),
-    (_set(["version"], "1"), "version: expected an integer, got string '1'"),
+    (set_key(["version"], 3), "scene.yaml: version: unsupported scene format version 3; this build reads versions 1, 2"),
+    (set_key(["version"], "1"), "version: expected an integer, got string '1'"),
     # wrong types and shapes
-    (_set(["obstacles", 0, "box", "size"], [0.8, 0.6]), "scene.yaml: obstacles[0].box.size: expected 3 numbers, got 2"),
-    (_set(["robot", "start"], "origin"), "robot.start: expected a list of 3 numbers, got string 'origin'"),
-    (_set(["objects", 0, "yaw"], "0.3"), "objects[0].yaw: expected a number, got string '0.3'"),
-    (_set(["obstacles", 1, "cylinder", "radius"], True), "obstacles[1].cylinder.radius: expected a number, got bool"),
-    (_set(["obstacles", 0, "table"], 1), "obstacles[0].table: expected true or false, got 1"),
-    (_set(["obstacles"], {"name": "x"}), "scene.yaml: obstacles: expected a list, got a mapping"),
-    (_set(["objects", 0], "cup"), "objects[0]: expected a mapping, got string 'cup'"),
-    (_set(["objects", 0, "name"], ""), "objects[0].name: expected a non-empty string"),
-    (_set(["task"], {"pick": "cup_1"}), "task: expected a list of {pick, place} steps, got a mapping"),
-    (_set(["task"], []), "task: expected at least one {pick, place} step"),
-    (_set(["maps"], 3), "maps: expected a non-empty string, got 3"),
+    (set_key(["obstacles", 0, "box", "size"], [0.8, 0.6]), "scene.yaml: obstacles[0].box.size: expected 3 numbers, got 2"),
+    (set_key(["robot", "start"], "origin"), "robot.start: expected a list of 3 numbers, got string 'origin'"),
+    (set_key(["objects", 0, "yaw"], "0.3"), "objects[0].yaw: expected a number, got string '0.3'"),
+    (set_key(["obstacles", 1, "cylinder", "radius"], True), "obstacles[1].cylinder.radius: expected a number, got bool"),
+    (set_key(["obstacles", 0, "table"], 1), "obstacles[0].table: expected true or false, got 1"),
+    (set_key(["obstacles"], {"name": "x"}), "scene.yaml: obstacles: expected a list, got a mapping"),
+    (set_key(["objects", 0], "cup"), "objects[0]: expected a mapping, got string 'cup'"),
+    (set_key(["objects", 0, "name"], ""), "objects[0].name: expected a non-empty string"),
+    (set_key(["task"], {"pick": "cup_1"}), "task: expected a list of {pick, place} steps, got a mapping"),
+    (set_key(["task"], []), "task: expected at least one {pick, place} step"),
+    (set_key(["maps"], 3), "maps: expected a non-empty string, got 3"),
     # non-finite numbers
-    (_set(["objects", 0, "position"], [float("nan"), 0.0, 0.8]),
+    (set_key(["objects", 0, "position"], [float("nan"), 0.0, 0.8]),
      "objects[0].position[0]: expected a finite number, got nan"),
-    (_set(["robot", "start"], [0.0, 0.0, float("inf")]), "robot.start[2]: expected a finite number, got inf"),
-    (_set(["resolution"], float("inf")), "resolution: expected a finite number, got inf"),
+    (set_key(["robot", "start"], [0.0, 0.0, float("inf")]), "robot.start[2]: expected a finite number, got inf"),
+    (set_key(["resolution"], float("inf")), "resolution: expected a finite number, got inf"),
     # non-positive sizes, radius, resolution
-    (_set(["resolution"], 0), "scene.yaml: resolution: must be >= 0.001, got 0"),
-    (_set(["resolution"], -0.05), "resolution: must be >= 0.001, got -0.05"),
-    (_set(["obstacles", 0, "box", "size"], [0.8, -0.6, 0.75]), "obstacles[0].box.size[1]: must be > 0, got -0.6"),
-    (_set(["obstacles", 1, "cylinder", "radius"], 0.0), "obstacles[1].cylinder.radius: must be > 0, got 0.0"),
-    (_set(["obstacles", 1, "cylinder", "height"], -1), "obstacles[1].cylinder.height: must be > 0, got -1"),
-    (_set(["objects", 0, "size"], [0.08, 0.08, 0]), "objects[0].size[2]: must be > 0, got 0"),
+    (set_key(["resolution"], 0), "scene.yaml: resolution: must be >= 0.001, got 0"),
+    (set_key(["resolution"], -0.05), "resolution: must be >= 0.001, got -0.05"),
+    (set_key(["obstacles", 0, "box", "size"], [0.8, -0.6, 0.75]), "obstacles[0].box.size[1]: must be > 0, got -0.6"),
+    (set_key(["obstacles", 1, "cylinder", "radius"], 0.0), "obstacles[1].cylinder.radius: must be > 0, got 0.0"),
+    (set_key(["obstacles", 1, "cylinder", "height"], -1), "obstacles[1].cylinder.height: must be > 0, got -1"),
+    (set_key(["objects", 0, "size"], [0.08, 0.08, 0]), "objects[0].size[2]: must be > 0, got 0"),
     # shapes
-    (_set(["obstacles", 2, "polygon"], [[0, 0], [1, 0]]), "obstacles[2].polygon: expected at least 3 points, got 2"),
-    (_set(["obstacles", 2, "polygon"], [[0, 0], [1, 1], [2, 2]]), "obstacles[2].polygon: the polygon has zero area"),
-    (_set(["obstacles", 2, "polygon"], [[0, 0], [1, 0], [1]]), "obstacles[2].polygon[2]: expected 2 numbers, got 1"),
-    (_set(["obstacles", 1, "box"], {"center": [0, 0, 0], "size": [1, 1, 1]}),
+    (set_key(["obstacles", 2, "polygon"], [[0, 0], [1, 0]]), "obstacles[2].polygon: expected at least 3 points, got 2"),
+    (set_key(["obstacles", 2, "polygon"], [[0, 0], [1, 1], [2, 2]]), "obstacles[2].polygon: the polygon has zero area"),
+    (set_key(["obstacles", 2, "polygon"], [[0, 0], [1, 0], [1]]), "obstacles[2].polygon[2]: expected 2 numbers, got 1"),
+    (set_key(["obstacles", 1, "box"], {"center": [0, 0, 0], "size": [1, 1, 1]}),
      "obstacles[1]: expected exactly one shape (box, cylinder, polygon), got box and cylinder"),
-    (_set(["obstacles", 1, "cylinder"], KeyError), "obstacles[1]: expected exactly one shape (box, cylinder, polygon), got none"),
-    (_set(["obstacles", 2, "table"], True), "obstacles[2].table: a polygon has no height"),
+    (set_key(["obstacles", 1, "cylinder"], KeyError), "obstacles[1]: expected exactly one shape (box, cylinder, polygon), got none"),
+    (set_key(["obstacles", 2, "table"], True), "obstacles[2].table: a polygon has no height"),
     # names and task references
-    (_set(["objects", 1, "name"], "cup_1"), "objects[1].name: duplicate name 'cup_1' (already used by objects[0])"),
-    (_set(["place_locations", 0, "name"], "table_1"),
+    (set_key(["objects", 1, "name"], "cup_1"), "objects[1].name: duplicate name 'cup_1' (already used by objects[0])"),
+    (set_key(["place_locations", 0, "name"], "table_1"),
      "place_locations[0].name: duplicate name 'table_1' (already used by obstacles[0])"),
-    (_set(["task", 0, "pick"], "mug"), "scene.yaml: task[0].pick: 'mug' is not an object; objects: cup_1, cup_2"),
-    (_set(["task", 1, "place"], "bin_c"),
+    (set_key(["task", 0, "pick"], "mug"), "scene.yaml: task[0].pick: 'mug' is not an object; objects: cup_1, cup_2"),
+    (set_key(["task", 1, "place"], "bin_c"),
      "task[1].place: 'bin_c' is not a place location; place locations: bin_a, bin_b"),
-    (_set(["task", 0, "pick"], "bin_a"), "task[0].pick: 'bin_a' is not an object; objects: cup_1, cup_2"),
-    (_set(["task", 1, "pick"], "cup_1"), "task[1].pick: object 'cup_1' is already picked in task[0]"),
+    (set_key(["task", 0, "pick"], "bin_a"), "task[0].pick: 'bin_a' is not an object; objects: cup_1, cup_2"),
+    (set_key(["task", 1, "pick"], "cup_1"), "task[1].pick: object 'cup_1' is already picked in task[0]"),
     # planner values
-    (_set(["planner", "yaw_steps"], 0), "planner.yaw_steps: must be >= 1, got 0"),
-    (_set(["planner", "yaw_steps"], 10.5), "planner.yaw_steps: expected an integer, got 10.5"),
-    (_set(["planner", "lambda_m"], -1.0), "planner.lambda_m: must be >= 0, got -1.0"),
-    (_set(["planner", "d_max"], 0), "planner.d_max: must be > 0, got 0"),
-    (_set(["planner", "grasp_yaws"], []), "planner.grasp_yaws: expected a count or a non-empty list"),
-    (_set(["planner"], [1, 2]), "planner: expected a mapping, got a list"),
+    (set_key(["planner", "yaw_steps"], 0), "planner.yaw_steps: must be >= 1, got 0"),
+    (set_key(["planner", "yaw_steps"], 10.5), "planner.yaw_steps: expected an integer, got 10.5"),
+    (set_key(["planner", "lambda_m"], -1.0), "planner.lambda_m: must be >= 0, got -1.0"),
+    (set_key(["planner", "d_max"], 0), "planner.d_max: must be > 0, got 0"),
+    (set_key(["planner", "grasp_yaws"], []), "planner.grasp_yaws: expected a count or a non-empty list"),
+    (set_key(["planner"], [1, 2]), "planner: expected a mapping, got a list"),
     # bounds
-    (_set(["bounds"], [0.0, 0.0, 1.0]), "bounds: expected 4 numbers, got 3"),
-    (_set(["bounds"], [7.0, -3.0, -3.0, 5.0]), "bounds: expected [xmin, ymin, xmax, ymax] with xmin < xmax"),
-    (_set(["robot", "start"], [20.0, 0.0, 0.0]),
+    (set_key(["bounds"], [0.0, 0.0, 1.0]), "bounds: expected 4 numbers, got 3"),
+    (set_key(["bounds"], [7.0, -3.0, -3.0, 5.0]), "bounds: expected [xmin, ymin, xmax, ymax] with xmin < xmax"),
+    (set_key(["robot", "start"], [20.0, 0.0, 0.0]),
      "scene.yaml: robot.start: the start position at (20, 0) is outside bounds [-3, -3, 7, 5]"),
-    (_set(["objects", 1, "position"], [1.9, -3.5, 0.8]),
+    (set_key(["objects", 1, "position"], [1.9, -3.5, 0.8]),
      "objects[1].position: object 'cup_2' at (1.9, -3.5) is outside bounds [-3, -3, 7, 5]"),
-    (_set(["place_locations", 0, "position"], [8.0, 1.0, 0.9]),
+    (set_key(["place_locations", 0, "position"], [8.0, 1.0, 0.9]),
      "place_locations[0].position: place location 'bin_a' at (8, 1) is outside bounds"),
-    (_set(["resolution"], 0.001), "resolution: bounds [-3, -3, 7, 5] at 0.001 m give a 10000 x 8000 grid"),
-    (_set(["resolution"], 0.0001), "resolution: must be >= 0.001, got 0.0001"),
-    (_set(["bounds"], [0, 0, 1e300, 1]), "bounds[2]: must be within +-1e+06, got 1e+300"),
-    (_set(["planner", "lambda_m"], 1e308), "planner.lambda_m: must be <= 1e+06, got 1e+308"),
-    (_set(["planner", "threshold"], 0), "planner.threshold: must be > 0, got 0"),
+    (set_key(["resolution"], 0.001), "resolution: bounds [-3, -3, 7, 5] at 0.001 m give a 10000 x 8000 grid"),
+    (set_key(["resolution"], 0.0001), "resolution: must be >= 0.001, got 0.0001"),
+    (set_key(["bounds"], [0, 0, 1e300, 1]), "bounds[2]: must be within +-1e+06, got 1e+300"),
+    (set_key(["planner", "lambda_m"], 1e308), "planner.lambda_m: must be <= 1e+06, got 1e+308"),
+    (set_key(["planner", "threshold"], 0), "planner.threshold: must be > 0, got 0"),
     # files
-    (_set(["robot", "preset"], "pr3"), "robot.preset: unknown robot 'pr3'; built-in presets: pr2"),
-    (_set(["robot", "preset"], "robots/mine.yaml"), "robot.preset: robot preset file not found: "),
-    (_set(["occupancy_map"], "nowhere.yaml"), "occupancy_map: occupancy map not found: "),
+    (set_key(["robot", "preset"], "pr3"), "robot.preset: unknown robot 'pr3'; built-in presets: pr2"),
+    (set_key(["robot", "preset"], "robots/mine.yaml"), "robot.preset: robot preset file not found: "),
+    (set_key(["occupancy_map"], "nowhere.yaml"), "occupancy_map: occupancy map not found: "),
 ]
 
 
 @pytest.mark.parametrize("mutate, message", ERRORS, ids=[m for _, m in ERRORS])
 def test_invalid_scene(mutate, message, tmp_path):
-    doc = _base()
+    doc = base_doc()
     mutate(doc)
     with pytest.raises(SceneError) as err:
         parse_scene(copy.deepcopy(doc), tmp_path, "scene", source="scene.yaml")
@@ -281,7 +282,7 @@ def test_missing_scene_file(tmp_path):
 def test_preset_path_is_relative_to_the_scene(tmp_path):
     (tmp_path / "robots").mkdir()
     (tmp_path / "robots" / "mine.yaml").write_text("name: mine\n")
-    doc = _base()
+    doc = base_doc()
     doc["robot"]["preset"] = "robots/mine.yaml"
     s = parse_scene(doc, tmp_path, "s")
     assert s.robot_preset == str(tmp_path / "robots" / "mine.yaml")

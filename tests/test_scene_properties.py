@@ -8,16 +8,19 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mutations import documents, mutated
-from placement.planning.scene import Scene, SceneError, parse_scene
-from test_scene import _base
+from placement.planning.scene import Scene, SceneError, parse_scene, scene_to_dict
+from test_scene import base_doc
+from test_scene_v2 import v2_doc
 
 KEYS = ("version", "resolution", "bounds", "robot", "preset", "start", "maps", "obstacles", "objects",
         "place_locations", "task", "planner", "name", "box", "cylinder", "polygon", "center", "size", "yaw",
-        "radius", "height", "table", "position", "pick", "place", "threshold", "yaw_steps", "grasp_yaws")
-BASE = _base()
+        "radius", "height", "table", "position", "pick", "place", "threshold", "yaw_steps", "grasp_yaws",
+        "orientation", "grasps", "poses", "orientations", "trajectories", "reach")
+BASE = base_doc()
+BASE_V2 = v2_doc()
 
 
-def _check(doc, tmp_path_factory=None) -> None:
+def _check(doc, round_trip: bool = False) -> None:
     try:
         scene = parse_scene(doc, "/nonexistent-dir", "prop")
     except SceneError as exc:
@@ -28,6 +31,8 @@ def _check(doc, tmp_path_factory=None) -> None:
     ny, nx = scene.grid_shape
     assert 1 <= nx * ny <= 20_000_000
     assert all(math.isfinite(b) for b in scene.bounds)
+    if round_trip:
+        assert parse_scene(scene_to_dict(scene), "/nonexistent-dir", "prop") == scene
 
 
 @settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -40,4 +45,18 @@ def test_mutated_scenes(doc):
 @given(doc=documents(KEYS) | st.fixed_dictionaries({"version": st.just(1), "robot": documents(KEYS),
                                                      "task": documents(KEYS)}))
 def test_random_documents(doc):
+    _check(doc)
+
+
+@settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(doc=mutated(BASE_V2, KEYS))
+def test_mutated_v2_scenes(doc):
+    _check(doc, round_trip=True)
+
+
+@settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(doc=st.fixed_dictionaries({"version": st.just(2), "robot": st.just({"start": [0, 0, 0]}),
+                                  "objects": documents(KEYS), "trajectories": documents(KEYS),
+                                  "place_locations": documents(KEYS), "task": documents(KEYS)}))
+def test_random_v2_documents(doc):
     _check(doc)

@@ -4,7 +4,7 @@ Changes use the scene-file vocabulary and are validated by the same parser, with
 
 * ``{"objects": [{"name": N, "position": [x, y, z], "yaw": a, "size": [sx, sy, sz]}, ...]}``:
   objects moved (only the given keys change; the manipulation maps of the steps that pick them
-  are recomputed);
+  are recomputed); in a version 2 scene ``orientation: [x, y, z, w]`` may replace ``yaw``;
 * ``{"obstacles": {"add": [<scene obstacle>, ...], "remove": [name, ...]}}``: the distance map,
   feasibility and every cost map are recomputed (the reachability slices stay cached);
 * ``{"start": [x, y, yaw]}``: a new start pose (nothing cached changes).
@@ -20,7 +20,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from .scene import Scene, SceneParser, check_scene
-from .scene.parse import OBJECT_KEYS
+from .scene.parse import OBJECT_KEYS_V1
 from ..validation import describe
 from .world import build_world, changed_occupancy, world_from_occupancy
 
@@ -37,7 +37,7 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
 
     Raises :class:`~placement.planning.scene.SceneError` (one line, ``update: KEY.PATH: problem``).
     """
-    P = SceneParser(WHERE)
+    P = SceneParser(WHERE, scene.version)
     if not isinstance(change, dict) or not change:
         P.fail("", "an update must be a non-empty mapping with keys " + ", ".join(UPDATE_KEYS))
     P.mapping(change, "", UPDATE_KEYS)
@@ -51,17 +51,25 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
     moved: set[str] = set()
     for i, item in enumerate(items(change.get("objects", []), "objects")):
         p = f"objects[{i}]"
-        P.mapping(item, p, OBJECT_KEYS, ("name",))
+        P.gate(item, p, "objects")
+        if isinstance(item, dict) and "grasps" in item:
+            P.fail(f"{p}.grasps", "an update moves objects; their grasps stay as the scene gives them")
+        P.mapping(item, p, (*OBJECT_KEYS_V1, "orientation") if scene.version >= 2 else OBJECT_KEYS_V1, ("name",))
         name = P.string(item["name"], f"{p}.name")
         if name not in objects:
             P.fail(f"{p}.name", f"unknown object '{name}'; objects: {', '.join(objects) or '(none)'}")
         if name in moved:
             P.fail(f"{p}.name", f"object '{name}' is moved twice in one update")
         o = objects[name]
+        if "orientation" in item and "yaw" in item:
+            P.fail(p, "give 'orientation' [x, y, z, w] or 'yaw' [rad], not both")
+        # a new yaw drops the old orientation (the object turns about z only)
+        yaw, q = (P.number(item["yaw"], f"{p}.yaw"), None) if "yaw" in item else (o.yaw, o.orientation)
+        if "orientation" in item:
+            yaw, q = 0.0, P.quaternion(item["orientation"], f"{p}.orientation")
         objects[name] = replace(
             o, position=P.coords(item["position"], f"{p}.position", 3) if "position" in item else o.position,
-            yaw=P.number(item["yaw"], f"{p}.yaw") if "yaw" in item else o.yaw,
-            size=P.sizes(item["size"], f"{p}.size", 3) if "size" in item else o.size)
+            yaw=yaw, orientation=q, size=P.sizes(item["size"], f"{p}.size", 3) if "size" in item else o.size)
         moved.add(name)
     obstacles = list(scene.obstacles)
     added = []

@@ -1,7 +1,9 @@
 """Whole-scene checks: things inside obstacles' volumes.
 
 Obstacles are solids: a box from ``center.z - size.z/2`` to ``center.z + size.z/2``, a cylinder
-likewise, a polygon a prism from the floor of unbounded height. An object's bounding box may touch
+likewise, a polygon a prism from the floor of unbounded height. Each is a vertical prism over its
+footprint, so a tilted (6D) object box meets it exactly where the part of the box within the
+prism's height range, seen from above, meets the footprint. An object's bounding box may touch
 a solid (a cup standing on a table) but not enter it by more than :data:`TOLERANCE`; a place
 location (a TCP target) may not lie inside one.
 """
@@ -12,7 +14,8 @@ import math
 
 import numpy as np
 
-from .model import Box, Cylinder, Polygon
+from .model import Box, Cylinder, Polygon, SceneObject
+from .poses import BOX_EDGES, box_corners
 
 TOLERANCE = 1e-3  # [m] penetration accepted as touching (rounding in generated or exported scenes)
 
@@ -43,7 +46,7 @@ def _segments_cross(a, b, c, d) -> bool:
 
 
 def _rect_overlaps(corners: np.ndarray, shape) -> bool:
-    """Whether a (shrunk) footprint rectangle (4, 2), counter-clockwise, overlaps the shape's footprint."""
+    """Whether a (shrunk) convex footprint (k, 2), counter-clockwise, overlaps the shape's footprint."""
     if isinstance(shape, Cylinder):
         c = np.asarray(shape.center[:2])
         # distance from the centre to the rectangle: inside, or closer than the radius to an edge
@@ -75,6 +78,46 @@ def box_penetrates(box: Box, shape) -> bool:
         return False
     shrunk = Box(box.center, np.maximum(np.asarray(box.size) - 2 * TOLERANCE, 1e-9), box.yaw)
     return _rect_overlaps(shrunk.corners_xy(), shape)
+
+
+def _hull_xy(points: np.ndarray) -> np.ndarray:
+    """(k, 2) convex hull of the xy of ``points`` (n, >= 2), counter-clockwise (monotone chain)."""
+    pts = sorted({(float(x), float(y)) for x, y in np.asarray(points)[:, :2]})
+    if len(pts) < 3:
+        return np.array(pts)
+
+    def half(seq):
+        out: list = []
+        for q in seq:
+            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (q[1] - out[-2][1])
+                                     - (out[-1][1] - out[-2][1]) * (q[0] - out[-2][0])) <= 0:
+                out.pop()
+            out.append(q)
+        return out[:-1]
+
+    return np.array(half(pts) + half(reversed(pts)))
+
+
+def object_penetrates(o: SceneObject, shape) -> bool:
+    """Whether the bounding box of ``o`` (any orientation) enters the solid ``shape`` by more than
+    :data:`TOLERANCE`; an upright object is checked exactly as :func:`box_penetrates` does."""
+    if o.upright:
+        return box_penetrates(o.box, shape)
+    if _apart(o.bounds_xy(), shape.bounds_xy()):
+        return False
+    lo, hi = _z_range(shape)
+    corners = box_corners(o.pose, np.maximum(np.asarray(o.size) - 2 * TOLERANCE, 1e-9))
+    # the shrunk box cut to the slab lo <= z <= hi: its corners inside, its edges crossing a plane
+    pts = [c for c in corners if lo <= c[2] <= hi]
+    for i, j in BOX_EDGES:
+        a, b = corners[i], corners[j]
+        for plane in (lo, hi):
+            if math.isfinite(plane) and (a[2] - plane) * (b[2] - plane) < 0:
+                pts.append(a + (plane - a[2]) / (b[2] - a[2]) * (b - a))
+    if len(pts) < 3:
+        return False
+    hull = _hull_xy(np.array(pts))
+    return len(hull) >= 3 and _rect_overlaps(hull, shape)
 
 
 def point_inside(p, shape) -> bool:

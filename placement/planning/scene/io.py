@@ -10,12 +10,13 @@ import numpy as np
 import yaml
 
 from ...validation import one_line, parse_yaml
-from .model import Box, Cylinder, Obstacle, Scene, SceneError, is_path
+from .model import Box, Cylinder, Obstacle, Scene, SceneError, SceneObject, Trajectory, is_path
 from .parse import parse_scene
+from .poses import yaw_quaternion
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file (YAML, contract version 1); its name is the file stem.
+    """Read and validate a scene file (YAML, contract version 1 or 2); its name is the file stem.
 
     Relative paths inside it are resolved against the file's directory. Raises :class:`SceneError`
     (one line naming the file and the key path) for anything that is not a valid scene.
@@ -67,6 +68,26 @@ def obstacle_to_dict(o: Obstacle) -> dict:
     return out
 
 
+def trajectory_to_dict(t: Trajectory) -> dict:
+    """A named trajectory as a scene-file mapping (poses as [x, y, z, qx, qy, qz, qw] lists)."""
+    return {"name": t.name, "poses": [_floats(p) for p in t.poses]}
+
+
+def object_to_dict(o: SceneObject, version: int) -> dict:
+    """One object as a scene-file mapping, so that reading it back gives the same numbers: with
+    ``yaw`` when that is what its orientation was made from (always in version 1), else with
+    ``orientation``; and its own grasps."""
+    out: dict[str, Any] = {"name": o.name, "position": _floats(o.position)}
+    if version < 2 or np.array_equal(o.orientation, yaw_quaternion(o.yaw)):
+        out["yaw"] = o.yaw
+    else:
+        out["orientation"] = _floats(o.orientation)
+    out["size"] = _floats(o.size)
+    if o.grasps:
+        out["grasps"] = [trajectory_to_dict(g) for g in o.grasps]
+    return out
+
+
 def scene_to_dict(scene: Scene, relative_to: str | Path | None = None) -> dict:
     """The scene as a scene-file mapping (plain Python types, bounds always written).
 
@@ -91,9 +112,14 @@ def scene_to_dict(scene: Scene, relative_to: str | Path | None = None) -> dict:
     if scene.occupancy_map is not None:
         out["occupancy_map"] = path(scene.occupancy_map)
     out["obstacles"] = [obstacle_to_dict(o) for o in scene.obstacles]
-    out["objects"] = [{"name": o.name, "position": _floats(o.position), "yaw": o.yaw,
-                       "size": _floats(o.size)} for o in scene.objects]
-    out["place_locations"] = [{"name": p.name, "position": _floats(p.position)} for p in scene.place_locations]
-    out["task"] = [{"pick": t.pick, "place": t.place} for t in scene.task]
+    out["objects"] = [object_to_dict(o, scene.version) for o in scene.objects]
+    out["place_locations"] = []
+    for p in scene.place_locations:
+        out["place_locations"].append({"name": p.name, "position": _floats(p.position)})
+        if p.orientations is not None:
+            out["place_locations"][-1]["orientations"] = [_floats(q) for q in p.orientations]
+    if scene.trajectories:
+        out["trajectories"] = [trajectory_to_dict(t) for t in scene.trajectories]
+    out["task"] = [{"reach": list(t.reach)} if t.reach else {"pick": t.pick, "place": t.place} for t in scene.task]
     out["planner"] = _plain(scene.planner)
     return out

@@ -16,6 +16,7 @@ import numpy as np
 from ...errors import PlacementError
 from ..navgrid import NavGrid
 from .occupancy import OccupancyMap
+from .poses import box_corners, matrix_yaw, pose_matrices, pose_matrix, quaternion_matrix, yaw_quaternion
 
 class SceneError(PlacementError):
     """A scene file that cannot be used; the one-line message names the file and the key path."""
@@ -125,46 +126,105 @@ class Obstacle(ArrayEq):
 
 
 @dataclass(frozen=True, eq=False)
+class Trajectory(ArrayEq):
+    """A named TCP trajectory: ``poses`` (P, 7) rows ``[x, y, z, qx, qy, qz, qw]`` ([m], unit
+    quaternions in ROS order), pre-pose first, P >= 1. In the world frame (scene ``trajectories``)
+    or in an object's frame (its ``grasps``)."""
+
+    name: str
+    poses: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "poses", frozen_array(self.poses, (-1, 7)))
+
+    def matrices(self) -> np.ndarray:
+        """(P, 4, 4) the poses as homogeneous matrices."""
+        return pose_matrices(self.poses)
+
+
+@dataclass(frozen=True, eq=False)
 class SceneObject(ArrayEq):
-    """A thing to pick: bounding-box centre ``position`` (3,) [m], ``yaw`` [rad], ``size`` (3,) [m]."""
+    """A thing to pick: its bounding box, centred at ``position`` (3,) [m], with edge lengths
+    ``size`` (3,) [m] along its own axes, rotated by ``orientation`` (4,) [x, y, z, w].
+
+    ``yaw`` [rad] is the ZYX yaw of the orientation (the whole rotation for an upright object).
+    Without ``orientation`` the object turns by ``yaw`` about z (scene version 1); when both are
+    given and disagree, the orientation wins and ``yaw`` is recomputed from it. ``grasps``: the
+    user's grasps (TCP trajectories in the object frame), or () to generate them from the box.
+    """
 
     name: str
     position: np.ndarray
     yaw: float
     size: np.ndarray
+    orientation: np.ndarray | None = None
+    grasps: tuple[Trajectory, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "position", frozen_array(self.position, (3,)))
         object.__setattr__(self, "size", frozen_array(self.size, (3,)))
-        object.__setattr__(self, "yaw", float(self.yaw))
+        yaw = float(self.yaw)
+        if self.orientation is None:
+            q = yaw_quaternion(yaw)
+        else:
+            q = np.asarray(self.orientation, dtype=float)
+            same = yaw_quaternion(yaw)
+            if not (np.allclose(q, same, rtol=0, atol=1e-12) or np.allclose(q, -same, rtol=0, atol=1e-12)):
+                yaw = matrix_yaw(quaternion_matrix(q))
+        object.__setattr__(self, "orientation", frozen_array(q, (4,)))
+        object.__setattr__(self, "yaw", yaw)
+        object.__setattr__(self, "grasps", tuple(self.grasps))
+
+    @property
+    def upright(self) -> bool:
+        """Whether the object turns about z only (its box is a yaw-only :class:`Box`)."""
+        return self.orientation[0] == 0.0 and self.orientation[1] == 0.0
+
+    @property
+    def pose(self) -> np.ndarray:
+        """(4, 4) the object frame in the world (bounding-box centre, its axes)."""
+        return pose_matrix(self.position, self.orientation)
 
     @property
     def box(self) -> Box:
-        """The object's bounding box."""
+        """The object's bounding box about z (exact for an :attr:`upright` object)."""
         return Box(self.position, self.size, self.yaw)
+
+    def corners(self) -> np.ndarray:
+        """(8, 3) corners of the bounding box [m]."""
+        return box_corners(self.pose, self.size)
 
     def bounds_xy(self) -> tuple[float, float, float, float]:
         """Axis-aligned (xmin, ymin, xmax, ymax) of the footprint [m]."""
-        return self.box.bounds_xy()
+        if self.upright:
+            return self.box.bounds_xy()
+        c = self.corners()
+        return (float(c[:, 0].min()), float(c[:, 1].min()), float(c[:, 0].max()), float(c[:, 1].max()))
 
 
 @dataclass(frozen=True, eq=False)
 class PlaceLocation(ArrayEq):
-    """Where an object is put down: the TCP target ``position`` (3,) [m]."""
+    """Where an object is put down: the TCP target ``position`` (3,) [m], and optionally the allowed
+    TCP ``orientations`` (k, 4) [x, y, z, w] (None: top-down at the planner's ``grasp_yaws``)."""
 
     name: str
     position: np.ndarray
+    orientations: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "position", frozen_array(self.position, (3,)))
+        if self.orientations is not None:
+            object.__setattr__(self, "orientations", frozen_array(self.orientations, (-1, 4)))
 
 
 @dataclass(frozen=True)
 class TaskStep:
-    """One pick/place pair of the task: an object name and a place location name."""
+    """One entry of the task: a pick/place pair (an object name and a place location name), or a
+    ``reach`` of one of the named world-frame trajectories (alternatives; the planner picks)."""
 
-    pick: str
-    place: str
+    pick: str | None = None
+    place: str | None = None
+    reach: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -172,7 +232,7 @@ class Scene(ArrayEq):
     """A validated scene (see the module docstring for the file format and the decisions).
 
     Attributes:
-        version: scene format version (1).
+        version: scene format version (1 or 2).
         name: scene name (the file stem for :func:`load_scene`).
         resolution: navigation grid cell [m].
         bounds: (xmin, ymin, xmax, ymax) [m], given or computed.
@@ -182,6 +242,7 @@ class Scene(ArrayEq):
         occupancy_map: absolute path of the ROS map YAML, or None.
         obstacles, objects, place_locations, task: tuples, in file order.
         planner: overrides of the planner defaults (keys in :data:`PLANNER_KEYS`).
+        trajectories: named world-frame TCP trajectories for ``reach`` steps (version 2).
         source: the scene file, if loaded from one (not compared).
         occupancy: the loaded occupancy map, if any (not compared).
     """
@@ -199,6 +260,7 @@ class Scene(ArrayEq):
     place_locations: tuple[PlaceLocation, ...]
     task: tuple[TaskStep, ...]
     planner: dict = field(default_factory=dict)
+    trajectories: tuple[Trajectory, ...] = ()
     source: Path | None = field(default=None, compare=False)
     occupancy: OccupancyMap | None = field(default=None, compare=False, repr=False)
 
@@ -210,6 +272,10 @@ class Scene(ArrayEq):
     def place_location(self, name: str) -> PlaceLocation:
         """The place location called ``name`` (SceneError naming the alternatives)."""
         return lookup(self.place_locations, name, "place location")
+
+    def trajectory(self, name: str) -> Trajectory:
+        """The trajectory called ``name`` (SceneError naming the alternatives)."""
+        return lookup(self.trajectories, name, "trajectory")
 
     def obstacle(self, name: str) -> Obstacle:
         """The obstacle called ``name`` (SceneError naming the alternatives)."""
@@ -237,7 +303,8 @@ def lookup(items, name: str, kind: str):
         if item.name == name:
             return item
     names = ", ".join(i.name for i in items) or "(none)"
-    raise SceneError(f"no {kind} '{name}'; {kind}s: {names}")
+    plural = kind[:-1] + "ies" if kind.endswith("y") else kind + "s"
+    raise SceneError(f"no {kind} '{name}'; {plural}: {names}")
 
 
 def grid_shape(bounds, resolution: float) -> tuple[int, int]:

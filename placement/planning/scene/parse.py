@@ -1,7 +1,8 @@
-"""The scene file (SPEC section 6, contract version 1): what the robot must do, and where.
+"""The scene file (SPEC section 6, contract versions 1 and 2): what the robot must do, and where.
 
 Units are metres and radians; the world frame has z up (ROS REP-103) and yaws turn counter-clockwise
-about z. Shapes and objects rotate about z only (a ``yaw``), never by a quaternion. Example::
+about z. Shapes rotate about z only (a ``yaw``); in version 2 objects may have a full orientation
+and the file gains grasps, place orientations and reach steps (see v2.py and below). Example::
 
     version: 1
     resolution: 0.05                 # navigation grid cell [m], default 0.05
@@ -23,6 +24,8 @@ about z. Shapes and objects rotate about z only (a ``yaw``), never by a quaterni
       - {pick: cup_1, place: bin_a}
     planner: {}                      # optional overrides, keys in PLANNER_KEYS (config.py)
 
+Version 2 adds keys (6D objects, grasps, place orientations, trajectories, reach steps): see v2.py.
+
 Decisions (where the SPEC is silent):
 
 * Validation is strict: unknown keys anywhere, wrong types, non-finite numbers, non-positive sizes,
@@ -37,10 +40,11 @@ Decisions (where the SPEC is silent):
   vertical prism from the floor of unbounded height, given counter-clockwise or clockwise
   (at least 3 points, non-zero area). ``table: true`` needs a box or a cylinder (a surface).
 * Default ``bounds``: the axis-aligned extent of all obstacles (rotated box corners, cylinder
-  discs, polygon points), objects (rotated footprints), place locations, the start position and the
-  occupancy map, grown by 1 m on every side. The start, every object and every place location must
-  lie inside ``bounds``. The grid (``bounds`` / ``resolution``) may not exceed ``MAX_GRID_CELLS``;
-  coordinates and sizes are within +-``MAX_COORD`` and the resolution within ``RESOLUTION_RANGE``.
+  discs, polygon points), objects (rotated footprints), place locations, the start position, the
+  occupancy map and trajectory positions, grown by 1 m on every side. The start, every object, every
+  place location and the end of every trajectory must lie inside ``bounds``. The grid (``bounds`` /
+  ``resolution``) may not exceed ``MAX_GRID_CELLS``; coordinates and sizes are within
+  +-``MAX_COORD`` and the resolution within ``RESOLUTION_RANGE``.
 * Objects may touch obstacles (stand on a table) but not enter their volume, and place locations
   may not lie inside one (see checks.py).
 """
@@ -56,16 +60,18 @@ import numpy as np
 
 from ...robots.preset import builtin_presets
 from ..config import PLANNER_BOUNDS, PLANNER_KEYS
-from .checks import box_penetrates, point_inside
+from .checks import object_penetrates, point_inside
 from .model import (
-    Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, Shape, TaskStep, grid_shape,
-    is_path,
+    Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, Shape, TaskStep, Trajectory,
+    grid_shape, is_path,
 )
 from .occupancy import OccupancyMapError, load_occupancy_map
 from ...validation import describe
+from .v2 import V2, PoseParser
 from .validate import Validator, fmt
 
-SCENE_VERSION = 1
+SCENE_VERSIONS = (1, V2)
+SCENE_VERSION = V2  # the newest
 DEFAULT_RESOLUTION = 0.05  # [m]
 DEFAULT_PRESET = "pr2"
 BOUNDS_MARGIN = 1.0  # [m]
@@ -74,23 +80,27 @@ MAX_COORD = 1e6  # [m] |coordinate| and size bound: keeps grid arithmetic finite
 RESOLUTION_RANGE = (1e-3, 100.0)  # [m]
 
 TOP_KEYS = ("version", "resolution", "bounds", "robot", "maps", "occupancy_map", "obstacles", "objects",
-            "place_locations", "task", "planner")
+            "place_locations", "task", "planner", "trajectories")
 ROBOT_KEYS = ("preset", "start")
 SHAPES = ("box", "cylinder", "polygon")
 OBSTACLE_KEYS = ("name", *SHAPES, "table")
 BOX_KEYS = ("center", "size", "yaw")
 CYLINDER_KEYS = ("center", "radius", "height")
-OBJECT_KEYS = ("name", "position", "yaw", "size")
-PLACE_KEYS = ("name", "position")
+OBJECT_KEYS_V1 = ("name", "position", "yaw", "size")
+OBJECT_KEYS = (*OBJECT_KEYS_V1, "orientation", "grasps")
+PLACE_KEYS_V1 = ("name", "position")
+PLACE_KEYS = (*PLACE_KEYS_V1, "orientations")
 TASK_KEYS = ("pick", "place")
 
 
-class SceneParser(Validator):
-    """The parts of a scene file; ``names`` collects the names used so far (they are unique)."""
+class SceneParser(PoseParser):
+    """The parts of a scene file; ``names`` collects the names used so far (they are unique).
+    ``version``: the scene's format version (version 2 keys are refused below 2)."""
 
-    def __init__(self, where: str):
+    def __init__(self, where: str, version: int = SCENE_VERSION):
         super().__init__(where, SceneError)
         self.names: dict[str, str] = {}
+        self.version = version
 
     def coords(self, value, path: str, n: int) -> tuple[float, ...]:
         return self.vector(value, path, n, maximum=MAX_COORD)
@@ -140,14 +150,33 @@ class SceneParser(Validator):
         return Obstacle(nm, shape, table)
 
     def scene_object(self, item, p: str) -> SceneObject:
-        self.mapping(item, p, OBJECT_KEYS, ("name", "position", "size"))
+        self.gate(item, p, "objects")
+        self.mapping(item, p, OBJECT_KEYS if self.version >= V2 else OBJECT_KEYS_V1, ("name", "position", "size"))
         nm = self.unique(item["name"], f"{p}.name")
-        return SceneObject(nm, self.coords(item["position"], f"{p}.position", 3),
-                           self.number(item.get("yaw", 0.0), f"{p}.yaw"), self.sizes(item["size"], f"{p}.size", 3))
+        position = self.coords(item["position"], f"{p}.position", 3)
+        if "orientation" in item and "yaw" in item:
+            self.fail(p, "give 'orientation' [x, y, z, w] or 'yaw' [rad], not both")
+        yaw = self.number(item.get("yaw", 0.0), f"{p}.yaw")
+        q = self.quaternion(item["orientation"], f"{p}.orientation") if "orientation" in item else None
+        size = self.sizes(item["size"], f"{p}.size", 3)
+        grasps = self.grasps(item["grasps"], f"{p}.grasps", MAX_COORD) if "grasps" in item else ()
+        return SceneObject(nm, position, yaw, size, q, grasps)
 
     def place(self, item, p: str) -> PlaceLocation:
-        self.mapping(item, p, PLACE_KEYS, PLACE_KEYS)
-        return PlaceLocation(self.unique(item["name"], f"{p}.name"), self.coords(item["position"], f"{p}.position", 3))
+        self.gate(item, p, "place_locations")
+        self.mapping(item, p, PLACE_KEYS if self.version >= V2 else PLACE_KEYS_V1, PLACE_KEYS_V1)
+        orientations = self.orientations(item["orientations"], f"{p}.orientations") if "orientations" in item \
+            else None
+        return PlaceLocation(self.unique(item["name"], f"{p}.name"), self.coords(item["position"], f"{p}.position", 3),
+                             orientations)
+
+    def trajectories(self, items) -> list[Trajectory]:
+        out = []
+        for i, item in enumerate(self.items(items, "trajectories")):
+            t = self.trajectory(item, f"trajectories[{i}]", MAX_COORD)
+            self.unique(t.name, f"trajectories[{i}].name")
+            out.append(t)
+        return out
 
     def planner(self, raw) -> dict:
         out = {}
@@ -168,18 +197,26 @@ class SceneParser(Validator):
                 out[key] = self.number(value, p, b["minimum"], b.get("strict", False), b["maximum"])
         return out
 
-    def task(self, items, objects, places) -> list[TaskStep]:
+    def task(self, items, objects, places, trajectories=()) -> list[TaskStep]:
+        kind = "{pick, place} or {reach} step" if self.version >= V2 else "{pick, place} step"
         if not isinstance(items, list):
-            self.fail("task", f"expected a list of {{pick, place}} steps, got {describe(items)}")
+            self.fail("task", f"expected a list of {kind}s, got {describe(items)}")
         if not items:
-            self.fail("task", "expected at least one {pick, place} step, got an empty list")
+            self.fail("task", f"expected at least one {kind}, got an empty list")
         object_names = [o.name for o in objects]
         place_names = [p.name for p in places]
         picked: dict[str, str] = {}
         task = []
         for i, item in enumerate(items):
             p = f"task[{i}]"
-            self.mapping(item, p, TASK_KEYS, TASK_KEYS)
+            self.gate(item, p, "task")
+            if self.version >= V2 and isinstance(item, dict) and "reach" in item:
+                if "pick" in item or "place" in item:
+                    self.fail(p, "a step is {pick, place} or {reach}, not both")
+                self.mapping(item, p, ("reach",), ("reach",))
+                task.append(TaskStep(reach=self.reach(item["reach"], f"{p}.reach", trajectories)))
+                continue
+            self.mapping(item, p, (*TASK_KEYS, "reach") if self.version >= V2 else TASK_KEYS, TASK_KEYS)
             pick = self.string(item["pick"], f"{p}.pick")
             place = self.string(item["place"], f"{p}.place")
             if pick not in object_names:
@@ -214,6 +251,8 @@ def default_bounds(scene: Scene) -> tuple[float, float, float, float]:
         extent = _extend(extent, o.bounds_xy())
     for pl in scene.place_locations:
         extent = _extend(extent, (pl.position[0], pl.position[1]) * 2)
+    for t in scene.trajectories:
+        extent = _extend(extent, (*t.poses[:, :2].min(axis=0), *t.poses[:, :2].max(axis=0)))
     extent = _extend(extent, (scene.start[0], scene.start[1]) * 2)
     if scene.occupancy is not None:
         extent = _extend(extent, scene.occupancy.extent)
@@ -251,9 +290,20 @@ def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
     for i, o in enumerate(scene.objects):
         inside(o.position, f"objects[{i}].position", f"object '{o.name}'")
         for ob in scene.obstacles:
-            if pair(o.name, ob.name) and box_penetrates(o.box, ob.shape):
+            if pair(o.name, ob.name) and object_penetrates(o, ob.shape):
                 P.fail(f"objects[{i}]", f"object '{o.name}' is inside obstacle '{ob.name}' (its bounding box enters "
                                         "the obstacle's volume; objects may only touch, e.g. stand on a table)")
+    for i, t in enumerate(scene.trajectories):
+        inside(t.poses[-1], f"trajectories[{i}].poses[{len(t.poses) - 1}]", f"the end of trajectory '{t.name}'")
+    if scene.version >= V2:
+        from ..grasps import GRIPPER_OPENING, box_grasps  # grasps imports scene.poses: circular at the top
+        picked = {t.pick for t in scene.task if t.pick is not None}
+        for i, o in enumerate(scene.objects):
+            if o.name in picked and not o.grasps and (objects is None or o.name in objects) \
+                    and not box_grasps(o.pose, o.size):
+                P.fail(f"objects[{i}].size", f"object '{o.name}' is wider than the gripper opening "
+                                             f"({GRIPPER_OPENING} m) across every side: no grasp can be generated; "
+                                             "give its 'grasps'")
     for i, pl in enumerate(scene.place_locations):
         inside(pl.position, f"place_locations[{i}].position", f"place location '{pl.name}'")
         for ob in scene.obstacles:
@@ -285,8 +335,11 @@ def parse_scene(data: Any, origin_dir: str | Path = ".", name: str = "scene",
     version = doc["version"]
     if isinstance(version, bool) or not isinstance(version, int):
         P.fail("version", f"expected an integer, got {describe(version)}")
-    if version != SCENE_VERSION:
-        P.fail("version", f"unsupported scene format version {version}; this build reads version {SCENE_VERSION}")
+    if version not in SCENE_VERSIONS:
+        P.fail("version", f"unsupported scene format version {version}; this build reads versions "
+                          f"{', '.join(map(str, SCENE_VERSIONS))}")
+    P.version = version
+    P.gate(doc, "", "")
 
     resolution = P.number(doc.get("resolution", DEFAULT_RESOLUTION), "resolution", RESOLUTION_RANGE[0],
                           maximum=RESOLUTION_RANGE[1])
@@ -318,14 +371,16 @@ def parse_scene(data: Any, origin_dir: str | Path = ".", name: str = "scene",
     objects = [P.scene_object(item, f"objects[{i}]") for i, item in enumerate(P.items(doc.get("objects"), "objects"))]
     places = [P.place(item, f"place_locations[{i}]")
               for i, item in enumerate(P.items(doc.get("place_locations"), "place_locations"))]
-    task = P.task(doc["task"], objects, places)
+    trajectories = P.trajectories(doc.get("trajectories"))
+    task = P.task(doc["task"], objects, places, trajectories)
     planner = P.planner(doc.get("planner"))
 
     scene = Scene(
         version=version, name=name, resolution=resolution, bounds=(0.0, 0.0, 1.0, 1.0),
         robot_preset=preset, start=tuple(start), maps=maps, occupancy_map=occ_path,
         obstacles=tuple(obstacles), objects=tuple(objects), place_locations=tuple(places), task=tuple(task),
-        planner=planner, source=Path(source) if source is not None else None, occupancy=occupancy,
+        planner=planner, trajectories=tuple(trajectories), source=Path(source) if source is not None else None,
+        occupancy=occupancy,
     )
     if doc.get("bounds") is not None:
         bounds = P.coords(doc["bounds"], "bounds", 4)
