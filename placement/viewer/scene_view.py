@@ -79,7 +79,10 @@ def draw_scene(server, scene, footprint_radius: float) -> dict:
     if scene.occupancy is not None:
         nodes["/scene/occupancy"] = draw_occupancy(server, scene.occupancy)
     for o in scene.objects:
-        nodes[f"/scene/objects/{o.name}"] = draw_shape(server, f"/scene/objects/{o.name}", o.box, OBJECT)
+        x, y, z, w = (float(v) for v in o.orientation)  # ROS order in the scene, wxyz in viser
+        nodes[f"/scene/objects/{o.name}"] = server.scene.add_box(
+            f"/scene/objects/{o.name}", color=OBJECT, dimensions=tuple(o.size), position=tuple(o.position),
+            wxyz=(w, x, y, z))
         server.scene.add_label(f"/scene/objects/{o.name}/label", o.name,
                                position=(o.position[0], o.position[1], o.position[2] + o.size[2] / 2 + 0.08))
     for p in scene.place_locations:
