@@ -69,6 +69,9 @@ def test_gripper_around_the_grasped_object_is_free_but_not_around_another(checke
     for grasped in (None, "cup_2"):
         res = checker.check("right", [q], BASE, grasped=grasped)
         assert not res.free and res.culprit.startswith("r_gripper") and res.culprit.endswith(" vs cup_1")
+    # cup_1 already carried away (an earlier step of the task): nothing is left to hit, for any link
+    gone = checker.check("right", [q], BASE, grasped="cup_2", gone=["cup_1"])
+    assert gone.free and gone.clearance_m >= held.clearance_m - 1e-9
 
 
 def test_the_rest_of_the_arm_still_hits_the_grasped_object(checker, pr2):
@@ -205,8 +208,10 @@ def test_bad_input_is_one_clear_error(checker, pr2):
         checker.check("right", np.zeros((2, 6)), BASE)
     with pytest.raises(placement.PlacementError, match=r"qs must be \(poses, 7\)"):
         checker.check("right", [np.full(7, np.nan)], BASE)
-    with pytest.raises(placement.PlacementError, match="grasped object 'mug' is not in the scene; objects: cup_1, cup_2"):
+    with pytest.raises(placement.PlacementError, match="object 'mug' is not in the scene; objects: cup_1, cup_2"):
         checker.check("right", [np.zeros(7)], BASE, grasped="mug")
+    with pytest.raises(placement.PlacementError, match="object 'jug' is not in the scene"):
+        checker.check("right", [np.zeros(7)], BASE, gone=["jug"])
     with pytest.raises(placement.PlacementError, match="padding"):
         SceneCollision(pr2, table_scene(), padding=-0.1)
     bad = dataclasses.replace(table_scene(), obstacles=(Obstacle("blob", types.SimpleNamespace(mass=1.0)),))

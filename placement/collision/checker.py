@@ -128,22 +128,24 @@ class SceneCollision:
         self.cells = OccupancyCells(occ) if occ is not None else None
 
     # -- the check -----------------------------------------------------
-    def check(self, arm: str, qs, base, grasped: str | None = None) -> CollisionResult:
+    def check(self, arm: str, qs, base, grasped: str | None = None, gone=()) -> CollisionResult:
         """Check the configurations ``qs`` (P, n) [rad/m] of ``arm`` with the base at ``base``
-        (x [m], y [m], yaw [rad]); the gripper may touch the object named ``grasped``."""
+        (x [m], y [m], yaw [rad]); the gripper may touch the object named ``grasped``; the objects
+        named in ``gone`` are not where the scene has them (already carried away) and are skipped."""
         shapes = self.geometry.arm_shapes(arm)
         qs = np.atleast_2d(np.asarray(qs, dtype=float))
         n = self.robot.arm(arm).dof
         if qs.ndim != 2 or qs.shape[1] != n or not np.all(np.isfinite(qs)):
             raise PlacementError(f"collision check: qs must be (poses, {n}) finite joint values of arm '{arm}', "
                                  f"got shape {qs.shape}")
-        if grasped is not None and grasped not in self.objects:
-            raise PlacementError(f"collision check: grasped object '{grasped}' is not in the scene; objects: "
-                                 f"{', '.join(self.objects) or '(none)'}")
+        for name in ([grasped] if grasped is not None else []) + list(gone):
+            if name not in self.objects:
+                raise PlacementError(f"collision check: object '{name}' is not in the scene; objects: "
+                                     f"{', '.join(self.objects) or '(none)'}")
         A = self.geometry.base_in_model @ np.linalg.inv(base_matrix(*(float(v) for v in base)))
         inst = self._instances(arm, qs, shapes)
         scene = self._scene_in_model(A, inst)
-        pairs = self._pairs(inst, scene, shapes, grasped)
+        pairs = self._pairs(inst, scene, shapes, grasped, frozenset(gone))
         hit = self._first_collision(pairs, inst, scene)
         if hit is not None:
             return hit
@@ -186,9 +188,11 @@ class SceneCollision:
                 shapes += [(int(r), int(k)) for r, k in zip(rows, cols)]  # made into pieces when needed
         return {"shapes": shapes, "aabb": model_aabb(aabb, A) if len(aabb) else aabb, "A": A, "tf": {}}
 
-    def _pairs(self, inst: dict, scene: dict, shapes, grasped) -> dict:
+    def _pairs(self, inst: dict, scene: dict, shapes, grasped, gone: frozenset) -> dict:
         """Candidate pairs with a lower bound of their distance [m]: robot-scene then self."""
         lb = box_distance(inst["centre"], scene["aabb"]) - inst["radius"][:, None]  # (N, S)
+        if gone:
+            lb[:, [i for i, o in enumerate(self._object_of) if o in gone]] = np.inf
         if grasped is not None:
             held = np.zeros(len(scene["shapes"]), dtype=bool)
             held[:len(self.shapes)] = [o == grasped for o in self._object_of]

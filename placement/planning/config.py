@@ -36,6 +36,7 @@ class PlannerConfig:
         velocity_lambda, velocity_k: lambda and k of the velocity model (Eq. 4), dimensionless.
         d_max: distance beyond which obstacles do not slow the base (Eq. 4) [m].
         grasp_yaws: gripper yaws of place steps: a count (evenly spaced) or a tuple of yaws [rad].
+        collision_padding: robot-scene distance below which an arm configuration collides [m].
     Fixed (not in scenes):
         ik_tries: distinct placements tried by IK before a step is infeasible [count].
         min_region: smallest feasible region the heuristic steers to, as a fraction of the
@@ -62,6 +63,8 @@ class PlannerConfig:
     grasp_yaws: int | tuple[float, ...] = _key(8, "gripper yaws of place steps: a count (integer 1 .. 360, "
                                                   "evenly spaced) or a list of yaws [rad] (default 8)",
                                                integer=True, minimum=1, maximum=360, or_list=True)
+    collision_padding: float = _key(0.005, "distance [m] below which the robot's collision shapes touch the "
+                                           "scene's, 0 .. 0.5 (default 0.005)", minimum=0.0, maximum=0.5)
     ik_tries: int = 25
     min_region: float = 0.02
     fixed_margin: float = 0.02

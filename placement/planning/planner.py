@@ -17,6 +17,7 @@ from pathlib import Path
 
 from ..errors import MapError, PlacementError
 from ..rmap import ReachabilityMap, open_map
+from ..collision import SceneCollision
 from ..robots import Robot, load_robot
 from ..storage import open_store
 from .config import METHODS, PlannerConfig
@@ -71,13 +72,17 @@ class Planner:
         scene: a :class:`Scene` or the path of a scene file.
         method: one of :data:`METHODS` (see :meth:`PlannerConfig.for_method`).
         maps: reachability map path (default: the scene's ``maps``, else :func:`default_maps_path`).
+        collisions: check every IK solution against the scene and the robot itself (URDF collision
+            shapes, see :mod:`placement.collision`); False plans as the paper does, without.
 
     Attributes (read them; change them through :meth:`set_method` and :meth:`update`):
         scene, robot, maps (arm -> map), base_config (the scene's configuration), config (the
-        method's), method, world, yaws ((K,) base yaws [rad]), problems (the per-step cache).
+        method's), method, world, yaws ((K,) base yaws [rad]), problems (the per-step cache),
+        collisions (the :class:`~placement.collision.SceneCollision` checker, or None).
     """
 
-    def __init__(self, scene: Scene | str | Path, method: str = "sequential", maps: str | Path | None = None):
+    def __init__(self, scene: Scene | str | Path, method: str = "sequential", maps: str | Path | None = None,
+                 collisions: bool = True):
         self.scene: Scene = scene if isinstance(scene, Scene) else load_scene(scene)
         self.base_config = PlannerConfig.from_overrides(self.scene.planner)
         self.set_method(method)
@@ -85,6 +90,8 @@ class Planner:
         map_path = Path(maps or self.scene.maps or default_maps_path(self.scene, self.robot))
         self.maps: dict[str, ReachabilityMap] = {arm: open_map(map_path, arm, self.robot)
                                                  for arm in mapped_arms(map_path, self.robot)}
+        self.collisions = (SceneCollision(self.robot, self.scene, padding=self.base_config.collision_padding)
+                           if collisions else None)
         self.world: World = build_world(self.scene, self.robot.footprint_radius, self.base_config)
         self.yaws = base_yaws(self.base_config.yaw_steps)
         self.problems = StepProblems(self.scene, self.world, self.maps, self.base_config, self.yaws)
@@ -108,6 +115,8 @@ class Planner:
     def replace_state(self, scene: Scene, world: World, problems: StepProblems) -> None:
         """Swap in a changed scene with its world and cache (all checked by the caller)."""
         self.scene, self.world, self.problems = scene, world, problems
+        if self.collisions is not None:
+            self.collisions.update(scene)
 
     def start_cell(self) -> tuple[int, int]:
         """The grid cell of the scene's start pose (PlacementError if it is outside or blocked)."""
