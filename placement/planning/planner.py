@@ -120,8 +120,8 @@ class Planner:
             raise PlacementError(f"start pose ({x}, {y}) is outside the scene bounds") from None
         if self.robot.footprint is not None:
             if not self.world.pose_clear(x, y, yaw):
-                raise PlacementError(f"start pose ({x:.2f}, {y:.2f}, {yaw:.2f} rad): the base footprint overlaps an "
-                                     f"obstacle or comes closer than footprint_padding "
+                raise PlacementError(f"start pose ({x:.2f}, {y:.2f}, {yaw:.2f} rad) is inside an obstacle or the base "
+                                     f"footprint comes closer than footprint_padding "
                                      f"{self.base_config.footprint_padding} m to one")
             if not self.world.feasible[cell]:
                 raise PlacementError(f"start pose ({x:.2f}, {y:.2f}): the base footprint does not fit at the centre "
