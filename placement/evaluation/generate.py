@@ -46,9 +46,10 @@ TABLE_HEIGHT = 0.75
 TABLE_SIZES = {"pr2": (0.8, 0.6), "armar6": (0.8, 0.8)}
 #: horizontal distance [m] from the base origin to a place location the arm reaches comfortably,
 #: per robot: the place table's centre is put there when the base parks facing its side (the
-#: ``fixed`` standoff), see :func:`place_table_edge`; 0.74 m gave the PR2 modelled as a 0.47 m
-#: circle (0.49 m standoff) its former 0.5 m tables
-PLACE_REACH = {"pr2": 0.74}
+#: ``fixed`` standoff), see :func:`place_table_edge`. PR2: parked 0.49 m from a 0.5 m table as a
+#: 0.47 m circle, it had its place locations 0.725 m away (0.74 m before snapping to the 5 cm
+#: grid); 0.70 m puts them 0.72 m away with its real footprint (0.76 m made IK fail)
+PLACE_REACH = {"pr2": 0.70}
 DEFAULT_PLACE_EDGE = 0.8  # [m] place table edge of other presets
 SHADOW = 0.55  # [m] half-width of the pick-table edge a crate blocks (crate half-size + arm clearance)
 MARGIN = 0.06  # [m] least distance of an object's centre from the pick area's edge
