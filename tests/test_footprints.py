@@ -205,3 +205,19 @@ def test_the_square_base_parks_flush_facing_a_table_but_not_across():
     assert allowed[[0, 2, 4, 6]].all() and not allowed[[1, 3, 5, 7]].any()
     assert not world.pose_clear(2.0, 1.625, 0.0) and world.pose_clear(2.0, 1.66, 0.0)
     assert not world.pose_clear(2.0, 1.66, math.pi / 4)
+
+
+@pytest.mark.parametrize(("value", "ok"), [(0.0, True), (0.05, True), (-0.01, False), (1.5, False), ("a", False)])
+def test_footprint_padding_key(value, ok):
+    import yaml
+
+    from placement.planning.scene import SceneError, parse_scene
+
+    doc = yaml.safe_load(open("examples/table_clearing.yaml"))
+    doc["planner"] = {"footprint_padding": value}
+    if ok:
+        assert PlannerConfig.from_overrides(parse_scene(doc, "examples", "s").planner).footprint_padding == value
+    else:
+        with pytest.raises(SceneError, match=r"planner\.footprint_padding") as e:
+            parse_scene(doc, "examples", "s")
+        assert "\n" not in str(e.value)
