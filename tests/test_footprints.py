@@ -221,3 +221,28 @@ def test_footprint_padding_key(value, ok):
         with pytest.raises(SceneError, match=r"planner\.footprint_padding") as e:
             parse_scene(doc, "examples", "s")
         assert "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize(("preset", "gap"), [("pr2", 0.375), ("tests/data/pr2_round.yaml", 0.475)])
+def test_fixed_parks_at_the_footprints_half_depth(maps_dir, preset, gap):
+    """The example's tables have their edges on cell boundaries: the square PR2 parks 0.335 + 0.02 m
+    from each side (0.375 m, the next cell centre), the round one 0.47 + 0.02 m (0.475 m)."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    from placement.planning.methods.fixed import fixed_placements
+    from placement.planning.planner import Planner
+    from placement.planning.scene import load_scene
+
+    scene = load_scene("examples/table_clearing.yaml")
+    planner = Planner(replace(scene, robot_preset=str(Path(preset).resolve()) if "/" in preset else preset),
+                      "fixed", maps_dir)
+    xs, ys = planner.world.nav.centres()
+    placements = fixed_placements(planner)
+    assert len(placements) >= 10
+    for flat, yaw in placements:
+        iy, ix = divmod(flat, len(xs))
+        gaps = [max(abs(xs[ix] - t.shape.center[0]) - t.shape.size[0] / 2,
+                    abs(ys[iy] - t.shape.center[1]) - t.shape.size[1] / 2) for t in scene.tables]
+        assert min(gaps) == pytest.approx(gap, abs=1e-9)
+        assert planner.world.pose_clear(xs[ix], ys[iy], yaw)

@@ -34,6 +34,7 @@ def fixed_placements(planner: Planner) -> list[tuple[int, float]]:
     nav = world.nav
     polygon = planner.robot.footprint is not None
     standoff = world.base.half_depth() + planner.config.fixed_margin
+    xs, ys = nav.centres()
     for ob in planner.scene.tables:
         sh = ob.shape
         if hasattr(sh, "size"):
@@ -51,7 +52,6 @@ def fixed_placements(planner: Planner) -> list[tuple[int, float]]:
                     iy, ix = nav.cell(sh.center[0] + nx_ * d, sh.center[1] + ny_ * d)
                 except PlacementError:
                     break
-                xs, ys = nav.centres()
                 if world.feasible[iy, ix] and (not polygon or world.pose_clear(xs[ix], ys[iy], yaw)):
                     out.append((iy * nav.shape[1] + ix, yaw))
                     break
