@@ -34,6 +34,7 @@ def panel_data(key: str, world, maps) -> np.ma.MaskedArray | None:
 def draw_markers(ax, world, step, maps, start, footprint_radius) -> None:
     """Obstacles, the infeasible area, the path, the start, the target and the chosen placement."""
     from matplotlib.patches import Circle
+    from matplotlib.patches import Polygon as PolygonPatch
 
     nav = world.nav
     xs, ys = nav.centres()
@@ -48,7 +49,12 @@ def draw_markers(ax, world, step, maps, start, footprint_radius) -> None:
     if step.ok:
         x, y, yaw = step.base
         r = footprint_radius or 0.3
-        ax.add_patch(Circle((x, y), r, fill=False, ec="red", lw=1.6))
+        base = getattr(world, "base", None)
+        if base is not None and base.polygon is not None:  # the real outline at the chosen yaw
+            ax.add_patch(PolygonPatch(base.placed(x, y, yaw), closed=True, fill=False, ec="red", lw=1.6))
+            r = base.half_depth()
+        else:
+            ax.add_patch(Circle((x, y), r, fill=False, ec="red", lw=1.6))
         ax.annotate("", (x + r * np.cos(yaw), y + r * np.sin(yaw)), (x, y),
                     arrowprops={"arrowstyle": "-|>", "color": "red", "lw": 1.6})
         ax.plot(step.tcp[-1][0, 3], step.tcp[-1][1, 3], "*", color="white", mec="k", ms=13)

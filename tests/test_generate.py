@@ -24,13 +24,14 @@ from placement.planning.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# sha256 of the written YAML, computed with the generator before it moved to placement/evaluation
-# (commit d44e44e): the `make eval` scenes must not change by accident
+# sha256 of the written YAML: the `make eval` scenes must not change by accident. Computed with the
+# generator before it moved to placement/evaluation (commit d44e44e), then again when the PR2 got
+# its real footprint (place tables 0.69 m instead of 0.5 m, from the footprint; nothing else changed)
 PINNED = {
-    (False, 45): "1438a60039ac017ea64439dbae1f6d34e3e952d1ced81036a7684ab378c302f3",
-    (True, 30): "64efc9be524c83cea4723496de30f011ec18a02fa2d806942342f4fffd4105a0",
+    (False, 45): "5ae9b3a7bbdbae650e3c369581f67645aa97c2bd17a4ed27e5f4478a991fde33",
+    (True, 30): "5b96ebfe039d51801b85b520cb3902beb6f5cce56397fb52f204616043563921",
 }
-PINNED_SEED7 = "8e7270546561b0b9b614532fd3e26025710e53afab433c818db670497d6f5a46"
+PINNED_SEED7 = "b300f460086d703966e47e85233ad307c0d17d188eecc3ad8eb62b5ef22044ec"
 
 
 def assert_layout(scene) -> None:
@@ -197,3 +198,25 @@ def test_property_table_sizes_give_a_valid_scene_or_the_documented_error(length,
         return
     xs = [o["position"][0] for o in doc["objects"]]
     assert all(abs(x - 5.0) <= 1.5 * length - MARGIN + 5e-4 for x in xs)
+
+
+def test_place_tables_come_from_the_footprint(tmp_path):
+    """The PR2's place tables: twice what its PLACE_REACH leaves after the fixed standoff (the square
+    footprint's 0.335 m half-depth and the 0.02 m margin); other presets keep 0.8 m."""
+    from placement.evaluation.generate import DEFAULT_PLACE_EDGE, PLACE_REACH, place_table_edge
+
+    assert place_table_edge("pr2") == pytest.approx(round(2 * (PLACE_REACH["pr2"] - 0.335 - 0.02), 2)) == 0.69
+    assert place_table_edge(str(ROOT / "tests" / "data" / "pr2_round.yaml")) == DEFAULT_PLACE_EDGE
+    sizes = {o["name"]: o["box"]["size"] for o in generate_scene(1, 0)["obstacles"] if "place" in o["name"]}
+    assert sizes == {"place_table_a": [0.69, 0.69, TABLE_HEIGHT], "place_table_b": [0.69, 0.69, TABLE_HEIGHT]}
+
+
+def test_cli_table_depth(tmp_path):
+    run = [sys.executable, "-m", "placement.cli.main", "scenes", "generate", "--count", "1", "--table-depth"]
+    p = subprocess.run([*run, "0.45", str(tmp_path / "a"), "-q"], capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    doc = yaml.safe_load(next((tmp_path / "a").glob("*.yaml")).read_text())
+    assert {tuple(o["box"]["size"][:2]) for o in doc["obstacles"] if "pick" in o["name"]} == {(0.8, 0.45)}
+    p = subprocess.run([*run, "3", str(tmp_path / "b")], capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 2 and p.stderr.strip().count("\n") == 0 and "depth" in p.stderr
+    assert "Traceback" not in p.stderr and not (tmp_path / "b").exists()

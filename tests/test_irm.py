@@ -94,3 +94,32 @@ def test_cells_beyond_the_slice_reach_are_zero(coarse_map):
         near = manipulation_map(coarse_map, T, nav, yaws, cells=cells_within(nav, T[-1, 0, 3], T[-1, 1, 3], r))
         assert np.array_equal(full[0], near[0]) and np.array_equal(full[1], near[1])
         assert (full[0] > 0).sum() > 0
+
+
+def test_irm_max_runs_over_each_cells_allowed_yaws(coarse_map):
+    """Per-cell yaw masks (a polygon base fits at some yaws only): the value is the best allowed yaw's,
+    checked against the direct lookup; masks allowing every yaw give the unmasked maps bit for bit."""
+    rng = np.random.default_rng(8)
+    nav = NavGrid((-1.5, -1.5), 0.1, (30, 30))
+    yaws = base_yaws(70)  # two mask words
+    traj = pose_from_zyx(np.array([[0.1234, 0.2345, 0.95], [0.1234, 0.2345, 0.85]]), [0.4, 0.4], [0.0, 0.0],
+                         [math.pi, math.pi])
+    cells = np.sort(rng.choice(900, 250, replace=False))
+    bits = rng.random((250, 70)) < 0.4
+    masks = np.zeros((250, 2), np.uint64)
+    for k in range(70):
+        masks[:, k >> 6] |= bits[:, k].astype(np.uint64) << np.uint64(k & 63)
+    val, arg = manipulation_map(coarse_map, traj, nav, yaws, cells, masks=masks)
+    full = np.full((250, 2), np.iinfo(np.uint64).max, np.uint64)
+    assert [np.array_equal(a, b) for a, b in zip(manipulation_map(coarse_map, traj, nav, yaws, cells, masks=full),
+                                                 manipulation_map(coarse_map, traj, nav, yaws, cells))] == [True, True]
+    xs, ys = nav.centres()
+    reached = 0
+    for n, c in enumerate(cells):
+        iy, ix = divmod(int(c), 30)
+        per_yaw = [coarse_map.value(np.linalg.inv(_planar(xs[ix], ys[iy], a)) @ traj).min() if bits[n, k] else 0.0
+                   for k, a in enumerate(yaws)]
+        assert val[iy, ix] == max(per_yaw)
+        assert (arg[iy, ix] == -1) if max(per_yaw) == 0 else (bits[n, arg[iy, ix]] and per_yaw[arg[iy, ix]] == max(per_yaw))
+        reached += max(per_yaw) > 0
+    assert reached > 20

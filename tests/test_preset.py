@@ -6,6 +6,7 @@ import copy
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,8 +24,9 @@ DELETE = object()
 
 
 def pr2_mapping() -> dict:
-    """The built-in PR2 preset as a mapping (its URDF path is package://, valid from any folder)."""
-    return yaml.safe_load((PRESET_DIR / "pr2.yaml").read_text())
+    """The PR2 preset with a round base (tests/data/pr2_round.yaml: the built-in one before it got its
+    real footprint) as a mapping (its URDF path is package://, valid from any folder)."""
+    return yaml.safe_load((Path(__file__).parent / "data" / "pr2_round.yaml").read_text())
 
 
 def changed(spec: dict, **changes) -> dict:
@@ -139,8 +141,11 @@ def test_base_values_are_required_positive_finite(tmp_path, key, unit):
 
 def test_builtin_and_fixture_presets_give_the_base_values(pr2):
     text = (PRESET_DIR / "pr2.yaml").read_text()
-    assert (pr2.footprint_radius, pr2.v_max, pr2.omega_max) == (0.47, 0.5, 1.0)
-    assert all(f"\n{k}:" in text for k in ("footprint_radius", "v_max", "omega_max"))
+    assert (pr2.v_max, pr2.omega_max) == (0.5, 1.0)
+    # the real 0.67 m square base; the circumscribed radius stays available
+    assert pr2.footprint.tolist() == [[0.335, 0.335], [-0.335, 0.335], [-0.335, -0.335], [0.335, -0.335]]
+    assert pr2.footprint_radius == pytest.approx(math.hypot(0.335, 0.335))
+    assert all(f"\n{k}:" in text for k in ("footprint", "v_max", "omega_max"))
     assert {"footprint_radius", "v_max", "omega_max"} <= set(armar6_spec())
 
 

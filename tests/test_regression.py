@@ -1,9 +1,11 @@
 """Stored plans: the planner's results on fixed scenes and the test maps must not change by accident.
 
 The plans in ``tests/data/regression/plans.json`` were computed by the planner before the planning
-layer was restructured (issue 11) and are compared field by field (timings excluded). When a plan
-is meant to change, regenerate them with ``PLACEMENT_REGEN_PLANS=1 pytest tests/test_regression.py``
-and say why in the commit.
+layer was restructured (issue 11), with the PR2 modelled as a 0.47 m circle: the scenes are planned
+with that round preset (``tests/data/pr2_round.yaml``) and must give exactly those plans. The plans
+with the built-in PR2 and its real square footprint are in ``plans_footprint.json``. Both are
+compared field by field (timings excluded). When a plan is meant to change, regenerate them with
+``PLACEMENT_REGEN_PLANS=1 pytest tests/test_regression.py`` and say why in the commit.
 """
 
 from __future__ import annotations
@@ -11,14 +13,17 @@ from __future__ import annotations
 import json
 import math
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from placement.planning.planner import Planner
+from placement.planning.scene import load_scene
 
 DATA = Path(__file__).parent / "data" / "regression"
-PLANS = DATA / "plans.json"
+#: stored plans per robot preset (None: the scenes' own, the built-in PR2)
+PLANS = {str(DATA.parent / "pr2_round.yaml"): DATA / "plans.json", None: DATA / "plans_footprint.json"}
 METHODS = ("sequential", "single-step", "irm", "fixed", "optimal")
 REL = 1e-7  # joints come from an iterative IK: same code, same machine kind, same seeds
 
@@ -48,22 +53,24 @@ def _compare(got, want, where: str) -> None:
         assert got == want, f"{where}: {got!r} != {want!r}"
 
 
-def _plans(maps_dir) -> dict:
+def _plans(maps_dir, preset: str | None) -> dict:
     out = {}
-    for scene in sorted(DATA.glob("*.yaml")):
-        planner = Planner(scene, METHODS[0], maps_dir)
+    for path in sorted(DATA.glob("*.yaml")):
+        scene = load_scene(path)
+        planner = Planner(scene if preset is None else replace(scene, robot_preset=preset), METHODS[0], maps_dir)
         for method in METHODS:
             planner.set_method(method)
-            out[f"{scene.stem}/{method}"] = _strip(planner.plan().to_json())
+            out[f"{path.stem}/{method}"] = _strip(planner.plan().to_json())
     return out
 
 
-def test_plans_match_the_stored_plans(maps_dir):
-    got = _plans(maps_dir)
+@pytest.mark.parametrize("preset", list(PLANS), ids=["round_pr2", "pr2_footprint"])
+def test_plans_match_the_stored_plans(maps_dir, preset):
+    got = _plans(maps_dir, preset)
     if os.environ.get("PLACEMENT_REGEN_PLANS"):
-        PLANS.write_text(json.dumps(got, indent=1, sort_keys=True) + "\n")
-        pytest.skip(f"regenerated {PLANS}")
-    want = json.loads(PLANS.read_text())
+        PLANS[preset].write_text(json.dumps(got, indent=1, sort_keys=True) + "\n")
+        pytest.skip(f"regenerated {PLANS[preset]}")
+    want = json.loads(PLANS[preset].read_text())
     assert sorted(got) == sorted(want)
     for key in want:
         _compare(got[key], want[key], key)

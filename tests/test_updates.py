@@ -156,6 +156,10 @@ def test_updates_equal_a_fresh_planner(tmp_path, maps_dir, change):
     planner.update(change)
     fresh = Planner(parse_update_scene(planner, tmp_path), maps=maps_dir)
     assert np.array_equal(planner.world.distance, fresh.world.distance)
+    # the PR2's square footprint: the touched layer and every cell's allowed yaws too
+    assert np.array_equal(planner.world.touched, fresh.world.touched)
+    cells = np.arange(fresh.world.feasible.size)
+    assert np.array_equal(planner.world.yaw_masks(cells), fresh.world.yaw_masks(cells))
     for i in range(len(planner.problems.steps)):
         for a, b in zip(planner.problems.options(i), fresh.problems.options(i)):
             assert a.window == b.window and np.array_equal(a.value, b.value) and np.array_equal(a.yaw_index,

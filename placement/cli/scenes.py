@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from ..evaluation.generate import MAX_OBJECTS, MAX_SCENES, MAX_SEED, write_scenes
+from ..evaluation.generate import MAX_OBJECTS, MAX_SCENES, MAX_SEED, TABLE_DEPTH, TABLE_SIZES, write_scenes
 from ..evaluation.outdir import output_dir
 from ..robots import load_robot
 from .options import emit, log, setup_logging, standard_options
@@ -30,16 +30,20 @@ def scenes():
 @click.option("--maps", default=None, type=click.Path(),
               help="Reachability maps the scenes record (relative to the scenes unless absolute) "
                    "[default: maps/<robot name> in the current directory].")
+@click.option("--table-depth", type=float, default=None,
+              help=f"Pick table depth [m], {TABLE_DEPTH[0]:g} to {TABLE_DEPTH[1]:g} [default: per robot, 0.6 for the PR2].")
 @click.argument("out_dir", type=click.Path())
 @standard_options
-def generate(seed, count, objects, obstacles, preset, maps, out_dir, as_json, verbose, quiet):
+def generate(seed, count, objects, obstacles, preset, maps, table_depth, out_dir, as_json, verbose, quiet):
     """Write COUNT table-clearing scenes of SEED to OUT_DIR (created; checked before generating)."""
     setup_logging(verbose, quiet)
     with output_dir(out_dir, "OUT_DIR"):
         if maps is None:
             # the planner's own default, seen from here: the scenes then plan from any directory
             maps = str(Path("maps") / load_robot(preset).name)
-        paths = write_scenes(out_dir, seed, count, objects=objects, obstacles=obstacles, preset=preset, maps=maps)
+        size = None if table_depth is None else (TABLE_SIZES.get(preset, (0.8, 0.8))[0], table_depth)
+        paths = write_scenes(out_dir, seed, count, objects=objects, obstacles=obstacles, preset=preset, maps=maps,
+                             table_size=size)
     if not Path(maps).exists():
         log.warning("note: %s does not exist (yet); the scenes record it as their maps", maps)
     emit({"scenes": [str(p) for p in paths]}, as_json, lambda d: "\n".join(d["scenes"]))

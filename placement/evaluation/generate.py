@@ -1,8 +1,8 @@
 """Seeded table-clearing benchmark scenes (SPEC section 8), written in the scene format.
 
 Layout (metres): a 10 x 8 room with walls; three pick tables in a row centred at
-(5, 4), each ``table_size`` = (length along the row, depth); two place
-tables (0.5 m square for the PR2, 0.8 m otherwise) at (1.6, 1.6) and (8.4, 1.6) with the place location 0.1 m above their top (all five
+(5, 4), each ``table_size`` = (length along the row, depth); two square place
+tables (edge from the robot's footprint, :func:`place_table_edge`) at (1.6, 1.6) and (8.4, 1.6) with the place location 0.1 m above their top (all five
 tables are ``table: true``: surfaces objects stand on, where the ``fixed`` baseline parks);
 ``objects`` boxes at random on the pick area, picked in order and placed
 alternately on the two place tables; a random start pose in the free band along
@@ -27,13 +27,16 @@ from __future__ import annotations
 
 import math
 import os
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 import yaml
 
 from ..errors import PlacementError
+from ..planning.config import PlannerConfig
 from ..planning.scene import parse_scene
+from ..robots import load_robot
 from ..robots.preset import builtin_presets
 from .outdir import output_dir
 
@@ -41,8 +44,13 @@ ROOM = (10.0, 8.0)
 TABLE_HEIGHT = 0.75
 #: pick table (length, depth) per robot preset [m]; the PR2 reaches ~0.37 m into a table (SPEC section 8)
 TABLE_SIZES = {"pr2": (0.8, 0.6), "armar6": (0.8, 0.8)}
-#: place table edge per robot [m]: the PR2 parked at its footprint radius reaches ~0.26 m into a table
-PLACE_TABLE_SIZES = {"pr2": 0.5, "armar6": 0.8}
+#: horizontal distance [m] from the base origin to a place location the arm reaches comfortably,
+#: per robot: the place table's centre is put there when the base parks facing its side (the
+#: ``fixed`` standoff), see :func:`place_table_edge`. PR2: parked 0.49 m from a 0.5 m table as a
+#: 0.47 m circle, it had its place locations 0.725 m away (0.74 m before snapping to the 5 cm
+#: grid); 0.70 m puts them 0.72 m away with its real footprint (0.76 m made IK fail)
+PLACE_REACH = {"pr2": 0.70}
+DEFAULT_PLACE_EDGE = 0.8  # [m] place table edge of other presets
 SHADOW = 0.55  # [m] half-width of the pick-table edge a crate blocks (crate half-size + arm clearance)
 MARGIN = 0.06  # [m] least distance of an object's centre from the pick area's edge
 OBJECT_SIZES = [(0.06, 0.06, 0.10), (0.05, 0.12, 0.10), (0.07, 0.07, 0.12), (0.04, 0.09, 0.08)]
@@ -55,6 +63,18 @@ MAX_SCENES = 1000
 TABLE_LENGTH = (0.2, 2.0)
 TABLE_DEPTH = (2 * MARGIN, 2.0)
 MAX_SEED = 2**63 - 1  # seeds are 0 .. MAX_SEED (numpy's SeedSequence takes any; YAML/JSON keep int64 exact)
+
+
+@lru_cache(maxsize=None)
+def place_table_edge(preset: str) -> float:
+    """Edge of the square place tables [m]: twice what is left of the robot's :data:`PLACE_REACH`
+    after the ``fixed`` standoff (the footprint's half-depth, a round base's radius, plus
+    ``fixed_margin``), rounded to the centimetre; :data:`DEFAULT_PLACE_EDGE` for other robots."""
+    if preset not in PLACE_REACH:
+        return DEFAULT_PLACE_EDGE
+    robot = load_robot(preset)
+    half_depth = robot.footprint_radius if robot.footprint is None else float(robot.footprint[:, 0].max())
+    return round(2 * (PLACE_REACH[preset] - half_depth - PlannerConfig().fixed_margin), 2)
 
 
 def check_counts(seed: int, objects: int, count: int = 1) -> None:
@@ -78,7 +98,7 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
     for name, value, (lo, hi) in (("length", length, TABLE_LENGTH), ("depth", depth, TABLE_DEPTH)):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
             raise PlacementError(f"table_size: {name} must be from {lo} to {hi} m, got {value!r}")
-    place_edge = PLACE_TABLE_SIZES.get(preset, 0.8)
+    place_edge = place_table_edge(preset)
     w, h = ROOM
     cx, cy = 5.0, 4.0
     obs = [

@@ -21,8 +21,8 @@ CHUNK = 64  # cells per parallel task: per-task scratch, no allocation per cell
 
 @njit(cache=True, parallel=True)
 def trajectory_maps(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
-                    grid_origin, grid_res, ny, nx, cells, out_val, out_yaw, out_y0=0, out_x0=0):
-    """Min over the trajectory, max over base yaws, of the map value, per base cell, for C
+                    grid_origin, grid_res, ny, nx, cells, masks, out_val, out_yaw, out_y0=0, out_x0=0):
+    """Min over the trajectory, max over the cell's allowed base yaws, of the map value, per base cell, for C
     trajectories at once that share their positions and map slices and differ only in yaw.
 
     Candidates of one step (two top grasps, eight place yaws) hold the TCP at the same points with
@@ -38,6 +38,8 @@ def trajectory_maps(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
         base_yaws: (K,) base yaws to try [rad].
         grid_origin: (2,) navigation grid corner [m]; grid_res [m]; ny, nx its shape.
         cells: (N,) int64 flat indices of the base cells to evaluate (others untouched).
+        masks: (N, W) uint64, the base yaws allowed on each cell (bit k & 63 of word k >> 6 is yaw
+            k; a polygon footprint fits only at some yaws); a cell allowing none gets 0.
         out_val: (C, h, w) float32, best value (0 = unreachable); out_yaw: (C, h, w) int64,
             index into base_yaws of the best yaw (-1 if unreachable): a window of the grid whose
             cell (0, 0) is grid cell (out_y0, out_x0); it must contain every cell of ``cells``.
@@ -74,6 +76,8 @@ def trajectory_maps(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
                 best[c] = np.float32(0.0)
                 arg[c] = -1
             for k in range(K):
+                if (masks[ci, k >> 6] >> np.uint64(k & 63)) & np.uint64(1) == 0:
+                    continue
                 co = cs[k]
                 s = sn[k]
                 for c in range(C):

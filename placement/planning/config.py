@@ -37,11 +37,14 @@ class PlannerConfig:
         d_max: distance beyond which obstacles do not slow the base (Eq. 4) [m].
         grasp_yaws: gripper yaws of place steps: a count (evenly spaced) or a tuple of yaws [rad].
         collision_padding: robot-scene distance below which an arm configuration collides [m].
+        footprint_padding: clearance a polygon base footprint keeps from obstacles [m] (Nav2's
+            footprint_padding; round bases have their margin in footprint_radius).
     Fixed (not in scenes):
         ik_tries: distinct placements tried by IK before a step is infeasible [count].
         min_region: smallest feasible region the heuristic steers to, as a fraction of the
             step's feasible area (smaller ones would each cost a full cost map for a negligible weight).
-        fixed_margin: clearance of the ``fixed`` baseline's placements beyond the footprint radius [m].
+        fixed_margin: clearance of the ``fixed`` baseline's placements beyond the footprint's
+            half-depth (the radius of a round base) [m].
     """
 
     lambda_n: float = _key(1 / 20, "weight of the navigation cost [1/m], 0 .. 1e6 (default 1/20)",
@@ -65,6 +68,8 @@ class PlannerConfig:
                                                integer=True, minimum=1, maximum=360, or_list=True)
     collision_padding: float = _key(0.005, "distance [m] below which the robot's collision shapes touch the "
                                            "scene's, 0 .. 0.5 (default 0.005)", minimum=0.0, maximum=0.5)
+    footprint_padding: float = _key(0.02, "clearance [m] a polygon base footprint keeps from obstacles, 0 .. 1 "
+                                           "(default 0.02; round bases ignore it)", minimum=0.0, maximum=1.0)
     ik_tries: int = 25
     min_region: float = 0.02
     fixed_margin: float = 0.02

@@ -24,7 +24,8 @@ def base_yaws(count: int) -> np.ndarray:
 
 
 def manipulation_map(rmap: ReachabilityMap, tcp_world: np.ndarray, nav: NavGrid, yaws: np.ndarray,
-                     cells: np.ndarray | None = None, window: Window | None = None) -> tuple[np.ndarray, np.ndarray]:
+                     cells: np.ndarray | None = None, window: Window | None = None,
+                     masks: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """IRM of a TCP trajectory: per base cell, the best yaw's worst map value along the trajectory.
 
     Args:
@@ -36,6 +37,8 @@ def manipulation_map(rmap: ReachabilityMap, tcp_world: np.ndarray, nav: NavGrid,
             horizontal reach of the first pose).
         window: optional part of the grid to return (it must hold every cell of ``cells``);
             default the whole grid.
+        masks: optional (N, W) uint64 packed base yaws allowed per cell (see
+            ``World.yaw_masks``); default every yaw (needs ``cells``).
     Returns:
         value (h, w) float32 (0 = unreachable), yaw_index (h, w) int64 into ``yaws`` (-1), over
         ``window`` ((ny, nx) by default).
@@ -43,7 +46,7 @@ def manipulation_map(rmap: ReachabilityMap, tcp_world: np.ndarray, nav: NavGrid,
     T = np.asarray(tcp_world, dtype=float).reshape(-1, 4, 4)
     if cells is None:
         cells = cells_within(nav, T[0, 0, 3], T[0, 1, 3], reach_xy(rmap.grid))
-    return manipulation_maps(rmap, [T], nav, yaws, cells, window)[0]
+    return manipulation_maps(rmap, [T], nav, yaws, cells, window, masks)[0]
 
 
 def _pose_keys(rmap: ReachabilityMap, T: np.ndarray) -> tuple | None:
@@ -68,8 +71,9 @@ def pose_slices(rmap: ReachabilityMap, T: np.ndarray) -> list[tuple[int, int, in
 
 
 def manipulation_maps(rmap: ReachabilityMap, trajectories: list[np.ndarray], nav: NavGrid, yaws: np.ndarray,
-                      cells: np.ndarray, window: Window | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
-    """:func:`manipulation_map` of several trajectories over the same ``cells`` and ``window``.
+                      cells: np.ndarray, window: Window | None = None,
+                      masks: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`manipulation_map` of several trajectories over the same ``cells``, ``window`` and ``masks``.
 
     Trajectories whose poses share positions and map slices (they differ only in the gripper's
     yaw, like a step's grasp or place candidates) are evaluated in one pass; each result is the same
@@ -81,6 +85,12 @@ def manipulation_maps(rmap: ReachabilityMap, trajectories: list[np.ndarray], nav
     cells = np.asarray(cells, dtype=np.int64)
     if cells.size and not window.holds(cells, nx):
         raise PlacementError("manipulation_map: a cell to evaluate lies outside the window")
+    if masks is None:
+        masks = np.full((len(cells), (len(yaws) + 63) // 64), np.iinfo(np.uint64).max, np.uint64)
+    masks = np.ascontiguousarray(masks, dtype=np.uint64)
+    if masks.shape != (len(cells), (len(yaws) + 63) // 64):
+        raise PlacementError(f"manipulation_map: yaw masks {masks.shape} do not fit {len(cells)} cells and "
+                             f"{len(yaws)} yaws")
     out: list = [None] * len(trajectories)
     groups: dict[tuple, list[tuple[int, list[float]]]] = {}
     for i, T in enumerate(trajectories):
@@ -96,7 +106,7 @@ def manipulation_maps(rmap: ReachabilityMap, trajectories: list[np.ndarray], nav
         trajectory_maps(slices, np.array([k[0] for k in keys]), np.array([k[1] for k in keys]),
                         np.array([m[1] for m in members], dtype=float), np.array(g.origin[:2]), g.resolution,
                         np.asarray(yaws, dtype=float), np.array(nav.origin, dtype=float), nav.resolution, ny, nx,
-                        cells, vals, args, window.y0, window.x0)
+                        cells, masks, vals, args, window.y0, window.x0)
         for j, (i, _) in enumerate(members):
             out[i] = (vals[j], args[j])
     return out

@@ -21,6 +21,7 @@ from ..collision import SceneCollision
 from ..robots import Robot, load_robot
 from ..storage import open_store
 from .config import METHODS, PlannerConfig
+from .footprints import BaseShape
 from .manipulation import base_yaws
 from .methods.fixed import rank_fixed
 from .methods.optimal import plan_optimal
@@ -92,8 +93,9 @@ class Planner:
                                                  for arm in mapped_arms(map_path, self.robot)}
         self.collisions = (SceneCollision(self.robot, self.scene, padding=self.base_config.collision_padding)
                            if collisions else None)
-        self.world: World = build_world(self.scene, self.robot.footprint_radius, self.base_config)
         self.yaws = base_yaws(self.base_config.yaw_steps)
+        base = BaseShape.of(self.robot, self.base_config.footprint_padding, self.yaws)
+        self.world: World = build_world(self.scene, base, self.base_config)
         self.problems = StepProblems(self.scene, self.world, self.maps, self.base_config, self.yaws)
         # once per planner: kernels loaded and slices read here, not in the first step
         warm_kernels(self.problems, self.robot)
@@ -120,12 +122,20 @@ class Planner:
 
     def start_cell(self) -> tuple[int, int]:
         """The grid cell of the scene's start pose (PlacementError if it is outside or blocked)."""
-        x, y, _ = self.scene.start
+        x, y, yaw = self.scene.start
         try:
             cell = self.world.nav.cell(x, y)
         except PlacementError:
             raise PlacementError(f"start pose ({x}, {y}) is outside the scene bounds") from None
-        if not self.world.feasible[cell]:
+        if self.robot.footprint is not None:
+            if not self.world.pose_clear(x, y, yaw):
+                raise PlacementError(f"start pose ({x:.2f}, {y:.2f}, {yaw:.2f} rad) is inside an obstacle or the base "
+                                     f"footprint comes closer than footprint_padding "
+                                     f"{self.base_config.footprint_padding} m to one")
+            if not self.world.feasible[cell]:
+                raise PlacementError(f"start pose ({x:.2f}, {y:.2f}): the base footprint does not fit at the centre "
+                                     f"of its grid cell at any of the {len(self.yaws)} base yaws")
+        elif not self.world.feasible[cell]:
             raise PlacementError(f"start pose ({x:.2f}, {y:.2f}) is inside an obstacle or closer than the base "
                                  f"footprint radius {self.robot.footprint_radius} m to one")
         return cell

@@ -3,7 +3,7 @@
 What a scene change invalidates (used by dynamic updates, paper Table III):
 
 * a moved object: the IRMs of the step that picks it, and every heuristic (they read those IRMs);
-* added or removed obstacles: everything (the feasible base cells changed);
+* added or removed obstacles: everything (the feasible base cells and their allowed yaws changed);
 * a new start pose: nothing.
 
 Nothing here depends on the start pose or on the method's weights, so one cache serves all
@@ -40,8 +40,8 @@ class StepProblems:
         self.scene, self.world, self.maps, self.config, self.yaws = scene, world, maps, config, yaws
         self.steps: list[Step] = task_steps(scene)
         self._options: dict[int, list[Option]] = {}
-        # options computed for other feasible cells (obstacles changed since): refreshed when used
-        self._stale: dict[int, tuple[list[Option], np.ndarray]] = {}
+        # options computed for another world (obstacles changed since): refreshed when used
+        self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], np.ndarray] = {}
 
     def options(self, i: int) -> list[Option]:
@@ -49,8 +49,7 @@ class StepProblems:
         if i not in self._options:
             if i in self._stale:
                 opts, was = self._stale.pop(i)
-                self._options[i] = refreshed_options(opts, self.maps, self.world.nav, self.yaws, was,
-                                                     self.world.feasible)
+                self._options[i] = refreshed_options(opts, self.maps, self.yaws, was, self.world)
             else:
                 self._options[i] = self._compute_options(self.steps[i])
         return self._options[i]
@@ -69,12 +68,14 @@ class StepProblems:
                 key = (cand.poses[-1, 0, 3], cand.poses[-1, 1, 3], pose_reach(rmap, cand.poses[-1]))
                 if key not in near:
                     cells = cells_within(nav, *key)
-                    near[key] = cells[self.world.feasible.flat[cells]]
+                    cells = cells[self.world.feasible.flat[cells]]
+                    near[key] = (cells, self.world.yaw_masks(cells))
                 by_cells.setdefault(key, []).append(cand)
             results = {}
             for key, cands in by_cells.items():
-                window = Window.around(near[key], nav.shape)
-                maps = manipulation_maps(rmap, [c.poses for c in cands], nav, self.yaws, near[key], window)
+                cells, masks = near[key]
+                window = Window.around(cells, nav.shape)
+                maps = manipulation_maps(rmap, [c.poses for c in cands], nav, self.yaws, cells, window, masks)
                 results.update({id(c): (window, *m) for c, m in zip(cands, maps)})
             for cand in candidates:
                 z = cand.poses[:, 2, 3]
@@ -100,7 +101,7 @@ class StepProblems:
         """A cache for the changed ``scene`` (and ``world``) that keeps what the change left valid.
 
         The IRMs of steps that do not pick a moved object are kept; with a new ``world`` (obstacles
-        changed) they are refreshed on the cells whose feasibility changed (see refresh.py) when a
+        changed) they are refreshed on the cells whose allowed yaws changed (see refresh.py) when a
         step first needs them, and the heuristics are dropped. ``self`` is not modified.
         """
         new = StepProblems(scene, world, self.maps, self.config, self.yaws)
@@ -108,7 +109,7 @@ class StepProblems:
         kept = {i: o for i, o in self._options.items() if i not in moved}
         new._stale = {i: v for i, v in self._stale.items() if i not in moved}
         if world is not self.world:  # refreshed on first use: an update touches only what it re-plans
-            new._stale.update({i: (o, self.world.feasible) for i, o in kept.items()})
+            new._stale.update({i: (o, self.world) for i, o in kept.items()})
         else:
             new._options = kept
             # step i's heuristic reads step i's regions and stops once step i - 1's cells are settled

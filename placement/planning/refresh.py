@@ -1,9 +1,10 @@
 """IRMs after the base-feasible cells changed (obstacles added or removed): only the cells whose
-feasibility changed are touched, the rest of each map is kept.
+allowed base yaws changed are touched, the rest of each map is kept.
 
-A cell's IRM value depends on the cell, the map and the trajectory only, so keeping the values of
-cells that stay feasible, zeroing the cells that became infeasible and evaluating the cells that
-became feasible gives exactly the maps a fresh computation would (tested against one).
+A cell's IRM value depends on the cell, its allowed yaws, the map and the trajectory only, so
+keeping the values of cells whose allowed yaws stayed the same, zeroing the cells that became
+infeasible and evaluating the others gives exactly the maps a fresh computation would (tested
+against one).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from ..rmap import ReachabilityMap
 from .manipulation import cells_within, manipulation_maps, pose_reach
 from .navgrid import Window
 from .option import Option
+from .world import World
 
 
 def _moved(src: Option, dst_window: Window, cells: np.ndarray, nx: int, value: np.ndarray, yaw: np.ndarray) -> None:
@@ -23,12 +25,13 @@ def _moved(src: Option, dst_window: Window, cells: np.ndarray, nx: int, value: n
     yaw[iy - dst_window.y0, ix - dst_window.x0] = src.yaw_index[iy - src.window.y0, ix - src.window.x0]
 
 
-def refreshed_options(options: list[Option], maps: dict[str, ReachabilityMap], nav, yaws: np.ndarray,
-                      was: np.ndarray, now: np.ndarray) -> list[Option]:
-    """``options`` of one step for the feasible cells ``now`` (ny, nx) bool, computed for ``was``.
+def refreshed_options(options: list[Option], maps: dict[str, ReachabilityMap], yaws: np.ndarray,
+                      was: World, now: World) -> list[Option]:
+    """``options`` of one step for the world ``now``, computed for the world ``was``.
 
-    Options whose reach disc saw no feasibility change are returned as they are (same objects).
+    Options whose reach disc saw no change of allowed yaws are returned as they are (same objects).
     """
+    nav = now.nav
     out = list(options)
     groups: dict[tuple, list[int]] = {}  # candidates with the same arm and target share cells
     for j, o in enumerate(options):
@@ -37,13 +40,15 @@ def refreshed_options(options: list[Option], maps: dict[str, ReachabilityMap], n
     nx = nav.shape[1]
     for (arm, x, y, r), members in groups.items():
         disc = cells_within(nav, x, y, r)
-        before, after = was.flat[disc], now.flat[disc]
-        if np.array_equal(before, after):
+        before, after = was.yaw_masks(disc), now.yaw_masks(disc)
+        same = np.all(before == after, axis=1)
+        if same.all():
             continue
-        window = Window.around(disc[after], nav.shape)
-        kept, fresh = disc[after & before], disc[after & ~before]
+        feasible = now.feasible.flat[disc]
+        window = Window.around(disc[feasible], nav.shape)
+        kept, fresh = disc[feasible & same], disc[feasible & ~same]
         computed = manipulation_maps(maps[arm], [options[j].candidate.poses for j in members], nav, yaws, fresh,
-                                     window) if fresh.size else None
+                                     window, after[feasible & ~same]) if fresh.size else None
         for n, j in enumerate(members):
             o = options[j]
             value = np.zeros(window.shape, np.float32)

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 from .scene import Scene, SceneParser, check_scene
 from .scene.parse import OBJECT_KEYS_V1
 from ..validation import describe
-from .world import build_world, changed_occupancy, world_from_occupancy
+from .world import add_touched, build_world, changed_occupancy, world_from_occupancy
 
 if TYPE_CHECKING:
     from .planner import Planner
@@ -105,16 +105,17 @@ def apply_update(planner: Planner, change) -> dict:
     if obstacles_changed:
         t = time.perf_counter()
         if removed and scene.occupancy is not None:  # cleared cells would need the map raster again
-            world = build_world(scene, planner.robot.footprint_radius, planner.base_config)
+            world = build_world(scene, world.base, planner.base_config)
         else:
             # by identity: a name removed and added again in one change is a different obstacle
             old = {id(o) for o in planner.scene.obstacles}
             new = {id(o) for o in scene.obstacles}
-            occupied = changed_occupancy(world.occupied, world.nav,
-                                         [o for o in planner.scene.obstacles if id(o) not in new],
-                                         [o for o in scene.obstacles if id(o) in old],
-                                         [o for o in scene.obstacles if id(o) not in old])
-            world = world_from_occupancy(world.nav, occupied, planner.robot.footprint_radius, planner.base_config)
+            change = ([o for o in planner.scene.obstacles if id(o) not in new],
+                      [o for o in scene.obstacles if id(o) in old], [o for o in scene.obstacles if id(o) not in old])
+            occupied = changed_occupancy(world.occupied, world.nav, *change)
+            touched = None if world.touched is None else changed_occupancy(world.touched, world.nav, *change,
+                                                                           draw=add_touched)
+            world = world_from_occupancy(world.nav, occupied, world.base, planner.base_config, touched)
         timings["distance"] = (time.perf_counter() - t) * 1e3
     problems = planner.problems.changed(scene, world, moved)
     planner.replace_state(scene, world, problems)

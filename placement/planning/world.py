@@ -6,11 +6,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import PlacementError
 from .config import PlannerConfig
+from .footprints import BaseShape, YawMasks, masks_at, polygon_feasibility, pose_clear
 from .navgrid import NavGrid
 from .navigation import distance_map, speed_factor
 from .scene import Box, Cylinder, Polygon, Scene
 from .scene.occupancy import rasterize_occupancy
+
+#: [m] the squares are shrunk by this so that float rounding on a shared edge marks nothing; the
+#: footprint test pads by far more (footprints.PAD_SLACK)
+SHRINK = 1e-9
 
 
 def _inside_polygon(px: np.ndarray, py: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -46,10 +52,13 @@ def shape_window(shape, nav: NavGrid) -> tuple[int, int, int, int]:
     return j0, j1, i0, i1
 
 
-def changed_occupancy(occupied: np.ndarray, nav: NavGrid, removed: list, kept: list, added: list) -> np.ndarray:
+def changed_occupancy(occupied: np.ndarray, nav: NavGrid, removed: list, kept: list, added: list,
+                      draw=None) -> np.ndarray:
     """The occupancy after obstacles changed, from the old one (no occupancy map involved): the cells
     of removed shapes are cleared and every kept shape that reaches them is drawn again, then the
-    added shapes are drawn; the same grid as rasterising everything anew."""
+    added shapes are drawn; the same grid as rasterising everything anew. ``draw``: how a shape is
+    drawn (:func:`add_shape` by default, :func:`add_touched` for the touched layer)."""
+    draw = draw or add_shape
     out = occupied.copy()
     windows = [shape_window(ob.shape, nav) for ob in removed]
     for j0, j1, i0, i1 in windows:
@@ -57,9 +66,9 @@ def changed_occupancy(occupied: np.ndarray, nav: NavGrid, removed: list, kept: l
     for ob in kept:
         a0, a1, b0, b1 = shape_window(ob.shape, nav)
         if any(a0 < j1 and j0 < a1 and b0 < i1 and i0 < b1 for j0, j1, i0, i1 in windows):
-            add_shape(out, ob.shape, nav)
+            draw(out, ob.shape, nav)
     for ob in added:
-        add_shape(out, ob.shape, nav)
+        draw(out, ob.shape, nav)
     return out
 
 
@@ -88,15 +97,62 @@ def add_shape(occupied: np.ndarray, shape, nav: NavGrid) -> None:
     occupied[j0:j1, i0:i1] |= inside
 
 
+def add_touched(touched: np.ndarray, shape, nav: NavGrid) -> None:
+    """Mark in ``touched`` (ny, nx) every cell whose open square meets the shape's footprint.
+
+    Cells an obstacle only touches along an edge stay free: the marked squares still cover the
+    obstacle (every point of it is a limit of interior points, which lie in marked squares), and a
+    table edge on a cell boundary then costs no clearance. See ``planning/footprints.py``.
+    """
+    j0, j1, i0, i1 = shape_window(shape, nav)
+    if i0 >= i1 or j0 >= j1:
+        return
+    xs, ys = nav.centres()
+    X, Y = np.meshgrid(xs[i0:i1], ys[j0:j1])
+    h = nav.resolution / 2
+    if isinstance(shape, Cylinder):
+        qx = np.clip(shape.center[0], X - h, X + h)
+        qy = np.clip(shape.center[1], Y - h, Y + h)
+        hit = np.hypot(qx - shape.center[0], qy - shape.center[1]) < shape.radius
+    elif isinstance(shape, (Box, Polygon)):
+        pts = shape.corners_xy() if isinstance(shape, Box) else np.asarray(shape.points, dtype=float)
+        hit = _inside_polygon(X, Y, pts)
+        for a, b in zip(pts, np.roll(pts, -1, axis=0)):
+            hit |= _segment_meets_square(a, b, X, Y, h - SHRINK)
+    else:
+        raise TypeError(f"unknown shape {type(shape).__name__}")
+    touched[j0:j1, i0:i1] |= hit
+
+
+def _segment_meets_square(a, b, X, Y, h: float) -> np.ndarray:
+    """Whether segment a-b meets the squares of centres (X, Y) and half-size ``h`` (Liang-Barsky)."""
+    d = b - a
+    t0, t1 = np.zeros(X.shape), np.ones(X.shape)
+    for p0, dp, c in ((a[0], d[0], X), (a[1], d[1], Y)):
+        lo, hi = c - h - p0, c + h - p0  # need lo <= t dp <= hi
+        if dp == 0:
+            ok = (lo <= 0) & (0 <= hi)
+            t1 = np.where(ok, t1, -1.0)
+        else:
+            ta, tb = lo / dp, hi / dp
+            t0 = np.maximum(t0, np.minimum(ta, tb))
+            t1 = np.minimum(t1, np.maximum(ta, tb))
+    return t0 <= t1
+
+
+
 @dataclass(frozen=True)
 class World:
     """The static navigation layers of a scene, all (ny, nx) over ``nav``.
 
     Attributes:
-        nav: the grid. occupied: bool (obstacles, occupancy-map cells that are occupied or unknown,
-        and with an occupancy map every cell outside it). distance: distance to the nearest occupied
-        cell centre [m]. feasible: bool, base centre allowed (distance >= footprint radius).
-        factor: slowdown of Eq. 4 (travel cost per metre, >= 1).
+        nav: the grid. occupied: bool (obstacles by cell centre, occupancy-map cells that are
+        occupied or unknown, and with an occupancy map every cell outside it). distance: distance to
+        the nearest occupied cell centre [m]. feasible: bool, the base may stand on the cell at some
+        yaw (round base: distance >= radius; polygon: see footprints.py); the base travels through
+        these cells. factor: slowdown of Eq. 4 (travel cost per metre, >= 1), from ``distance``.
+        base: the base shape and yaws. touched: bool, cells an obstacle reaches into (polygon
+        bases; None for round ones). masks: the allowed yaws of the band cells (None for round bases).
     """
 
     nav: NavGrid
@@ -104,26 +160,55 @@ class World:
     distance: np.ndarray
     feasible: np.ndarray
     factor: np.ndarray
+    base: BaseShape | None = None
+    touched: np.ndarray | None = None
+    masks: YawMasks | None = None
+
+    def yaw_masks(self, cells: np.ndarray) -> np.ndarray:
+        """(N, W) uint64 packed masks of the base yaws allowed on flat ``cells`` (N,) (bit k of word
+        k >> 6 is yaw k; a round base allows every yaw on feasible cells)."""
+        return masks_at(self.base, self.feasible, self.masks, cells)
+
+    def pose_clear(self, x: float, y: float, yaw: float) -> bool:
+        """Whether the base fits at (x, y) [m] with ``yaw`` [rad] (a round base: on a feasible cell)."""
+        if self.base is None or self.base.polygon is None:
+            try:
+                return bool(self.feasible[self.nav.cell(x, y)])
+            except PlacementError:
+                return False
+        return pose_clear(self.base, self.touched, self.nav, x, y, yaw)
 
 
-def build_world(scene: Scene, footprint_radius: float, config: PlannerConfig) -> World:
+def build_world(scene: Scene, base: BaseShape, config: PlannerConfig) -> World:
     """Occupancy from the scene's obstacles (and occupancy map), then distance, feasibility, speed.
 
-    ``footprint_radius`` [m]; the velocity model's parameters come from ``config``.
+    ``base``: the robot's base shape and yaws; the velocity model's parameters come from ``config``.
     """
     nav = scene.nav_grid()
     occ = np.zeros(nav.shape, dtype=bool)
     for ob in scene.obstacles:
         add_shape(occ, ob.shape, nav)
+    raster = None
     if scene.occupancy is not None:
-        occ |= rasterize_occupancy(scene.occupancy, nav.origin, nav.resolution, nav.shape, conservative=True,
-                                   outside_occupied=True)
-    return world_from_occupancy(nav, occ, footprint_radius, config)
+        raster = rasterize_occupancy(scene.occupancy, nav.origin, nav.resolution, nav.shape, conservative=True,
+                                     outside_occupied=True)
+        occ |= raster
+    touched = None
+    if base.polygon is not None:
+        # the conservative raster already marks every cell a map cell reaches into
+        touched = np.zeros(nav.shape, dtype=bool) if raster is None else raster.copy()
+        for ob in scene.obstacles:
+            add_touched(touched, ob.shape, nav)
+    return world_from_occupancy(nav, occ, base, config, touched)
 
 
-def world_from_occupancy(nav: NavGrid, occ: np.ndarray, footprint_radius: float, config: PlannerConfig) -> World:
-    """Distance, feasibility and speed from an occupancy grid (ny, nx) bool."""
+def world_from_occupancy(nav: NavGrid, occ: np.ndarray, base: BaseShape, config: PlannerConfig,
+                         touched: np.ndarray | None = None) -> World:
+    """Distance, feasibility and speed from an occupancy grid (ny, nx) bool (and, for a polygon
+    base, the touched layer (ny, nx) bool)."""
     dist = distance_map(occ, nav.resolution)
-    feasible = dist >= footprint_radius
     factor = speed_factor(dist, config.velocity_lambda, config.velocity_k, config.d_max)
-    return World(nav, occ, dist, feasible, factor)
+    if base.polygon is None:
+        return World(nav, occ, dist, dist >= base.radius, factor, base)
+    feasible, masks = polygon_feasibility(base, touched, distance_map(touched, nav.resolution), nav.resolution)
+    return World(nav, occ, dist, feasible, factor, base, touched, masks)

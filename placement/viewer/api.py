@@ -43,7 +43,7 @@ def view_scene(scene, maps=None, method: str = "sequential", plan=None, port: in
         server.initial_camera.look_at = ((scene.bounds[0] + scene.bounds[2]) / 2, (scene.bounds[1] + scene.bounds[3]) / 2, 0.0)
         server.initial_camera.position = (scene.bounds[0] - 1.0, scene.bounds[1] - 2.5, 6.0)
         server.initial_camera.up = (0.0, 0.0, 1.0)
-        draw_scene(server, scene, robot.footprint_radius)
+        draw_scene(server, scene, robot.footprint_radius, robot.footprint)
         title = f"{scene.name}: " + (f"{method} plan" if plan is None else f"plan {Path(plan).name}")
         content = PlanView(server, robot, world, steps, title, start=scene.start)
     except BaseException:

@@ -72,6 +72,15 @@ def circle(radius: float, n: int = 48) -> np.ndarray:
     return radius * np.c_[np.cos(a), np.sin(a)]
 
 
+def footprint_segments(radius: float, polygon=None, z: float = 0.0) -> np.ndarray:
+    """(n, 2, 3) line segments of a base footprint at height ``z`` [m] in the base frame: the closed
+    ``polygon`` (k, 2) [m] if given, else a circle of ``radius`` [m]."""
+    if polygon is None:
+        return ring_segments(radius, z)
+    p = np.c_[np.asarray(polygon, dtype=float), np.full(len(polygon), z)]
+    return np.stack([p, np.roll(p, -1, axis=0)], axis=1).astype(np.float32)
+
+
 def ring_segments(radius: float, z: float = 0.0, n: int = 48) -> np.ndarray:
     """(n, 2, 3) line segments of a circle of ``radius`` [m] at height ``z`` around the origin."""
     p = np.c_[circle(radius, n), np.full(n, z)]

@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 from .colors import Scale, layer_image, scale_of
-from .geometry import polyline_segments, ring_segments, yaw_wxyz
+from .geometry import footprint_segments, polyline_segments, ring_segments, yaw_wxyz
 from .plan_file import title
 from .robot_view import RobotDrawing, config_of
 
@@ -152,8 +152,8 @@ class PlanView:
                 scene.add_frame(f"/plan/{name}", show_axes=False, visible=False)
             return
         x, y, yaw = s.base
-        scene.add_line_segments("/plan/footprint", ring_segments(r, 0.015), FOOTPRINT, thickness=0.025,
-                                position=(x, y, 0.0))
+        scene.add_line_segments("/plan/footprint", footprint_segments(r, self.robot.footprint, 0.015), FOOTPRINT,
+                                thickness=0.025, position=(x, y, 0.0), wxyz=yaw_wxyz(yaw))
         head = polyline_segments(np.array([[0, 0, 0.015], [r, 0, 0.015]]))
         scene.add_line_segments("/plan/heading", head, FOOTPRINT, thickness=0.04, position=(x, y, 0.0),
                                 wxyz=yaw_wxyz(yaw))

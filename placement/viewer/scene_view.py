@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .colors import Scale, layer_image
-from .geometry import POLYGON_HEIGHT, circle, polyline_segments, prism, ring_segments, yaw_wxyz
+from .geometry import POLYGON_HEIGHT, circle, footprint_segments, polyline_segments, prism, yaw_wxyz
 
 FLOOR = (222, 222, 216)
 OBSTACLE = (130, 134, 142)
@@ -56,18 +56,19 @@ def draw_occupancy(server, occupancy):
                                   position=(ox + cols * res / 2, oy + rows * res / 2, 0.003), cast_shadow=False)
 
 
-def draw_start(server, start, footprint_radius: float) -> None:
-    """The start pose: the footprint circle, a heading line and a label."""
+def draw_start(server, start, footprint_radius: float, polygon=None) -> None:
+    """The start pose: the footprint (``polygon`` (k, 2) [m] in the base frame, else the circle), a
+    heading line and a label."""
     x, y, yaw = start
-    server.scene.add_line_segments("/scene/start/ring", ring_segments(footprint_radius, 0.01), START,
-                                   thickness=0.02, position=(x, y, 0.0))
+    server.scene.add_line_segments("/scene/start/ring", footprint_segments(footprint_radius, polygon, 0.01), START,
+                                   thickness=0.02, position=(x, y, 0.0), wxyz=yaw_wxyz(yaw))
     head = np.array([[0, 0, 0.01], [footprint_radius, 0, 0.01]])
     server.scene.add_line_segments("/scene/start/heading", polyline_segments(head), START, thickness=0.03,
                                    position=(x, y, 0.0), wxyz=yaw_wxyz(yaw))
     server.scene.add_label("/scene/start/label", "start", position=(x, y, 0.3))
 
 
-def draw_scene(server, scene, footprint_radius: float) -> dict:
+def draw_scene(server, scene, footprint_radius: float, polygon=None) -> dict:
     """Everything of ``scene`` (a :class:`placement.planning.scene.Scene`) that does not change
     between steps. ``footprint_radius`` [m] of the robot, for the start pose. Returns the nodes of the
     obstacles, objects and occupancy map by node name."""
@@ -90,5 +91,5 @@ def draw_scene(server, scene, footprint_radius: float) -> dict:
                                   position=tuple(p.position))
         server.scene.add_label(f"/scene/places/{p.name}/label", p.name,
                                position=(p.position[0], p.position[1], p.position[2] + 0.08))
-    draw_start(server, scene.start, footprint_radius)
+    draw_start(server, scene.start, footprint_radius, polygon)
     return nodes

@@ -17,13 +17,24 @@ if TYPE_CHECKING:
     from ..planner import Planner
 
 
+#: cells further out along a side's normal tried when a polygon base does not fit on the first
+#: (its cell centre can be up to half a cell nearer the table than the standoff)
+STEPS_OUT = 2
+
+
 def fixed_placements(planner: Planner) -> list[tuple[int, float]]:
     """(flat cell, yaw [rad]) centred on each side of each ``table: true`` obstacle, facing it, the base
-    centre ``footprint_radius + fixed_margin`` [m] from the side; sides whose cell is not base-feasible
-    are left out."""
+    centre the footprint's half-depth (a round base's radius) plus ``fixed_margin`` [m] from the side.
+
+    A round base takes the cell there if it is feasible. A polygon base takes the first cell, from
+    there outwards along the side's normal (up to :data:`STEPS_OUT` cells further), whose centre it
+    fits on at the facing yaw. Sides without such a cell are left out."""
     out = []
-    nav, feasible = planner.world.nav, planner.world.feasible
-    standoff = planner.robot.footprint_radius + planner.config.fixed_margin
+    world = planner.world
+    nav = world.nav
+    polygon = planner.robot.footprint is not None
+    standoff = world.base.half_depth() + planner.config.fixed_margin
+    xs, ys = nav.centres()
     for ob in planner.scene.tables:
         sh = ob.shape
         if hasattr(sh, "size"):
@@ -34,14 +45,16 @@ def fixed_placements(planner: Planner) -> list[tuple[int, float]]:
             sides = [((1.0, 0.0), sh.radius), ((-1.0, 0.0), sh.radius), ((0.0, 1.0), sh.radius),
                      ((0.0, -1.0), sh.radius)]
         for (nx_, ny_), h in sides:
-            x = sh.center[0] + nx_ * (h + standoff)
-            y = sh.center[1] + ny_ * (h + standoff)
-            try:
-                iy, ix = nav.cell(x, y)
-            except PlacementError:
-                continue
-            if feasible[iy, ix]:
-                out.append((iy * nav.shape[1] + ix, math.atan2(-ny_, -nx_)))
+            yaw = math.atan2(-ny_, -nx_)
+            for step in range(STEPS_OUT + 1 if polygon else 1):
+                d = h + standoff + step * nav.resolution
+                try:
+                    iy, ix = nav.cell(sh.center[0] + nx_ * d, sh.center[1] + ny_ * d)
+                except PlacementError:
+                    break
+                if world.feasible[iy, ix] and (not polygon or world.pose_clear(xs[ix], ys[iy], yaw)):
+                    out.append((iy * nav.shape[1] + ix, yaw))
+                    break
     return out
 
 

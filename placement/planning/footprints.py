@@ -1,0 +1,116 @@
+"""Base feasibility per yaw for polygon footprints (configuration-space obstacles per base yaw).
+
+The occupancy the round base uses marks cells by their centre, which can hide the part of an
+obstacle that lies in a cell whose centre is outside it (a thin wall may mark no cell at all).
+A polygon base is tested against the *touched* layer instead: every cell whose square an obstacle
+reaches into (interiors overlap), so the touched squares cover every obstacle, and a footprint
+that keeps ``padding`` [m] from every touched square keeps it from the obstacles themselves.
+
+With d the distance from a cell centre to the nearest touched cell centre [m], h half a cell
+diagonal, r_in and r_out the footprint's inscribed and circumscribed radii [m] and p the padding:
+d > r_out + p + h means every yaw is clear, d < r_in + p that none is; only the band between
+needs per-yaw tests (``kernels/footprint.band_masks``), stored as packed bits per band cell.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kernels.footprint import band_masks, block_table, pose_blocked
+from ..robots.footprint import circumradius, inscribed_radius
+from .navgrid import NavGrid
+
+EPS = 1e-9  # [m] float slack of the band limits, always on the safe side
+PAD_SLACK = 1e-6  # [m] added to the padding: covers the squares' float shrink (world.SHRINK)
+
+
+@dataclass(frozen=True)
+class BaseShape:
+    """The base as the planner tests it: ``radius`` [m] (round base, or the polygon's circumscribed
+    radius), ``polygon`` (k, 2) [m] counter-clockwise in the base frame or None (round), ``padding``
+    [m] kept from obstacles by a polygon, ``yaws`` (K,) the planner's base yaws [rad]."""
+
+    radius: float
+    polygon: np.ndarray | None
+    padding: float
+    yaws: np.ndarray
+
+    @classmethod
+    def of(cls, robot, padding: float, yaws: np.ndarray) -> BaseShape:
+        poly = None if robot.footprint is None else np.ascontiguousarray(robot.footprint, dtype=float)
+        return cls(float(robot.footprint_radius), poly, float(padding), np.asarray(yaws, dtype=float))
+
+    @property
+    def words(self) -> int:
+        """uint64 words per yaw mask."""
+        return (len(self.yaws) + 63) // 64
+
+    def full_mask(self) -> np.ndarray:
+        """(W,) uint64 with the bits of every yaw set."""
+        out = np.zeros(self.words, np.uint64)
+        for k in range(len(self.yaws)):
+            out[k >> 6] |= np.uint64(1) << np.uint64(k & 63)
+        return out
+
+    def half_depth(self) -> float:
+        """How far the footprint reaches ahead of the base origin along its forward axis [m] (the
+        radius for a round base)."""
+        return self.radius if self.polygon is None else float(self.polygon[:, 0].max())
+
+    def placed(self, x: float, y: float, yaw: float) -> np.ndarray:
+        """(k, 2) polygon in world coordinates [m] for a base at (x, y) [m] with ``yaw`` [rad]."""
+        c, s = math.cos(yaw), math.sin(yaw)
+        p = self.polygon
+        return np.ascontiguousarray(np.c_[x + c * p[:, 0] - s * p[:, 1], y + s * p[:, 0] + c * p[:, 1]])
+
+
+@dataclass(frozen=True)
+class YawMasks:
+    """Allowed base yaws of the band cells: ``cells`` (M,) ascending flat indices, ``bits`` (M, W)
+    uint64; cells outside the band allow every yaw when feasible, none otherwise."""
+
+    cells: np.ndarray
+    bits: np.ndarray
+
+
+def polygon_feasibility(base: BaseShape, touched: np.ndarray, touched_distance: np.ndarray,
+                        res: float) -> tuple[np.ndarray, YawMasks]:
+    """(ny, nx) bool feasible at some yaw, and the band's yaw masks, of a polygon base over the
+    ``touched`` layer (ny, nx) with its ``touched_distance`` [m] (cell centres) on a grid of ``res`` [m]."""
+    r_in = inscribed_radius(base.polygon)
+    lo = r_in + base.padding - EPS
+    hi = base.radius + base.padding + PAD_SLACK + res * math.sqrt(0.5) + EPS
+    band = np.flatnonzero((touched_distance >= lo) & (touched_distance <= hi))
+    reach = int(math.ceil(hi / res))
+    table = block_table(base.polygon, base.yaws, base.padding + PAD_SLACK, float(res), reach)
+    dy, dx = np.mgrid[-reach:reach + 1, -reach:reach + 1]
+    # band cells have no touched cell closer than lo: those offsets are never read
+    use = table.any(axis=2) & (np.hypot(dy, dx) * res >= lo)
+    full = base.full_mask()
+    bits = band_masks(np.ascontiguousarray(touched), band, dy[use].astype(np.int64), dx[use].astype(np.int64),
+                      np.ascontiguousarray(table[use]), full)
+    feasible = touched_distance > hi
+    feasible.flat[band] = bits.any(axis=1)
+    return feasible, YawMasks(band, bits)
+
+
+def masks_at(base: BaseShape, feasible: np.ndarray, masks: YawMasks | None, cells: np.ndarray) -> np.ndarray:
+    """(N, W) uint64 allowed-yaw masks of flat ``cells`` (N,): every yaw on feasible cells, none on
+    the others, the band's own masks on band cells."""
+    cells = np.asarray(cells, dtype=np.int64)
+    out = np.zeros((len(cells), base.words), np.uint64)
+    out[feasible.flat[cells]] = base.full_mask()
+    if masks is not None and len(masks.cells) and len(cells):
+        pos = np.minimum(np.searchsorted(masks.cells, cells), len(masks.cells) - 1)
+        hit = masks.cells[pos] == cells
+        out[hit] = masks.bits[pos[hit]]
+    return out
+
+
+def pose_clear(base: BaseShape, touched: np.ndarray, nav: NavGrid, x: float, y: float, yaw: float) -> bool:
+    """Whether a polygon base at (x, y) [m] with ``yaw`` [rad] keeps its padding from every touched square."""
+    return not pose_blocked(touched, float(nav.origin[0]), float(nav.origin[1]), float(nav.resolution),
+                            base.placed(x, y, yaw), base.padding + PAD_SLACK)
