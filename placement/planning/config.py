@@ -36,8 +36,11 @@ class PlannerConfig:
         velocity_lambda, velocity_k: lambda and k of the velocity model (Eq. 4), dimensionless.
         d_max: distance beyond which obstacles do not slow the base (Eq. 4) [m].
         grasp_yaws: gripper yaws of place steps: a count (evenly spaced) or a tuple of yaws [rad].
+        ik_budget_ms: time the IK search of one step may spend before the step is infeasible [ms].
     Fixed (not in scenes):
-        ik_tries: distinct placements tried by IK before a step is infeasible [count].
+        ik_tries: placements tried best-first (per option and tier in the ranking) before the search
+            spreads over every ranked placement [count] (see placement/planning/search.py).
+        ik_cap: most placements the IK search of one step tries [count].
         min_region: smallest feasible region the heuristic steers to, as a fraction of the
             step's feasible area (smaller ones would each cost a full cost map for a negligible weight).
         fixed_margin: clearance of the ``fixed`` baseline's placements beyond the footprint radius [m].
@@ -62,7 +65,10 @@ class PlannerConfig:
     grasp_yaws: int | tuple[float, ...] = _key(8, "gripper yaws of place steps: a count (integer 1 .. 360, "
                                                   "evenly spaced) or a list of yaws [rad] (default 8)",
                                                integer=True, minimum=1, maximum=360, or_list=True)
+    ik_budget_ms: float = _key(300.0, "time the IK search of one step may spend [ms], >= 1 and <= 60000 "
+                                      "(default 300)", minimum=1.0, maximum=60000.0)
     ik_tries: int = 25
+    ik_cap: int = 2000
     min_region: float = 0.02
     fixed_margin: float = 0.02
 
