@@ -23,7 +23,9 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from .ranking import Ranked
+from ..kernels.grid import zyx_angles
+from .manipulation import pose_slices
+from .ranking import Ranked, combined_cost
 from .verify import TrajectoryIK, trajectory_ik
 
 if TYPE_CHECKING:
@@ -62,6 +64,7 @@ class Found:
     base: tuple[float, float, float]
     ik: TrajectoryIK
     clearance_m: float | None
+    value: float | None = None  # its map value when it is not the cell's best yaw
 
 
 @dataclass
@@ -130,22 +133,75 @@ class _Learner:
         return False
 
 
+def yaw_values(rmap, poses: np.ndarray, bx: np.ndarray, by: np.ndarray, yaws: np.ndarray) -> np.ndarray:
+    """(N, K) map value of the trajectory ``poses`` (P, 4, 4) (its minimum over the poses) for base
+    positions (bx, by) (N,) [m] at each of the base ``yaws`` (K,) [rad]: the arithmetic of the IRM
+    kernel, for every yaw instead of the best one (0 where a pose is off the map)."""
+    g = rmap.grid
+    keys = pose_slices(rmap, poses)
+    out = np.full((bx.size, yaws.size), np.inf, np.float32)
+    if len(keys) < len(poses):
+        return np.zeros_like(out)
+    cs, sn = np.cos(yaws)[None], np.sin(yaws)[None]
+    n_yaw = g.shape[3]
+    for pose, key in zip(poses, keys):
+        sl = rmap.slice(*key)
+        dx, dy = pose[0, 3] - bx[:, None], pose[1, 3] - by[:, None]
+        jx = np.floor((cs * dx + sn * dy - g.origin[0]) / g.resolution).astype(np.int64)
+        jy = np.floor((-sn * dx + cs * dy - g.origin[1]) / g.resolution).astype(np.int64)
+        tcp_yaw = zyx_angles(pose)[0]
+        jb = np.mod(np.floor((tcp_yaw - yaws) * (n_yaw / (2 * math.pi)) + 0.5).astype(np.int64), n_yaw)
+        inside = (jx >= 0) & (jy >= 0) & (jx < sl.shape[0]) & (jy < sl.shape[1])
+        v = np.zeros(out.shape, np.float32)
+        v[inside] = sl[jx[inside], jy[inside], np.broadcast_to(jb[None], jx.shape)[inside]]
+        np.minimum(out, v, out=out)
+    return out
+
+
+def other_yaws(planner: Planner, opts: list[Option], nav_cost: np.ndarray,
+               heuristic: np.ndarray) -> tuple[list[Ranked], dict]:
+    """Every (cell, base yaw) of every option that keeps the map threshold other than each cell's
+    best yaw, ranked by Eq. 6 with its own map value; and {(option, cell, yaw): value}."""
+    cfg, nav = planner.config, planner.world.nav
+    nx = nav.shape[1]
+    xs, ys = nav.centres()
+    out, values = [], {}
+    for k, o in enumerate(opts):
+        local = np.flatnonzero(o.value.ravel() >= cfg.threshold)
+        cells = o.window.to_global(local, nx)
+        iy, ix = np.divmod(cells, nx)
+        ok = np.isfinite(nav_cost[iy, ix]) & np.isfinite(heuristic[iy, ix])
+        cells, iy, ix, best = cells[ok], iy[ok], ix[ok], o.yaw_index.ravel()[local][ok]
+        if cells.size == 0:
+            continue
+        v = yaw_values(planner.maps[o.arm], o.candidate.poses, xs[ix], ys[iy], planner.yaws)
+        v[np.arange(cells.size), best] = 0.0
+        n, j = np.nonzero(v >= np.float32(cfg.threshold))
+        cost = combined_cost(cfg, nav_cost[iy[n], ix[n]], v[n, j].astype(float), heuristic[iy[n], ix[n]])
+        for c, cell, yaw, val in zip(cost, cells[n], planner.yaws[j], v[n, j]):
+            out.append(Ranked(float(c), k, int(cell), float(yaw)))
+            values[(k, int(cell), float(yaw))] = float(val)
+    out.sort(key=lambda r: (r.cost, r.option, r.cell, r.yaw))
+    return out, values
+
+
 def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: list[Ranked],
-                     more: Callable[[], list[Ranked]] | None, nav_cost: np.ndarray,
+                     more: Callable[[], list[Ranked]] | None, nav_cost: np.ndarray, heuristic: np.ndarray,
                      prev_q: dict) -> Search:
-    """Try ``ranked`` placements of ``step`` (then ``more()``, every ranked placement) until one
-    verifies by IK (and the collision hook, when the planner has one); see the module docstring."""
+    """Try ``ranked`` placements of ``step`` (then ``more()``, every ranked placement, and when
+    ``more`` is given every other base yaw that keeps the threshold) until one verifies by IK
+    (and the collision hook, when the planner has one); see the module docstring."""
     cfg, nav = planner.config, planner.world.nav
     xs, ys = nav.centres()
     collisions = getattr(planner, "collisions", None)
     grasped = grasped_object(planner, step)
     out = Search()
     learn = _Learner(2 * math.pi / max(len(planner.yaws), 1))
-    tried: set[tuple[int, int]] = set()
+    tried: set[tuple[int, int, float]] = set()
     deadline = time.perf_counter() + cfg.ik_budget_ms * 1e-3
 
     def attempt(r: Ranked, o: Option, iy: int, ix: int) -> bool:
-        tried.add((r.option, r.cell))
+        tried.add((r.option, r.cell, r.yaw))
         base = (float(xs[ix]), float(ys[iy]), r.yaw)
         witness = getattr(planner.maps[o.arm], "witness_q", None)
         ik = trajectory_ik(planner.robot, o.arm, o.candidate.poses, base, prev_q[o.arm], witness)
@@ -179,7 +235,35 @@ def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: l
     def usable(r: Ranked):
         iy, ix = divmod(r.cell, nav.shape[1])
         # a fixed placement the base cannot get to from here, or one tried already
-        return None if (not np.isfinite(nav_cost[iy, ix]) or (r.option, r.cell) in tried) else (iy, ix)
+        return None if (not np.isfinite(nav_cost[iy, ix]) or (r.option, r.cell, r.yaw) in tried) else (iy, ix)
+
+    def spread(candidates: list[Ranked]) -> bool:
+        """Round-robin over the groups of ``candidates`` (see the module docstring); True when
+        the search is over (found, or out of time or tries)."""
+        groups: dict[tuple, list] = {}
+        for r in candidates:
+            cell = usable(r)
+            if cell is not None:
+                groups.setdefault(_group(opts[r.option], r, cell, xs, ys), []).append((r, cell))
+        queues = list(groups.values())  # each in rank order; groups by their best placement's rank
+        deferred = []
+        while queues:
+            for q in queues:
+                r, cell = q.pop(0)
+                o = opts[r.option]
+                if learn.hopeless(r.option, o, (xs[cell[1]], ys[cell[0]], r.yaw)):
+                    continue
+                if learn.near_failure(r.option, *cell, r.yaw, any_yaw=False):
+                    deferred.append((r, cell))
+                    continue
+                if spent() or attempt(r, o, *cell):
+                    return True
+            queues = [q for q in queues if q]
+        for r, cell in sorted(deferred, key=lambda rc: (rc[0].cost, rc[0].option, rc[0].cell)):
+            o = opts[r.option]
+            if not learn.hopeless(r.option, o, (xs[cell[1]], ys[cell[0]], r.yaw)) and (spent() or attempt(r, o, *cell)):
+                return True
+        return False
 
     for r in ranked:  # phase 1: best first
         if out.tried >= cfg.ik_tries or spent():
@@ -193,31 +277,14 @@ def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: l
     if out.stop in ("budget", "cap"):
         return out
     out.stop = "all"
-    groups: dict[tuple, list] = {}
-    for r in (more() if more is not None else ranked):
-        cell = usable(r)
-        if cell is not None:
-            groups.setdefault(_group(opts[r.option], r, cell, xs, ys), []).append((r, cell))
-    queues = list(groups.values())  # each in rank order; groups by their best placement's rank
-    deferred = []
-    while queues:  # phase 2: round-robin over the groups
-        for q in queues:
-            r, cell = q.pop(0)
-            o = opts[r.option]
-            if learn.hopeless(r.option, o, (xs[cell[1]], ys[cell[0]], r.yaw)):
-                continue
-            if learn.near_failure(r.option, *cell, r.yaw, any_yaw=False):
-                deferred.append((r, cell))
-                continue
-            if spent() or attempt(r, o, *cell):
-                return out
-        queues = [q for q in queues if q]
-    for r, cell in sorted(deferred, key=lambda rc: (rc[0].cost, rc[0].option, rc[0].cell)):
-        o = opts[r.option]
-        if learn.hopeless(r.option, o, (xs[cell[1]], ys[cell[0]], r.yaw)):
-            continue
-        if spent() or attempt(r, o, *cell):
-            return out
+    if spread(more() if more is not None else ranked) or more is None:
+        return out
+    extra, values = other_yaws(planner, opts, nav_cost, heuristic)
+    if not spread(extra) and time.perf_counter() > deadline:
+        out.stop = "budget"
+    if out.found is not None:
+        r = out.found.ranked
+        out.found.value = values[(r.option, r.cell, r.yaw)]
     return out
 
 

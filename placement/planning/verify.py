@@ -96,7 +96,7 @@ def trajectory_ik(robot: Robot, arm: str, poses_world: np.ndarray, base: tuple[f
                 best = res
         if not best.success:
             reached = (B @ robot.tcp_pose(arm, best.q))[:3, 3]
-            return TrajectoryIK(np.array(qs).reshape(len(qs), -1), i, float(best.pos_err), float(best.rot_err),
+            return TrajectoryIK(np.array(qs).reshape(len(qs), len(q)), i, float(best.pos_err), float(best.rot_err),
                                 reached)
         q = best.q
         qs.append(q)

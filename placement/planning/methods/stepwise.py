@@ -88,7 +88,7 @@ def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranke
             return rank_eq6(planner, opts, nav_cost, heur, per_option=cfg.ik_cap)
     found = search = None
     if ranked:
-        search = search_placement(planner, step, opts, ranked, more, nav_cost, prev_q)
+        search = search_placement(planner, step, opts, ranked, more, nav_cost, heur, prev_q)
         found = search.found
     timings["ik"] = (time.perf_counter() - t) * 1e3
     if found is not None:
@@ -97,7 +97,7 @@ def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranke
         iy, ix = divmod(r.cell, nav.shape[1])
         if maps is not None:
             maps.path = extract_path(pred, (iy, ix))
-        value = o.value_at(iy, ix) if planner.method != "fixed" else -r.cost
+        value = found.value or (o.value_at(iy, ix) if planner.method != "fixed" else -r.cost)
         result = placed(planner, step, o, found.base, found.ik.qs, float(nav_cost[iy, ix]), float(heur[iy, ix]),
                         value, timings, found.clearance_m)
         result.maps = maps
