@@ -137,10 +137,13 @@ def explain(planner: Planner, step: Step, opts: list[Option], search: Search | N
         return f"{base_reason}; {hint}", d
     stop = {"budget": f", when the {planner.config.ik_budget_ms:g} ms IK budget ran out",
             "cap": f", the most the search tries ({planner.config.ik_cap})"}.get(search.stop, ", every candidate")
-    tried = f"no placement verified after {search.tried} tries{stop} ({len(ik_fails)} failed IK"
-    tried += f", {d['collision_failures']} in collision" + (f", mostly {culprit}" if culprit else "") + ")"
-    if f is None:
-        return f"{tried}; {hint}", d
-    what = (f"the {role} pose (pose {i} of '{o.candidate.name}', {float(pose[2, 3]):.2f} m high) is out of reach "
-            f"for arm {o.arm} by {f.residual_m * 100:.1f} cm and {f.residual_rad:.2f} rad at best")
-    return f"{tried}: {what}; {hint}", d
+    ncol = d["collision_failures"]
+    tried = f"no placement verified after {search.tried} tries{stop} ({len(ik_fails)} failed IK, {ncol} in collision)"
+    parts = []
+    if ncol and ncol >= len(ik_fails):
+        parts.append(f"IK reached every pose at {ncol} of them but the arm collided there"
+                     + (f", mostly {culprit}" if culprit else ""))
+    if f is not None:
+        parts.append(f"the {role} pose (pose {i} of '{o.candidate.name}', {float(pose[2, 3]):.2f} m high) is out of "
+                     f"reach for arm {o.arm} by {f.residual_m * 100:.1f} cm and {f.residual_rad:.2f} rad at best")
+    return f"{tried}: {'; '.join(parts + [hint])}", d
