@@ -26,7 +26,7 @@ import numpy as np
 from ..kernels.grid import zyx_angles
 from .manipulation import pose_slices
 from .ranking import Ranked, combined_cost
-from .verify import TrajectoryIK, trajectory_ik
+from .verify import TrajectoryIK, base_matrix, trajectory_ik
 
 if TYPE_CHECKING:
     from .option import Option
@@ -101,8 +101,8 @@ def _wrap(a: float) -> float:
 class _Learner:
     """The failures' lessons: neighbours to defer, directions to drop."""
 
-    def __init__(self, yaw_step: float):
-        self.yaw_step = yaw_step
+    def __init__(self, yaw_step: float, robot):
+        self.yaw_step, self.robot = yaw_step, robot
         self.failed: list[tuple[int, int, int, float]] = []  # option, iy, ix, yaw
         self.short: list[tuple[int, int, float, float, float]] = []  # option, pose, yaw, bearing, distance
 
@@ -112,7 +112,9 @@ class _Learner:
             return
         target = o.candidate.poses[f.pose, :3, 3]
         h = target[:2] - np.asarray(base[:2])
-        e = target - ik.reached
+        # the TCP of the best attempt, by pinocchio (only for failures that can teach)
+        reached = (base_matrix(*base) @ self.robot.tcp_pose(o.arm, ik.best_q))[:3, 3]
+        e = target - reached
         d = float(np.hypot(*h))
         # the TCP fell short along the horizontal reach direction: farther is hopeless
         if d > 0 and float(e[:2] @ h) / d >= 0.7 * float(np.linalg.norm(e)):
@@ -196,7 +198,7 @@ def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: l
     collisions = getattr(planner, "collisions", None)
     grasped = grasped_object(planner, step)
     out = Search()
-    learn = _Learner(2 * math.pi / max(len(planner.yaws), 1))
+    learn = _Learner(2 * math.pi / max(len(planner.yaws), 1), planner.robot)
     tried: set[tuple[int, int, float]] = set()
     deadline = time.perf_counter() + cfg.ik_budget_ms * 1e-3
 
