@@ -201,6 +201,7 @@ def test_a_pose_out_of_reach_says_by_how_much(tmp_path, maps_dir):
     assert f"out of reach for arm {d['arm']} by {d['residual_m'] * 100:.1f} cm" in bad.reason
     assert f"the {d['pose_role']} pose (pose {d['pose_index']} of '{d['trajectory']}'" in bad.reason
     assert _oracle(planner, 0) is None
+    json.dumps(bad.to_json(), allow_nan=False)
 
 
 def test_a_scene_that_gave_up_after_the_best_placements_now_plans(tmp_path, maps_dir, pr2):

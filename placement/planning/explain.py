@@ -137,6 +137,8 @@ def explain(planner: Planner, step: Step, opts: list[Option], search: Search | N
         return f"{base_reason}; {hint}", d
     stop = {"budget": f", when the {planner.config.ik_budget_ms:g} ms IK budget ran out",
             "cap": f", the most the search tries ({planner.config.ik_cap})"}.get(search.stop, ", every candidate")
+    if search.tried == 0:
+        return f"the base cannot get to any of the placements that reach the target from where it is; {hint}", d
     ncol = d["collision_failures"]
     tried = f"no placement verified after {search.tried} tries{stop} ({len(ik_fails)} failed IK, {ncol} in collision)"
     parts = []
