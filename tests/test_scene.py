@@ -154,7 +154,7 @@ ERRORS = [
     (_set(["task", 0, "arm"], "left"), "unknown key 'task[0].arm'; allowed: pick, place"),
     (_set(["place_locations", 1, "yaw"], 0.0), "unknown key 'place_locations[1].yaw'; allowed: name, position"),
     (_set(["planner", "speed"], 2.0),
-     "unknown key 'planner.speed'; allowed: d_max, grasp_yaws, lambda_m, lambda_n, lambda_nh, threshold, "
+     "unknown key 'planner.speed'; allowed: d_max, grasp_yaws, ik_budget_ms, lambda_m, lambda_n, lambda_nh, threshold, "
      "velocity_k, velocity_lambda, yaw_steps"),
     # yaw only, no quaternions
     (_set(["obstacles", 0, "box", "quaternion"], [0, 0, 0, 1]),
@@ -289,4 +289,4 @@ def test_preset_path_is_relative_to_the_scene(tmp_path):
 
 def test_planner_keys_are_documented():
     assert set(PLANNER_KEYS) == {"lambda_n", "lambda_m", "lambda_nh", "yaw_steps", "threshold", "velocity_lambda",
-                                 "velocity_k", "d_max", "grasp_yaws"}
+                                 "velocity_k", "d_max", "grasp_yaws", "ik_budget_ms"}

@@ -73,16 +73,17 @@ class StepResult:
     base: tuple[float, float, float] | None = None
     tcp: np.ndarray | None = None
     q: np.ndarray | None = None
-    qs: np.ndarray | None = None
     joints: dict[str, float] = field(default_factory=dict)
     manipulability: float | None = None
     cost: Cost | None = None
     travel_time_s: float | None = None
     timings_ms: dict[str, float] = field(default_factory=dict)
+    maps: StepMaps | None = field(default=None, repr=False)
+    # after the fields of the first release: callers that pass fields by position keep working
+    qs: np.ndarray | None = None
     clearance_m: float | None = None
     diagnosis: dict | None = None
     tried: int = 0
-    maps: StepMaps | None = field(default=None, repr=False)
 
     @property
     def ok(self) -> bool:
