@@ -154,8 +154,8 @@ ERRORS = [
     (set_key(["task", 0, "arm"], "left"), "unknown key 'task[0].arm'; allowed: pick, place"),
     (set_key(["place_locations", 1, "yaw"], 0.0), "unknown key 'place_locations[1].yaw'; allowed: name, position"),
     (set_key(["planner", "speed"], 2.0),
-     "unknown key 'planner.speed'; allowed: collision_padding, d_max, footprint_padding, grasp_yaws, lambda_m, "
-     "lambda_n, lambda_nh, threshold, velocity_k, velocity_lambda, yaw_steps"),
+     "unknown key 'planner.speed'; allowed: collision_padding, d_max, footprint_padding, grasp_yaws, ik_budget_ms, "
+     "lambda_m, lambda_n, lambda_nh, threshold, velocity_k, velocity_lambda, yaw_steps"),
     # yaw only, no quaternions
     (set_key(["obstacles", 0, "box", "quaternion"], [0, 0, 0, 1]),
      "unknown key 'obstacles[0].box.quaternion'; allowed: center, size, yaw (shapes and objects rotate about z only"),
@@ -290,4 +290,5 @@ def test_preset_path_is_relative_to_the_scene(tmp_path):
 
 def test_planner_keys_are_documented():
     assert set(PLANNER_KEYS) == {"lambda_n", "lambda_m", "lambda_nh", "yaw_steps", "threshold", "velocity_lambda",
-                                 "velocity_k", "d_max", "grasp_yaws", "footprint_padding"}
+                                 "velocity_k", "d_max", "grasp_yaws", "footprint_padding",
+                                 "collision_padding", "ik_budget_ms"}

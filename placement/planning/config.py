@@ -39,8 +39,11 @@ class PlannerConfig:
         collision_padding: robot-scene distance below which an arm configuration collides [m].
         footprint_padding: clearance a polygon base footprint keeps from obstacles [m] (Nav2's
             footprint_padding; round bases have their margin in footprint_radius).
+        ik_budget_ms: time the IK search of one step may spend before the step is infeasible [ms].
     Fixed (not in scenes):
-        ik_tries: distinct placements tried by IK before a step is infeasible [count].
+        ik_tries: placements tried best-first (per option and tier in the ranking) before the search
+            spreads over every ranked placement [count] (see placement/planning/search.py).
+        ik_cap: most placements the IK search of one step tries [count].
         min_region: smallest feasible region the heuristic steers to, as a fraction of the
             step's feasible area (smaller ones would each cost a full cost map for a negligible weight).
         fixed_margin: clearance of the ``fixed`` baseline's placements beyond the footprint's
@@ -70,7 +73,10 @@ class PlannerConfig:
                                            "scene's, 0 .. 0.5 (default 0.005)", minimum=0.0, maximum=0.5)
     footprint_padding: float = _key(0.02, "clearance [m] a polygon base footprint keeps from obstacles, 0 .. 1 "
                                            "(default 0.02; round bases ignore it)", minimum=0.0, maximum=1.0)
+    ik_budget_ms: float = _key(300.0, "time the IK search of one step may spend [ms], >= 1 and <= 60000 "
+                                      "(default 300)", minimum=1.0, maximum=60000.0)
     ik_tries: int = 25
+    ik_cap: int = 2000
     min_region: float = 0.02
     fixed_margin: float = 0.02
 

@@ -51,10 +51,15 @@ class StepResult:
         arm, grasp: the chosen arm and candidate trajectory name.
         base: (x [m], y [m], yaw [rad]) of the base frame on the floor.
         tcp: (P, 4, 4) TCP poses in the world frame, pre-pose first.
-        q: (n,) the arm's IK solution for the last TCP pose [rad or m]; joints: every arm joint and
-            every joint the preset holds fixed, by name.
+        q: (n,) the arm's IK solution for the last TCP pose [rad or m]; qs: (P, n) the solutions of
+            every pose of ``tcp``; joints: every arm joint (at the last pose) and every joint the
+            preset holds fixed, by name.
+        clearance_m: smallest distance [m] between the arm and the scene over the trajectory, from
+            the planner's collision check (None without one).
         manipulability: the IRM value at the placement (dimensionless). cost: Eq. 6's terms.
         travel_time_s: navigation cost / v_max [s]. timings_ms: per stage [ms].
+        diagnosis: of an infeasible step, why (see :func:`placement.planning.explain.explain`).
+        tried: placements the IK search tried; not part of the JSON.
         maps: the step's layers when they were kept (plots); not part of the JSON.
     """
 
@@ -74,6 +79,11 @@ class StepResult:
     travel_time_s: float | None = None
     timings_ms: dict[str, float] = field(default_factory=dict)
     maps: StepMaps | None = field(default=None, repr=False)
+    # after the fields of the first release: callers that pass fields by position keep working
+    qs: np.ndarray | None = None
+    clearance_m: float | None = None
+    diagnosis: dict | None = None
+    tried: int = 0
 
     @property
     def ok(self) -> bool:
@@ -83,18 +93,33 @@ class StepResult:
         timings = {k: round(v, 3) for k, v in self.timings_ms.items()}
         if not self.ok:
             return {"step": self.step, "action": self.action, "target": self.target, "status": self.status,
-                    "reason": self.reason, "timings_ms": timings}
+                    "reason": self.reason, "diagnosis": self.diagnosis or {}, "timings_ms": timings}
+        names = self.joints_of_arm()
         return {
             "step": self.step, "action": self.action, "target": self.target, "arm": self.arm, "grasp": self.grasp,
+            "trajectory": self.grasp,
             "base": [round(float(v), 6) for v in self.base],
             "tcp": [matrix_to_pose(T) for T in self.tcp],
+            "poses": [{"pose": matrix_to_pose(T), "joints": {n: float(v) for n, v in zip(names, q)}}
+                      for T, q in zip(self.tcp, self.pose_qs())],
             "joints": dict(self.joints),
+            "clearance_m": None if self.clearance_m is None else float(self.clearance_m),
             "manipulability": float(self.manipulability),
             "cost": {"total": self.cost.total, "navigation": self.cost.navigation,
                      "manipulation": self.cost.manipulation, "heuristic": self.cost.heuristic},
             "travel_time_s": float(self.travel_time_s),
             "timings_ms": timings,
         }
+
+
+    def joints_of_arm(self) -> list[str]:
+        """The arm's joint names, in ``q`` order (the first entries of ``joints``)."""
+        return list(self.joints)[:len(self.q)]
+
+    def pose_qs(self) -> np.ndarray:
+        """(P, n) the arm's configuration at every TCP pose (the last one only, repeated, for
+        results made without them)."""
+        return self.qs if self.qs is not None else np.repeat(np.asarray(self.q)[None], len(self.tcp), axis=0)
 
 
 def robot_info(robot: Robot, arms) -> dict:
@@ -137,8 +162,9 @@ class PlanResult:
 
     def verify(self, robot: Robot, pos_tol: float = 0.01, rot_tol: float = math.radians(3)) -> list[str]:
         """Independent checks of every planned step with pinocchio FK: joints within limits, fixed
-        joints at their values, the TCP at the last pose of the trajectory (``pos_tol`` [m],
-        ``rot_tol`` [rad]). Returns the problems found (empty: the plan holds)."""
+        joints at their values, the TCP at every pose of the trajectory with that pose's joints (the
+        last with ``joints``) (``pos_tol`` [m], ``rot_tol`` [rad]). Returns the problems found
+        (empty: the plan holds)."""
         problems = []
         for s in self.steps:
             if not s.ok:
@@ -151,10 +177,17 @@ class PlanResult:
             for j, v in robot.fixed_joints.items():
                 if s.joints.get(j) != v:
                     problems.append(f"{where}: fixed joint {j} is {s.joints.get(j)}, not {v}")
-            T = base_matrix(*s.base) @ robot.tcp_pose(s.arm, q)
-            want = np.asarray(s.tcp[-1])
-            err = float(np.linalg.norm(T[:3, 3] - want[:3, 3]))
-            ang = math.acos(float(np.clip((np.trace(T[:3, :3].T @ want[:3, :3]) - 1) / 2, -1, 1)))
-            if err > pos_tol or ang > rot_tol:
-                problems.append(f"{where}: TCP off by {err * 100:.1f} cm and {math.degrees(ang):.1f} deg")
+            qs = np.array(s.pose_qs(), dtype=float)
+            if s.qs is not None and not np.array_equal(qs[-1], q):
+                problems.append(f"{where}: the last pose's joints differ from the step's joints")
+            qs[-1] = q
+            B = base_matrix(*s.base)
+            for i, (want, qi) in enumerate(zip(np.asarray(s.tcp), qs)):
+                if np.any(qi < arm.lower - 1e-9) or np.any(qi > arm.upper + 1e-9):
+                    problems.append(f"{where}: pose {i}: joints outside their limits")
+                T = B @ robot.tcp_pose(s.arm, qi)
+                err = float(np.linalg.norm(T[:3, 3] - want[:3, 3]))
+                ang = math.acos(float(np.clip((np.trace(T[:3, :3].T @ want[:3, :3]) - 1) / 2, -1, 1)))
+                if err > pos_tol or ang > rot_tol:
+                    problems.append(f"{where}: pose {i}: TCP off by {err * 100:.1f} cm and {math.degrees(ang):.1f} deg")
         return problems

@@ -7,7 +7,7 @@ consecutive candidate sets (one Dijkstra per candidate, stopped once the next
 step's candidates are settled), and the DP minimises the task's summed Eq. 6
 cost without heuristic, ``sum_i lambda_n nav(r_{i-1}, r_i) + lambda_m / m(r_i)``,
 which the one-step heuristic approximates. Chosen placements are IK-checked;
-one that fails is removed and the DP rerun.
+one that fails (or collides, when the planner has a collision check) is removed and the DP rerun.
 """
 
 from __future__ import annotations
@@ -18,8 +18,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import ndimage
 
+from ..explain import explain
 from ..navigation import extract_path, navigation_cost
 from ..results import StepMaps, StepResult
+from ..search import gone_objects, grasped_object
 from ..verify import trajectory_ik
 from .stepwise import placed, unreachable_reason
 
@@ -101,9 +103,11 @@ def plan_optimal(planner: Planner, start_cell, keep_maps: bool = False) -> list[
                 for i, c in enumerate(cands)]
         for i, lv in enumerate(live):
             if lv.size == 0:
-                reason = (f"IK failed for all {ik_failures[i]} of its DP candidates" if ik_failures[i]
-                          else unreachable_reason(planner, planner.problems.options(i)))
-                return [_infeasible(steps[i], reason)]
+                if ik_failures[i]:
+                    return [_infeasible(steps[i], f"IK failed for all {ik_failures[i]} of its DP candidates")]
+                opts = planner.problems.options(i)
+                return [_infeasible(steps[i], *explain(planner, steps[i], opts, None,
+                                                       unreachable_reason(planner, opts)))]
         chosen = _dp(planner, start_cell, cands, live)
         out, prev_cell, failed = [], start_cell, None
         q_state = {arm: planner.robot.arm(arm).home.copy() for arm in planner.maps}
@@ -113,21 +117,27 @@ def plan_optimal(planner: Planner, start_cell, keep_maps: bool = False) -> list[
             o = planner.problems.options(i)[k]
             iy, ix = divmod(int(flat), nav.shape[1])
             base = (float(xs[ix]), float(ys[iy]), float(yaw))
-            q = trajectory_ik(planner.robot, o.arm, o.candidate.poses, base, q_state[o.arm])
-            if q is None:
+            ik = trajectory_ik(planner.robot, o.arm, o.candidate.poses, base, q_state[o.arm],
+                               getattr(planner.maps[o.arm], "witness_q", None))
+            clearance = free = None
+            if ik.ok and getattr(planner, "collisions", None) is not None:
+                check = planner.collisions.check(o.arm, ik.qs, base, grasped_object(planner, steps[i]),
+                                                gone_objects(planner, steps[i]))
+                clearance, free = float(check.clearance_m), bool(check.free)
+            if not ik.ok or free is False:
                 failed = (i, j)
                 break
             full = None if keep_maps else np.zeros(nav.shape, bool)
             if full is not None:
                 full[iy, ix] = True
             navc, pred = navigation_cost(world.factor, world.feasible, prev_cell, nav.resolution, targets=full)
-            step = placed(planner, steps[i], o, base, q, float(navc[iy, ix]), 0.0, float(value), {})
+            step = placed(planner, steps[i], o, base, ik.qs, float(navc[iy, ix]), 0.0, float(value), {}, clearance)
             if keep_maps:
                 manip = np.max([p.full_value(nav.shape) for p in planner.problems.options(i)], axis=0)
                 step.maps = StepMaps(navc, np.zeros(nav.shape), manip, None, extract_path(pred, (iy, ix)))
             out.append(step)
             prev_cell = (iy, ix)
-            q_state[o.arm] = q
+            q_state[o.arm] = ik.q
         if failed is None:
             ms = (time.perf_counter() - t0) * 1e3
             for s in out:
@@ -140,5 +150,5 @@ def plan_optimal(planner: Planner, start_cell, keep_maps: bool = False) -> list[
                                       f"at this step in {MAX_REPAIRS} repairs)")]
 
 
-def _infeasible(step, reason: str) -> StepResult:
-    return StepResult(step.index, step.action, step.target, status="infeasible", reason=reason)
+def _infeasible(step, reason: str, diagnosis: dict | None = None) -> StepResult:
+    return StepResult(step.index, step.action, step.target, status="infeasible", reason=reason, diagnosis=diagnosis)

@@ -7,16 +7,18 @@ Used by ``sequential``, ``single-step`` and ``irm`` (ranked by Eq. 6 with their 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
+from ..explain import explain
 from ..navigation import extract_path, navigation_cost
 from ..option import Option, height_range
 from ..ranking import Ranked, combined_map, rank_by_cost
 from ..results import Cost, StepMaps, StepResult
+from ..search import search_placement
 from ..steps import Step
-from ..verify import trajectory_ik
 
 if TYPE_CHECKING:
     from ..planner import Planner
@@ -26,9 +28,11 @@ Ranker = Callable[["Planner", list, np.ndarray, np.ndarray], list[Ranked]]
 
 
 def rank_eq6(planner: Planner, options: list[Option], nav_cost: np.ndarray,
-             heuristic: np.ndarray) -> list[Ranked]:
-    """Eq. 6 with the method's weights (see :func:`~placement.planning.ranking.rank_by_cost`)."""
-    return rank_by_cost(options, nav_cost, heuristic, planner.config, planner.yaws)
+             heuristic: np.ndarray, per_option: int | None = None) -> list[Ranked]:
+    """Eq. 6 with the method's weights (see :func:`~placement.planning.ranking.rank_by_cost`): the
+    ``per_option`` cheapest cells of each option and tier (default ``ik_tries``)."""
+    cfg = planner.config if per_option is None else replace(planner.config, ik_tries=per_option)
+    return rank_by_cost(options, nav_cost, heuristic, cfg, planner.yaws)
 
 
 def plan_stepwise(planner: Planner, start_cell: tuple[int, int], rank: Ranker, keep_maps: bool) -> list[StepResult]:
@@ -78,40 +82,32 @@ def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranke
         combined = combined_map(opts, nav_cost, heur, cfg) if planner.method != "fixed" else None
         maps = StepMaps(nav_cost, heur, manip, combined)
     t = time.perf_counter()
-    failed = []  # (option, row, column) of placements where IK failed
-    tries = 0
-    xs, ys = nav.centres()
-    for r in ranked:
-        if tries >= cfg.ik_tries:
-            break
+    more = None
+    if rank is rank_eq6:  # every ranked placement, for the spread phase of the search
+        def more():
+            return rank_eq6(planner, opts, nav_cost, heur, per_option=cfg.ik_cap)
+    found = search = None
+    if ranked:
+        search = search_placement(planner, step, opts, ranked, more, nav_cost, heur, prev_q)
+        found = search.found
+    timings["ik"] = (time.perf_counter() - t) * 1e3
+    if found is not None:
+        r = found.ranked
         o = opts[r.option]
         iy, ix = divmod(r.cell, nav.shape[1])
-        if not np.isfinite(nav_cost[iy, ix]):
-            continue  # a fixed placement the base cannot get to from here
-        # the next cell of the same candidate almost always fails the same way: spend the
-        # IK budget on distinct placements instead
-        if any(fk == r.option and abs(fy - iy) <= 1 and abs(fx - ix) <= 1 for fk, fy, fx in failed):
-            continue
-        tries += 1
-        base = (float(xs[ix]), float(ys[iy]), r.yaw)
-        q = trajectory_ik(planner.robot, o.arm, o.candidate.poses, base, prev_q[o.arm])
-        if q is None:
-            failed.append((r.option, iy, ix))
-            continue
-        timings["ik"] = (time.perf_counter() - t) * 1e3
         if maps is not None:
             maps.path = extract_path(pred, (iy, ix))
-        value = o.value_at(iy, ix) if planner.method != "fixed" else -r.cost
-        result = placed(planner, step, o, base, q, float(nav_cost[iy, ix]), float(heur[iy, ix]), value, timings)
+        value = found.value or (o.value_at(iy, ix) if planner.method != "fixed" else -r.cost)
+        result = placed(planner, step, o, found.base, found.ik.qs, float(nav_cost[iy, ix]), float(heur[iy, ix]),
+                        value, timings, found.clearance_m)
         result.maps = maps
+        result.tried = search.tried
         return result, (iy, ix)
-    timings["ik"] = (time.perf_counter() - t) * 1e3
-    if ranked:
-        reason = f"IK failed for the best {tries} distinct placements"
-    else:
-        reason = unreachable_reason(planner, opts)
-    return StepResult(step.index, step.action, step.target, status="infeasible", reason=reason, timings_ms=timings,
-                      maps=maps), None
+    reason, diagnosis = explain(planner, step, opts, search, "" if ranked else unreachable_reason(planner, opts))
+    result = StepResult(step.index, step.action, step.target, status="infeasible", reason=reason,
+                        diagnosis=diagnosis, timings_ms=timings, maps=maps)
+    result.tried = search.tried if search else 0
+    return result, None
 
 
 def unreachable_reason(planner: Planner, opts: list[Option]) -> str:
@@ -125,15 +121,18 @@ def unreachable_reason(planner: Planner, opts: list[Option]) -> str:
     return f"no base placement reaches the target with the map threshold {planner.config.threshold}"
 
 
-def placed(planner: Planner, step: Step, o: Option, base, q: np.ndarray, nav_c: float, heur_c: float,
-           value: float, timings: dict) -> StepResult:
-    """The result of a verified placement: weighted Eq. 6 terms, joints by name, travel time."""
+def placed(planner: Planner, step: Step, o: Option, base, qs: np.ndarray, nav_c: float, heur_c: float,
+           value: float, timings: dict, clearance_m: float | None = None) -> StepResult:
+    """The result of a verified placement: weighted Eq. 6 terms, joints by name (``qs`` (P, n): the
+    arm at every pose of the trajectory), travel time, clearance [m] (None without a collision check)."""
     cfg = planner.config
     arm = planner.robot.arm(o.arm)
+    q = qs[-1]
     joints = {name: float(v) for name, v in zip(arm.joints, q)}
     joints.update(planner.robot.fixed_joints)
     cost = Cost(cfg.lambda_n * nav_c, cfg.lambda_m / value, cfg.lambda_nh * heur_c)
     return StepResult(step.index, step.action, step.target, arm=o.arm, grasp=o.candidate.name,
-                      base=(base[0], base[1], base[2]), tcp=o.candidate.poses, q=q, joints=joints,
+                      base=(base[0], base[1], base[2]), tcp=o.candidate.poses, q=q, qs=qs, joints=joints,
+                      clearance_m=clearance_m,
                       manipulability=value, cost=cost, travel_time_s=nav_c / planner.robot.v_max,
                       timings_ms=timings)

@@ -1,0 +1,151 @@
+"""Why a step is infeasible, in plain words (``reason``) and as data (``diagnosis``).
+
+The diagnosis names the pose that is out of reach (index and role in its trajectory), the arm, by
+how much (the smallest IK residual the search saw), how many placements were tried and how they
+failed, and what would help, read from the maps: the band of heights at which the arm's map holds
+values for that pose's orientation, and the arm's horizontal reach there against the nearest free
+base cell.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..kernels.grid import pitch_bin, wrap_bin, zyx_angles
+from ..rmap import ReachabilityMap
+from ..robots import matrix_to_pose
+from .manipulation import pose_reach
+
+if TYPE_CHECKING:
+    from .option import Option
+    from .planner import Planner
+    from .search import Search
+    from .steps import Step
+
+
+def pose_role(action: str, index: int, count: int) -> str:
+    """The role of pose ``index`` of ``count`` in a trajectory of a ``action`` step, in words."""
+    names = {"pick": ("pre-grasp", "grasp"), "place": ("pre-place", "place")}.get(action)
+    if names and index == 0 and count > 1:
+        return names[0]
+    if names and index == count - 1:
+        return names[1]
+    return f"trajectory pose {index}"
+
+
+def orientation_words(pose: np.ndarray) -> str:
+    """"top-down", "horizontal" or "tilted": where the TCP's approach axis (z) points."""
+    down = float(pose[2, 2])
+    return "top-down" if down < -0.95 else "horizontal" if abs(down) < 0.05 else "tilted"
+
+
+def height_band(rmap: ReachabilityMap, pose: np.ndarray) -> tuple[float, float] | None:
+    """Lowest and highest TCP height [m] (above the base frame on the floor) at which ``rmap``
+    holds any value for the orientation of ``pose`` (4, 4) (None if it holds none)."""
+    g = rmap.grid
+    _, pitch, roll = zyx_angles(pose)
+    ip, ir = pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5])
+    hit = [iz for iz in range(g.shape[2]) if rmap.slice(iz, ip, ir).any()]
+    if not hit:
+        return None
+    return float(g.origin[2] + hit[0] * g.resolution), float(g.origin[2] + (hit[-1] + 1) * g.resolution)
+
+
+def nearest_free_m(planner: Planner, xy) -> float:
+    """Horizontal distance [m] from ``xy`` to the nearest base-feasible cell centre (inf if none)."""
+    w = planner.world
+    iy, ix = np.nonzero(w.feasible)
+    if iy.size == 0:
+        return math.inf
+    xs, ys = w.nav.centres()
+    return float(np.sqrt((xs[ix] - xy[0]) ** 2 + (ys[iy] - xy[1]) ** 2).min())
+
+
+def _hint(planner: Planner, o: Option, pose_index: int, role: str, band, searched: bool) -> str:
+    """What would help with pose ``pose_index`` of option ``o`` (``searched``: IK tried placements)."""
+    pose = o.candidate.poses[pose_index]
+    z, how = float(pose[2, 3]), orientation_words(pose)
+    arm = f"arm {o.arm}"
+    if band is None:
+        return f"{arm} reaches no {how} TCP orientation like this one at any height (another grasp would help)"
+    lo, hi = band
+    if z > hi or z < lo:
+        return (f"the {role} pose at {z:.2f} m is {'above' if z > hi else 'below'} the {lo:.2f}-{hi:.2f} m band "
+                f"{arm} reaches {how}")
+    reach = pose_reach(planner.maps[o.arm], pose)
+    near = nearest_free_m(planner, pose[:2, 3])
+    if near > reach:
+        return (f"the {role} pose at {z:.2f} m is within the {lo:.2f}-{hi:.2f} m band {arm} reaches {how}, but "
+                f"the nearest free base cell is {near:.2f} m away and the arm reaches {max(reach, 0):.2f} m "
+                f"there (an object closer to a free side would help)")
+    inside = (f"the {role} pose at {z:.2f} m is within the {lo:.2f}-{hi:.2f} m band {arm} reaches {how} and "
+              f"within its {reach:.2f} m reach of a free base cell")
+    if searched:
+        return f"{inside}, but IK confirmed none of the map cells the placements tried fall in"
+    if planner.method == "fixed":
+        return f"{inside}, but none of the fixed placements beside the tables keeps the map threshold"
+    return (f"{inside}, but the map values there stay below the threshold {planner.config.threshold:g} "
+            f"(a lower planner.threshold would help)")
+
+
+def _worst_pose(planner: Planner, opts: list[Option]) -> tuple[int, int, tuple | None]:
+    """(option index, pose index, band) of the pose farthest outside its height band (the first
+    option's last pose when every pose is inside)."""
+    best = (0, len(opts[0].candidate.poses) - 1, None, -math.inf)
+    for k, o in enumerate(opts):
+        for i, pose in enumerate(o.candidate.poses):
+            band = height_band(planner.maps[o.arm], pose)
+            z = float(pose[2, 3])
+            out = math.inf if band is None else max(band[0] - z, z - band[1])
+            if out > best[3]:
+                best = (k, i, band, out)
+    return best[:3]
+
+
+def explain(planner: Planner, step: Step, opts: list[Option], search: Search | None, base_reason: str = "") \
+        -> tuple[str, dict]:
+    """(reason, diagnosis) of an infeasible step: ``search`` is the IK search (None when no
+    placement kept the map threshold; ``base_reason`` then says that in words)."""
+    if not opts:
+        return base_reason or "the step has no candidate trajectory", {}
+    ik_fails = [f for f in search.failures if f.kind == "ik"] if search else []
+    collisions = search.culprits() if search else {}
+    if ik_fails:
+        f = min(ik_fails, key=lambda f: f.residual_m + 0.1 * f.residual_rad)
+        k, i = f.option, f.pose
+        band = height_band(planner.maps[opts[k].arm], opts[k].candidate.poses[i])
+    else:
+        k, i, band = _worst_pose(planner, opts)
+        f = None
+    o = opts[k]
+    pose = o.candidate.poses[i]
+    role = pose_role(step.action, i, len(o.candidate.poses))
+    hint = _hint(planner, o, i, role, band, search is not None)
+    culprit = collisions.most_common(1)[0][0] if collisions else None
+    d = {"arm": o.arm, "trajectory": o.candidate.name, "pose_index": i, "pose_role": role,
+         "pose": matrix_to_pose(pose), "height_m": round(float(pose[2, 3]), 6),
+         "orientation": orientation_words(pose), "band_m": [round(v, 6) for v in band] if band else None,
+         "residual_m": None if f is None else round(f.residual_m, 6),
+         "residual_rad": None if f is None else round(f.residual_rad, 6),
+         "tried": search.tried if search else 0, "ik_failures": len(ik_fails),
+         "collision_failures": sum(collisions.values()) if search else 0, "culprit": culprit,
+         "stopped": search.stop if search else None, "hint": hint}
+    if search is None:
+        return f"{base_reason}; {hint}", d
+    stop = {"budget": f", when the {planner.config.ik_budget_ms:g} ms IK budget ran out",
+            "cap": f", the most the search tries ({planner.config.ik_cap})"}.get(search.stop, ", every candidate")
+    if search.tried == 0:
+        return f"the base cannot get to any of the placements that reach the target from where it is; {hint}", d
+    ncol = d["collision_failures"]
+    tried = f"no placement verified after {search.tried} tries{stop} ({len(ik_fails)} failed IK, {ncol} in collision)"
+    parts = []
+    if ncol and ncol >= len(ik_fails):
+        parts.append(f"IK reached every pose at {ncol} of them but the arm collided there"
+                     + (f", mostly {culprit}" if culprit else ""))
+    if f is not None:
+        parts.append(f"the {role} pose (pose {i} of '{o.candidate.name}', {float(pose[2, 3]):.2f} m high) is out of "
+                     f"reach for arm {o.arm} by {f.residual_m * 100:.1f} cm and {f.residual_rad:.2f} rad at best")
+    return f"{tried}: {'; '.join(parts + [hint])}", d

@@ -1,0 +1,307 @@
+"""The IK search over a step's ranked placements: best-first, then spread, under a time budget.
+
+Phase 1 tries the ranked placements in order (up to ``ik_tries`` distinct ones, skipping the cells
+next to a failure of the same option), exactly as the planner always did: when the best placements
+verify, the result is the first verified one in rank order. When none of those verifies, phase 2
+does not give up: it takes every ranked placement (``more``), groups them by option, region around
+the target (bearing sector and distance band), and base yaw sector, and tries them round-robin over
+the groups, best first within each, so the tries spread over options, regions, yaws and distances.
+It learns from failures: a placement next to a failed one of the same option and a similar yaw is
+deferred to the end, and one whose target lies in the same direction but farther than a failure whose
+TCP fell short along its reach is dropped (reaching farther cannot help). It stops at the first
+verified placement, when the ``ik_budget_ms`` time budget or the ``ik_cap`` tries are used up, or
+when every candidate was tried.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+from ..kernels.grid import zyx_angles
+from .manipulation import pose_slices
+from .ranking import Ranked, combined_cost
+from .verify import TrajectoryIK, base_matrix, trajectory_ik
+
+if TYPE_CHECKING:
+    from .option import Option
+    from .planner import Planner
+    from .steps import Step
+
+#: A failure whose TCP stopped this far [m] or more short of its target teaches the search.
+SHORTFALL_M = 0.02
+#: Base yaws and target bearings this close [rad] count as "the same direction".
+SAME_DIRECTION = 0.35
+#: Round-robin groups: bearing and yaw sectors per turn [count], distance band [m].
+SECTORS, BAND_M = 8, 0.1
+
+
+@dataclass
+class Failure:
+    """A placement that did not verify: ``kind`` "ik" or "collision"; for IK the failed pose's
+    index and residual (position [m], rotation [rad]); for a collision the culprit pair."""
+
+    option: int
+    cell: tuple[int, int]
+    yaw: float
+    kind: str
+    pose: int | None = None
+    residual_m: float = math.inf
+    residual_rad: float = math.inf
+    culprit: str | None = None
+
+
+@dataclass
+class Found:
+    """The verified placement: its ranked entry, base (x [m], y [m], yaw [rad]), IK and clearance [m]."""
+
+    ranked: Ranked
+    base: tuple[float, float, float]
+    ik: TrajectoryIK
+    clearance_m: float | None
+    value: float | None = None  # its map value when it is not the cell's best yaw
+
+
+@dataclass
+class Search:
+    """What the search did: the placement found (or None), the failures, and why it stopped
+    ("found", "all" candidates tried, "budget" spent, "cap" of tries reached)."""
+
+    found: Found | None = None
+    failures: list[Failure] = field(default_factory=list)
+    stop: str = "all"
+
+    @property
+    def tried(self) -> int:
+        return len(self.failures) + (self.found is not None)
+
+    def culprits(self) -> Counter:
+        return Counter(f.culprit for f in self.failures if f.kind == "collision" and f.culprit)
+
+
+def grasped_object(planner: Planner, step: Step) -> str | None:
+    """The object in the gripper during ``step``: the picked one (pick, and the place after it)."""
+    if step.action == "pick":
+        return step.target
+    if step.action == "place":
+        picks = [s for s in planner.problems.steps[:step.index] if s.action == "pick"]
+        return picks[-1].target if picks else None
+    return None
+
+
+def gone_objects(planner: Planner, step: Step) -> list[str]:
+    """Objects picked before ``step`` other than the one in the gripper: no longer where the scene
+    has them (where they were put down is not modelled)."""
+    held = grasped_object(planner, step)
+    return [s.target for s in planner.problems.steps[:step.index] if s.action == "pick" and s.target != held]
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+class _Learner:
+    """The failures' lessons: neighbours to defer, directions to drop."""
+
+    def __init__(self, yaw_step: float, robot):
+        self.yaw_step, self.robot = yaw_step, robot
+        self.failed: list[tuple[int, int, int, float]] = []  # option, iy, ix, yaw
+        self.short: list[tuple[int, int, float, float, float]] = []  # option, pose, yaw, bearing, distance
+
+    def add(self, f: Failure, o: Option, base, ik: TrajectoryIK | None) -> None:
+        self.failed.append((f.option, *f.cell, f.yaw))
+        if ik is None or f.residual_m < SHORTFALL_M:
+            return
+        target = o.candidate.poses[f.pose, :3, 3]
+        h = target[:2] - np.asarray(base[:2])
+        # the TCP of the best attempt, by pinocchio (only for failures that can teach)
+        reached = (base_matrix(*base) @ self.robot.tcp_pose(o.arm, ik.best_q))[:3, 3]
+        e = target - reached
+        d = float(np.hypot(*h))
+        # the TCP fell short along the horizontal reach direction: farther is hopeless
+        if d > 0 and float(e[:2] @ h) / d >= 0.7 * float(np.linalg.norm(e)):
+            self.short.append((f.option, f.pose, base[2], math.atan2(h[1], h[0]) - base[2], d))
+
+    def near_failure(self, k: int, iy: int, ix: int, yaw: float, any_yaw: bool) -> bool:
+        return any(fk == k and abs(fy - iy) <= 1 and abs(fx - ix) <= 1
+                   and (any_yaw or abs(_wrap(yaw - fyaw)) <= 2 * self.yaw_step + 1e-9)
+                   for fk, fy, fx, fyaw in self.failed)
+
+    def hopeless(self, k: int, o: Option, base) -> bool:
+        for fk, pose, fyaw, bearing, d in self.short:
+            if fk != k or abs(_wrap(base[2] - fyaw)) > SAME_DIRECTION:
+                continue
+            h = o.candidate.poses[pose, :2, 3] - np.asarray(base[:2])
+            if (np.hypot(*h) >= d and abs(_wrap(math.atan2(h[1], h[0]) - base[2] - bearing)) <= SAME_DIRECTION):
+                return True
+        return False
+
+
+def yaw_values(rmap, poses: np.ndarray, bx: np.ndarray, by: np.ndarray, yaws: np.ndarray) -> np.ndarray:
+    """(N, K) map value of the trajectory ``poses`` (P, 4, 4) (its minimum over the poses) for base
+    positions (bx, by) (N,) [m] at each of the base ``yaws`` (K,) [rad]: the arithmetic of the IRM
+    kernel, for every yaw instead of the best one (0 where a pose is off the map)."""
+    g = rmap.grid
+    keys = pose_slices(rmap, poses)
+    out = np.full((bx.size, yaws.size), np.inf, np.float32)
+    if len(keys) < len(poses):
+        return np.zeros_like(out)
+    cs, sn = np.cos(yaws)[None], np.sin(yaws)[None]
+    n_yaw = g.shape[3]
+    for pose, key in zip(poses, keys):
+        sl = rmap.slice(*key)
+        dx, dy = pose[0, 3] - bx[:, None], pose[1, 3] - by[:, None]
+        jx = np.floor((cs * dx + sn * dy - g.origin[0]) / g.resolution).astype(np.int64)
+        jy = np.floor((-sn * dx + cs * dy - g.origin[1]) / g.resolution).astype(np.int64)
+        tcp_yaw = zyx_angles(pose)[0]
+        jb = np.mod(np.floor((tcp_yaw - yaws) * (n_yaw / (2 * math.pi)) + 0.5).astype(np.int64), n_yaw)
+        inside = (jx >= 0) & (jy >= 0) & (jx < sl.shape[0]) & (jy < sl.shape[1])
+        v = np.zeros(out.shape, np.float32)
+        v[inside] = sl[jx[inside], jy[inside], np.broadcast_to(jb[None], jx.shape)[inside]]
+        np.minimum(out, v, out=out)
+    return out
+
+
+def other_yaws(planner: Planner, opts: list[Option], nav_cost: np.ndarray,
+               heuristic: np.ndarray) -> tuple[list[Ranked], dict]:
+    """Every (cell, base yaw) of every option that keeps the map threshold other than each cell's
+    best yaw, ranked by Eq. 6 with its own map value; and {(option, cell, yaw): value}."""
+    cfg, nav = planner.config, planner.world.nav
+    nx = nav.shape[1]
+    xs, ys = nav.centres()
+    out, values = [], {}
+    for k, o in enumerate(opts):
+        local = np.flatnonzero(o.value.ravel() >= cfg.threshold)
+        cells = o.window.to_global(local, nx)
+        iy, ix = np.divmod(cells, nx)
+        ok = np.isfinite(nav_cost[iy, ix]) & np.isfinite(heuristic[iy, ix])
+        cells, iy, ix, best = cells[ok], iy[ok], ix[ok], o.yaw_index.ravel()[local][ok]
+        if cells.size == 0:
+            continue
+        v = yaw_values(planner.maps[o.arm], o.candidate.poses, xs[ix], ys[iy], planner.yaws)
+        v[np.arange(cells.size), best] = 0.0
+        n, j = np.nonzero(v >= np.float32(cfg.threshold))
+        cost = combined_cost(cfg, nav_cost[iy[n], ix[n]], v[n, j].astype(float), heuristic[iy[n], ix[n]])
+        for c, cell, yaw, val in zip(cost, cells[n], planner.yaws[j], v[n, j]):
+            out.append(Ranked(float(c), k, int(cell), float(yaw)))
+            values[(k, int(cell), float(yaw))] = float(val)
+    out.sort(key=lambda r: (r.cost, r.option, r.cell, r.yaw))
+    return out, values
+
+
+def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: list[Ranked],
+                     more: Callable[[], list[Ranked]] | None, nav_cost: np.ndarray, heuristic: np.ndarray,
+                     prev_q: dict) -> Search:
+    """Try ``ranked`` placements of ``step`` (then ``more()``, every ranked placement, and when
+    ``more`` is given every other base yaw that keeps the threshold) until one verifies by IK
+    (and the collision hook, when the planner has one); see the module docstring."""
+    cfg, nav = planner.config, planner.world.nav
+    xs, ys = nav.centres()
+    collisions = getattr(planner, "collisions", None)
+    grasped, gone = grasped_object(planner, step), gone_objects(planner, step)
+    out = Search()
+    learn = _Learner(2 * math.pi / max(len(planner.yaws), 1), planner.robot)
+    tried: set[tuple[int, int, float]] = set()
+    deadline = time.perf_counter() + cfg.ik_budget_ms * 1e-3
+
+    def attempt(r: Ranked, o: Option, iy: int, ix: int) -> bool:
+        tried.add((r.option, r.cell, r.yaw))
+        base = (float(xs[ix]), float(ys[iy]), r.yaw)
+        witness = getattr(planner.maps[o.arm], "witness_q", None)
+        ik = trajectory_ik(planner.robot, o.arm, o.candidate.poses, base, prev_q[o.arm], witness)
+        if not ik.ok:
+            f = Failure(r.option, (iy, ix), r.yaw, "ik", ik.failed_pose, ik.residual_m, ik.residual_rad)
+            out.failures.append(f)
+            learn.add(f, o, base, ik)
+            return False
+        clearance = None
+        if collisions is not None:
+            check = collisions.check(o.arm, ik.qs, base, grasped, gone)
+            clearance = float(check.clearance_m)
+            if not check.free:
+                f = Failure(r.option, (iy, ix), r.yaw, "collision", culprit=check.culprit)
+                out.failures.append(f)
+                learn.add(f, o, base, None)
+                return False
+        out.found = Found(r, base, ik, clearance)
+        out.stop = "found"
+        return True
+
+    def spent() -> bool:
+        if out.tried >= cfg.ik_cap:
+            out.stop = "cap"
+        elif time.perf_counter() > deadline:
+            out.stop = "budget"
+        else:
+            return False
+        return True
+
+    def usable(r: Ranked):
+        iy, ix = divmod(r.cell, nav.shape[1])
+        # a fixed placement the base cannot get to from here, or one tried already
+        return None if (not np.isfinite(nav_cost[iy, ix]) or (r.option, r.cell, r.yaw) in tried) else (iy, ix)
+
+    def spread(candidates: list[Ranked]) -> bool:
+        """Round-robin over the groups of ``candidates`` (see the module docstring); True when
+        the search is over (found, or out of time or tries)."""
+        groups: dict[tuple, list] = {}
+        for r in candidates:
+            cell = usable(r)
+            if cell is not None:
+                groups.setdefault(_group(opts[r.option], r, cell, xs, ys), []).append((r, cell))
+        queues = list(groups.values())  # each in rank order; groups by their best placement's rank
+        deferred = []
+        while queues:
+            for q in queues:
+                r, cell = q.pop(0)
+                o = opts[r.option]
+                if learn.hopeless(r.option, o, (xs[cell[1]], ys[cell[0]], r.yaw)):
+                    continue
+                if learn.near_failure(r.option, *cell, r.yaw, any_yaw=False):
+                    deferred.append((r, cell))
+                    continue
+                if spent() or attempt(r, o, *cell):
+                    return True
+            queues = [q for q in queues if q]
+        for r, cell in sorted(deferred, key=lambda rc: (rc[0].cost, rc[0].option, rc[0].cell)):
+            o = opts[r.option]
+            if not learn.hopeless(r.option, o, (xs[cell[1]], ys[cell[0]], r.yaw)) and (spent() or attempt(r, o, *cell)):
+                return True
+        return False
+
+    for r in ranked:  # phase 1: best first
+        if out.tried >= cfg.ik_tries or spent():
+            break
+        cell = usable(r)
+        # the next cell of the same candidate almost always fails the same way
+        if cell is None or learn.near_failure(r.option, *cell, r.yaw, any_yaw=True):
+            continue
+        if attempt(r, opts[r.option], *cell):
+            return out
+    if out.stop in ("budget", "cap"):
+        return out
+    out.stop = "all"
+    if spread(more() if more is not None else ranked) or more is None:
+        return out
+    extra, values = other_yaws(planner, opts, nav_cost, heuristic)
+    if not spread(extra) and time.perf_counter() > deadline:
+        out.stop = "budget"
+    if out.found is not None:
+        r = out.found.ranked
+        out.found.value = values[(r.option, r.cell, r.yaw)]
+    return out
+
+
+def _group(o: Option, r: Ranked, cell, xs, ys) -> tuple:
+    """Round-robin group of a placement: option, bearing sector and distance band around the target,
+    base yaw sector."""
+    t = o.candidate.poses[-1, :3, 3]
+    dx, dy = float(xs[cell[1]] - t[0]), float(ys[cell[0]] - t[1])
+    sector = int((math.atan2(dy, dx) + math.pi) / (2 * math.pi) * SECTORS) % SECTORS
+    yaw_sector = int((r.yaw + math.pi) / (2 * math.pi) * SECTORS) % SECTORS
+    return r.option, sector, int(math.hypot(dx, dy) / BAND_M), yaw_sector
