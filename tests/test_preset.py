@@ -101,7 +101,7 @@ def test_near_unit_quaternion_is_normalised(tmp_path):
     ("joints", ["r_shoulder_pan_joint", "r_shoulder_lift_joint", "r_upper_arm_roll_joint", "r_elbow_flex_joint",
                 "r_forearm_roll_joint"], ["arms.right.joints", "at least 6 joint names, got 5"]),
     ("tip_frame", ["r_gripper_tool_frame"], ["arms.right.tip_frame", "non-empty string"]),
-    ("grip", 1, ["arms.right.grip", "unknown key", "home, joints, tcp_offset, tip_frame"]),
+    ("grip", 1, ["arms.right.grip", "unknown key", "home, idle, joints, tcp_offset, tip_frame"]),
     ("joints", DELETE, ["arms.right.joints", "missing required key"]),
 ])
 def test_bad_arm_values(tmp_path, key, value, words):
@@ -353,3 +353,13 @@ def test_footprint_and_radius_exclude_each_other(tmp_path, value, words):
 ])
 def test_bad_footprints_are_one_line_errors(tmp_path, value, words):
     message(tmp_path, changed(pr2_mapping(), footprint_radius=DELETE, footprint=value), PresetError, *words)
+
+
+def test_idle_configuration_defaults_to_home_and_is_checked(tmp_path, pr2):
+    from placement.robots import load_robot
+    assert np.allclose(pr2.arm("right").idle[:2], [-0.023593, 1.10728])  # the built-in PR2 tucks its arms
+    plain = load_robot(write(tmp_path, pr2_mapping()))  # the round test copy gives no idle
+    assert np.array_equal(plain.arm("right").idle, plain.arm("right").home)
+    message(tmp_path, changed(pr2_mapping(), arms__right__idle=[0.0] * 6), PresetError, "arms.right.idle", "expected 7")
+    message(tmp_path, changed(pr2_mapping(), arms__right__idle=[9.0] + [0.0] * 6), PresetError,
+            "arms.right.idle[0]", "outside the limits")

@@ -2,7 +2,7 @@
 
 The robot stands with its base frame on the floor at (x, y), heading yaw; the checked arm takes each
 configuration of the trajectory, the preset's fixed joints keep their values, every other arm is at
-home and every other joint at pinocchio's neutral value.
+idle configuration (the preset's ``idle``, by default home) and every other joint at pinocchio's neutral value.
 
 Pairs checked (coal, on the URDF's collision shapes, see :mod:`placement.collision.robot`):
 
@@ -11,7 +11,7 @@ Pairs checked (coal, on the URDF's collision shapes, see :mod:`placement.collisi
   ``grasped`` object: it is being grasped, or held in a place step. The rest of the arm is checked
   against it. A pair collides when its distance is below ``padding`` [m].
 * self: every shape moved by the arm against every other shape, except shapes on the same or adjacent
-  links, the SRDF's disabled pairs and pairs already in contact with every arm at home (they touch by
+  links, the SRDF's disabled pairs and pairs already in contact with every arm idle (they touch by
   design or through the model's slack). A pair collides when the shapes overlap (no padding).
 
 Speed: each robot shape is bounded by a sphere, each scene piece by an axis-aligned box; a pair whose

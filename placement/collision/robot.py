@@ -151,7 +151,8 @@ class RobotGeometry:
         names: (G,) link name of each shape (culprit names).
         lost: links whose shapes were left out (missing meshes).
         centre, radius: (G, 3), (G,) bounding sphere of each shape in its own frame [m].
-        home_q: pinocchio configuration: the preset's fixed joints, every arm at home.
+        home_q: pinocchio configuration: the preset's fixed joints, every arm at its ``idle``
+            configuration (the preset's, by default home).
         base_in_model: (4, 4) pose of the base frame in the model's root frame at ``home_q``.
     """
 
@@ -178,7 +179,7 @@ class RobotGeometry:
         self.radius = np.array([o.geometry.aabb_radius for o in objs], dtype=float)
         q = robot.reference_q()
         for name in robot.arms:
-            q = robot.full_q(name, robot.arm(name).home, q)
+            q = robot.full_q(name, robot.arm(name).idle, q)
         self.home_q = q
         self.data = model.createData()
         self.gdata = pin.GeometryData(self.geom)

@@ -221,7 +221,7 @@ def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: l
             return False
         clearance = None
         if collisions is not None:
-            check = collisions.check(o.arm, ik.qs, base, grasped, gone)
+            check = collisions.check(o.arm, ik.qs, base, grasped, gone=gone)
             clearance = float(check.clearance_m)
             if not check.free:
                 f = Failure(r.option, (iy, ix), r.yaw, "collision", culprit=check.culprit)

@@ -127,6 +127,8 @@ class Arm:
         tcp_offset: (4, 4) fixed transform tip frame -> canonical TCP frame
             (z = approach direction, y = closing direction), metres.
         home: (n,) home configuration [rad or m], within the limits.
+        idle: (n,) configuration [rad or m] the arm holds while another arm works (collision
+            checks place the other arms there), within the limits; the preset's ``idle`` or home.
         lower, upper: (n,) joint limits [rad or m]; continuous joints get [-pi, pi].
         continuous: (n,) bool, True for joints without limits (never penalised).
         velocity: (n,) URDF velocity limits [rad/s or m/s].
@@ -144,6 +146,11 @@ class Arm:
     velocity: np.ndarray
     chain: Chain
     joint_ids: list[int] = field(repr=False)
+    idle: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.idle is None:
+            self.idle = self.home
 
     @property
     def dof(self) -> int:
@@ -265,15 +272,17 @@ class Robot:
                                                         f"({lower[i]:g}, {upper[i]:g}) in the URDF")
             vel[i] = self.model.velocityLimit[self.model.joints[jid].idx_v]
         home = (lower + upper) / 2 * ~cont if a.home is None else np.array(a.home, dtype=float)
-        for i in np.flatnonzero(~cont & ((home < lower) | (home > upper))):
-            self._check.fail(f"{path}.home[{i}]", f"{home[i]:g} is outside the limits [{lower[i]:g}, "
-                                                  f"{upper[i]:g}] of joint '{a.joints[i]}'")
+        idle = home if a.idle is None else np.array(a.idle, dtype=float)
+        for key, values in (("home", home), ("idle", idle)):
+            for i in np.flatnonzero(~cont & ((values < lower) | (values > upper))):
+                self._check.fail(f"{path}.{key}[{i}]", f"{values[i]:g} is outside the limits [{lower[i]:g}, "
+                                                       f"{upper[i]:g}] of joint '{a.joints[i]}'")
         tcp = pose_to_matrix(a.tcp_offset)
         q0 = self.reference_q()
         for jid in jids:
             self._set(q0, jid, 0.0)
         chain = extract_chain(self.model, q0, self.base_frame_id, jids, tip_id, tcp, (self.name, a.name), data)
-        return Arm(a.name, list(a.joints), a.tip_frame, tcp, home, lower, upper, cont, vel, chain, jids)
+        return Arm(a.name, list(a.joints), a.tip_frame, tcp, home, lower, upper, cont, vel, chain, jids, idle)
 
     # -- public API ----------------------------------------------------
     @property

@@ -39,6 +39,7 @@ ARM_KEYS = {
     "tip_frame": "URDF frame the TCP is attached to",
     "tcp_offset": "[x y z qx qy qz qw] tip frame -> canonical TCP [m]",
     "home": "[rad or m] one value per joint",
+    "idle": "[rad or m] one value per joint: where the arm waits while another arm works (default home)",
 }
 ARM_REQUIRED = ("joints", "tip_frame")
 #: The extended manipulability is defined on the 6 x n Jacobian.
@@ -59,6 +60,7 @@ class ArmSpec:
         tip_frame: URDF frame name.
         tcp_offset: (7,) ``[x, y, z, qx, qy, qz, qw]`` [m], unit quaternion.
         home: (n,) home configuration [rad or m], or None for the mid-range default.
+        idle: (n,) configuration [rad or m] the arm holds while another arm works, or None (home).
     """
 
     name: str
@@ -66,6 +68,7 @@ class ArmSpec:
     tip_frame: str
     tcp_offset: tuple[float, ...]
     home: tuple[float, ...] | None
+    idle: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -148,7 +151,10 @@ def _arm(c: Checker, name: str, value: Any, fixed: dict[str, float]) -> ArmSpec:
     home = None
     if "home" in a:
         home = c.vector(a["home"], f"{path}.home", len(joints), f"values [rad or m], one per joint of {path}.joints")
-    return ArmSpec(name, tuple(joints), tip, tcp, home)
+    idle = None
+    if "idle" in a:
+        idle = c.vector(a["idle"], f"{path}.idle", len(joints), f"values [rad or m], one per joint of {path}.joints")
+    return ArmSpec(name, tuple(joints), tip, tcp, home, idle)
 
 
 def _base_shape(c: Checker, d: dict) -> tuple[float, tuple | None]:
