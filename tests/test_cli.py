@@ -127,3 +127,19 @@ def test_unreachable_dask_scheduler_is_one_line(tmp_path):
     pytest.importorskip("dask.distributed")
     _assert_one_line_error(run("maps", "build", "--samples", "10", "--dask", "tcp://127.0.0.1:9",
                                "--out", str(tmp_path / "m")), "Dask scheduler")
+
+
+def test_python_warnings_become_one_line_on_stderr(capsys):
+    import warnings
+
+    from placement.cli.options import setup_logging
+    saved = warnings.showwarning
+    try:
+        setup_logging(0, False)
+        with warnings.catch_warnings():
+            warnings.simplefilter("always")
+            warnings.warn("robot 'r': links without their collision meshes: a,\nb", UserWarning)
+    finally:
+        warnings.showwarning = saved
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("warning: robot 'r': links without their collision meshes: a,")

@@ -7,6 +7,7 @@ import json
 import logging
 import sys
 import tempfile
+import warnings
 from pathlib import Path
 
 import click
@@ -39,6 +40,13 @@ def verbosity(f):
 def setup_logging(verbose: int, quiet: bool) -> None:
     level = logging.WARNING if quiet else (logging.DEBUG if verbose > 1 else logging.INFO)
     logging.basicConfig(stream=sys.stderr, level=level, format="%(message)s")
+    warnings.showwarning = _one_line_warning
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Python warnings (a robot without collision meshes, ...) as one ``warning:`` line on stderr,
+    without the source line a user cannot act on."""
+    print(one_line(f"warning: {message}"), file=sys.stderr)
 
 
 def _json(data, indent) -> str:
