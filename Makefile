@@ -2,7 +2,7 @@
 PY ?= .venv/bin/python
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 
-.PHONY: install test maps maps-armar6 demo bench bench-eval eval clean
+.PHONY: install test maps maps-armar6 demo bench bench-eval eval robots clean
 
 install: .venv/installed $(NUMBA_CACHE_DIR)/warm
 
@@ -41,6 +41,7 @@ demo: install maps/pr2/zarr.json
 bench: install maps/pr2/zarr.json maps/armar6/zarr.json
 	$(PY) tools/bench.py
 	$(PY) tools/bench_query.py
+	$(PY) tools/bench_collision.py --maps maps/pr2
 
 # The 45 free scenes of `make eval`: serial, 2 local processes and a 2-worker Dask LocalCluster.
 bench-eval: install maps/pr2/zarr.json
@@ -54,6 +55,11 @@ eval: install maps/pr2/zarr.json
 	.venv/bin/placement scenes generate --seed 1 --count 30 --obstacles build/eval-scenes/obstacles -q
 	.venv/bin/placement evaluate build/eval-scenes/free --out docs/eval/free
 	.venv/bin/placement evaluate build/eval-scenes/obstacles --out docs/eval/obstacles
+
+# Issue 9's generality check: robots init -> maps build -> a scene sized from the reach band -> plan ->
+# FK verify, for example-robot-data robots no test uses (maps in maps/<robot>, built when missing).
+robots: install
+	$(PY) tools/onboard_robots.py tiago talos_reduced romeo
 
 clean:
 	rm -rf .venv build *.egg-info .pytest_cache
