@@ -1,9 +1,15 @@
 """An independent oracle for "is this step feasible?": random base poses around the target and a
 pinocchio-only damped least-squares IK with restarts (no map, no planner kernel, no placement.ik).
 
-A step is feasible when some base pose (the centre of a base-feasible cell of the planner's world,
-any yaw) lets the arm reach every pose of one of the step's TCP trajectories, each within 2 mm and
-0.02 rad.
+A step is feasible when some base pose lets the arm reach every pose of one of the step's TCP
+trajectories, each within 2 mm and 0.02 rad. Base poses are on the planner's grid (cell centres) and,
+for a polygon footprint, at the planner's base yaws. Base feasibility: a round base stands on a
+feasible cell of the planner's world; a polygon base is tested here, exactly in 2D at its yaw
+(oracle_collision.polygon_distance), keeping the planner's footprint padding from each obstacle's
+bounding rectangle grown out to the grid lines (the planner tests the grid cells an obstacle touches:
+they all lie in that rectangle, which is the obstacle itself for the grid-aligned boxes of the tests). With ``collisions``
+the configurations are also checked by oracle_collision.IndependentCheck (robot-scene pairs keep the
+planner's collision padding, no self-collision).
 """
 
 from __future__ import annotations
@@ -12,6 +18,8 @@ import math
 
 import numpy as np
 import pinocchio as pin
+
+from oracle_collision import IndependentCheck, polygon_distance
 
 POS_TOL, ROT_TOL = 2e-3, 2e-2
 
@@ -62,36 +70,102 @@ def base_matrix(x, y, yaw):
     return B
 
 
+def step_objects(planner, step_index: int) -> tuple[list[str], str | None]:
+    """(objects picked before step ``step_index``, the object in the hand during it)."""
+    steps = planner.problems.steps
+    picked = [s.target for s in steps[:step_index] if s.action == "pick"]
+    step = steps[step_index]
+    held = step.target if step.action == "pick" else picked[-1] if step.action == "place" and picked else None
+    return picked, held
+
+
+class BaseAndArmCheck:
+    """The oracle's own base-footprint and (optional) collision tests of one step of ``planner``."""
+
+    def __init__(self, planner, step_index: int, collisions: bool):
+        self.planner = planner
+        self.polygon = None if planner.robot.footprint is None else np.asarray(planner.robot.footprint, float)
+        cfg = planner.base_config
+        self.keep = cfg.footprint_padding
+        self.padding = cfg.collision_padding
+        self.checker = IndependentCheck(planner.robot, planner.scene) if (collisions or self.polygon is not None) \
+            else None
+        self.collisions = collisions
+        self.picked, self.held = step_objects(planner, step_index)
+
+    def base_clear(self, x: float, y: float, yaw: float) -> bool:
+        B = base_matrix(x, y, yaw)
+        poly = self.polygon @ B[:2, :2].T + (x, y)
+        return all(polygon_distance(poly, o) >= self.keep for o in self.snapped)
+
+    @property
+    def snapped(self) -> list[np.ndarray]:
+        """(4, 2) per obstacle: its bounding rectangle grown out to the planner's grid lines [m]."""
+        if not hasattr(self, "_snapped"):
+            nav = self.planner.world.nav
+            res, (ox, oy) = nav.resolution, nav.origin
+            self._snapped = []
+            for _, o in self.checker.outlines:
+                (x0, y0), (x1, y1) = o.min(axis=0), o.max(axis=0)
+                x0, x1 = ox + math.floor((x0 - ox) / res + 1e-9) * res, ox + math.ceil((x1 - ox) / res - 1e-9) * res
+                y0, y1 = oy + math.floor((y0 - oy) / res + 1e-9) * res, oy + math.ceil((y1 - oy) / res - 1e-9) * res
+                self._snapped.append(np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]))
+        return self._snapped
+
+    def arm_free(self, arm: str, qs: list, base) -> bool:
+        if not self.collisions:
+            return True
+        names = self.planner.robot.arm(arm).joints
+        step = {"step": 0, "arm": arm, "base": list(base),
+                "poses": [{"joints": dict(zip(names, map(float, q)))} for q in qs]}
+        c = self.checker.check_step(step, self.picked, self.held)
+        return not c.self_hits and c.scene_m >= self.padding and c.held_m >= self.padding
+
+
 def find_placement(planner, trajectories, samples: int = 400, restarts: int = 3, radius: float = 1.2,
-                   seed: int = 0):
-    """A base pose (x, y, yaw) on a free cell from which one arm reaches every pose of one of
-    ``trajectories`` ((P, 4, 4) world poses), or None after ``samples`` random base poses."""
+                   seed: int = 0, step_index: int = 0, collisions: bool = False):
+    """A base pose (x, y, yaw) from which one arm reaches every pose of one of ``trajectories``
+    ((P, 4, 4) world poses) (collision-free with ``collisions``: step ``step_index`` of the
+    planner's task says which objects are gone or in the hand), or None after ``samples`` random
+    base poses where the base fits."""
     rng = np.random.default_rng(seed)
     world = planner.world
+    check = BaseAndArmCheck(planner, step_index, collisions)
+    yaws = np.asarray(planner.yaws, float)
     solvers = {arm: PinIK(planner.robot, arm) for arm in planner.maps}
     target = np.mean([T[-1, :2, 3] for T in trajectories], axis=0)
-    for _ in range(samples):
+    tried = 0
+    for _ in range(50 * samples):  # ``samples`` counts the base poses that fit: most draws hit furniture
+        if tried >= samples:
+            break
         r, th = radius * math.sqrt(rng.random()), 2 * math.pi * rng.random()
         x, y, yaw = target[0] + r * math.cos(th), target[1] + r * math.sin(th), 2 * math.pi * rng.random() - math.pi
         try:
             cell = world.nav.cell(x, y)
         except Exception:
             continue
-        if not world.feasible[cell]:
-            continue
-        # base positions are the planner's grid cells: feasibility is known at their centres only
+        # base positions are the planner's grid cells (and yaws): it decides at their centres only
         x, y = float(world.nav.centres()[0][cell[1]]), float(world.nav.centres()[1][cell[0]])
+        if check.polygon is None:
+            if not world.feasible[cell]:
+                continue
+        else:
+            yaw = float(yaws[np.argmin(np.abs((yaws - yaw + math.pi) % (2 * math.pi) - math.pi))])
+            if not check.base_clear(x, y, yaw):
+                continue
+        tried += 1
         Binv = np.linalg.inv(base_matrix(x, y, yaw))
         for arm, ik in solvers.items():
             T = trajectories[rng.integers(len(trajectories))]  # the samples spread over the trajectories
             lo = np.where(ik.a.continuous, -math.pi, ik.a.lower)
             hi = np.where(ik.a.continuous, math.pi, ik.a.upper)
             for q in [ik.a.home] + [rng.uniform(lo, hi) for _ in range(restarts - 1)]:
-                ok = True
+                ok, qs = True, []
                 for pose in T:
                     ok, q = ik.solve(Binv @ pose, q)
+                    qs.append(q)
                     if not ok:
                         break
-                if ok:
+                if ok and check.arm_free(arm, qs, (x, y, yaw)):
                     return x, y, yaw
     return None

@@ -47,10 +47,10 @@ def edge_scene(tmp_path, maps, height: float, depth: float, along: float = 0.0, 
     return path
 
 
-def _oracle(planner, step_index: int, samples: int = 500):
+def _oracle(planner, step_index: int, samples: int = 500, collisions: bool = False):
     step = planner.problems.steps[step_index]
     return find_placement(planner, [c.poses for c in step_candidates(planner.scene, step, planner.config)],
-                          samples=samples)
+                          samples=samples, step_index=step_index, collisions=collisions)
 
 
 # -- trajectory IK -------------------------------------------------------------------------------
@@ -217,17 +217,15 @@ def test_a_scene_that_gave_up_after_the_best_placements_now_plans(tmp_path, maps
 
 def _held_out(tmp_path, maps, threshold):
     """Edge-of-reach scenes (tables low to high, objects near and far from the edge) and generated
-    table-clearing scenes."""
+    table-clearing scenes, for the real (square) PR2."""
     from placement.evaluation.generate import generate_scene
 
-    round_pr2 = str(Path(__file__).parent / "data" / "pr2_round.yaml")  # the oracle's base test is round
-    paths = [edge_scene(tmp_path, maps, h, d, a, threshold, f"edge{i}", round_pr2) for i, (h, d, a) in enumerate(
-        [(0.5, 0.53, 0.0), (0.5, 0.53, 0.37), (0.8, 0.51, 0.0), (0.8, 0.53, 0.37), (0.95, 0.47, 0.37),
-         (0.62, 0.45, 0.2), (1.0, 0.3, 0.0)])]
+    paths = [edge_scene(tmp_path, maps, h, d, a, threshold, f"edge{i}") for i, (h, d, a) in enumerate(
+        [(0.5, 0.53, 0.0), (0.5, 0.62, 0.0), (0.8, 0.51, 0.0), (0.8, 0.62, 0.37), (0.95, 0.47, 0.37),
+         (0.62, 0.45, 0.2), (1.0, 0.3, 0.0), (0.75, 0.66, 0.0)])]
     for seed in (3, 5):
         doc = generate_scene(seed, 0, objects=2, obstacles=True, maps=str(maps))
         doc["planner"] = {"threshold": threshold, "yaw_steps": 40}
-        doc["robot"]["preset"] = round_pr2
         paths.append(tmp_path / f"gen{seed}.yaml")
         paths[-1].write_text(yaml.safe_dump(doc))
     return paths
@@ -236,16 +234,17 @@ def _held_out(tmp_path, maps, threshold):
 def _no_false_infeasible(tmp_path, maps, threshold):
     infeasible = feasible_checked = 0
     for path in _held_out(tmp_path, maps, threshold):
-        planner = Planner(path, collisions=False)  # the oracle does not check collisions
+        planner = Planner(path)  # footprint and collisions: the oracle checks both itself
         result = planner.plan()
         bad = result.failed_step
         if bad is None:
+            if not feasible_checked:  # the oracle finds what exists (it can fail)
+                assert _oracle(planner, 0, collisions=True) is not None
+                feasible_checked += 1
             continue
         infeasible += 1
-        assert _oracle(planner, bad.step) is None, f"{path.name}: step {bad.step} has a placement: {bad.reason}"
-        if bad.step > 0 and not feasible_checked:  # the oracle finds what exists (it can fail)
-            assert _oracle(planner, 0) is not None
-            feasible_checked += 1
+        assert _oracle(planner, bad.step, collisions=True) is None, \
+            f"{path.name}: step {bad.step} has a placement: {bad.reason}"
     assert infeasible >= 3
 
 
