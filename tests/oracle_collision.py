@@ -10,7 +10,8 @@ pose (the plan JSON's ``poses[i].joints``), the preset's fixed joints set and ev
   gripper (shapes below the arm's last joint or the tip frame's joint) against the object in the
   hand, and objects picked in earlier steps (carried away; the one in the hand in a place step too);
 * self: every pair with a shape the arm moves, except shapes on the same or adjacent joints, the
-  SRDF's disabled pairs and pairs already in contact with every arm idle;
+  SRDF's disabled pairs, the preset's ``ignore_collisions`` link pairs and pairs already in contact
+  with every arm idle;
 * the base footprint polygon against the obstacles' floor outlines, exactly in 2D, at the step's yaw.
 
 A pair collides when coal.collide says so (no padding). Distances are capped at ``cap`` [m] like
@@ -149,6 +150,8 @@ class IndependentCheck:
             for j in range(i + 1, n):
                 ji, jj = self.joint[i], self.joint[j]
                 if ji == jj or model.parents[ji] == jj or model.parents[jj] == ji or (i, j) in disabled:
+                    continue
+                if {self.names[i], self.names[j]} in [set(p) for p in robot.ignore_collisions]:
                     continue
                 if self.collide(i, idle[i], self.geom.geometryObjects[j].geometry, idle[j]):
                     continue

@@ -8,6 +8,11 @@ the shapes that exist (none at all for a URDF without meshes: it always finds th
 ``strict=True`` (map building) a missing mesh is a :class:`~placement.PlacementError`.
 
 Links that carry only a ``<visual>`` have no body for collision checking, as in pinocchio.
+
+Self pairs: every pair with a shape moved by the arm, minus shapes on the same or adjacent links, the
+SRDF's disabled pairs, the preset's ``ignore_collisions`` link pairs (modelling artefacts such as
+overlapping meshes two joints apart, found by ``placement robots init`` as MoveIt's Setup Assistant
+does) and pairs already in contact with every arm idle.
 """
 
 from __future__ import annotations
@@ -207,8 +212,9 @@ class RobotGeometry:
         return ArmShapes(moving, gripper, static, self._self_pairs(moved))
 
     def _self_pairs(self, moved: set[int]) -> np.ndarray:
-        """Pairs with a shape moved by the arm, minus same/adjacent links, the SRDF's disabled pairs and
-        pairs already in contact with every arm at home (they touch by design or by the model's slack)."""
+        """Pairs with a shape moved by the arm, minus same/adjacent links, the SRDF's disabled pairs, the
+        preset's ``ignore_collisions`` and pairs already in contact with every arm at home (they touch by
+        design or by the model's slack)."""
         robot, model = self.robot, self.robot.model
         work = pin.GeometryModel()
         for o in self.geom.geometryObjects:
@@ -222,6 +228,8 @@ class RobotGeometry:
             i, j = cp.first, cp.second
             ji, jj = int(self.joint[i]), int(self.joint[j])
             if adjacent(model, ji, jj) or (ji not in moved and jj not in moved):
+                continue
+            if frozenset((self.names[i], self.names[j])) in robot.ignore_collisions:
                 continue
             res.clear()
             if coal.collide(self.geom.geometryObjects[i].geometry, transform(self.home_placements[i]),

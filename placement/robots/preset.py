@@ -165,7 +165,8 @@ class Robot:
 
     Base attributes: ``footprint_radius`` [m] (a round base's radius, or the circumscribed radius
     of the polygon), ``footprint`` (k, 2) [m] counter-clockwise polygon in the base frame or None
-    (round base), ``v_max`` [m/s], ``omega_max`` [rad/s].
+    (round base), ``v_max`` [m/s], ``omega_max`` [rad/s]. ``ignore_collisions``: frozenset of
+    frozenset({link_a, link_b}) pairs of URDF links that collision checks skip.
     """
 
     def __init__(self, spec: PresetSpec):
@@ -190,6 +191,9 @@ class Robot:
         self.omega_max = spec.omega_max
         data = self.model.createData()
         self._arms = {name: self._make_arm(a, data) for name, a in spec.arms.items()}
+        self.ignore_collisions = frozenset(
+            frozenset(self._link(name, f"ignore_collisions[{i}][{k}]") for k, name in enumerate(pair))
+            for i, pair in enumerate(spec.ignore_collisions))
 
     # -- model helpers -------------------------------------------------
     def _frame_id(self, name: str, key: str | None = None) -> int:
@@ -198,6 +202,15 @@ class Robot:
             exc = FrameNotFound(name, self.name, difflib.get_close_matches(name, names, 5, 0.4))
             raise (exc if key is None else _located(exc, self._check.where, key))
         return self.model.getFrameId(name)
+
+    def _link(self, name: str, key: str) -> str:
+        """``name`` if the URDF has a link of that name (a BODY frame in pinocchio)."""
+        links = [f.name for f in self.model.frames if f.type == pin.FrameType.BODY]
+        if name not in links:
+            exc = FrameNotFound(name, self.name, difflib.get_close_matches(name, links, 5, 0.4))
+            exc.args = (f"link{str(exc)[len('frame'):]}",)
+            raise _located(exc, self._check.where, key)
+        return name
 
     def _joint_id(self, name: str, key: str, arm: bool = False) -> int:
         """Id of the 1-DoF joint ``name`` (``key``: its place in the preset, for errors)."""

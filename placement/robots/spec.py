@@ -32,6 +32,7 @@ TOP_KEYS = {
     "v_max": "[m/s] base translation speed",
     "omega_max": "[rad/s] base rotation speed",
     "arms": "{arm name: {joints, tip_frame, tcp_offset, home}}",
+    "ignore_collisions": "[[link, link], ...] link pairs never checked against each other, optional",
 }
 REQUIRED = ("name", "urdf", "base_frame", "v_max", "omega_max", "arms")
 ARM_KEYS = {
@@ -87,6 +88,8 @@ class PresetSpec:
         v_max: [m/s], > 0.
         omega_max: [rad/s], > 0.
         arms: {arm name: ArmSpec}, in file order, at least one.
+        ignore_collisions: ((link, link), ...) pairs of two different link names (not yet checked
+            against the URDF) that collision checks skip, like an SRDF's disabled pairs.
     """
 
     where: str
@@ -100,6 +103,7 @@ class PresetSpec:
     v_max: float
     omega_max: float
     arms: dict[str, ArmSpec]
+    ignore_collisions: tuple[tuple[str, str], ...] = ()
 
 
 def share_dir() -> Path:
@@ -157,6 +161,20 @@ def _arm(c: Checker, name: str, value: Any, fixed: dict[str, float]) -> ArmSpec:
     return ArmSpec(name, tuple(joints), tip, tcp, home, idle)
 
 
+def _link_pairs(c: Checker, value: Any, key: str) -> tuple[tuple[str, str], ...]:
+    """``[[link_a, link_b], ...]``: pairs of two different link names (null: none)."""
+    if value is None:
+        return ()
+    pairs = []
+    for i, item in enumerate(c.sequence(value, key, what="link pairs [[link_a, link_b], ...]")):
+        a, b = c.sequence(item, f"{key}[{i}]", 2, what="link names [link_a, link_b]")
+        a, b = c.string(a, f"{key}[{i}][0]"), c.string(b, f"{key}[{i}][1]")
+        if a == b:
+            c.fail(f"{key}[{i}]", f"a pair of the same link '{a}'; name two different links")
+        pairs.append((a, b))
+    return tuple(pairs)
+
+
 def _base_shape(c: Checker, d: dict) -> tuple[float, tuple | None]:
     """(radius [m], polygon or None) from exactly one of ``footprint_radius`` and ``footprint``."""
     if ("footprint" in d) == ("footprint_radius" in d):
@@ -188,7 +206,9 @@ def parse_preset(data: Any, origin: Path, where: str) -> PresetSpec:
     v_max = c.positive(d["v_max"], "v_max")
     omega_max = c.positive(d["omega_max"], "omega_max")
     arms = {n: _arm(c, n, a, fixed) for n, a in c.keyed(d["arms"], "arms", minimum=1).items()}
+    ignore = _link_pairs(c, d.get("ignore_collisions"), "ignore_collisions")
     # the files last: a typo in the mapping is reported without touching the file system
     urdf = _existing_file(c, d["urdf"], "urdf", origin)
     srdf = _existing_file(c, d["srdf"], "srdf", origin) if d.get("srdf") is not None else None
-    return PresetSpec(where, name, urdf, srdf, base_frame, fixed, footprint_radius, footprint, v_max, omega_max, arms)
+    return PresetSpec(where, name, urdf, srdf, base_frame, fixed, footprint_radius, footprint, v_max, omega_max, arms,
+                      ignore)
