@@ -151,7 +151,7 @@ class IndependentCheck:
                 ji, jj = self.joint[i], self.joint[j]
                 if ji == jj or model.parents[ji] == jj or model.parents[jj] == ji or (i, j) in disabled:
                     continue
-                if {self.names[i], self.names[j]} in [set(p) for p in robot.ignore_collisions]:
+                if frozenset((self.names[i], self.names[j])) in robot.ignore_collisions:
                     continue
                 if self.collide(i, idle[i], self.geom.geometryObjects[j].geometry, idle[j]):
                     continue

@@ -2,7 +2,7 @@
 
 :func:`propose` reads the description (:mod:`.init_urdf`), finds the arms, torso and hands
 (:mod:`.init_tree`), the tip frames and TCP offsets (:mod:`.init_tcp`), the base frame and footprint
-(:mod:`.init_base`), and holds each torso joint where the arms serve the most of a table: prismatic
+(:mod:`.init_base`), the self-collision pairs that are modelling artefacts (:mod:`.init_selfpairs`), and holds each torso joint where the arms serve the most of a table: prismatic
 torso joints (lifts) are tried at :data:`TORSO_STEPS` values over their range and the one whose
 top-down grasps cover the most 5 cm cells at :data:`TABLE_BAND` wins (ties: nearest mid-range);
 revolute torso joints are held at 0 (or mid-range when 0 is outside their limits). They are held,
@@ -26,6 +26,7 @@ from ..errors import RobotError
 from ..validation import parse_yaml
 from .chain import PRISMATIC, extract_chain
 from .init_base import Base, find_base
+from .init_selfpairs import ArtefactPair, artefact_pairs
 from .init_tcp import TCP, infer_tcp
 from .init_tree import analyse, arm_names
 from .init_urdf import load_description
@@ -63,6 +64,7 @@ class Proposal:
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     seconds: float = 0.0
+    ignore: list[ArtefactPair] = field(default_factory=list)
 
     def to_json(self) -> dict:
         return {"name": self.name, "urdf": self.urdf, "base_frame": self.base.frame, "fixed_joints": self.fixed,
@@ -71,6 +73,8 @@ class Proposal:
                 "arms": {a.name: {"joints": a.joints, "tip_frame": a.tcp.tip_frame,
                                   "tcp_offset": [round(v, 6) for v in matrix_to_pose(a.tcp.offset)],
                                   "tcp_inferred": a.tcp.how, "home": a.home} for a in self.arms},
+                "ignore_collisions": [{"links": list(p.links), "fraction": p.fraction, "arm": p.arm}
+                                      for p in self.ignore],
                 "notes": self.notes, "warnings": self.warnings, "seconds": round(self.seconds, 3)}
 
 
@@ -193,7 +197,11 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
                  notes, warnings)
     from .init_render import render
 
-    check_loads(render(p), d.path, out)
+    p.ignore = artefact_pairs(check_loads(render(p), d.path, out))
+    if p.ignore:
+        p.warnings.append(f"{len(p.ignore)} link pairs that collide in most random arm configurations are "
+                          "taken as modelling artefacts and never checked (ignore_collisions): confirm them")
+        check_loads(render(p), d.path, out)
     p.seconds = time.perf_counter() - t0
     return p
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import textwrap
 
+from .init_selfpairs import SAMPLES, THRESHOLD
 from .preset import matrix_to_pose
 
 WIDTH = 110
@@ -57,4 +58,14 @@ def render(p, command: str | None = None) -> str:
         lines.append(f"    tcp_offset: {_list(matrix_to_pose(a.tcp.offset), 7)}")
         lines += _comment("home: mid-range of each joint (0 for continuous joints)", "    ")
         lines.append(f"    home: {_list(a.home)}")
+    if p.ignore:
+        found = ", ".join(f"{a} - {b} {f:.0%} ({arm} arm)" for (a, b), f, arm in
+                          ((q.links, q.fraction, q.arm) for q in p.ignore))
+        lines += _comment(f"Link pairs colliding in >= {THRESHOLD:.0%} of {SAMPLES} uniformly random configurations "
+                          f"of an arm (seeded; other arms at home): {found}.")
+        lines += _comment("WARNING: these are taken as modelling artefacts (e.g. meshes that overlap in the URDF) and "
+                          "are never checked for collision; confirm that these links cannot really collide, else "
+                          "fix their meshes and delete the pair.")
+        lines.append("ignore_collisions:")
+        lines += [f"  - [{json.dumps(q.links[0])}, {json.dumps(q.links[1])}]" for q in p.ignore]
     return "\n".join(lines) + "\n"
