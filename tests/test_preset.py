@@ -363,3 +363,28 @@ def test_idle_configuration_defaults_to_home_and_is_checked(tmp_path, pr2):
     message(tmp_path, changed(pr2_mapping(), arms__right__idle=[0.0] * 6), PresetError, "arms.right.idle", "expected 7")
     message(tmp_path, changed(pr2_mapping(), arms__right__idle=[9.0] + [0.0] * 6), PresetError,
             "arms.right.idle[0]", "outside the limits")
+
+
+def test_ignore_collisions_names_two_different_links(tmp_path):
+    pair = ["r_wrist_roll_link", "r_forearm_link"]
+    robot = placement.load_robot(write(tmp_path, changed(pr2_mapping(), ignore_collisions=[pair, pair[::-1]])))
+    assert robot.ignore_collisions == {frozenset(pair)}
+    assert placement.load_robot(write(tmp_path, pr2_mapping())).ignore_collisions == frozenset()
+    msg = message(tmp_path, changed(pr2_mapping(), ignore_collisions=[pair, ["r_wrist_rol_link", "base_link"]]),
+                  FrameNotFound, "ignore_collisions[1][0]: link 'r_wrist_rol_link' not found in robot 'pr2'",
+                  "close names: r_wrist_roll_link")
+    assert "frame" not in msg
+    # a joint or a frame that is no link is no link
+    message(tmp_path, changed(pr2_mapping(), ignore_collisions=[["r_wrist_roll_joint", "base_link"]]), FrameNotFound,
+            "ignore_collisions[0][0]: link 'r_wrist_roll_joint'")
+
+
+@pytest.mark.parametrize("value,words", [
+    ([["base_link", "base_link"]], ["ignore_collisions[0]: a pair of the same link 'base_link'"]),
+    ([["base_link"]], ["ignore_collisions[0]: expected 2 link names [link_a, link_b], got 1"]),
+    ([["base_link", 3]], ["ignore_collisions[0][1]: expected a non-empty string"]),
+    ("base_link", ["ignore_collisions: expected a list of link pairs"]),
+    ([["a", "b", "c"]], ["expected 2 link names"]),
+])
+def test_bad_ignore_collisions(tmp_path, value, words):
+    message(tmp_path, changed(pr2_mapping(), ignore_collisions=value), PresetError, *words)

@@ -14,6 +14,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 import pytest
 import yaml
 from conftest import ARMAR6_URDF, armar6_spec
@@ -30,7 +31,9 @@ from placement.robots.spec import ARM_KEYS, TOP_KEYS
 EXAMPLES = 2000
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 WORKDIR = Path(tempfile.mkdtemp(prefix="preset-properties-"))
-BASES = [pr2_mapping()] + ([armar6_spec()] if ARMAR6_URDF.is_file() else [])
+IGNORING = {**pr2_mapping(),
+            "ignore_collisions": [["r_wrist_roll_link", "r_forearm_link"], ["base_link", "torso_lift_link"]]}
+BASES = [pr2_mapping(), IGNORING] + ([armar6_spec()] if ARMAR6_URDF.is_file() else [])
 
 
 def _model_names() -> list[str]:
@@ -113,6 +116,8 @@ def check(spec) -> str:
         return f"error: {type(exc).__name__}"
     assert robot.arms and min(robot.footprint_radius, robot.v_max, robot.omega_max) > 0
     assert all(math.isfinite(v) for v in (robot.footprint_radius, robot.v_max, robot.omega_max))
+    links = {f.name for f in robot.model.frames if f.type == pin.FrameType.BODY}
+    assert all(len(pair) == 2 and pair <= links for pair in robot.ignore_collisions)
     for name in robot.arms:
         a = robot.arm(name)
         assert a.dof >= 6 and len(set(a.joints)) == a.dof and not set(a.joints) & set(robot.fixed_joints)

@@ -136,6 +136,9 @@ def test_pr2_proposal_matches_the_builtin_preset(proposed):
     assert r.footprint is not None
     assert r.footprint[:, 0].max() >= 0.334 and r.footprint[:, 1].max() >= 0.334
     assert any("v_max" in w for w in p.warnings)
+    # no self pair of the PR2 (nor of ARMAR-6) collides in most configurations: nothing to ignore
+    assert not p.ignore and "ignore_collisions" not in render(p)
+    assert "armar6" not in proposed or not proposed["armar6"][1].ignore
 
 
 def test_humanoid_base_frame_is_on_the_floor(proposed):
