@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import RobotError
+from ..errors import PlacementError, RobotError
 from ..validation import parse_yaml
 from .chain import PRISMATIC, extract_chain
 from .init_base import Base, find_base
@@ -197,7 +197,10 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
                  notes, warnings)
     from .init_render import render
 
-    p.ignore = artefact_pairs(check_loads(render(p), d.path, out))
+    try:
+        p.ignore = artefact_pairs(check_loads(render(p), d.path, out))
+    except PlacementError as exc:  # e.g. a xacro: placement.collision reads plain URDF geometry only
+        p.warnings.append(f"self-collision pairs not sampled ({exc}): check ignore_collisions yourself")
     if p.ignore:
         p.warnings.append(f"{len(p.ignore)} link pairs that collide in most random arm configurations are "
                           "taken as modelling artefacts and never checked (ignore_collisions): confirm them")
