@@ -4,7 +4,7 @@ Geometry: the URDF's ``<collision>`` shapes (meshes and primitives) loaded by
 pinocchio (:func:`placement.collision.robot.load_geometry`, strict: a missing mesh is an error), tested by coal (hpp-fcl) exactly as ``pinocchio.computeCollisions``
 does. Pairs tested: every pair with at least one shape moved by the arm's
 joints, minus pairs on the same or adjacent links (parent/child joints, which
-touch by design), minus the pairs the preset's SRDF disables, and minus shapes
+touch by design), minus the pairs the preset's SRDF disables or its ``ignore_collisions`` names, and minus shapes
 carried only by the other arms (they move during a task too, so a map of one
 arm does not depend on where another happens to be). The rest of the robot
 stands at its reference configuration: fixed joints as in the preset.
@@ -60,14 +60,17 @@ class SelfCollision:
                 others |= self._moved_joints(model, robot.arm(other).joint_ids)
         others -= moved
         keep = []
+        link = [model.frames[o.parentFrame].name for o in geom.geometryObjects]
         for cp in geom.collisionPairs:
             j1 = geom.geometryObjects[cp.first].parentJoint
             j2 = geom.geometryObjects[cp.second].parentJoint
+            if frozenset((link[cp.first], link[cp.second])) in robot.ignore_collisions:
+                continue  # a modelling artefact the preset names (see placement.collision.robot)
             if not adjacent(model, j1, j2) and (j1 in moved or j2 in moved) and j1 not in others and j2 not in others:
                 keep.append(cp)
         if not keep:
             raise PlacementError(f"robot '{robot.name}': no collision shape pair involves arm '{arm}' "
-                                 "(after same/adjacent links, SRDF and other arms); build without self-collision")
+                                 "(after same/adjacent links, SRDF, ignore_collisions and other arms); build without self-collision")
         geom.removeAllCollisionPairs()
         for cp in keep:
             geom.addCollisionPair(cp)
