@@ -9,7 +9,9 @@ import numpy as np
 from .buildspec import DEFAULT_BINS, DEFAULT_RESOLUTION, INDEXES, MAX_SAMPLES, MAX_SEED, parse_choice, parse_count
 from .errors import GridError, PlacementError
 from .grid import Grid
-from .kernels.sampling import completion_sources, configs_at, reduce_max, refined_configs, sample_block
+from .kernels.sampling import (
+    completion_sources, configs_at, reduce_max, refined_config, refined_configs, sample_block,
+)
 from .manipulability import INDEX_NAMES, ROTATION_SCALE
 from .progress import EtaBar
 from .robots import Robot, load_robot
@@ -157,9 +159,11 @@ def compile_sampling(robot: Robot, arm: str, grid: Grid, index: str, self_collis
     a = robot.arm(arm)
     ch = a.chain
     # the completion kernel too (the scratch sample above rarely has a neighbour inside the scratch grid)
-    refined_configs(np.uint64(0), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), a.lower, a.upper,
-                    a.continuous.astype(np.bool_), ch.link_T, ch.axis, ch.kind, ch.tip_T, grid.origin_array,
-                    grid.resolution, grid.shape_array)
+    args = (a.lower, a.upper, a.continuous.astype(np.bool_), ch.link_T, ch.axis, ch.kind, ch.tip_T,
+            grid.origin_array, grid.resolution, grid.shape_array)
+    refined_configs(np.uint64(0), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), *args)
+    # and the serial one of ReachabilityMap.witness_q, so that no query compiles on first use
+    refined_config(np.uint64(0), 0, 0, *args, np.empty(a.dof))
     if self_collision is not None:
         configs_at(np.uint64(0), np.zeros(1, dtype=np.int64), a.lower, a.upper)
 

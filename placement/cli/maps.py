@@ -63,9 +63,11 @@ def maps():
               help="Reject samples where the arm hits the robot (URDF collision shapes; much slower).")
 @click.option("--self-distance/--no-self-distance", default=None,
               help="Penalise motion towards the robot's own body (implies --self-collision; slow).")
+@click.option("--completion/--no-completion", default=None,
+              help="After sampling, fill empty cells next to reached ones from their witnesses (a few IK steps).")
 @standard_options
 def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, out, dask_address, self_collision,
-          self_distance, as_json, verbose, quiet):
+          self_distance, completion, as_json, verbose, quiet):
     """Sample each arm and write its 6D reachability map atomically.
 
     Everything (spec, robot, arms, grid, output path) is checked before sampling starts.
@@ -74,7 +76,7 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
     spec = load_build_spec(spec_path) if spec_path else BuildSpec()
     options = {"robot": robot, "arms": (arm,) if arm else None, "samples": samples, "seed": seed,
                "resolution": resolution, "bins": bins, "index": index, "format": fmt,
-               "self_collision": self_collision, "self_distance": self_distance}
+               "self_collision": self_collision, "self_distance": self_distance, "completion": completion}
     spec = dataclasses.replace(spec, **{k: v for k, v in options.items() if v is not None})
     robot = load_robot(spec.robot)
     try:
@@ -95,7 +97,8 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
     for a in arms:
         built[a] = m = build_map(robot, a, samples=spec.samples, seed=spec.seed, resolution=spec.resolution,
                                  bins=spec.bins, index=spec.index, progress=not quiet, client=client,
-                                 self_collision=spec.self_collision, self_distance=spec.self_distance)
+                                 self_collision=spec.self_collision, self_distance=spec.self_distance,
+                                 completion=spec.completion)
         log.info("%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",
                  robot.name, a, spec.samples, m.meta["build_time_s"], m.meta["samples_per_s"] or 0,
                  m.meta["filled_cells"])
