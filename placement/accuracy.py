@@ -103,7 +103,7 @@ def check_map(robot: Robot, rmap, samples: int = 200, seed: int = 0, threshold: 
     n_orient = int(np.prod(grid.shape[3:]))
     n_pos_cells = int(np.prod(grid.shape[:3]))
 
-    centre, reach, in_reach = reach_positions(robot, arm, grid)
+    centre, reach, in_reach = reach_sphere(robot, arm, grid)
 
     # One pass: positive cells (flat indices) and positives per position cell.
     pos_cells = []
@@ -191,7 +191,7 @@ def check_map(robot: Robot, rmap, samples: int = 200, seed: int = 0, threshold: 
     }
 
 
-def reach_positions(robot: Robot, arm: str, grid) -> tuple[np.ndarray, float, np.ndarray]:
+def reach_sphere(robot: Robot, arm: str, grid) -> tuple[np.ndarray, float, np.ndarray]:
     """(centre (3,) [m], reach bound [m], in_reach (nx*ny*nz,) bool): position cells whose centre lies
     in the arm's reach sphere (:func:`placement.build.arm_reach`)."""
     centre, reach = arm_reach(robot, arm)
@@ -301,7 +301,7 @@ def pose_metrics(robot: Robot, rmap, samples: int = 200, seed: int = 0, threshol
                          pos_tol=POSE_POS_TOL, rot_tol=POSE_ROT_TOL, max_iter=max_iter).success
         if progress is not None:
             progress(i + 1, total)
-    _, _, in_reach = reach_positions(robot, arm, grid)
+    _, _, in_reach = reach_sphere(robot, arm, grid)
     positions = np.flatnonzero(in_reach)
     n_orient = int(np.prod(grid.shape[3:]))
     kept = marked = draws = 0
