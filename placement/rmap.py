@@ -69,12 +69,17 @@ class ReachabilityMap:
 
     def witness_slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
         """Witnesses (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""
-        if self._full_witness is not None:
-            return self._full_witness[:, :, iz, :, ip, ir]
-        key = (int(iz), int(ip), int(ir))
-        s = self._witness_slices.get(key)
+        return self._chunk(self._full_witness, self._witness_slices, (iz, ip, ir), True)
+
+    def _chunk(self, full: np.ndarray | None, cache: dict, key: tuple, witness: bool) -> np.ndarray:
+        """Chunk ``key`` = (iz, ip, ir) of the values or witnesses: from the whole array if read, else
+        read once and cached."""
+        if full is not None:
+            return full[:, :, key[0], :, key[1], key[2]]
+        key = (int(key[0]), int(key[1]), int(key[2]))
+        s = cache.get(key)
         if s is None:
-            s = self._witness_slices[key] = self.store.read_chunk(self.arm, *key, witness=True)
+            s = cache[key] = self.store.read_chunk(self.arm, *key, witness=witness)
         return s
 
     def witness_q(self, pose_base) -> np.ndarray | None:
@@ -110,13 +115,7 @@ class ReachabilityMap:
 
     def slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
         """Values (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""
-        if self._full is not None:
-            return self._full[:, :, iz, :, ip, ir]
-        key = (int(iz), int(ip), int(ir))
-        s = self._slices.get(key)
-        if s is None:
-            s = self._slices[key] = self.store.read_chunk(self.arm, *key)
-        return s
+        return self._chunk(self._full, self._slices, (iz, ip, ir), False)
 
     def slice_reach(self, iz: int, ip: int, ir: int) -> float:
         """Largest horizontal distance [m] from the base origin to any point of a reached cell of

@@ -223,22 +223,21 @@ def completion_sources(grid, witness, plain, shape):
     """(sources, dirs): one completion candidate per (reached cell with a plain-sample witness < ``plain``,
     face neighbour that is still empty), in increasing cell then direction order."""
     k = NEIGHBOURS.shape[0]
-    count = 0
-    for c in range(grid.shape[0]):
-        if grid[c] > 0.0 and witness[c] < plain:
-            for d in range(k):
-                t = neighbour_cell(c, d, shape)
-                if t >= 0 and grid[t] == 0.0:
-                    count += 1
-    sources = np.empty(count, dtype=np.int64)
-    dirs = np.empty(count, dtype=np.int64)
-    m = 0
-    for c in range(grid.shape[0]):
-        if grid[c] > 0.0 and witness[c] < plain:
-            for d in range(k):
-                t = neighbour_cell(c, d, shape)
-                if t >= 0 and grid[t] == 0.0:
-                    sources[m] = witness[c]
-                    dirs[m] = d
-                    m += 1
+    sources = np.empty(0, dtype=np.int64)
+    dirs = np.empty(0, dtype=np.int64)
+    # two passes: count, then fill (the candidates can outnumber the cells; no growing buffers)
+    for fill in range(2):
+        m = 0
+        for c in range(grid.shape[0]):
+            if grid[c] > 0.0 and witness[c] < plain:
+                for d in range(k):
+                    t = neighbour_cell(c, d, shape)
+                    if t >= 0 and grid[t] == 0.0:
+                        if fill:
+                            sources[m] = witness[c]
+                            dirs[m] = d
+                        m += 1
+        if not fill:
+            sources = np.empty(m, dtype=np.int64)
+            dirs = np.empty(m, dtype=np.int64)
     return sources, dirs
