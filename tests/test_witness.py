@@ -173,3 +173,19 @@ def test_saved_witnesses_are_checked(tmp_path, pr2, completed):
 def test_map_without_witnesses_cannot_be_saved(tmp_path, pr2, completed):
     with pytest.raises(MapError, match="witnesses"):
         placement.save_maps(tmp_path / "x", pr2, {"right": placement.BuiltMap(completed.values, completed.meta)})
+
+
+def test_completion_from_spec_and_cli(tmp_path):
+    from placement.buildspec import parse_build_spec
+    from placement.errors import PlacementError
+
+    assert parse_build_spec({"completion": True}).completion is True
+    with pytest.raises(PlacementError, match="completion must be true or false"):
+        parse_build_spec({"completion": "yes"}, "spec")
+    out = tmp_path / "m"
+    res = CliRunner().invoke(cli, ["maps", "build", "--robot", "pr2", "--arm", "right", "--samples", "2000",
+                                   "--resolution", "0.2", "--bins", "4,3,4", "--completion", "--out", str(out), "-q"])
+    assert res.exit_code == 0, res.output
+    meta = placement.open_map(out, "right").meta
+    assert meta["witness"]["completion"] and meta["completion"]["cells_added"] > 0
+    assert meta["filled_cells"] == meta["completion"]["cells_before"] + meta["completion"]["cells_added"]
