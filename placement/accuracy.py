@@ -305,6 +305,8 @@ def pose_metrics(robot: Robot, rmap, samples: int = 200, seed: int = 0, threshol
     positions = np.flatnonzero(in_reach)
     n_orient = int(np.prod(grid.shape[3:]))
     kept = marked = draws = 0
+    # its own stream: the same seed draws the same recall cells for any map of this grid (paired comparisons)
+    rng = np.random.default_rng([seed, 1])
     while kept < samples and draws < max_draws:
         cell = int(positions[rng.integers(positions.size)]) * n_orient + int(rng.integers(n_orient))
         draws += 1

@@ -219,9 +219,21 @@ def refined_configs(seed, sources, dirs, lower, upper, continuous, link_T, axis,
 
 
 @njit(cache=True)
+def first_source(t, grid, witness, plain, shape):
+    """The first face neighbour of cell ``t`` (NEIGHBOURS order) that is reached with a plain witness, or -1."""
+    for d in range(NEIGHBOURS.shape[0]):
+        c = neighbour_cell(t, d, shape)
+        if c >= 0 and grid[c] > 0.0 and witness[c] < plain:
+            return c
+    return -1
+
+
+@njit(cache=True)
 def completion_sources(grid, witness, plain, shape):
-    """(sources, dirs): one completion candidate per (reached cell with a plain-sample witness < ``plain``,
-    face neighbour that is still empty), in increasing cell then direction order."""
+    """(sources, dirs): one completion candidate per empty cell next to a reached one, from its first
+    (in NEIGHBOURS order) face neighbour that is reached with a plain-sample witness (< ``plain``);
+    in increasing source cell, then direction order. One per empty cell, not one per pair: the
+    candidates cost an exact measure each, and the pairs are several times as many."""
     k = NEIGHBOURS.shape[0]
     sources = np.empty(0, dtype=np.int64)
     dirs = np.empty(0, dtype=np.int64)
@@ -232,7 +244,7 @@ def completion_sources(grid, witness, plain, shape):
             if grid[c] > 0.0 and witness[c] < plain:
                 for d in range(k):
                     t = neighbour_cell(c, d, shape)
-                    if t >= 0 and grid[t] == 0.0:
+                    if t >= 0 and grid[t] == 0.0 and first_source(t, grid, witness, plain, shape) == c:
                         if fill:
                             sources[m] = witness[c]
                             dirs[m] = d
