@@ -19,7 +19,7 @@ from ..errors import ArmNotFound, PlacementError
 from ..rmap import check_root, check_target, open_map, save_maps
 from ..robots import load_robot
 from ..storage import open_store
-from ..storage.format import CRC_KEY
+from ..storage.format import CRC_KEY, WITNESS_CRC_KEY
 from ..witness import verify_witnesses
 from ..progress import EtaBar
 from ..warmup import BUILD_COMPILE_S, announce_compilation
@@ -151,7 +151,7 @@ def info(path, robot, arm, as_json, verbose, quiet):
             continue
         reached = values[values > 0]
         hist, _ = np.histogram(reached, bins=edges)
-        meta = {k: v for k, v in rmap.meta.items() if k != CRC_KEY}
+        meta = {k: v for k, v in rmap.meta.items() if k not in (CRC_KEY, WITNESS_CRC_KEY)}
         out["arms"][a] = {
             "meta": meta,
             "chunks_checked": int(np.prod(np.shape(rmap.meta[CRC_KEY]))),
