@@ -118,9 +118,10 @@ def fold(robot: Robot, arm: str, grid: Grid, values: np.ndarray, witness: np.nda
 def complete(robot: Robot, arm: str, grid: Grid, values: np.ndarray, witness: np.ndarray, *, seed: int,
              plain: int, index: str, block: int = 1 << 18, self_collision: SelfCollision | None = None,
              self_distance: bool = False, on_block=None) -> int:
-    """Map completion: for every reached cell whose witness is a plain sample and every empty face
-    neighbour of it, a few DLS steps from the witness towards the neighbour's centre pose give one
-    more sample (see :mod:`placement.witness` for its number), folded in like any other.
+    """Map completion: every empty cell next to a reached one gets one more sample, a few DLS steps
+    from the witness of its first reached face neighbour (with a plain-sample witness) towards its
+    centre pose (see :func:`placement.kernels.sampling.completion_sources`, and
+    :mod:`placement.witness` for its number), folded in like any other.
 
     The candidates come from the map after sampling and are applied in increasing witness number,
     so the result does not depend on ``block``. Returns the number of candidates.
