@@ -30,7 +30,7 @@ DEFAULT_BINS = (20, 9, 20)      # yaw 18 deg, pitch 20 deg, roll 18 deg
 INDEXES = INDEX_NAMES
 FORMATS = tuple(BACKENDS)
 SPEC_KEYS = ("robot", "arms", "samples", "seed", "resolution", "bins", "index", "format", "self_collision",
-             "self_distance")
+             "self_distance", "completion")
 
 
 @dataclass(frozen=True)
@@ -46,7 +46,7 @@ class BuildSpec:
         bins: orientation bin counts (yaw even, pitch odd, roll even).
         index: manipulability index, one of INDEXES.
         format: storage backend, one of FORMATS.
-        self_collision, self_distance: see `placement maps build --help`.
+        self_collision, self_distance, completion: see `placement maps build --help`.
     """
 
     robot: str = "pr2"
@@ -59,6 +59,7 @@ class BuildSpec:
     format: str = "zarr"
     self_collision: bool = False
     self_distance: bool = False
+    completion: bool = False
 
     def arms_of(self, robot) -> list[str]:
         """The arms to build on ``robot`` (ArmNotFound, naming the robot's arms, for an unknown one)."""
@@ -178,6 +179,7 @@ def parse_build_spec(data, source: str = "build spec") -> BuildSpec:
         "format": lambda v, w: parse_choice(v, w, FORMATS),
         "self_collision": parse_flag,
         "self_distance": parse_flag,
+        "completion": parse_flag,
     }
     return BuildSpec(**{key: parsers[key](value, f"{source}: {key}") for key, value in data.items()})
 

@@ -10,9 +10,11 @@ import numpy as np
 
 from .errors import MapError, PlacementError
 from .grid import Grid
+from .kernels.grid import cell_indices
 from .robots import Robot, load_robot
 from .storage import atomic_replace, backend, detect, open_store
-from .storage.format import CRC_KEY, FORMAT_VERSION, ROOT_KEY, BuiltMap, chunk_crcs
+from .storage.format import CRC_KEY, FORMAT_VERSION, ROOT_KEY, WITNESS_CRC_KEY, BuiltMap, chunk_crcs, witness_name
+from .witness import empty_value, plain_samples, witness_configs
 
 # stored and preset TCP offsets (4, 4) [m, dimensionless rotation] agree to this
 TCP_TOLERANCE = 1e-9
@@ -23,18 +25,25 @@ class ReachabilityMap:
 
     Attributes:
         path: where the map lives; arm: arm name; meta: the arm's metadata;
-        grid: the 6D :class:`Grid`.
+        grid: the 6D :class:`Grid`; robot: the :class:`Robot` it was validated
+        against (None if opened without :func:`open_map`).
     """
 
-    def __init__(self, store, arm: str):
+    def __init__(self, store, arm: str, robot: Robot | None = None):
         self.store = store
         self.path = store.path
         self.arm = arm
+        self.robot = robot
         self.meta = store.arm_meta(arm)
         self.grid = Grid.from_dict(self.meta["grid"])
         self._slices: dict[tuple[int, int, int], np.ndarray] = {}
+        self._witness_slices: dict[tuple[int, int, int], np.ndarray] = {}
         self._reach: dict[tuple[int, int, int], float] = {}
         self._full: np.ndarray | None = None
+        self._full_witness: np.ndarray | None = None
+        self._plain = plain_samples(self.meta)
+        self._empty = int(self.meta["witness"]["empty"])
+        self._seed = int(self.meta["seed"])
 
     def __repr__(self) -> str:
         return f"ReachabilityMap({str(self.path)!r}, arm={self.arm!r}, shape={self.grid.shape})"
@@ -51,15 +60,62 @@ class ReachabilityMap:
         self.load()
         return self._full
 
+    @property
+    def witness(self) -> np.ndarray:
+        """The whole 6D witness array (uint32 or int64, see :mod:`placement.witness`), read on first use."""
+        if self._full_witness is None:
+            self._full_witness = self.store.read_all(self.arm, witness=True)
+        return self._full_witness
+
+    def witness_slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
+        """Witnesses (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""
+        return self._chunk(self._full_witness, self._witness_slices, (iz, ip, ir), True)
+
+    def _chunk(self, full: np.ndarray | None, cache: dict, key: tuple, witness: bool) -> np.ndarray:
+        """Chunk ``key`` = (iz, ip, ir) of the values or witnesses: from the whole array if read, else
+        read once and cached."""
+        if full is not None:
+            return full[:, :, key[0], :, key[1], key[2]]
+        key = (int(key[0]), int(key[1]), int(key[2]))
+        s = cache.get(key)
+        if s is None:
+            s = cache[key] = self.store.read_chunk(self.arm, *key, witness=witness)
+        return s
+
+    def witness_q(self, pose_base) -> np.ndarray | None:
+        """The witness configuration of the cell holding a TCP pose, or None if that cell is empty or outside.
+
+        Args:
+            pose_base: (4, 4) TCP pose in the arm's base frame [m].
+
+        Returns:
+            (n,) joint values [rad or m] of the sample that set the cell's value (its FK lies in
+            the same cell), regenerated from the stored sample number; a few microseconds once the
+            cell's chunk is cached (the first use of a chunk reads it, ~1 ms).
+        """
+        T = np.ascontiguousarray(pose_base, dtype=float)
+        if T.shape != (4, 4):
+            raise PlacementError(f"pose must have shape (4, 4), got {T.shape}")
+        if self.robot is None:
+            raise PlacementError("witness_q needs the robot: open the map with placement.open_map")
+        g = self.grid
+        flat = int(cell_indices(T.reshape(1, 4, 4), g.origin_array, g.resolution, g.shape_array)[0])
+        if flat < 0:
+            return None
+        sx, sy, sz, s_yaw, sp, sr = g.shape
+        rest, ir = divmod(flat, sr)
+        rest, ip = divmod(rest, sp)
+        rest, iyaw = divmod(rest, s_yaw)
+        rest, iz = divmod(rest, sz)
+        ix, iy = divmod(rest, sy)
+        w = int(self.witness_slice(iz, ip, ir)[ix, iy, iyaw])
+        if w == self._empty:
+            return None
+        return witness_configs(self.robot.arm(self.arm), g, self._seed, self._plain, np.array([w]))[0]
+
     def slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
         """Values (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""
-        if self._full is not None:
-            return self._full[:, :, iz, :, ip, ir]
-        key = (int(iz), int(ip), int(ir))
-        s = self._slices.get(key)
-        if s is None:
-            s = self._slices[key] = self.store.read_chunk(self.arm, *key)
-        return s
+        return self._chunk(self._full, self._slices, (iz, ip, ir), False)
 
     def slice_reach(self, iz: int, ip: int, ir: int) -> float:
         """Largest horizontal distance [m] from the base origin to any point of a reached cell of
@@ -182,19 +238,22 @@ def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> Re
     if arm not in arms:
         raise MapError(f"{path}: no map for arm '{arm}'; it has: {', '.join(arms) or 'none'}")
     try:
-        rmap = ReachabilityMap(store, arm)
+        rmap = ReachabilityMap(store, arm, robot)
         consistent = tuple(rmap.meta["grid"]["shape"]) == rmap.grid.shape and rmap.meta.get("arm") == arm
-    except (KeyError, TypeError, ValueError):
+        consistent &= rmap.meta["witness"]["empty"] == empty_value(rmap.meta["witness"]["dtype"])
+    except (KeyError, TypeError, ValueError, MapError):
         consistent = False
     if not consistent:
         raise MapError(f"{path}: metadata of arm '{arm}' is inconsistent (corrupt); rebuild the map")
     validate_arm(path, rmap.meta, robot, arm)
     store.expected_crcs(arm)
-    want = rmap.meta.get("stored_chunks")
-    have = store.chunks_present(arm)
-    if want is not None and have is not None and have != want:
-        raise MapError(f"{path}: arm '{arm}' has {have} of {want} data chunks (half-written or corrupt); "
-                       f"rebuild the map")
+    store.expected_crcs(arm, witness=True)
+    for name, key in ((arm, "stored_chunks"), (witness_name(arm), "stored_witness_chunks")):
+        want = rmap.meta.get(key)
+        have = store.chunks_present(name)
+        if want is not None and have is not None and have != want:
+            raise MapError(f"{path}: arm '{arm}' has {have} of {want} {'witness' if name != arm else 'data'} "
+                           f"chunks (half-written or corrupt); rebuild the map")
     return rmap
 
 
@@ -254,14 +313,19 @@ def save_maps(path: str | Path, robot: Robot, maps: dict[str, BuiltMap], fmt: st
     path = Path(path)
     be = backend(fmt)
     check_target(path, robot, fmt)
-    arms = {arm: (m.values, {**m.meta, CRC_KEY: chunk_crcs(m.values).tolist()}) for arm, m in maps.items()}
+    for arm, m in maps.items():
+        if m.witness is None or m.witness.shape != m.values.shape:
+            raise MapError(f"{path}: the map of arm '{arm}' has no witnesses of its shape; only a map from "
+                           f"placement.build_map can be saved")
+    arms = {arm: (m.values, {**m.meta, CRC_KEY: chunk_crcs(m.values).tolist(),
+                             WITNESS_CRC_KEY: chunk_crcs(m.witness).tolist()}, m.witness) for arm, m in maps.items()}
     if path.exists():
         old = open_store(path)
         try:
             if old.root.get("complete") and old.root.get("format_version") == FORMAT_VERSION:
                 for arm in old.root.get("arms", []):
                     if arm not in arms:
-                        arms[arm] = (old.read_all(arm), old.arm_meta(arm))
+                        arms[arm] = (old.read_all(arm), old.arm_meta(arm), old.read_all(arm, witness=True))
         finally:
             old.close()
     root = {"format_version": FORMAT_VERSION, "preset": robot.source if not _builtin(robot) else robot.name,

@@ -93,3 +93,44 @@ def test_opened_map(pr2, tmp_path):
     assert a["true_positives"] + a["false_positives"] == 20
     assert a["pos_tol_m"] == 0.1
     assert a["precision"] > 0.8
+
+
+def test_wilson_interval():
+    from placement.accuracy import wilson
+
+    lo, hi = wilson(90, 100)
+    assert lo == pytest.approx(0.8256, abs=1e-3) and hi == pytest.approx(0.9448, abs=1e-3)
+    assert wilson(0, 0) is None
+    lo, hi = wilson(0, 20)
+    assert lo == 0.0 and 0.1 < hi < 0.2
+
+
+def test_poses_in_cells_stay_in_their_cells(small_map):
+    from placement.accuracy import poses_in_cells
+
+    g = small_map.grid
+    cells = np.random.default_rng(0).integers(0, g.size, 2000)
+    assert np.array_equal(g.index(poses_in_cells(g, cells, np.random.default_rng(1))), cells)
+
+
+def test_pose_level_metrics(pr2, report, small_map):
+    p = report["pose_level"]
+    assert p["pos_tol_m"] == 0.01 and p["rot_tol_rad"] == 0.05 and p["witness_seeded"]
+    assert p["precision_poses"] == SAMPLES and 0 <= p["precision_reached"] <= SAMPLES
+    assert p["precision"] == p["precision_reached"] / SAMPLES
+    assert p["precision_ci95"][0] <= p["precision"] <= p["precision_ci95"][1]
+    # 20k samples fill few 5 cm cells: the honest recall must say so
+    assert p["recall_cells"] == SAMPLES and p["recall"] < 0.5
+    assert p["recall_draws"] >= p["recall_cells"]
+
+
+def test_pose_level_recall_and_precision_can_fail(pr2, small_map):
+    """A map that marks every cell reachable has recall 1 and a poor precision; an empty one recall 0."""
+    from placement.accuracy import pose_metrics
+
+    full = BuiltMap(np.ones_like(small_map.values), small_map.meta)
+    p = pose_metrics(pr2, full, samples=30, seed=2)
+    assert p["recall"] == 1.0 and not p["witness_seeded"] and p["precision"] < 0.5
+    empty = BuiltMap(np.zeros_like(small_map.values), small_map.meta)
+    p = pose_metrics(pr2, empty, samples=10, seed=2)
+    assert p["recall"] == 0.0 and p["precision"] is None and p["precision_ci95"] is None

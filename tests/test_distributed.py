@@ -22,7 +22,9 @@ def test_dask_build_equals_local(client, pr2):
     remote = placement.build_map(pr2, "right", client=client, tasks=5, **kwargs)
     assert remote.values.dtype == np.float32
     assert np.array_equal(local.values, remote.values)
+    assert np.array_equal(local.witness, remote.witness)
     assert np.count_nonzero(local.values) > 1000
     # another split, same map
     again = placement.build_map(pr2, "right", client=client, tasks=3, **kwargs)
     assert np.array_equal(local.values, again.values)
+    assert np.array_equal(local.witness, again.witness)

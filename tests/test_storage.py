@@ -109,7 +109,7 @@ def test_metadata(saved, pr2, right_map):
     meta = rmap.meta
     for key in META_KEYS:
         assert key in meta, f"metadata key '{key}' missing from the {fmt} map"
-    assert meta["format_version"] == FORMAT_VERSION == 2
+    assert meta["format_version"] == FORMAT_VERSION == 3
     assert meta["robot"] == "pr2" and meta["urdf_sha256"] == pr2.urdf_sha256
     assert meta["arm"] == "right" and meta["base_frame"] == "base_footprint"
     assert meta["tip_frame"] == "r_gripper_tool_frame"
@@ -245,7 +245,7 @@ def test_map_of_another_urdf(saved, pr2):
         placement.open_map(path, "right", robot=pr2)
 
 
-@pytest.mark.parametrize("version", [0, 1, 3, 99, None, "2"])
+@pytest.mark.parametrize("version", [0, 1, 2, 99, None, "3"])
 def test_wrong_format_version(saved, version):
     fmt, path = saved
     set_root(path, fmt, lambda root: root.update(format_version=version))

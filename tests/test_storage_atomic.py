@@ -41,7 +41,7 @@ def test_atomic_replace_keeps_old_map(tmp_path, pr2, right_map, left_map, exc):
     path = placement.save_maps(tmp_path / "pr2", pr2, {"right": right_map}, "zarr")
     before = snapshot(path)
     root = {"format_version": FORMAT_VERSION, "preset": "pr2", **pr2.fingerprint, "arms": ["left", "right"]}
-    arms = {"left": (left_map.values, left_map.meta), "right": (right_map.values, right_map.meta)}
+    arms = {"left": (left_map.values, left_map.meta, left_map.witness), "right": (right_map.values, right_map.meta, right_map.witness)}
     with pytest.raises(type(exc)):
         atomic_replace(FailingZarr(exc), path, root, arms)
     assert snapshot(path) == before
@@ -57,7 +57,7 @@ def test_atomic_replace_fresh_target_leaves_nothing(tmp_path, pr2, right_map):
     root = {"format_version": FORMAT_VERSION, "preset": "pr2", **pr2.fingerprint, "arms": ["right"]}
     with pytest.raises(Interrupted):
         atomic_replace(FailingZarr(Interrupted("boom")), tmp_path / "new", root,
-                       {"right": (right_map.values, right_map.meta), "x": (right_map.values, right_map.meta)})
+                       {"right": (right_map.values, right_map.meta, right_map.witness), "x": (right_map.values, right_map.meta, right_map.witness)})
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(MapError, match="no such map"):
         placement.open_map(tmp_path / "new", "right")
@@ -118,7 +118,7 @@ def test_atomic_replace_restores_old_map_if_the_final_rename_fails(tmp_path, pr2
     monkeypatch.setattr(base.os, "replace", flaky_replace)
     root = {"format_version": FORMAT_VERSION, "preset": "pr2", **pr2.fingerprint, "arms": ["left"]}
     with pytest.raises(Interrupted):
-        atomic_replace(backend("zarr"), path, root, {"left": (left_map.values, left_map.meta)})
+        atomic_replace(backend("zarr"), path, root, {"left": (left_map.values, left_map.meta, left_map.witness)})
     monkeypatch.undo()
     assert snapshot(path) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pr2"]

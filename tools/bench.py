@@ -22,6 +22,7 @@ import numba
 import numpy as np
 
 import placement
+from placement.accuracy import pose_metrics
 from placement.build import default_grid
 from placement.kernels.kinematics import fk_jacobian_batch
 from placement.kernels.isotropy import W_ROWS, isotropy_batched
@@ -78,12 +79,13 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=3, help="end-to-end builds (the median is reported)")
     ap.add_argument("--spec", default=str(ROOT / "maps/pr2.yaml"))
     ap.add_argument("--out", default=str(ROOT / "docs"))
-    ap.add_argument("--check", type=int, default=150, help="IK checks per class")
+    ap.add_argument("--check", type=int, default=150, help="IK checks per class (cell level) and per metric (pose level)")
+    ap.add_argument("--arm", default="right")
     args = ap.parse_args(argv)
     import yaml
     spec = yaml.safe_load(Path(args.spec).read_text())
     robot = placement.load_robot(spec["robot"])
-    arm = "right"
+    arm = args.arm
     a = robot.arm(arm)
     ch = a.chain
     rows = []
@@ -117,22 +119,35 @@ def main(argv=None):
     grid = default_grid(robot, arm, res, bins)
     checkpoints = sorted({c for c in (5_000_000, 10_000_000, 25_000_000, 50_000_000, 100_000_000) if c < samples}
                          | {samples})
-    curve, snapshots, rates = [], [], []
+    completion = bool(spec.get("completion", False))
+    curve, snapshots, rates, totals, peaks = [], [], [], [], []
+    t_start = [0.0]
     for run in range(args.runs):
         def on_block(done, v, first=(run == 0)):
             if first:
-                curve.append((done, int(np.count_nonzero(v))))
+                if not curve:
+                    t_start[0] = time.perf_counter()
+                curve.append((done, int(np.count_nonzero(v)), time.perf_counter() - t_start[0]))
                 if len(snapshots) < len(checkpoints) and done >= checkpoints[len(snapshots)]:
-                    snapshots.append((done, v.copy()))
+                    snapshots.append((done, v.copy(), time.perf_counter() - t_start[0]))
         built = placement.build_map(robot, arm, samples=samples, seed=int(spec.get("seed", 0)), resolution=res,
-                                    bins=bins, progress=False, on_block=on_block)
+                                    bins=bins, progress=False, on_block=on_block, completion=completion)
         rates.append(built.meta["samples_per_s"])
+        totals.append(built.meta["build_time_s"])
+        peaks.append(peak_rss_gib())
         print(f"build run {run + 1}/{args.runs}: {built.meta['build_time_s']:.1f} s, "
               f"{built.meta['samples_per_s'] / 1e3:.0f} k samples/s", file=sys.stderr)
     rate = statistics.median(rates)
     rows.append((f"end-to-end default build of one arm: {samples / 1e6:.0f} M samples, {grid.shape} grid, "
                  f"{numba.get_num_threads()} threads (median of {args.runs})",
                  f"{rate / 1e3:.0f} k samples/s", f"{samples / rate:.1f} s; runs {', '.join(f'{r / 1e3:.0f}' for r in rates)} k/s"))
+    if completion:
+        c = built.meta["completion"]
+        rows.append(("completion from witnesses (after sampling)", f"+{c['cells_added']} cells",
+                     f"{c['time_s']:.1f} s for {c['candidates'] / 1e6:.1f} M candidates; "
+                     f"{c['cells_before']} -> {built.meta['filled_cells']} cells"))
+    rows.append(("whole build of one arm (sampling + completion), peak memory of this process",
+                 f"{statistics.median(totals):.0f} s", f"{max(peaks):.2f} GiB peak RSS"))
 
     tmp = Path(tempfile.mkdtemp())
     try:
@@ -158,23 +173,38 @@ def main(argv=None):
 
     # --- quality against IK, final map and along the way ------------------
     chk = placement.check_map(robot, built, samples=args.check, seed=0)
-    rows.append(("map precision against IK (TP / (TP + FP))", f"{100 * (chk['precision'] or 0):.1f} %",
-                 f"{chk['true_positives']} TP, {chk['false_positives']} FP"))
-    rows.append(("map recall estimate against IK", f"{100 * (chk['recall_estimate'] or 0):.1f} %",
+    pose = chk["pose_level"]
+
+    def pct(x, ci):
+        return f"{100 * (x or 0):.1f} % (95 % CI {100 * ci[0]:.0f}-{100 * ci[1]:.0f} %)" if ci else "n/a"
+
+    rows.append(("pose-level precision: uniform poses in reachable cells, IK to 1 cm / 0.05 rad from the witness",
+                 pct(pose["precision"], pose["precision_ci95"]),
+                 f"{pose['precision_reached']} of {pose['precision_poses']} poses"))
+    rows.append(("pose-level recall: uniform in-reach cells whose centre an independent IK reaches",
+                 pct(pose["recall"], pose["recall_ci95"]),
+                 f"{pose['recall_marked']} of {pose['recall_cells']} cells ({pose['recall_draws']} drawn)"))
+    rows.append(("cell-level precision against IK (one-cell tolerance, TP / (TP + FP))",
+                 f"{100 * (chk['precision'] or 0):.1f} %", f"{chk['true_positives']} TP, {chk['false_positives']} FP"))
+    rows.append(("cell-level recall estimate against IK", f"{100 * (chk['recall_estimate'] or 0):.1f} %",
                  f"NPV {100 * (chk['negative_predictive_value'] or 0):.1f} %"))
-    filled = curve[-1][1]
+    filled = built.meta["filled_cells"]
     rows.append(("fill: cells reached / grid cells", f"{filled} / {grid.size}", f"{100 * filled / grid.size:.2f} %"))
     convergence = []
-    for done, values in snapshots:
+    for done, values, elapsed in snapshots:
         snap = placement.BuiltMap(values.reshape(grid.shape), dict(built.meta, samples=done))
-        c = placement.check_map(robot, snap, samples=args.check, seed=0)
-        convergence.append({"samples": done, "filled": int(np.count_nonzero(values)),
+        c = pose_metrics(robot, snap, samples=args.check, seed=0)
+        convergence.append({"samples": done, "time_s": elapsed, "filled": int(np.count_nonzero(values)),
                             "fill_ratio": float(np.count_nonzero(values) / grid.size),
-                            "recall_estimate": c["recall_estimate"], "precision": c["precision"]})
-    rows.append(("convergence: samples -> fill / recall / precision",
-                 "; ".join(f"{c['samples'] / 1e6:.0f} M: {100 * c['fill_ratio']:.1f} / "
-                           f"{100 * (c['recall_estimate'] or 0):.0f} / {100 * (c['precision'] or 0):.0f} %"
-                           for c in convergence), "docs/convergence.png"))
+                            "recall": c["recall"], "precision": c["precision"], "completion": False})
+    if completion:
+        convergence.append({"samples": samples, "time_s": curve[-1][2] + built.meta["completion"]["time_s"],
+                            "filled": filled, "fill_ratio": filled / grid.size, "recall": pose["recall"],
+                            "precision": pose["precision"], "completion": True})
+    rows.append(("convergence: samples -> fill / pose recall / pose precision",
+                 "; ".join(f"{c['samples'] / 1e6:.0f} M{' + completion' if c['completion'] else ''}: "
+                           f"{100 * c['fill_ratio']:.1f} / {100 * (c['recall'] or 0):.0f} / "
+                           f"{100 * (c['precision'] or 0):.0f} %" for c in convergence), "docs/convergence.png"))
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -186,6 +216,13 @@ def main(argv=None):
     (out / "bench.json").write_text(json.dumps({"rows": rows, "curve": curve, "convergence": convergence, "check": {
         k: v for k, v in chk.items() if not isinstance(v, (list, dict))}}, indent=1, default=str))
     print(text)
+
+
+def peak_rss_gib() -> float:
+    """Peak resident memory of this process so far [GiB] (Linux ru_maxrss is in KiB)."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20
 
 
 def _plot(curve, convergence, cells, path, title):
@@ -201,11 +238,19 @@ def _plot(curve, convergence, cells, path, title):
     ax.set_ylabel("fill [% of grid cells]", color="tab:blue")
     ax.grid(True, alpha=0.3)
     ax2 = ax.twinx()
-    cx = np.array([c["samples"] for c in convergence]) / 1e6
-    ax2.plot(cx, [100 * (c["recall_estimate"] or 0) for c in convergence], "o-", color="tab:orange",
-             label="recall against IK")
-    ax2.plot(cx, [100 * (c["precision"] or 0) for c in convergence], "s--", color="tab:green",
-             label="precision against IK")
+    plain = [c for c in convergence if not c["completion"]]
+    cx = np.array([c["samples"] for c in plain]) / 1e6
+    ax2.plot(cx, [100 * (c["recall"] or 0) for c in plain], "o-", color="tab:orange",
+             label="pose-level recall (IK)")
+    ax2.plot(cx, [100 * (c["precision"] or 0) for c in plain], "s--", color="tab:green",
+             label="pose-level precision (IK, 1 cm / 0.05 rad)")
+    for c in convergence:
+        if c["completion"]:
+            ax2.plot([c["samples"] / 1e6], [100 * (c["recall"] or 0)], "*", ms=12, color="tab:red",
+                     label=f"recall after completion (+{c['time_s'] - plain[-1]['time_s']:.0f} s)" if plain else
+                     "recall after completion")
+            ax2.plot([c["samples"] / 1e6], [100 * (c["precision"] or 0)], "P", ms=9, color="tab:purple",
+                     label="precision after completion")
     ax2.set_ylabel("recall / precision [%]")
     ax2.set_ylim(0, 105)
     lines = ax.get_lines() + ax2.get_lines()

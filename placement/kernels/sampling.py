@@ -7,6 +7,12 @@ a pure function of (seed, sample index), so the map is bitwise identical for
 any thread count or block split. A sample whose value is proven not to exceed
 its cell's current value is dropped early (value -1): that cannot change the
 result either.
+
+Witnesses: every cell also keeps the number of the sample that set its value
+(see placement/witness.py for the numbering). Among samples of equal value the
+smallest number wins; blocks are applied in increasing sample order and a
+dropped sample never beats the earlier one that set the threshold, so the
+witnesses are as deterministic as the values.
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ import numpy as np
 from numba import njit, prange
 
 from .grid import cell_index
+from .ik import dls_attempt
 from .kinematics import fk_jacobian
 from .isotropy import W_ROWS, isotropy_batched
 from .manipulability import ISOTROPY, extended_manipulability, joint_penalties
@@ -25,12 +32,16 @@ CHUNK = 256  # samples per parallel task; its buffers (q, J) stay in the L2 cach
 
 
 @njit(cache=True, parallel=True)
-def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kind, tip_T,
+def sample_block(seed, start, count, given, lower, upper, continuous, link_T, axis, kind, tip_T,
                  index, rot_scale, origin, res, shape, grid, rowfac, out_cell, out_val):
     """Evaluate samples start .. start+count-1 into out_cell (count,) and out_val (count,).
 
+    ``given`` (count, n) holds the configurations [rad or m] to evaluate (the
+    completion pass), or is (0, n): then they are the counter-based samples of ``seed``.
+
     out_cell is -1 for a pose outside the grid; out_val is -1 for a sample proven
-    not to raise its cell. ``grid`` is the flat float32 map, read only here.
+    not to raise its cell. ``grid`` is the flat float32 map, read only here
+    (length 0: no pruning, every value exact).
     ``rowfac`` is (count, 6, 2): each sample's row penalties (self-distance), a
     negative [i, 0, 0] rejecting the sample; or (0, 6, 2) for none.
     """
@@ -60,12 +71,12 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
             sid = start + i
             qi = q[i - lo]
             for j in range(n):
-                qi[j] = lower[j] + (upper[j] - lower[j]) * uniform(seed, sid * n + j)
+                qi[j] = given[i, j] if given.shape[0] > 0 else lower[j] + (upper[j] - lower[j]) * uniform(seed, sid * n + j)
             fk_jacobian(qi, link_T, axis, kind, tip_T, T, J[i - lo], work)
             out_cell[i] = cell_index(T, origin, res, shape)
         for i in range(lo, hi):
             c = out_cell[i]
-            thr[i - lo] = np.float64(grid[c]) if c >= 0 else 0.0
+            thr[i - lo] = np.float64(grid[c]) if c >= 0 and grid.shape[0] > 0 else -1.0
         for i in range(lo, hi):
             rf = rowfac[i] if rowfac.shape[0] > 0 else ones
             if out_cell[i] < 0 or rf[0, 0] < 0.0:
@@ -85,15 +96,17 @@ def sample_block(seed, start, count, lower, upper, continuous, link_T, axis, kin
 
 
 @njit(cache=True)
-def reduce_max(grid, cells, vals):
-    """grid[cells[i]] = max(grid[cells[i]], vals[i]) for valid samples; returns how many raised."""
+def reduce_max(grid, witness, cells, vals, ids):
+    """grid[cells[i]] = max(grid[cells[i]], vals[i]) for valid samples, witness[cell] = ids[i] of the
+    winner (the smallest id among equal values); returns how many cells changed."""
     raised = 0
     for i in range(cells.shape[0]):
         c = cells[i]
         if c >= 0 and vals[i] > 0.0:
             v = np.float32(vals[i])
-            if v > grid[c]:
+            if v > grid[c] or (v == grid[c] and ids[i] < witness[c]):
                 grid[c] = v
+                witness[c] = ids[i]
                 raised += 1
     return raised
 
@@ -113,3 +126,130 @@ def configs_at(seed, ids, lower, upper):
 def sample_configs(seed, start, count, lower, upper):
     """The joint configurations (count, n) [rad/m] of samples start .. start+count-1."""
     return configs_at(seed, np.arange(start, start + count), lower, upper)
+
+
+# the 12 face neighbours of a 6D cell, as (axis, step): the completion directions
+NEIGHBOURS = np.array([[a, d] for a in range(6) for d in (-1, 1)], dtype=np.int64)
+# a few damped least-squares steps from the source witness towards the target cell's centre
+COMPLETION_ITERATIONS = 4
+COMPLETION_DAMPING = 1e-3
+COMPLETION_MAX_STEP = 0.2
+
+
+@njit(cache=True)
+def neighbour_cell(cell, k, shape):
+    """Flat index of the k-th face neighbour (NEIGHBOURS[k]) of flat ``cell``; yaw and roll wrap; -1 outside."""
+    idx = np.empty(6, dtype=np.int64)
+    rest = cell
+    for d in range(5, -1, -1):
+        idx[d] = rest % shape[d]
+        rest //= shape[d]
+    a = NEIGHBOURS[k, 0]
+    v = idx[a] + NEIGHBOURS[k, 1]
+    if a == 3 or a == 5:
+        v %= shape[a]
+    elif v < 0 or v >= shape[a]:
+        return -1
+    idx[a] = v
+    out = 0
+    for d in range(6):
+        out = out * shape[d] + idx[d]
+    return out
+
+
+@njit(cache=True)
+def cell_centre(cell, origin, res, shape, T):
+    """The pose T (4, 4) at the centre of flat ``cell`` (the grid's bin convention, see kernels/grid.py)."""
+    idx = np.empty(6, dtype=np.int64)
+    rest = cell
+    for d in range(5, -1, -1):
+        idx[d] = rest % shape[d]
+        rest //= shape[d]
+    yaw = idx[3] * 2.0 * np.pi / shape[3]
+    pitch = -0.5 * np.pi + (idx[4] + 0.5) * np.pi / shape[4]
+    roll = idx[5] * 2.0 * np.pi / shape[5]
+    cy, sy, cp, sp, cr, sr = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch), np.cos(roll), np.sin(roll)
+    T[0, 0], T[0, 1], T[0, 2] = cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr
+    T[1, 0], T[1, 1], T[1, 2] = sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr
+    T[2, 0], T[2, 1], T[2, 2] = -sp, cp * sr, cp * cr
+    for d in range(3):
+        T[d, 3] = origin[d] + (idx[d] + 0.5) * res
+    T[3, 0], T[3, 1], T[3, 2], T[3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+@njit(cache=True)
+def refined_config(seed, source, direction, lower, upper, continuous, link_T, axis, kind, tip_T, origin, res, shape,
+                   out):
+    """Completion sample into ``out`` (n,) [rad or m]: from sample ``source`` of ``seed``, a few DLS steps
+    towards the centre of the ``direction``-th face neighbour of the cell that sample lies in.
+
+    A pure function of (seed, source, direction): the map's witnesses only store those.
+    Returns False (``out`` = the source sample) if the source or the neighbour is outside the grid.
+    """
+    n = lower.shape[0]
+    for j in range(n):
+        out[j] = lower[j] + (upper[j] - lower[j]) * uniform(seed, source * n + j)
+    T = np.empty((4, 4))
+    J = np.empty((6, n))
+    work = np.empty((n + 3, 4, 4))
+    fk_jacobian(out, link_T, axis, kind, tip_T, T, J, work)
+    c = cell_index(T, origin, res, shape)
+    t = neighbour_cell(c, direction, shape) if c >= 0 else -1
+    if t < 0:
+        return False
+    cell_centre(t, origin, res, shape, T)
+    # tolerances 0: always the fixed number of steps (the result must not depend on a float test)
+    _, q, _, _, _ = dls_attempt(out.copy(), T, lower, upper, continuous, link_T, axis, kind, tip_T, 0.0, 0.0,
+                                COMPLETION_ITERATIONS, COMPLETION_DAMPING, COMPLETION_MAX_STEP,
+                                COMPLETION_ITERATIONS + 1)
+    out[:] = q
+    return True
+
+
+@njit(cache=True, parallel=True)
+def refined_configs(seed, sources, dirs, lower, upper, continuous, link_T, axis, kind, tip_T, origin, res, shape):
+    """:func:`refined_config` of many (source, direction) pairs -> (configs (m, n), ok (m,) bool)."""
+    m = sources.shape[0]
+    out = np.empty((m, lower.shape[0]))
+    ok = np.zeros(m, dtype=np.bool_)
+    for i in prange(m):
+        ok[i] = refined_config(seed, sources[i], dirs[i], lower, upper, continuous, link_T, axis, kind, tip_T,
+                               origin, res, shape, out[i])
+    return out, ok
+
+
+@njit(cache=True)
+def first_source(t, grid, witness, plain, shape):
+    """The first face neighbour of cell ``t`` (NEIGHBOURS order) that is reached with a plain witness, or -1."""
+    for d in range(NEIGHBOURS.shape[0]):
+        c = neighbour_cell(t, d, shape)
+        if c >= 0 and grid[c] > 0.0 and witness[c] < plain:
+            return c
+    return -1
+
+
+@njit(cache=True)
+def completion_sources(grid, witness, plain, shape):
+    """(sources, dirs): one completion candidate per empty cell next to a reached one, from its first
+    (in NEIGHBOURS order) face neighbour that is reached with a plain-sample witness (< ``plain``);
+    in increasing source cell, then direction order. One per empty cell, not one per pair: the
+    candidates cost an exact measure each, and the pairs are several times as many."""
+    k = NEIGHBOURS.shape[0]
+    sources = np.empty(0, dtype=np.int64)
+    dirs = np.empty(0, dtype=np.int64)
+    # two passes: count, then fill (the candidates can outnumber the cells; no growing buffers)
+    for fill in range(2):
+        m = 0
+        for c in range(grid.shape[0]):
+            if grid[c] > 0.0 and witness[c] < plain:
+                for d in range(k):
+                    t = neighbour_cell(c, d, shape)
+                    if t >= 0 and grid[t] == 0.0 and first_source(t, grid, witness, plain, shape) == c:
+                        if fill:
+                            sources[m] = witness[c]
+                            dirs[m] = d
+                        m += 1
+        if not fill:
+            sources = np.empty(m, dtype=np.int64)
+            dirs = np.empty(m, dtype=np.int64)
+    return sources, dirs

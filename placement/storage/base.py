@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MapError
-from .format import CRC_KEY, ROOT_KEY, chunk_crc, chunk_crcs, chunk_shape
+from .format import CRC_KEY, ROOT_KEY, WITNESS_CRC_KEY, chunk_crc, chunk_crcs, chunk_shape, witness_name
 
 __all__ = ["ROOT_KEY", "Backend", "StoredMap", "atomic_replace", "chunk_shape", "first_line"]
 
@@ -52,59 +52,71 @@ class StoredMap(ABC):
         """The metadata of ``arm`` (as written by :func:`placement.build_map` and :func:`placement.save_maps`)."""
 
     @abstractmethod
-    def _get(self, arm: str):
-        """The backend's array object of ``arm`` (sliceable); any exception if it is missing."""
+    def _get(self, name: str):
+        """The backend's array object called ``name`` (sliceable); any exception if it is missing."""
 
-    def _array(self, arm: str):
-        """The backend's array object of ``arm``; MapError if it is missing or unreadable."""
+    def _array(self, arm: str, witness: bool = False):
+        """The backend's array object of ``arm`` (its values, or its witnesses); MapError if missing or unreadable."""
+        what = "witness array" if witness else "array"
         try:
-            return self._get(arm)
+            return self._get(witness_name(arm) if witness else arm)
         except Exception as exc:
-            raise MapError(f"{self.path}: array for arm '{arm}' is missing or corrupt ({first_line(exc)})") from None
+            raise MapError(f"{self.path}: {what} for arm '{arm}' is missing or corrupt ({first_line(exc)}); "
+                           f"rebuild the map") from None
 
-    def expected_crcs(self, arm: str) -> np.ndarray:
-        """The stored CRC32 of every chunk of ``arm``, (nz, n_pitch, n_roll) uint32; MapError if malformed."""
+    def expected_crcs(self, arm: str, witness: bool = False) -> np.ndarray:
+        """The stored CRC32 of every chunk of ``arm``'s values (or witnesses), (nz, n_pitch, n_roll) uint32;
+        MapError if malformed."""
         cache = self.__dict__.setdefault("_crcs", {})
-        if arm not in cache:
+        key = WITNESS_CRC_KEY if witness else CRC_KEY
+        if (arm, key) not in cache:
             meta = self.arm_meta(arm)
             try:
                 shape = tuple(int(s) for s in meta["grid"]["shape"])
-                crcs = np.asarray(meta[CRC_KEY], dtype=np.int64)
+                crcs = np.asarray(meta[key], dtype=np.int64)
                 ok = crcs.shape == (shape[2], shape[4], shape[5]) and bool(np.all((crcs >= 0) & (crcs < 2 ** 32)))
             except (KeyError, TypeError, ValueError, IndexError, OverflowError):
                 ok = False
             if not ok:
-                raise MapError(f"{self.path}: the chunk checksums of arm '{arm}' are missing or malformed "
+                what = "witness" if witness else "chunk"
+                raise MapError(f"{self.path}: the {what} checksums of arm '{arm}' are missing or malformed "
                                f"(corrupt); rebuild the map")
-            cache[arm] = crcs.astype(np.uint32)
-        return cache[arm]
+            cache[(arm, key)] = crcs.astype(np.uint32)
+        return cache[(arm, key)]
 
-    def read_chunk(self, arm: str, iz: int, ip: int, ir: int) -> np.ndarray:
-        """Values (nx, ny, n_yaw) float32 of the slice z = iz, pitch = ip, roll = ir, checked against its CRC32."""
-        want = self.expected_crcs(arm)[iz, ip, ir]
-        chunk = self._read(arm, f"chunk ({iz}, {ip}, {ir})", lambda a: a[:, :, iz, :, ip, ir])
+    def read_chunk(self, arm: str, iz: int, ip: int, ir: int, witness: bool = False) -> np.ndarray:
+        """Values (nx, ny, n_yaw) float32 (or witnesses) of the slice z = iz, pitch = ip, roll = ir,
+        checked against its CRC32."""
+        want = self.expected_crcs(arm, witness)[iz, ip, ir]
+        chunk = self._read(arm, f"chunk ({iz}, {ip}, {ir})", lambda a: a[:, :, iz, :, ip, ir], witness)
         if chunk_crc(chunk) != want:
-            raise self._damaged(arm, (iz, ip, ir))
+            raise self._damaged(arm, (iz, ip, ir), witness=witness)
         return chunk
 
-    def read_all(self, arm: str) -> np.ndarray:
-        """The whole 6D float32 array of ``arm``, every chunk checked against its CRC32."""
-        want = self.expected_crcs(arm)
-        data = self._read(arm, "data", lambda a: a[...])
+    def read_all(self, arm: str, witness: bool = False) -> np.ndarray:
+        """The whole 6D float32 array of ``arm`` (or its witnesses), every chunk checked against its CRC32."""
+        want = self.expected_crcs(arm, witness)
+        data = self._read(arm, "data", lambda a: a[...], witness)
         bad = np.argwhere(chunk_crcs(data) != want)
         if len(bad):
-            raise self._damaged(arm, tuple(int(i) for i in bad[0]), len(bad))
+            raise self._damaged(arm, tuple(int(i) for i in bad[0]), len(bad), witness)
         return data
 
-    def _damaged(self, arm: str, chunk: tuple[int, int, int], count: int = 1) -> MapError:
+    def _damaged(self, arm: str, chunk: tuple[int, int, int], count: int = 1, witness: bool = False) -> MapError:
         more = f" (and {count - 1} more)" if count > 1 else ""
-        return MapError(f"{self.path}: chunk (z, pitch, roll) = {chunk} of arm '{arm}'{more} does not match its "
+        what = "witness chunk" if witness else "chunk"
+        return MapError(f"{self.path}: {what} (z, pitch, roll) = {chunk} of arm '{arm}'{more} does not match its "
                         f"checksum (changed, swapped or missing chunk data: corrupt); rebuild the map")
 
-    def _read(self, arm: str, what: str, take) -> np.ndarray:
-        array = self._array(arm)
+    def _read(self, arm: str, what: str, take, witness: bool = False) -> np.ndarray:
+        array = self._array(arm, witness)
         try:
-            return np.asarray(take(array), dtype=np.float32)
+            data = np.asarray(take(array))
+            if witness:
+                if data.dtype not in (np.uint32, np.int64):
+                    raise ValueError(f"witness dtype {data.dtype}")
+                return data
+            return np.asarray(data, dtype=np.float32)
         except Exception as exc:  # codec and I/O errors of either library
             self._settle()
             raise MapError(f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)}); "
@@ -114,8 +126,9 @@ class StoredMap(ABC):
         """Let the library finish work a failed read left running (zarr: sibling chunk reads)."""
 
     @abstractmethod
-    def chunks_present(self, arm: str) -> int | None:
-        """How many chunks are stored (None if the backend cannot tell cheaply)."""
+    def chunks_present(self, name: str) -> int | None:
+        """How many chunks of array ``name`` (an arm, or its witness array) are stored (None if the backend
+        cannot tell cheaply)."""
 
     def close(self) -> None:  # noqa: B027 - optional
         pass
@@ -130,8 +143,9 @@ class Backend(ABC):
         """Whether ``path`` looks like a map of this backend (complete or not)."""
 
     @abstractmethod
-    def write(self, path: Path, root: dict, arms: dict[str, tuple[np.ndarray, dict]]) -> None:
-        """Write a complete map to ``path`` (a fresh path; not atomic by itself)."""
+    def write(self, path: Path, root: dict, arms: dict[str, tuple[np.ndarray, dict, np.ndarray]]) -> None:
+        """Write a complete map to ``path`` (a fresh path; not atomic by itself); ``arms`` maps each arm
+        to (values, metadata, witnesses)."""
 
     @abstractmethod
     def open(self, path: Path) -> StoredMap:

@@ -6,8 +6,11 @@ import json
 from pathlib import Path
 
 import h5py
+import numpy as np
+
 from ..errors import MapError
 from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line, opened
+from .format import witness_name
 
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
@@ -22,8 +25,8 @@ class Hdf5Map(StoredMap):
 
         self.file, self.root = opened(path, "HDF5", read)
 
-    def _get(self, arm: str):
-        return self.file[arm]
+    def _get(self, name: str):
+        return self.file[name]
 
     def arm_meta(self, arm: str) -> dict:
         try:
@@ -33,7 +36,7 @@ class Hdf5Map(StoredMap):
         except Exception as exc:
             raise MapError(f"{self.path}: metadata of arm '{arm}' is corrupt ({first_line(exc)})") from None
 
-    def chunks_present(self, arm: str) -> int | None:
+    def chunks_present(self, name: str) -> int | None:
         return None
 
     def close(self) -> None:
@@ -53,11 +56,14 @@ class Hdf5Backend(Backend):
 
     def write(self, path: Path, root: dict, arms: dict) -> None:
         with h5py.File(path, "w") as fh:
-            for arm, (values, meta) in arms.items():
+            for arm, (values, meta, witness) in arms.items():
                 ds = fh.create_dataset(arm, data=values, dtype="float32", chunks=chunk_shape(values.shape),
                                        compression="gzip", compression_opts=1, shuffle=True, fletcher32=True,
                                        fillvalue=0.0)
                 ds.attrs["meta"] = json.dumps(meta)
+                fh.create_dataset(witness_name(arm), data=witness, dtype=witness.dtype,
+                                  chunks=chunk_shape(values.shape), compression="gzip", compression_opts=1,
+                                  shuffle=True, fletcher32=True, fillvalue=np.iinfo(witness.dtype).max)
             root = dict(root)
             root["complete"] = True
             fh.attrs[ROOT_KEY] = json.dumps(root)

@@ -7,11 +7,13 @@ import json
 import os
 from pathlib import Path
 
+import numpy as np
 import zarr
 from zarr.codecs import BloscCodec, Crc32cCodec
 from zarr.core.sync import sync
 
 from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, opened
+from .format import witness_name
 
 # a failed read leaves zarr's sibling chunk reads running; give them this long to finish [s]
 _SETTLE_TIMEOUT_S = 30.0
@@ -27,14 +29,14 @@ class ZarrMap(StoredMap):
 
         self.group, self.root = opened(path, "Zarr", read)
 
-    def _get(self, arm: str):
-        return self.group[arm]
+    def _get(self, name: str):
+        return self.group[name]
 
     def arm_meta(self, arm: str) -> dict:
         return dict(self._array(arm).attrs.asdict())
 
-    def chunks_present(self, arm: str) -> int | None:
-        chunk_dir = self.path / arm / "c"
+    def chunks_present(self, name: str) -> int | None:
+        chunk_dir = self.path / name / "c"
         if not chunk_dir.is_dir():
             return 0
         return sum(len(files) for _, _, files in os.walk(chunk_dir))
@@ -62,15 +64,22 @@ class ZarrBackend(Backend):
     def write(self, path: Path, root: dict, arms: dict) -> None:
         group = zarr.open_group(store=str(path), mode="w", zarr_format=3)
         root = dict(root)
-        for arm, (values, meta) in arms.items():
+        for arm, (values, meta, witness) in arms.items():
             arr = group.create_array(
                 arm, shape=values.shape, dtype="float32", chunks=chunk_shape(values.shape),
                 compressors=[BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()],
                 fill_value=0.0, dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
             )
             arr[...] = values
+            wit = group.create_array(
+                witness_name(arm), shape=witness.shape, dtype=witness.dtype, chunks=chunk_shape(values.shape),
+                compressors=[BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()],
+                fill_value=np.iinfo(witness.dtype).max, dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
+            )
+            wit[...] = witness
             meta = dict(meta)
             meta["stored_chunks"] = ZarrMap(path).chunks_present(arm)
+            meta["stored_witness_chunks"] = ZarrMap(path).chunks_present(witness_name(arm))
             arr.attrs.update(json.loads(json.dumps(meta)))
         root["complete"] = True  # last: a map without it is half-written
         group.attrs[ROOT_KEY] = json.loads(json.dumps(root))
