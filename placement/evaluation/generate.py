@@ -12,7 +12,8 @@ nearest to (so every scene can be solved). Scene k of seed s depends only on (s,
 
 Gripper clearance: the footprints (yawed rectangles) of any two objects are at least
 :data:`GRIPPER_CLEARANCE` (0.10 m) apart edge to edge, so a gripper fits between them. The PR2's
-open fingers and palm at a top grasp reach at most 0.041 m beyond the grasped object's footprint
+fingers and palm (as the collision check holds them, finger joints at 0) at a top grasp reach at
+most 0.041 m beyond the grasped object's footprint
 (finger links +-0.056 m across, +-0.028 m along, plus the planner's 5 mm collision padding, on the
 narrowest object); the rest is room for the wrist and for grasps at other base yaws. Before the
 rule the generator put objects 5 cm apart centre to centre, where no top grasp was collision-free.
@@ -24,7 +25,7 @@ half-diagonal, 0.065 m, minus the margin), outside every crate, and outside ever
 apart (so a top grasp of every object is collision-free, checked with the PR2's gripper shapes in
 tests/test_generate.py); place locations are above their place tables. When 1000
 positions for an object are all shadowed or too close to an earlier object (a short ``table_size``,
-or more objects than fit), the generator raises :class:`~placement.errors.PlacementError` naming
+or more objects than fit: up to 12 always fit the PR2's default tables), the generator raises :class:`~placement.errors.PlacementError` naming
 the scene and the object instead of keeping a blocked position.
 
 Paths: :func:`write_scenes` takes a preset path and ``maps`` as seen from the current directory
