@@ -34,9 +34,12 @@ maps-armar6: install
 maps/armar6/zarr.json:
 	$(MAKE) maps-armar6
 
-# Builds the default maps if they are missing, then plans the example scene.
+# Builds the default maps if they are missing, then plans the example scenes: the table-clearing
+# scene and the version 2 kitchen (drawer pull, side grasps on a shelf, a can lying on its side),
+# both with the collision check on (the planner's default); figures in demo-plots/.
 demo: install maps/pr2/zarr.json
 	.venv/bin/placement query examples/table_clearing.yaml --plot demo-plots
+	.venv/bin/placement query examples/kitchen.yaml --plot demo-plots/kitchen
 
 bench: install maps/pr2/zarr.json maps/armar6/zarr.json
 	$(PY) tools/bench.py

@@ -10,13 +10,23 @@ the north wall. The obstacle variant adds boxes beside the pick tables that bloc
 some placements, but never the table edge in front of an object on the side it is
 nearest to (so every scene can be solved). Scene k of seed s depends only on (s, k).
 
+Gripper clearance: the footprints (yawed rectangles) of any two objects are at least
+:data:`GRIPPER_CLEARANCE` (0.10 m) apart edge to edge, so a gripper fits between them. The PR2's
+fingers and palm (as the collision check holds them, finger joints at 0) at a top grasp reach at
+most 0.041 m beyond the grasped object's footprint
+(finger links +-0.056 m across, +-0.028 m along, plus the planner's 5 mm collision padding, on the
+narrowest object); the rest is room for the wrist and for grasps at other base yaws. Before the
+rule the generator put objects 5 cm apart centre to centre, where no top grasp was collision-free.
+
 Invariants (tested over many seeds): every object's centre lies on the pick area at least
 ``MARGIN`` from its edge (a yawed footprint corner may overhang by up to 5 mm: the largest
 half-diagonal, 0.065 m, minus the margin), outside every crate, and outside every crate's
-``SHADOW`` on the object's own side; place locations are above their place tables. When 1000
-positions for an object are all shadowed (only possible with a short ``table_size``), the
-generator raises :class:`~placement.errors.PlacementError` naming the scene and the object
-instead of keeping a blocked position.
+``SHADOW`` on the object's own side; every two objects' footprints are at least ``GRIPPER_CLEARANCE``
+apart (so a top grasp of every object is collision-free, checked with the PR2's gripper shapes in
+tests/test_generate.py); place locations are above their place tables. When 1000
+positions for an object are all shadowed or too close to an earlier object (a short ``table_size``,
+or more objects than fit: up to 12 always fit the PR2's default tables), the generator raises :class:`~placement.errors.PlacementError` naming
+the scene and the object instead of keeping a blocked position.
 
 Paths: :func:`write_scenes` takes a preset path and ``maps`` as seen from the current directory
 and records them relative to the scene file (an absolute path stays absolute), so a scene loads
@@ -53,6 +63,8 @@ PLACE_REACH = {"pr2": 0.70}
 DEFAULT_PLACE_EDGE = 0.8  # [m] place table edge of other presets
 SHADOW = 0.55  # [m] half-width of the pick-table edge a crate blocks (crate half-size + arm clearance)
 MARGIN = 0.06  # [m] least distance of an object's centre from the pick area's edge
+#: least edge-to-edge distance [m] of two objects' footprints: room for a gripper between them (module doc)
+GRIPPER_CLEARANCE = 0.10
 OBJECT_SIZES = [(0.06, 0.06, 0.10), (0.05, 0.12, 0.10), (0.07, 0.07, 0.12), (0.04, 0.09, 0.08)]
 TRIES = 1000  # random positions tried per object before the scene is given up
 #: upper bounds of ``objects`` per scene and scenes per call: a benchmark, not a stress test
@@ -75,6 +87,32 @@ def place_table_edge(preset: str) -> float:
     robot = load_robot(preset)
     half_depth = robot.footprint_radius if robot.footprint is None else float(robot.footprint[:, 0].max())
     return round(2 * (PLACE_REACH[preset] - half_depth - PlannerConfig().fixed_margin), 2)
+
+
+def footprint(x: float, y: float, yaw: float, size) -> np.ndarray:
+    """(4, 2) corners [m], counter-clockwise, of a box's footprint: centre (x, y) [m], ``yaw`` [rad],
+    ``size`` (length, width, ...) [m] along its own axes."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    local = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * (size[0] / 2, size[1] / 2)
+    return local @ np.array([[c, s], [-s, c]]) + (x, y)
+
+
+def footprint_gap(a: np.ndarray, b: np.ndarray) -> float:
+    """Edge-to-edge distance [m] of two convex polygons (k, 2) given counter-clockwise; 0 when they overlap."""
+    def separated(p, q):  # some edge of p has every corner of q strictly outside it
+        edges = np.roll(p, -1, axis=0) - p
+        normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+        return bool(np.any(np.min(np.einsum("ej,qej->qe", normals, q[:, None] - p[None]), axis=0) > 0))
+
+    if not (separated(a, b) or separated(b, a)):
+        return 0.0
+
+    def corner_to_edges(p, q):  # least distance of q's corners to p's edges
+        start, d = p, np.roll(p, -1, axis=0) - p
+        t = np.clip(np.einsum("qej,ej->qe", q[:, None] - start[None], d) / np.einsum("ej,ej->e", d, d), 0, 1)
+        return float(np.min(np.linalg.norm(q[:, None] - (start[None] + t[..., None] * d[None]), axis=2)))
+
+    return min(corner_to_edges(a, b), corner_to_edges(b, a))
 
 
 def check_counts(seed: int, objects: int, count: int = 1) -> None:
@@ -125,6 +163,7 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
             obs.append({"name": f"crate_{k + 1}", "box": {"center": [round(x, 3), round(y, 3), 0.25],
                                                           "size": [0.5, 0.5, 0.5]}})
     objs = []
+    placed = []  # (centre, bounding radius, footprint corners) of the objects so far
     crates = [o["box"]["center"] for o in obs if o["name"].startswith("crate")]
     for k in range(objects):
         size = OBJECT_SIZES[int(rng.integers(len(OBJECT_SIZES)))]
@@ -133,13 +172,24 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
             y = cy + rng.uniform(-depth / 2 + MARGIN, depth / 2 - MARGIN)
             # a crate may block a side, but never the side an object is nearest to within
             # SHADOW of its x: every object stays reachable from its own side
-            if not any((c[1] - cy) * (y - cy) > 0 and abs(c[0] - x) < SHADOW for c in crates):
+            if any((c[1] - cy) * (y - cy) > 0 and abs(c[0] - x) < SHADOW for c in crates):
+                continue
+            x, y = round(x, 3), round(y, 3)  # the clearance holds for the position as written
+            # the yaw is drawn after the position as before the clearance rule, so scenes
+            # whose objects were already apart keep their random numbers
+            yaw = round(float(rng.uniform(-math.pi, math.pi)), 4)
+            corners = footprint(x, y, yaw, size)
+            # bounding circles first: the exact gap only for objects that could be too close
+            near = [q for q in placed if math.dist((x, y), q[0]) < math.hypot(*size[:2]) / 2 + q[1] + GRIPPER_CLEARANCE]
+            if all(footprint_gap(corners, q[2]) >= GRIPPER_CLEARANCE for q in near):
                 break
         else:
             raise PlacementError(f"scene {index} of seed {seed}: object_{k + 1} found no position free of the "
-                                 f"crates' shadows in {TRIES} tries (pick tables {length} x {depth} m too short)")
-        objs.append({"name": f"object_{k + 1}", "position": [round(x, 3), round(y, 3), TABLE_HEIGHT + size[2] / 2],
-                     "yaw": round(float(rng.uniform(-math.pi, math.pi)), 4), "size": list(size)})
+                                 f"crates' shadows and {GRIPPER_CLEARANCE} m from the other objects in {TRIES} "
+                                 f"tries (pick tables {length} x {depth} m too short for {objects} objects)")
+        placed.append(((x, y), math.hypot(*size[:2]) / 2, corners))
+        objs.append({"name": f"object_{k + 1}", "position": [x, y, TABLE_HEIGHT + size[2] / 2],
+                     "yaw": yaw, "size": list(size)})
     start = [round(float(rng.uniform(1.0, w - 1.0)), 3), round(float(rng.uniform(h - 1.8, h - 0.8)), 3),
              round(float(rng.uniform(-math.pi, math.pi)), 4)]
     doc = {"version": 1, "resolution": 0.05, "bounds": [0.0, 0.0, w, h],
