@@ -104,7 +104,7 @@ class Oracle:
         a = robot.arm(arm)
         self.q0 = robot.reference_q()
         for other in robot.arms:
-            self.q0 = robot.full_q(other, robot.arm(other).home, self.q0)
+            self.q0 = robot.full_q(other, robot.arm(other).idle, self.q0)
         moved = below(model, set(a.joint_ids))
         hand = below(model, {a.joint_ids[-1], model.frames[model.getFrameId(a.tip_frame)].parentJoint})
         joints = [o.parentJoint for o in geom.geometryObjects]

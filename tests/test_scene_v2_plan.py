@@ -54,9 +54,9 @@ def test_side_grasp_irms_are_confirmed_by_ik(maps_dir, pr2):
         for flat in np.argsort(-value.ravel())[:5]:
             iy, ix = np.unravel_index(flat, value.shape)
             base = (float(xs[ix]), float(ys[iy]), float(yaws[yaw_index[iy, ix]]))
-            q = trajectory_ik(pr2, "right", c.poses, base, pr2.arm("right").home)
-            if q is not None:
-                T = base_matrix(*base) @ pr2.tcp_pose("right", q)
+            ik = trajectory_ik(pr2, "right", c.poses, base, pr2.arm("right").home)
+            if ik.ok:
+                T = base_matrix(*base) @ pr2.tcp_pose("right", ik.qs[-1])
                 assert np.linalg.norm(T[:3, 3] - c.poses[-1, :3, 3]) < 3e-3
                 found = True
                 break
