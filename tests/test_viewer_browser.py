@@ -50,9 +50,11 @@ def shots(maps_dir, tmp_path_factory):
         v.content.show(0)
         # a page is drawn in steps (scene, then the robot's meshes): a shot that caught it early is
         # taken again, a few times at most
-        with_robot = _shot(v.url, out / "robot.png", lambda im: robot_blue(im).sum() > 1500 and drawn(im) > 0.1)
+        # (the tables too: a shot of the second page once caught the room without them)
+        with_robot = _shot(v.url, out / "robot.png",
+                           lambda im: robot_blue(im).sum() > 1500 and drawn(im) > 0.1 and table_brown(im).sum() > 1000)
         v.content.robot_drawing.visible = False
-        without = _shot(v.url, out / "no_robot.png", lambda im: drawn(im) > 0.1)
+        without = _shot(v.url, out / "no_robot.png", lambda im: drawn(im) > 0.1 and table_brown(im).sum() > 1000)
     finally:
         v.stop()
     return with_robot, without

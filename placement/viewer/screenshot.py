@@ -37,7 +37,7 @@ def panel_filled(path) -> bool:
     return connected and bool(text)
 
 
-def screenshot(url: str, out, size=(1280, 800), budget_ms: int = 10_000, timeout_s: float = 120,
+def screenshot(url: str, out, size=(1280, 800), budget_ms: int = 10_000, timeout_s: float = 45,
                tries: int = 3) -> Path:
     """Load ``url`` in headless Chromium, let it run ``budget_ms`` of virtual time, and write a PNG of
     ``size`` (width, height) [px] to ``out``; taken again (up to ``tries`` times) while the page shows
