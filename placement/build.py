@@ -284,8 +284,14 @@ def build_map(robot: Robot, arm: str, *, samples: int, seed: int = 0, resolution
     if completion:
         if client is not None:
             compile_sampling(robot, arm, grid, index, checker, self_distance)
-        candidates = complete(robot, arm, grid, values, witness, seed=seed, plain=samples, index=index,
-                              self_collision=checker, self_distance=self_distance)
+        with EtaBar(total=1, desc=f"{robot.name}/{arm} completion", unit="cell", unit_scale=True,
+                    disable=not progress, leave=False) as bar:
+            def step(done, total):
+                bar.total = total
+                bar.update(done - bar.n)
+
+            candidates = complete(robot, arm, grid, values, witness, seed=seed, plain=samples, index=index,
+                                  self_collision=checker, self_distance=self_distance, on_block=step)
     completion_time = time.perf_counter() - t1
     values = values.reshape(grid.shape)
     witness = witness.reshape(grid.shape)

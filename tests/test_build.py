@@ -47,7 +47,7 @@ def assert_bitwise_equal(a: np.ndarray, b: np.ndarray):
 # --------------------------------------------------------------------------------------------
 
 def test_default_resolution_is_5cm(built):
-    """SPEC section 4: 5 cm cells by default (maps/pr2.yaml chooses 0.1 m explicitly)."""
+    """SPEC section 4: 5 cm cells by default (as maps/pr2.yaml; maps/pr2-10cm.yaml chooses 0.1 m)."""
     assert built.grid.resolution == 0.05
 
 

@@ -22,8 +22,10 @@ PR2_SPEC = (ROOT / "maps" / "pr2.yaml").read_text()
 
 def test_the_default_spec_file():
     spec = load_build_spec(ROOT / "maps" / "pr2.yaml")
-    assert spec == BuildSpec(robot="pr2", arms=("right", "left"), samples=150_000_000, seed=0, resolution=0.1,
-                             bins=(20, 9, 20), index="isotropy", format="zarr")
+    assert spec == BuildSpec(robot="pr2", arms=("right", "left"), samples=30_000_000, seed=0, resolution=0.05,
+                             bins=(20, 9, 20), index="isotropy", format="zarr", completion=True)
+    coarse = load_build_spec(ROOT / "maps" / "pr2-10cm.yaml")
+    assert coarse.resolution == 0.1 and coarse.samples == 150_000_000 and not coarse.completion
     assert BuildSpec().resolution == DEFAULT_RESOLUTION == 0.05 and BuildSpec().bins == DEFAULT_BINS
 
 

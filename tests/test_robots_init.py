@@ -122,6 +122,49 @@ def test_tcp_z_points_from_the_wrist_to_the_fingers(proposed, robot):
             assert cos > 0.8, f"{robot} {name}: TCP z makes {np.degrees(np.arccos(cos)):.0f} deg with wrist->fingers"
 
 
+def _beyond(r, arm: str, depth: float) -> list[str]:
+    """Links of ``arm``'s gripper shapes (as the collision check knows them) that reach ``depth`` [m] or more
+    beyond the TCP along its approach at home: coal collisions with the half-space past that plane."""
+    import coal
+
+    from placement.collision.robot import robot_geometry, transform
+
+    g = robot_geometry(r)
+    a = r.arm(arm)
+    data = r.model.createData()
+    q = r.full_q(arm, a.home, g.home_q)
+    pin.framesForwardKinematics(r.model, data, q)
+    gdata = pin.GeometryData(g.geom)
+    pin.updateGeometryPlacements(r.model, data, g.geom, gdata, q)
+    tcp = data.oMf[r.model.getFrameId(a.tip_frame)].homogeneous @ a.tcp_offset
+    z, o = tcp[:3, 2], tcp[:3, 3]
+    past = coal.Halfspace(-z, -(z @ o + depth))  # {x: z.(x - o) >= depth}
+    out = []
+    for k in g.arm_shapes(arm).gripper:
+        res = coal.CollisionResult()
+        if coal.collide(g.geom.geometryObjects[int(k)].geometry, transform(gdata.oMg[int(k)]), past,
+                        coal.Transform3s(), coal.CollisionRequest(), res):
+            out.append(g.names[int(k)])
+    return out
+
+
+@pytest.mark.parametrize("robot", list(ROBOTS))
+def test_fingers_reach_at_most_4_cm_past_the_tcp(proposed, robot):
+    """A top grasp puts the TCP on the object's top face: fingers far beyond it (TIAGo's palm-centred
+    grasp frame: 9.5 cm) would go into the table. init moves such a TCP to 2 cm short of the far end."""
+    from placement.robots.init_tcp import GRASP_DEPTH, HAND_REACH_MAX
+
+    if robot not in proposed:
+        pytest.skip("URDF not available")
+    r, _ = proposed[robot]
+    for name in r.arms:
+        assert _beyond(r, name, HAND_REACH_MAX + 1e-3) == [], f"{robot} {name}"
+    if robot == "tiago":
+        assert _beyond(r, "arm", GRASP_DEPTH - 2e-3), "the moved TCP is 2 cm short of the fingertips"
+        assert r.arm("arm").tip_frame == "hand_grasping_frame"
+        assert np.allclose(r.arm("arm").tcp_offset[:3, 2] @ r.arm("arm").tcp_offset[:3, 3], 0.0745, atol=2e-3)
+
+
 def test_pr2_proposal_matches_the_builtin_preset(proposed):
     r, p = proposed["pr2"]
     pr2 = placement.load_robot("pr2")

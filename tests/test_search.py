@@ -19,7 +19,7 @@ from placement.planning.verify import base_matrix, trajectory_ik
 from ik_oracle import find_placement
 from test_planner import write_scene
 
-PR2_MAPS = Path("/work/main/maps/pr2")
+PR2_MAPS = Path(__file__).resolve().parents[1] / "maps" / "pr2"
 
 
 def edge_scene(tmp_path, maps, height: float, depth: float, along: float = 0.0, threshold: float = 0.01,

@@ -7,10 +7,10 @@ other seeds of the generator with that file's table sizes and heights), planned 
 independent collision check of ``tests/oracle_collision.py`` (the robot's URDF shapes and the scene
 built there, coal on every pair, the base footprint exactly in 2D).
 
-    python tools/heldout.py [--scenes N] [--objects K] [--robots pr2 tiago talos_reduced]
+    python tools/heldout.py [--scenes N] [--objects K] [--robots pr2 tiago talos_reduced romeo]
 
-Maps: /work/main/maps/pr2 for the PR2, /work/wt-onboard/maps/<robot> for the others (skipped when
-absent). Run from the repository root; prints the table on stdout, one line per scene on stderr.
+Maps: maps/<robot> of this checkout (`make maps`, `make robots`; a robot without them is skipped).
+Run from the repository root; prints the table on stdout, one line per scene on stderr.
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ from oracle_collision import IndependentCheck  # noqa: E402
 from placement.evaluation.generate import TABLE_HEIGHT, generate_scene  # noqa: E402
 from placement.planning import Planner  # noqa: E402
 
-MAPS = {"pr2": Path("/work/main/maps/pr2")}
-ONBOARD_MAPS = Path("/work/wt-onboard/maps")
+MAPS = {"pr2": ROOT / "maps" / "pr2"}
+ONBOARD_MAPS = ROOT / "maps"
 KEYS = ["robot", "scenes", "steps planned", "infeasible", "FK-verified", "collision-free (independent)",
         "footprint clear", "smallest clearance [m]", "clearance = independent (1 mm)"]
 
@@ -104,7 +104,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", type=int, default=4, help="scenes per robot")
     ap.add_argument("--objects", type=int, default=4, help="objects per generated scene")
-    ap.add_argument("--robots", nargs="*", default=["pr2", "tiago", "talos_reduced"])
+    ap.add_argument("--robots", nargs="*", default=["pr2", "tiago", "talos_reduced", "romeo"])
     args = ap.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -76,22 +76,61 @@ class YawMasks:
     bits: np.ndarray
 
 
+_OFFSETS: dict = {}
+
+
+def _offsets(base: BaseShape, res: float):
+    """The band limits lo, hi [m] and the offsets (L,), (L,) [cells] with the yaws (L, W) an occupied
+    cell there blocks, of ``base`` on a grid of ``res`` [m]; computed once per shape and grid (the
+    table takes tens of ms, an obstacle update must not pay for it again)."""
+    key = (base.polygon.tobytes(), base.yaws.tobytes(), base.padding, res)
+    got = _OFFSETS.get(key)
+    if got is None:
+        lo = inscribed_radius(base.polygon) + base.padding - EPS
+        hi = base.radius + base.padding + PAD_SLACK + res * math.sqrt(0.5) + EPS
+        reach = int(math.ceil(hi / res))
+        table = block_table(base.polygon, base.yaws, base.padding + PAD_SLACK, res, reach)
+        dy, dx = np.mgrid[-reach:reach + 1, -reach:reach + 1]
+        # band cells have no touched cell closer than lo: those offsets are never read
+        use = table.any(axis=2) & (np.hypot(dy, dx) * res >= lo)
+        got = (lo, hi, dy[use].astype(np.int64), dx[use].astype(np.int64), np.ascontiguousarray(table[use]))
+        if len(_OFFSETS) >= 16:
+            _OFFSETS.clear()
+        _OFFSETS[key] = got
+    return got
+
+
 def polygon_feasibility(base: BaseShape, touched: np.ndarray, touched_distance: np.ndarray,
-                        res: float) -> tuple[np.ndarray, YawMasks]:
+                        res: float, previous: tuple[np.ndarray, YawMasks] | None = None) -> tuple[np.ndarray, YawMasks]:
     """(ny, nx) bool feasible at some yaw, and the band's yaw masks, of a polygon base over the
-    ``touched`` layer (ny, nx) with its ``touched_distance`` [m] (cell centres) on a grid of ``res`` [m]."""
-    r_in = inscribed_radius(base.polygon)
-    lo = r_in + base.padding - EPS
-    hi = base.radius + base.padding + PAD_SLACK + res * math.sqrt(0.5) + EPS
+    ``touched`` layer (ny, nx) with its ``touched_distance`` [m] (cell centres) on a grid of ``res`` [m].
+
+    ``previous``: (touched layer, masks) of the same grid before an obstacle change: a band cell's
+    mask depends only on the touched cells within the offsets' reach, so band cells farther than that
+    from every changed cell keep their old masks and only the rest are tested again (the same
+    result as testing every band cell: tests/test_footprints.py)."""
+    lo, hi, off_y, off_x, off_bits = _offsets(base, float(res))
     band = np.flatnonzero((touched_distance >= lo) & (touched_distance <= hi))
-    reach = int(math.ceil(hi / res))
-    table = block_table(base.polygon, base.yaws, base.padding + PAD_SLACK, float(res), reach)
-    dy, dx = np.mgrid[-reach:reach + 1, -reach:reach + 1]
-    # band cells have no touched cell closer than lo: those offsets are never read
-    use = table.any(axis=2) & (np.hypot(dy, dx) * res >= lo)
     full = base.full_mask()
-    bits = band_masks(np.ascontiguousarray(touched), band, dy[use].astype(np.int64), dx[use].astype(np.int64),
-                      np.ascontiguousarray(table[use]), full)
+    todo = np.ones(band.size, dtype=bool)
+    bits = np.empty((band.size, base.words), np.uint64)
+    if previous is not None and previous[0].shape == touched.shape:
+        old_touched, old = previous
+        cy, cx = np.nonzero(old_touched != touched)
+        if cy.size == 0:
+            todo[:] = False
+        else:
+            reach = int(max(np.abs(off_y).max(initial=0), np.abs(off_x).max(initial=0)))
+            iy, ix = np.divmod(band, touched.shape[1])
+            todo = ((iy >= cy.min() - reach) & (iy <= cy.max() + reach)
+                    & (ix >= cx.min() - reach) & (ix <= cx.max() + reach))
+        keep = np.flatnonzero(~todo)
+        if keep.size:
+            pos = np.minimum(np.searchsorted(old.cells, band[keep]), max(len(old.cells) - 1, 0))
+            hit = old.cells[pos] == band[keep] if len(old.cells) else np.zeros(keep.size, bool)
+            bits[keep[hit]] = old.bits[pos[hit]]
+            todo[keep[~hit]] = True  # (cannot happen: such a cell is a band cell before and after)
+    bits[todo] = band_masks(np.ascontiguousarray(touched), band[todo], off_y, off_x, off_bits, full)
     feasible = touched_distance > hi
     feasible.flat[band] = bits.any(axis=1)
     return feasible, YawMasks(band, bits)

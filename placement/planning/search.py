@@ -75,6 +75,8 @@ class Search:
     found: Found | None = None
     failures: list[Failure] = field(default_factory=list)
     stop: str = "all"
+    ik_ms: float = 0.0  # time in IK solves [ms]
+    collision_ms: float = 0.0  # time in collision checks [ms]
 
     @property
     def tried(self) -> int:
@@ -213,7 +215,9 @@ def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: l
         tried.add((r.option, r.cell, r.yaw))
         base = (float(xs[ix]), float(ys[iy]), r.yaw)
         witness = getattr(planner.maps[o.arm], "witness_q", None)
+        t = time.perf_counter()
         ik = trajectory_ik(planner.robot, o.arm, o.candidate.poses, base, prev_q[o.arm], witness)
+        out.ik_ms += (time.perf_counter() - t) * 1e3
         if not ik.ok:
             f = Failure(r.option, (iy, ix), r.yaw, "ik", ik.failed_pose, ik.residual_m, ik.residual_rad)
             out.failures.append(f)
@@ -221,7 +225,9 @@ def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: l
             return False
         clearance = None
         if collisions is not None:
+            t = time.perf_counter()
             check = collisions.check(o.arm, ik.qs, base, grasped, gone=gone)
+            out.collision_ms += (time.perf_counter() - t) * 1e3
             clearance = float(check.clearance_m)
             if not check.free:
                 f = Failure(r.option, (iy, ix), r.yaw, "collision", culprit=check.culprit)

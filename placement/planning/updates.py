@@ -115,7 +115,7 @@ def apply_update(planner: Planner, change) -> dict:
             occupied = changed_occupancy(world.occupied, world.nav, *change)
             touched = None if world.touched is None else changed_occupancy(world.touched, world.nav, *change,
                                                                            draw=add_touched)
-            world = world_from_occupancy(world.nav, occupied, world.base, planner.base_config, touched)
+            world = world_from_occupancy(world.nav, occupied, world.base, planner.base_config, touched, world)
         timings["distance"] = (time.perf_counter() - t) * 1e3
     problems = planner.problems.changed(scene, world, moved)
     planner.replace_state(scene, world, problems)

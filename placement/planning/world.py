@@ -203,12 +203,18 @@ def build_world(scene: Scene, base: BaseShape, config: PlannerConfig) -> World:
 
 
 def world_from_occupancy(nav: NavGrid, occ: np.ndarray, base: BaseShape, config: PlannerConfig,
-                         touched: np.ndarray | None = None) -> World:
+                         touched: np.ndarray | None = None, previous: World | None = None) -> World:
     """Distance, feasibility and speed from an occupancy grid (ny, nx) bool (and, for a polygon
-    base, the touched layer (ny, nx) bool)."""
+    base, the touched layer (ny, nx) bool). ``previous``: the world of the same grid and base before
+    an obstacle change (the yaw masks far from the change are taken from it)."""
     dist = distance_map(occ, nav.resolution)
     factor = speed_factor(dist, config.velocity_lambda, config.velocity_k, config.d_max)
     if base.polygon is None:
         return World(nav, occ, dist, dist >= base.radius, factor, base)
-    feasible, masks = polygon_feasibility(base, touched, distance_map(touched, nav.resolution), nav.resolution)
+    before = None
+    if previous is not None and previous.touched is not None and previous.masks is not None \
+            and previous.base is base:
+        before = (previous.touched, previous.masks)
+    feasible, masks = polygon_feasibility(base, touched, distance_map(touched, nav.resolution), nav.resolution,
+                                          before)
     return World(nav, occ, dist, feasible, factor, base, touched, masks)

@@ -25,10 +25,10 @@ import pinocchio as pin
 from ..errors import PlacementError, RobotError
 from ..validation import parse_yaml
 from .chain import PRISMATIC, extract_chain
-from .init_base import Base, find_base
+from .init_base import Base, find_base, load_collision
 from .init_selfpairs import ArtefactPair, artefact_pairs
-from .init_tcp import TCP, infer_tcp
-from .init_tree import analyse, arm_names
+from .init_tcp import TCP, deepen, hand_reach, infer_tcp
+from .init_tree import analyse, arm_names, subtree
 from .init_urdf import load_description
 from .preset import Robot, matrix_to_pose
 from .reach import chain_fk, sample_configs, table_cells
@@ -176,6 +176,12 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
     tcps = [infer_tcp(model, data, c, tree.hand[c[-1]]) for c in tree.arms]
+    geom, _ = load_collision(model, d.xml, d.path)
+    if geom is not None:  # fingers reaching far beyond a palm-centred grasp frame: a deeper TCP
+        for k, c in enumerate(tree.arms):
+            tip = data.oMf[model.getFrameId(tcps[k].tip_frame)].homogeneous
+            reach, link = hand_reach(model, q, geom, set(subtree(model, c[-1])), tip @ tcps[k].offset)
+            tcps[k] = deepen(tcps[k], reach, link)
     names, side_notes = arm_names(model, tree.arms, [float(data.oMi[c[-1]].translation[1]) for c in tree.arms])
     fixed, torso_notes = tune_torso(model, q.copy(), tree.torso, tree.arms, tcps, base_id)
     arms = []

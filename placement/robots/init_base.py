@@ -57,13 +57,21 @@ def package_dirs(urdf: Path) -> list[str]:
     return out
 
 
+def load_collision(model: pin.Model, xml: str, urdf: Path):
+    """(pinocchio GeometryModel of the ``<collision>`` shapes, "") or (None, reason)."""
+    try:
+        return pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION,
+                                           package_dirs=package_dirs(urdf)), ""
+    except Exception as exc:  # a mesh that cannot be found or read
+        return None, one_line(" ".join(str(exc).split()))[:160]
+
+
 def collision_boxes(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip: set[int]):
     """((m, 8, 3) corners [m] of the bounding boxes of collision shapes not on joints ``skip``, in the
     root frame at ``q``) or (None, reason)."""
-    try:
-        geom = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION, package_dirs=package_dirs(urdf))
-    except Exception as exc:  # a mesh that cannot be found or read
-        return None, one_line(" ".join(str(exc).split()))[:160]
+    geom, why = load_collision(model, xml, urdf)
+    if geom is None:
+        return None, why
     gdata = geom.createData()
     data = model.createData()
     pin.updateGeometryPlacements(model, data, geom, gdata, q)

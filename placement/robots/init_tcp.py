@@ -13,7 +13,13 @@ at the reference configuration (fingers as the URDF's neutral pose has them):
 4. tip frame: a frame rigid with the last arm joint named tcp > grasp > tool > gripper that is not
    behind the fingers (more than :data:`BEHIND` [m]), else the last link; the TCP sits at the named
    frame's origin, else at the finger points' centroid, else at the last link's origin;
-5. axes within :data:`SNAP` of one of the tip frame's axes are snapped to it (clean quaternions).
+5. axes within :data:`SNAP` of one of the tip frame's axes are snapped to it (clean quaternions);
+6. depth (:func:`deepen`): the canonical TCP is where the fingertips close, as a parallel gripper's ROS
+   tool frame (the PR2's fingertips reach 0.019 m past it): generated top grasps put the TCP on the
+   object's top face. A hand whose collision shapes reach more than :data:`HAND_REACH_MAX` beyond the
+   TCP along the approach (a palm-centred grasp frame such as TIAGo's ``hand_grasping_frame``: 0.095 m)
+   would push its fingers that far into the object and the table below; its TCP moves forward along
+   the approach to :data:`GRASP_DEPTH` short of the hand's far end.
 """
 
 from __future__ import annotations
@@ -35,6 +41,10 @@ MIN_SPREAD = 0.005
 BEHIND = 0.05
 #: Largest angle between an inferred axis and a tip frame axis for snapping [rad].
 SNAP = math.radians(20)
+#: A hand reaching farther than this beyond its TCP along the approach gets a deeper TCP [m].
+HAND_REACH_MAX = 0.04
+#: How far the fingertips reach past a moved TCP [m] (the PR2's: 0.019 m).
+GRASP_DEPTH = 0.02
 
 
 @dataclass
@@ -148,3 +158,48 @@ def _joint_axis(model: pin.Model, jid: int) -> np.ndarray:
     motion = pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, model.joints[jid].idx_v]
     ang, lin = motion[3:], motion[:3]
     return _unit(ang if np.linalg.norm(ang) > 0.5 else lin)
+
+
+def _points(geometry) -> np.ndarray:
+    """(k, 3) points [m] in the shape's frame that bound it: a mesh's vertices, else its local box's corners."""
+    try:
+        V = np.asarray(geometry.vertices(), dtype=float).reshape(-1, 3)
+        if len(V):
+            return V
+    except Exception:  # primitives (box, cylinder, sphere) have no vertices
+        pass
+    geometry.computeLocalAABB()
+    lo, hi = np.array(geometry.aabb_local.min_), np.array(geometry.aabb_local.max_)
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+
+
+def hand_reach(model: pin.Model, q: np.ndarray, geom: pin.GeometryModel, joints: set[int],
+               tcp_world: np.ndarray) -> tuple[float, str | None]:
+    """How far [m] the collision shapes on ``joints`` reach beyond the TCP ``tcp_world`` (4, 4, root
+    frame at ``q``) along its z (the approach), and the link of the farthest point (-inf, None: no shape)."""
+    data, gdata = model.createData(), geom.createData()
+    pin.updateGeometryPlacements(model, data, geom, gdata, q)
+    best, link = -math.inf, None
+    z, o = tcp_world[:3, 2], tcp_world[:3, 3]
+    for k, obj in enumerate(geom.geometryObjects):
+        if obj.parentJoint not in joints:
+            continue
+        M = gdata.oMg[k]
+        far = float(((_points(obj.geometry) @ M.rotation.T + M.translation - o) @ z).max())
+        if far > best:
+            best, link = far, model.frames[obj.parentFrame].name
+    return best, link
+
+
+def deepen(tcp: TCP, reach: float, link: str | None) -> TCP:
+    """``tcp`` with its origin moved forward along the approach when the hand reaches more than
+    :data:`HAND_REACH_MAX` [m] beyond it (``reach``, farthest on ``link``); see the module docstring."""
+    if link is None or reach <= HAND_REACH_MAX:
+        return tcp
+    shift = round(reach - GRASP_DEPTH, 4)
+    offset = tcp.offset.copy()
+    offset[:3, 3] = np.round(offset[:3, 3] + shift * offset[:3, 2], 4) + 0.0  # no -0.0 in the preset
+    how = (f"{tcp.how}; then moved {shift:g} m forward along the approach, {GRASP_DEPTH:.2f} m short of the "
+           f"hand's far end ('{link}' reaches {reach:.3f} m beyond it: a grasp at an object's top face would "
+           "push the fingers into the object's support)")
+    return TCP(tcp.tip_frame, offset, how, tcp.guessed, tcp.finger_points)

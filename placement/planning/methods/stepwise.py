@@ -90,7 +90,10 @@ def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranke
     if ranked:
         search = search_placement(planner, step, opts, ranked, more, nav_cost, heur, prev_q)
         found = search.found
-    timings["ik"] = (time.perf_counter() - t) * 1e3
+    # the whole search, and within it the IK solves and the collision checks
+    timings["search"] = (time.perf_counter() - t) * 1e3
+    timings["ik"] = search.ik_ms if search else 0.0
+    timings["collision"] = search.collision_ms if search else 0.0
     if found is not None:
         r = found.ranked
         o = opts[r.option]
