@@ -26,7 +26,7 @@ from .manipulation import base_yaws
 from .methods.fixed import rank_fixed
 from .methods.optimal import plan_optimal
 from .methods.stepwise import plan_stepwise, rank_eq6
-from .prepare import prefetch_slices, warm_kernels
+from .prepare import prefetch_slices, warm_checks, warm_kernels
 from .problems import StepProblems
 from .results import PlanResult, robot_info
 from .scene import Scene, load_scene
@@ -100,6 +100,7 @@ class Planner:
         # once per planner: kernels loaded and slices read here, not in the first step
         warm_kernels(self.problems, self.robot)
         prefetch_slices(self.problems)
+        warm_checks(self)
 
     def set_method(self, method: str) -> None:
         """Switch the method (its weights); maps, world and caches are kept."""

@@ -42,9 +42,22 @@ def warm_kernels(problems, robot) -> None:
 
 
 def prefetch_slices(problems) -> None:
-    """Read (and check) every map slice the task's candidates will use."""
+    """Read (and check) every map slice the task's candidates will use, and the witnesses of those
+    slices (the IK starts there)."""
     for step in problems.steps:
         for cand in step_candidates(problems.scene, step, problems.config):
             for rmap in problems.maps.values():
                 for key in pose_slices(rmap, cand.poses):
                     rmap.slice(*key)
+                    rmap.witness_slice(*key)
+
+
+def warm_checks(planner) -> None:
+    """One witness lookup and one collision check per arm (results unused): the first of each in a
+    process loads kernels and builds caches (about 10 ms each), which the first step should not pay."""
+    robot = planner.robot
+    for arm, rmap in planner.maps.items():
+        a = robot.arm(arm)
+        rmap.witness_q(robot.tcp_pose(arm, a.home))
+        if planner.collisions is not None:
+            planner.collisions.check(arm, np.asarray(a.home, dtype=float)[None], planner.scene.start)
