@@ -189,3 +189,58 @@ def test_completion_from_spec_and_cli(tmp_path):
     meta = placement.open_map(out, "right").meta
     assert meta["witness"]["completion"] and meta["completion"]["cells_added"] > 0
     assert meta["filled_cells"] == meta["completion"]["cells_before"] + meta["completion"]["cells_added"]
+
+
+def _neighbour_reference(cell, k, shape):
+    """NEIGHBOURS[k] of flat ``cell`` by numpy's unravel/ravel (yaw and roll wrap; None outside)."""
+    from placement.kernels.sampling import NEIGHBOURS
+
+    idx = list(np.unravel_index(cell, shape))
+    a, step = (int(v) for v in NEIGHBOURS[k])
+    idx[a] += step
+    if a in (3, 5):
+        idx[a] %= shape[a]
+    elif not 0 <= idx[a] < shape[a]:
+        return -1
+    return int(np.ravel_multi_index(idx, shape))
+
+
+def _sources_reference(grid, witness, plain, shape):
+    """completion_sources as its docstring says, in plain Python: for each source cell in order, each
+    direction in order, the empty neighbour whose first plain-witness reached neighbour it is."""
+    from placement.kernels.sampling import NEIGHBOURS
+
+    def ok(c):
+        return c >= 0 and grid[c] > 0 and witness[c] < plain
+
+    out = []
+    for c in range(grid.size):
+        if not ok(c):
+            continue
+        for d in range(len(NEIGHBOURS)):
+            t = _neighbour_reference(c, d, shape)
+            if t >= 0 and grid[t] == 0:
+                first = next((n for n in (_neighbour_reference(t, e, shape) for e in range(len(NEIGHBOURS)))
+                              if ok(n)), -1)
+                if first == c:
+                    out.append((int(witness[c]), d))
+    return out
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_completion_sources_equal_a_plain_reference(seed):
+    """The parallel scan (fixed cell ranges, count then fill) gives the serial definition's candidates in
+    its order, for random sparse grids of odd shapes (cells at every wrap and edge)."""
+    from placement.kernels.sampling import completion_sources, neighbour_cell
+
+    rng = np.random.default_rng(seed)
+    shape = tuple(int(v) for v in rng.integers(1, 5, 6))
+    n = int(np.prod(shape))
+    for cell in rng.integers(0, n, 200):
+        for k in range(12):
+            assert neighbour_cell(int(cell), k, np.array(shape, np.int64)) == _neighbour_reference(int(cell), k, shape)
+    grid = np.where(rng.random(n) < [0.05, 0.2, 0.5, 0.9][seed], rng.random(n) + 0.1, 0.0).astype(np.float32)
+    plain = 1000
+    witness = np.where(grid > 0, rng.integers(0, 2 * plain, n), 0).astype(np.int64)
+    src, dirs = completion_sources(grid, witness, plain, np.array(shape, np.int64))
+    assert list(zip(src.tolist(), dirs.tolist())) == _sources_reference(grid, witness, plain, shape)

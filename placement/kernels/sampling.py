@@ -139,22 +139,17 @@ COMPLETION_MAX_STEP = 0.2
 @njit(cache=True)
 def neighbour_cell(cell, k, shape):
     """Flat index of the k-th face neighbour (NEIGHBOURS[k]) of flat ``cell``; yaw and roll wrap; -1 outside."""
-    idx = np.empty(6, dtype=np.int64)
-    rest = cell
-    for d in range(5, -1, -1):
-        idx[d] = rest % shape[d]
-        rest //= shape[d]
     a = NEIGHBOURS[k, 0]
-    v = idx[a] + NEIGHBOURS[k, 1]
+    stride = 1  # of axis a in the C-order flat index (no index array: this runs ~1e9 times per build)
+    for d in range(5, a, -1):
+        stride *= shape[d]
+    i = (cell // stride) % shape[a]
+    v = i + NEIGHBOURS[k, 1]
     if a == 3 or a == 5:
         v %= shape[a]
     elif v < 0 or v >= shape[a]:
         return -1
-    idx[a] = v
-    out = 0
-    for d in range(6):
-        out = out * shape[d] + idx[d]
-    return out
+    return cell + (v - i) * stride
 
 
 @njit(cache=True)
@@ -228,28 +223,61 @@ def first_source(t, grid, witness, plain, shape):
     return -1
 
 
+#: Cell ranges of the parallel completion scan (fixed: the output order must not depend on the threads).
+SCAN_PARTS = 256
+
+
 @njit(cache=True)
+def _scan_part(lo, hi, grid, witness, plain, shape, sources, dirs, m):
+    """Completion candidates whose source cell is in [lo, hi): counted (``sources`` empty) or written
+    from position ``m`` on; returns the position after them."""
+    k = NEIGHBOURS.shape[0]
+    write = sources.shape[0] > 0
+    for c in range(lo, hi):
+        if grid[c] > 0.0 and witness[c] < plain:
+            for d in range(k):
+                t = neighbour_cell(c, d, shape)
+                if t >= 0 and grid[t] == 0.0 and first_source(t, grid, witness, plain, shape) == c:
+                    if write:
+                        sources[m] = witness[c]
+                        dirs[m] = d
+                    m += 1
+    return m
+
+
+@njit(cache=True, parallel=True)
+def _count_parts(edges, grid, witness, plain, shape):
+    counts = np.zeros(edges.shape[0] - 1, dtype=np.int64)
+    for p in prange(counts.shape[0]):
+        counts[p] = _scan_part(edges[p], edges[p + 1], grid, witness, plain, shape, np.empty(0, dtype=np.int64),
+                               np.empty(0, dtype=np.int64), 0)
+    return counts
+
+
+@njit(cache=True, parallel=True)
+def _fill_parts(edges, offsets, grid, witness, plain, shape, sources, dirs):
+    for p in prange(edges.shape[0] - 1):
+        _scan_part(edges[p], edges[p + 1], grid, witness, plain, shape, sources, dirs, offsets[p])
+
+
 def completion_sources(grid, witness, plain, shape):
     """(sources, dirs): one completion candidate per empty cell next to a reached one, from its first
     (in NEIGHBOURS order) face neighbour that is reached with a plain-sample witness (< ``plain``);
     in increasing source cell, then direction order. One per empty cell, not one per pair: the
-    candidates cost an exact measure each, and the pairs are several times as many."""
-    k = NEIGHBOURS.shape[0]
-    sources = np.empty(0, dtype=np.int64)
-    dirs = np.empty(0, dtype=np.int64)
-    # two passes: count, then fill (the candidates can outnumber the cells; no growing buffers)
-    for fill in range(2):
-        m = 0
-        for c in range(grid.shape[0]):
-            if grid[c] > 0.0 and witness[c] < plain:
-                for d in range(k):
-                    t = neighbour_cell(c, d, shape)
-                    if t >= 0 and grid[t] == 0.0 and first_source(t, grid, witness, plain, shape) == c:
-                        if fill:
-                            sources[m] = witness[c]
-                            dirs[m] = d
-                        m += 1
-        if not fill:
-            sources = np.empty(m, dtype=np.int64)
-            dirs = np.empty(m, dtype=np.int64)
+    candidates cost an exact measure each, and the pairs are several times as many.
+
+    Two parallel passes over :data:`SCAN_PARTS` fixed cell ranges (count, then fill at each range's
+    offset): the same arrays, in the same order, for any thread count (tests/test_witness.py
+    compares them with a plain-Python reference). Both passes in one parallel function gave wrong
+    counts under numba's parallel transform; as two functions they are right."""
+    n = grid.shape[0]
+    edges = (np.arange(SCAN_PARTS + 1, dtype=np.int64) * n) // SCAN_PARTS
+    counts = _count_parts(edges, grid, witness, plain, shape)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    sources = np.empty(offsets[-1], dtype=np.int64)
+    dirs = np.empty(offsets[-1], dtype=np.int64)
+    _fill_parts(edges, offsets, grid, witness, plain, shape, sources, dirs)  # (always: compiled in warm-up)
+    return sources, dirs
+    for p in prange(parts):
+        _scan_part(edges[p], edges[p + 1], grid, witness, plain, shape, sources, dirs, offsets[p])
     return sources, dirs

@@ -86,7 +86,7 @@ def _hint(planner: Planner, o: Option, pose_index: int, role: str, band, searche
     if searched:
         return f"{inside}, but IK confirmed none of the map cells the placements tried fall in"
     if planner.method == "fixed":
-        return f"{inside}, but none of the fixed placements beside the tables keeps the map threshold"
+        return f"{inside}, but the map marks none of the fixed placements beside the tables reached for it"
     return (f"{inside}, but the map values there stay below the threshold {planner.config.threshold:g} "
             f"(a lower planner.threshold would help)")
 

@@ -61,7 +61,14 @@ def fixed_placements(planner: Planner) -> list[tuple[int, float]]:
 def rank_fixed(planner: Planner, options: list[Option], nav_cost: np.ndarray,
                heuristic: np.ndarray) -> list[Ranked]:
     """Fixed placements by decreasing manipulability of each (arm, candidate) at the placement's yaw
-    (``cost`` = minus that value)."""
+    (``cost`` = minus that value).
+
+    SPEC: "choose the one with the best manipulability that reaches the grasp": every fixed placement
+    the map marks reached (value > 0) is ranked, and IK decides which reaches. The map threshold is
+    not applied here: it prunes the continuous search of the other methods, but a fixed placement at a
+    table's side is often at the edge of reach, where the manipulability is low (at 5 cm cells the
+    PR2's placements 0.75 m from a 0.69 m table's centre score 0.014-0.016 against the threshold's
+    0.0235, and IK reaches them)."""
     nav = planner.world.nav
     ranked = []
     for flat, yaw in fixed_placements(planner):
@@ -70,7 +77,7 @@ def rank_fixed(planner: Planner, options: list[Option], nav_cost: np.ndarray,
             v, _ = manipulation_map(planner.maps[o.arm], o.candidate.poses, nav, np.array([yaw]), cell,
                                     Window.around(cell, nav.shape, margin=0))
             value = float(v[0, 0])
-            if value >= planner.config.threshold:
+            if value > 0.0:
                 ranked.append((-value, k, flat, yaw))
     ranked.sort(key=lambda r: (r[0], r[1], r[2]))
     return [Ranked(*r) for r in ranked]
