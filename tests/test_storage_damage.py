@@ -163,6 +163,21 @@ def test_value_of_a_damaged_chunk_raises(damaged, right_map):
         placement.open_map(path, "right").slice(iz, ip, ir)
 
 
+def test_a_z_layer_read_finds_the_damage_too(damaged, right_map):
+    """read_slab (the map viewer's layer-wise read) checks every chunk of the layer; other layers read exactly."""
+    path, (iz, ip, ir), name = damaged
+    if name == "deleted":
+        pytest.skip("fails at open")
+    rmap = placement.open_map(path, "right")
+    with pytest.raises(MapError, match="corrupt") as exc:
+        rmap.store.read_slab("right", iz)
+    assert "\n" not in str(exc.value)
+    if name in ("swapped", "moved"):
+        return  # the other chunk key may lie in any layer
+    other = next(z for z in range(right_map.grid.shape[2]) if z != iz)
+    np.testing.assert_array_equal(rmap.store.read_slab("right", other), right_map.values[:, :, other])
+
+
 def test_damage_is_named_as_such(damaged):
     """Decoded-data damage names the chunk; byte damage is caught by the backend's checksum or codec."""
     path, (iz, ip, ir), name = damaged

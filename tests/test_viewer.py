@@ -205,6 +205,19 @@ def test_map_cloud_is_the_best_value_per_cell_and_is_subsampled(maps_dir):
     assert len(few) == 100 and reached2 == reached and set(fvals) <= set(vals)
 
 
+def test_streamed_best_values_equal_the_whole_array_reduced(maps_dir):
+    """Chunk by chunk in threads, every direction at once: the same maxima as reducing the 6D array."""
+    from placement import open_map
+    from placement.viewer.map_view import DIRECTIONS, best_per_direction
+
+    streamed = best_per_direction(open_map(maps_dir, "right"), DIRECTIONS, workers=3)
+    m = open_map(maps_dir, "right")
+    for name, d in DIRECTIONS.items():
+        want = best_values(m.values, approach_bins(m.grid, d))
+        assert want.any(), name
+        np.testing.assert_array_equal(streamed[name], want)
+
+
 def test_map_view_threshold_and_direction(maps_dir):
     v = view_map(maps_dir, arm="left", port=0)
     try:

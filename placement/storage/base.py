@@ -93,6 +93,16 @@ class StoredMap(ABC):
             raise self._damaged(arm, (iz, ip, ir), witness=witness)
         return chunk
 
+    def read_slab(self, arm: str, iz: int, witness: bool = False) -> np.ndarray:
+        """Values (nx, ny, n_yaw, n_pitch, n_roll) float32 (or witnesses) at z bin ``iz``: the chunks of one
+        z layer in one read (far fewer library calls than chunk by chunk), each checked against its CRC32."""
+        want = self.expected_crcs(arm, witness)[iz]
+        data = self._read(arm, f"z layer {iz}", lambda a: a[:, :, iz], witness)
+        bad = np.argwhere(chunk_crcs(data[:, :, None])[0] != want)
+        if len(bad):
+            raise self._damaged(arm, (int(iz), *(int(i) for i in bad[0])), len(bad), witness)
+        return data
+
     def read_all(self, arm: str, witness: bool = False) -> np.ndarray:
         """The whole 6D float32 array of ``arm`` (or its witnesses), every chunk checked against its CRC32."""
         want = self.expected_crcs(arm, witness)

@@ -19,6 +19,10 @@ from .format import witness_name
 _SETTLE_TIMEOUT_S = 30.0
 
 
+#: zarr settings while reading (see ZarrMap._read).
+READ_CONCURRENCY, READ_BATCH = 64, 16
+
+
 class ZarrMap(StoredMap):
     def __init__(self, path: Path):
         self.path = path
@@ -40,6 +44,12 @@ class ZarrMap(StoredMap):
         if not chunk_dir.is_dir():
             return 0
         return sum(len(files) for _, _, files in os.walk(chunk_dir))
+
+    def _read(self, arm: str, what: str, take, witness: bool = False):
+        # many chunks per call (a z layer, the whole map): more concurrent chunk reads and decodes per
+        # batch than zarr's defaults (10, 1) read a 5 cm PR2 layer of 180 chunks 2.3x as fast
+        with zarr.config.set({"async.concurrency": READ_CONCURRENCY, "codec_pipeline.batch_size": READ_BATCH}):
+            return super()._read(arm, what, take, witness)
 
     def _settle(self) -> None:
         # Without this, a process that exits right after the error finds those reads pending when
