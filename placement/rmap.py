@@ -48,6 +48,11 @@ class ReachabilityMap:
     def __repr__(self) -> str:
         return f"ReachabilityMap({str(self.path)!r}, arm={self.arm!r}, shape={self.grid.shape})"
 
+    @property
+    def in_memory(self) -> bool:
+        """Whether the whole values array has been read (:meth:`load`)."""
+        return self._full is not None
+
     def load(self) -> ReachabilityMap:
         """Read the whole array into memory (faster for many scattered queries)."""
         if self._full is None:

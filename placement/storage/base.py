@@ -14,6 +14,7 @@ either the old map or no map, never one that opens as complete.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 from abc import ABC, abstractmethod
@@ -121,7 +122,8 @@ class StoredMap(ABC):
     def _read(self, arm: str, what: str, take, witness: bool = False) -> np.ndarray:
         array = self._array(arm, witness)
         try:
-            data = np.asarray(take(array))
+            with self._read_settings():
+                data = np.asarray(take(array))
             if witness:
                 if data.dtype not in (np.uint32, np.int64):
                     raise ValueError(f"witness dtype {data.dtype}")
@@ -131,6 +133,10 @@ class StoredMap(ABC):
             self._settle()
             raise MapError(f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)}); "
                            f"rebuild the map") from None
+
+    def _read_settings(self):
+        """Context in which the library reads (a backend may tune it)."""
+        return contextlib.nullcontext()
 
     def _settle(self) -> None:  # noqa: B027 - optional
         """Let the library finish work a failed read left running (zarr: sibling chunk reads)."""

@@ -54,7 +54,7 @@ def best_per_direction(rmap, directions: dict, workers: int | None = None) -> di
 
     g = rmap.grid
     bins = {name: approach_bins(g, d) for name, d in directions.items()}
-    if getattr(rmap, "_full", None) is not None:
+    if rmap.in_memory:
         return {name: best_values(rmap.values, b) for name, b in bins.items()}
 
     def reduce(iz):
