@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import json
 import logging
+import re
 import sys
 import tempfile
 import warnings
@@ -82,6 +83,56 @@ def writable_dir(path, option: str) -> Path:
     return p
 
 
+#: An echoed user value (a key, a name, a string) longer than this [characters] is cut in a message,
+#: with its length said.
+ECHO_CHARS = 80
+
+#: No error message is longer than this [characters]: beyond it, runs without spaces longer than
+#: :data:`ECHO_CHARS` are cut, then the message itself.
+MESSAGE_CHARS = 2000
+
+_LONG_RUN = re.compile(r"\S{%d,}" % (ECHO_CHARS + 1))
+
+
+def cut(text: str) -> str:
+    """``text`` if it is at most :data:`ECHO_CHARS` long, else its start and its length in characters."""
+    if len(text) <= ECHO_CHARS:
+        return text
+    return f"{text[:ECHO_CHARS - 20]}... ({len(text):,} characters)"
+
+
+def long_strings(data, limit: int = ECHO_CHARS) -> list[str]:
+    """The distinct strings (mapping keys included) longer than ``limit`` anywhere in the parsed JSON or
+    YAML ``data``, longest first (walked without recursion: any depth)."""
+    found, todo = set(), [data]
+    while todo:
+        v = todo.pop()
+        if isinstance(v, str):
+            if len(v) > limit:
+                found.add(v)
+        elif isinstance(v, dict):
+            todo.extend(v.keys())
+            todo.extend(v.values())
+        elif isinstance(v, (list, tuple)):
+            todo.extend(v)
+    return sorted(found, key=len, reverse=True)
+
+
+def bounded(message: str, data=None) -> str:
+    """``message`` with what it echoes bounded: every long string of ``data`` (the input it is about:
+    a key or value of 100 MB) quoted in it is cut to its start and its length (see :func:`cut`); then a
+    message still over :data:`MESSAGE_CHARS` has its long runs without spaces cut, and is cut itself."""
+    for v in long_strings(data) if data is not None else ():
+        for form in dict.fromkeys((v, one_line(v))):
+            if form in message:
+                message = message.replace(form, cut(form))
+    if len(message) > MESSAGE_CHARS:
+        message = _LONG_RUN.sub(lambda m: cut(m.group()), message)
+    if len(message) > MESSAGE_CHARS:
+        message = f"{message[:MESSAGE_CHARS]}... (message cut: {len(message):,} characters)"
+    return message
+
+
 def one_line_errors(f):
     """Turn package errors into `error: ...` on stderr and exit code 2, never a traceback."""
 
@@ -95,7 +146,7 @@ def one_line_errors(f):
                 raise
             if isinstance(exc, OSError):
                 exc = f"{exc.filename}: {exc.strerror or exc}" if exc.filename else (exc.strerror or str(exc))
-            click.echo(f"error: {one_line(str(exc))}", err=True)
+            click.echo(f"error: {bounded(one_line(str(exc)))}", err=True)
             sys.exit(2)
         except KeyboardInterrupt:
             click.echo("interrupted; nothing was written", err=True)

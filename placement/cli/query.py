@@ -9,7 +9,7 @@ import click
 from ..planning import METHODS, Planner
 from ..warmup import QUERY_COMPILE_S, announce_compilation
 from .params import OneLineCommand
-from .options import emit, setup_logging, standard_options, to_json_line, writable_dir
+from .options import bounded, emit, setup_logging, standard_options, to_json_line, writable_dir
 
 
 @click.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
@@ -63,34 +63,89 @@ def _table(r: dict) -> str:
     return "\n".join(lines)
 
 
-def stream_plans(planner, keep_maps: bool = False, on_result=None) -> None:
-    """JSON lines: the first plan, then one plan per update line read from stdin; each new PlanResult
-    (planned with ``keep_maps``) is also passed to ``on_result`` (the viewer shows it)."""
+#: Longest stream line read [bytes]; a longer one is refused unread (an update adding 10,000 obstacles
+#: is about 1 MB).
+MAX_LINE_BYTES = 16 * 2**20
+
+
+def stream_lines(stream, max_bytes: int = MAX_LINE_BYTES):
+    """(number, text or None, reason) of every non-blank line of the binary ``stream``: text None and
+    a one-line reason for a line that is longer than ``max_bytes`` (skipped without keeping it) or is
+    not UTF-8."""
+    number = 0
+    while True:
+        raw = stream.readline(max_bytes + 1)
+        if not raw:
+            return
+        number += 1
+        if len(raw) > max_bytes and not raw.endswith(b"\n"):
+            size = len(raw)
+            while raw and not raw.endswith(b"\n"):  # skip the rest of the line, a bounded piece at a time
+                raw = stream.readline(1 << 20)
+                size += len(raw)
+            yield number, None, (f"line {number}: {size:,} bytes, more than the {max_bytes:,} bytes a stream line "
+                                 "may hold")
+            continue
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            yield number, None, f"line {number}: not UTF-8 text (byte {exc.start})"
+            continue
+        if text.strip():
+            yield number, text, None
+
+
+def stream_plans(planner, keep_maps: bool = False, on_result=None, stream=None) -> None:
+    """JSON lines: the first plan, then one answer per update line read from ``stream`` (default
+    stdin, binary), each with ``update.status`` "refused" (nothing changed; ``error``: why) or
+    "applied" (``update.updated``, ``update.timings_ms``; the new plan's keys, or none and
+    ``plan_error``: why planning failed; ``plan_error`` is null when it planned). Each new
+    PlanResult (planned with ``keep_maps``) is also passed to ``on_result`` (the viewer shows it)."""
     import json
     import time
 
     from ..errors import PlacementError
+    from ..validation import one_line
 
-    click.echo(to_json_line(planner.plan().to_json()))
-    for number, line in enumerate(sys.stdin, 1):
-        if not line.strip():
-            continue
+    def say(answer: dict) -> None:
+        click.echo(to_json_line(answer))
+        sys.stdout.flush()
+
+    def first_line(exc: BaseException, data=None) -> str:
+        return bounded(one_line((str(exc).splitlines() or [type(exc).__name__])[0]), data)
+
+    say(planner.plan().to_json())
+    for number, line, reason in stream_lines(stream if stream is not None else sys.stdin.buffer):
+        change = None
         try:
+            if reason is not None:
+                raise PlacementError(reason)
             try:
                 change = json.loads(line)
             except (ValueError, RecursionError) as exc:  # RecursionError: absurdly deep nesting
                 raise PlacementError(f"line {number}: not valid JSON ({type(exc).__name__}: "
                                      f"{str(exc)[:80] or 'too deeply nested'})") from None
-            info = planner.update(change)
-            t = time.perf_counter()
-            result = planner.plan(keep_maps=keep_maps)
-            info["timings_ms"]["replan"] = (time.perf_counter() - t) * 1e3
-            result.update = info
-            if on_result is not None:
-                on_result(result)
-            click.echo(to_json_line(result.to_json()))
+            info = planner.update(change)  # all or nothing: on error the planner is as it was
         except PlacementError as exc:
-            msg = (str(exc).splitlines() or ["error"])[0]
-            click.echo(f"error: {msg}", err=True)
-            click.echo(json.dumps({"error": msg}))
+            msg = first_line(exc, change)
+            click.echo(f"error: line {number}: update refused, nothing changed: {msg}", err=True)
+            say({"update": {"status": "refused", "line": number}, "error": msg})
+            continue
+        update = {"status": "applied", "line": number, **info}
+        t = time.perf_counter()
+        try:
+            result = planner.plan(keep_maps=keep_maps)
+            update["timings_ms"]["replan"] = (time.perf_counter() - t) * 1e3
+            result.update = update
+            answer = result.to_json() | {"plan_error": None}
+            text = to_json_line(answer)
+        except PlacementError as exc:  # e.g. the start pose is now blocked; the update stays applied
+            update["timings_ms"]["replan"] = (time.perf_counter() - t) * 1e3
+            msg = first_line(exc, change)
+            click.echo(f"error: line {number}: update applied, but planning failed: {msg}", err=True)
+            say({"update": update, "plan_error": msg})
+            continue
+        if on_result is not None:
+            on_result(result)
+        click.echo(text)
         sys.stdout.flush()

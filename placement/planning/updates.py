@@ -30,6 +30,14 @@ if TYPE_CHECKING:
 UPDATE_KEYS = ("objects", "obstacles", "start")
 WHERE = "update"
 
+#: A name longer than this [characters] is cut where a message quotes it.
+NAME_CHARS = 60
+
+
+def _quoted(name: str) -> str:
+    """``'name'``, cut to :data:`NAME_CHARS` with its length said (a message must not echo 100 MB)."""
+    return f"'{name}'" if len(name) <= NAME_CHARS else f"'{name[:NAME_CHARS - 20]}...' ({len(name):,} characters)"
+
 
 def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
     """The scene after ``change``, the names of moved objects, whether obstacles changed, and
@@ -57,9 +65,9 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
         P.mapping(item, p, (*OBJECT_KEYS_V1, "orientation") if scene.version >= 2 else OBJECT_KEYS_V1, ("name",))
         name = P.string(item["name"], f"{p}.name")
         if name not in objects:
-            P.fail(f"{p}.name", f"unknown object '{name}'; objects: {', '.join(objects) or '(none)'}")
+            P.fail(f"{p}.name", f"unknown object {_quoted(name)}; objects: {', '.join(objects) or '(none)'}")
         if name in moved:
-            P.fail(f"{p}.name", f"object '{name}' is moved twice in one update")
+            P.fail(f"{p}.name", f"object {_quoted(name)} is moved twice in one update")
         o = objects[name]
         if "orientation" in item and "yaw" in item:
             P.fail(p, "give 'orientation' [x, y, z, w] or 'yaw' [rad], not both")
@@ -81,7 +89,7 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
             p = f"obstacles.remove[{i}]"
             P.string(name, p)
             if name not in {o.name for o in obstacles} or name in removed:
-                P.fail(p, f"unknown obstacle '{name}'; obstacles: {', '.join(o.name for o in obstacles) or '(none)'}")
+                P.fail(p, f"unknown obstacle {_quoted(name)}; obstacles: {', '.join(o.name for o in obstacles) or '(none)'}")
             removed.add(name)
         obstacles = [o for o in obstacles if o.name not in removed]
         for n in [*(o.name for o in obstacles), *objects, *(p.name for p in scene.place_locations)]:
@@ -110,15 +118,20 @@ def apply_update(planner: Planner, change) -> dict:
             # by identity: a name removed and added again in one change is a different obstacle
             old = {id(o) for o in planner.scene.obstacles}
             new = {id(o) for o in scene.obstacles}
-            change = ([o for o in planner.scene.obstacles if id(o) not in new],
-                      [o for o in scene.obstacles if id(o) in old], [o for o in scene.obstacles if id(o) not in old])
-            occupied = changed_occupancy(world.occupied, world.nav, *change)
-            touched = None if world.touched is None else changed_occupancy(world.touched, world.nav, *change,
+            diff = ([o for o in planner.scene.obstacles if id(o) not in new],
+                    [o for o in scene.obstacles if id(o) in old], [o for o in scene.obstacles if id(o) not in old])
+            occupied = changed_occupancy(world.occupied, world.nav, *diff)
+            touched = None if world.touched is None else changed_occupancy(world.touched, world.nav, *diff,
                                                                            draw=add_touched)
             world = world_from_occupancy(world.nav, occupied, world.base, planner.base_config, touched, world)
         timings["distance"] = (time.perf_counter() - t) * 1e3
     problems = planner.problems.changed(scene, world, moved)
-    planner.replace_state(scene, world, problems)
+    before = planner.scene, planner.world, planner.problems
+    try:
+        planner.replace_state(scene, world, problems)
+    except BaseException:  # e.g. the collision checker refused the new scene: back to the old state
+        planner.replace_state(*before)
+        raise
     timings["update"] = (time.perf_counter() - t0) * 1e3
     return {"updated": sorted(moved) + (["obstacles"] if obstacles_changed else []) +
             (["start"] if "start" in change else []), "timings_ms": timings}
