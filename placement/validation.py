@@ -17,6 +17,8 @@ syntax errors with their line and column.
 from __future__ import annotations
 
 import math
+import os
+import stat
 from pathlib import Path
 from typing import Any, Iterable, Mapping, NoReturn
 
@@ -24,9 +26,27 @@ import numpy as np
 import yaml
 
 
+#: Integers with more bits than this are shown by their size, never in full: Python refuses to turn
+#: an int of more than 4300 decimal digits into a string (and a long one makes no message).
+SHOW_BITS = 128
+
+
+def show(value: Any) -> str:
+    """``str(value)`` that is safe and short for any parsed value: a huge integer (a YAML ``0x...``
+    of 5,000 digits) becomes "an integer of N digits", a long string is cut."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > SHOW_BITS:
+        digits = int(value.bit_length() * math.log10(2)) + 1
+        return f"{'-' if value < 0 else ''}an integer of about {digits} digits"
+    if isinstance(value, str):
+        return value if len(value) <= 60 else value[:57] + "..."
+    if isinstance(value, (int, float, bool)) or value is None:
+        return str(value)
+    return describe(value)
+
+
 def join(path: str, key: Any) -> str:
     """Key path of ``key`` inside ``path``: ``"arms"`` + ``"right"`` -> ``"arms.right"``."""
-    return f"{path}.{key}" if path else str(key)
+    return f"{path}.{show(key)}" if path else show(key)
 
 
 def describe(value: Any) -> str:
@@ -41,6 +61,8 @@ def describe(value: Any) -> str:
         return "a list"
     if isinstance(value, str):
         return f"string {value[:30]!r}"
+    if isinstance(value, int) and value.bit_length() > SHOW_BITS:
+        return show(value)
     if isinstance(value, (int, float)):
         return f"{value!r}"
     return type(value).__name__
@@ -81,7 +103,7 @@ class Checker:
             self.fail(path, f"expected a mapping, got {describe(value)}")
         names = dict(allowed) if isinstance(allowed, Mapping) else dict.fromkeys(allowed, "")
         for key in value:
-            if key not in names:
+            if not isinstance(key, str) or key not in names:
                 self.fail(join(path, key), f"unknown key; allowed keys: {', '.join(sorted(names))}")
         for key in required:
             if key not in value:
@@ -123,7 +145,7 @@ class Checker:
         if not math.isfinite(v):
             self.fail(path, f"expected a finite number, got {value}")
         if minimum is not None and (v <= minimum if strict else v < minimum):
-            self.fail(path, f"must be {'>' if strict else '>='} {minimum:g}, got {value}")
+            self.fail(path, f"must be {'>' if strict else '>='} {minimum:g}, got {show(value)}")
         return v
 
     def positive(self, value: Any, path: str) -> float:
@@ -135,7 +157,7 @@ class Checker:
         if isinstance(value, bool) or not isinstance(value, int):
             self.fail(path, f"expected an integer, got {describe(value)}")
         if minimum is not None and value < minimum:
-            self.fail(path, f"must be >= {minimum}, got {value}")
+            self.fail(path, f"must be >= {minimum}, got {show(value)}")
         return value
 
     def string(self, value: Any, path: str) -> str:
@@ -219,21 +241,90 @@ def parse_yaml(text: str, where: str, error: type[Exception]) -> Any:
         at = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = " ".join(str(exc.problem or exc.context or "syntax error").split())
         raise error(one_line(f"{where}: invalid YAML at {at}{problem}")) from None
-    except (yaml.YAMLError, RecursionError, ValueError) as exc:
-        # ValueError: PyYAML converts some scalars with int()/float() (e.g. huge timestamps)
+    except RecursionError:
+        raise error(one_line(f"{where}: invalid YAML: nested too deeply")) from None
+    except (yaml.YAMLError, ValueError, OverflowError) as exc:
+        # ValueError: PyYAML converts some scalars with int()/float() (e.g. huge timestamps, or an
+        # integer of more than 4300 decimal digits, which Python refuses to convert)
+        if "integer string conversion" in str(exc):
+            raise error(one_line(f"{where}: invalid YAML: an integer of more than 4300 digits")) from None
         raise error(one_line(f"{where}: invalid YAML: {' '.join(str(exc).split()) or type(exc).__name__}")) from None
     if data is None:
         raise error(one_line(f"{where}: the file is empty"))
     return data
 
 
-def read_yaml(path: str | Path, error: type[Exception], where: str | None = None) -> Any:
-    """Read and parse the YAML file ``path`` (see :func:`parse_yaml`); ``where`` defaults to the path."""
+#: Largest YAML document read [bytes] unless a caller says otherwise (a scene of the largest
+#: allowed size is a few megabytes; a bigger file is a mistake or an attack, not a scene).
+MAX_YAML_BYTES = 16 * 2**20
+
+
+def size_text(n: int) -> str:
+    """A byte count as it reads best: ``16 MiB``, ``512 KiB``, ``300 bytes``."""
+    for unit, factor in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if n >= factor:
+            return f"{n / factor:.3g} {unit}"
+    return f"{n} bytes"
+
+
+def read_regular(path: str | Path, error: type[Exception], where: str | None = None,
+                 max_bytes: int = MAX_YAML_BYTES, what: str = "file", prefix: int | None = None) -> bytes:
+    """The bytes of ``path`` if it is a regular file of at most ``max_bytes``; else ``error`` naming it.
+
+    Opened without blocking and checked on the open descriptor, so a FIFO, a device (``/dev/zero``),
+    a directory or a symlink loop is refused at once instead of hanging or filling memory, and a file
+    that grows while it is read is cut off at ``max_bytes`` + 1 and refused.
+    """
     where = str(path) if where is None else where
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        fd = os.open(os.fspath(path), flags)
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the path
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise error(one_line(f"{where}: cannot read the {what}: {reason}")) from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            kind = ("a directory" if stat.S_ISDIR(st.st_mode) else "a FIFO" if stat.S_ISFIFO(st.st_mode)
+                    else "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode)
+                    else "a socket" if stat.S_ISSOCK(st.st_mode) else "not a regular file")
+            raise error(one_line(f"{where}: the {what} is {kind}, not a regular file"))
+        if st.st_size > max_bytes:
+            raise error(one_line(f"{where}: the {what} is {size_text(st.st_size)}, more than the "
+                                 f"{size_text(max_bytes)} allowed"))
+        chunks, total = [], 0
+        stop = max_bytes + 1 if prefix is None else min(prefix, max_bytes + 1)
+        while total < stop:
+            chunk = os.read(fd, min(1 << 20, stop - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+    except OSError as exc:
+        raise error(one_line(f"{where}: cannot read the {what}: {exc.strerror or exc}")) from None
+    finally:
+        os.close(fd)
+    if total > max_bytes:
+        raise error(one_line(f"{where}: the {what} grew beyond the {size_text(max_bytes)} allowed while read"))
+    return b"".join(chunks)
+
+
+def read_text(path: str | Path, error: type[Exception], where: str | None = None,
+              max_bytes: int = MAX_YAML_BYTES, what: str = "file") -> str:
+    """:func:`read_regular` decoded as UTF-8 (a one-line ``error`` for anything else)."""
+    where = str(path) if where is None else where
+    data = read_regular(path, error, where, max_bytes, what)
+    try:
+        return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise error(one_line(f"{where}: not a UTF-8 text file (byte {exc.start})")) from None
-    except OSError as exc:
-        raise error(one_line(f"{where}: cannot be read: {exc.strerror or exc}")) from None
-    return parse_yaml(text, where, error)
+
+
+def read_yaml(path: str | Path, error: type[Exception], where: str | None = None,
+              max_bytes: int = MAX_YAML_BYTES) -> Any:
+    """Read and parse the YAML file ``path`` (see :func:`parse_yaml`); ``where`` defaults to the path.
+
+    Only a regular file of at most ``max_bytes`` is read (see :func:`read_regular`).
+    """
+    where = str(path) if where is None else where
+    return parse_yaml(read_text(path, error, where, max_bytes), where, error)

@@ -105,6 +105,11 @@ def extract_chain(
         link_T[i] = (prev_M.inverse() * data.oMi[jid]).homogeneous
         motion = pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, jm.idx_v]
         lin, ang = motion[:3], motion[3:]
+        if not (np.linalg.norm(ang) > 0.5 or np.linalg.norm(lin) > 0.5):  # a zero (or NaN) axis in the URDF
+            raise RobotError(
+                f"arm '{arm}' of robot '{robot}': joint '{model.names[jid]}' has no usable axis in the URDF "
+                f"(<axis xyz> of length {float(np.linalg.norm(ang) + np.linalg.norm(lin)):.3g}, not 1)"
+            )
         if np.linalg.norm(ang) > 0.5:
             axis[i] = ang / np.linalg.norm(ang)
             kind[i] = REVOLUTE

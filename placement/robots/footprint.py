@@ -14,10 +14,16 @@ from typing import Any
 
 import numpy as np
 
+from ..simplicity import self_crossing
 from ..validation import Checker
 
 #: Smallest footprint area accepted [m^2]: anything smaller is a units mistake (millimetres?).
 MIN_AREA = 1e-3
+#: Largest distance of a footprint point (and largest footprint_radius) from the base origin [m]: a
+#: bigger base is a units mistake, and the planner's per-yaw tables grow with its square.
+MAX_BASE_RADIUS = 10.0
+#: Most footprint points: the planner tests every point at every yaw for every cell near an obstacle.
+MAX_FOOTPRINT_VERTICES = 256
 
 
 def signed_area(points: np.ndarray) -> float:
@@ -26,32 +32,10 @@ def signed_area(points: np.ndarray) -> float:
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
-def _segments_cross(p1, p2, q1, q2) -> bool:
-    """Whether closed segments p1p2 and q1q2 share a point."""
-    def orient(a, b, c):
-        v = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-        return 0 if abs(v) < 1e-12 else (1 if v > 0 else -1)
-
-    def on(a, b, c):  # c on segment ab, given collinear
-        return min(a[0], b[0]) - 1e-12 <= c[0] <= max(a[0], b[0]) + 1e-12 and \
-            min(a[1], b[1]) - 1e-12 <= c[1] <= max(a[1], b[1]) + 1e-12
-    o1, o2, o3, o4 = orient(p1, p2, q1), orient(p1, p2, q2), orient(q1, q2, p1), orient(q1, q2, p2)
-    if o1 != o2 and o3 != o4:
-        return True
-    return (o1 == 0 and on(p1, p2, q1)) or (o2 == 0 and on(p1, p2, q2)) or \
-        (o3 == 0 and on(q1, q2, p1)) or (o4 == 0 and on(q1, q2, p2))
-
-
 def first_self_crossing(points: np.ndarray) -> tuple[int, int] | None:
-    """The first pair of non-adjacent edges (i, j) that touch or cross, or None for a simple polygon."""
-    k = len(points)
-    for i in range(k):
-        for j in range(i + 2, k):
-            if i == 0 and j == k - 1:
-                continue  # adjacent through the closing vertex
-            if _segments_cross(points[i], points[(i + 1) % k], points[j], points[(j + 1) % k]):
-                return i, j
-    return None
+    """The first pair of edges (i, j) that touch or cross (other than neighbours at their shared
+    vertex), or None for a simple polygon: an exact O(k log k) sweep (:mod:`placement.simplicity`)."""
+    return self_crossing(points)
 
 
 def contains_origin(points: np.ndarray) -> bool:
@@ -69,7 +53,15 @@ def parse_footprint(c: Checker, value: Any, key: str) -> tuple[tuple[float, floa
     """A footprint polygon from a preset: >= 3 ``[x, y]`` points [m] in the base frame, simple, of
     area >= :data:`MIN_AREA`, around the base frame's origin; returned counter-clockwise."""
     items = c.sequence(value, key, minimum=3, what="[x, y] points [m]")
+    if len(items) > MAX_FOOTPRINT_VERTICES:
+        c.fail(key, f"{len(items)} points, more than the {MAX_FOOTPRINT_VERTICES} allowed (the planner tests every "
+                    "point at every base yaw): simplify the outline")
     pts = np.array([c.vector(p, f"{key}[{i}]", 2, "numbers [x y] [m]") for i, p in enumerate(items)])
+    far = np.flatnonzero(np.hypot(pts[:, 0], pts[:, 1]) > MAX_BASE_RADIUS)
+    if len(far):
+        i = int(far[0])
+        c.fail(f"{key}[{i}]", f"the point {list(pts[i])} is more than {MAX_BASE_RADIUS:g} m from the base frame's "
+                              "origin; the footprint is in metres")
     for i in range(len(pts)):
         if np.array_equal(pts[i], pts[i - 1]):
             c.fail(f"{key}[{i}]", f"repeats the point before it {list(pts[i])}")

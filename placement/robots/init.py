@@ -23,9 +23,9 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import PlacementError, RobotError
-from ..validation import parse_yaml
+from ..validation import one_line, parse_yaml
 from .chain import PRISMATIC, extract_chain
-from .init_base import Base, find_base, load_collision
+from .init_base import Base, find_base, load_collision, screen_collisions
 from .init_selfpairs import ArtefactPair, artefact_pairs
 from .init_tcp import TCP, deepen, hand_reach, infer_tcp
 from .init_tree import analyse, arm_names, subtree
@@ -203,10 +203,15 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
                  notes, warnings)
     from .init_render import render
 
-    try:
-        p.ignore = artefact_pairs(check_loads(render(p), d.path, out))
-    except PlacementError as exc:  # e.g. a xacro: placement.collision reads plain URDF geometry only
-        p.warnings.append(f"self-collision pairs not sampled ({exc}): check ignore_collisions yourself")
+    robot = check_loads(render(p), d.path, out)  # a proposal that does not load is refused, never written
+    if screen_collisions(d.xml, d.path)[1]:  # the collision check would load the shapes init left out
+        p.warnings.append("self-collision pairs not sampled (collision shapes left out, see above): check "
+                          "ignore_collisions yourself")
+    else:
+        try:
+            p.ignore = artefact_pairs(robot)
+        except PlacementError as exc:  # e.g. a xacro: placement.collision reads plain URDF geometry only
+            p.warnings.append(f"self-collision pairs not sampled ({exc}): check ignore_collisions yourself")
     if p.ignore:
         p.warnings.append(f"{len(p.ignore)} link pairs that collide in most random arm configurations are "
                           "taken as modelling artefacts and never checked (ignore_collisions): confirm them")
@@ -216,9 +221,13 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
 
 
 def check_loads(text: str, source: Path, out) -> Robot:
-    """Load the rendered preset as :func:`~placement.robots.load_robot` would (a proposal that does not
-    load is a bug: it is reported, never written)."""
+    """Load the rendered preset as :func:`~placement.robots.load_robot` would; a proposal that does not
+    load is refused (one :class:`RobotError` line saying what in the URDF it stumbled on), never written."""
     where = str(out) if out else f"preset proposed for {source}"
     origin = Path(out).resolve().parent if out else Path.cwd()
-    spec: PresetSpec = parse_preset(parse_yaml(text, where, RobotError), origin, where)
-    return Robot(spec)
+    try:
+        spec: PresetSpec = parse_preset(parse_yaml(text, where, RobotError), origin, where)
+        return Robot(spec)
+    except PlacementError as exc:
+        raise RobotError(one_line(f"{source}: the proposed preset would not load, so it is not written: {exc}")) \
+            from None

@@ -13,12 +13,17 @@ millimetre; without loadable collision shapes, a circle around the links' origin
 from __future__ import annotations
 
 import itertools
+import math
+import os
+import stat
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
+from ..errors import RobotError
 from ..validation import one_line
 from .footprint import contains_origin
 from .spec import share_dir
@@ -27,6 +32,10 @@ from .spec import share_dir
 ON_FLOOR = 0.05
 #: Added to the links' origins when the footprint cannot come from collision shapes [m].
 RADIUS_MARGIN = 0.1
+#: Largest collision mesh file read [bytes] and most triangles over all collision meshes: random-soup
+#: meshes of 200,000 triangles take 20 s in init (hulls, 1,000 configurations per arm); Romeo has 105,000.
+MAX_MESH_BYTES = 32 * 2**20
+MAX_COLLISION_TRIANGLES = 250_000
 
 
 @dataclass
@@ -57,13 +66,110 @@ def package_dirs(urdf: Path) -> list[str]:
     return out
 
 
-def load_collision(model: pin.Model, xml: str, urdf: Path):
-    """(pinocchio GeometryModel of the ``<collision>`` shapes, "") or (None, reason)."""
+def _mesh_path(name: str, urdf: Path) -> Path | None:
+    """The file a URDF mesh ``filename`` names, as pinocchio looks for it; None when none exists."""
+    if name.startswith("file://"):
+        name = name[len("file://"):]
+    if name.startswith("package://"):
+        rest = name[len("package://"):]
+        options = [Path(d) / rest for d in package_dirs(urdf)]
+    else:
+        p = Path(name).expanduser()
+        options = [p] if p.is_absolute() else [Path(urdf).parent / p, Path.cwd() / p]
+    for p in options:
+        try:
+            if os.path.lexists(p):
+                return p
+        except (OSError, ValueError):
+            pass
+    return None
+
+
+def _numbers(text: str | None, n: int) -> list[float] | None:
+    """The floats of a URDF attribute (``n`` of them, or 1 for a uniform scale), None if unreadable."""
     try:
-        return pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION,
-                                           package_dirs=package_dirs(urdf)), ""
+        v = [float(t) for t in (text or "").split()]
+    except ValueError:
+        return None
+    return v if len(v) in (n, 1 if n == 3 else n) else None
+
+
+def _shape_problem(geometry, urdf: Path) -> str:
+    """Why a collision ``<geometry>`` cannot be used ("" when it can)."""
+    for kind, attrs in (("box", {"size": 3}), ("cylinder", {"radius": 1, "length": 1}), ("sphere", {"radius": 1}),
+                        ("mesh", {"scale": 3})):
+        el = geometry.find(kind)
+        if el is None:
+            continue
+        for attr, n in attrs.items():
+            if kind == "mesh" and el.get(attr) is None:
+                continue
+            v = _numbers(el.get(attr), n)
+            # a mesh may be mirrored (a negative scale); nothing may be flat, NaN or infinite
+            if v is None or not all(math.isfinite(x) and (x != 0 if kind == "mesh" else x > 0) for x in v):
+                return f"{kind} {attr} '{el.get(attr)}' (needs finite, non-zero numbers)"
+        if kind == "mesh":
+            path = _mesh_path(el.get("filename", ""), urdf)
+            if path is None:
+                return ""  # pinocchio reports a missing mesh itself
+            try:
+                st = os.stat(path)
+            except OSError as exc:
+                return f"mesh {path}: {exc.strerror or exc}"
+            if not stat.S_ISREG(st.st_mode):
+                return f"mesh {path} is not a regular file"
+            if st.st_size > MAX_MESH_BYTES:
+                return f"mesh {path} is {st.st_size / 2**20:.3g} MiB, more than the {MAX_MESH_BYTES // 2**20} MiB allowed"
+        return ""
+    return ""
+
+
+def screen_collisions(xml: str, urdf: Path) -> tuple[str, list[str]]:
+    """(the URDF text without the ``<collision>`` shapes that cannot be used, warnings naming them).
+
+    Unusable: a mesh with a zero, negative or NaN scale (coal crashes on its hull), a mesh that is not
+    a regular file or is larger than :data:`MAX_MESH_BYTES`, a primitive with a size that is not a
+    positive finite number, an origin that is not finite."""
+    try:
+        root = ET.fromstring(xml)
+    except ET.ParseError:
+        return xml, []
+    warnings = []
+    for link in root.iter("link"):
+        for col in list(link.findall("collision")):
+            origin = col.find("origin")
+            why = ""
+            if origin is not None:
+                for attr in ("xyz", "rpy"):
+                    v = _numbers(origin.get(attr, "0 0 0"), 3)
+                    if v is None or not all(math.isfinite(x) for x in v):
+                        why = f"origin {attr} '{origin.get(attr)}'"
+            geometry = col.find("geometry")
+            why = why or ("" if geometry is None else _shape_problem(geometry, urdf))
+            if why:
+                link.remove(col)
+                warnings.append(f"link '{link.get('name')}': a collision shape is left out ({why}): it is not in "
+                                "the footprint nor in the self-collision sampling; fix the URDF before planning with "
+                                "collision checks")
+    if not warnings:
+        return xml, []
+    return ET.tostring(root, encoding="unicode"), warnings
+
+
+def load_collision(model: pin.Model, xml: str, urdf: Path):
+    """(pinocchio GeometryModel of the usable ``<collision>`` shapes (see :func:`screen_collisions`),
+    "") or (None, reason). Raises :class:`RobotError` when the meshes hold more than
+    :data:`MAX_COLLISION_TRIANGLES` triangles."""
+    xml, _ = screen_collisions(xml, urdf)
+    try:
+        geom = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION, package_dirs=package_dirs(urdf))
     except Exception as exc:  # a mesh that cannot be found or read
         return None, one_line(" ".join(str(exc).split()))[:160]
+    tris = sum(int(getattr(o.geometry, "num_tris", 0) or 0) for o in geom.geometryObjects)
+    if tris > MAX_COLLISION_TRIANGLES:
+        raise RobotError(f"{urdf}: the collision meshes hold {tris} triangles, more than the "
+                         f"{MAX_COLLISION_TRIANGLES} allowed: use simplified collision meshes")
+    return geom, ""
 
 
 def collision_boxes(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip: set[int]):
@@ -73,6 +179,7 @@ def collision_boxes(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip:
     if geom is None:
         return None, why
     gdata = geom.createData()
+    dropped: list[str] = []
     data = model.createData()
     pin.updateGeometryPlacements(model, data, geom, gdata, q)
     boxes = []
@@ -83,10 +190,16 @@ def collision_boxes(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip:
         lo, hi = np.array(obj.geometry.aabb_local.min_), np.array(obj.geometry.aabb_local.max_)
         corners = np.array(list(itertools.product(*zip(lo, hi))))
         M = gdata.oMg[k]
-        boxes.append(corners @ M.rotation.T + M.translation)
+        corners = corners @ M.rotation.T + M.translation
+        if not np.all(np.isfinite(corners)):
+            dropped.append(obj.name)
+            continue
+        boxes.append(corners)
+    if dropped:
+        why = f"collision shapes {', '.join(dropped[:5])} have a bounding box that is not finite"
     if not boxes:
-        return None, "no collision shapes outside the arms"
-    return np.array(boxes), ""
+        return None, why or "no collision shapes outside the arms"
+    return np.array(boxes), why
 
 
 def _turn(a, b, c) -> float:
@@ -119,7 +232,9 @@ def find_base(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, arm_joints:
     frames_z = [data.oMf[i].translation[2] for i in range(len(model.frames))]
     floor = float(min(frames_z) if boxes is None else min(boxes[..., 2].min(), min(frames_z)))
     root = next(i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY)
-    notes, warnings = [], []
+    notes, warnings = [], list(screen_collisions(xml, urdf)[1])
+    if boxes is not None and why:  # shapes left out of the footprint
+        warnings.append(f"{why}: they are left out of the footprint")
     prints = [i for i, f in enumerate(model.frames) if f.parentJoint == 0 and "footprint" in f.name.lower()]
     root_z = float(data.oMf[root].translation[2]) - floor
     if prints:

@@ -27,10 +27,10 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
-from ..validation import Checker, one_line, read_yaml
+from ..validation import Checker, one_line, read_regular, read_yaml
 from .chain import Chain, ancestors, extract_chain
-from .init_urdf import expand_xacro, is_xacro
-from .spec import QUATERNION_TOLERANCE, ArmSpec, PresetSpec, parse_preset
+from .init_urdf import MAX_URDF_BYTES, expand_xacro, is_xacro
+from .spec import MAX_PRESET_BYTES, QUATERNION_TOLERANCE, ArmSpec, PresetSpec, parse_preset
 
 PRESET_DIR = Path(__file__).parent / "presets"
 #: Parsed URDF models kept in memory, keyed by (path, sha256 of the bytes parsed).
@@ -84,10 +84,7 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
     if is_xacro(path):  # expanded on every load: its includes may have changed
         data = expand_xacro(path, f"{where}: urdf")
     else:
-        try:
-            data = path.read_bytes()
-        except OSError as exc:
-            raise RobotError(one_line(f"{where}: urdf: cannot read {path}: {exc.strerror or exc}")) from None
+        data = read_regular(path, RobotError, f"{where}: urdf: {path}", MAX_URDF_BYTES, "URDF")
     sha = hashlib.sha256(data).hexdigest()
     key = (str(path), sha)
     with _MODELS_LOCK:
@@ -355,4 +352,4 @@ def load_robot(preset: str | Path = "pr2") -> Robot:
     if not found:
         raise RobotError(f"unknown robot {preset!r}: not a built-in preset ({', '.join(builtin_presets())}) "
                          "nor a preset file")
-    return Robot(parse_preset(read_yaml(path, PresetError), path.parent, str(path)))
+    return Robot(parse_preset(read_yaml(path, PresetError, max_bytes=MAX_PRESET_BYTES), path.parent, str(path)))

@@ -18,7 +18,7 @@ from typing import Any
 
 from ..errors import PresetError
 from ..validation import Checker
-from .footprint import circumradius, parse_footprint
+from .footprint import MAX_BASE_RADIUS, circumradius, parse_footprint
 
 #: Top-level keys of a preset and what they hold (repeated when a required one is missing).
 TOP_KEYS = {
@@ -49,6 +49,14 @@ MIN_ARM_JOINTS = 6
 #: any other is an error (it would scale or shear the TCP frame).
 QUATERNION_TOLERANCE = 1e-6
 IDENTITY_POSE = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+#: Largest |x|, |y|, |z| of a ``tcp_offset`` [m]: a tool longer than this is a units mistake.
+MAX_TCP_OFFSET = 10.0
+#: Largest base speeds accepted [m/s], [rad/s]: beyond them the travel times lose meaning.
+MAX_V, MAX_OMEGA = 100.0, 100.0
+#: Largest |value| of a joint value (fixed, home, idle) [rad or m] before the URDF limits are known.
+MAX_JOINT_VALUE = 1e4
+#: Largest preset file read [bytes].
+MAX_PRESET_BYTES = 4 * 2**20
 
 
 @dataclass(frozen=True)
@@ -136,11 +144,22 @@ def _existing_file(c: Checker, value: Any, key: str, origin: Path) -> Path:
 
 def _tcp_offset(c: Checker, value: Any, key: str) -> tuple[float, ...]:
     x, y, z, *quat = c.vector(value, key, 7, "numbers [x y z qx qy qz qw]")
+    for i, v in enumerate((x, y, z)):
+        if abs(v) > MAX_TCP_OFFSET:
+            c.fail(f"{key}[{i}]", f"must be within +-{MAX_TCP_OFFSET:g} m, got {v:g}")
     norm = math.sqrt(sum(v * v for v in quat))
     if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
         c.fail(key, f"the quaternion [qx qy qz qw] must have norm 1 (within {QUATERNION_TOLERANCE:g}), "
                     f"got norm {norm:.9g}")
     return (x, y, z, *(v / norm for v in quat))
+
+
+def _joint_values(c: Checker, value: Any, key: str, n: int, joints: str) -> tuple[float, ...]:
+    out = c.vector(value, key, n, f"values [rad or m], one per joint of {joints}")
+    for i, v in enumerate(out):
+        if abs(v) > MAX_JOINT_VALUE:
+            c.fail(f"{key}[{i}]", f"must be within +-{MAX_JOINT_VALUE:g} [rad or m], got {v:g}")
+    return out
 
 
 def _arm(c: Checker, name: str, value: Any, fixed: dict[str, float]) -> ArmSpec:
@@ -154,10 +173,10 @@ def _arm(c: Checker, name: str, value: Any, fixed: dict[str, float]) -> ArmSpec:
     tcp = _tcp_offset(c, a["tcp_offset"], f"{path}.tcp_offset") if "tcp_offset" in a else IDENTITY_POSE
     home = None
     if "home" in a:
-        home = c.vector(a["home"], f"{path}.home", len(joints), f"values [rad or m], one per joint of {path}.joints")
+        home = _joint_values(c, a["home"], f"{path}.home", len(joints), f"{path}.joints")
     idle = None
     if "idle" in a:
-        idle = c.vector(a["idle"], f"{path}.idle", len(joints), f"values [rad or m], one per joint of {path}.joints")
+        idle = _joint_values(c, a["idle"], f"{path}.idle", len(joints), f"{path}.joints")
     return ArmSpec(name, tuple(joints), tip, tcp, home, idle)
 
 
@@ -182,7 +201,10 @@ def _base_shape(c: Checker, d: dict) -> tuple[float, tuple | None]:
                "give exactly one of footprint_radius ([m] round base) and footprint ([[x, y], ...] [m] polygon)"
                if "footprint" in d else f"missing required key ({TOP_KEYS['footprint_radius']})")
     if "footprint_radius" in d:
-        return c.positive(d["footprint_radius"], "footprint_radius"), None
+        radius = c.positive(d["footprint_radius"], "footprint_radius")
+        if radius > MAX_BASE_RADIUS:
+            c.fail("footprint_radius", f"must be <= {MAX_BASE_RADIUS:g} m, got {radius:g}; the radius is in metres")
+        return radius, None
     polygon = parse_footprint(c, d["footprint"], "footprint")
     return circumradius(polygon), polygon
 
@@ -202,9 +224,15 @@ def parse_preset(data: Any, origin: Path, where: str) -> PresetSpec:
     held = d.get("fixed_joints")
     held = {} if held is None else c.keyed(held, "fixed_joints")
     fixed = {j: c.number(v, f"fixed_joints.{j}") for j, v in held.items()}
+    for j, v in fixed.items():
+        if abs(v) > MAX_JOINT_VALUE:
+            c.fail(f"fixed_joints.{j}", f"must be within +-{MAX_JOINT_VALUE:g} [rad or m], got {v:g}")
     footprint_radius, footprint = _base_shape(c, d)
     v_max = c.positive(d["v_max"], "v_max")
     omega_max = c.positive(d["omega_max"], "omega_max")
+    for key, v, top, unit in (("v_max", v_max, MAX_V, "m/s"), ("omega_max", omega_max, MAX_OMEGA, "rad/s")):
+        if v > top:
+            c.fail(key, f"must be <= {top:g} {unit}, got {v:g}")
     arms = {n: _arm(c, n, a, fixed) for n, a in c.keyed(d["arms"], "arms", minimum=1).items()}
     ignore = _link_pairs(c, d.get("ignore_collisions"), "ignore_collisions")
     # the files last: a typo in the mapping is reported without touching the file system

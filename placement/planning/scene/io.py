@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ...validation import one_line, parse_yaml
+from ...validation import parse_yaml, read_text
 from .model import Box, Cylinder, Obstacle, Scene, SceneError, SceneObject, Trajectory, is_path
-from .parse import parse_scene
+from .parse import MAX_SCENE_BYTES, parse_scene
 from .poses import yaw_quaternion
 
 
@@ -22,12 +22,9 @@ def load_scene(path: str | Path) -> Scene:
     (one line naming the file and the key path) for anything that is not a valid scene.
     """
     path = Path(path)
-    if not path.is_file():
+    if not os.path.lexists(path):
         raise SceneError(f"scene file not found: {path}")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(one_line(f"{path}: cannot read the scene file: {exc}")) from None
+    text = read_text(path, SceneError, str(path), MAX_SCENE_BYTES, "scene file")
     if not text.strip():
         raise SceneError(f"{path}: the scene is empty")
     return parse_scene(parse_yaml(text, str(path), SceneError), path.parent, path.stem, source=path)

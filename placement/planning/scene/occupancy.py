@@ -32,9 +32,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from ...errors import PlacementError
+from ...validation import parse_yaml, read_regular, read_text, show
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +43,15 @@ DEFAULT_OCCUPIED_THRESH = 0.65
 DEFAULT_FREE_THRESH = 0.196
 _MAP_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode")
 _MODES = ("trinary", "scale")
+#: Bounds checked before anything is allocated: the map YAML's size [bytes], the image's pixels (a
+#: binary P5 image; a plain P2 one is text parsed in Python, so it gets fewer), the resolution [m] and
+#: the coordinates of the map's corners [m].
+MAX_MAP_YAML_BYTES = 2**20
+MAX_IMAGE_PIXELS = 40_000_000
+MAX_PLAIN_PIXELS = 4_000_000
+RESOLUTION_RANGE = (1e-3, 100.0)
+MAX_COORD = 1e6
+_HEADER_BYTES = 1 << 16
 
 
 class OccupancyMapError(PlacementError):
@@ -87,12 +96,9 @@ class OccupancyMap:
 _WS = b" \t\n\r\x0b\x0c"
 
 
-def parse_pgm(data: bytes, name: str = "image") -> tuple[np.ndarray, int]:
-    """Decode an 8-bit PGM (binary ``P5`` or plain ``P2``).
-
-    Returns ``(pixels, maxval)``: pixels (height, width) uint8 in file order (top row first).
-    Raises :class:`OccupancyMapError` naming ``name`` for anything malformed or unsupported.
-    """
+def _pgm_header(data: bytes, name: str) -> tuple[bytes, int, int, int, int]:
+    """(magic, width, height, maxval, offset of the byte after maxval) of a PGM, checked against the
+    size bounds; raises :class:`OccupancyMapError` naming ``name``."""
     def bad(msg: str) -> OccupancyMapError:
         return OccupancyMapError(f"{name}: malformed PGM: {msg}")
 
@@ -107,7 +113,8 @@ def parse_pgm(data: bytes, name: str = "image") -> tuple[np.ndarray, int]:
     pos, fields = 2, []
     while len(fields) < 3:
         if pos >= len(data):
-            raise bad("header ends early (need width, height and maxval)")
+            raise bad("header ends early (need width, height and maxval)" if len(data) < _HEADER_BYTES
+                      else f"header longer than {_HEADER_BYTES} bytes")
         c = data[pos:pos + 1]
         if c in (b" ", b"\t", b"\n", b"\r", b"\x0b", b"\x0c"):
             pos += 1
@@ -119,6 +126,8 @@ def parse_pgm(data: bytes, name: str = "image") -> tuple[np.ndarray, int]:
             token = m.group(0)
             if not token.isdigit():
                 raise bad(f"header field {token[:20]!r} is not a positive integer")
+            if len(token) > 9:
+                raise bad(f"header field of {len(token)} digits (at most 9)")
             if pos == 2:
                 raise bad("no whitespace after the magic number")
             fields.append(int(token))
@@ -131,14 +140,33 @@ def parse_pgm(data: bytes, name: str = "image") -> tuple[np.ndarray, int]:
             raise OccupancyMapError(f"{name}: {maxval + 1}-level (16-bit) PGM is not supported; "
                                     "only 8-bit (maxval <= 255)")
         raise bad(f"maxval {maxval}")
+    limit = MAX_IMAGE_PIXELS if magic == b"P5" else MAX_PLAIN_PIXELS
+    if width * height > limit:
+        raise OccupancyMapError(f"{name}: the image is {width} x {height} = {width * height} pixels, more than the "
+                                f"{limit} allowed for a{' plain (P2)' if magic == b'P2' else ''} map; crop it, or "
+                                "save it at a coarser resolution")
+    return magic, width, height, maxval, pos
+
+
+def parse_pgm(data: bytes, name: str = "image") -> tuple[np.ndarray, int]:
+    """Decode an 8-bit PGM (binary ``P5`` or plain ``P2``) of at most :data:`MAX_IMAGE_PIXELS` pixels
+    (:data:`MAX_PLAIN_PIXELS` for ``P2``).
+
+    Returns ``(pixels, maxval)``: pixels (height, width) uint8 in file order (top row first).
+    Raises :class:`OccupancyMapError` naming ``name`` for anything malformed or unsupported.
+    """
+    def bad(msg: str) -> OccupancyMapError:
+        return OccupancyMapError(f"{name}: malformed PGM: {msg}")
+
+    magic, width, height, maxval, pos = _pgm_header(data, name)
     n = width * height
     if magic == b"P5":
         if pos >= len(data) or data[pos:pos + 1] not in (b" ", b"\t", b"\n", b"\r", b"\x0b", b"\x0c"):
             raise bad("no whitespace between maxval and the raster")
-        raster = data[pos + 1:]
+        raster = memoryview(data)[pos + 1:]
         if len(raster) < n:
             raise bad(f"raster truncated: {len(raster)} bytes for {width} x {height} = {n} pixels")
-        if raster[n:].strip(_WS):
+        if bytes(raster[n:]).strip(_WS):
             raise bad(f"{len(raster) - n} bytes of trailing data after the raster")
         pixels = np.frombuffer(raster, dtype=np.uint8, count=n).reshape(height, width).copy()
     else:
@@ -148,6 +176,8 @@ def parse_pgm(data: bytes, name: str = "image") -> tuple[np.ndarray, int]:
             raise bad(f"{len(tokens)} values for {width} x {height} = {n} pixels")
         if not all(t.isdigit() for t in tokens):
             raise bad("the raster holds a value that is not a non-negative integer")
+        if any(len(t) > 3 for t in tokens):
+            raise bad(f"a pixel value of more than 3 digits exceeds maxval {maxval}")
         values = np.array([int(t) for t in tokens], dtype=np.int64)
         pixels = values.reshape(height, width)
     if pixels.max(initial=0) > maxval:
@@ -156,12 +186,19 @@ def parse_pgm(data: bytes, name: str = "image") -> tuple[np.ndarray, int]:
 
 
 def read_pgm(path: str | Path) -> tuple[np.ndarray, int]:
-    """Read an 8-bit PGM file: ``(pixels (height, width) uint8, top row first, maxval)``."""
+    """Read an 8-bit PGM file: ``(pixels (height, width) uint8, top row first, maxval)``.
+
+    Only a regular file is read, and its header first: an image over the pixel bounds is refused
+    before its raster is read or anything is allocated for it."""
     path = Path(path)
+    head = read_regular(path, OccupancyMapError, f"image {path}", 2**62, "image", prefix=_HEADER_BYTES)
+    magic, width, height, _, pos = _pgm_header(head, str(path))
+    n = width * height
+    most = pos + 1 + n + _HEADER_BYTES if magic == b"P5" else pos + 8 * n + 2**20
     try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise OccupancyMapError(f"cannot read image {path}: {exc.strerror or exc}") from None
+        data = read_regular(path, OccupancyMapError, f"image {path}", most, "image")
+    except OccupancyMapError as exc:
+        raise OccupancyMapError(f"{exc} for {width} x {height} pixels") from None
     return parse_pgm(data, str(path))
 
 
@@ -178,19 +215,31 @@ def occupancy_from_pixels(pixels: np.ndarray, maxval: int = 255, *, negate: bool
     i.e. occupied (``p > occupied_thresh``) or unknown (in between), which is treated as occupied.
     ``occupied_thresh`` only separates occupied from unknown and so does not change the result.
     """
-    v = np.asarray(pixels, dtype=np.float64)
+    pixels = np.asarray(pixels)
+    # the rule on each of the maxval + 1 values, then looked up: the same floats as per pixel, without
+    # a float64 copy of a large image
+    v = np.arange(max(maxval, int(pixels.max(initial=0))) + 1, dtype=np.float64)
     p = v / maxval if negate else (maxval - v) / maxval
     occupied = p > occupied_thresh
     free = p < free_thresh
     unknown = ~occupied & ~free
-    return np.ascontiguousarray((occupied | unknown)[::-1])
+    lut = occupied | unknown
+    return np.ascontiguousarray(lut[pixels.astype(np.intp, copy=False)][::-1])
 
 
-def _number(doc: dict, key: str, where: str) -> float:
+def _number(doc: dict, key: str, where: str, lo: float | None = None, hi: float | None = None) -> float:
+    """``doc[key]`` as a finite float within [lo, hi] (any size, spelling or type refused in one line)."""
     v = doc[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise OccupancyMapError(f"{where}: '{key}' must be a finite number, got {v!r}")
-    return float(v)
+    try:
+        ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(float(v))
+    except OverflowError:  # an integer beyond the float range (YAML 0x... of 5,000 digits)
+        ok = False
+    if not ok:
+        raise OccupancyMapError(f"{where}: '{key}' must be a finite number, got {show(v)}")
+    v = float(v)
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        raise OccupancyMapError(f"{where}: '{key}' must be within [{lo:g}, {hi:g}], got {v:g}")
+    return v
 
 
 def load_occupancy_map(path: str | Path) -> OccupancyMap:
@@ -203,49 +252,54 @@ def load_occupancy_map(path: str | Path) -> OccupancyMap:
     where = str(path)
     if not path.is_file():
         raise OccupancyMapError(f"occupancy map not found: {path}")
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise OccupancyMapError(f"{where}: not a valid map YAML: {str(exc).splitlines()[0]}") from None
+    doc = parse_yaml(read_text(path, OccupancyMapError, where, MAX_MAP_YAML_BYTES, "map YAML"), where,
+                     OccupancyMapError)
     if not isinstance(doc, dict):
         raise OccupancyMapError(f"{where}: a map YAML must be a mapping with keys {', '.join(_MAP_KEYS)}")
-    unknown = sorted(str(k) for k in doc if k not in _MAP_KEYS)
+    unknown = sorted(show(k) for k in doc if k not in _MAP_KEYS)
     if unknown:  # map_server ignores them too; warn rather than refuse a map written by another tool
         log.warning("%s: ignoring unknown map keys: %s", where, ", ".join(unknown))
     for key in ("image", "resolution", "origin"):
         if key not in doc:
             raise OccupancyMapError(f"{where}: missing key '{key}'")
     if not isinstance(doc["image"], str) or not doc["image"]:
-        raise OccupancyMapError(f"{where}: 'image' must be a file name, got {doc['image']!r}")
+        raise OccupancyMapError(f"{where}: 'image' must be a file name, got {show(doc['image'])}")
     resolution = _number(doc, "resolution", where)
     if resolution <= 0:
-        raise OccupancyMapError(f"{where}: 'resolution' must be > 0, got {resolution}")
+        raise OccupancyMapError(f"{where}: 'resolution' must be > 0, got {resolution:g}")
+    resolution = _number(doc, "resolution", where, *RESOLUTION_RANGE)
     origin = doc["origin"]
-    if (not isinstance(origin, list) or len(origin) != 3
-            or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
-                   for v in origin)):
-        raise OccupancyMapError(f"{where}: 'origin' must be [x, y, yaw] (3 finite numbers), got {origin!r}")
-    ox, oy, oyaw = (float(v) for v in origin)
+    if not isinstance(origin, list) or len(origin) != 3:
+        raise OccupancyMapError(f"{where}: 'origin' must be [x, y, yaw] (3 finite numbers), got {show(origin)}")
+    ox, oy, oyaw = (_number({"origin": v}, "origin", where, -MAX_COORD, MAX_COORD) for v in origin)
     if oyaw != 0.0:
         raise OccupancyMapError(f"{where}: origin yaw {oyaw} rad is not supported yet (only 0); "
                                 "rotate the image instead")
     negate = doc.get("negate", 0)
-    if negate not in (0, 1) or isinstance(negate, float):
-        raise OccupancyMapError(f"{where}: 'negate' must be 0 or 1, got {negate!r}")
-    occ_t = _number(doc, "occupied_thresh", where) if "occupied_thresh" in doc else DEFAULT_OCCUPIED_THRESH
-    free_t = _number(doc, "free_thresh", where) if "free_thresh" in doc else DEFAULT_FREE_THRESH
+    if isinstance(negate, float) or negate not in (0, 1):
+        raise OccupancyMapError(f"{where}: 'negate' must be 0 or 1, got {show(negate)}")
+    occ_t = _number(doc, "occupied_thresh", where, 0.0, 1.0) if "occupied_thresh" in doc else DEFAULT_OCCUPIED_THRESH
+    free_t = _number(doc, "free_thresh", where, 0.0, 1.0) if "free_thresh" in doc else DEFAULT_FREE_THRESH
     if not 0.0 <= free_t <= occ_t <= 1.0:
         raise OccupancyMapError(f"{where}: thresholds must satisfy 0 <= free_thresh <= occupied_thresh <= 1, "
                                 f"got free_thresh {free_t}, occupied_thresh {occ_t}")
     mode = doc.get("mode", "trinary")
-    if mode not in _MODES:
-        raise OccupancyMapError(f"{where}: mode {mode!r} is not supported; supported: {', '.join(_MODES)}")
-    image = Path(doc["image"]).expanduser()
-    if not image.is_absolute():
-        image = path.parent / image
-    if not image.is_file():
-        raise OccupancyMapError(f"{where}: image '{doc['image']}' not found ({image})")
+    if not isinstance(mode, str) or mode not in _MODES:
+        raise OccupancyMapError(f"{where}: mode '{show(mode)}' is not supported; supported: {', '.join(_MODES)}")
+    try:
+        image = Path(doc["image"]).expanduser()
+        image = image if image.is_absolute() else path.parent / image
+        found = image.is_file()
+    except (OSError, ValueError, RuntimeError):  # NUL bytes, an unknown ~user, a name too long
+        found = False
+    if not found:
+        raise OccupancyMapError(f"{where}: image '{show(doc['image'])}' not found ({show(str(image))})")
     pixels, maxval = read_pgm(image)
+    rows, cols = pixels.shape
+    far = max(abs(ox), abs(oy), abs(ox + cols * resolution), abs(oy + rows * resolution))
+    if far > MAX_COORD:
+        raise OccupancyMapError(f"{where}: the map's {cols} x {rows} cells of {resolution:g} m from origin "
+                                f"({ox:g}, {oy:g}) reach {far:.3g} m from the world origin, beyond +-{MAX_COORD:g} m")
     occupied = occupancy_from_pixels(pixels, maxval, negate=bool(negate), occupied_thresh=occ_t,
                                      free_thresh=free_t)
     occupied.setflags(write=False)

@@ -61,6 +61,7 @@ import numpy as np
 from ...robots.preset import builtin_presets
 from ..config import PLANNER_BOUNDS, PLANNER_KEYS
 from .checks import object_penetrates, point_inside
+from .places import check_place_orientations
 from .model import (
     Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, Shape, TaskStep, Trajectory,
     grid_shape, is_path,
@@ -78,6 +79,11 @@ BOUNDS_MARGIN = 1.0  # [m]
 MAX_GRID_CELLS = 20_000_000  # ~120 B per cell while planning: 20 M cells stay under 3 GB
 MAX_COORD = 1e6  # [m] |coordinate| and size bound: keeps grid arithmetic finite
 RESOLUTION_RANGE = (1e-3, 100.0)  # [m]
+MAX_SCENE_BYTES = 16 * 2**20  # a scene file larger than this is refused before it is parsed
+MAX_OBSTACLES = 10_000  # obstacles in a scene (or after an update)
+MAX_POLYGON_VERTICES = 10_000  # points of one obstacle polygon
+MAX_TOTAL_VERTICES = 100_000  # points of all obstacle polygons together
+MAX_OBJECTS = 1_000  # objects, and likewise place locations and trajectories
 
 TOP_KEYS = ("version", "resolution", "bounds", "robot", "maps", "occupancy_map", "obstacles", "objects",
             "place_locations", "task", "planner", "trajectories")
@@ -310,6 +316,7 @@ def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
             if pair(pl.name, ob.name) and point_inside(pl.position, ob.shape):
                 P.fail(f"place_locations[{i}].position", f"place location '{pl.name}' is inside obstacle "
                                                          f"'{ob.name}'")
+    check_place_orientations(scene, P)
     return scene
 
 
