@@ -2,22 +2,22 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .errors import MapError, PlacementError
+from .errors import GridError, MapError, PlacementError
 from .grid import Grid
 from .kernels.grid import cell_indices
 from .robots import Robot, load_robot
-from .storage import atomic_replace, backend, detect, open_store
-from .storage.format import CRC_KEY, FORMAT_VERSION, ROOT_KEY, WITNESS_CRC_KEY, BuiltMap, chunk_crcs, witness_name
+from .storage import open_store
+from .storage.format import witness_name
+from .storage.output import MapOutput, check_target, save_maps
+from .storage.validate import TCP_TOLERANCE, check_root, validate_arm, validate_robot
 from .witness import empty_value, plain_samples, witness_configs
 
-# stored and preset TCP offsets (4, 4) [m, dimensionless rotation] agree to this
-TCP_TOLERANCE = 1e-9
+__all__ = ["TCP_TOLERANCE", "MapOutput", "ReachabilityMap", "check_root", "check_target", "open_map", "save_maps",
+           "validate_arm", "validate_robot"]
 
 
 class ReachabilityMap:
@@ -170,55 +170,6 @@ class ReachabilityMap:
         self.store.read_all(self.arm)
 
 
-def check_root(path: Path, root: dict) -> None:
-    """MapError unless ``root`` is the metadata of a complete map of this format version."""
-    if not root:
-        raise MapError(f"{path}: not a reachability map (no '{ROOT_KEY}' metadata)")
-    if not root.get("complete"):
-        raise MapError(f"{path}: map is half-written (an interrupted build); rebuild it")
-    if root.get("format_version") != FORMAT_VERSION:
-        raise MapError(f"{path}: map format version {root.get('format_version')} is not supported "
-                       f"(this software reads version {FORMAT_VERSION}); rebuild it")
-
-
-def validate_robot(path: Path, root: dict, robot: Robot) -> None:
-    """MapError if the map at ``path`` was not built for ``robot`` as it is now."""
-    if root.get("robot") != robot.name:
-        raise MapError(f"{path}: map was built for robot '{root.get('robot')}', not '{robot.name}'")
-    if root.get("urdf_sha256") != robot.urdf_sha256:
-        raise MapError(f"{path}: map was built from another URDF of '{robot.name}' (hash differs); rebuild it")
-    if root.get("base_frame") != robot.base_frame:
-        raise MapError(f"{path}: map base frame '{root.get('base_frame')}' differs from the robot's "
-                       f"'{robot.base_frame}'")
-    if {k: float(v) for k, v in (root.get("fixed_joints") or {}).items()} != robot.fixed_joints:
-        raise MapError(f"{path}: map was built with fixed joints {root.get('fixed_joints')}, the robot "
-                       f"holds {robot.fixed_joints}")
-
-
-def validate_arm(path: Path, meta: dict, robot: Robot, arm: str) -> None:
-    """MapError if the map of ``arm`` was built for other arm joints, tip frame or TCP offset than ``robot``'s."""
-    a = robot.arm(arm)
-    if meta.get("joints") != list(a.joints):
-        _differs(path, arm, "joints", meta.get("joints"), list(a.joints))
-    if meta.get("tip_frame") != a.tip_frame:
-        _differs(path, arm, "tip frame", meta.get("tip_frame"), a.tip_frame)
-    try:
-        tcp = np.asarray(meta.get("tcp_offset"), dtype=float)
-        same = tcp.shape == (4, 4) and bool(np.all(np.abs(tcp - a.tcp_offset) <= TCP_TOLERANCE))
-    except (TypeError, ValueError):
-        same = False
-    if not same:
-        _differs(path, arm, "TCP offset (4x4)", meta.get("tcp_offset"), a.tcp_offset)
-
-
-def _differs(path: Path, arm: str, field: str, stored, preset) -> None:
-    def show(v):
-        return np.round(np.asarray(v, dtype=float), 6).tolist() if isinstance(v, np.ndarray) else v
-
-    raise MapError(f"{path}: the map of arm '{arm}' was built for {field} {show(stored)}, the preset has "
-                   f"{show(preset)}; rebuild the map")
-
-
 def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> ReachabilityMap:
     """Open the map of ``arm`` at ``path`` (Zarr directory or HDF5 file), lazily.
 
@@ -243,16 +194,13 @@ def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> Re
     if arm not in arms:
         raise MapError(f"{path}: no map for arm '{arm}'; it has: {', '.join(arms) or 'none'}")
     try:
-        rmap = ReachabilityMap(store, arm, robot)
-        consistent = tuple(rmap.meta["grid"]["shape"]) == rmap.grid.shape and rmap.meta.get("arm") == arm
-        consistent &= rmap.meta["witness"]["empty"] == empty_value(rmap.meta["witness"]["dtype"])
-    except (KeyError, TypeError, ValueError, MapError):
-        consistent = False
-    if not consistent:
+        rmap = ReachabilityMap(store, arm, robot)  # its metadata checked against its digest and for its types
+    except GridError as exc:
+        raise MapError(f"{path}: metadata of arm '{arm}': {exc} (corrupt); rebuild the map") from None
+    if rmap.meta["witness"]["empty"] != empty_value(rmap.meta["witness"]["dtype"]):
         raise MapError(f"{path}: metadata of arm '{arm}' is inconsistent (corrupt); rebuild the map")
     validate_arm(path, rmap.meta, robot, arm)
-    store.expected_crcs(arm)
-    store.expected_crcs(arm, witness=True)
+    store.check_arrays(arm)
     for name, key in ((arm, "stored_chunks"), (witness_name(arm), "stored_witness_chunks")):
         want = rmap.meta.get(key)
         have = store.chunks_present(name)
@@ -262,84 +210,3 @@ def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> Re
     return rmap
 
 
-def check_target(path: str | Path, robot: Robot, fmt: str, what: str = "") -> None:
-    """Fail now, before a build, if the map could not be saved to ``path`` (``what`` names the option).
-
-    The nearest existing ancestor must be a writable directory; an existing
-    ``path`` must be a map of the same format whose root metadata matches ``robot``.
-    """
-    path = Path(path)
-    name = f"{what} {path}" if what else str(path)
-    be = backend(fmt)
-    parent = path.absolute().parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir():
-        raise MapError(f"{name}: {parent} is a file, not a directory")
-    if not _writable(parent):
-        raise MapError(f"{name}: directory {parent} is not writable")
-    if not path.exists():
-        return
-    try:
-        existing = detect(path)
-    except MapError:
-        raise MapError(f"{name} exists and is not a map; refusing to overwrite it") from None
-    if existing.name != be.name:
-        raise MapError(f"{name} is a {existing.name} map; refusing to replace it with {fmt}")
-    old = existing.open(path)
-    try:
-        if old.root.get("complete"):
-            validate_robot(path, old.root, robot)
-    finally:
-        old.close()
-
-
-def _writable(directory: Path) -> bool:
-    """Whether a map can be created in ``directory``: tried with an empty probe directory, removed at once.
-
-    access() alone says yes to root on read-only mounts and pseudo file systems (/proc).
-    """
-    if not os.access(directory, os.W_OK | os.X_OK):
-        return False
-    try:
-        os.rmdir(tempfile.mkdtemp(prefix=".placement-probe-", dir=directory))
-    except OSError:
-        return False
-    return True
-
-
-def save_maps(path: str | Path, robot: Robot, maps: dict[str, BuiltMap], fmt: str = "zarr") -> Path:
-    """Write ``maps`` (arm -> BuiltMap) to ``path`` atomically, with the CRC32 of every chunk.
-
-    Arms already in an existing complete map of the same robot and format
-    version at ``path`` are kept (and checked as they are read); a path that
-    holds something else is never overwritten (MapError).
-    """
-    path = Path(path)
-    be = backend(fmt)
-    check_target(path, robot, fmt)
-    for arm, m in maps.items():
-        if m.witness is None or m.witness.shape != m.values.shape:
-            raise MapError(f"{path}: the map of arm '{arm}' has no witnesses of its shape; only a map from "
-                           f"placement.build_map can be saved")
-    arms = {arm: (m.values, {**m.meta, CRC_KEY: chunk_crcs(m.values).tolist(),
-                             WITNESS_CRC_KEY: chunk_crcs(m.witness).tolist()}, m.witness) for arm, m in maps.items()}
-    if path.exists():
-        old = open_store(path)
-        try:
-            if old.root.get("complete") and old.root.get("format_version") == FORMAT_VERSION:
-                for arm in old.root.get("arms", []):
-                    if arm not in arms:
-                        arms[arm] = (old.read_all(arm), old.arm_meta(arm), old.read_all(arm, witness=True))
-        finally:
-            old.close()
-    root = {"format_version": FORMAT_VERSION, "preset": robot.source if not _builtin(robot) else robot.name,
-            **robot.fingerprint, "arms": sorted(arms)}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_replace(be, path, root, arms)
-    return path
-
-
-def _builtin(robot: Robot) -> bool:
-    from .robots.preset import PRESET_DIR
-    return Path(robot.source).parent == PRESET_DIR

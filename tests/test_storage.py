@@ -12,6 +12,7 @@ import pytest
 import placement
 from placement import MapError
 from placement.storage import backend
+from placement.storage.digest import DIGEST_KEY, document_digest
 from placement.storage.format import FORMAT_VERSION, ROOT_KEY
 
 SMALL = dict(resolution=0.2, bins=(4, 3, 4))
@@ -42,18 +43,35 @@ def saved(request, tmp_path, pr2, right_map):
     return fmt, Path(path)
 
 
-def set_root(path: Path, fmt: str, edit) -> None:
-    """Apply ``edit(root_dict)`` to the stored root metadata (simulates damage/other versions)."""
+def set_root(path: Path, fmt: str, edit, reseal: bool = True) -> None:
+    """Apply ``edit(root_dict)`` to the stored root metadata (simulates other maps and versions: with
+    ``reseal``, the root's digest is made to match, as if it had been written so; else damage)."""
+    def change(root):
+        edit(root)
+        if reseal and isinstance(root.get(DIGEST_KEY), dict):
+            root[DIGEST_KEY]["root"] = document_digest({k: v for k, v in root.items() if k != DIGEST_KEY})
+
     if fmt == "zarr":
         meta_file = path / "zarr.json"
         doc = json.loads(meta_file.read_text())
-        edit(doc["attributes"][ROOT_KEY])
+        change(doc["attributes"][ROOT_KEY])
         meta_file.write_text(json.dumps(doc))
     else:
         with h5py.File(path, "r+") as fh:
             root = json.loads(fh.attrs[ROOT_KEY])
-            edit(root)
+            change(root)
             fh.attrs[ROOT_KEY] = json.dumps(root)
+
+
+def reseal_arm(path: Path, arm: str) -> None:
+    """Make the root's digest of ``arm``'s metadata (Zarr) match its stored metadata, as if written so."""
+    import zarr
+
+    group = zarr.open_group(str(path), mode="r+")
+    root = dict(group.attrs[ROOT_KEY])
+    root[DIGEST_KEY]["arms"][arm] = document_digest(dict(group[arm].attrs.asdict()))
+    group.attrs[ROOT_KEY] = root
+    set_root(path, "zarr", lambda r: None)
 
 
 def zarr_chunk_files(path: Path, arm: str = "right") -> list[Path]:
@@ -109,7 +127,7 @@ def test_metadata(saved, pr2, right_map):
     meta = rmap.meta
     for key in META_KEYS:
         assert key in meta, f"metadata key '{key}' missing from the {fmt} map"
-    assert meta["format_version"] == FORMAT_VERSION == 3
+    assert meta["format_version"] == FORMAT_VERSION == 4
     assert meta["robot"] == "pr2" and meta["urdf_sha256"] == pr2.urdf_sha256
     assert meta["arm"] == "right" and meta["base_frame"] == "base_footprint"
     assert meta["tip_frame"] == "r_gripper_tool_frame"

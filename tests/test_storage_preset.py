@@ -8,7 +8,7 @@ import yaml
 import placement
 from placement import MapError
 from placement.robots.preset import PRESET_DIR
-from test_storage import SMALL, set_root
+from test_storage import SMALL, reseal_arm, set_root
 
 
 @pytest.fixture(scope="module")
@@ -80,6 +80,7 @@ def test_joint_order_differs(saved, tmp_path, pr2):
     arr = zarr.open_group(str(other), mode="r+")["right"]
     joints = list(arr.attrs["joints"])
     arr.attrs["joints"] = joints[:5] + joints[5:][::-1]
+    reseal_arm(other, "right")
     with pytest.raises(MapError, match="joints .*r_wrist_roll_joint', 'r_wrist_flex_joint'.*the preset has"):
         placement.open_map(other, "right", robot=pr2)
 
@@ -88,13 +89,16 @@ def test_stored_arm_metadata_damaged(tmp_path, pr2):
     """Missing or malformed arm fields and chunk checksums in the file: a MapError, not a traceback."""
     m = placement.build_map(pr2, "right", samples=500, seed=2, progress=False, **SMALL)
     for field, value, words in [("tcp_offset", "x", "TCP offset"), ("tcp_offset", [[1, 2]], "TCP offset"),
-                                ("joints", None, "joints"), ("tip_frame", 3, "tip frame"),
+                                ("joints", None, "joints"), ("tip_frame", 3, "tip.frame"),
                                 ("chunk_crc32", [1, 2], "checksums"), ("chunk_crc32", None, "checksums")]:
         path = placement.save_maps(tmp_path / f"m-{field}-{type(value).__name__}", pr2, {"right": m})
         import zarr
 
         arr = zarr.open_group(str(path), mode="r+")["right"]
         arr.attrs[field] = value
+        with pytest.raises(MapError, match=f"key '{field}' changed"):
+            placement.open_map(path, "right")
+        reseal_arm(path, "right")  # as if written so (or a map without digests): the field checks still hold
         with pytest.raises(MapError, match=words):
             placement.open_map(path, "right")
 

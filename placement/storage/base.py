@@ -14,18 +14,23 @@ either the old map or no map, never one that opens as complete.
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
+import warnings
 from abc import ABC, abstractmethod
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import MapError
-from .format import CRC_KEY, ROOT_KEY, WITNESS_CRC_KEY, chunk_crc, chunk_crcs, chunk_shape, witness_name
+from .digest import check_arm_digest, check_root_digest
+from .format import (
+    CRC_KEY, READABLE_VERSIONS, ROOT_KEY, UNSEALED_VERSION, WITNESS_CRC_KEY, chunk_crc, chunk_crcs, chunk_shape,
+    witness_name,
+)
+from .schema import check_arm_types, check_arms, check_root_types
 
-__all__ = ["ROOT_KEY", "Backend", "StoredMap", "atomic_replace", "chunk_shape", "first_line"]
+__all__ = ["ROOT_KEY", "Backend", "StoredMap", "atomic_replace", "chunk_shape", "first_line", "partial_path"]
 
 
 def first_line(exc: BaseException) -> str:
@@ -43,24 +48,85 @@ def opened(path: Path, kind: str, open_fn):
 
 
 class StoredMap(ABC):
-    """An opened map file or directory: metadata now, data on demand, every read checked."""
+    """An opened map file or directory: metadata now (checked), data on demand, every read checked."""
 
     path: Path
     root: dict
 
-    @abstractmethod
+    def accept_root(self, root) -> dict:
+        """``root`` as read, checked: a mapping with a list of arm names; for a complete map of a readable
+        version also the types of its keys and its digest (a map without digests is accepted with a warning
+        if it is of format version 3, the last one without them)."""
+        if not isinstance(root, dict):
+            raise MapError(f"{self.path}: the root metadata is not a mapping (corrupt); rebuild the map")
+        check_arms(self.path, root)
+        if root.get("complete") is True and root.get("format_version") in READABLE_VERSIONS:
+            check_root_types(self.path, root)
+            if not check_root_digest(self.path, root):
+                if root.get("format_version") != UNSEALED_VERSION:
+                    raise MapError(f"{self.path}: the map has no metadata digests (corrupt); rebuild the map")
+                warnings.warn(f"{self.path}: map of format version {UNSEALED_VERSION} has no metadata digests, so "
+                              f"changed metadata goes unnoticed; rebuild it to have it checked", stacklevel=2)
+        return root
+
     def arm_meta(self, arm: str) -> dict:
-        """The metadata of ``arm`` (as written by :func:`placement.build_map` and :func:`placement.save_maps`)."""
+        """The metadata of ``arm`` (as written by :func:`placement.build_map` and :func:`placement.save_maps`),
+        checked against its digest and for the types reading needs (MapError naming the key otherwise)."""
+        cache = self.__dict__.setdefault("_metas", {})
+        if arm not in cache:
+            try:
+                meta = self._arm_meta(arm)
+            except MapError:
+                raise
+            except Exception as exc:
+                raise MapError(f"{self.path}: metadata of arm '{arm}' is corrupt ({first_line(exc)}); "
+                               f"rebuild the map") from None
+            if not isinstance(meta, dict):
+                raise MapError(f"{self.path}: metadata of arm '{arm}' is not a mapping (corrupt); rebuild the map")
+            check_arm_digest(self.path, self.root, arm, meta)
+            check_arm_types(self.path, arm, meta)
+            cache[arm] = meta
+        return cache[arm]
+
+    @abstractmethod
+    def _arm_meta(self, arm: str) -> dict:
+        """The stored metadata of ``arm``, unchecked (any exception if unreadable)."""
 
     @abstractmethod
     def _get(self, name: str):
         """The backend's array object called ``name`` (sliceable); any exception if it is missing."""
 
     def _array(self, arm: str, witness: bool = False):
-        """The backend's array object of ``arm`` (its values, or its witnesses); MapError if missing or unreadable."""
+        """The backend's array object of ``arm`` (its values, or its witnesses), its shape, dtype and chunks
+        checked against the arm's metadata; MapError if missing, unreadable or not as described."""
+        cache = self.__dict__.setdefault("_arrays", {})
+        if (arm, witness) not in cache:
+            array = self._raw_array(arm, witness)
+            meta = self.arm_meta(arm)
+            shape = tuple(meta["grid"]["shape"])
+            dtype = np.dtype(meta["witness"]["dtype"] if witness else np.float32)
+            what = f"the {'witness ' if witness else ''}array of arm '{arm}'"
+            for field, have, want in (("shape", tuple(array.shape), shape), ("dtype", np.dtype(array.dtype), dtype),
+                                      ("chunks", tuple(array.chunks or ()), chunk_shape(shape))):
+                if have != want:
+                    raise MapError(f"{self.path}: {what} has {field} {have}, its metadata says {want} (corrupt); "
+                                   f"rebuild the map")
+            cache[(arm, witness)] = array
+        return cache[(arm, witness)]
+
+    def check_arrays(self, arm: str) -> None:
+        """MapError unless both arrays of ``arm`` are there as its metadata describes them, with their checksum
+        tables (cheap: metadata only)."""
+        for witness in (False, True):
+            self._array(arm, witness)
+            self.expected_crcs(arm, witness)
+
+    def _raw_array(self, arm: str, witness: bool = False):
         what = "witness array" if witness else "array"
         try:
             return self._get(witness_name(arm) if witness else arm)
+        except MapError:
+            raise
         except Exception as exc:
             raise MapError(f"{self.path}: {what} for arm '{arm}' is missing or corrupt ({first_line(exc)}); "
                            f"rebuild the map") from None
@@ -89,7 +155,7 @@ class StoredMap(ABC):
         """Values (nx, ny, n_yaw) float32 (or witnesses) of the slice z = iz, pitch = ip, roll = ir,
         checked against its CRC32."""
         want = self.expected_crcs(arm, witness)[iz, ip, ir]
-        chunk = self._read(arm, f"chunk ({iz}, {ip}, {ir})", lambda a: a[:, :, iz, :, ip, ir], witness)
+        chunk = self._chunk_data(arm, iz, ip, ir, witness)
         if chunk_crc(chunk) != want:
             raise self._damaged(arm, (iz, ip, ir), witness=witness)
         return chunk
@@ -98,8 +164,8 @@ class StoredMap(ABC):
         """Values (nx, ny, n_yaw, n_pitch, n_roll) float32 (or witnesses) at z bin ``iz``: the chunks of one
         z layer in one read (far fewer library calls than chunk by chunk), each checked against its CRC32."""
         want = self.expected_crcs(arm, witness)[iz]
-        data = self._read(arm, f"z layer {iz}", lambda a: a[:, :, iz], witness)
-        bad = np.argwhere(chunk_crcs(data[:, :, None])[0] != want)
+        data, crcs = self._layer_data(arm, iz, witness)
+        bad = np.argwhere(crcs != want)
         if len(bad):
             raise self._damaged(arm, (int(iz), *(int(i) for i in bad[0])), len(bad), witness)
         return data
@@ -107,11 +173,25 @@ class StoredMap(ABC):
     def read_all(self, arm: str, witness: bool = False) -> np.ndarray:
         """The whole 6D float32 array of ``arm`` (or its witnesses), every chunk checked against its CRC32."""
         want = self.expected_crcs(arm, witness)
-        data = self._read(arm, "data", lambda a: a[...], witness)
-        bad = np.argwhere(chunk_crcs(data) != want)
+        data, crcs = self._all_data(arm, witness)
+        bad = np.argwhere(crcs != want)
         if len(bad):
             raise self._damaged(arm, tuple(int(i) for i in bad[0]), len(bad), witness)
         return data
+
+    def _chunk_data(self, arm: str, iz: int, ip: int, ir: int, witness: bool) -> np.ndarray:
+        """Chunk (iz, ip, ir) as stored, (nx, ny, n_yaw) (a backend may read it faster)."""
+        return self._read(arm, f"chunk ({iz}, {ip}, {ir})", lambda a: a[:, :, iz, :, ip, ir], witness)
+
+    def _layer_data(self, arm: str, iz: int, witness: bool) -> tuple[np.ndarray, np.ndarray]:
+        """z layer ``iz`` as stored, (nx, ny, n_yaw, n_pitch, n_roll), and the CRC32 of its chunks (n_pitch, n_roll)."""
+        data = self._read(arm, f"z layer {iz}", lambda a: a[:, :, iz], witness)
+        return data, chunk_crcs(data[:, :, None])[0]
+
+    def _all_data(self, arm: str, witness: bool) -> tuple[np.ndarray, np.ndarray]:
+        """The whole array as stored and the CRC32 of its chunks (nz, n_pitch, n_roll)."""
+        data = self._read(arm, "data", lambda a: a[...], witness)
+        return data, chunk_crcs(data)
 
     def _damaged(self, arm: str, chunk: tuple[int, int, int], count: int = 1, witness: bool = False) -> MapError:
         more = f" (and {count - 1} more)" if count > 1 else ""
@@ -122,24 +202,11 @@ class StoredMap(ABC):
     def _read(self, arm: str, what: str, take, witness: bool = False) -> np.ndarray:
         array = self._array(arm, witness)
         try:
-            with self._read_settings():
-                data = np.asarray(take(array))
-            if witness:
-                if data.dtype not in (np.uint32, np.int64):
-                    raise ValueError(f"witness dtype {data.dtype}")
-                return data
-            return np.asarray(data, dtype=np.float32)
-        except Exception as exc:  # codec and I/O errors of either library
-            self._settle()
+            data = np.asarray(take(array))
+            return data if witness else np.asarray(data, dtype=np.float32)
+        except Exception as exc:  # codec and I/O errors of the library
             raise MapError(f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)}); "
                            f"rebuild the map") from None
-
-    def _read_settings(self):
-        """Context in which the library reads (a backend may tune it)."""
-        return contextlib.nullcontext()
-
-    def _settle(self) -> None:  # noqa: B027 - optional
-        """Let the library finish work a failed read left running (zarr: sibling chunk reads)."""
 
     @abstractmethod
     def chunks_present(self, name: str) -> int | None:
@@ -168,10 +235,15 @@ class Backend(ABC):
         """Open ``path`` for reading (raises MapError if it is not a readable map)."""
 
 
+def partial_path(target: Path) -> Path:
+    """Where this process writes the map ``target`` before swapping it in: a hidden sibling."""
+    return target.with_name(f".{target.name}.partial-{os.getpid()}")
+
+
 def atomic_replace(backend: Backend, target: Path, root: dict, arms: dict) -> None:
     """Write via a sibling partial path, then swap it in; the old map survives a failure."""
     target = Path(target)
-    partial = target.with_name(f".{target.name}.partial-{os.getpid()}")
+    partial = partial_path(target)
     old = target.with_name(f".{target.name}.old-{os.getpid()}")
     _remove(partial)
     try:

@@ -8,7 +8,8 @@ roll) reads exactly one chunk; the arm's metadata in the array's attributes,
 including ``chunk_crc32``: the CRC32 of every decoded chunk (see :func:`chunk_crcs`).
 Beside it, the array ``<arm>.witness`` of the same shape and chunking holds the
 cells' witnesses (uint32 or int64, see placement/witness.py), with its own
-per-chunk CRC32 table ``witness_crc32`` in the arm's metadata.
+per-chunk CRC32 table ``witness_crc32`` in the arm's metadata. The root's ``digests``
+entry seals the root and every arm's metadata (placement/storage/digest.py).
 """
 
 from __future__ import annotations
@@ -22,7 +23,11 @@ from ..grid import Grid
 
 # 2: per-chunk CRC32 of the decoded data, crc32c (zarr) / fletcher32 (HDF5) on the stored bytes
 # 3: a witness array per arm (the sample behind every cell's value), chunked and CRC-checked alike
-FORMAT_VERSION = 3
+# 4: SHA-256 digests of the root and every arm's metadata in the root (see digest.py)
+FORMAT_VERSION = 4
+#: read with a warning: the last version without metadata digests
+UNSEALED_VERSION = 3
+READABLE_VERSIONS = (UNSEALED_VERSION, FORMAT_VERSION)
 ROOT_KEY = "placement_map"
 CRC_KEY = "chunk_crc32"
 WITNESS_CRC_KEY = "witness_crc32"

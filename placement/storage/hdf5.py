@@ -1,4 +1,8 @@
-"""HDF5 backend: one file, gzip-compressed chunks with a fletcher32 checksum, metadata as JSON attributes."""
+"""HDF5 backend: one file, gzip-compressed chunks with a fletcher32 checksum, metadata as JSON attributes.
+
+Only a regular file is opened; only datasets stored in the file itself are read (no links to other
+files, no external or virtual storage), and a metadata attribute only up to a sane size.
+"""
 
 from __future__ import annotations
 
@@ -10,31 +14,52 @@ import numpy as np
 
 from ..errors import MapError
 from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line, opened
+from .digest import seal
+from .files import META_LIMIT, FileRefused, read_head, regular_size
 from .format import witness_name
 
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
+#: an HDF5 map file may be this large [bytes] (a 5 cm PR2 map with both arms: ~0.6 GB)
+HDF5_LIMIT = 1 << 40
 
 
 class Hdf5Map(StoredMap):
     def __init__(self, path: Path):
         self.path = path
+        try:
+            regular_size(path, HDF5_LIMIT)
+        except FileRefused as exc:
+            raise MapError(f"{path}: {first_line(exc)}") from None
 
         def read():
             f = h5py.File(path, "r")
-            return f, json.loads(f.attrs.get(ROOT_KEY, "{}"))
+            return f, json.loads(self._attribute(f, ROOT_KEY, "{}"))
 
-        self.file, self.root = opened(path, "HDF5", read)
+        self.file, root = opened(path, "HDF5", read)
+        self.root = self.accept_root(root)
+
+    @staticmethod
+    def _attribute(obj, name: str, default=None):
+        """A JSON text attribute of at most META_LIMIT bytes (``default`` if absent)."""
+        if name not in obj.attrs:
+            return default
+        size = h5py.h5a.open(obj.id, name.encode()).get_storage_size()
+        if size > META_LIMIT:
+            raise ValueError(f"attribute '{name}' has {size} bytes, more than {META_LIMIT}")
+        return obj.attrs[name]
 
     def _get(self, name: str):
-        return self.file[name]
+        link = self.file.get(name, getlink=True)
+        if not isinstance(link, h5py.HardLink):
+            raise ValueError(f"'{name}' is {type(link).__name__ if link is not None else 'missing'}, not a dataset "
+                             f"of this file")
+        ds = self.file[name]
+        if not isinstance(ds, h5py.Dataset) or ds.external or ds.is_virtual:
+            raise ValueError(f"'{name}' is not a dataset stored in this file")
+        return ds
 
-    def arm_meta(self, arm: str) -> dict:
-        try:
-            return json.loads(self._array(arm).attrs["meta"])
-        except MapError:
-            raise
-        except Exception as exc:
-            raise MapError(f"{self.path}: metadata of arm '{arm}' is corrupt ({first_line(exc)})") from None
+    def _arm_meta(self, arm: str) -> dict:
+        return json.loads(self._attribute(self._raw_array(arm), "meta"))
 
     def chunks_present(self, name: str) -> int | None:
         return None
@@ -49,24 +74,26 @@ class Hdf5Backend(Backend):
 
     def is_map(self, path: Path) -> bool:
         path = Path(path)
-        if not path.is_file():
+        try:
+            return read_head(path, len(_SIGNATURE), HDF5_LIMIT) == _SIGNATURE
+        except OSError:  # no regular file (a FIFO or a device is never opened), or unreadable
             return False
-        with open(path, "rb") as fh:
-            return fh.read(8) == _SIGNATURE
 
     def write(self, path: Path, root: dict, arms: dict) -> None:
         with h5py.File(path, "w") as fh:
+            metas = {}
             for arm, (values, meta, witness) in arms.items():
                 ds = fh.create_dataset(arm, data=values, dtype="float32", chunks=chunk_shape(values.shape),
                                        compression="gzip", compression_opts=1, shuffle=True, fletcher32=True,
                                        fillvalue=0.0)
                 ds.attrs["meta"] = json.dumps(meta)
+                metas[arm] = json.loads(ds.attrs["meta"])  # sealed as it reads back
                 fh.create_dataset(witness_name(arm), data=witness, dtype=witness.dtype,
                                   chunks=chunk_shape(values.shape), compression="gzip", compression_opts=1,
                                   shuffle=True, fletcher32=True, fillvalue=np.iinfo(witness.dtype).max)
             root = dict(root)
             root["complete"] = True
-            fh.attrs[ROOT_KEY] = json.dumps(root)
+            fh.attrs[ROOT_KEY] = json.dumps(seal(root, metas))
             fh.flush()
 
     def open(self, path: Path) -> StoredMap:

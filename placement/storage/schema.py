@@ -1,0 +1,111 @@
+"""Types of the stored root and arm metadata, checked like a preset: one MapError naming the key.
+
+The digests (digest.py) say whether metadata changed; these checks say whether it can be used at
+all, and they are all a map written before the digests existed gets.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+from ..errors import MapError
+
+MAX_SEED = 2 ** 64 - 1
+WITNESS_DTYPES = ("uint32", "int64")
+
+
+class _Bad(Exception):
+    def __init__(self, key: str, expected: str, got):
+        text = repr(got)
+        super().__init__(f"{key}: expected {expected}, got {text if len(text) <= 60 else text[:57] + '...'}")
+
+
+def _int(doc: dict, key: str, lo: int, hi: int, prefix: str = "") -> int:
+    v = doc.get(key)
+    if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+        raise _Bad(prefix + key, f"a whole number from {lo} to {hi}", v)
+    return v
+
+
+def _str(doc: dict, key: str, prefix: str = "") -> str:
+    v = doc.get(key)
+    if not isinstance(v, str) or not v:
+        raise _Bad(prefix + key, "a non-empty string", v)
+    return v
+
+
+def _real(v, key: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
+        raise _Bad(key, "a finite number", v)
+    return float(v)
+
+
+def _dict(doc: dict, key: str, prefix: str = "") -> dict:
+    v = doc.get(key)
+    if not isinstance(v, dict):
+        raise _Bad(prefix + key, "a mapping", v)
+    return v
+
+
+def _names(doc: dict, key: str) -> list:
+    v = doc.get(key)
+    if not isinstance(v, list) or not v or not all(isinstance(a, str) and a for a in v) or len(set(v)) != len(v):
+        raise _Bad(key, "a non-empty list of distinct names", v)
+    return v
+
+
+def check_arms(path, root: dict) -> None:
+    """MapError unless the root's arm list (if any) is a list of names (read by everything that opens a map)."""
+    if "arms" in root:
+        try:
+            v = root["arms"]
+            if not isinstance(v, list) or not all(isinstance(a, str) for a in v):
+                raise _Bad("arms", "a list of names", v)
+        except _Bad as exc:
+            raise MapError(f"{path}: root metadata: {exc}; rebuild the map") from None
+
+
+def check_root_types(path, root: dict) -> None:
+    """MapError naming the key unless the root metadata of a complete map has the stored types."""
+    try:
+        for key in ("robot", "urdf_sha256", "base_frame", "preset"):
+            _str(root, key)
+        for name, value in _dict(root, "fixed_joints").items():
+            _real(value, f"fixed_joints.{name}")
+        _names(root, "arms")
+    except _Bad as exc:
+        raise MapError(f"{path}: root metadata: {exc}; rebuild the map") from None
+
+
+def check_arm_types(path, arm: str, meta: dict) -> None:
+    """MapError naming the key unless an arm's metadata has what reading and verifying it needs."""
+    try:
+        if meta.get("arm") != arm:
+            raise _Bad("arm", repr(arm), meta.get("arm"))
+        if not isinstance(meta.get("joints"), list) or not all(isinstance(j, str) for j in meta["joints"]):
+            raise _Bad("joints", "a list of joint names", meta.get("joints"))
+        _str(meta, "tip_frame")
+        grid = _dict(meta, "grid")
+        origin = grid.get("origin")
+        if not isinstance(origin, list) or len(origin) != 3:
+            raise _Bad("grid.origin", "3 numbers", origin)
+        for i, v in enumerate(origin):
+            _real(v, f"grid.origin[{i}]")
+        if _real(grid.get("resolution"), "grid.resolution") <= 0:
+            raise _Bad("grid.resolution", "a positive length", grid.get("resolution"))
+        shape = grid.get("shape")
+        if not isinstance(shape, list) or len(shape) != 6 or not all(
+                isinstance(s, int) and not isinstance(s, bool) and 1 <= s <= 1 << 31 for s in shape):
+            raise _Bad("grid.shape", "6 positive counts", shape)
+        samples = _int(meta, "samples", 1, 10 ** 12)
+        _int(meta, "seed", 0, MAX_SEED)
+        _str(_dict(meta, "measure"), "index", "measure.")
+        witness = _dict(meta, "witness")
+        if witness.get("dtype") not in WITNESS_DTYPES:
+            raise _Bad("witness.dtype", " or ".join(WITNESS_DTYPES), witness.get("dtype"))
+        _int(witness, "empty", 0, 2 ** 64, "witness.")
+        if _int(witness, "plain_samples", 1, 10 ** 12, "witness.") != samples:
+            raise _Bad("witness.plain_samples", f"the sample count {samples}", witness.get("plain_samples"))
+    except _Bad as exc:
+        raise MapError(f"{path}: metadata of arm '{arm}': {exc}; rebuild the map") from None

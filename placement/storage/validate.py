@@ -1,0 +1,69 @@
+"""Checks of a stored map against this software and a robot: version, completeness, robot and arm identity."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MapError
+from .format import FORMAT_VERSION, READABLE_VERSIONS, ROOT_KEY
+
+# stored and preset TCP offsets (4, 4) [m, dimensionless rotation] agree to this
+TCP_TOLERANCE = 1e-9
+
+
+def check_root(path: Path, root: dict) -> None:
+    """MapError unless ``root`` is the metadata of a complete map of this format version."""
+    if not root:
+        raise MapError(f"{path}: not a reachability map (no '{ROOT_KEY}' metadata)")
+    if root.get("complete") is not True:
+        raise MapError(f"{path}: map is half-written (an interrupted build); rebuild it")
+    if root.get("format_version") not in READABLE_VERSIONS:
+        raise MapError(f"{path}: map format version {root.get('format_version')!r} is not supported "
+                       f"(this software reads versions {' and '.join(map(str, READABLE_VERSIONS))}, writes "
+                       f"{FORMAT_VERSION}); rebuild it")
+
+
+def validate_robot(path: Path, root: dict, robot) -> None:
+    """MapError if the map at ``path`` was not built for ``robot`` as it is now."""
+    if root.get("robot") != robot.name:
+        raise MapError(f"{path}: map was built for robot '{root.get('robot')}', not '{robot.name}'")
+    if root.get("urdf_sha256") != robot.urdf_sha256:
+        raise MapError(f"{path}: map was built from another URDF of '{robot.name}' (hash differs); rebuild it")
+    if root.get("base_frame") != robot.base_frame:
+        raise MapError(f"{path}: map base frame '{root.get('base_frame')}' differs from the robot's "
+                       f"'{robot.base_frame}'")
+    try:
+        fixed = {k: float(v) for k, v in (root.get("fixed_joints") or {}).items()}
+    except (AttributeError, TypeError, ValueError):
+        fixed = None
+    if fixed != robot.fixed_joints:
+        raise MapError(f"{path}: map was built with fixed joints {root.get('fixed_joints')}, the robot "
+                       f"holds {robot.fixed_joints}")
+
+
+def validate_arm(path: Path, meta: dict, robot, arm: str) -> None:
+    """MapError if the map of ``arm`` was built for other arm joints, tip frame or TCP offset than ``robot``'s."""
+    a = robot.arm(arm)
+    if meta.get("joints") != list(a.joints):
+        _differs(path, arm, "joints", meta.get("joints"), list(a.joints))
+    if meta.get("tip_frame") != a.tip_frame:
+        _differs(path, arm, "tip frame", meta.get("tip_frame"), a.tip_frame)
+    try:
+        tcp = np.asarray(meta.get("tcp_offset"), dtype=float)
+        same = tcp.shape == (4, 4) and bool(np.all(np.abs(tcp - a.tcp_offset) <= TCP_TOLERANCE))
+    except (TypeError, ValueError):
+        same = False
+    if not same:
+        _differs(path, arm, "TCP offset (4x4)", meta.get("tcp_offset"), a.tcp_offset)
+
+
+def _differs(path: Path, arm: str, field: str, stored, preset) -> None:
+    def show(v):
+        return np.round(np.asarray(v, dtype=float), 6).tolist() if isinstance(v, np.ndarray) else v
+
+    raise MapError(f"{path}: the map of arm '{arm}' was built for {field} {show(stored)}, the preset has "
+                   f"{show(preset)}; rebuild the map")
+
+
