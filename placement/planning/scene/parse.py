@@ -37,16 +37,12 @@ Decisions (where the SPEC is silent):
 * Names are unique across obstacles, objects and place locations (they identify things in the
   output and in dynamic updates). An object is picked at most once per task.
 * ``box.center``/``cylinder.center`` are the centroids; ``yaw`` defaults to 0. A polygon is a
-  vertical prism from the floor of unbounded height, given counter-clockwise or clockwise
-  (at least 3 points, non-zero area). ``table: true`` needs a box or a cylinder (a surface).
-* Default ``bounds``: the axis-aligned extent of all obstacles (rotated box corners, cylinder
-  discs, polygon points), objects (rotated footprints), place locations, the start position, the
-  occupancy map and trajectory positions, grown by 1 m on every side. The start, every object, every
-  place location and the end of every trajectory must lie inside ``bounds``. The grid (``bounds`` /
-  ``resolution``) may not exceed ``MAX_GRID_CELLS``; coordinates and sizes are within
-  +-``MAX_COORD`` and the resolution within ``RESOLUTION_RANGE``.
-* Objects may touch obstacles (stand on a table) but not enter their volume, and place locations
-  may not lie inside one (see checks.py).
+  vertical prism from the floor of unbounded height, simple, either way round (>= 3 points, non-zero
+  area). ``table: true`` needs a box or a cylinder (a surface).
+* Default ``bounds``: the extent of everything (see limits.py), grown by 1 m. The start, objects,
+  place locations and trajectory ends lie inside ``bounds``. Counts, sizes, the grid and the file
+  are bounded (limits.py). Objects may touch obstacles and each other but not enter them, and place
+  locations may not lie inside an obstacle (checks.py).
 """
 
 from __future__ import annotations
@@ -59,12 +55,17 @@ from typing import Any
 import numpy as np
 
 from ...robots.preset import builtin_presets
+from ...simplicity import self_crossing
 from ..config import PLANNER_BOUNDS, PLANNER_KEYS
-from .checks import object_penetrates, point_inside
+from .checks import TOLERANCE, object_penetrates, overlapping_objects, point_inside
 from .places import check_place_orientations
 from .model import (
     Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, Shape, TaskStep, Trajectory,
     grid_shape, is_path,
+)
+from .limits import (
+    MAX_COORD, MAX_GRID_CELLS, MAX_OBJECTS, MAX_OBSTACLES, MAX_POLYGON_VERTICES, MAX_SCENE_BYTES, MAX_TOTAL_VERTICES,
+    RESOLUTION_RANGE, default_bounds,
 )
 from .occupancy import OccupancyMapError, load_occupancy_map
 from ...validation import describe
@@ -75,15 +76,6 @@ SCENE_VERSIONS = (1, V2)
 SCENE_VERSION = V2  # the newest
 DEFAULT_RESOLUTION = 0.05  # [m]
 DEFAULT_PRESET = "pr2"
-BOUNDS_MARGIN = 1.0  # [m]
-MAX_GRID_CELLS = 20_000_000  # ~120 B per cell while planning: 20 M cells stay under 3 GB
-MAX_COORD = 1e6  # [m] |coordinate| and size bound: keeps grid arithmetic finite
-RESOLUTION_RANGE = (1e-3, 100.0)  # [m]
-MAX_SCENE_BYTES = 16 * 2**20  # a scene file larger than this is refused before it is parsed
-MAX_OBSTACLES = 10_000  # obstacles in a scene (or after an update)
-MAX_POLYGON_VERTICES = 10_000  # points of one obstacle polygon
-MAX_TOTAL_VERTICES = 100_000  # points of all obstacle polygons together
-MAX_OBJECTS = 1_000  # objects, and likewise place locations and trajectories
 
 TOP_KEYS = ("version", "resolution", "bounds", "robot", "maps", "occupancy_map", "obstacles", "objects",
             "place_locations", "task", "planner", "trajectories")
@@ -107,6 +99,7 @@ class SceneParser(PoseParser):
         super().__init__(where, SceneError)
         self.names: dict[str, str] = {}
         self.version = version
+        self.vertices = 0  # polygon points so far
 
     def coords(self, value, path: str, n: int) -> tuple[float, ...]:
         return self.vector(value, path, n, maximum=MAX_COORD)
@@ -138,12 +131,26 @@ class SceneParser(PoseParser):
             return Cylinder(self.coords(v["center"], f"{p}.center", 3),
                             self.positive(v["radius"], f"{p}.radius", MAX_COORD),
                             self.positive(v["height"], f"{p}.height", MAX_COORD))
+        if isinstance(v, list) and len(v) > MAX_POLYGON_VERTICES:
+            self.fail(p, f"{len(v)} points, more than the {MAX_POLYGON_VERTICES} allowed in one polygon")
         pts = self.points(v, p, 3, MAX_COORD)
+        self.vertices += len(pts)
+        if self.vertices > MAX_TOTAL_VERTICES:
+            self.fail(p, f"the polygons so far have {self.vertices} points, more than the {MAX_TOTAL_VERTICES} "
+                         "allowed in one scene")
+        for i in range(len(pts)):
+            if np.array_equal(pts[i], pts[i - 1]):
+                self.fail(f"{p}[{i}]", f"repeats the point before it {[float(c) for c in pts[i]]}")
         x, y = pts[:, 0], pts[:, 1]
         area = 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
         scale = max(float(np.ptp(x)), float(np.ptp(y)), 1.0)
         if area <= 1e-12 * scale * scale:
             self.fail(p, "the polygon has zero area (collinear or repeated points)")
+        crossing = self_crossing(pts)
+        if crossing is not None:
+            i, j = crossing
+            self.fail(p, f"the polygon crosses or touches itself (edge {i}-{(i + 1) % len(pts)} meets edge "
+                         f"{j}-{(j + 1) % len(pts)}); list the corners in order around it")
         return Polygon(pts)
 
     def obstacle(self, item, p: str) -> Obstacle:
@@ -242,30 +249,6 @@ def _resolve(value: str, origin: Path) -> Path:
     return Path(os.path.normpath(p if p.is_absolute() else origin / p))
 
 
-def _extend(box, b) -> tuple[float, float, float, float]:
-    if box is None:
-        return tuple(float(v) for v in b)
-    return (min(box[0], b[0]), min(box[1], b[1]), max(box[2], b[2]), max(box[3], b[3]))
-
-
-def default_bounds(scene: Scene) -> tuple[float, float, float, float]:
-    """The extent of everything in ``scene`` (and its occupancy map), grown by ``BOUNDS_MARGIN``."""
-    extent = None
-    for o in scene.obstacles:
-        extent = _extend(extent, o.shape.bounds_xy())
-    for o in scene.objects:
-        extent = _extend(extent, o.bounds_xy())
-    for pl in scene.place_locations:
-        extent = _extend(extent, (pl.position[0], pl.position[1]) * 2)
-    for t in scene.trajectories:
-        extent = _extend(extent, (*t.poses[:, :2].min(axis=0), *t.poses[:, :2].max(axis=0)))
-    extent = _extend(extent, (scene.start[0], scene.start[1]) * 2)
-    if scene.occupancy is not None:
-        extent = _extend(extent, scene.occupancy.extent)
-    m = BOUNDS_MARGIN
-    return (extent[0] - m, extent[1] - m, extent[2] + m, extent[3] + m)
-
-
 def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
                 new_obstacles: set[str] | None = None) -> Scene:
     """The checks that need the whole scene: the grid size, everything inside ``bounds``, nothing
@@ -280,6 +263,11 @@ def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
         return name in (objects or ()) or obstacle in (new_obstacles or ())
 
     P = Validator(where, SceneError)
+    if len(scene.obstacles) > MAX_OBSTACLES:
+        P.fail("obstacles", f"{len(scene.obstacles)} obstacles, more than the {MAX_OBSTACLES} allowed")
+    vertices = sum(len(o.shape.points) for o in scene.obstacles if isinstance(o.shape, Polygon))
+    if vertices > MAX_TOTAL_VERTICES:
+        P.fail("obstacles", f"the polygons have {vertices} points, more than the {MAX_TOTAL_VERTICES} allowed")
     bounds, resolution = scene.bounds, scene.resolution
     ny, nx = grid_shape(bounds, resolution)
     if nx * ny > MAX_GRID_CELLS:
@@ -299,6 +287,11 @@ def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
             if pair(o.name, ob.name) and object_penetrates(o, ob.shape):
                 P.fail(f"objects[{i}]", f"object '{o.name}' is inside obstacle '{ob.name}' (its bounding box enters "
                                         "the obstacle's volume; objects may only touch, e.g. stand on a table)")
+    hit = overlapping_objects(scene.objects, objects)
+    if hit is not None:
+        a, b = (scene.objects[k].name for k in hit)
+        P.fail(f"objects[{hit[1]}]", f"object '{b}' overlaps object '{a}' (their bounding boxes share more than "
+                                     f"{TOLERANCE * 1000:g} mm; objects may touch, e.g. stand on each other)")
     for i, t in enumerate(scene.trajectories):
         inside(t.poses[-1], f"trajectories[{i}].poses[{len(t.poses) - 1}]", f"the end of trajectory '{t.name}'")
     if scene.version >= V2:
@@ -374,6 +367,10 @@ def parse_scene(data: Any, origin_dir: str | Path = ".", name: str = "scene",
         except OccupancyMapError as exc:
             P.fail("occupancy_map", str(exc))
 
+    for key, most in (("obstacles", MAX_OBSTACLES), ("objects", MAX_OBJECTS), ("place_locations", MAX_OBJECTS),
+                      ("trajectories", MAX_OBJECTS), ("task", MAX_OBJECTS)):
+        if isinstance(doc.get(key), list) and len(doc[key]) > most:
+            P.fail(key, f"{len(doc[key])} entries, more than the {most} allowed")
     obstacles = [P.obstacle(item, f"obstacles[{i}]") for i, item in enumerate(P.items(doc.get("obstacles"), "obstacles"))]
     objects = [P.scene_object(item, f"objects[{i}]") for i, item in enumerate(P.items(doc.get("objects"), "objects"))]
     places = [P.place(item, f"place_locations[{i}]")
