@@ -190,7 +190,7 @@ def test_info_and_check_on_a_sound_map(work, pr2):
 
     doc = json.loads(result.output)
     arm = doc["arms"]["right"]
-    assert arm["chunks_checked"] == m.grid.shape[2] * m.grid.shape[4] * m.grid.shape[5]
+    assert arm["chunks_checked"] == 2 * m.grid.shape[2] * m.grid.shape[4] * m.grid.shape[5]  # values and witnesses
     assert "chunk_crc32" not in arm["meta"] and arm["filled_cells"] == m.meta["filled_cells"]
     result = run(["maps", "check", "m", "--samples", "3", "--json"], work)
     assert result.exit_code == 0, result.output

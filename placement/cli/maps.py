@@ -16,9 +16,10 @@ from ..buildspec import (
     parse_count, parse_length,
 )
 from ..errors import ArmNotFound, PlacementError
-from ..rmap import check_root, check_target, open_map, save_maps
+from ..rmap import MapOutput, check_root, open_map
 from ..robots import load_robot
 from ..storage import open_store
+from ..storage.digest import DIGEST_KEY
 from ..storage.format import CRC_KEY, WITNESS_CRC_KEY
 from ..witness import verify_witnesses
 from ..progress import EtaBar
@@ -90,19 +91,19 @@ def build(robot, arm, spec_path, samples, seed, resolution, bins, index, fmt, ou
     out_path = Path(out)
     if spec.format == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
         out_path = out_path.with_suffix(".h5")
-    check_target(out_path, robot, spec.format, "--out")
-    client = dask_client(dask_address) if dask_address else None
-    announce_compilation(BUILD_COMPILE_S)
-    built = {}
-    for a in arms:
-        built[a] = m = build_map(robot, a, samples=spec.samples, seed=spec.seed, resolution=spec.resolution,
-                                 bins=spec.bins, index=spec.index, progress=not quiet, client=client,
-                                 self_collision=spec.self_collision, self_distance=spec.self_distance,
-                                 completion=spec.completion)
-        log.info("%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",
-                 robot.name, a, spec.samples, m.meta["build_time_s"], m.meta["samples_per_s"] or 0,
-                 m.meta["filled_cells"])
-    save_maps(out_path, robot, built, spec.format)
+    with MapOutput(out_path, robot, spec.format, arms, "--out") as output:  # proven writable, arms reserved
+        client = dask_client(dask_address) if dask_address else None
+        announce_compilation(BUILD_COMPILE_S)
+        built = {}
+        for a in arms:
+            built[a] = m = build_map(robot, a, samples=spec.samples, seed=spec.seed, resolution=spec.resolution,
+                                     bins=spec.bins, index=spec.index, progress=not quiet, client=client,
+                                     self_collision=spec.self_collision, self_distance=spec.self_distance,
+                                     completion=spec.completion)
+            log.info("%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",
+                     robot.name, a, spec.samples, m.meta["build_time_s"], m.meta["samples_per_s"] or 0,
+                     m.meta["filled_cells"])
+        output.save(built)
     summary = {"path": str(out_path), "format": spec.format, "robot": robot.name,
                "arms": {a: {k: m.meta[k] for k in ("samples", "seed", "build_time_s", "samples_per_s",
                                                    "filled_cells", "max_value")} for a, m in built.items()}}
@@ -142,27 +143,38 @@ def info(path, robot, arm, as_json, verbose, quiet):
     stored = list(store.root.get("arms") or [])
     store.close()
     shown = [arm] if arm else stored
-    edges = [0.0, 0.01, 0.0235, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0]
-    out = {"path": str(path), "size_bytes": _size(Path(path)), "root": store.root, "arms": {}}
+    root = {k: v for k, v in store.root.items() if k != DIGEST_KEY}
+    out = {"path": str(path), "size_bytes": _size(Path(path)), "root": root, "arms": {}}
     for a in dict.fromkeys([*shown, *stored]):  # the shown arm first: a wrong --arm fails before the reading
         rmap = open_map(path, a, robot)
-        values = rmap.values  # reads and checks every chunk
-        if a not in shown:
-            continue
-        reached = values[values > 0]
-        hist, _ = np.histogram(reached, bins=edges)
-        meta = {k: v for k, v in rmap.meta.items() if k not in (CRC_KEY, WITNESS_CRC_KEY)}
-        out["arms"][a] = {
-            "meta": meta,
-            "chunks_checked": int(np.prod(np.shape(rmap.meta[CRC_KEY]))),
-            "cells": int(values.size),
-            "filled_cells": int(reached.size),
-            "fill_ratio": float(reached.size / values.size),
-            "value": {"max": float(reached.max()) if reached.size else 0.0,
-                      "mean": float(reached.mean()) if reached.size else 0.0,
-                      "histogram": {"edges": edges, "counts": hist.tolist()}},
-        }
+        stats = scan(rmap)  # reads and checks every chunk of the values and of the witnesses
+        if a in shown:
+            meta = {k: v for k, v in rmap.meta.items() if k not in (CRC_KEY, WITNESS_CRC_KEY)}
+            out["arms"][a] = {"meta": meta, **stats}
     emit(out, as_json, _render_info)
+
+
+HISTOGRAM_EDGES = [0.0, 0.01, 0.0235, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0]
+
+
+def scan(rmap) -> dict:
+    """Fill and value statistics of a map, reading every chunk of its values and witnesses (each checked
+    against its CRC32) one z layer at a time (memory: two layers, not the whole map)."""
+    store, arm = rmap.store, rmap.arm
+    counts = np.zeros(len(HISTOGRAM_EDGES) - 1, dtype=np.int64)
+    total, high, cells = 0.0, 0.0, 0
+    for iz in range(rmap.grid.shape[2]):
+        values = store.read_slab(arm, iz)
+        store.read_slab(arm, iz, witness=True)
+        reached = values[values > 0]
+        counts += np.histogram(reached, bins=HISTOGRAM_EDGES)[0]
+        cells += reached.size
+        total += float(reached.sum(dtype=np.float64))
+        high = max(high, float(reached.max(initial=0.0)))
+    size = rmap.grid.size
+    return {"chunks_checked": 2 * int(np.prod(np.shape(rmap.meta[CRC_KEY]))), "cells": size, "filled_cells": cells,
+            "fill_ratio": cells / size, "value": {"max": high, "mean": total / cells if cells else 0.0,
+                                                  "histogram": {"edges": HISTOGRAM_EDGES, "counts": counts.tolist()}}}
 
 
 def _render_info(d: dict) -> str:

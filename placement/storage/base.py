@@ -23,9 +23,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MapError
+from .chunks import ChunkReader
 from .digest import check_arm_digest, check_root_digest
+from .files import FileRefused
 from .format import (
-    CRC_KEY, READABLE_VERSIONS, ROOT_KEY, UNSEALED_VERSION, WITNESS_CRC_KEY, chunk_crc, chunk_crcs, chunk_shape,
+    CRC_KEY, READABLE_VERSIONS, ROOT_KEY, UNSEALED_VERSION, WITNESS_CRC_KEY, chunk_crc, chunk_shape,
     witness_name,
 )
 from .schema import check_arm_types, check_arms, check_root_types
@@ -180,33 +182,38 @@ class StoredMap(ABC):
         return data
 
     def _chunk_data(self, arm: str, iz: int, ip: int, ir: int, witness: bool) -> np.ndarray:
-        """Chunk (iz, ip, ir) as stored, (nx, ny, n_yaw) (a backend may read it faster)."""
-        return self._read(arm, f"chunk ({iz}, {ip}, {ir})", lambda a: a[:, :, iz, :, ip, ir], witness)
+        what = f"{'witness ' if witness else ''}chunk ({iz}, {ip}, {ir})"
+        return self._direct(arm, witness, what, lambda r: r.read(iz, ip, ir)[0])
 
     def _layer_data(self, arm: str, iz: int, witness: bool) -> tuple[np.ndarray, np.ndarray]:
-        """z layer ``iz`` as stored, (nx, ny, n_yaw, n_pitch, n_roll), and the CRC32 of its chunks (n_pitch, n_roll)."""
-        data = self._read(arm, f"z layer {iz}", lambda a: a[:, :, iz], witness)
-        return data, chunk_crcs(data[:, :, None])[0]
+        return self._direct(arm, witness, f"{'witness ' if witness else ''}z layer {iz}", lambda r: r.layer(iz))
 
     def _all_data(self, arm: str, witness: bool) -> tuple[np.ndarray, np.ndarray]:
-        """The whole array as stored and the CRC32 of its chunks (nz, n_pitch, n_roll)."""
-        data = self._read(arm, "data", lambda a: a[...], witness)
-        return data, chunk_crcs(data)
+        return self._direct(arm, witness, "witnesses" if witness else "data", lambda r: r.whole())
+
+    def _direct(self, arm: str, witness: bool, what: str, read):
+        """``read(reader)`` with the arm's :class:`ChunkReader`, any failure one MapError naming ``what``."""
+        cache = self.__dict__.setdefault("_readers", {})
+        if (arm, witness) not in cache:
+            cache[(arm, witness)] = self._reader(arm, witness, self._array(arm, witness))
+        try:
+            return read(cache[(arm, witness)])
+        except FileRefused as exc:
+            raise MapError(f"{self.path}: {what} of arm '{arm}': {first_line(exc)}; rebuild the map") from None
+        except Exception as exc:  # codec and I/O errors
+            raise MapError(f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)}); "
+                           f"rebuild the map") from None
+
+    @abstractmethod
+    def _reader(self, arm: str, witness: bool, array) -> ChunkReader:
+        """The chunk reader of ``arm``'s values or witnesses (``array``: its checked array object); MapError if
+        the array is not stored as this package stores it."""
 
     def _damaged(self, arm: str, chunk: tuple[int, int, int], count: int = 1, witness: bool = False) -> MapError:
         more = f" (and {count - 1} more)" if count > 1 else ""
         what = "witness chunk" if witness else "chunk"
         return MapError(f"{self.path}: {what} (z, pitch, roll) = {chunk} of arm '{arm}'{more} does not match its "
                         f"checksum (changed, swapped or missing chunk data: corrupt); rebuild the map")
-
-    def _read(self, arm: str, what: str, take, witness: bool = False) -> np.ndarray:
-        array = self._array(arm, witness)
-        try:
-            data = np.asarray(take(array))
-            return data if witness else np.asarray(data, dtype=np.float32)
-        except Exception as exc:  # codec and I/O errors of the library
-            raise MapError(f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)}); "
-                           f"rebuild the map") from None
 
     @abstractmethod
     def chunks_present(self, name: str) -> int | None:

@@ -30,7 +30,7 @@ def _kind(mode: int) -> str:
     return next((name for test, name in _KINDS if test(mode)), "not a regular file")
 
 
-def _check(st: os.stat_result, path: Path, limit: int) -> None:
+def _check(st: os.stat_result, path: str | Path, limit: int) -> None:
     if not stat.S_ISREG(st.st_mode):
         raise FileRefused(f"{path} is {_kind(st.st_mode)}, not a regular file; refusing to read it")
     if st.st_size > limit:
@@ -64,13 +64,19 @@ def read_bounded(path: str | Path, limit: int) -> bytes:
 
 
 def _read(path: str | Path, limit: int, n: int) -> bytes:
-    path = Path(path)
-    regular_size(path, limit)
+    _check(os.stat(path), path, limit)
     fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)  # never blocks, even if swapped for a FIFO
     try:
         st = os.fstat(fd)
         _check(st, path, limit)
-        with os.fdopen(fd, "rb", closefd=False) as fh:
-            return fh.read(min(n, st.st_size + 1))  # +1: sees a file that grew
+        want = min(n, st.st_size + 1)  # +1: sees a file that grew
+        parts = []
+        while want > 0:
+            part = os.read(fd, want)
+            if not part:
+                break
+            parts.append(part)
+            want -= len(part)
+        return parts[0] if len(parts) == 1 else b"".join(parts)
     finally:
         os.close(fd)

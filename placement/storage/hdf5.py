@@ -7,6 +7,7 @@ files, no external or virtual storage), and a metadata attribute only up to a sa
 from __future__ import annotations
 
 import json
+import zlib
 from pathlib import Path
 
 import h5py
@@ -14,6 +15,7 @@ import numpy as np
 
 from ..errors import MapError
 from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line, opened
+from .chunks import ChunkReader
 from .digest import seal
 from .files import META_LIMIT, FileRefused, read_head, regular_size
 from .format import witness_name
@@ -21,6 +23,46 @@ from .format import witness_name
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 #: an HDF5 map file may be this large [bytes] (a 5 cm PR2 map with both arms: ~0.6 GB)
 HDF5_LIMIT = 1 << 40
+
+
+#: the filters of every dataset this package writes, in pipeline order
+FILTERS = (h5py.h5z.FILTER_SHUFFLE, h5py.h5z.FILTER_DEFLATE, h5py.h5z.FILTER_FLETCHER32)
+
+
+class Hdf5Chunks(ChunkReader):
+    """The chunks of one dataset (filters :data:`FILTERS`), read raw and decoded here, in parallel.
+
+    A chunk's stored size is checked against the bound of its shape before it is read; the deflate
+    stream is inflated to at most the chunk's size, and zlib checks its Adler-32 (the fletcher32 trailer
+    only repeats that check on the compressed bytes; the CRC32 of the decoded chunk decides).
+    """
+
+    def __init__(self, ds: h5py.Dataset):
+        super().__init__(ds.shape, ds.dtype, ds.fillvalue)
+        self.ds = ds
+        self.sizes: dict[tuple, int] = {}  # chunk offset -> stored size [bytes], of every stored chunk
+        ds.id.chunk_iter(lambda info: self.sizes.__setitem__(tuple(info.chunk_offset), int(info.size)))
+
+    def decoded(self, iz: int, ip: int, ir: int) -> np.ndarray | None:
+        coord = (0, 0, iz, 0, ip, ir)
+        size = self.sizes.get(coord)
+        if size is None:
+            return None
+        if not 4 < size <= self.limit:
+            raise ValueError(f"stored size {size} bytes, a chunk of {self.raw} bytes needs at most {self.limit}")
+        mask, raw = self.ds.id.read_direct_chunk(coord)
+        if mask or len(raw) != size:
+            raise ValueError(f"filters skipped (mask {mask}) or {len(raw)} bytes read, not {size}")
+        inflate = zlib.decompressobj()
+        shuffled = inflate.decompress(raw[:-4], self.raw + 1)
+        if not inflate.eof or inflate.unused_data or len(shuffled) != self.raw:
+            raise ValueError(f"deflate stream of {len(shuffled)} bytes, not {self.raw}")
+        k = self.dtype.itemsize
+        out = np.empty((self.raw // k, k), dtype=np.uint8)
+        planes = np.frombuffer(shuffled, dtype=np.uint8).reshape(k, self.raw // k)
+        for j in range(k):  # byte plane j -> byte j of every element
+            out[:, j] = planes[j]
+        return out
 
 
 class Hdf5Map(StoredMap):
@@ -57,6 +99,14 @@ class Hdf5Map(StoredMap):
         if not isinstance(ds, h5py.Dataset) or ds.external or ds.is_virtual:
             raise ValueError(f"'{name}' is not a dataset stored in this file")
         return ds
+
+    def _reader(self, arm: str, witness: bool, array) -> Hdf5Chunks:
+        plist = array.id.get_create_plist()
+        filters = tuple(plist.get_filter(i)[0] for i in range(plist.get_nfilters()))
+        if filters != FILTERS:
+            raise MapError(f"{self.path}: the {'witness ' if witness else ''}dataset of arm '{arm}' has filters "
+                           f"{list(filters)} (not written by placement: corrupt); rebuild the map")
+        return Hdf5Chunks(array)
 
     def _arm_meta(self, arm: str) -> dict:
         return json.loads(self._attribute(self._raw_array(arm), "meta"))

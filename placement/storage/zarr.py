@@ -12,8 +12,6 @@ from __future__ import annotations
 import asyncio
 import json
 import os
-import zlib
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import google_crc32c
@@ -25,15 +23,15 @@ from zarr.core.buffer.core import default_buffer_prototype
 from zarr.storage import LocalStore
 
 from ..errors import MapError
-from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line, opened
+from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, opened
+from .chunks import ChunkReader
 from .digest import seal
-from .files import META_LIMIT, FileRefused, read_bounded
+from .files import META_LIMIT, read_bounded
 from .format import witness_name
 
 #: the codecs of every array this package writes (anything else is not one of its maps)
 CODECS = ("bytes", "blosc", "crc32c")
 _BLOSC_HEADER = 16
-_POOL = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 1), thread_name_prefix="placement-chunks")
 
 
 class BoundedStore(LocalStore):
@@ -55,32 +53,18 @@ class BoundedStore(LocalStore):
         return [await self.get(key, prototype, byte_range) for key, byte_range in key_ranges]
 
 
-class ChunkFiles:
-    """The chunk files of one array (chunks (nx, ny, 1, n_yaw, 1, 1), codecs :data:`CODECS`), read directly."""
+class ChunkFiles(ChunkReader):
+    """The chunk files of one array (codecs :data:`CODECS`), read directly: bounded, crc32c checked."""
 
-    def __init__(self, folder: Path, shape: tuple, dtype: np.dtype, fill):
-        self.folder = folder
-        self.shape = shape
-        self.dtype = np.dtype(dtype).newbyteorder("<")
-        nx, ny, _, n_yaw, _, _ = shape
-        self.chunk = (nx, ny, n_yaw)
-        self.raw = nx * ny * n_yaw * self.dtype.itemsize
-        self.limit = self.raw + self.raw // 16 + 4096  # blosc's worst case is raw + 16 bytes; +4 for the crc32c
-        self.fill = np.full(self.chunk, fill, dtype=self.dtype)
+    def __init__(self, folder: Path, shape: tuple, dtype, fill):
+        super().__init__(shape, dtype, fill)
+        self.prefix = os.path.join(folder, "0", "0", "")
 
-    def read(self, iz: int, ip: int, ir: int, out: np.ndarray | None = None) -> tuple[np.ndarray, int]:
-        """Chunk (iz, ip, ir) (nx, ny, n_yaw) and the CRC32 of its decoded bytes (written into ``out`` if given)."""
+    def decoded(self, iz: int, ip: int, ir: int) -> np.ndarray | None:
         try:
-            data = read_bounded(self.folder / f"0/0/{iz}/0/{ip}/{ir}", self.limit)
+            data = read_bounded(f"{self.prefix}{iz}/0/{ip}/{ir}", self.limit)
         except (FileNotFoundError, NotADirectoryError):
-            chunk = self.fill
-        else:
-            chunk = self.decode(data)
-        if out is not None:
-            out[...] = chunk
-        return chunk, zlib.crc32(chunk.data) & 0xFFFFFFFF
-
-    def decode(self, data: bytes) -> np.ndarray:
+            return None
         if len(data) < _BLOSC_HEADER + 4:
             raise ValueError(f"{len(data)} bytes: truncated")
         body = data[:-4]
@@ -92,16 +76,7 @@ class ChunkFiles:
                              f"from {len(body)}")
         out = np.empty(self.raw, dtype=np.uint8)
         blosc.decompress(body, out)
-        return out.view(self.dtype).reshape(self.chunk)
-
-    def layer(self, iz: int, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """z layer ``iz`` (nx, ny, n_yaw, n_pitch, n_roll) (into ``out`` if given) and its chunks' CRC32s."""
-        n_pitch, n_roll = self.shape[4:]
-        if out is None:
-            out = np.empty((*self.chunk, n_pitch, n_roll), dtype=self.dtype)
-        keys = [(ip, ir) for ip in range(n_pitch) for ir in range(n_roll)]
-        crcs = list(_POOL.map(lambda k: self.read(iz, *k, out=out[:, :, :, k[0], k[1]])[1], keys))
-        return out, np.asarray(crcs, dtype=np.uint32).reshape(n_pitch, n_roll)
+        return out
 
 
 class ZarrMap(StoredMap):
@@ -121,46 +96,16 @@ class ZarrMap(StoredMap):
     def _arm_meta(self, arm: str) -> dict:
         return dict(self._raw_array(arm).attrs.asdict())
 
-    def _files(self, arm: str, witness: bool) -> ChunkFiles:
-        cache = self.__dict__.setdefault("_chunk_files", {})
-        if (arm, witness) not in cache:
-            array = self._array(arm, witness)
-            md = array.metadata.to_dict()
-            codecs = tuple(c.get("name") for c in md.get("codecs", ()))
-            encoding = md.get("chunk_key_encoding", {})
-            if codecs != CODECS or md["codecs"][0].get("configuration", {}).get("endian") != "little" or \
-                    encoding.get("configuration", {}).get("separator") != "/":
-                raise MapError(f"{self.path}: the {'witness ' if witness else ''}array of arm '{arm}' has codecs "
-                               f"{list(codecs)} (not written by placement: corrupt); rebuild the map")
-            name = witness_name(arm) if witness else arm
-            cache[(arm, witness)] = ChunkFiles(self.path / name / "c", tuple(array.shape), array.dtype,
-                                               array.metadata.fill_value)
-        return cache[(arm, witness)]
-
-    def _direct(self, arm: str, witness: bool, what: str, read):
-        files = self._files(arm, witness)
-        try:
-            return read(files)
-        except FileRefused as exc:
-            raise MapError(f"{self.path}: {what} of arm '{arm}': {first_line(exc)}; rebuild the map") from None
-        except Exception as exc:  # codec and I/O errors
-            raise MapError(f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)}); "
-                           f"rebuild the map") from None
-
-    def _chunk_data(self, arm: str, iz: int, ip: int, ir: int, witness: bool) -> np.ndarray:
-        what = f"{'witness ' if witness else ''}chunk ({iz}, {ip}, {ir})"
-        return self._direct(arm, witness, what, lambda f: f.read(iz, ip, ir)[0])
-
-    def _layer_data(self, arm: str, iz: int, witness: bool) -> tuple[np.ndarray, np.ndarray]:
-        return self._direct(arm, witness, f"{'witness ' if witness else ''}z layer {iz}", lambda f: f.layer(iz))
-
-    def _all_data(self, arm: str, witness: bool) -> tuple[np.ndarray, np.ndarray]:
-        def read(files: ChunkFiles):
-            out = np.empty(files.shape, dtype=files.dtype)
-            crcs = np.stack([files.layer(iz, out[:, :, iz])[1] for iz in range(files.shape[2])])
-            return out, crcs
-
-        return self._direct(arm, witness, "witnesses" if witness else "data", read)
+    def _reader(self, arm: str, witness: bool, array) -> ChunkFiles:
+        md = array.metadata.to_dict()
+        codecs = tuple(c.get("name") for c in md.get("codecs", ()))
+        encoding = md.get("chunk_key_encoding", {})
+        if codecs != CODECS or md["codecs"][0].get("configuration", {}).get("endian") != "little" or \
+                encoding.get("configuration", {}).get("separator") != "/":
+            raise MapError(f"{self.path}: the {'witness ' if witness else ''}array of arm '{arm}' has codecs "
+                           f"{list(codecs)} (not written by placement: corrupt); rebuild the map")
+        name = witness_name(arm) if witness else arm
+        return ChunkFiles(self.path / name / "c", tuple(array.shape), array.dtype, array.metadata.fill_value)
 
     def chunks_present(self, name: str) -> int | None:
         return count_chunks(self.path / name)
