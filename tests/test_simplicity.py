@@ -41,7 +41,7 @@ float_polygons = st.lists(st.tuples(st.floats(-10, 10, allow_nan=False), st.floa
                           min_size=3, max_size=12).filter(_no_repeats)
 
 
-@settings(max_examples=600, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
 @given(points=grid_polygons)
 def test_sweep_agrees_with_the_naive_test_on_degenerate_grids(points):
     _agree(points)

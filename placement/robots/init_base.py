@@ -32,9 +32,10 @@ from .spec import share_dir
 ON_FLOOR = 0.05
 #: Added to the links' origins when the footprint cannot come from collision shapes [m].
 RADIUS_MARGIN = 0.1
-#: Largest collision mesh file read [bytes] and most triangles over all collision meshes: random-soup
-#: meshes of 200,000 triangles take 20 s in init (hulls, 1,000 configurations per arm); Romeo has 105,000.
-MAX_MESH_BYTES = 32 * 2**20
+#: Largest collision mesh file read [bytes] (a binary STL of 335,000 triangles; Romeo's largest is
+#: 3.9 MB) and most triangles over all collision meshes once loaded: a random-soup mesh of 200,000
+#: triangles takes 20 s in init; Romeo has 105,000.
+MAX_MESH_BYTES = 16 * 2**20
 MAX_COLLISION_TRIANGLES = 250_000
 
 

@@ -68,7 +68,7 @@ from .limits import (
     RESOLUTION_RANGE, default_bounds,
 )
 from .occupancy import OccupancyMapError, load_occupancy_map
-from ...validation import describe
+from ...validation import describe, show
 from .v2 import V2, PoseParser
 from .validate import Validator, fmt
 
@@ -336,7 +336,7 @@ def parse_scene(data: Any, origin_dir: str | Path = ".", name: str = "scene",
     if isinstance(version, bool) or not isinstance(version, int):
         P.fail("version", f"expected an integer, got {describe(version)}")
     if version not in SCENE_VERSIONS:
-        P.fail("version", f"unsupported scene format version {version}; this build reads versions "
+        P.fail("version", f"unsupported scene format version {show(version)}; this build reads versions "
                           f"{', '.join(map(str, SCENE_VERSIONS))}")
     P.version = version
     P.gate(doc, "", "")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import PlacementError
-from ...validation import Checker, describe, join
+from ...validation import Checker, describe, join, show
 
 #: Words that mean a 3D rotation; in version 1 scenes shapes rotate about z only.
 ROTATION_WORDS = ("orientation", "quaternion", "rotation", "rpy", "roll", "pitch", "euler")
@@ -36,7 +36,7 @@ class Validator(Checker):
         for key in value:
             if key not in allowed:
                 hint = ""
-                if str(key).lower() in ROTATION_WORDS:
+                if show(key).lower() in ROTATION_WORDS:
                     hint = " (shapes and objects rotate about z only: use 'yaw' [rad])"
                 self.fail("", f"unknown key '{join(path, key)}'; allowed: {', '.join(sorted(allowed))}{hint}")
         for key in required:
@@ -58,7 +58,7 @@ class Validator(Checker):
         """A finite number, optionally ``>= minimum`` (``>`` with ``strict``) and ``<= maximum``."""
         v = super().number(value, path, minimum, strict)
         if maximum is not None and v > maximum:
-            self.fail(path, f"must be <= {maximum:g}, got {value}")
+            self.fail(path, f"must be <= {maximum:g}, got {show(value)}")
         return v
 
     def positive(self, value, path: str, maximum: float | None = None) -> float:
@@ -67,7 +67,7 @@ class Validator(Checker):
     def integer(self, value, path: str, minimum: int, maximum: int | None = None) -> int:
         super().integer(value, path, minimum)
         if maximum is not None and value > maximum:
-            self.fail(path, f"must be <= {maximum}, got {value}")
+            self.fail(path, f"must be <= {maximum}, got {show(value)}")
         return value
 
     def vector(self, value, path: str, n: int, positive: bool = False,
@@ -82,7 +82,7 @@ class Validator(Checker):
             p = f"{path}[{i}]"
             x = self.positive(v, p) if positive else self.number(v, p)
             if maximum is not None and abs(x) > maximum:
-                self.fail(p, f"must be within +-{maximum:g}, got {v}")
+                self.fail(p, f"must be within +-{maximum:g}, got {show(v)}")
             out.append(x)
         return tuple(out)
 
