@@ -151,26 +151,17 @@ def specials(tmp_path):
 @pytest.mark.parametrize("kind", ["fifo", "zero", "loop", "big"])
 def test_special_files_are_refused_at_once(specials, tmp_path, kind):
     path = specials[kind]
-    t0 = time.perf_counter()
-    with pytest.raises(SceneError) as err:
-        load_scene(path)
-    _one_line(err.value)
-    with pytest.raises(PlacementError) as err:
-        load_robot(path)
-    _one_line(err.value)
     occ = tmp_path / "occ.yaml"
     occ.write_text(f"image: {path}\nresolution: 0.05\norigin: [0, 0, 0]\n")
-    with pytest.raises(OccupancyMapError) as err:
-        load_occupancy_map(occ)
-    _one_line(err.value)
     urdf_preset = tmp_path / "p.yaml"
     urdf_preset.write_text(PR2.read_text().replace("urdf: ", f"urdf: {path} #", 1))
-    with pytest.raises(PlacementError) as err:
-        load_robot(urdf_preset)
-    _one_line(err.value)
-    with pytest.raises(RobotError) as err:
-        propose(path)
-    _one_line(err.value)
+    t0 = time.perf_counter()
+    for load, arg, error in ((load_scene, path, SceneError), (load_robot, path, PlacementError),
+                             (load_occupancy_map, occ, OccupancyMapError), (load_robot, urdf_preset, PlacementError),
+                             (propose, path, RobotError)):
+        with pytest.raises(error) as err:
+            load(arg)
+        _one_line(err.value)
     assert time.perf_counter() - t0 < 10
 
 
