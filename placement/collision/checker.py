@@ -32,10 +32,16 @@ import pinocchio as pin
 from ..errors import PlacementError
 from ..robots import Robot
 from .robot import robot_geometry
-from .scene import OccupancyCells, SceneShape, scene_shapes
+from .scene import OccupancyCells, PieceGrid, SceneShape, scene_shapes
 
 #: Distances are measured up to this [m]; a free trajectory farther from everything reports it.
 CLEARANCE_CAP = 0.2
+
+#: Scenes of at least this many pieces are bucketed on a grid (fewer: every piece is bounded per check).
+GRID_PIECES = 64
+
+#: [m] the grid window's margin beyond the reach (rounding of the frame changes).
+GRID_SLACK = 1e-6
 
 #: [m] a convex hull this much farther than the best distance so far is not measured exactly.
 HULL_SLACK = 1e-5
@@ -118,14 +124,29 @@ class SceneCollision:
         self._home_t = np.array([M.translation for M in home]).reshape(-1, 3)
         self.update(scene)
 
+    #: Bucket the scene pieces on a coarse grid (see :class:`~placement.collision.scene.PieceGrid`) when
+    #: there are at least :data:`GRID_PIECES` of them, so that a check looks only at those near the robot.
+    prefilter = True
+
     def update(self, scene) -> None:
         """Take the scene's obstacles, objects and occupancy map as they are now (after moves)."""
-        self.shapes: list[SceneShape] = scene_shapes(scene)
-        self.objects = [o.name for o in scene.objects]
-        self._object_of = [s.name if s.name in self.objects else None for s in self.shapes]
-        self._aabb = np.array([s.aabb for s in self.shapes]).reshape(-1, 2, 3)
+        shapes: list[SceneShape] = scene_shapes(scene)
+        objects = [o.name for o in scene.objects]
+        names = set(objects)
+        object_of = [s.name if s.name in names else None for s in shapes]
+        aabb = np.array([s.aabb for s in shapes]).reshape(-1, 2, 3)
         occ = getattr(scene, "occupancy", None)
-        self.cells = OccupancyCells(occ) if occ is not None else None
+        cells = OccupancyCells(occ) if occ is not None else None
+        grid = (PieceGrid(aabb, self._tilt()) if self.prefilter and len(shapes) >= GRID_PIECES else None)
+        # all or nothing: a scene the check cannot take leaves the checker as it was
+        self.shapes, self.objects, self._object_of, self._aabb, self.cells, self._grid = (
+            shapes, objects, object_of, aabb, cells, grid)
+
+    def _tilt(self) -> float | None:
+        """How far the base frame's z leaves the model's z (0: a turn about z; None: more than 1e-9)."""
+        R = self.geometry.base_in_model[:3, :3]
+        tilt = float(max(abs(R[2, 0]), abs(R[2, 1]), abs(R[0, 2]), abs(R[1, 2])))
+        return tilt if tilt <= 1e-9 and R[2, 2] > 0 else None
 
     # -- the check -----------------------------------------------------
     def check(self, arm: str, qs, base, grasped: str | None = None, gone=()) -> CollisionResult:
@@ -172,30 +193,38 @@ class SceneCollision:
                 "radius": geo.radius[ids], "gripper": gripper, "tf": {}}
 
     def _scene_in_model(self, A: np.ndarray, inst: dict) -> dict:
-        """Scene pieces near the robot in the model frame: the shapes and the occupancy cells in reach."""
-        shapes = list(self.shapes)
-        aabb = self._aabb
-        if self.cells is not None and len(inst["id"]):
+        """Scene pieces near the robot in the model frame: the shapes (those the grid finds in reach,
+        in scene order) and the occupancy cells in reach; ``objects``: the object of each piece or None."""
+        shapes, aabb, objects = self.shapes, self._aabb, self._object_of
+        if (self.cells is not None or self._grid is not None) and len(inst["id"]):
             reach = inst["radius"].max() + self.cap + self.padding
             Ainv = np.linalg.inv(A)
             world = inst["centre"] @ Ainv[:3, :3].T + Ainv[:3, 3]
             lo, hi = world.min(axis=0) - reach, world.max(axis=0) + reach
-            rows, cols = self.cells.near(lo[0], lo[1], hi[0], hi[1])
-            if len(rows):
-                c = self.cells.centres(rows, cols)
-                half = np.array([self.cells.resolution / 2, self.cells.resolution / 2, self.cells.height / 2])
-                aabb = np.concatenate([aabb, np.stack([c - half, c + half], axis=1)])
-                shapes += [(int(r), int(k)) for r, k in zip(rows, cols)]  # made into pieces when needed
-        return {"shapes": shapes, "aabb": model_aabb(aabb, A) if len(aabb) else aabb, "A": A, "tf": {}}
+            if self._grid is not None:  # a piece beyond every instance's radius + cap has no pair
+                r = inst["radius"][:, None] + (self.cap + self.padding + GRID_SLACK)
+                near = self._grid.near((world[:, :2] - r).min(axis=0), (world[:, :2] + r).max(axis=0))
+                shapes, aabb, objects = [shapes[i] for i in near], aabb[near], [objects[i] for i in near]
+            if self.cells is not None:
+                rows, cols = self.cells.near(lo[0], lo[1], hi[0], hi[1])
+                if len(rows):
+                    c = self.cells.centres(rows, cols)
+                    half = np.array([self.cells.resolution / 2, self.cells.resolution / 2, self.cells.height / 2])
+                    aabb = np.concatenate([aabb, np.stack([c - half, c + half], axis=1)])
+                    shapes = shapes + [(int(r), int(k)) for r, k in zip(rows, cols)]  # made into pieces when needed
+                    objects = objects + [None] * len(rows)
+        elif self._grid is not None:  # no robot shapes: nothing can pair
+            shapes, aabb, objects = [], aabb[:0], []
+        return {"shapes": list(shapes), "aabb": model_aabb(aabb, A) if len(aabb) else aabb, "A": A, "tf": {},
+                "objects": objects}
 
     def _pairs(self, inst: dict, scene: dict, shapes, grasped, gone: frozenset) -> dict:
         """Candidate pairs with a lower bound of their distance [m]: robot-scene then self."""
         lb = box_distance(inst["centre"], scene["aabb"]) - inst["radius"][:, None]  # (N, S)
         if gone:
-            lb[:, [i for i, o in enumerate(self._object_of) if o in gone]] = np.inf
+            lb[:, [i for i, o in enumerate(scene["objects"]) if o in gone]] = np.inf
         if grasped is not None:
-            held = np.zeros(len(scene["shapes"]), dtype=bool)
-            held[:len(self.shapes)] = [o == grasped for o in self._object_of]
+            held = np.array([o == grasped for o in scene["objects"]], dtype=bool)
             lb[np.ix_(inst["gripper"], held)] = np.inf
         a, b = np.nonzero(lb <= self.cap)
         sa, sb = self._self_instances(shapes, inst["poses"])

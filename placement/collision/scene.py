@@ -198,3 +198,86 @@ class OccupancyCells:
         half = np.array([self.resolution / 2, self.resolution / 2, self.height / 2])
         return SceneShape(f"occupancy[{row},{col}]", self.geometry, pose,
                           np.array([pose[:3, 3] - half, pose[:3, 3] + half]))
+
+
+class PieceGrid:
+    """Scene pieces bucketed on a coarse 2D grid, built once per scene, so that a check looks only at
+    the pieces near the robot (10,000 far pieces cost nothing per check).
+
+    Each piece is entered with its *reach square*: its AABB's centre +- r in x and y. The check bounds a
+    piece by the AABB of its AABB turned into the robot's model frame (see
+    :func:`~placement.collision.checker.model_aabb`); within ``r`` of the centre lies all of that bound,
+    so a piece whose reach square stays ``d`` away from a point (in x, y) is more than ``d`` away from
+    it in the check's bound as well: :meth:`near` never leaves out a piece the check could pair.
+
+    * The model frame differs from the world by a turn about z (``tilt`` 0: the base frame's z is the
+      model's; the PR2's): the bound's x, y half extents are at most |h_xy| (h: the AABB's half
+      extents), so r = sqrt(2) |h_xy|; a tall prism is as cheap as a short box. A ``tilt`` up to 1e-9
+      (the largest z/xy entry of the base's rotation in the model) adds a matching margin.
+    * Otherwise (``tilt`` None): r = sqrt(3) |h|, valid for any rotation.
+
+    Args:
+        aabb: (S, 2, 3) world-frame (min, max) corners of the pieces [m].
+        tilt: see above.
+        cell: grid cell [m]; coarser for scenes so wide that the grid would exceed 2^20 cells a side.
+        spread: a piece whose reach square covers more than this many cells is not bucketed but tested
+            at every query (walls, big tables: few).
+    """
+
+    #: [m] heights of the robot's shapes above the floor are taken to be below this (the margin of a ``tilt``).
+    ROBOT_HEIGHT = 10.0
+
+    def __init__(self, aabb: np.ndarray, tilt: float | None = 0.0, cell: float = 0.5, spread: int = 64):
+        aabb = np.asarray(aabb, dtype=float).reshape(-1, 2, 3)
+        centre, half = aabb.mean(axis=1), (aabb[:, 1] - aabb[:, 0]) / 2
+        slack = 1e-9 * (1.0 + np.abs(centre).max(axis=1) + np.abs(half).max(axis=1))
+        if tilt is not None and 0.0 <= tilt <= 1e-9:
+            r = math.sqrt(2.0) * (np.linalg.norm(half[:, :2], axis=1) + tilt * (half[:, 2] + np.abs(centre[:, 2])
+                                                                               + self.ROBOT_HEIGHT))
+        else:
+            r = math.sqrt(3.0) * np.linalg.norm(half, axis=1)
+        r = r + slack
+        self.lo, self.hi = centre[:, :2] - r[:, None], centre[:, :2] + r[:, None]
+        self.size = len(aabb)
+        if self.size == 0:
+            self.origin, self.cell, self.nx = np.zeros(2), float(cell), 1
+            self._ids, self._pieces, self.wide = np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64)
+            return
+        self.origin = self.lo.min(axis=0)
+        extent = float((self.hi.max(axis=0) - self.origin).max())
+        self.cell = max(float(cell), extent / 2**20)
+        self.nx = int(math.floor(extent / self.cell)) + 2
+        c0 = np.floor((self.lo - self.origin) / self.cell).astype(np.int64)
+        c1 = np.floor((self.hi - self.origin) / self.cell).astype(np.int64)
+        n = (c1 - c0 + 1).prod(axis=1)
+        wide = n > spread
+        self.wide = np.flatnonzero(wide)
+        small = np.flatnonzero(~wide)  # pieces over a few cells each: entered in every cell they cover
+        pieces = np.repeat(small, n[small])
+        first = np.repeat(np.cumsum(n[small]) - n[small], n[small])
+        offset = np.arange(len(pieces)) - first
+        width = (c1 - c0 + 1)[pieces, 0]
+        ids = (c0[pieces, 1] + offset // width) * self.nx + c0[pieces, 0] + offset % width
+        order = np.argsort(ids, kind="stable")
+        self._ids, self._pieces = ids[order], pieces[order]
+
+    def near(self, lo, hi) -> np.ndarray:
+        """Sorted indices of the pieces whose reach square overlaps the window ``lo`` .. ``hi`` ((2,) or
+        more: x, y first, world frame [m])."""
+        x0, y0, x1, y1 = float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+        if self.size == 0 or not all(map(math.isfinite, (x0, y0, x1, y1))):
+            return np.arange(self.size)  # nothing to gain: let the check see everything
+        ox, oy = float(self.origin[0]), float(self.origin[1])
+        last = self.nx - 1
+        qx0, qy0 = max(math.floor((x0 - ox) / self.cell), 0), max(math.floor((y0 - oy) / self.cell), 0)
+        qx1, qy1 = min(math.floor((x1 - ox) / self.cell), last), min(math.floor((y1 - oy) / self.cell), last)
+        found = [self.wide]
+        if qx0 <= qx1 and qy0 <= qy1:
+            rows = np.arange(qy0, qy1 + 1, dtype=np.int64) * self.nx
+            starts = np.searchsorted(self._ids, rows + qx0, side="left")
+            ends = np.searchsorted(self._ids, rows + qx1, side="right")
+            found += [self._pieces[s:e] for s, e in zip(starts.tolist(), ends.tolist()) if e > s]
+        cand = np.concatenate(found)
+        L, H = self.lo[cand], self.hi[cand]
+        keep = (L[:, 0] <= x1) & (L[:, 1] <= y1) & (H[:, 0] >= x0) & (H[:, 1] >= y0)
+        return np.unique(cand[keep])
