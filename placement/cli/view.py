@@ -50,6 +50,12 @@ def view(scene, maps_path, method, plan_path, stream, port, timeout, as_json, ve
         raise OneLineError(f"--plan shows a plan file; it cannot be combined with {', '.join(given)}")
     from ..viewer import view_scene
 
+    if plan_path:  # a plan made for another scene or robot is refused before anything is served
+        from ..planning.scene import load_scene
+        from ..viewer.plan_file import load_checked_plan
+
+        scene = load_scene(scene)
+        load_checked_plan(plan_path, scene)
     v = view_scene(scene, maps=maps_path, method=method or "sequential", plan=plan_path, port=port)
     if stream:
         click.echo(f"viewer at {v.url}; reading updates from stdin", err=True)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,10 @@ from .server import ViewerError
 
 class PlanFileError(ViewerError):
     """A plan file that cannot be shown; the one-line message names the file and the key."""
+
+
+#: Largest plan file read [bytes] (a plan of 100 steps is about 100 kB).
+MAX_PLAN_BYTES = 64 * 2**20
 
 
 def title(s) -> str:
@@ -108,15 +113,139 @@ def parse_plan(doc, where: str, robot) -> list[StepResult]:
     return [parse_step(s, f"{where}: steps[{i}]", robot) for i, s in enumerate(steps)]
 
 
-def load_plan(path, robot) -> list[StepResult]:
-    """The steps of the plan file at ``path`` (PlanFileError naming the file if it is unreadable)."""
+def _read(path) -> tuple[object, str]:
+    """The parsed JSON of the plan file at ``path`` and the name to give it in messages."""
     p = Path(path)
     try:
+        st = p.stat()  # a FIFO or a device would block or never end: only a regular file is read
+        if not stat.S_ISREG(st.st_mode) or st.st_size > MAX_PLAN_BYTES:
+            raise PlanFileError(f"--plan {p}: " + ("not a regular file" if not stat.S_ISREG(st.st_mode) else
+                                                   f"{st.st_size:,} bytes, more than the {MAX_PLAN_BYTES:,} a plan "
+                                                   "file may have"))
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise PlanFileError(f"--plan {p}: cannot read it ({getattr(exc, 'strerror', None) or exc})") from None
     try:
-        doc = json.loads(text)
+        return json.loads(text), str(p)
     except (ValueError, RecursionError) as exc:
         raise PlanFileError(f"--plan {p}: not JSON ({type(exc).__name__}: {str(exc)[:80]})") from None
-    return parse_plan(doc, str(p), robot)
+
+
+def load_plan(path, robot) -> list[StepResult]:
+    """The steps of the plan file at ``path`` (PlanFileError naming the file if it is unreadable)."""
+    doc, where = _read(path)
+    return parse_plan(doc, where, robot)
+
+
+#: A plan's TCP poses must be where its joints put the TCP within these (as ``PlanResult.verify``).
+FK_TOLERANCE_M = 0.01
+FK_TOLERANCE_RAD = math.radians(3)
+
+#: [rad or m] how far a joint value may stray beyond the URDF limits (rounding in JSON).
+LIMIT_SLACK = 1e-9
+
+
+def _cut(v) -> str:
+    """A value from the plan file, quoted short (a file may hold megabytes in one string)."""
+    text = v if isinstance(v, str) else json.dumps(v) if _jsonable(v) else type(v).__name__
+    return f"'{text}'" if len(text) <= 60 else f"'{text[:40]}...' ({len(text):,} characters)"
+
+
+def check_plan(doc: dict, steps: list[StepResult], scene, robot, where: str) -> None:
+    """PlanFileError (one line naming ``where`` and the key) unless the plan document ``doc`` (whose
+    steps :func:`parse_plan` read as ``steps``) was made for ``scene`` and ``robot``: the same scene
+    name and robot name, the arms with the robot's joints and tip frames, every step the scene's task
+    step of that index (action and target) up to the first infeasible one, bases inside the scene's
+    bounds, only joints of the robot, arm joints within the URDF limits (every pose's), fixed joints
+    at the preset's values, and the last TCP pose where the joints put the TCP."""
+    from ..planning.steps import task_steps
+
+    name = doc.get("scene")
+    _need(isinstance(name, str), f"{where}: scene", "the plan does not name its scene (write it with "
+                                                     "`placement query SCENE --json > plan.json`)")
+    _need(name == scene.name, f"{where}: scene", f"the plan is for scene {_cut(name)}, not '{scene.name}'")
+    info = doc.get("robot")
+    _need(isinstance(info, dict) and isinstance(info.get("name"), str), f"{where}: robot.name",
+          "the plan does not name its robot")
+    arms = info.get("arms", {})
+    _need(isinstance(arms, dict), f"{where}: robot.arms", "must be a mapping of arm name to its joints")
+    for arm, a in arms.items():
+        at = f"{where}: robot.arms.{_cut(arm)[1:-1]}"
+        _need(arm in robot.arms, at, f"robot '{robot.name}' has no arm {_cut(arm)}; arms: {', '.join(robot.arms)}")
+        _need(isinstance(a, dict) and a.get("joints") == list(robot.arm(arm).joints)
+              and a.get("tip_frame", robot.arm(arm).tip_frame) == robot.arm(arm).tip_frame, at,
+              f"the joints or tip frame differ from robot '{robot.name}''s (a plan for another robot model)")
+    task = task_steps(scene)
+    _need(len(steps) <= len(task), f"{where}: steps",
+          f"{len(steps)} steps, but the task of scene '{scene.name}' has {len(task)}")
+    for i, (s, t) in enumerate(zip(steps, task)):
+        at = f"{where}: steps[{i}]"
+        _need(s.step == t.index, f"{at}.step", f"is {s.step}, expected {t.index}")
+        _need((s.action, s.target) == (t.action, t.target), at,
+              f"{s.action} {_cut(s.target)} is not step {t.index} of scene '{scene.name}' ({t.action} '{t.target}')")
+        if s.ok:
+            _check_step(doc["steps"][i], s, scene, robot, at)
+    if len(steps) < len(task):
+        _need(not steps[-1].ok, f"{where}: steps",
+              f"the plan stops after {len(steps)} of the task's {len(task)} steps without an infeasible one")
+
+
+def _check_step(d: dict, s: StepResult, scene, robot, at: str) -> None:
+    """The planned step ``s`` (read from ``d``): base in bounds, joints of the robot within limits,
+    fixed joints as the preset holds them, the TCP where the joints put it."""
+    xmin, ymin, xmax, ymax = scene.bounds
+    x, y, yaw = s.base
+    _need(xmin <= x <= xmax and ymin <= y <= ymax, f"{at}.base",
+          f"({x:.3f}, {y:.3f}) is outside the scene's bounds [{xmin:g}, {ymin:g}, {xmax:g}, {ymax:g}]")
+    arm = robot.arm(s.arm)
+    model = robot.model
+    for j, v in d["joints"].items():
+        _need(isinstance(j, str) and model.existJointName(j), f"{at}.joints.{_cut(j)[1:-1]}",
+              f"robot '{robot.name}' has no such joint")
+        value = _number(v, f"{at}.joints.{j}")
+        if j in robot.fixed_joints:
+            _need(abs(value - robot.fixed_joints[j]) <= LIMIT_SLACK, f"{at}.joints.{j}",
+                  f"is {value:g}; robot '{robot.name}' holds it at {robot.fixed_joints[j]:g}")
+        jm = model.joints[model.getJointId(j)]
+        if jm.nq == 1 and j not in arm.joints:  # the arm's joints are checked below (continuous ones too)
+            lo, hi = float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q])
+            _need(lo - LIMIT_SLACK <= value <= hi + LIMIT_SLACK, f"{at}.joints.{j}",
+                  f"{value:g} is outside the URDF limits [{lo:g}, {hi:g}] of robot '{robot.name}'")
+    qs = [s.q]
+    poses = d.get("poses")
+    if poses is not None:
+        _need(isinstance(poses, list) and len(poses) == len(s.tcp), f"{at}.poses",
+              f"must be a list of {len(s.tcp)} poses, one per TCP pose")
+        qs = []
+        for k, p in enumerate(poses):
+            pj = p.get("joints") if isinstance(p, dict) else None
+            _need(isinstance(pj, dict) and set(pj) == set(arm.joints), f"{at}.poses[{k}].joints",
+                  f"must give exactly the joints of arm '{s.arm}': {', '.join(arm.joints)}")
+            qs.append(np.array([_number(pj[j], f"{at}.poses[{k}].joints.{j}") for j in arm.joints]))
+    for q, label in [(s.q, "joints"), *((q, f"poses[{k}].joints") for k, q in enumerate(qs) if poses is not None)]:
+        bad = np.flatnonzero((q < arm.lower - LIMIT_SLACK) | (q > arm.upper + LIMIT_SLACK))
+        if len(bad):
+            j = int(bad[0])
+            raise PlanFileError(f"{at}.{label}.{arm.joints[j]}: {q[j]:g} is outside the URDF limits "
+                                f"[{arm.lower[j]:g}, {arm.upper[j]:g}] of robot '{robot.name}'")
+    c, sn = math.cos(yaw), math.sin(yaw)
+    B = np.array([[c, -sn, 0, x], [sn, c, 0, y], [0, 0, 1, 0], [0, 0, 0, 1]])
+    T = B @ robot.tcp_pose(s.arm, s.q)
+    want = s.tcp[-1]
+    off = float(np.linalg.norm(T[:3, 3] - want[:3, 3]))
+    turn = math.acos(float(np.clip((np.trace(T[:3, :3].T @ want[:3, :3]) - 1) / 2, -1, 1)))
+    _need(off <= FK_TOLERANCE_M and turn <= FK_TOLERANCE_RAD, f"{at}.joints",
+          f"put the TCP {off * 100:.1f} cm and {math.degrees(turn):.1f} deg from the step's last TCP pose "
+          f"(robot '{robot.name}', base {list(s.base)}): a plan for another robot or scene")
+
+
+def load_checked_plan(path, scene) -> list[StepResult]:
+    """The steps of the plan file at ``path``, checked to belong to ``scene`` (a Scene) and its robot
+    (see :func:`check_plan`); PlanFileError naming the file and the key otherwise."""
+    from ..robots import load_robot
+
+    robot = load_robot(scene.robot_preset)
+    doc, where = _read(path)
+    steps = parse_plan(doc, where, robot)
+    check_plan(doc, steps, scene, robot, where)
+    return steps

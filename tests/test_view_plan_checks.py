@@ -1,0 +1,172 @@
+"""`placement view SCENE --plan PLAN.json` shows a plan only if it was made for that scene and its
+robot: scene and robot names, arms and their joints, step actions and targets, joints of the robot
+within the URDF limits, fixed joints at the preset's values, the TCP where the joints put it."""
+
+from __future__ import annotations
+
+import copy
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from placement.planning.scene import load_scene
+from placement.viewer.plan_file import PlanFileError, load_checked_plan
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "table_clearing.yaml"
+
+
+@pytest.fixture(scope="module")
+def plan_doc(maps_dir) -> dict:
+    import placement
+
+    doc = placement.Planner(EXAMPLE, "sequential", maps_dir).plan().to_json()
+    assert doc["status"] == "ok" and len(doc["steps"]) == 6
+    return doc
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return load_scene(EXAMPLE)
+
+
+def first_ok(doc) -> dict:
+    return next(s for s in doc["steps"] if s.get("status", "ok") == "ok")
+
+
+def _elbow_100(d):
+    s = first_ok(d)
+    s["joints"][f"{s['arm'][0]}_elbow_flex_joint"] = 100.0
+
+
+def _pose_elbow_100(d):
+    s = first_ok(d)
+    s["poses"][0]["joints"][f"{s['arm'][0]}_elbow_flex_joint"] = 100.0
+
+
+def _other_target(d):
+    d["steps"][0]["target"] = "mug_7"
+
+
+def _swap_steps(d):
+    d["steps"][0], d["steps"][2] = d["steps"][2], d["steps"][0]
+
+
+def _other_action(d):
+    d["steps"][1]["action"] = "pick"
+
+
+def _stop_short(d):
+    del d["steps"][3:]
+
+
+def _too_many(d):
+    d["steps"].append(copy.deepcopy(d["steps"][-1]) | {"step": 6})
+
+
+def _unknown_joint(d):
+    first_ok(d)["joints"]["knee_joint"] = 0.0
+
+
+def _fixed_joint(d):
+    first_ok(d)["joints"]["torso_lift_joint"] = 0.3
+
+
+def _moved_tcp(d):
+    first_ok(d)["tcp"][-1][2] += 0.3
+
+
+def _moved_base(d):
+    s = first_ok(d)
+    s["base"][1] += 0.5
+
+
+def _base_outside(d):
+    first_ok(d)["base"] = [50.0, 4.0, 0.0]
+
+
+def _arm_joints(d):
+    arm = next(iter(d["robot"]["arms"]))
+    d["robot"]["arms"][arm]["joints"] = d["robot"]["arms"][arm]["joints"][::-1]
+
+
+def _long_scene_name(d):
+    d["scene"] = "s" * 1_000_000
+
+
+@pytest.mark.parametrize("mutate, words", [
+    (lambda d: d.update(scene="kitchen"), ["scene", "'kitchen'", "table_clearing"]),
+    (lambda d: d.pop("scene"), ["does not name its scene"]),
+    (lambda d: d["robot"].update(name="tiago"), ["robot.name", "tiago"]),
+    (_other_target, ["steps[0]", "mug_7", "pick 'cup_1'"]),
+    (_swap_steps, ["steps[0].step", "expected 0"]),
+    (_other_action, ["steps[1]", "place 'place_a'"]),
+    (_stop_short, ["stops after 3 of the task's 6 steps"]),
+    (_too_many, ["7 steps", "has 6"]),
+    (_elbow_100, ["elbow_flex_joint", "100", "outside the URDF limits"]),
+    (_pose_elbow_100, ["poses[0].joints", "elbow_flex_joint", "outside the URDF limits"]),
+    (_unknown_joint, ["knee_joint", "no such joint"]),
+    (_fixed_joint, ["torso_lift_joint", "holds it at 0.15"]),
+    (_moved_tcp, ["TCP", "cm", "another robot or scene"]),
+    (_moved_base, ["TCP", "cm"]),
+    (_base_outside, ["base", "outside the scene's bounds"]),
+    (_arm_joints, ["robot.arms", "another robot model"]),
+    (_long_scene_name, ["1,000,000 characters"]),
+])
+def test_a_plan_for_another_scene_or_robot_is_refused(plan_doc, scene, tmp_path, mutate, words):
+    doc = copy.deepcopy(plan_doc)
+    mutate(doc)
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(PlanFileError) as e:
+        load_checked_plan(path, scene)
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith(str(path)) and len(msg) < 1000, msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+def test_the_plan_of_the_scene_passes(plan_doc, scene, tmp_path):
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(plan_doc))
+    steps = load_checked_plan(path, scene)
+    assert [s.target for s in steps] == [s["target"] for s in plan_doc["steps"]]
+    # an infeasible plan ends at its infeasible step
+    doc = copy.deepcopy(plan_doc)
+    doc["steps"][3] = {"step": 3, "action": "place", "target": "place_b", "status": "infeasible", "reason": "x"}
+    del doc["steps"][4:]
+    path.write_text(json.dumps(doc))
+    assert [s.ok for s in load_checked_plan(path, scene)] == [True, True, True, False]
+
+
+def test_a_fifo_is_not_read(scene, tmp_path):
+    import os
+
+    fifo = tmp_path / "plan.fifo"
+    os.mkfifo(fifo)
+    with pytest.raises(PlanFileError, match="not a regular file"):
+        load_checked_plan(fifo, scene)
+
+
+def run(*args, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True,
+                          timeout=timeout, cwd=ROOT)
+
+
+def test_view_refuses_in_one_line_and_serves_the_right_plan(plan_doc, tmp_path):
+    doc = copy.deepcopy(plan_doc)
+    _elbow_100(doc)
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(doc))
+    p = run("view", str(EXAMPLE), "--plan", str(bad), "--port", "0")
+    assert p.returncode == 2, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "outside the URDF limits" in lines[0], p.stderr
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps(plan_doc))
+    p = run("view", str(EXAMPLE), "--plan", str(good), "--port", "0", "--json", "--timeout", "0.5", "-q")
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout)["url"].startswith("http://127.0.0.1:")
