@@ -69,6 +69,18 @@ def _apart(a, b) -> bool:
     return a[2] < b[0] - TOLERANCE or b[2] < a[0] - TOLERANCE or a[3] < b[1] - TOLERANCE or b[3] < a[1] - TOLERANCE
 
 
+def obstacles_near(obstacles):
+    """A function of (xmin, ymin, xmax, ymax) giving the obstacles whose footprint bounds are not
+    :func:`_apart` from it, in file order: one numpy pass over all bounds instead of a Python loop."""
+    b = np.array([o.shape.bounds_xy() for o in obstacles], dtype=float).reshape(-1, 4)
+
+    def near(a) -> list:
+        apart = (a[2] < b[:, 0] - TOLERANCE) | (b[:, 2] < a[0] - TOLERANCE) | (a[3] < b[:, 1] - TOLERANCE) | \
+            (b[:, 3] < a[1] - TOLERANCE)
+        return [obstacles[k] for k in np.flatnonzero(~apart)]
+    return near
+
+
 def box_penetrates(box: Box, shape) -> bool:
     """Whether ``box`` enters the solid ``shape`` by more than :data:`TOLERANCE` (touching is fine)."""
     if _apart(box.bounds_xy(), shape.bounds_xy()):

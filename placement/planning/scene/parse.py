@@ -57,8 +57,7 @@ import numpy as np
 from ...robots.preset import builtin_presets
 from ...simplicity import self_crossing
 from ..config import PLANNER_BOUNDS, PLANNER_KEYS
-from .checks import TOLERANCE, object_penetrates, overlapping_objects, point_inside
-from .places import check_place_orientations
+from .checks import TOLERANCE, object_penetrates, obstacles_near, overlapping_objects, point_inside
 from .model import (
     Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, Shape, TaskStep, Trajectory,
     grid_shape, is_path,
@@ -281,9 +280,10 @@ def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
             P.fail(path, f"{what} at ({fmt(x)}, {fmt(y)}) is outside bounds [{', '.join(fmt(b) for b in bounds)}]")
 
     inside(scene.start, "robot.start", "the start position")
+    near = obstacles_near(scene.obstacles)
     for i, o in enumerate(scene.objects):
         inside(o.position, f"objects[{i}].position", f"object '{o.name}'")
-        for ob in scene.obstacles:
+        for ob in near(o.bounds_xy()):
             if pair(o.name, ob.name) and object_penetrates(o, ob.shape):
                 P.fail(f"objects[{i}]", f"object '{o.name}' is inside obstacle '{ob.name}' (its bounding box enters "
                                         "the obstacle's volume; objects may only touch, e.g. stand on a table)")
@@ -305,11 +305,10 @@ def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
                                              "give its 'grasps'")
     for i, pl in enumerate(scene.place_locations):
         inside(pl.position, f"place_locations[{i}].position", f"place location '{pl.name}'")
-        for ob in scene.obstacles:
+        for ob in near((pl.position[0], pl.position[1]) * 2):
             if pair(pl.name, ob.name) and point_inside(pl.position, ob.shape):
                 P.fail(f"place_locations[{i}].position", f"place location '{pl.name}' is inside obstacle "
                                                          f"'{ob.name}'")
-    check_place_orientations(scene, P)
     return scene
 
 
