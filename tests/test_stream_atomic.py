@@ -99,6 +99,8 @@ def test_long_keys_and_values_are_not_echoed(scene_path, capsys):
     for a in answers[1:]:
         assert len(json.dumps(a)) < 3000, a["error"][:200]
     for a in answers[2:]:
+        assert "k" * 100 not in a["error"], a["error"][:200]
+    for a in answers[3:5]:  # names this package quotes itself: cut with their length
         assert "1,000,000 characters" in a["error"], a["error"]
     assert len(err) < 5 * 3000 and len(err.splitlines()) == 5
     assert planner.scene.start == tuple(START)
