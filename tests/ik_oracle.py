@@ -112,27 +112,41 @@ class BaseAndArmCheck:
                 self._snapped.append(np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]))
         return self._snapped
 
-    def arm_free(self, arm: str, qs: list, base) -> bool:
+    def arm_free(self, arm: str, qs: list, base, poses=None, carried=None) -> bool:
         if not self.collisions:
             return True
         names = self.planner.robot.arm(arm).joints
         step = {"step": 0, "arm": arm, "base": list(base),
                 "poses": [{"joints": dict(zip(names, map(float, q)))} for q in qs]}
+        if carried is not None:  # the object moves with the TCP reached at the last pose
+            name, object_pose, support = carried
+            T = base_matrix(*base) @ self.planner.robot.tcp_pose(arm, qs[-1])
+            step["poses"][-1]["pose"] = pose7(T)
+            step.update({"object": name, "support": support,
+                         "placed_pose": pose7(T @ np.linalg.inv(poses[-1]) @ object_pose)})
         c = self.checker.check_step(step, self.picked, self.held)
-        return not c.self_hits and c.scene_m >= self.padding and c.held_m >= self.padding
+        return (not c.self_hits and not c.object_hits and c.scene_m >= self.padding and c.held_m >= self.padding
+                and c.object_m >= self.padding)
+
+
+def pose7(T) -> list[float]:
+    """[x, y, z, qx, qy, qz, qw] of a (4, 4) pose (pinocchio's quaternion)."""
+    q = pin.Quaternion(np.asarray(T)[:3, :3])
+    return [*map(float, np.asarray(T)[:3, 3]), float(q.x), float(q.y), float(q.z), float(q.w)]
 
 
 def find_placement(planner, trajectories, samples: int = 400, restarts: int = 3, radius: float = 1.2,
-                   seed: int = 0, step_index: int = 0, collisions: bool = False):
-    """A base pose (x, y, yaw) from which one arm reaches every pose of one of ``trajectories``
-    ((P, 4, 4) world poses) (collision-free with ``collisions``: step ``step_index`` of the
-    planner's task says which objects are gone or in the hand), or None after ``samples`` random
-    base poses where the base fits."""
+                   seed: int = 0, step_index: int = 0, collisions: bool = False, arms=None, carried=None):
+    """A base pose (x, y, yaw) from which one arm (of ``arms``, default all) reaches every pose of
+    one of ``trajectories`` ((P, 4, 4) world poses) (collision-free with ``collisions``: step
+    ``step_index`` of the planner's task says which objects are gone or in the hand; ``carried``,
+    parallel to ``trajectories``: (object name, (4, 4) its pose at the last pose, support name) of a
+    place, the object checked as held), or None after ``samples`` random base poses where the base fits."""
     rng = np.random.default_rng(seed)
     world = planner.world
     check = BaseAndArmCheck(planner, step_index, collisions)
     yaws = np.asarray(planner.yaws, float)
-    solvers = {arm: PinIK(planner.robot, arm) for arm in planner.maps}
+    solvers = {arm: PinIK(planner.robot, arm) for arm in (arms or planner.maps)}
     target = np.mean([T[-1, :2, 3] for T in trajectories], axis=0)
     tried = 0
     for _ in range(50 * samples):  # ``samples`` counts the base poses that fit: most draws hit furniture
@@ -156,7 +170,8 @@ def find_placement(planner, trajectories, samples: int = 400, restarts: int = 3,
         tried += 1
         Binv = np.linalg.inv(base_matrix(x, y, yaw))
         for arm, ik in solvers.items():
-            T = trajectories[rng.integers(len(trajectories))]  # the samples spread over the trajectories
+            k = int(rng.integers(len(trajectories)))  # the samples spread over the trajectories
+            T = trajectories[k]
             lo = np.where(ik.a.continuous, -math.pi, ik.a.lower)
             hi = np.where(ik.a.continuous, math.pi, ik.a.upper)
             for q in [ik.a.home] + [rng.uniform(lo, hi) for _ in range(restarts - 1)]:
@@ -166,6 +181,29 @@ def find_placement(planner, trajectories, samples: int = 400, restarts: int = 3,
                     qs.append(q)
                     if not ok:
                         break
-                if ok and check.arm_free(arm, qs, (x, y, yaw)):
+                if ok and check.arm_free(arm, qs, (x, y, yaw), T, None if carried is None else carried[k]):
                     return x, y, yaw
+    return None
+
+
+def find_transfer(planner, pick_index: int, samples: int = 300, collisions: bool = False):
+    """((arm, grasp), pick base, place base) of a transfer that an independent search verifies: the
+    pick with one grasp and arm and its place (step ``pick_index + 1``) with the same, the carried
+    object checked; None when no (arm, grasp) pair has both."""
+    from placement.planning.steps import step_candidates
+    steps = planner.problems.steps
+    picks = step_candidates(planner.scene, steps[pick_index], planner.config)
+    places = step_candidates(planner.scene, steps[pick_index + 1], planner.config)
+    obj = steps[pick_index].target
+    for arm in planner.maps:
+        for g in picks:
+            mine = [c for c in places if c.grasp == g.grasp]
+            a = find_placement(planner, [g.poses], samples, step_index=pick_index, collisions=collisions, arms=[arm])
+            if a is None or not mine:
+                continue
+            b = find_placement(planner, [c.poses for c in mine], samples, step_index=pick_index + 1,
+                               collisions=collisions, arms=[arm],
+                               carried=[(obj, c.object_pose, c.support) for c in mine])
+            if b is not None:
+                return (arm, g.grasp), a, b
     return None

@@ -7,8 +7,13 @@ pose (the plan JSON's ``poses[i].joints``), the preset's fixed joints set and ev
 ``idle`` configuration. Checked:
 
 * robot-scene: every robot shape against every obstacle (tables included) and object, except the
-  gripper (shapes below the arm's last joint or the tip frame's joint) against the object in the
-  hand, and objects picked in earlier steps (carried away; the one in the hand in a place step too);
+  gripper (shapes below the arm's last joint or the tip frame's joint) against the object it grasps
+  in a pick, and objects picked in earlier steps (carried away; the one in the hand in a place step too);
+* the carried object in a place step: its box, fixed to the TCP (from the plan's ``placed_pose`` and
+  last TCP pose, moved by pinocchio FK at every pose), against every obstacle and object still in
+  the scene, and every robot shape but the gripper; against its ``support`` only its part above the
+  lowest centimetre counts (it is set on that surface), and at the last pose it must rest on the
+  support's top within a centimetre;
 * self: every pair with a shape the arm moves, except shapes on the same or adjacent joints, the
   SRDF's disabled pairs, the preset's ``ignore_collisions`` link pairs and pairs already in contact
   with every arm idle;
@@ -28,6 +33,14 @@ from pathlib import Path
 import coal
 import numpy as np
 import pinocchio as pin
+
+
+def pose_matrix(pose) -> np.ndarray:
+    """(4, 4) of a 7-vector [x, y, z, qx, qy, qz, qw]."""
+    T = np.eye(4)
+    T[:3, :3] = quat_matrix(pose[3:])
+    T[:3, 3] = pose[:3]
+    return T
 
 
 def quat_matrix(q) -> np.ndarray:
@@ -109,14 +122,17 @@ class StepCheck:
     self_m: float = math.inf
     footprint_m: float | None = None
     held_m: float = math.inf  # non-gripper shapes vs the object in the hand at its old spot (planner rule)
+    object_m: float = math.inf  # the carried object vs the scene but its support (a place)
+    object_hits: list[str] = field(default_factory=list)
 
     @property
     def free(self) -> bool:
-        return not self.scene_hits and not self.self_hits and (self.footprint_m is None or self.footprint_m > 0)
+        return (not self.scene_hits and not self.self_hits and not self.object_hits
+                and (self.footprint_m is None or self.footprint_m > 0))
 
     def clearance(self, cap: float, planner_rule: bool = True) -> float:
-        """Smallest distance as the planner reports it [m] (robot-scene, self, capped)."""
-        return min(cap, self.scene_m, self.self_m, self.held_m if planner_rule else math.inf)
+        """Smallest distance as the planner reports it [m] (robot-scene, self, carried object, capped)."""
+        return min(cap, self.scene_m, self.self_m, self.object_m, self.held_m if planner_rule else math.inf)
 
 
 class IndependentCheck:
@@ -219,7 +235,7 @@ class IndependentCheck:
     # -- the check ---------------------------------------------------------------------------------
     def check_step(self, step: dict, picked_before: list[str], held: str | None) -> StepCheck:
         """Check one planned step of the plan JSON; ``picked_before``: objects picked in earlier
-        steps, ``held``: the object in the hand (picked now, or earlier for a place step)."""
+        steps, ``held``: the object in the hand (picked now, or carried in a place step)."""
         robot, model = self.robot, self.model
         arm = robot.arm(step["arm"])
         x, y, yaw = step["base"]
@@ -231,10 +247,11 @@ class IndependentCheck:
         out = StepCheck(step["step"])
         present = [n for n in self.objects if n not in picked_before]
         scene = list(self.shapes) + [(n, *self.object_shape(n)) for n in present]
-        if held is not None and held in picked_before:  # place step: the planner keeps its old spot
-            held_shape = [(held, *self.object_shape(held))]
-        else:
-            held_shape = []
+        held_shape = []
+        carried = None
+        if "placed_pose" in step:  # a place: the object moves with the TCP
+            T_last = pose_matrix(step["poses"][-1]["pose"])
+            carried = np.linalg.inv(T_last) @ pose_matrix(step["placed_pose"])
         for k, p in enumerate(step["poses"]):
             q = robot.full_q(step["arm"], [p["joints"][j] for j in arm.joints], self.idle_q)
             pin.framesForwardKinematics(model, self.data, q)
@@ -253,6 +270,9 @@ class IndependentCheck:
                     out.scene_m = min(out.scene_m, d)
                     if hit:
                         out.scene_hits.append(f"{self.names[i]} vs {name} (pose {k}, {d:+.4f} m)")
+            if carried is not None:
+                tcp = B @ robot.tcp_pose(step["arm"], [p["joints"][j] for j in arm.joints])
+                self.check_carried(out, step, tcp @ carried, scene, Ms, hand, k, last=k == len(step["poses"]) - 1)
             for i, j in self.self_pairs:
                 if self.joint[i] not in moved and self.joint[j] not in moved:
                     continue
@@ -264,6 +284,43 @@ class IndependentCheck:
             poly = np.asarray(robot.footprint, float) @ B[:2, :2].T + (x, y)
             out.footprint_m = min((polygon_distance(poly, o) for _, o in self.outlines), default=math.inf)
         return out
+
+    def check_carried(self, out: StepCheck, step: dict, T: np.ndarray, scene, Ms, hand, k: int, last: bool) -> None:
+        """The object carried by a place step at world pose ``T`` (4, 4) against the scene and the robot."""
+        name = step["object"]
+        size = np.asarray(self.objects[name].size, float)
+        box = coal.Box(*map(float, size))
+        # its lowest centimetre cut off, for the surface it is set on
+        m = int(np.argmax(np.abs(T[2, :3])))
+        cut = size.copy()
+        cut[m] -= min(0.01, size[m] / 2)
+        lift = np.eye(4)
+        lift[m, 3] = 0.5 * (size[m] - cut[m]) * np.sign(T[2, m] or 1.0)
+        support = step.get("support")
+        for other, g, To in scene:
+            if other == name:
+                continue
+            geom, Tb = (coal.Box(*map(float, cut)), T @ lift) if other == support else (box, T)
+            res = coal.CollisionResult()
+            if coal.collide(geom, self.tf(Tb), g, self.tf(To), coal.CollisionRequest(), res) > 0:
+                out.object_hits.append(f"{name} (held) vs {other} (pose {k})")
+            if other != support:
+                dres = coal.DistanceResult()
+                out.object_m = min(out.object_m, float(coal.distance(geom, self.tf(Tb), g, self.tf(To),
+                                                                     coal.DistanceRequest(), dres)))
+        for i in range(self.geom.ngeoms):
+            if self.joint[i] in hand:
+                continue
+            res = coal.CollisionResult()
+            if coal.collide(self.geom.geometryObjects[i].geometry, self.tf(Ms[i]), box, self.tf(T),
+                            coal.CollisionRequest(), res) > 0:
+                out.object_hits.append(f"{name} (held) vs {self.names[i]} (pose {k})")
+        if last and support is not None:
+            sh = next(ob.shape for ob in self.scene.obstacles if ob.name == support)
+            top = float(sh.center[2]) + float(sh.size[2] if hasattr(sh, "size") else sh.height) / 2
+            bottom = float(T[2, 3] - np.abs(T[2, :3]) @ size / 2)
+            if abs(bottom - top) > 0.01:
+                out.object_hits.append(f"{name} set down {bottom - top:+.3f} m off the top of {support}")
 
     def check_plan(self, doc: dict) -> list[StepCheck]:
         """Check every planned step of a plan JSON ``doc`` (infeasible steps are skipped)."""

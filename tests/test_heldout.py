@@ -28,8 +28,10 @@ def check_plan(planner, result, robot) -> list:
     planned = [s for s in result.steps if s.ok]
     assert len(checks) == len(planned)
     for s, c in zip(planned, checks):
-        assert not c.scene_hits and not c.self_hits, (s.step, c.scene_hits, c.self_hits)
-        assert c.scene_m >= planner.base_config.collision_padding and c.held_m >= planner.base_config.collision_padding
+        assert not c.scene_hits and not c.self_hits and not c.object_hits, (s.step, c.scene_hits, c.self_hits,
+                                                                             c.object_hits)
+        pad = planner.base_config.collision_padding
+        assert c.scene_m >= pad and c.held_m >= pad and c.object_m >= pad
         if c.footprint_m is not None:
             assert c.footprint_m >= planner.base_config.footprint_padding - 1e-9, (s.step, c.footprint_m)
         mine = c.clearance(CAP)

@@ -16,7 +16,7 @@ from placement.planning.planner import Planner
 from placement.planning.steps import step_candidates
 from placement.planning.verify import base_matrix, trajectory_ik
 
-from ik_oracle import find_placement
+from ik_oracle import find_placement, find_transfer
 from test_planner import write_scene
 
 PR2_MAPS = Path(__file__).resolve().parents[1] / "maps" / "pr2"
@@ -40,7 +40,8 @@ def edge_scene(tmp_path, maps, height: float, depth: float, along: float = 0.0, 
                      "size": [0.06, 0.06, 0.1]}],
         "place_locations": [{"name": "spot", "position": [4.2, 1.0, 0.76]}],
         "task": [{"pick": "cup", "place": "spot"}],
-        "planner": {"threshold": threshold, "yaw_steps": 40},
+        # no time budget: what the search finds must not depend on the machine's load
+        "planner": {"threshold": threshold, "yaw_steps": 40, "ik_budget_ms": 60000.0},
     }
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(doc))
@@ -48,7 +49,11 @@ def edge_scene(tmp_path, maps, height: float, depth: float, along: float = 0.0, 
 
 
 def _oracle(planner, step_index: int, samples: int = 500, collisions: bool = False):
-    step = planner.problems.steps[step_index]
+    """An independent placement of the step (a pick with its place: a transfer), or None."""
+    steps = planner.problems.steps
+    step = steps[step_index]
+    if step.action == "pick" and step_index + 1 < len(steps) and steps[step_index + 1].pick == step_index:
+        return find_transfer(planner, step_index, samples, collisions=collisions)
     return find_placement(planner, [c.poses for c in step_candidates(planner.scene, step, planner.config)],
                           samples=samples, step_index=step_index, collisions=collisions)
 
@@ -110,8 +115,8 @@ class XLimit:
     def __init__(self, limit: float):
         self.limit, self.calls = limit, []
 
-    def check(self, arm, qs, base, grasped, gone=()):
-        self.calls.append((arm, np.array(qs), base, grasped))
+    def check(self, arm, qs, base, grasped=None, gone=(), held=None):
+        self.calls.append((arm, np.array(qs), base, grasped if held is None else held.name))
         free = base[0] <= self.limit
 
         class Result:
@@ -133,7 +138,7 @@ def test_collision_hook_rejects_and_the_search_goes_on(tmp_path, maps_dir, pr2):
     s = result.steps[0]
     assert s.base[0] <= x0 - 0.01 and s.clearance_m == pytest.approx(x0 - 0.01 - s.base[0])
     assert s.to_json()["clearance_m"] == pytest.approx(s.clearance_m)
-    assert {c[3] for c in planner.collisions.calls} == {"cup", "box"}  # the grasped object, pick and place
+    assert {c[3] for c in planner.collisions.calls} == {"cup", "box"}  # the grasped or carried object
     assert all(c[1].shape == (2, 7) for c in planner.collisions.calls)
     assert any(c[2][0] > x0 - 0.01 for c in planner.collisions.calls)  # a rejected one was checked
     assert free.steps[0].clearance_m is None and free.to_json()["steps"][0]["clearance_m"] is None
@@ -157,7 +162,9 @@ def test_plan_json_has_every_pose_with_its_joints(tmp_path, maps_dir, pr2):
     doc = json.loads(json.dumps(result.to_json(), allow_nan=False))
     for s, step in zip(doc["steps"], result.steps):
         arm = pr2.arm(s["arm"])
-        assert s["trajectory"] == s["grasp"] and len(s["poses"]) == len(s["tcp"]) == 2
+        # a place is named by the grasp that holds the object and the object's turn
+        want = s["grasp"] if s["action"] == "pick" else f"{s['grasp']}@yaw"
+        assert s["trajectory"].startswith(want) and len(s["poses"]) == len(s["tcp"]) == 2
         assert [p["pose"] for p in s["poses"]] == s["tcp"]
         for p in s["poses"]:
             assert list(p["joints"]) == list(arm.joints)

@@ -5,7 +5,9 @@ with crates; tiago / talos_reduced: ``examples/table_clearing_<robot>.yaml`` and
 other seeds of the generator with that file's table sizes and heights), planned with ``Planner``
 (collisions on) and every planned step checked by pinocchio FK (``PlanResult.verify``) and by the
 independent collision check of ``tests/oracle_collision.py`` (the robot's URDF shapes and the scene
-built there, coal on every pair, the base footprint exactly in 2D).
+built there, coal on every pair, the carried object fixed to the TCP, the base footprint exactly in
+2D), and every transfer from the plan JSON alone: hand changes between a pick and its place, and
+objects set down tilted more than 6 degrees from how they were picked.
 
     python tools/heldout.py [--scenes N] [--objects K] [--robots pr2 tiago talos_reduced romeo]
 
@@ -33,7 +35,34 @@ from placement.planning import Planner  # noqa: E402
 MAPS = {"pr2": ROOT / "maps" / "pr2"}
 ONBOARD_MAPS = ROOT / "maps"
 KEYS = ["robot", "scenes", "steps planned", "infeasible", "FK-verified", "collision-free (independent)",
-        "footprint clear", "smallest clearance [m]", "clearance = independent (1 mm)"]
+        "footprint clear", "smallest clearance [m]", "clearance = independent (1 mm)", "hand changes",
+        "objects tilted > 6 deg"]
+
+
+def transfer_faults(doc: dict) -> tuple[int, int]:
+    """(places by another arm or grasp than their pick, places whose object turns more than 6 degrees
+    away from upright as picked), read from the plan JSON alone: the object is rigid in the hand, so
+    its turn is the TCP's from the grasp pose to the place pose."""
+    picks, changes, tilted = {}, 0, 0
+    for s in doc["steps"]:
+        if s.get("status", "ok") != "ok":
+            continue
+        if s["action"] == "pick":
+            picks[s["target"]] = s
+        elif s["action"] == "place":
+            pick = picks[s["object"]]
+            changes += (pick["arm"], pick["grasp"]) != (s["arm"], s["grasp"])
+            R = quat(s["tcp"][-1][3:]) @ quat(pick["tcp"][-1][3:]).T
+            tilted += R[2, 2] < math.cos(math.radians(6.0))
+    return changes, tilted
+
+
+def quat(q):
+    import numpy as np
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 def pr2_scenes(n: int, objects: int) -> list[dict]:
@@ -80,7 +109,7 @@ def run(robot: str, docs: list[dict], tmp: Path) -> dict:
         problems = result.verify(planner.robot)
         checks = IndependentCheck(planner.robot, planner.scene).check_plan(result.to_json())
         pad = planner.base_config.collision_padding
-        free = [not c.scene_hits and not c.self_hits and c.scene_m >= pad and c.held_m >= pad for c in checks]
+        free = [c.free and c.scene_m >= pad and c.held_m >= pad and c.object_m >= pad for c in checks]
         fp = [c.footprint_m is None or c.footprint_m >= planner.base_config.footprint_padding - 1e-9 for c in checks]
         agree = [abs(s.clearance_m - c.clearance(0.2)) <= 1e-3 for s, c in zip(planned, checks)]
         row["steps planned"] += len(planned)
@@ -90,12 +119,15 @@ def run(robot: str, docs: list[dict], tmp: Path) -> dict:
         row["footprint clear"] += sum(fp)
         row["clearance = independent (1 mm)"] += sum(agree)
         row["smallest clearance [m]"] = min([row["smallest clearance [m]"]] + [c.clearance(0.2) for c in checks])
+        changes, tilted = transfer_faults(result.to_json())
+        row["hand changes"] += changes
+        row["objects tilted > 6 deg"] += tilted
         bad = result.failed_step
         print(f"{robot} scene {i}: {len(planned)} planned, {sum(free)} free, problems {problems[:2]}"
               + (f"; step {bad.step} infeasible: {bad.reason[:300]}" if bad else ""), file=sys.stderr)
         for s, c in zip(planned, checks):
-            if c.scene_hits or c.self_hits:
-                print(f"  step {s.step}: {c.scene_hits[:3]} {c.self_hits[:3]}", file=sys.stderr)
+            if c.scene_hits or c.self_hits or c.object_hits:
+                print(f"  step {s.step}: {c.scene_hits[:3]} {c.self_hits[:3]} {c.object_hits[:3]}", file=sys.stderr)
     row["smallest clearance [m]"] = f"{row['smallest clearance [m]']:.4f}"
     return row
 
@@ -120,7 +152,7 @@ def main(argv=None) -> int:
     for r in rows:
         print("| " + " | ".join(str(r[k]) for k in KEYS) + " |")
     bad = [r for r in rows if r["collision-free (independent)"] != r["steps planned"]
-           or r["FK-verified"] != r["steps planned"]]
+           or r["FK-verified"] != r["steps planned"] or r["hand changes"] or r["objects tilted > 6 deg"]]
     return 1 if bad else 0
 
 

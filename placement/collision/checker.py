@@ -31,6 +31,7 @@ import pinocchio as pin
 
 from ..errors import PlacementError
 from ..robots import Robot
+from .held import HeldCheck
 from .robot import robot_geometry
 from .scene import OccupancyCells, PieceGrid, SceneShape, scene_shapes
 
@@ -149,10 +150,12 @@ class SceneCollision:
         return tilt if tilt <= 1e-9 and R[2, 2] > 0 else None
 
     # -- the check -----------------------------------------------------
-    def check(self, arm: str, qs, base, grasped: str | None = None, gone=()) -> CollisionResult:
+    def check(self, arm: str, qs, base, grasped: str | None = None, gone=(), held=None) -> CollisionResult:
         """Check the configurations ``qs`` (P, n) [rad/m] of ``arm`` with the base at ``base``
         (x [m], y [m], yaw [rad]); the gripper may touch the object named ``grasped``; the objects
-        named in ``gone`` are not where the scene has them (already carried away) and are skipped."""
+        named in ``gone`` are not where the scene has them (already carried away) and are skipped;
+        ``held`` (a :class:`~placement.planning.transfer.Held`): the object the gripper carries,
+        checked along with the arm (see :mod:`placement.collision.held`)."""
         shapes = self.geometry.arm_shapes(arm)
         qs = np.atleast_2d(np.asarray(qs, dtype=float))
         n = self.robot.arm(arm).dof
@@ -170,7 +173,34 @@ class SceneCollision:
         hit = self._first_collision(pairs, inst, scene)
         if hit is not None:
             return hit
-        return self._closest(pairs, inst, scene)
+        if held is None:
+            return self._closest(pairs, inst, scene)
+        carried = self._held(arm, qs, base, held, A, inst, frozenset(gone) | {held.name})
+        if not carried.free:
+            return carried
+        free = self._closest(pairs, inst, scene)
+        return free if free.clearance_m <= carried.clearance_m else carried
+
+    def _held(self, arm: str, qs: np.ndarray, base, held, A: np.ndarray, inst: dict, skip) -> CollisionResult:
+        """The held object along the trajectory against the scene and the robot (see held.py)."""
+        B = base_matrix(*(float(v) for v in base))
+        world = np.array([B @ self.robot.tcp_pose(arm, q) @ held.tcp_to_object for q in qs])
+        check = HeldCheck(held, world, self.padding, self.cap)
+        reach = check.radius + max(self.cap, self.padding)
+        lo, hi = world[:, :3, 3].min(axis=0) - reach, world[:, :3, 3].max(axis=0) + reach
+        pieces = list(self.shapes) if self._grid is None else [self.shapes[i] for i in self._grid.near(lo, hi)]
+        if self.cells is not None:
+            rows, cols = self.cells.near(lo[0], lo[1], hi[0], hi[1])
+            pieces += [self.cells.shape(int(r), int(c)) for r, c in zip(rows, cols)]
+        hit, clearance = check.scene(pieces, set(skip))
+        name = f"{held.name} (held)"
+        if hit is not None:
+            return CollisionResult(False, hit[0], f"{name} vs {hit[1]}", hit[2])
+        robot_hit = check.robot(A, inst, lambda k: self._robot(inst, k))
+        if robot_hit is not None:
+            d, k, pose = robot_hit
+            return CollisionResult(False, d, f"{name} vs {self.geometry.names[int(inst['id'][k])]}", pose)
+        return CollisionResult(True, clearance, None if clearance >= self.cap else name, None)
 
     def _instances(self, arm: str, qs: np.ndarray, shapes) -> dict:
         """Robot shapes to test, in the model frame: the static ones once, the moving ones per pose."""

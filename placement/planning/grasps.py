@@ -35,12 +35,19 @@ VERTICAL_FACE = 0.5  # |z| of a face normal up to which the face gets side grasp
 AXES = "xyz"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Candidate:
-    """A named TCP trajectory: ``poses`` (P, 4, 4) in the world frame, pre-pose first."""
+    """A named TCP trajectory: ``poses`` (P, 4, 4) in the world frame, pre-pose first.
+
+    ``grasp``: the grasp the object is held by (a pick's own name, a place's pick grasp; None for
+    a ``reach``); a place also has the object's pose there, ``object_pose`` (4, 4), and the name of
+    the obstacle it is set on, ``support`` (see :mod:`placement.planning.transfer`)."""
 
     name: str
     poses: np.ndarray
+    grasp: str | None = None
+    object_pose: np.ndarray | None = None
+    support: str | None = None
 
 
 def _down(position, closing_xy, approach: float) -> np.ndarray:

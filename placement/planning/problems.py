@@ -2,7 +2,7 @@
 
 What a scene change invalidates (used by dynamic updates, paper Table III):
 
-* a moved object: the IRMs of the step that picks it, and every heuristic (they read those IRMs);
+* a moved object: the IRMs of the steps that pick and place it, and every heuristic (they read those IRMs);
 * added or removed obstacles: everything (the feasible base cells and their allowed yaws changed);
 * a new start pose: nothing.
 
@@ -75,17 +75,26 @@ class StepProblems:
             for key, cands in by_cells.items():
                 cells, masks = near[key]
                 window = Window.around(cells, nav.shape)
-                maps = manipulation_maps(rmap, [c.poses for c in cands], nav, self.yaws, cells, window, masks)
-                results.update({id(c): (window, *m) for c, m in zip(cands, maps)})
+                # a place of one grasp turned by a half turn is often another grasp's place: one IRM
+                distinct = list({c.poses.tobytes(): c for c in cands}.values())
+                maps = manipulation_maps(rmap, [c.poses for c in distinct], nav, self.yaws, cells, window, masks)
+                results.update({c.poses.tobytes(): (window, *m) for c, m in zip(distinct, maps)})
             for cand in candidates:
                 z = cand.poses[:, 2, 3]
-                opts.append(Option(arm, cand, *results[id(cand)], bool(np.any((z < lo) | (z >= hi)))))
+                opts.append(Option(arm, cand, *results[cand.poses.tobytes()], bool(np.any((z < lo) | (z >= hi)))))
         return opts
 
-    def feasible_region(self, i: int) -> np.ndarray:
-        """(ny, nx) bool: base cells from which some arm and candidate of step i reach the threshold."""
+    def pairs(self, i: int) -> set[tuple[str, str | None]]:
+        """The (arm, grasp) pairs of step i's options that keep the threshold somewhere: for a place,
+        the arms and grasps with which the object picked before can be set down."""
+        return {(o.arm, o.candidate.grasp) for o in self.options(i) if o.value.size and
+                float(o.value.max()) >= self.config.threshold}
+
+    def feasible_region(self, i: int, options: list[Option] | None = None) -> np.ndarray:
+        """(ny, nx) bool: base cells from which some arm and candidate of step i (of ``options``,
+        default all of the step's) reach the threshold."""
         mask = np.zeros(self.world.nav.shape, dtype=bool)
-        for o in self.options(i):
+        for o in self.options(i) if options is None else options:
             mask[o.window.slices] |= o.value >= self.config.threshold
         return mask
 
@@ -100,12 +109,16 @@ class StepProblems:
     def changed(self, scene: Scene, world: World, moved_objects: set[str]) -> StepProblems:
         """A cache for the changed ``scene`` (and ``world``) that keeps what the change left valid.
 
-        The IRMs of steps that do not pick a moved object are kept; with a new ``world`` (obstacles
+        The IRMs of steps that do not pick or place a moved object (or place on a changed obstacle) are kept; with a new ``world`` (obstacles
         changed) they are refreshed on the cells whose allowed yaws changed (see refresh.py) when a
         step first needs them, and the heuristics are dropped. ``self`` is not modified.
         """
         new = StepProblems(scene, world, self.maps, self.config, self.yaws)
-        moved = {i for i, s in enumerate(self.steps) if s.action == "pick" and s.target in moved_objects}
+        # a moved object's place poses follow its orientation when picked: its place too
+        moved = {i for i, s in enumerate(self.steps) if s.carries is not None and s.carries in moved_objects}
+        if world is not self.world:  # a place rests on the obstacles: one added or removed may move it
+            moved |= {i for i, s in enumerate(self.steps) if s.action == "place" and i in self._options | self._stale
+                      and not _same_places(self._candidates_of(i), step_candidates(scene, s, self.config))}
         kept = {i: o for i, o in self._options.items() if i not in moved}
         new._stale = {i: v for i, v in self._stale.items() if i not in moved}
         if world is not self.world:  # refreshed on first use: an update touches only what it re-plans
@@ -116,3 +129,12 @@ class StepProblems:
             stale = moved | {i + 1 for i in moved}
             new._heuristic = {k: h for k, h in self._heuristic.items() if k[0] not in stale}
         return new
+
+    def _candidates_of(self, i: int) -> list:
+        """The candidates step i's cached options were computed for (one per option of the first arm)."""
+        opts = self._options[i] if i in self._options else self._stale[i][0]
+        return [o.candidate for o in opts[:len(opts) // max(len(self.maps), 1)]]
+
+
+def _same_places(a: list, b: list) -> bool:
+    return len(a) == len(b) and all(np.array_equal(x.poses, y.poses) for x, y in zip(a, b))

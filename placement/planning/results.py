@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..robots import Robot, matrix_to_pose
+from .transfer import UPRIGHT_TOLERANCE, tilt_between
 from .verify import base_matrix
 
 
@@ -59,6 +60,11 @@ class StepResult:
         manipulability: the IRM value at the placement (dimensionless). cost: Eq. 6's terms.
         travel_time_s: navigation cost / v_max [s]. timings_ms: per stage [ms].
         diagnosis: of an infeasible step, why (see :func:`placement.planning.explain.explain`).
+        trajectory: the chosen TCP trajectory's name (a place's: ``GRASP@yawDEG``, see
+            :mod:`placement.planning.transfer`; default ``grasp``).
+        object: the object a pick takes or a place sets down (None for a reach).
+        placed_pose: a place's (4, 4) world pose of the object set down; support: the obstacle it
+            stands on (None: none under it).
         tried: placements the IK search tried; not part of the JSON.
         maps: the step's layers when they were kept (plots); not part of the JSON.
     """
@@ -84,6 +90,10 @@ class StepResult:
     clearance_m: float | None = None
     diagnosis: dict | None = None
     tried: int = 0
+    trajectory: str | None = None
+    object: str | None = None
+    placed_pose: np.ndarray | None = None
+    support: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -97,7 +107,7 @@ class StepResult:
         names = self.joints_of_arm()
         return {
             "step": self.step, "action": self.action, "target": self.target, "arm": self.arm, "grasp": self.grasp,
-            "trajectory": self.grasp,
+            "trajectory": self.trajectory or self.grasp,
             "base": [round(float(v), 6) for v in self.base],
             "tcp": [matrix_to_pose(T) for T in self.tcp],
             "poses": [{"pose": matrix_to_pose(T), "joints": {n: float(v) for n, v in zip(names, q)}}
@@ -109,7 +119,17 @@ class StepResult:
                      "manipulation": self.cost.manipulation, "heuristic": self.cost.heuristic},
             "travel_time_s": float(self.travel_time_s),
             "timings_ms": timings,
-        }
+        } | self._transfer_json()
+
+    def _transfer_json(self) -> dict:
+        """The object of a pick or place; a place's final object pose and support."""
+        if self.object is None:
+            return {}
+        out: dict = {"object": self.object}
+        if self.placed_pose is not None:
+            out["placed_pose"] = matrix_to_pose(self.placed_pose)
+            out["support"] = self.support
+        return out
 
 
     def joints_of_arm(self) -> list[str]:
@@ -163,8 +183,10 @@ class PlanResult:
     def verify(self, robot: Robot, pos_tol: float = 0.01, rot_tol: float = math.radians(3)) -> list[str]:
         """Independent checks of every planned step with pinocchio FK: joints within limits, fixed
         joints at their values, the TCP at every pose of the trajectory with that pose's joints (the
-        last with ``joints``) (``pos_tol`` [m], ``rot_tol`` [rad]). Returns the problems found
-        (empty: the plan holds)."""
+        last with ``joints``) (``pos_tol`` [m], ``rot_tol`` [rad]); and every transfer: the place
+        by the pick's arm and grasp, the object turned about the vertical only (within
+        :data:`~placement.planning.transfer.UPRIGHT_TOLERANCE`). Returns the problems found (empty:
+        the plan holds)."""
         problems = []
         for s in self.steps:
             if not s.ok:
@@ -182,6 +204,7 @@ class PlanResult:
                 problems.append(f"{where}: the last pose's joints differ from the step's joints")
             qs[-1] = q
             B = base_matrix(*s.base)
+            problems += transfer_problems(s, self.steps, where, rot_tol=UPRIGHT_TOLERANCE)
             for i, (want, qi) in enumerate(zip(np.asarray(s.tcp), qs)):
                 if np.any(qi < arm.lower - 1e-9) or np.any(qi > arm.upper + 1e-9):
                     problems.append(f"{where}: pose {i}: joints outside their limits")
@@ -191,3 +214,24 @@ class PlanResult:
                 if err > pos_tol or ang > rot_tol:
                     problems.append(f"{where}: pose {i}: TCP off by {err * 100:.1f} cm and {math.degrees(ang):.1f} deg")
         return problems
+
+
+def transfer_problems(s: StepResult, steps: list[StepResult], where: str, rot_tol: float) -> list[str]:
+    """What is wrong with the transfer that place step ``s`` ends (empty for other steps): its pick
+    (the last pick before it of the same object) must have the same arm and grasp, and the TCP's
+    rotation from the grasp to the place must turn about the vertical only (the object is rigid in
+    the hand, so that is the object's turn) within ``rot_tol`` [rad]."""
+    if s.action != "place" or s.object is None:
+        return []
+    before = steps[:next(i for i, x in enumerate(steps) if x is s)]
+    pick = next((p for p in reversed(before) if p.action == "pick" and p.object == s.object), None)
+    if pick is None or not pick.ok:
+        return [f"{where}: no planned pick of '{s.object}' before it"]
+    out = []
+    if (pick.arm, pick.grasp) != (s.arm, s.grasp):
+        out.append(f"{where}: placed by arm {s.arm} with grasp {s.grasp}, picked by arm {pick.arm} with "
+                   f"grasp {pick.grasp}")
+    tilt = tilt_between(np.asarray(s.tcp)[-1][:3, :3], np.asarray(pick.tcp)[-1][:3, :3])
+    if tilt > rot_tol:
+        out.append(f"{where}: '{s.object}' set down tilted {math.degrees(tilt):.1f} deg from how it was picked")
+    return out

@@ -26,6 +26,7 @@ import numpy as np
 from ..kernels.grid import zyx_angles
 from .manipulation import pose_slices
 from .ranking import Ranked, combined_cost
+from .transfer import held_object
 from .verify import TrajectoryIK, base_matrix, trajectory_ik
 
 if TYPE_CHECKING:
@@ -86,21 +87,17 @@ class Search:
         return Counter(f.culprit for f in self.failures if f.kind == "collision" and f.culprit)
 
 
-def grasped_object(planner: Planner, step: Step) -> str | None:
-    """The object in the gripper during ``step``: the picked one (pick, and the place after it)."""
+def collision_args(planner: Planner, step: Step, o: Option) -> dict:
+    """Keyword arguments of the collision check of option ``o`` of ``step``: a pick's gripper may
+    touch the object it grasps; a place carries its object (``held``: it moves with the gripper and
+    is no longer where the scene has it); objects picked before are ``gone`` (where earlier places
+    set them down is not modelled as an obstacle)."""
+    gone = [s.target for s in planner.problems.steps[:step.index] if s.action == "pick"]
     if step.action == "pick":
-        return step.target
-    if step.action == "place":
-        picks = [s for s in planner.problems.steps[:step.index] if s.action == "pick"]
-        return picks[-1].target if picks else None
-    return None
-
-
-def gone_objects(planner: Planner, step: Step) -> list[str]:
-    """Objects picked before ``step`` other than the one in the gripper: no longer where the scene
-    has them (where they were put down is not modelled)."""
-    held = grasped_object(planner, step)
-    return [s.target for s in planner.problems.steps[:step.index] if s.action == "pick" and s.target != held]
+        return {"grasped": step.target, "gone": [g for g in gone if g != step.target]}
+    if step.action == "place" and step.carries is not None and o.candidate.object_pose is not None:
+        return {"grasped": None, "gone": gone, "held": held_object(planner.scene.object(step.carries), o.candidate)}
+    return {"grasped": None, "gone": gone}
 
 
 def _wrap(a: float) -> float:
@@ -205,7 +202,6 @@ def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: l
     cfg, nav = planner.config, planner.world.nav
     xs, ys = nav.centres()
     collisions = getattr(planner, "collisions", None)
-    grasped, gone = grasped_object(planner, step), gone_objects(planner, step)
     out = Search()
     learn = _Learner(2 * math.pi / max(len(planner.yaws), 1), planner.robot)
     tried: set[tuple[int, int, float]] = set()
@@ -226,7 +222,7 @@ def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: l
         clearance = None
         if collisions is not None:
             t = time.perf_counter()
-            check = collisions.check(o.arm, ik.qs, base, grasped, gone=gone)
+            check = collisions.check(o.arm, ik.qs, base, **collision_args(planner, step, o))
             out.collision_ms += (time.perf_counter() - t) * 1e3
             clearance = float(check.clearance_m)
             if not check.free:

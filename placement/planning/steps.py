@@ -5,19 +5,25 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .config import PlannerConfig
-from .grasps import Candidate, box_grasps, in_world, oriented_places, place_candidates, top_grasps
+from .grasps import Candidate, box_grasps, in_world, top_grasps
 from .scene import Scene, SceneObject
+from .transfer import transfer_places
 
 
 @dataclass(frozen=True)
 class Step:
     """Step ``index`` of the task: ``action`` "pick" (an object), "place" (at a place location) or
-    "reach" (one of the named trajectories ``options``; ``target`` is their names joined by ",")."""
+    "reach" (one of the named trajectories ``options``; ``target`` is their names joined by ",").
+
+    ``carries``: the object a pick takes or a place sets down (None for a reach); ``pick``: a
+    place's pick step index (the transfer: same arm, same grasp)."""
 
     index: int
     action: str
     target: str
     options: tuple[str, ...] = ()
+    carries: str | None = None
+    pick: int | None = None
 
 
 def task_steps(scene: Scene) -> list[Step]:
@@ -27,28 +33,32 @@ def task_steps(scene: Scene) -> list[Step]:
         if t.reach:
             out.append(Step(len(out), "reach", ",".join(t.reach), t.reach))
         else:
-            out += [Step(len(out), "pick", t.pick), Step(len(out) + 1, "place", t.place)]
+            i = len(out)
+            out += [Step(i, "pick", t.pick, carries=t.pick), Step(i + 1, "place", t.place, carries=t.pick, pick=i)]
     return out
 
 
 def object_grasps(o: SceneObject, version: int) -> list[Candidate]:
     """The grasps (world frame) of ``o``: its own, else generated: top grasps as in version 1 scenes,
-    top and side grasps of the box in any orientation in version 2."""
+    top and side grasps of the box in any orientation in version 2. Each holds the object by itself
+    (``grasp`` is its name)."""
     if o.grasps:
-        return [in_world(g.name, o.pose, g.matrices()) for g in o.grasps]
-    if version < 2:
-        return top_grasps(o.position, o.yaw, o.size)
-    return box_grasps(o.pose, o.size)
+        found = [in_world(g.name, o.pose, g.matrices()) for g in o.grasps]
+    elif version < 2:
+        found = top_grasps(o.position, o.yaw, o.size)
+    else:
+        found = box_grasps(o.pose, o.size)
+    return [Candidate(c.name, c.poses, grasp=c.name) for c in found]
 
 
 def step_candidates(scene: Scene, step: Step, config: PlannerConfig) -> list[Candidate]:
-    """The TCP trajectories (world frame) that would do ``step``: grasps of the object, place
-    trajectories at the location's orientations or gripper yaws, or the named trajectories."""
+    """The TCP trajectories (world frame) that would do ``step``: grasps of the object, the object's
+    grasps carried to its allowed poses at the place location (:mod:`.transfer`), or the named
+    trajectories."""
     if step.action == "pick":
         return object_grasps(scene.object(step.target), scene.version)
     if step.action == "reach":
         return [Candidate(n, scene.trajectory(n).matrices()) for n in step.options]
-    loc = scene.place_location(step.target)
-    if loc.orientations is not None:
-        return oriented_places(loc.position, loc.orientations)
-    return place_candidates(loc.position, config.grasp_yaws)
+    obj = scene.object(step.carries)
+    return transfer_places(scene, obj, scene.place_location(step.target), object_grasps(obj, scene.version),
+                           config.grasp_yaws)

@@ -1,8 +1,9 @@
 """The ``optimal`` yardstick: the whole task at once by dynamic programming.
 
 Each step keeps a candidate set: the base cells on a 3-cell lattice whose 3 x 3
-neighbourhood keeps the map threshold, with their best (arm, grasp, yaw), the
-``CANDIDATES`` lowest manipulation costs per step. Exact navigation costs link
+neighbourhood keeps the map threshold, with their best option and yaw, per (arm, grasp)
+group the lowest manipulation costs (``CANDIDATES`` per step shared by the groups, at least
+``MIN_PER_GROUP`` each); a place may follow only its pick's group (same arm, same grasp). Exact navigation costs link
 consecutive candidate sets (one Dijkstra per candidate, stopped once the next
 step's candidates are settled), and the DP minimises the task's summed Eq. 6
 cost without heuristic, ``sum_i lambda_n nav(r_{i-1}, r_i) + lambda_m / m(r_i)``,
@@ -21,7 +22,7 @@ from scipy import ndimage
 from ..explain import explain
 from ..navigation import extract_path, navigation_cost
 from ..results import StepMaps, StepResult
-from ..search import gone_objects, grasped_object
+from ..search import collision_args
 from ..verify import trajectory_ik
 from .stepwise import placed, unreachable_reason
 
@@ -29,38 +30,58 @@ if TYPE_CHECKING:
     from ..planner import Planner
 
 CANDIDATES = 40
+MIN_PER_GROUP = 8
 LATTICE = 3
 MAX_REPAIRS = 30
 
 
 def _candidates(planner: Planner, i: int):
-    """(flat cells (k,), option index (k,), yaw (k,), value (k,)) of step i."""
+    """(flat cells (k,), option index (k,), yaw (k,), value (k,), group (k,)) of step i: per (arm,
+    grasp) group (a pick and its place keep both), the lattice cells with the best values."""
     threshold = planner.config.threshold
     nav = planner.world.nav
     opts = planner.problems.options(i)
-    best_val = np.zeros(nav.shape, np.float32)
-    best_opt = np.full(nav.shape, -1, np.int64)
-    for k, o in enumerate(opts):
-        inner = ndimage.minimum_filter(o.value, size=3, mode="constant", cval=0.0) >= threshold
-        v = np.where(inner, o.value, 0.0)
-        bv, bo = best_val[o.window.slices], best_opt[o.window.slices]
-        better = v > bv
-        bv[better] = v[better]
-        bo[better] = k
+    groups = sorted({_group(o) for o in opts})
     lattice = np.zeros(nav.shape, bool)
     lattice[::LATTICE, ::LATTICE] = True
-    flat = np.flatnonzero(lattice & (best_opt >= 0))
-    if flat.size == 0:  # tiny feasible set: fall back to every inner cell
-        flat = np.flatnonzero(best_opt >= 0)
-    flat = flat[np.argsort(-best_val.flat[flat], kind="stable")[:CANDIDATES]]
-    yaws = np.array([planner.yaws[opts[best_opt.flat[f]].yaw_at(*divmod(int(f), nav.shape[1]))] for f in flat])
-    return flat, best_opt.flat[flat], yaws, best_val.flat[flat].astype(float)
+    per_group = max(MIN_PER_GROUP, CANDIDATES // max(len(groups), 1))
+    out = [[], [], [], [], []]
+    for gi, group in enumerate(groups):
+        best_val = np.zeros(nav.shape, np.float32)
+        best_opt = np.full(nav.shape, -1, np.int64)
+        for k, o in enumerate(opts):
+            if _group(o) != group:
+                continue
+            inner = ndimage.minimum_filter(o.value, size=3, mode="constant", cval=0.0) >= threshold
+            v = np.where(inner, o.value, 0.0)
+            bv, bo = best_val[o.window.slices], best_opt[o.window.slices]
+            better = v > bv
+            bv[better] = v[better]
+            bo[better] = k
+        flat = np.flatnonzero(lattice & (best_opt >= 0))
+        if flat.size == 0:  # tiny feasible set: fall back to every inner cell
+            flat = np.flatnonzero(best_opt >= 0)
+        flat = flat[np.argsort(-best_val.flat[flat], kind="stable")[:per_group]]
+        yaws = [planner.yaws[opts[best_opt.flat[f]].yaw_at(*divmod(int(f), nav.shape[1]))] for f in flat]
+        for part, values in zip(out, (flat, best_opt.flat[flat], yaws, best_val.flat[flat].astype(float),
+                                      np.full(flat.size, gi))):
+            part.append(np.asarray(values))
+    flat, opt, yaw, value, group = (np.concatenate(p) if p else np.zeros(0) for p in out)
+    return (flat.astype(np.int64), opt.astype(np.int64), yaw.astype(float), value.astype(float),
+            np.array([groups[int(g)] for g in group], dtype=str) if group.size else np.zeros(0, dtype=str))
 
 
-def _dp(planner: Planner, start_cell, cands, live) -> list[int]:
-    """Indices into each step's candidates of the cheapest chain from ``start_cell``."""
+def _group(o) -> str:
+    """The (arm, grasp) an option commits a transfer to, as one string."""
+    return f"{o.arm}\n{o.candidate.grasp}"
+
+
+def _dp(planner: Planner, start_cell, cands, live) -> list[int] | None:
+    """Indices into each step's candidates of the cheapest chain from ``start_cell`` (None when no
+    chain keeps every transfer's arm and grasp)."""
     cfg, world = planner.config, planner.world
     shape = world.nav.shape
+    steps = planner.problems.steps
 
     def targets(i):
         m = np.zeros(shape, bool)
@@ -78,10 +99,15 @@ def _dp(planner: Planner, start_cell, cands, live) -> list[int]:
             src = divmod(int(cands[i - 1][0][j]), shape[1])
             c, _ = navigation_cost(world.factor, world.feasible, src, world.nav.resolution, targets=tgt)
             trans[a] = c.flat[nxt_cells]
+        if steps[i].pick == i - 1:  # a place: the arm and grasp of its pick
+            same = cands[i - 1][4][live[i - 1]][:, None] == cands[i][4][live[i]][None, :]
+            trans[~same] = np.inf
         total = cost[:, None] + cfg.lambda_n * trans
         arg = np.argmin(total, axis=0)
         back.append(arg)
         cost = total[arg, np.arange(live[i].size)] + cfg.lambda_m / cands[i][3][live[i]]
+    if not np.isfinite(cost).any():
+        return None
     choice = [int(np.argmin(cost))]
     for arg in reversed(back):
         choice.append(int(arg[choice[-1]]))
@@ -109,6 +135,9 @@ def plan_optimal(planner: Planner, start_cell, keep_maps: bool = False) -> list[
                 return [_infeasible(steps[i], *explain(planner, steps[i], opts, None,
                                                        unreachable_reason(planner, opts)))]
         chosen = _dp(planner, start_cell, cands, live)
+        if chosen is None:
+            return [_infeasible(steps[0], "no chain of DP candidates keeps each object's arm and grasp from its pick "
+                                          "to its place")]
         out, prev_cell, failed = [], start_cell, None
         q_state = {arm: planner.robot.arm(arm).home.copy() for arm in planner.maps}
         xs, ys = nav.centres()
@@ -121,8 +150,7 @@ def plan_optimal(planner: Planner, start_cell, keep_maps: bool = False) -> list[
                                getattr(planner.maps[o.arm], "witness_q", None))
             clearance = free = None
             if ik.ok and getattr(planner, "collisions", None) is not None:
-                check = planner.collisions.check(o.arm, ik.qs, base, grasped_object(planner, steps[i]),
-                                                gone_objects(planner, steps[i]))
+                check = planner.collisions.check(o.arm, ik.qs, base, **collision_args(planner, steps[i], o))
                 clearance, free = float(check.clearance_m), bool(check.free)
             if not ik.ok or free is False:
                 failed = (i, j)

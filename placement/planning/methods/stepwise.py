@@ -36,37 +36,118 @@ def rank_eq6(planner: Planner, options: list[Option], nav_cost: np.ndarray,
 
 
 def plan_stepwise(planner: Planner, start_cell: tuple[int, int], rank: Ranker, keep_maps: bool) -> list[StepResult]:
-    """Plan the steps in order from ``start_cell``, each from the previous placement; stops at the
-    first infeasible step (it is the last result)."""
+    """Plan the steps in order from ``start_cell``, each from the previous placement; a pick and its
+    place as one transfer (:func:`plan_transfer`); stops at the first infeasible step (it is the
+    last result)."""
     prev_cell = start_cell
     prev_q = {arm: planner.robot.arm(arm).home.copy() for arm in planner.maps}
-    out = []
-    for step in planner.problems.steps:
-        t0 = time.perf_counter()
-        result, cell = plan_step(planner, step, prev_cell, prev_q, rank, keep_maps)
-        result.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
-        out.append(result)
-        if not result.ok:
+    steps = planner.problems.steps
+    out: list[StepResult] = []
+    i = 0
+    while i < len(steps):
+        step = steps[i]
+        if step.action == "pick" and i + 1 < len(steps) and steps[i + 1].pick == i:
+            results, cell = plan_transfer(planner, step, steps[i + 1], prev_cell, prev_q, rank, keep_maps)
+        else:
+            t0 = time.perf_counter()
+            result, cell = plan_step(planner, step, prev_cell, prev_q, rank, keep_maps)
+            result.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
+            results = [result]
+        out += results
+        if not results[-1].ok:
             break
         prev_cell = cell
-        prev_q[result.arm] = result.q
+        for r in results:
+            prev_q[r.arm] = r.q
+        i += len(results)
     return out
 
 
+def plan_transfer(planner: Planner, pick: Step, place: Step, prev_cell, prev_q: dict, rank: Ranker,
+                  keep_maps: bool) -> tuple[list[StepResult], tuple[int, int] | None]:
+    """A pick and its place with the same arm and grasp.
+
+    The pick may use only the (arm, grasp) pairs with which the maps reach a place pose of the
+    object (:meth:`StepProblems.pairs`); the place then uses the pick's pair only. When that place
+    does not verify, the pick is planned again without the pair, until a pair verifies both or
+    none is left: the pick step is then infeasible, and its reason says, per arm and grasp, what
+    failed at which place. Returns the pick's and the place's results (the pick's alone when
+    infeasible) and the place's cell."""
+    problems = planner.problems
+    t0 = time.perf_counter()
+    picks = {(o.arm, o.candidate.grasp) for o in problems.options(pick.index)}
+    viable = problems.pairs(place.index)
+    failed: dict[tuple, str] = {p: "" for p in picks - viable}  # pair -> its place's failure ("": by the maps)
+    while True:
+        allowed = picks - failed.keys()
+        if not allowed:
+            result = StepResult(pick.index, pick.action, pick.target, status="infeasible",
+                                reason=transfer_reason(planner, pick, place, failed),
+                                diagnosis={"place": place.target, "transfers": transfer_diagnosis(failed)},
+                                timings_ms={"total": (time.perf_counter() - t0) * 1e3})
+            return [result], None
+        first, cell = plan_step(planner, pick, prev_cell, prev_q, rank, keep_maps, allowed)
+        if not first.ok:
+            if failed:
+                first.reason += f" (not tried: {excluded_words(failed)}, which cannot set '{pick.target}' " \
+                                f"down at '{place.target}')"
+            first.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
+            return [first], None
+        t1 = time.perf_counter()
+        pair = (first.arm, first.grasp)
+        second, cell = plan_step(planner, place, cell, {**prev_q, first.arm: first.q}, rank, keep_maps, {pair})
+        second.timings_ms["total"] = (time.perf_counter() - t1) * 1e3
+        if second.ok:
+            first.timings_ms["total"] = (t1 - t0) * 1e3
+            return [first, second], cell
+        failed[pair] = second.reason or "infeasible"
+
+
+def excluded_words(failed: dict) -> str:
+    """"arm left: top, top-flipped; arm right: top" for the (arm, grasp) pairs of ``failed``."""
+    arms: dict[str, list] = {}
+    for arm, grasp in sorted(failed, key=lambda p: (p[0], str(p[1]))):
+        arms.setdefault(arm, []).append(str(grasp))
+    return "; ".join(f"arm {a}: {', '.join(g)}" for a, g in arms.items())
+
+
+def transfer_reason(planner: Planner, pick: Step, place: Step, failed: dict) -> str:
+    """Why no (arm, grasp) of ``pick`` sets its object down at ``place``, in one line."""
+    unreached = {p: r for p, r in failed.items() if not r}
+    tried = {p: r for p, r in failed.items() if r}
+    parts = []
+    if unreached:
+        parts.append(f"{excluded_words(unreached)}: no base placement reaches a place pose with the map threshold "
+                     f"{planner.config.threshold:g}")
+    for p, r in tried.items():
+        parts.append(f"arm {p[0]}, grasp {p[1]}: picked, but the place failed: {r}")
+    return (f"no grasp of '{pick.target}' lets the arm that picks it set it down at '{place.target}' "
+            f"(a transfer keeps the arm and the grasp): {'; '.join(parts)}")
+
+
+def transfer_diagnosis(failed: dict) -> list[dict]:
+    """Per (arm, grasp) pair: why its place failed (JSON)."""
+    return [{"arm": a, "grasp": g, "failed": r or "no place pose keeps the map threshold"}
+            for (a, g), r in sorted(failed.items(), key=lambda kv: (kv[0][0], str(kv[0][1])))]
+
+
 def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranker,
-              keep_maps: bool) -> tuple[StepResult, tuple[int, int] | None]:
-    """The best verified placement of one step (or an infeasible result) and its cell."""
+              keep_maps: bool, pairs: set | None = None) -> tuple[StepResult, tuple[int, int] | None]:
+    """The best verified placement of one step (or an infeasible result) and its cell; ``pairs``:
+    the (arm, grasp) pairs the step may use (default all)."""
     cfg, problems, world = planner.config, planner.problems, planner.world
     nav = world.nav
     timings: dict[str, float] = {}
     t = time.perf_counter()
     opts = problems.options(step.index)
+    if pairs is not None:
+        opts = [o for o in opts if (o.arm, o.candidate.grasp) in pairs]
     steer = step.index + 1 < len(problems.steps) and cfg.lambda_nh > 0
     if steer:
         problems.options(step.index + 1)  # the next step's IRMs: manipulation work, cached for that step
     timings["manipulation"] = (time.perf_counter() - t) * 1e3
     # only this step's candidate cells are read from the cost maps (all cells for plots)
-    needed = None if keep_maps or planner.method == "fixed" else problems.feasible_region(step.index)
+    needed = None if keep_maps or planner.method == "fixed" else problems.feasible_region(step.index, opts)
     t = time.perf_counter()
     nav_cost, pred = navigation_cost(world.factor, world.feasible, prev_cell, nav.resolution, targets=needed)
     timings["navigation"] = (time.perf_counter() - t) * 1e3
@@ -134,8 +215,10 @@ def placed(planner: Planner, step: Step, o: Option, base, qs: np.ndarray, nav_c:
     joints = {name: float(v) for name, v in zip(arm.joints, q)}
     joints.update(planner.robot.fixed_joints)
     cost = Cost(cfg.lambda_n * nav_c, cfg.lambda_m / value, cfg.lambda_nh * heur_c)
-    return StepResult(step.index, step.action, step.target, arm=o.arm, grasp=o.candidate.name,
-                      base=(base[0], base[1], base[2]), tcp=o.candidate.poses, q=q, qs=qs, joints=joints,
+    c = o.candidate
+    return StepResult(step.index, step.action, step.target, arm=o.arm, grasp=c.grasp or c.name,
+                      base=(base[0], base[1], base[2]), tcp=c.poses, q=q, qs=qs, joints=joints,
                       clearance_m=clearance_m,
                       manipulability=value, cost=cost, travel_time_s=nav_c / planner.robot.v_max,
-                      timings_ms=timings)
+                      timings_ms=timings, trajectory=c.name, object=step.carries, placed_pose=c.object_pose,
+                      support=c.support)

@@ -204,8 +204,11 @@ class SceneObject(ArrayEq):
 
 @dataclass(frozen=True, eq=False)
 class PlaceLocation(ArrayEq):
-    """Where an object is put down: the TCP target ``position`` (3,) [m], and optionally the allowed
-    TCP ``orientations`` (k, 4) [x, y, z, w] (None: top-down at the planner's ``grasp_yaws``)."""
+    """Where an object is set down: centred on ``position`` (3,) [m] x, y, resting on the highest
+    obstacle top at most 0.25 m below its z (else with its lowest point at z; a version 1 file's
+    TCP target 0.1 m above a table finds the table), and optionally the object's allowed world
+    ``orientations`` (k, 4) [x, y, z, w], each its picked orientation turned about z (None: turned
+    by the planner's ``grasp_yaws``). See :mod:`placement.planning.transfer`."""
 
     name: str
     position: np.ndarray

@@ -58,6 +58,7 @@ from ...robots.preset import builtin_presets
 from ...simplicity import self_crossing
 from ..config import PLANNER_BOUNDS, PLANNER_KEYS
 from .checks import TOLERANCE, object_penetrates, obstacles_near, overlapping_objects, point_inside
+from .places import check_place_orientations
 from .model import (
     Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, Shape, TaskStep, Trajectory,
     grid_shape, is_path,
@@ -309,6 +310,7 @@ def check_scene(scene: Scene, where: str, objects: set[str] | None = None,
             if pair(pl.name, ob.name) and point_inside(pl.position, ob.shape):
                 P.fail(f"place_locations[{i}].position", f"place location '{pl.name}' is inside obstacle "
                                                          f"'{ob.name}'")
+    check_place_orientations(scene, P)
     return scene
 
 

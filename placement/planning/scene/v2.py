@@ -4,7 +4,7 @@
       - {name: can, position: [x, y, z], orientation: [qx, qy, qz, qw], size: [sx, sy, sz],
          grasps: [{name: g, poses: [[x, y, z, qx, qy, qz, qw], ...]}]}   # object frame, pre-pose first
     place_locations:
-      - {name: shelf, position: [x, y, z], orientations: [[qx, qy, qz, qw], ...]}   # allowed TCP rotations
+      - {name: shelf, position: [x, y, z], orientations: [[qx, qy, qz, qw], ...]}   # allowed object rotations
     trajectories:                    # world frame, pre-pose first
       - {name: drawer, poses: [[x, y, z, qx, qy, qz, qw], ...]}
     task:
@@ -99,7 +99,7 @@ class PoseParser(Validator):
     def orientations(self, value, path: str) -> np.ndarray:
         """A place location's ``orientations``: a non-empty list of quaternions -> (k, 4)."""
         if not isinstance(value, list) or not value:
-            got = "an empty list (omit 'orientations' for top-down places)" if isinstance(value, list) \
+            got = "an empty list (omit 'orientations' to allow every turn about z)" if isinstance(value, list) \
                 else describe(value)
             self.fail(path, f"expected a list of quaternions [x, y, z, w], got {got}")
         if len(value) > MAX_POSES:

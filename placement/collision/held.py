@@ -1,0 +1,107 @@
+"""The object in the gripper, carried along a place trajectory, as a collision body.
+
+The held object is its bounding box, rigidly attached to the TCP (``tcp_to_object``, see
+:class:`placement.planning.transfer.Held`). At every pose of the trajectory it is checked against
+
+* every scene piece (obstacles, tables, objects still where the scene has them, occupancy cells)
+  with the checker's ``padding``, except its support (the obstacle it is set on): the object
+  rests on that one, so against it the box is checked with its lowest face raised by
+  :data:`SUPPORT_TOLERANCE` and no padding (it may touch the surface, not pass through it);
+* every robot shape except the gripper of the arm that holds it (the fingers close on the object).
+
+Only pieces whose bounds come within reach are given to coal; a free trajectory measures the
+object's distance to the scene pieces other than its support (the clearance of the place).
+"""
+
+from __future__ import annotations
+
+import coal
+import numpy as np
+
+from .scene import box_aabb
+
+#: [m] how far the held object may sink into the surface it is set on (its lowest face is raised
+#: by this much against the support): the place puts it exactly on the surface.
+SUPPORT_TOLERANCE = 0.01
+
+
+def support_box(size, T_obj: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(size (3,), offset (4, 4) in the object frame) of the box ``size`` [m] at pose ``T_obj`` with
+    its lowest face (the axis nearest world z) raised by :data:`SUPPORT_TOLERANCE`."""
+    size = np.asarray(size, dtype=float).copy()
+    m = int(np.argmax(np.abs(T_obj[2, :3])))
+    cut = min(SUPPORT_TOLERANCE, 0.5 * size[m])
+    size[m] -= cut
+    offset = np.eye(4)
+    offset[m, 3] = 0.5 * cut * (1.0 if T_obj[2, m] >= 0 else -1.0)
+    return size, offset
+
+
+def _tf(T: np.ndarray) -> coal.Transform3s:
+    return coal.Transform3s(T[:3, :3], T[:3, 3])
+
+
+class HeldCheck:
+    """One check of a held object along a trajectory (see the module docstring).
+
+    Args:
+        held: the :class:`~placement.planning.transfer.Held` object.
+        world: (P, 4, 4) the object's world pose at every trajectory pose.
+        padding: robot/object-scene distance below which they collide [m]; cap: distances measured up to [m].
+    """
+
+    def __init__(self, held, world: np.ndarray, padding: float, cap: float):
+        self.held, self.world, self.padding, self.cap = held, world, padding, cap
+        self.box = coal.Box(*(float(v) for v in held.size))
+        size, self.offset = support_box(held.size, world[-1])
+        self.trimmed = coal.Box(*(float(v) for v in size))
+        self.req = coal.CollisionRequest()
+        self.req.security_margin = padding
+        self.touch = coal.CollisionRequest()
+        self.radius = 0.5 * float(np.linalg.norm(held.size))
+
+    def scene(self, pieces: list, skip: set[str]) -> tuple[tuple[float, str, int] | None, float]:
+        """First collision with the scene ``pieces`` (:class:`~.scene.SceneShape`, named ``skip``
+        ignored) as (signed distance [m], piece name, pose index), and the clearance [m] (capped)."""
+        best = self.cap
+        for p, T in enumerate(self.world):
+            lo, hi = box_aabb(T, self.held.size)
+            for piece in pieces:
+                if piece.name in skip:
+                    continue
+                gap = np.maximum(piece.aabb[0] - hi, 0.0) + np.maximum(lo - piece.aabb[1], 0.0)
+                if float(np.linalg.norm(gap)) > max(self.cap, self.padding):
+                    continue
+                on = piece.name == self.held.support
+                g, Tg, req = (self.trimmed, T @ self.offset, self.touch) if on else (self.box, T, self.req)
+                res = coal.CollisionResult()
+                if coal.collide(g, _tf(Tg), piece.geometry, _tf(piece.pose), req, res):
+                    return (self._distance(g, Tg, piece.geometry, piece.pose), piece.name, p), 0.0
+                if not on:
+                    best = min(best, self._distance(g, Tg, piece.geometry, piece.pose))
+        return None, best
+
+    def robot(self, A: np.ndarray, inst: dict, operand) -> tuple[float, int, int] | None:
+        """First collision with a robot shape instance of the checker's ``inst`` (model frame, ``A``
+        world -> model), gripper instances excepted: (distance [m], instance, pose index).
+        ``operand(k)`` gives (geometry, hull, hull is exact, coal transform) of instance k."""
+        for p, T in enumerate(self.world):
+            Tm = A @ T
+            near = np.linalg.norm(inst["centre"] - Tm[:3, 3], axis=1) <= inst["radius"] + self.radius
+            near &= ~inst["gripper"] & ((inst["pose"] == p) | (inst["pose"] < 0))
+            for k in np.flatnonzero(near):
+                g, hull, exact, Tk = operand(int(k))
+                res = coal.CollisionResult()
+                if not coal.collide(self.box, _tf(Tm), hull, Tk, self.touch, res):
+                    continue
+                res = coal.CollisionResult()
+                if exact or coal.collide(self.box, _tf(Tm), g, Tk, self.touch, res):
+                    return self._distance(self.box, Tm, g, Tk), int(k), p
+        return None
+
+    @staticmethod
+    def _distance(g1, T1, g2, T2) -> float:
+        res = coal.DistanceResult()
+        T1 = T1 if isinstance(T1, coal.Transform3s) else _tf(T1)
+        T2 = T2 if isinstance(T2, coal.Transform3s) else _tf(T2)
+        return float(coal.distance(g1, T1, g2, T2, coal.DistanceRequest(), res))
