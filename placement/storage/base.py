@@ -194,10 +194,12 @@ class StoredMap(ABC):
     def _direct(self, arm: str, witness: bool, what: str, read):
         """``read(reader)`` with the arm's :class:`ChunkReader`, any failure one MapError naming ``what``."""
         cache = self.__dict__.setdefault("_readers", {})
-        if (arm, witness) not in cache:
-            cache[(arm, witness)] = self._reader(arm, witness, self._array(arm, witness))
         try:
+            if (arm, witness) not in cache:
+                cache[(arm, witness)] = self._reader(arm, witness, self._array(arm, witness))
             return read(cache[(arm, witness)])
+        except MapError:
+            raise
         except FileRefused as exc:
             raise MapError(f"{self.path}: {what} of arm '{arm}': {first_line(exc)}; rebuild the map") from None
         except Exception as exc:  # codec and I/O errors
