@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import threading
 import warnings
 from abc import ABC, abstractmethod
 from pathlib import Path
@@ -245,15 +246,15 @@ class Backend(ABC):
 
 
 def partial_path(target: Path) -> Path:
-    """Where this process writes the map ``target`` before swapping it in: a hidden sibling."""
-    return target.with_name(f".{target.name}.partial-{os.getpid()}")
+    """Where this thread writes the map ``target`` before swapping it in: a hidden sibling."""
+    return target.with_name(f".{target.name}.partial-{os.getpid()}-{threading.get_native_id()}")
 
 
 def atomic_replace(backend: Backend, target: Path, root: dict, arms: dict) -> None:
     """Write via a sibling partial path, then swap it in; the old map survives a failure."""
     target = Path(target)
     partial = partial_path(target)
-    old = target.with_name(f".{target.name}.old-{os.getpid()}")
+    old = target.with_name(f".{target.name}.old-{os.getpid()}-{threading.get_native_id()}")
     _remove(partial)
     try:
         backend.write(partial, root, arms)
