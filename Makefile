@@ -1,16 +1,24 @@
 # All targets use the project's own virtual environment (.venv), created by `make install`.
 PY ?= .venv/bin/python
+# The compiled kernels' cache: placement itself defaults NUMBA_CACHE_DIR to <venv>/numba-cache
+# (placement/__init__.py), so .venv/bin/placement finds what `make install` compiled; same place here.
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 
-.PHONY: install test maps maps-armar6 demo bench bench-eval eval robots clean
+.PHONY: install constraints test maps maps-armar6 demo bench bench-eval eval robots clean
 
 install: .venv/installed $(NUMBA_CACHE_DIR)/warm
 
-.venv/installed: pyproject.toml
+# Installs the exact versions the suite passes with (constraints.txt); pyproject.toml holds the bounds.
+.venv/installed: pyproject.toml constraints.txt
 	python3 -m venv .venv
 	.venv/bin/pip install -q --upgrade pip
-	.venv/bin/pip install -q -e '.[test]'
+	.venv/bin/pip install -q -c constraints.txt -e '.[test]'
 	touch $@
+
+# After an upgrade in .venv that passes `make test`: pin what is installed now.
+constraints:
+	{ sed -n '/^#/p' constraints.txt; .venv/bin/pip list --format=freeze --exclude-editable | grep -Ev '^(pip|setuptools|wheel)=='; } > constraints.txt.new
+	mv constraints.txt.new constraints.txt
 
 # Compiles every numba kernel into the cache, so that no command compiles on first use
 # (84 s on 2 shared cores; again whenever a kernel source changes).

@@ -5,18 +5,39 @@ maps (:func:`build_map`, :func:`open_map`, :func:`check_map`), IK, and planning 
 :class:`Planner`, typed results). No viewer or plotting module is imported here.
 """
 
-from .errors import (
+import os as _os
+import sys as _sys
+
+
+def _default_numba_cache_dir() -> "str | None":
+    """Where the compiled kernels live when ``NUMBA_CACHE_DIR`` is unset: ``<venv>/numba-cache``.
+
+    ``make install`` compiles every kernel there (``python -m placement.warmup``), so every entry
+    point of the environment (``.venv/bin/placement``, ``python -m placement...``, pytest, a notebook)
+    finds them. Outside a virtual environment (``sys.prefix`` is the system's) nothing is set and the
+    kernels use ``~/.cache/placement/numba`` (:mod:`placement.kernels`).
+    """
+    if _sys.prefix == _sys.base_prefix:
+        return None
+    return _os.path.join(_sys.prefix, "numba-cache")
+
+
+# before anything imports numba or placement.kernels (which reads the variable)
+if not _os.environ.get("NUMBA_CACHE_DIR") and _default_numba_cache_dir():
+    _os.environ["NUMBA_CACHE_DIR"] = _default_numba_cache_dir()
+
+from .errors import (  # noqa: E402
     ArmNotFound, FrameNotFound, GridError, JointNotFound, MapError, PlacementError, PresetError, RobotError,
 )
-from .grid import Grid
-from .ik import IKResult, solve_ik
-from .manipulability import extended_manipulability
-from .planning import PlannerConfig, PlanResult, StepResult
-from .planning.planner import Planner, plan
-from .rmap import ReachabilityMap, open_map, save_maps
-from .robots import Arm, Robot, load_robot
-from .storage.format import BuiltMap
-from .version import __version__
+from .grid import Grid  # noqa: E402
+from .ik import IKResult, solve_ik  # noqa: E402
+from .manipulability import extended_manipulability  # noqa: E402
+from .planning import PlannerConfig, PlanResult, StepResult  # noqa: E402
+from .planning.planner import Planner, plan  # noqa: E402
+from .rmap import ReachabilityMap, open_map, save_maps  # noqa: E402
+from .robots import Arm, Robot, load_robot  # noqa: E402
+from .storage.format import BuiltMap  # noqa: E402
+from .version import __version__  # noqa: E402
 
 # the map builder and the accuracy check pull in the sampler, tqdm and coal: loaded on first use, so
 # that opening a map (the online path) does not pay for them

@@ -17,6 +17,7 @@ import pytest  # noqa: E402
 import yaml  # noqa: E402
 
 import placement  # noqa: E402
+from skip_summary import pytest_terminal_summary  # noqa: E402,F401  (the run's closing skip summary)
 
 ARMAR6_URDF = Path(__file__).resolve().parents[2] / "shared/robots/armar6/Armar6.urdf"
 
