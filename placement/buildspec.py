@@ -18,6 +18,7 @@ import yaml
 from .errors import PlacementError
 from .manipulability import INDEX_NAMES
 from .storage import BACKENDS
+from .storage.files import FileRefused, read_bounded
 
 MAX_SAMPLES = 10 ** 11          # ~1 day of sampling at 1.2 M samples/s [count per arm]
 MAX_SEED = 2 ** 64 - 1          # seeds are uint64
@@ -184,15 +185,19 @@ def parse_build_spec(data, source: str = "build spec") -> BuildSpec:
     return BuildSpec(**{key: parsers[key](value, f"{source}: {key}") for key, value in data.items()})
 
 
+#: a build spec file is read only up to this size [bytes] (the default one has under 1 kB)
+MAX_SPEC_BYTES = 1 << 20
+
+
 def load_build_spec(path: str | Path) -> BuildSpec:
     """Read and check the build spec YAML at ``path``."""
     source = f"build spec {path}"
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        text = read_bounded(path, MAX_SPEC_BYTES).decode("utf-8")
     except FileNotFoundError:
         raise PlacementError(f"{source} not found") from None
-    except IsADirectoryError:
-        raise PlacementError(f"{source} is a directory, not a YAML file") from None
+    except FileRefused as exc:  # a directory, FIFO, device or a file too large for a spec
+        raise PlacementError(f"build spec {exc}") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise PlacementError(f"{source} cannot be read ({type(exc).__name__})") from None
     return parse_build_spec_text(text, source)

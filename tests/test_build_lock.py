@@ -156,3 +156,25 @@ def test_an_output_that_cannot_be_written_fails_before_sampling(tmp_path, where)
     assert time.monotonic() - t0 < 45
     if where == "long name":
         assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("kind", ["fifo", "dev-zero", "huge"])
+def test_a_build_spec_that_is_no_regular_file_of_sane_size_is_not_read(tmp_path, kind):
+    from placement.buildspec import MAX_SPEC_BYTES, load_build_spec
+    from placement.errors import PlacementError
+
+    spec = tmp_path / "spec.yaml"
+    if kind == "fifo":
+        os.mkfifo(spec)
+    elif kind == "dev-zero":
+        spec.symlink_to("/dev/zero")
+    else:
+        with open(spec, "wb") as fh:
+            fh.truncate(MAX_SPEC_BYTES + 1)
+    outcome = []
+    thread = threading.Thread(target=lambda: outcome.append(pytest.raises(PlacementError, load_build_spec, spec)),
+                              daemon=True)
+    thread.start()
+    thread.join(30)
+    assert not thread.is_alive(), "blocked reading the spec"
+    assert outcome and "refusing to read it" in str(outcome[0].value)
