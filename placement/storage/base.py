@@ -65,7 +65,12 @@ class StoredMap(ABC):
         check_arms(self.path, root)
         if root.get("complete") is True and root.get("format_version") in READABLE_VERSIONS:
             check_root_types(self.path, root)
-            if not check_root_digest(self.path, root):
+            try:
+                sealed = check_root_digest(self.path, root)
+            except (TypeError, ValueError, RecursionError) as exc:  # e.g. a string no JSON can hold
+                raise MapError(f"{self.path}: the root metadata is corrupt ({first_line(exc)}); "
+                               f"rebuild the map") from None
+            if not sealed:
                 if root.get("format_version") != UNSEALED_VERSION:
                     raise MapError(f"{self.path}: the map has no metadata digests (corrupt); rebuild the map")
                 warnings.warn(f"{self.path}: map of format version {UNSEALED_VERSION} has no metadata digests, so "
@@ -86,8 +91,12 @@ class StoredMap(ABC):
                                f"rebuild the map") from None
             if not isinstance(meta, dict):
                 raise MapError(f"{self.path}: metadata of arm '{arm}' is not a mapping (corrupt); rebuild the map")
-            check_arm_digest(self.path, self.root, arm, meta)
-            check_arm_types(self.path, arm, meta)
+            try:
+                check_arm_digest(self.path, self.root, arm, meta)
+                check_arm_types(self.path, arm, meta)
+            except (TypeError, ValueError, RecursionError) as exc:  # e.g. a string no JSON can hold
+                raise MapError(f"{self.path}: metadata of arm '{arm}' is corrupt ({first_line(exc)}); "
+                               f"rebuild the map") from None
             cache[arm] = meta
         return cache[arm]
 

@@ -21,7 +21,7 @@ _LEAF_HEX = 16  # 64 bits per key: enough to name the changed key; the document 
 
 def canonical(doc) -> bytes:
     """The canonical JSON bytes of ``doc`` (sorted keys, no spaces)."""
-    return json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=True).encode()
+    return json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=True, allow_nan=True).encode()
 
 
 def _leaves(doc, prefix: str = ""):
