@@ -3,6 +3,8 @@ a legend for every marker, units on every colour bar, no empty panels. Never imp
 
 from __future__ import annotations
 
+import hashlib
+import re
 from pathlib import Path
 
 import numpy as np
@@ -65,7 +67,9 @@ def extent_of(nav) -> tuple[float, float, float, float]:
             nav.origin[1], nav.origin[1] + nav.shape[0] * nav.resolution)
 
 
-def legend_handles(step, start, has_path: bool) -> list:
+def legend_handles(step, start, has_path: bool, outline: bool = False) -> list:
+    """The legend's entries; ``outline``: the chosen placement is drawn as the robot's footprint polygon
+    (else as its footprint circle)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -76,9 +80,12 @@ def legend_handles(step, start, has_path: bool) -> list:
     if start is not None:
         h.append(Line2D([], [], ls="", marker="o", color="white", mec="k", ms=7, label="start pose"))
     if step.ok:
-        h += [Line2D([], [], ls="", marker="o", mfc="none", mec="red", ms=12, mew=1.6,
-                     label="chosen placement: footprint\n(arrow: heading)"),
-              Line2D([], [], ls="", marker="*", color="white", mec="k", ms=13, label=f"target ({step.target})")]
+        if outline:
+            h.append(Patch(fill=False, ec="red", lw=1.6, label="chosen placement: footprint outline\n(arrow: heading)"))
+        else:
+            h.append(Line2D([], [], ls="", marker="o", mfc="none", mec="red", ms=12, mew=1.6,
+                            label="chosen placement: footprint circle\n(arrow: heading)"))
+        h.append(Line2D([], [], ls="", marker="*", color="white", mec="k", ms=13, label=f"target ({step.target})"))
     return h
 
 
@@ -112,7 +119,9 @@ def plot_step(world, step, path, start=None, footprint_radius: float | None = No
     legend_ax = axes[len(panels)]
     legend_ax.axis("off")
     has_path = maps.path is not None and len(maps.path) > 0
-    legend_ax.legend(handles=legend_handles(step, start, has_path), loc="center", fontsize=10, frameon=False)
+    outline = getattr(getattr(world, "base", None), "polygon", None) is not None  # as draw_markers draws it
+    legend_ax.legend(handles=legend_handles(step, start, has_path, outline), loc="center", fontsize=10,
+                     frameon=False)
     for ax in axes[len(panels) + 1:]:
         ax.remove()
     dropped = [t for k, t, _, _ in PANELS if panel_data(k, world, maps) is None]
@@ -126,6 +135,18 @@ def plot_step(world, step, path, start=None, footprint_radius: float | None = No
     return Path(path)
 
 
+MAX_NAME = 80  # characters of a target in a figure's file name; longer ones are cut and get a hash
+
+
+def file_name(step) -> str:
+    """``stepNN_action_target.png`` with only letters, digits, ``.``, ``_`` and ``-`` (a reach step's
+    target lists its trajectories with commas: ``a,b`` becomes ``a_or_b``; other characters become ``-``)."""
+    target = re.sub(r"[^A-Za-z0-9._-]+", "-", str(step.target).replace(",", "_or_")).strip(".-") or "target"
+    if len(target) > MAX_NAME:
+        target = f"{target[:MAX_NAME - 11]}-{hashlib.sha256(str(step.target).encode()).hexdigest()[:10]}"
+    return f"step{step.step:02d}_{step.action}_{target}.png"
+
+
 def plot_steps(world, result, out_dir, start=None, footprint_radius: float | None = None) -> list[Path]:
     """One PNG per step of ``result`` (a PlanResult planned with ``keep_maps``) over ``world`` (the
     planner's World) in ``out_dir``: distance, navigation, manipulability, heuristic and combined cost
@@ -134,8 +155,7 @@ def plot_steps(world, result, out_dir, start=None, footprint_radius: float | Non
     out.mkdir(parents=True, exist_ok=True)
     files = []
     for step in result.steps:
-        path = plot_step(world, step, out / f"step{step.step:02d}_{step.action}_{step.target}.png", start,
-                         footprint_radius)
+        path = plot_step(world, step, out / file_name(step), start, footprint_radius)
         if path is not None:
             files.append(path)
     return files

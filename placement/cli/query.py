@@ -35,7 +35,9 @@ def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
     if plot_dir:
         from ..plotting import plot_steps
 
-        plot_steps(planner.world, result, plot_dir, planner.scene.start, planner.robot.footprint_radius)
+        files = plot_steps(planner.world, result, plot_dir, planner.scene.start, planner.robot.footprint_radius)
+        if not quiet:
+            click.echo(f"plots: {len(files)} PNG file{'' if len(files) == 1 else 's'} in {plot_dir}", err=True)
     emit(result.to_json(), as_json, _table)
     bad = result.failed_step
     if bad is not None:
@@ -48,18 +50,33 @@ def main() -> None:
     query(prog_name="placement-query")
 
 
+#: (header, alignment) of the result table's columns; each is as wide as its longest entry
+COLUMNS = (("step", ">"), ("action", "<"), ("target", "<"), ("arm", "<"), ("grasp", "<"), ("x [m]", ">"),
+           ("y [m]", ">"), ("yaw [rad]", ">"), ("manip", ">"), ("cost", ">"), ("travel [s]", ">"), ("ms", ">"))
+
+
 def _table(r: dict) -> str:
-    lines = [f"scene {r['scene']}  method {r['method']}  robot {r['robot']['name']}",
-             f"{'step':>4} {'action':<6} {'target':<12} {'arm':<6} {'grasp':<14} {'x [m]':>7} {'y [m]':>7} "
-             f"{'yaw [rad]':>9} {'manip':>7} {'cost':>7} {'travel [s]':>10} {'ms':>7}"]
+    """The plan as a text table whose columns fit their longest entry (names of any length line up);
+    an infeasible step's reason follows its target."""
+    rows = []
     for s in r["steps"]:
+        head = [str(s["step"]), str(s["action"]), str(s["target"])]
         if s.get("status") == "infeasible":
-            lines.append(f"{s['step']:>4} {s['action']:<6} {s['target']:<12} infeasible: {s['reason']}")
+            rows.append((head, f"infeasible: {s['reason']}"))
             continue
         x, y, yaw = s["base"]
-        lines.append(f"{s['step']:>4} {s['action']:<6} {s['target']:<12} {s['arm']:<6} {s['grasp']:<14} "
-                     f"{x:7.3f} {y:7.3f} {yaw:9.3f} {s['manipulability']:7.4f} {s['cost']['total']:7.3f} "
-                     f"{s['travel_time_s']:10.2f} {s['timings_ms']['total']:7.1f}")
+        rows.append((head + [str(s["arm"]), str(s["grasp"]), f"{x:.3f}", f"{y:.3f}", f"{yaw:.3f}",
+                             f"{s['manipulability']:.4f}", f"{s['cost']['total']:.3f}",
+                             f"{s['travel_time_s']:.2f}", f"{s['timings_ms']['total']:.1f}"], None))
+    widths = [max([len(name)] + [len(cells[i]) for cells, _ in rows if i < len(cells)])
+              for i, (name, _) in enumerate(COLUMNS)]
+
+    def line(cells, reason=None) -> str:
+        text = " ".join(f"{c:{a}{w}}" for c, (_, a), w in zip(cells, COLUMNS, widths))
+        return (f"{text} {reason}" if reason else text).rstrip()
+
+    lines = [f"scene {r['scene']}  method {r['method']}  robot {r['robot']['name']}", line([n for n, _ in COLUMNS])]
+    lines += [line(cells, reason) for cells, reason in rows]
     return "\n".join(lines)
 
 

@@ -22,6 +22,21 @@ def yaw_wxyz(yaw: float) -> tuple[float, float, float, float]:
     return (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
 
 
+def label_offset(orientation, size, above: float = 0.08) -> tuple[float, float, float]:
+    """Where a label goes in the frame of a box of ``size`` (3,) [m] turned by ``orientation`` (ROS
+    quaternion ``[x, y, z, w]``): ``above`` [m] over the box's top in the world, straight over its centre.
+
+    The label is a child of the box's node, so its position is in the box's frame, not the world's."""
+    x, y, z, w = (float(v) for v in orientation)
+    n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
+    x, y, z, w = x / n, y / n, z / n, w / n
+    R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                  [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    half_height = float(np.abs(R[2]) @ (np.asarray(size, dtype=float) / 2))  # the box's half extent along world z
+    return tuple(float(v) for v in R.T @ np.array([0.0, 0.0, half_height + above]))
+
+
 def ear_clip(points: np.ndarray) -> np.ndarray:
     """(k - 2, 3) triangles of a simple polygon ``points`` (k, 2), either orientation."""
     pts = np.asarray(points, dtype=float)

@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 from ..grid import pose_from_zyx
-from .colors import scale_of
+from .colors import Scale
 from .robot_view import RobotDrawing, home_config
 
 # approach (TCP z) directions in the base frame; "best" takes every orientation
@@ -17,6 +17,24 @@ DIRECTIONS = {"best": None, "down": (0, 0, -1), "up": (0, 0, 1), "forward": (1, 
               "left": (0, 1, 0), "right": (0, -1, 0)}
 DIRECTION_TOLERANCE = math.radians(30)  # orientation bins whose approach is this close count as the direction
 DEFAULT_POINTS = 200_000  # more points than this are subsampled: the browser stays responsive
+BELOW = (205, 205, 205)  # cells whose value is under the colour scale (below the planner's threshold): light grey
+TOP_PERCENTILE = 99  # the scale's top: a few outliers do not push every other cell to the dark end
+
+
+def value_scale(values: np.ndarray, label: str) -> Scale:
+    """The colour scale of a map cloud's ``values`` (> 0): from the planner's default threshold (cells
+    below it are no placement; a raw minimum can be 1e-19, which spent the dark end of the colour map on
+    the unusable boundary shell) to the 99th percentile; the smallest value when all are below it."""
+    from .. import PlannerConfig
+
+    v = np.asarray(values, dtype=float)
+    v = v[v > 0]
+    if not len(v):
+        return Scale(label, "dimensionless", 0.0, 1.0)
+    top = float(np.percentile(v, TOP_PERCENTILE))
+    threshold = float(PlannerConfig().threshold)
+    lo = threshold if top > threshold else float(v.min())
+    return Scale(label, "dimensionless", lo, max(top, lo))
 
 
 def approach_bins(grid, direction) -> np.ndarray:
@@ -115,11 +133,14 @@ class MapView:
             self._best = best_per_direction(self.rmap, DIRECTIONS)
         best = self._best[direction]
         self.all_points, self.all_values, self.reached = cloud(self.rmap.grid, best, self.max_points)
-        self.scale = scale_of(self.all_values, f"manipulability ({direction})", "dimensionless")
-        if self.scale.hi > 0:
-            self.threshold.max = float(self.scale.hi)
-            self.threshold.step = float(self.scale.hi) / 200
-        self.scale_html.content = self.scale.html()
+        self.scale = value_scale(self.all_values, f"manipulability ({direction})")
+        top = float(self.all_values.max()) if len(self.all_values) else 0.0
+        if top > 0:
+            self.threshold.max = top
+            self.threshold.step = top / 200
+        self.scale_html.content = self.scale.html() + (
+            f"<div style='font-size:0.8em'>grey: below {self.scale.lo:.3g} (the planner's threshold)</div>"
+            if float(self.all_values.min(initial=np.inf)) < self.scale.lo else "")
         self.draw()
 
     def draw(self) -> None:
@@ -130,6 +151,7 @@ class MapView:
         if not len(pts):  # viser needs a point; an invisible one at the origin
             pts, vals = np.zeros((1, 3), np.float32), np.zeros(1)
         colors = self.scale.rgb(vals)
+        colors[vals < self.scale.lo] = BELOW
         size = float(self.rmap.grid.resolution) * 0.5  # gaps between the points: the inner cells show through
         self.points = self.server.scene.add_point_cloud("/map/cells", pts, colors, point_size=size,
                                                         point_shape="square", visible=self.shown > 0)

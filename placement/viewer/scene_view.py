@@ -6,7 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from .colors import Scale, layer_image
-from .geometry import POLYGON_HEIGHT, circle, footprint_segments, polyline_segments, prism, yaw_wxyz
+from .geometry import (
+    POLYGON_HEIGHT, circle, footprint_segments, label_offset, polyline_segments, prism, yaw_wxyz,
+)
 
 FLOOR = (222, 222, 216)
 OBSTACLE = (130, 134, 142)
@@ -84,12 +86,11 @@ def draw_scene(server, scene, footprint_radius: float, polygon=None) -> dict:
         nodes[f"/scene/objects/{o.name}"] = server.scene.add_box(
             f"/scene/objects/{o.name}", color=OBJECT, dimensions=tuple(o.size), position=tuple(o.position),
             wxyz=(w, x, y, z))
-        server.scene.add_label(f"/scene/objects/{o.name}/label", o.name,
-                               position=(o.position[0], o.position[1], o.position[2] + o.size[2] / 2 + 0.08))
+        # children of the object's node: positions in the object's frame
+        server.scene.add_label(f"/scene/objects/{o.name}/label", o.name, position=label_offset(o.orientation, o.size))
     for p in scene.place_locations:
         server.scene.add_cylinder(f"/scene/places/{p.name}", radius=0.06, height=0.01, color=PLACE,
                                   position=tuple(p.position))
-        server.scene.add_label(f"/scene/places/{p.name}/label", p.name,
-                               position=(p.position[0], p.position[1], p.position[2] + 0.08))
+        server.scene.add_label(f"/scene/places/{p.name}/label", p.name, position=(0.0, 0.0, 0.08))
     draw_start(server, scene.start, footprint_radius, polygon)
     return nodes
