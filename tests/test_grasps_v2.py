@@ -131,12 +131,18 @@ def test_place_orientations_and_reach_candidates():
     reach = step_candidates(s, steps[0], cfg)
     assert [c.name for c in reach] == ["door", "door2"]
     np.testing.assert_allclose(reach[1].poses[1], _se3([1.1, 1.5, 1.0], [0, 0, 0, 1]).homogeneous)
-    (place,) = step_candidates(s, steps[2], cfg)
-    assert place.name == "place-orientation0"
-    R = pin.Quaternion(np.array([0.0, 1.0, 0.0, 0.0])).matrix()
-    np.testing.assert_allclose(place.poses[1, :3, :3], R, atol=1e-12)
-    np.testing.assert_allclose(place.poses[0, :3, 3], [2.2, 0.0, 0.95], atol=1e-12)  # back along the TCP z
-    assert [c.name for c in step_candidates(s, steps[4], cfg)][:2] == ["place-yaw0", "place-yaw45"]
+    # the lying can set down lying, turned to the listed orientation, by each of its grasps
+    can = s.object("can")
+    grasps = step_candidates(s, steps[1], cfg)
+    places = step_candidates(s, steps[2], cfg)
+    assert [c.name for c in places] == [f"{g.name}@orientation0" for g in grasps]
+    R = pin.Quaternion(0.5, 0.5, 0.5, 0.5).matrix()
+    for g, place in zip(grasps, places):
+        np.testing.assert_allclose(place.object_pose[:3, :3], R, atol=1e-7)
+        np.testing.assert_allclose(place.object_pose[:3, 3], [2.2, 0.0, 0.75 + 0.035], atol=1e-7)  # on the table
+        for P, G in zip(place.poses, g.poses):  # held as it was grasped
+            np.testing.assert_allclose(np.linalg.inv(P) @ place.object_pose, np.linalg.inv(G) @ can.pose, atol=1e-9)
+    assert [c.name for c in step_candidates(s, steps[4], cfg)][:2] == ["rim@yaw0", "rim@yaw45"]
     assert [c.name for c in step_candidates(s, steps[3], cfg)] == ["rim"]
     q = np.array([0.1, 0.2, 0.3, 0.9])
     q /= np.linalg.norm(q)

@@ -34,7 +34,7 @@ def v2_doc() -> dict:
             {"name": "cup", "position": [1.9, -0.1, 0.8], "yaw": 0.3, "size": [0.06, 0.06, 0.1],
              "grasps": [{"name": "rim", "poses": [[0, 0, 0.15, 1, 0, 0, 0], [0, 0, 0.05, 1, 0, 0, 0]]}]},
         ],
-        "place_locations": [{"name": "spot", "position": [2.2, 0.0, 0.85], "orientations": [[0, 1, 0, 0]]},
+        "place_locations": [{"name": "spot", "position": [2.2, 0.0, 0.85], "orientations": [[0.5, 0.5, 0.5, 0.5]]},
                             {"name": "bin", "position": [2.2, 0.2, 0.85]}],
         "trajectories": [{"name": "door", "poses": [[1.0, 1.0, 1.0, 0, 0, 0, 1]]},
                          {"name": "door2", "poses": [[1.0, 1.5, 1.0, 0, 0, 0, 1], [1.1, 1.5, 1.0, 0, 0, 0, 1]]}],
@@ -93,11 +93,13 @@ def test_round_trip(tmp_path):
         doc = v2_doc()
         doc["objects"][1]["yaw"] = yaw
         doc["objects"][0]["orientation"] = [0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)]
+        doc["place_locations"][0]["orientations"] = [doc["objects"][0]["orientation"]]  # set down as picked
         doc["objects"][0]["size"] = [0.07, 0.07, 0.07]
         s3 = parse_scene(doc)
         assert s3.objects[1].yaw == yaw and parse_scene(scene_to_dict(s3)) == s3
     changed = scene_to_dict(s2)
     changed["objects"][0]["orientation"] = [0.0, S, 0.0, S]  # lying along x instead of y
+    changed["place_locations"][0]["orientations"] = [[0.0, S, 0.0, S]]  # and set down so
     assert parse_scene(changed) != s2
 
 
