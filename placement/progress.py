@@ -14,11 +14,12 @@ converging as the build goes on.
 from __future__ import annotations
 
 import math
+import threading
 import time
 
 from tqdm import tqdm
 
-__all__ = ["Eta", "EtaBar"]
+__all__ = ["Eta", "EtaBar", "Ticking"]
 
 
 class Eta:
@@ -95,3 +96,28 @@ class EtaBar(tqdm):
         left = self.eta.remaining(d.get("total"))
         d["eta"] = "?" if left is None else self.format_interval(left)
         return d
+
+
+class Ticking:
+    """Redraws ``bar`` (a tqdm bar) every ``interval`` seconds from a daemon thread while in the ``with``
+    block, so that its elapsed time moves while one item takes long (a scene of ``placement evaluate``
+    takes seconds to minutes; tqdm alone redraws only on an update, and a bar frozen at ``00:00`` reads
+    as a hung command)."""
+
+    def __init__(self, bar, interval: float = 1.0):
+        self.bar, self.interval = bar, interval
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="progress-ticker", daemon=True)
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.interval):
+            if not self.bar.disable:
+                self.bar.refresh()
+
+    def __enter__(self):
+        self._thread.start()
+        return self.bar
+
+    def __exit__(self, *exc) -> None:
+        self._stop.set()
+        self._thread.join()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import json
+import logging
 from pathlib import Path
 
 import click
@@ -15,9 +16,13 @@ from ..evaluation.evaluate import MAX_WORKERS, check_methods, check_scenes, summ
 from ..evaluation.evaluate import evaluate as run_evaluation
 from ..evaluation.outdir import output_dir
 from ..planning.planner import METHODS
+from ..progress import Ticking
 from .maps import dask_client
 from .options import emit, setup_logging, standard_options
 from .params import Bounded, OneLineCommand
+
+
+log = logging.getLogger("placement")
 
 
 class MethodList(click.ParamType):
@@ -58,10 +63,14 @@ def evaluate(scenes, methods, maps_path, out_dir, workers, dask_address, as_json
     def progress(done, total):
         if not bars:  # created once the scenes are checked, so that an early error stays one line
             bars.append(tqdm(total=total, desc="scenes", unit="scene", disable=quiet, leave=False))
+            ticking.enter_context(Ticking(bars[0]))  # the elapsed time moves during a long first scene
         bars[0].n = done
         bars[0].refresh()
 
-    with contextlib.ExitStack() as stack:
+    log.info("evaluating %d scene%s with %s (%s)", len(files), "" if len(files) == 1 else "s", ", ".join(methods),
+             "on the Dask cluster" if dask_address else f"{min(workers, len(files))} process"
+             + ("" if min(workers, len(files)) == 1 else "es"))
+    with contextlib.ExitStack() as stack, contextlib.ExitStack() as ticking:
         if out_dir:
             stack.enter_context(output_dir(out_dir, "--out"))
         client = None
@@ -71,6 +80,7 @@ def evaluate(scenes, methods, maps_path, out_dir, workers, dask_address, as_json
         try:
             doc = run_evaluation(files, methods, maps_path, workers=workers, progress=progress, client=client)
         finally:
+            ticking.close()
             for bar in bars:
                 bar.close()
         if out_dir:
