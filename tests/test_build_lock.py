@@ -26,9 +26,15 @@ BUILD = ["--robot", "pr2", "--samples", "3000", "--resolution", "0.2", "--bins",
 BIG = "1000000000"  # a build this size takes many minutes: an error that comes quickly came before sampling
 
 
+def _default_sigint() -> None:
+    # a pytest-xdist worker ignores SIGINT, and a child inherits that: it would never stop on it
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def start(*args) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "placement.cli.main", "maps", "build", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+                            preexec_fn=_default_sigint)
 
 
 def finish(p: subprocess.Popen, timeout: float = 120) -> tuple[int, str]:
@@ -74,7 +80,12 @@ def test_a_second_build_of_an_arm_being_built_fails_at_once(tmp_path, pr2, left_
         assert time.monotonic() - t0 < 30
     finally:
         first.send_signal(signal.SIGINT)
-        first.communicate(timeout=60)
+        try:
+            first.communicate(timeout=60)
+        except subprocess.TimeoutExpired:  # never leave a billion-sample build running
+            first.kill()
+            first.communicate()
+            raise
     np.testing.assert_array_equal(placement.open_map(out, "left").values, before)
     assert hidden(tmp_path) == []
 
