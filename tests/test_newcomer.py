@@ -79,18 +79,26 @@ def test_the_map_colour_scale_starts_at_the_planner_threshold_not_at_a_tiny_valu
     assert (low.lo, low.hi) == (1e-5, pytest.approx(np.percentile([1e-5, 0.01, 0.02], 99)))
 
 
-def test_the_map_view_draws_cells_under_the_threshold_grey(maps_dir):
+def test_the_map_view_draws_weak_cells_small_and_cells_under_the_threshold_grey(maps_dir):
     from placement.viewer.api import view_map
-    from placement.viewer.map_view import BELOW
+    from placement.viewer.map_view import BELOW, BELOW_SIZE, SIZES
 
     v = view_map(maps_dir, arm="right", port=0)
     try:
         mv = v.content
+        assert mv.scale.lo == pytest.approx(placement.PlannerConfig().threshold)
         below = mv.all_values < mv.scale.lo
-        assert mv.scale.lo == pytest.approx(placement.PlannerConfig().threshold) and below.any()
-        colours = np.asarray(mv.points.colors)
-        assert len(colours) == mv.shown == mv.reached
-        assert (colours[below] == BELOW).all() and not (colours[~below] == BELOW).all(axis=1).any()
+        assert below.any() and mv.shown == mv.reached == len(mv.all_values)  # every cell is drawn at open
+        grey = mv.clouds["/map/below"]
+        assert len(grey.points) == below.sum() and (np.asarray(grey.colors) == BELOW).all()
+        edge = mv.rmap.grid.resolution
+        assert grey.point_size == pytest.approx(BELOW_SIZE * edge)
+        drawn = [mv.clouds[f"/map/cells/{g}"] for g in range(len(SIZES))]
+        assert sum(len(c.points) for c in drawn if c.visible) == (~below).sum()
+        assert [c.point_size for c in drawn] == pytest.approx([s * edge for s in SIZES])
+        assert SIZES == tuple(sorted(SIZES)) and BELOW_SIZE < SIZES[0]  # weaker cells smaller: the shell is open
+        top = [c for c in drawn if c.visible][-1]
+        assert not (np.asarray(top.colors) == BELOW).all(axis=1).any()
         assert "planner's threshold" in mv.scale_html.content
     finally:
         v.stop()

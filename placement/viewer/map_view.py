@@ -18,6 +18,8 @@ DIRECTIONS = {"best": None, "down": (0, 0, -1), "up": (0, 0, 1), "forward": (1, 
 DIRECTION_TOLERANCE = math.radians(30)  # orientation bins whose approach is this close count as the direction
 DEFAULT_POINTS = 200_000  # more points than this are subsampled: the browser stays responsive
 BELOW = (205, 205, 205)  # cells whose value is under the colour scale (below the planner's threshold): light grey
+BELOW_SIZE = 0.2  # their points' size [cell edges]
+SIZES = (0.3, 0.45, 0.6, 0.75)  # point sizes [cell edges] of the colour scale's quarters, weakest first
 TOP_PERCENTILE = 99  # the scale's top: a few outliers do not push every other cell to the dark end
 
 
@@ -120,7 +122,7 @@ class MapView:
         self.section = gui.add_slider("hide y < [m]", round(y0, 2), round(y1, 2), g.resolution / 2, round(y0, 2))
         self.info = gui.add_markdown("")
         self.scale_html = gui.add_html("")
-        self.points = None
+        self.clouds = {}
         self._best = None
         self.select(direction)
         self.direction.on_update(lambda _: self.select(self.direction.value))
@@ -139,7 +141,8 @@ class MapView:
             self.threshold.max = top
             self.threshold.step = top / 200
         self.scale_html.content = self.scale.html() + (
-            f"<div style='font-size:0.8em'>grey: below {self.scale.lo:.3g} (the planner's threshold)</div>"
+            f"<div style='font-size:0.8em'>small grey points: below {self.scale.lo:.3g} (the planner's "
+            "threshold)</div>"
             if float(self.all_values.min(initial=np.inf)) < self.scale.lo else "")
         self.draw()
 
@@ -148,13 +151,22 @@ class MapView:
         keep = (self.all_values >= float(self.threshold.value)) & (self.all_points[:, 1] >= float(self.section.value))
         pts, vals = self.all_points[keep], self.all_values[keep]
         self.shown = len(pts)
-        if not len(pts):  # viser needs a point; an invisible one at the origin
-            pts, vals = np.zeros((1, 3), np.float32), np.zeros(1)
-        colors = self.scale.rgb(vals)
-        colors[vals < self.scale.lo] = BELOW
-        size = float(self.rmap.grid.resolution) * 0.5  # gaps between the points: the inner cells show through
-        self.points = self.server.scene.add_point_cloud("/map/cells", pts, colors, point_size=size,
-                                                        point_shape="square", visible=self.shown > 0)
+        # one cloud per quarter of the colour scale, weaker cells drawn smaller, and one of small grey points
+        # below it: the weak cells of the reach's boundary shell do not hide the strong cells inside
+        group = np.where(vals < self.scale.lo, -1, np.minimum(self.scale.normalise(vals) * len(SIZES), len(SIZES) - 1))
+        group = group.astype(int)
+        edge = float(self.rmap.grid.resolution)
+        self.clouds = {}
+        for g in range(-1, len(SIZES)):
+            name = "/map/below" if g < 0 else f"/map/cells/{g}"
+            part = group == g
+            p, v = pts[part], vals[part]
+            if not len(p):  # viser needs a point; an invisible one at the origin
+                p, v = np.zeros((1, 3), np.float32), np.full(1, self.scale.lo)
+            colors = np.tile(np.array(BELOW, np.uint8), (len(p), 1)) if g < 0 else self.scale.rgb(v)
+            self.clouds[name] = self.server.scene.add_point_cloud(
+                name, p, colors, point_size=edge * (BELOW_SIZE if g < 0 else SIZES[g]), point_shape="square",
+                visible=bool(part.any()))
         sub = f" (a uniform sample of {len(self.all_points):,})" if self.reached > len(self.all_points) else ""
         self.info.content = (f"{self.reached:,} position cells reached{sub}; {self.shown:,} shown at value "
                              f">= {float(self.threshold.value):.3g}")
