@@ -230,3 +230,37 @@ def test_polygon_obstacle_in_a_scene(pr2):
     q = top_grasp(pr2, 1.0, -0.2, 0.9)
     res = c.check("right", [q], BASE)
     assert not res.free and res.culprit.endswith(" vs l_counter")
+
+
+def test_a_degenerate_collision_shape_is_left_out_with_a_warning(tmp_path, pr2):
+    """A zero, NaN or infinite scale or size has no volume (and coal's hull fails on it): the shape is
+    left out and one warning names its link; the rest of the robot is still checked."""
+    import re
+    import xml.etree.ElementTree as ET
+    from pathlib import Path
+
+    import yaml
+
+    from placement.collision.robot import CollisionGeometryWarning, RobotGeometry, degenerate
+    from placement.robots import load_robot
+    from placement.robots.preset import PRESET_DIR
+
+    for bad in ('<mesh filename="x.stl" scale="0 0 0"/>', '<mesh filename="x.stl" scale="nan 1 1"/>',
+                '<box size="0.1 inf 0.1"/>', '<cylinder radius="0" length="1"/>', '<sphere radius="abc"/>'):
+        assert degenerate(ET.fromstring(f"<collision><geometry>{bad}</geometry></collision>"))
+    assert not degenerate(ET.fromstring('<collision><geometry><box size="0.1 0.2 0.3"/></geometry></collision>'))
+    urdf = Path(pr2.urdf_path)
+    # the base link's collision mesh scaled to nothing
+    text, n = re.subn(r'(<mesh filename="[^"]*base_v0/base_L\.stl")', r'\1 scale="0 0 0"', urdf.read_text(), count=1)
+    assert n == 1
+    (tmp_path / "pr2.urdf").write_text(text)
+    preset = yaml.safe_load((PRESET_DIR / "pr2.yaml").read_text())
+    preset["urdf"] = str(tmp_path / "pr2.urdf")
+    preset.pop("srdf", None)
+    (tmp_path / "pr2.yaml").write_text(yaml.safe_dump(preset))
+    robot = load_robot(str(tmp_path / "pr2.yaml"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        geo = RobotGeometry(robot, [str(urdf.resolve().parents[4])])
+    assert geo.geom.ngeoms > 10 and geo.lost == ["base_link"]
+    assert any(issubclass(c.category, CollisionGeometryWarning) and "base_link" in str(c.message) for c in caught)

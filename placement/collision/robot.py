@@ -59,24 +59,54 @@ def resolve_mesh(filename: str, urdf: Path, dirs: list[str]) -> Path | None:
 
 
 def usable_urdf(urdf: Path, dirs: list[str]) -> tuple[str, list[str], list[str]]:
-    """(URDF text with every mesh path made absolute and unfound meshes' ``<collision>`` removed,
-    links that lost a shape, mesh names not found)."""
+    """(URDF text with every mesh path made absolute and the ``<collision>`` elements of unfound meshes
+    and degenerate shapes removed, links that lost a shape, what was removed in words)."""
     root = ET.fromstring(Path(urdf).read_bytes())
     lost, missing = [], []
     for link in root.iter("link"):
         for col in link.findall("collision"):
+            if degenerate(col):  # a zero, NaN or infinite scale or size: no body (and coal's hull fails)
+                link.remove(col)
+                missing.append(f"a degenerate shape of link {link.get('name')}")
+                if link.get("name") not in lost:
+                    lost.append(link.get("name"))
+                continue
             mesh = col.find("geometry/mesh")
             if mesh is None:
                 continue
             found = resolve_mesh(mesh.get("filename", ""), urdf, dirs)
             if found is None:
                 link.remove(col)
-                missing.append(mesh.get("filename", ""))
+                missing.append(f"mesh {mesh.get('filename', '')} not found")
                 if link.get("name") not in lost:
                     lost.append(link.get("name"))
             else:
                 mesh.set("filename", str(found))
     return ET.tostring(root, encoding="unicode"), lost, missing
+
+
+#: URDF geometry attributes that hold sizes [m] or scale factors, per shape element
+SIZES = {"mesh": ("scale",), "box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
+
+
+def degenerate(collision: ET.Element) -> bool:
+    """Whether a ``<collision>`` element's shape has a size or scale that is zero, NaN, infinite or
+    not a number (such a shape has no volume to check)."""
+    for tag, attrs in SIZES.items():
+        el = collision.find(f"geometry/{tag}")
+        if el is None:
+            continue
+        for attr in attrs:
+            text = el.get(attr)
+            if text is None:
+                continue
+            try:
+                values = [float(v) for v in text.split()]
+            except ValueError:
+                return True
+            if not values or not all(np.isfinite(values)) or any(v == 0.0 for v in values):
+                return True
+    return False
 
 
 def load_geometry(robot: Robot, extra_dirs=(), strict: bool = False) -> tuple[pin.GeometryModel, list[str]]:
@@ -90,7 +120,7 @@ def load_geometry(robot: Robot, extra_dirs=(), strict: bool = False) -> tuple[pi
         text, lost, missing = usable_urdf(robot.urdf_path, dirs)
         if strict and missing:
             raise PlacementError(f"robot '{robot.name}': collision geometry of {robot.urdf_path} does not load "
-                                 f"(mesh {missing[0]} not found); build without self-collision")
+                                 f"({missing[0]}); build without self-collision")
         geom = pin.buildGeomFromUrdfString(robot.model, text, pin.GeometryType.COLLISION, None, dirs)
     except PlacementError:
         raise
