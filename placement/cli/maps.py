@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import sys
 from pathlib import Path
 
 import click
 import numpy as np
+from tqdm import tqdm
 
-from ..accuracy import MAX_CHECK_SAMPLES, check_map
+from ..accuracy import MAX_CHECK_SAMPLES, check_map, pose_metrics
 from ..build import build_grid, build_map
 from ..buildspec import (
     FORMATS, INDEXES, MAX_RESOLUTION, MAX_SAMPLES, MAX_SEED, MIN_RESOLUTION, BuildSpec, load_build_spec, parse_bins,
@@ -147,7 +149,9 @@ def info(path, robot, arm, as_json, verbose, quiet):
     out = {"path": str(path), "size_bytes": _size(Path(path)), "root": root, "arms": {}}
     for a in dict.fromkeys([*shown, *stored]):  # the shown arm first: a wrong --arm fails before the reading
         rmap = open_map(path, a, robot)
-        stats = scan(rmap)  # reads and checks every chunk of the values and of the witnesses
+        with tqdm(total=rmap.grid.shape[2], desc=f"info {a}", unit="layer", disable=_no_bars(quiet),
+                  leave=False) as bar:
+            stats = scan(rmap, progress=bar.update)  # reads and checks every chunk of the values and witnesses
         if a in shown:
             meta = {k: v for k, v in rmap.meta.items() if k not in (CRC_KEY, WITNESS_CRC_KEY)}
             out["arms"][a] = {"meta": meta, **stats}
@@ -157,9 +161,16 @@ def info(path, robot, arm, as_json, verbose, quiet):
 HISTOGRAM_EDGES = [0.0, 0.01, 0.0235, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0]
 
 
-def scan(rmap) -> dict:
+def _no_bars(quiet: bool) -> bool:
+    """No progress bars with -q, nor when stderr is not a terminal (a pipe, a log file, a test runner
+    that mixes stderr into stdout): what info and check print stays plain."""
+    return quiet or not sys.stderr.isatty()
+
+
+def scan(rmap, progress=None) -> dict:
     """Fill and value statistics of a map, reading every chunk of its values and witnesses (each checked
-    against its CRC32) one z layer at a time (memory: two layers, not the whole map)."""
+    against its CRC32) one z layer at a time (memory: two layers, not the whole map); ``progress(1)``
+    after each layer."""
     store, arm = rmap.store, rmap.arm
     counts = np.zeros(len(HISTOGRAM_EDGES) - 1, dtype=np.int64)
     total, high, cells = 0.0, 0.0, 0
@@ -171,6 +182,8 @@ def scan(rmap) -> dict:
         cells += reached.size
         total += float(reached.sum(dtype=np.float64))
         high = max(high, float(reached.max(initial=0.0)))
+        if progress is not None:
+            progress(1)
     size = rmap.grid.size
     return {"chunks_checked": 2 * int(np.prod(np.shape(rmap.meta[CRC_KEY]))), "cells": size, "filled_cells": cells,
             "fill_ratio": cells / size, "value": {"max": high, "mean": total / cells if cells else 0.0,
@@ -209,10 +222,31 @@ def check(path, robot, arm, samples, seed, as_json, verbose, quiet):
     arms = [arm] if arm else list(store.root.get("arms") or [])
     out = {"path": str(path), "arms": {}}
     for a in arms:
+        log.info("arm %s: reading and checking every chunk", a)
         rmap = open_map(path, a, robot).load()
-        out["arms"][a] = check_map(load_robot(robot or store.root.get("preset") or store.root["robot"]),
-                                   rmap, samples=samples, seed=seed)
+        out["arms"][a] = _check_arm(load_robot(robot or store.root.get("preset") or store.root["robot"]), rmap,
+                                    a, samples, seed, quiet)
     emit(out, as_json, _render_check)
+
+
+def _check_arm(robot, rmap, arm: str, samples: int, seed: int, quiet: bool) -> dict:
+    """:func:`check_map` of one arm with a bar for its cell-level IK solves and one for the pose-level
+    ones (:func:`pose_metrics`, which check_map runs without a progress hook): the same document."""
+    def bar(what):
+        return tqdm(total=1, desc=f"check {arm}: {what}", unit="IK", disable=_no_bars(quiet), leave=False)
+
+    def ticker(b):
+        def tick(done, total):
+            b.total = total
+            b.update(done - b.n)
+        return tick
+
+    with bar("cells") as b:
+        doc = check_map(robot, rmap, samples=samples, seed=seed, pose_level=False, progress=ticker(b))
+    with bar("poses") as b:
+        doc["pose_level"] = pose_metrics(robot, rmap, samples, seed, doc["threshold"], progress=ticker(b))
+    doc["time_s"] = round(doc["time_s"] + doc["pose_level"]["time_s"], 4)
+    return doc
 
 
 def _render_check(d: dict) -> str:
