@@ -36,6 +36,8 @@ def test_evaluate_document(tmp_path, maps_dir):
         for t, ok, why in zip(r["task_time_s"], r["success"], r["reason"]):
             assert (t is not None) == ok and (why is None) == ok  # a failure is reported, never dropped
     assert all(doc["methods"]["sequential"]["success"])
+    # every place by its pick's arm and grasp, upright as picked
+    assert all(doc["methods"][m]["transfer_faults"] == [0, 0] for m in ("sequential", "irm", "fixed"))
     red = doc["reductions"]["sequential"]["irm"]
     seq, irm = doc["methods"]["sequential"]["task_time_s"], doc["methods"]["irm"]["task_time_s"]
     assert red == 1 - sum(seq) / sum(irm)

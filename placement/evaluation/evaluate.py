@@ -11,7 +11,9 @@ import numpy as np
 
 from ..errors import PlacementError
 from ..planning import METHODS, Planner, PlanResult
+from ..planning.results import transfer_problems
 from ..planning.scene import load_scene
+from ..planning.transfer import UPRIGHT_TOLERANCE
 from .tasktime import task_time
 
 MAX_WORKERS = 64  # processes; each holds its own maps and world
@@ -72,8 +74,18 @@ def evaluate_scene(path: str, methods: list[str], maps: str | None = None) -> di
         steps, reason = plan_outcome(result, error)
         out[m] = {"task_time_s": None if tt is None else tt["total_s"], "success": tt is not None,
                   "planning_ms_per_placement": ms / max(1, steps),
-                  "reason": None if tt is not None else reason}
+                  "reason": None if tt is not None else reason,
+                  "transfer_faults": transfer_faults(result)}
     return out
+
+
+def transfer_faults(result: PlanResult | None) -> int:
+    """Places of ``result`` that are no executable transfer: by another arm or grasp than their pick,
+    or with the object tilted from how it was picked (see
+    :func:`~placement.planning.results.transfer_problems`; 0 by construction, counted as a check)."""
+    if result is None:
+        return 0
+    return sum(len(transfer_problems(s, result.steps, "", rot_tol=UPRIGHT_TOLERANCE)) for s in result.steps if s.ok)
 
 
 def plan_outcome(result: PlanResult | None, error: str | None) -> tuple[int, str]:
@@ -167,7 +179,8 @@ def evaluate(paths, methods=METHODS, maps=None, workers: int = 2, progress=None,
     doc = {"scenes": [f.stem for f in files], "methods": {}, "reductions": {}}
     for m in methods:
         doc["methods"][m] = {key: [r[m][key] for r in results]
-                             for key in ("task_time_s", "success", "planning_ms_per_placement", "reason")}
+                             for key in ("task_time_s", "success", "planning_ms_per_placement", "reason",
+                                         "transfer_faults")}
     for m in methods:
         doc["reductions"][m] = {}
         for b in methods:
