@@ -37,7 +37,7 @@ def test_placement_query_console_script_equals_placement_query(tmp_path, maps_di
     ({"place_locations": [{"name": "spot", "position": [1.0, 0.8, 0.5]}]},
      ["place_locations[0].position", "inside obstacle 'shelf'"]),
     ({"bounds": [0, 0, 1e9, 1e9]}, ["bounds[2]"]),
-    ({"bounds": [0, 0, 400, 400]}, ["resolution", "at most 2e+07"]),
+    ({"bounds": [0, 0, 400, 400]}, ["resolution", "at most 5e+06"]),
     ({"robot": {"preset": "pr2", "start": [3.0, 2.5, 0.0]}}, ["start pose", "inside an obstacle"]),
     ({"maps": "/nonexistent/maps"}, ["/nonexistent/maps"]),
 ])
