@@ -62,24 +62,39 @@ class HeldCheck:
 
     def scene(self, pieces: list, skip: set[str]) -> tuple[tuple[float, str, int] | None, float]:
         """First collision with the scene ``pieces`` (:class:`~.scene.SceneShape`, named ``skip``
-        ignored) as (signed distance [m], piece name, pose index), and the clearance [m] (capped)."""
-        best = self.cap
+        ignored) as (signed distance [m], piece name, pose index), and the clearance [m] (capped).
+
+        Collisions first, over every pose; distances only when all are free, nearest bounds first,
+        skipping pieces whose bounds are already farther than the best distance."""
+        near = []  # (bounds gap [m], pose index, piece)
         for p, T in enumerate(self.world):
             lo, hi = box_aabb(T, self.held.size)
             for piece in pieces:
                 if piece.name in skip:
                     continue
-                gap = np.maximum(piece.aabb[0] - hi, 0.0) + np.maximum(lo - piece.aabb[1], 0.0)
-                if float(np.linalg.norm(gap)) > max(self.cap, self.padding):
-                    continue
-                on = piece.name == self.held.support
-                g, Tg, req = (self.trimmed, T @ self.offset, self.touch) if on else (self.box, T, self.req)
-                res = coal.CollisionResult()
-                if coal.collide(g, _tf(Tg), piece.geometry, _tf(piece.pose), req, res):
-                    return (self._distance(g, Tg, piece.geometry, piece.pose), piece.name, p), 0.0
-                if not on:
-                    best = min(best, self._distance(g, Tg, piece.geometry, piece.pose))
+                gap = float(np.linalg.norm(np.maximum(piece.aabb[0] - hi, 0.0) + np.maximum(lo - piece.aabb[1], 0.0)))
+                if gap <= max(self.cap, self.padding):
+                    near.append((gap, p, piece))
+        for gap, p, piece in near:
+            g, Tg, req = self._operand(p, piece)
+            if gap <= self.padding and coal.collide(g, _tf(Tg), piece.geometry, _tf(piece.pose), req,
+                                                    coal.CollisionResult()):
+                return (self._distance(g, Tg, piece.geometry, piece.pose), piece.name, p), 0.0
+        best = self.cap
+        for gap, p, piece in sorted((n for n in near if n[2].name != self.held.support), key=lambda n: n[0]):
+            if gap >= best:
+                break
+            g, Tg, _ = self._operand(p, piece)
+            best = min(best, self._distance(g, Tg, piece.geometry, piece.pose))
         return None, best
+
+    def _operand(self, p: int, piece):
+        """(geometry, world pose, request) of the held object at pose ``p`` against ``piece``: the
+        box with its lowest face raised against its support, the whole box with padding otherwise."""
+        T = self.world[p]
+        if piece.name == self.held.support:
+            return self.trimmed, T @ self.offset, self.touch
+        return self.box, T, self.req
 
     def robot(self, A: np.ndarray, inst: dict, operand) -> tuple[float, int, int] | None:
         """First collision with a robot shape instance of the checker's ``inst`` (model frame, ``A``
