@@ -52,10 +52,12 @@ def _oracle(planner, step_index: int, samples: int = 500, collisions: bool = Fal
     """An independent placement of the step (a pick with its place: a transfer), or None."""
     steps = planner.problems.steps
     step = steps[step_index]
-    if step.action == "pick" and step_index + 1 < len(steps) and steps[step_index + 1].pick == step_index:
+    alone = find_placement(planner, [c.poses for c in step_candidates(planner.scene, step, planner.config)],
+                           samples=samples, step_index=step_index, collisions=collisions)
+    if alone is not None and step.action == "pick" and step_index + 1 < len(steps) \
+            and steps[step_index + 1].pick == step_index:  # a pick is done only with its place
         return find_transfer(planner, step_index, samples, collisions=collisions)
-    return find_placement(planner, [c.poses for c in step_candidates(planner.scene, step, planner.config)],
-                          samples=samples, step_index=step_index, collisions=collisions)
+    return alone
 
 
 # -- trajectory IK -------------------------------------------------------------------------------
