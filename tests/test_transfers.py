@@ -321,3 +321,20 @@ def test_evaluation_counts_transfer_faults(maps_dir, pr2):
     place.tcp = tilted
     assert transfer_faults(result) == 1
     assert any("set down tilted 11.5 deg" in p for p in result.verify(pr2))
+
+
+def test_the_viewer_refuses_a_plan_whose_place_changes_the_grasp(maps_dir, tmp_path):
+    """`placement view --plan`: a plan whose place holds the object by another grasp than its pick
+    is not a plan of this scene's robot executing it: one line naming the step."""
+    import json
+
+    from placement.viewer.plan_file import PlanFileError, load_checked_plan
+    scene = unbudgeted(load_scene(EXAMPLES / "table_clearing.yaml"))
+    doc = Planner(scene, maps=maps_dir).plan().to_json()
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(doc))
+    assert len(load_checked_plan(path, scene)) == 6
+    doc["steps"][1]["grasp"] = "top" if doc["steps"][1]["grasp"] == "top-flipped" else "top-flipped"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(PlanFileError, match=r"steps\[1\]: placed by arm \w+ with grasp top(-flipped)?, picked by"):
+        load_checked_plan(path, scene)

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..planning.results import Cost, StepResult
+from ..planning.results import Cost, StepResult, transfer_problems
+from ..planning.transfer import UPRIGHT_TOLERANCE
 from ..robots import pose_to_matrix
 from .server import ViewerError
 
@@ -96,8 +97,12 @@ def parse_step(d, where: str, robot) -> StepResult:
     terms = ("navigation", "manipulation", "heuristic")
     cost = Cost(*(_number(cost[t], f"{where}.cost.{t}") for t in terms)) if all(t in cost for t in terms) else None
     grasp = d.get("grasp") if isinstance(d.get("grasp"), str) else "?"
-    return StepResult(step, action, target, "ok", None, arm, grasp, base, np.stack(poses), q,
-                      {j: float(v) for j, v in zip(names, q)}, extra["manipulability"], cost, extra["travel_time_s"])
+    out = StepResult(step, action, target, "ok", None, arm, grasp, base, np.stack(poses), q,
+                     {j: float(v) for j, v in zip(names, q)}, extra["manipulability"], cost, extra["travel_time_s"])
+    # the transfer: the object a pick takes or a place sets down (plans made before transfers have none)
+    out.object = d.get("object") if isinstance(d.get("object"), str) else None
+    out.trajectory = d.get("trajectory") if isinstance(d.get("trajectory"), str) else None
+    return out
 
 
 def parse_plan(doc, where: str, robot) -> list[StepResult]:
@@ -188,6 +193,9 @@ def check_plan(doc: dict, steps: list[StepResult], scene, robot, where: str) -> 
     if len(steps) < len(task):
         _need(not steps[-1].ok, f"{where}: steps",
               f"the plan stops after {len(steps)} of the task's {len(task)} steps without an infeasible one")
+    for i, s in enumerate(steps):  # a place by its pick's arm and grasp, the object upright as picked
+        problems = transfer_problems(s, steps, "", rot_tol=UPRIGHT_TOLERANCE) if s.ok else []
+        _need(not problems, f"{where}: steps[{i}]", problems[0].lstrip(": ") if problems else "")
 
 
 def _check_step(d: dict, s: StepResult, scene, robot, at: str) -> None:
