@@ -1,6 +1,6 @@
 """Time-efficient robot base placement for mobile manipulation.
 
-Public API (see README): robots (:func:`load_robot`), the manipulability measure, reachability
+Public API (see README and docs/): robots (:func:`load_robot`), the manipulability measure, reachability
 maps (:func:`build_map`, :func:`open_map`, :func:`check_map`), IK, and planning (:func:`plan`,
 :class:`Planner`, typed results). No viewer or plotting module is imported here.
 """

@@ -1,7 +1,7 @@
 """Grasp and place candidates as TCP trajectories (pre-pose first, final pose last).
 
 The canonical TCP frame has z along the approach direction and y along the
-closing direction of the gripper (see README). Top grasps approach straight
+closing direction of the gripper (see docs/planning.md). Top grasps approach straight
 down (TCP z = world -z): the TCP origin goes to the centre of the object's top
 face, from a pre-grasp ``approach`` metres above.
 

@@ -1,4 +1,4 @@
-"""Viewer timings for the README, and its screenshots: ``python -m placement.viewer.bench``.
+"""Viewer timings for docs/viewer.md, and its screenshots: ``python -m placement.viewer.bench``.
 
 Measures, for the example scene: opening scene, robot and maps; the first step planned and drawn
 after that; step switch latency (median and worst of every switch between steps); and for a map:

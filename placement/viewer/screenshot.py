@@ -1,5 +1,5 @@
 """Screenshots of a running view with headless Chromium (Debian's ``chromium``): for the browser test,
-the README's pictures and the viewer benchmark. WebGL is drawn in software (SwiftShader)."""
+the documentation's pictures and the viewer benchmark. WebGL is drawn in software (SwiftShader)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """What a scene may hold: the bounds that keep parsing and planning within seconds and a few GB.
 
 Each is checked before the work it bounds, and the message names the bound. Measured on 2 shared
-cores (README, "What is checked when").
+cores (docs/planning.md, "What is checked when").
 """
 
 from __future__ import annotations
