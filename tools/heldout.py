@@ -31,6 +31,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 from oracle_collision import IndependentCheck  # noqa: E402
 from placement.evaluation.generate import TABLE_HEIGHT, generate_scene  # noqa: E402
 from placement.planning import Planner  # noqa: E402
+from placement.planning.scene.poses import quaternion_matrix  # noqa: E402
 
 MAPS = {"pr2": ROOT / "maps" / "pr2"}
 ONBOARD_MAPS = ROOT / "maps"
@@ -52,17 +53,9 @@ def transfer_faults(doc: dict) -> tuple[int, int]:
         elif s["action"] == "place":
             pick = picks[s["object"]]
             changes += (pick["arm"], pick["grasp"]) != (s["arm"], s["grasp"])
-            R = quat(s["tcp"][-1][3:]) @ quat(pick["tcp"][-1][3:]).T
+            R = quaternion_matrix(s["tcp"][-1][3:]) @ quaternion_matrix(pick["tcp"][-1][3:]).T
             tilted += R[2, 2] < math.cos(math.radians(6.0))
     return changes, tilted
-
-
-def quat(q):
-    import numpy as np
-    x, y, z, w = q
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 def pr2_scenes(n: int, objects: int) -> list[dict]:

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene.poses import quaternion_matrix
 
 APPROACH = 0.10  # [m] pre-grasp / pre-place height above the final TCP pose
 GRIPPER_OPENING = 0.09  # [m] widest chord the gripper closes across (the PR2 opens about 0.09 m)
@@ -126,16 +125,6 @@ def box_grasps(pose: np.ndarray, size, opening: float = GRIPPER_OPENING,
             if chord(R, size, c) <= opening:
                 name = f"side-{'+' if sign > 0 else '-'}{AXES[m]}"
                 out.append(Candidate(name, _frame(p + n * size[m] / 2, a, c, approach)))
-    return out
-
-
-def oriented_places(position, orientations, approach: float = APPROACH) -> list[Candidate]:
-    """Place trajectories onto ``position`` (3,) [m] with the TCP turned by each of ``orientations``
-    (k, 4) [x, y, z, w], from ``approach`` [m] back along the TCP z: "place-orientation0", ..."""
-    out = []
-    for n, q in enumerate(np.asarray(orientations, dtype=float).reshape(-1, 4)):
-        R = quaternion_matrix(q)
-        out.append(Candidate(f"place-orientation{n}", _frame(position, R[:, 2], R[:, 1], approach)))
     return out
 
 
