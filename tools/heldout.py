@@ -54,7 +54,7 @@ def transfer_faults(doc: dict) -> tuple[int, int]:
             pick = picks[s["object"]]
             changes += (pick["arm"], pick["grasp"]) != (s["arm"], s["grasp"])
             R = quaternion_matrix(s["tcp"][-1][3:]) @ quaternion_matrix(pick["tcp"][-1][3:]).T
-            tilted += R[2, 2] < math.cos(math.radians(6.0))
+            tilted += int(R[2, 2] < math.cos(math.radians(6.0)))
     return changes, tilted
 
 
