@@ -4,7 +4,7 @@ PY ?= .venv/bin/python
 # (placement/__init__.py), so .venv/bin/placement finds what `make install` compiled; same place here.
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 
-.PHONY: install constraints test maps maps-armar6 demo bench bench-eval eval robots clean
+.PHONY: install constraints lint test maps maps-armar6 demo bench bench-eval eval robots clean
 
 install: .venv/installed $(NUMBA_CACHE_DIR)/warm
 
@@ -12,7 +12,7 @@ install: .venv/installed $(NUMBA_CACHE_DIR)/warm
 .venv/installed: pyproject.toml constraints.txt
 	python3 -m venv .venv
 	.venv/bin/pip install -q --upgrade pip
-	.venv/bin/pip install -q -c constraints.txt -e '.[test]'
+	.venv/bin/pip install -q -c constraints.txt -e '.[test,dev,docs]'
 	touch $@
 
 # After an upgrade in .venv that passes `make test`: pin what is installed now.
@@ -25,6 +25,13 @@ constraints:
 $(NUMBA_CACHE_DIR)/warm: .venv/installed $(wildcard placement/kernels/*.py)
 	$(PY) -m placement.warmup
 	touch $@
+
+# Style and types: ruff (lint, format) over the package, tools and tests; mypy on the package
+# (strict on planning, collision, storage, scene: see pyproject.toml).
+lint: install
+	.venv/bin/ruff check placement tools tests
+	.venv/bin/ruff format --check placement tools tests
+	.venv/bin/mypy
 
 # Two pytest workers (pytest-xdist): the 2-core machine runs the suite in about 6.5 minutes instead of 11.6.
 test: install

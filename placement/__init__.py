@@ -26,35 +26,65 @@ def _default_numba_cache_dir() -> "str | None":
 if not _os.environ.get("NUMBA_CACHE_DIR") and _default_numba_cache_dir():
     _os.environ["NUMBA_CACHE_DIR"] = _default_numba_cache_dir()
 
-from .errors import (  # noqa: E402
-    ArmNotFound, FrameNotFound, GridError, JointNotFound, MapError, PlacementError, PresetError, RobotError,
+from placement.errors import (  # noqa: E402
+    ArmNotFound,
+    FrameNotFound,
+    GridError,
+    JointNotFound,
+    MapError,
+    PlacementError,
+    PresetError,
+    RobotError,
 )
-from .grid import Grid  # noqa: E402
-from .ik import IKResult, solve_ik  # noqa: E402
-from .manipulability import extended_manipulability  # noqa: E402
-from .planning import PlannerConfig, PlanResult, StepResult  # noqa: E402
-from .planning.planner import Planner, plan  # noqa: E402
-from .rmap import ReachabilityMap, open_map, save_maps  # noqa: E402
-from .robots import Arm, Robot, load_robot  # noqa: E402
-from .storage.format import BuiltMap  # noqa: E402
-from .version import __version__  # noqa: E402
+from placement.kinematics.ik import IKResult, solve_ik  # noqa: E402
+from placement.kinematics.manipulability import extended_manipulability  # noqa: E402
+from placement.maps.grid import Grid  # noqa: E402
+from placement.maps.rmap import ReachabilityMap, open_map, save_maps  # noqa: E402
+from placement.planning import PlannerConfig, PlanResult, StepResult  # noqa: E402
+from placement.planning.planner import Planner, plan  # noqa: E402
+from placement.robots import Arm, Robot, load_robot  # noqa: E402
+from placement.storage.format import BuiltMap  # noqa: E402
+from placement.version import __version__  # noqa: E402
 
 # the map builder and the accuracy check pull in the sampler, tqdm and coal: loaded on first use, so
 # that opening a map (the online path) does not pay for them
-_LAZY = {"build_map": "build", "check_map": "accuracy", "view": "viewer"}
+_LAZY = {"build_map": "placement.maps.build", "check_map": "placement.maps.accuracy", "view": "placement.viewer"}
 
 
 def __getattr__(name: str):
     if name in _LAZY:
         import importlib
 
-        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        return getattr(importlib.import_module(_LAZY[name]), name)
     raise AttributeError(f"module 'placement' has no attribute '{name}'")
 
 
-__all__ = sorted([
-    "Arm", "ArmNotFound", "BuiltMap", "FrameNotFound", "Grid", "GridError", "IKResult", "JointNotFound",
-    "MapError", "PlacementError", "PlanResult", "Planner", "PlannerConfig", "PresetError", "ReachabilityMap",
-    "Robot", "RobotError", "StepResult", "__version__", "build_map", "check_map", "extended_manipulability",
-    "load_robot", "open_map", "plan", "save_maps", "solve_ik",
-])
+__all__ = [
+    "Arm",
+    "ArmNotFound",
+    "BuiltMap",
+    "FrameNotFound",
+    "Grid",
+    "GridError",
+    "IKResult",
+    "JointNotFound",
+    "MapError",
+    "PlacementError",
+    "PlanResult",
+    "Planner",
+    "PlannerConfig",
+    "PresetError",
+    "ReachabilityMap",
+    "Robot",
+    "RobotError",
+    "StepResult",
+    "__version__",
+    "build_map",
+    "check_map",
+    "extended_manipulability",
+    "load_robot",
+    "open_map",
+    "plan",
+    "save_maps",
+    "solve_ik",
+]

@@ -50,9 +50,7 @@ class ArmNotFound(RobotError):
     """An arm name that the robot preset does not define."""
 
     def __init__(self, arm: str, robot: str, arms: list[str]):
-        super().__init__(
-            f"robot '{robot}' has no arm '{arm}'; its arms are: {', '.join(arms)}"
-        )
+        super().__init__(f"robot '{robot}' has no arm '{arm}'; its arms are: {', '.join(arms)}")
         self.arm = arm
 
 

@@ -12,11 +12,13 @@ import numpy as np
 DPI = 150
 DISTANCE_CAP = 2.0  # [m] the distance panel saturates here: farther is all open floor
 # (StepMaps field or "distance", panel title, colour bar label, colour map)
-PANELS = (("distance", "distance to obstacles", "distance [m]", "magma"),
-          ("navigation", "navigation cost", "navigation cost [m]", "viridis"),
-          ("manipulation", "manipulability (IRM)", "manipulability [dimensionless]", "viridis"),
-          ("heuristic", "heuristic cost to the next step", "heuristic cost [m]", "cividis"),
-          ("combined", "combined cost (Eq. 6)", "combined cost [dimensionless]", "viridis"))
+PANELS = (
+    ("distance", "distance to obstacles", "distance [m]", "magma"),
+    ("navigation", "navigation cost", "navigation cost [m]", "viridis"),
+    ("manipulation", "manipulability (IRM)", "manipulability [dimensionless]", "viridis"),
+    ("heuristic", "heuristic cost to the next step", "heuristic cost [m]", "cividis"),
+    ("combined", "combined cost (Eq. 6)", "combined cost [dimensionless]", "viridis"),
+)
 
 
 def panel_data(key: str, world, maps) -> np.ma.MaskedArray | None:
@@ -41,8 +43,16 @@ def draw_markers(ax, world, step, maps, start, footprint_radius) -> None:
     nav = world.nav
     xs, ys = nav.centres()
     blocked = np.ma.masked_where(world.feasible, np.ones(world.feasible.shape))
-    ax.imshow(blocked, origin="lower", extent=extent_of(nav), cmap="Greys", vmin=0, vmax=3, alpha=0.55,
-              interpolation="nearest")
+    ax.imshow(
+        blocked,
+        origin="lower",
+        extent=extent_of(nav),
+        cmap="Greys",
+        vmin=0,
+        vmax=3,
+        alpha=0.55,
+        interpolation="nearest",
+    )
     ax.contour(xs, ys, world.occupied.astype(float), levels=[0.5], colors="k", linewidths=0.8)
     if maps.path is not None and len(maps.path):
         ax.plot(xs[maps.path[:, 1]], ys[maps.path[:, 0]], "-", color="red", lw=1.6)
@@ -57,14 +67,22 @@ def draw_markers(ax, world, step, maps, start, footprint_radius) -> None:
             r = base.half_depth()
         else:
             ax.add_patch(Circle((x, y), r, fill=False, ec="red", lw=1.6))
-        ax.annotate("", (x + r * np.cos(yaw), y + r * np.sin(yaw)), (x, y),
-                    arrowprops={"arrowstyle": "-|>", "color": "red", "lw": 1.6})
+        ax.annotate(
+            "",
+            (x + r * np.cos(yaw), y + r * np.sin(yaw)),
+            (x, y),
+            arrowprops={"arrowstyle": "-|>", "color": "red", "lw": 1.6},
+        )
         ax.plot(step.tcp[-1][0, 3], step.tcp[-1][1, 3], "*", color="white", mec="k", ms=13)
 
 
 def extent_of(nav) -> tuple[float, float, float, float]:
-    return (nav.origin[0], nav.origin[0] + nav.shape[1] * nav.resolution,
-            nav.origin[1], nav.origin[1] + nav.shape[0] * nav.resolution)
+    return (
+        nav.origin[0],
+        nav.origin[0] + nav.shape[1] * nav.resolution,
+        nav.origin[1],
+        nav.origin[1] + nav.shape[0] * nav.resolution,
+    )
 
 
 def legend_handles(step, start, has_path: bool, outline: bool = False) -> list:
@@ -73,8 +91,10 @@ def legend_handles(step, start, has_path: bool, outline: bool = False) -> list:
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    h = [Line2D([], [], color="k", lw=0.8, label="obstacle outline"),
-         Patch(color="0.55", alpha=0.55, label="infeasible for the base\n(obstacle or closer than footprint)")]
+    h = [
+        Line2D([], [], color="k", lw=0.8, label="obstacle outline"),
+        Patch(color="0.55", alpha=0.55, label="infeasible for the base\n(obstacle or closer than footprint)"),
+    ]
     if has_path:
         h.append(Line2D([], [], color="red", lw=1.6, label="path from the previous placement"))
     if start is not None:
@@ -83,8 +103,19 @@ def legend_handles(step, start, has_path: bool, outline: bool = False) -> list:
         if outline:
             h.append(Patch(fill=False, ec="red", lw=1.6, label="chosen placement: footprint outline\n(arrow: heading)"))
         else:
-            h.append(Line2D([], [], ls="", marker="o", mfc="none", mec="red", ms=12, mew=1.6,
-                            label="chosen placement: footprint circle\n(arrow: heading)"))
+            h.append(
+                Line2D(
+                    [],
+                    [],
+                    ls="",
+                    marker="o",
+                    mfc="none",
+                    mec="red",
+                    ms=12,
+                    mew=1.6,
+                    label="chosen placement: footprint circle\n(arrow: heading)",
+                )
+            )
         h.append(Line2D([], [], ls="", marker="*", color="white", mec="k", ms=13, label=f"target ({step.target})"))
     return h
 
@@ -102,8 +133,11 @@ def plot_step(world, step, path, start=None, footprint_radius: float | None = No
     maps = step.maps
     if maps is None:
         return None
-    panels = [(title, label, cmap, data) for key, title, label, cmap in PANELS
-              if (data := panel_data(key, world, maps)) is not None]
+    panels = [
+        (title, label, cmap, data)
+        for key, title, label, cmap in PANELS
+        if (data := panel_data(key, world, maps)) is not None
+    ]
     cols = 3
     rows = (len(panels) + 1 + cols - 1) // cols  # one cell more for the legend
     fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.4 * rows), squeeze=False)
@@ -120,15 +154,17 @@ def plot_step(world, step, path, start=None, footprint_radius: float | None = No
     legend_ax.axis("off")
     has_path = maps.path is not None and len(maps.path) > 0
     outline = getattr(getattr(world, "base", None), "polygon", None) is not None  # as draw_markers draws it
-    legend_ax.legend(handles=legend_handles(step, start, has_path, outline), loc="center", fontsize=10,
-                     frameon=False)
-    for ax in axes[len(panels) + 1:]:
+    legend_ax.legend(handles=legend_handles(step, start, has_path, outline), loc="center", fontsize=10, frameon=False)
+    for ax in axes[len(panels) + 1 :]:
         ax.remove()
     dropped = [t for k, t, _, _ in PANELS if panel_data(k, world, maps) is None]
     note = f"\n(not shown, a single value everywhere: {', '.join(dropped)})" if dropped else ""
-    fig.suptitle(f"step {step.step}: {step.action} {step.target}"
-                 + (f" ({step.arm} arm, {step.grasp})" if step.ok else f" (infeasible: {step.reason})") + note,
-                 fontsize=14)
+    fig.suptitle(
+        f"step {step.step}: {step.action} {step.target}"
+        + (f" ({step.arm} arm, {step.grasp})" if step.ok else f" (infeasible: {step.reason})")
+        + note,
+        fontsize=14,
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
@@ -143,7 +179,7 @@ def file_name(step) -> str:
     target lists its trajectories with commas: ``a,b`` becomes ``a_or_b``; other characters become ``-``)."""
     target = re.sub(r"[^A-Za-z0-9._-]+", "-", str(step.target).replace(",", "_or_")).strip(".-") or "target"
     if len(target) > MAX_NAME:
-        target = f"{target[:MAX_NAME - 11]}-{hashlib.sha256(str(step.target).encode()).hexdigest()[:10]}"
+        target = f"{target[: MAX_NAME - 11]}-{hashlib.sha256(str(step.target).encode()).hexdigest()[:10]}"
     return f"step{step.step:02d}_{step.action}_{target}.png"
 
 

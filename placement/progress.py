@@ -69,7 +69,7 @@ class Eta:
         # noise cannot promise a speed-up the build will not have (no slowdown is extrapolated)
         p = math.log(tau_before / tau) / math.log(mid / ((half[0] + quarter[0]) / 2)) if tau > 0 else 0.0
         p = min(max(p, 0.0), self.max_exponent)
-        return tau * mid ** p * (total ** (1 - p) - done ** (1 - p)) / (1 - p)
+        return tau * mid**p * (total ** (1 - p) - done ** (1 - p)) / (1 - p)
 
     def latest_at(self, done: float) -> tuple[float, float]:
         """The latest (done, time) update with at most ``done`` units done."""

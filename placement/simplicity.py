@@ -24,7 +24,7 @@ from fractions import Fraction
 import numpy as np
 
 #: Shewchuk's ccwerrboundA: |det| above this times (|detleft| + |detright|) has the right sign.
-_ERRBOUND = (3.0 + 16.0 * 2.0 ** -53) * 2.0 ** -53
+_ERRBOUND = (3.0 + 16.0 * 2.0**-53) * 2.0**-53
 #: Below this magnitude products may be subnormal and the bound does not hold: decide exactly.
 _TINY = 1e-280
 
@@ -90,7 +90,7 @@ class _Edge:
         self.left, self.right = (a, b) if a <= b else (b, a)
         self.ylo, self.yhi = (a[1], b[1]) if a[1] <= b[1] else (b[1], a[1])
 
-    def __lt__(self, other: "_Edge") -> bool:
+    def __lt__(self, other: _Edge) -> bool:
         """Whether this edge lies below ``other`` (both cross the sweep line, and have not crossed yet)."""
         if self is other:
             return False
@@ -130,8 +130,9 @@ def self_crossing(points) -> tuple[int, int] | None:
         if kind == 0:
             at = bisect.bisect_left(active, e)
             active.insert(at, e)
-            found = check(active[at - 1] if at else None, e) or \
-                check(e, active[at + 1] if at + 1 < len(active) else None)
+            found = check(active[at - 1] if at else None, e) or check(
+                e, active[at + 1] if at + 1 < len(active) else None
+            )
         else:
             at = bisect.bisect_left(active, e)
             if at >= len(active) or active[at] is not e:  # the order broke: only edges that meet do that

@@ -19,12 +19,12 @@ from __future__ import annotations
 import math
 import os
 import stat
+from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any, Iterable, Mapping, NoReturn
+from typing import Any, NoReturn
 
 import numpy as np
 import yaml
-
 
 #: Integers with more bits than this are shown by their size, never in full: Python refuses to turn
 #: an int of more than 4300 decimal digits into a string (and a long one makes no message).
@@ -92,8 +92,9 @@ class Checker:
         raise self.error(one_line(f"{self.where}: {path}: {message}" if path else f"{self.where}: {message}"))
 
     # -- containers ----------------------------------------------------
-    def mapping(self, value: Any, path: str, allowed: Mapping[str, str] | Iterable[str],
-                required: Iterable[str] = ()) -> dict:
+    def mapping(
+        self, value: Any, path: str, allowed: Mapping[str, str] | Iterable[str], required: Iterable[str] = ()
+    ) -> dict:
         """A mapping with string keys among ``allowed`` and every key of ``required``.
 
         ``allowed`` may map each key to a short description (with its unit), which
@@ -122,8 +123,9 @@ class Checker:
             self.fail(path, f"expected at least {minimum} entr{'y' if minimum == 1 else 'ies'}, got {len(value)}")
         return value
 
-    def sequence(self, value: Any, path: str, length: int | None = None, minimum: int = 0,
-                 what: str = "values") -> list:
+    def sequence(
+        self, value: Any, path: str, length: int | None = None, minimum: int = 0, what: str = "values"
+    ) -> list:
         """A list of exactly ``length`` (if given) or at least ``minimum`` items."""
         if not isinstance(value, list):
             self.fail(path, f"expected a list of {what}, got {describe(value)}")
@@ -267,8 +269,14 @@ def size_text(n: int) -> str:
     return f"{n} bytes"
 
 
-def read_regular(path: str | Path, error: type[Exception], where: str | None = None,
-                 max_bytes: int = MAX_YAML_BYTES, what: str = "file", prefix: int | None = None) -> bytes:
+def read_regular(
+    path: str | Path,
+    error: type[Exception],
+    where: str | None = None,
+    max_bytes: int = MAX_YAML_BYTES,
+    what: str = "file",
+    prefix: int | None = None,
+) -> bytes:
     """The bytes of ``path`` if it is a regular file of at most ``max_bytes``; else ``error`` naming it.
 
     Opened without blocking and checked on the open descriptor, so a FIFO, a device (``/dev/zero``),
@@ -285,13 +293,24 @@ def read_regular(path: str | Path, error: type[Exception], where: str | None = N
     try:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
-            kind = ("a directory" if stat.S_ISDIR(st.st_mode) else "a FIFO" if stat.S_ISFIFO(st.st_mode)
-                    else "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode)
-                    else "a socket" if stat.S_ISSOCK(st.st_mode) else "not a regular file")
+            kind = (
+                "a directory"
+                if stat.S_ISDIR(st.st_mode)
+                else "a FIFO"
+                if stat.S_ISFIFO(st.st_mode)
+                else "a device"
+                if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode)
+                else "a socket"
+                if stat.S_ISSOCK(st.st_mode)
+                else "not a regular file"
+            )
             raise error(one_line(f"{where}: the {what} is {kind}, not a regular file"))
         if st.st_size > max_bytes:
-            raise error(one_line(f"{where}: the {what} is {size_text(st.st_size)}, more than the "
-                                 f"{size_text(max_bytes)} allowed"))
+            raise error(
+                one_line(
+                    f"{where}: the {what} is {size_text(st.st_size)}, more than the {size_text(max_bytes)} allowed"
+                )
+            )
         chunks, total = [], 0
         stop = max_bytes + 1 if prefix is None else min(prefix, max_bytes + 1)
         while total < stop:
@@ -309,8 +328,13 @@ def read_regular(path: str | Path, error: type[Exception], where: str | None = N
     return b"".join(chunks)
 
 
-def read_text(path: str | Path, error: type[Exception], where: str | None = None,
-              max_bytes: int = MAX_YAML_BYTES, what: str = "file") -> str:
+def read_text(
+    path: str | Path,
+    error: type[Exception],
+    where: str | None = None,
+    max_bytes: int = MAX_YAML_BYTES,
+    what: str = "file",
+) -> str:
     """:func:`read_regular` decoded as UTF-8 (a one-line ``error`` for anything else)."""
     where = str(path) if where is None else where
     data = read_regular(path, error, where, max_bytes, what)
@@ -320,8 +344,9 @@ def read_text(path: str | Path, error: type[Exception], where: str | None = None
         raise error(one_line(f"{where}: not a UTF-8 text file (byte {exc.start})")) from None
 
 
-def read_yaml(path: str | Path, error: type[Exception], where: str | None = None,
-              max_bytes: int = MAX_YAML_BYTES) -> Any:
+def read_yaml(
+    path: str | Path, error: type[Exception], where: str | None = None, max_bytes: int = MAX_YAML_BYTES
+) -> Any:
     """Read and parse the YAML file ``path`` (see :func:`parse_yaml`); ``where`` defaults to the path.
 
     Only a regular file of at most ``max_bytes`` is read (see :func:`read_regular`).

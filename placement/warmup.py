@@ -85,7 +85,7 @@ def kernel_dispatchers() -> dict[str, CPUDispatcher]:
         package = rel if path.name == "__init__.py" else rel[:-1]
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.ImportFrom):
-                base = list(package[:len(package) - node.level + 1]) if node.level else []
+                base = list(package[: len(package) - node.level + 1]) if node.level else []
                 module = ".".join(base + ([node.module] if node.module else []))
                 if module.startswith("placement.kernels."):
                     names |= {f"{module}.{alias.name}" for alias in node.names}
@@ -109,21 +109,23 @@ def warm(work: Path, say=print) -> dict[str, float]:
     returns the seconds each stage took (its compile time when the cache is cold)."""
     import yaml
 
-    from .accuracy import check_map
-    from .build import build_map
-    from .evaluation.evaluate import evaluate_scene
-    from .evaluation.generate import generate_scene
-    from .planning import METHODS, Planner
-    from .manipulability import extended_manipulability
-    from .rmap import open_map, save_maps
-    from .robots import load_robot
+    from placement.evaluation.evaluate import evaluate_scene
+    from placement.evaluation.generate import generate_scene
+    from placement.kinematics.manipulability import extended_manipulability
+    from placement.maps.accuracy import check_map
+    from placement.maps.build import build_map
+    from placement.maps.rmap import open_map, save_maps
+    from placement.planning import METHODS, Planner
+    from placement.robots import load_robot
 
     robot = load_robot("pr2")
     times = {}
     t = time.perf_counter()
     # the maps of the test suite's planning tests: small, yet good enough that plans succeed
-    maps = {arm: build_map(robot, arm, samples=200_000, seed=1, resolution=0.1, bins=(10, 5, 10), progress=False)
-            for arm in robot.arms}
+    maps = {
+        arm: build_map(robot, arm, samples=200_000, seed=1, resolution=0.1, bins=(10, 5, 10), progress=False)
+        for arm in robot.arms
+    }
     build_map(robot, "right", samples=50, resolution=0.2, bins=(4, 3, 4), progress=False, self_collision=True)
     build_map(robot, "right", samples=5, resolution=0.2, bins=(4, 3, 4), progress=False, self_distance=True)
     times["maps build"] = time.perf_counter() - t
@@ -149,8 +151,11 @@ def warm(work: Path, say=print) -> dict[str, float]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m placement.warmup", description="Compile every numba kernel "
-                                 "into the cache (NUMBA_CACHE_DIR), so that no command compiles on first use.")
+    ap = argparse.ArgumentParser(
+        prog="python -m placement.warmup",
+        description="Compile every numba kernel "
+        "into the cache (NUMBA_CACHE_DIR), so that no command compiles on first use.",
+    )
     ap.add_argument("-q", "--quiet", action="store_true", help="print nothing unless a kernel stays uncompiled")
     args = ap.parse_args(argv)
     import numba
@@ -163,8 +168,10 @@ def main(argv=None) -> int:
         warm(Path(tmp), say)
     missing = uncompiled_kernels()
     if missing:
-        print(f"warning: not compiled by the warm-up (they will compile on first use): {', '.join(missing)}",
-              file=sys.stderr)
+        print(
+            f"warning: not compiled by the warm-up (they will compile on first use): {', '.join(missing)}",
+            file=sys.stderr,
+        )
     return 0
 
 

@@ -12,12 +12,12 @@ from pathlib import Path
 
 os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(__file__).resolve().parents[1] / ".venv" / "numba-cache"))
 
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-import yaml  # noqa: E402
+import numpy as np
+import pytest
+import yaml
+from skip_summary import pytest_terminal_summary  # noqa: F401  (the run's closing skip summary)
 
-import placement  # noqa: E402
-from skip_summary import pytest_terminal_summary  # noqa: E402,F401  (the run's closing skip summary)
+import placement
 
 SHARED_ARMAR6_URDF = Path(__file__).resolve().parents[2] / "shared/robots/armar6/Armar6.urdf"
 
@@ -44,7 +44,9 @@ def packaged_armar6_urdf(folder: Path) -> Path | None:
     palms = "".join(
         f'  <joint name="palm_joint_{arm}" type="fixed">\n    <parent link="arm_t8_{arm}"/>\n'
         f'    <child link="{link}"/>\n    <origin rpy="{rpy}" xyz="0 0 0.14"/>\n  </joint>\n'
-        f'  <link name="{link}"/>\n' for arm, (link, rpy) in _PALMS.items())
+        f'  <link name="{link}"/>\n'
+        for arm, (link, rpy) in _PALMS.items()
+    )
     text = text.replace("</robot>", palms + "</robot>")
     folder.mkdir(parents=True, exist_ok=True)
     package = folder / "armar"
@@ -78,8 +80,9 @@ def _armar6_urdf() -> tuple[Path, str]:
     try:
         import armar
     except ImportError:
-        return SHARED_ARMAR6_URDF, ("not found: neither ../shared/robots/armar6 nor the armar package "
-                                    "(pip install -e '.[test]')")
+        return SHARED_ARMAR6_URDF, (
+            "not found: neither ../shared/robots/armar6 nor the armar package (pip install -e '.[test]')"
+        )
     key = hashlib.sha256(armar.__file__.encode()).hexdigest()[:10]  # one folder per installed package
     return packaged_armar6_urdf(Path(tempfile.gettempdir()) / f"placement-tests-armar6-{os.getuid()}-{key}"), "package"
 
@@ -95,8 +98,10 @@ NEEDS_PYCRAM_ARMAR6 = {
     "test_collision_cases.py::test_robot_without_collision_geometry_warns_and_is_never_blocked",  # no meshes
     "test_selfcollision.py::test_missing_collision_geometry_is_one_clear_error",  # no mesh files
 }
-PYCRAM_ONLY = ("needs ../shared's ARMAR-6 model (fingers, neck joints, no mesh files); the armar package's "
-               "has the same arms and torso, no fingers or neck joints, and its meshes")
+PYCRAM_ONLY = (
+    "needs ../shared's ARMAR-6 model (fingers, neck joints, no mesh files); the armar package's "
+    "has the same arms and torso, no fingers or neck joints, and its meshes"
+)
 
 
 def pytest_collection_modifyitems(config, items):
@@ -106,6 +111,7 @@ def pytest_collection_modifyitems(config, items):
         file, _, test = item.nodeid.partition("::")
         if f"{Path(file).name}::{test}" in NEEDS_PYCRAM_ARMAR6:
             item.add_marker(pytest.mark.skip(reason=PYCRAM_ONLY))
+
 
 _ARMAR6_JOINTS = ("arm_t12", "arm_t23", "arm_t34", "arm_t45", "arm_t56", "arm_t67", "arm_t78", "arm_t8")
 
@@ -117,9 +123,13 @@ ARMAR6_TCP_OFFSET = [0.10, 0.0, 0.04, 0.0, 0.7071067811865476, 0.0, 0.7071067811
 
 def armar6_spec(urdf: Path = ARMAR6_URDF) -> dict:
     """A robot preset (as a dict) for ARMAR-6 with both 8-DoF arms."""
+
     def arm(suffix: str, tip: str) -> dict:
-        return {"joints": [f"{j}_joint_{suffix}" for j in _ARMAR6_JOINTS], "tip_frame": tip,
-                "tcp_offset": list(ARMAR6_TCP_OFFSET)}
+        return {
+            "joints": [f"{j}_joint_{suffix}" for j in _ARMAR6_JOINTS],
+            "tip_frame": tip,
+            "tcp_offset": list(ARMAR6_TCP_OFFSET),
+        }
 
     return {
         "name": "armar6",
@@ -172,6 +182,8 @@ def random_configs(arm, n: int, rng: np.random.Generator) -> np.ndarray:
 @pytest.fixture(scope="session")
 def maps_dir(pr2, tmp_path_factory):
     """Small PR2 maps (both arms) shared by the planning tests."""
-    built = {arm: placement.build_map(pr2, arm, samples=700_000, seed=1, resolution=0.1, bins=(10, 5, 10),
-                                      progress=False) for arm in ("right", "left")}
+    built = {
+        arm: placement.build_map(pr2, arm, samples=700_000, seed=1, resolution=0.1, bins=(10, 5, 10), progress=False)
+        for arm in ("right", "left")
+    }
     return placement.save_maps(tmp_path_factory.mktemp("maps") / "pr2", pr2, built)

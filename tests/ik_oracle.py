@@ -1,5 +1,5 @@
 """An independent oracle for "is this step feasible?": random base poses around the target and a
-pinocchio-only damped least-squares IK with restarts (no map, no planner kernel, no placement.ik).
+pinocchio-only damped least-squares IK with restarts (no map, no planner kernel, no placement.kinematics.ik).
 
 A step is feasible when some base pose lets the arm reach every pose of one of the step's TCP
 trajectories, each within 2 mm and 0.02 rad. Base poses are on the planner's grid (cell centres) and,
@@ -18,7 +18,6 @@ import math
 
 import numpy as np
 import pinocchio as pin
-
 from oracle_collision import IndependentCheck, polygon_distance
 
 POS_TOL, ROT_TOL = 2e-3, 2e-2
@@ -33,9 +32,15 @@ class PinIK:
         self.model = pin.Model(robot.model)
         tip_id = self.model.getFrameId(a.tip_frame)
         tip = self.model.frames[tip_id]
-        self.tcp = self.model.addFrame(pin.Frame("oracle_tcp", tip.parentJoint, tip_id,
-                                                 tip.placement * pin.SE3(np.asarray(a.tcp_offset, float)),
-                                                 pin.FrameType.OP_FRAME))
+        self.tcp = self.model.addFrame(
+            pin.Frame(
+                "oracle_tcp",
+                tip.parentJoint,
+                tip_id,
+                tip.placement * pin.SE3(np.asarray(a.tcp_offset, float)),
+                pin.FrameType.OP_FRAME,
+            )
+        )
         self.data = self.model.createData()
         self.cols = [self.model.joints[j].idx_v for j in a.joint_ids]
         self.ref = robot.reference_q()
@@ -88,8 +93,9 @@ class BaseAndArmCheck:
         cfg = planner.base_config
         self.keep = cfg.footprint_padding
         self.padding = cfg.collision_padding
-        self.checker = IndependentCheck(planner.robot, planner.scene) if (collisions or self.polygon is not None) \
-            else None
+        self.checker = (
+            IndependentCheck(planner.robot, planner.scene) if (collisions or self.polygon is not None) else None
+        )
         self.collisions = collisions
         self.picked, self.held = step_objects(planner, step_index)
 
@@ -116,17 +122,27 @@ class BaseAndArmCheck:
         if not self.collisions:
             return True
         names = self.planner.robot.arm(arm).joints
-        step = {"step": 0, "arm": arm, "base": list(base),
-                "poses": [{"joints": dict(zip(names, map(float, q)))} for q in qs]}
+        step = {
+            "step": 0,
+            "arm": arm,
+            "base": list(base),
+            "poses": [{"joints": dict(zip(names, map(float, q)))} for q in qs],
+        }
         if carried is not None:  # the object moves with the TCP reached at the last pose
             name, object_pose, support = carried
             T = base_matrix(*base) @ self.planner.robot.tcp_pose(arm, qs[-1])
             step["poses"][-1]["pose"] = pose7(T)
-            step.update({"object": name, "support": support,
-                         "placed_pose": pose7(T @ np.linalg.inv(poses[-1]) @ object_pose)})
+            step.update(
+                {"object": name, "support": support, "placed_pose": pose7(T @ np.linalg.inv(poses[-1]) @ object_pose)}
+            )
         c = self.checker.check_step(step, self.picked, self.held)
-        return (not c.self_hits and not c.object_hits and c.scene_m >= self.padding and c.held_m >= self.padding
-                and c.object_m >= self.padding)
+        return (
+            not c.self_hits
+            and not c.object_hits
+            and c.scene_m >= self.padding
+            and c.held_m >= self.padding
+            and c.object_m >= self.padding
+        )
 
 
 def pose7(T) -> list[float]:
@@ -135,8 +151,18 @@ def pose7(T) -> list[float]:
     return [*map(float, np.asarray(T)[:3, 3]), float(q.x), float(q.y), float(q.z), float(q.w)]
 
 
-def find_placement(planner, trajectories, samples: int = 400, restarts: int = 3, radius: float = 1.2,
-                   seed: int = 0, step_index: int = 0, collisions: bool = False, arms=None, carried=None):
+def find_placement(
+    planner,
+    trajectories,
+    samples: int = 400,
+    restarts: int = 3,
+    radius: float = 1.2,
+    seed: int = 0,
+    step_index: int = 0,
+    collisions: bool = False,
+    arms=None,
+    carried=None,
+):
     """A base pose (x, y, yaw) from which one arm (of ``arms``, default all) reaches every pose of
     one of ``trajectories`` ((P, 4, 4) world poses) (collision-free with ``collisions``: step
     ``step_index`` of the planner's task says which objects are gone or in the hand; ``carried``,
@@ -191,6 +217,7 @@ def find_transfer(planner, pick_index: int, samples: int = 300, collisions: bool
     pick with one grasp and arm and its place (step ``pick_index + 1``) with the same, the carried
     object checked; None when no (arm, grasp) pair has both."""
     from placement.planning.steps import step_candidates
+
     steps = planner.problems.steps
     picks = step_candidates(planner.scene, steps[pick_index], planner.config)
     places = step_candidates(planner.scene, steps[pick_index + 1], planner.config)
@@ -201,9 +228,15 @@ def find_transfer(planner, pick_index: int, samples: int = 300, collisions: bool
             a = find_placement(planner, [g.poses], samples, step_index=pick_index, collisions=collisions, arms=[arm])
             if a is None or not mine:
                 continue
-            b = find_placement(planner, [c.poses for c in mine], samples, step_index=pick_index + 1,
-                               collisions=collisions, arms=[arm],
-                               carried=[(obj, c.object_pose, c.support) for c in mine])
+            b = find_placement(
+                planner,
+                [c.poses for c in mine],
+                samples,
+                step_index=pick_index + 1,
+                collisions=collisions,
+                arms=[arm],
+                carried=[(obj, c.object_pose, c.support) for c in mine],
+            )
             if b is not None:
                 return (arm, g.grasp), a, b
     return None

@@ -9,16 +9,22 @@ import math
 from hypothesis import strategies as st
 
 #: leaves a YAML or JSON document can hold, including the awkward ones
-LEAVES = (st.none() | st.booleans() | st.integers(-10**9, 10**9) | st.sampled_from([0, 1, -1, 2**63, 10**400 // 10**399])
-          | st.floats(allow_nan=True, allow_infinity=True) | st.sampled_from([1e308, -0.0, 1e-320, math.pi])
-          | st.text(max_size=6) | st.sampled_from(["", " ", "pr2", "right", "box", "x" * 300]))
+LEAVES = (
+    st.none()
+    | st.booleans()
+    | st.integers(-(10**9), 10**9)
+    | st.sampled_from([0, 1, -1, 2**63, 10**400 // 10**399])
+    | st.floats(allow_nan=True, allow_infinity=True)
+    | st.sampled_from([1e308, -0.0, 1e-320, math.pi])
+    | st.text(max_size=6)
+    | st.sampled_from(["", " ", "pr2", "right", "box", "x" * 300])
+)
 
 
 def documents(keys=("name", "box", "x")) -> st.SearchStrategy:
     """Random nested documents whose mapping keys are drawn from ``keys`` (plus random text)."""
     key = st.sampled_from(list(keys)) | st.text(max_size=4)
-    return st.recursive(LEAVES, lambda c: st.lists(c, max_size=4) | st.dictionaries(key, c, max_size=5),
-                        max_leaves=25)
+    return st.recursive(LEAVES, lambda c: st.lists(c, max_size=4) | st.dictionaries(key, c, max_size=5), max_leaves=25)
 
 
 def _paths(doc, prefix=()):

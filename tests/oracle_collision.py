@@ -67,6 +67,7 @@ def subtree(model: pin.Model, roots) -> set[int]:
 
 def segment_distance(p, q, r, s) -> float:
     """Distance [m] between 2D segments pq and rs."""
+
     def cross(a, b):
         return a[0] * b[1] - a[1] * b[0]
 
@@ -127,8 +128,12 @@ class StepCheck:
 
     @property
     def free(self) -> bool:
-        return (not self.scene_hits and not self.self_hits and not self.object_hits
-                and (self.footprint_m is None or self.footprint_m > 0))
+        return (
+            not self.scene_hits
+            and not self.self_hits
+            and not self.object_hits
+            and (self.footprint_m is None or self.footprint_m > 0)
+        )
 
     def clearance(self, cap: float, planner_rule: bool = True) -> float:
         """Smallest distance as the planner reports it [m] (robot-scene, self, carried object, capped)."""
@@ -143,8 +148,7 @@ class IndependentCheck:
         model = self.model = robot.model
         dirs = [p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
         dirs += [str(p) for p in Path(robot.urdf_path).resolve().parents]
-        self.geom = pin.buildGeomFromUrdf(model, str(robot.urdf_path), pin.GeometryType.COLLISION,
-                                           package_dirs=dirs)
+        self.geom = pin.buildGeomFromUrdf(model, str(robot.urdf_path), pin.GeometryType.COLLISION, package_dirs=dirs)
         self.data, self.gdata = model.createData(), pin.GeometryData(self.geom)
         q = robot.reference_q()
         for name in robot.arms:
@@ -224,13 +228,20 @@ class IndependentCheck:
 
     def collide(self, i: int, Ti, other, To) -> bool:
         res = coal.CollisionResult()
-        return coal.collide(self.geom.geometryObjects[i].geometry, self.tf(Ti), other, self.tf(To),
-                            coal.CollisionRequest(), res) > 0
+        return (
+            coal.collide(
+                self.geom.geometryObjects[i].geometry, self.tf(Ti), other, self.tf(To), coal.CollisionRequest(), res
+            )
+            > 0
+        )
 
     def distance(self, i: int, Ti, other, To) -> float:
         res = coal.DistanceResult()
-        return float(coal.distance(self.geom.geometryObjects[i].geometry, self.tf(Ti), other, self.tf(To),
-                                   coal.DistanceRequest(), res))
+        return float(
+            coal.distance(
+                self.geom.geometryObjects[i].geometry, self.tf(Ti), other, self.tf(To), coal.DistanceRequest(), res
+            )
+        )
 
     # -- the check ---------------------------------------------------------------------------------
     def check_step(self, step: dict, picked_before: list[str], held: str | None) -> StepCheck:
@@ -306,14 +317,19 @@ class IndependentCheck:
                 out.object_hits.append(f"{name} (held) vs {other} (pose {k})")
             if other != support:
                 dres = coal.DistanceResult()
-                out.object_m = min(out.object_m, float(coal.distance(geom, self.tf(Tb), g, self.tf(To),
-                                                                     coal.DistanceRequest(), dres)))
+                out.object_m = min(
+                    out.object_m, float(coal.distance(geom, self.tf(Tb), g, self.tf(To), coal.DistanceRequest(), dres))
+                )
         for i in range(self.geom.ngeoms):
             if self.joint[i] in hand:
                 continue
             res = coal.CollisionResult()
-            if coal.collide(self.geom.geometryObjects[i].geometry, self.tf(Ms[i]), box, self.tf(T),
-                            coal.CollisionRequest(), res) > 0:
+            if (
+                coal.collide(
+                    self.geom.geometryObjects[i].geometry, self.tf(Ms[i]), box, self.tf(T), coal.CollisionRequest(), res
+                )
+                > 0
+            ):
                 out.object_hits.append(f"{name} (held) vs {self.names[i]} (pose {k})")
         if last and support is not None:
             sh = next(ob.shape for ob in self.scene.obstacles if ob.name == support)

@@ -1,4 +1,4 @@
-"""Map accuracy against IK (placement.accuracy.check_map) on a small PR2 map."""
+"""Map accuracy against IK (placement.maps.accuracy.check_map) on a small PR2 map."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import placement
-from placement.accuracy import check_map
-from placement.build import BuiltMap, arm_reach
 from placement.errors import MapError
+from placement.maps.accuracy import check_map
+from placement.maps.build import BuiltMap, arm_reach
 
 SAMPLES = 60
 
@@ -37,8 +37,14 @@ def test_counts_consistent(report):
     assert len(r["false_positive_cells"]) == r["false_positives"]
     assert len(r["false_negative_cells"]) == r["false_negatives"]
     assert r["accuracy"] == pytest.approx((r["true_positives"] + r["true_negatives"]) / (2 * SAMPLES))
-    for key in ("precision", "negative_predictive_value", "recall_estimate", "specificity_estimate",
-                "accuracy", "accuracy_estimate"):
+    for key in (
+        "precision",
+        "negative_predictive_value",
+        "recall_estimate",
+        "specificity_estimate",
+        "accuracy",
+        "accuracy_estimate",
+    ):
         assert 0.0 <= r[key] <= 1.0, key
     assert r["time_s"] >= r["ik_time_s"] > 0
     assert r["_calls"][-1] == (2 * SAMPLES, 2 * SAMPLES) and len(r["_calls"]) == 2 * SAMPLES
@@ -96,7 +102,7 @@ def test_opened_map(pr2, tmp_path):
 
 
 def test_wilson_interval():
-    from placement.accuracy import wilson
+    from placement.maps.accuracy import wilson
 
     lo, hi = wilson(90, 100)
     assert lo == pytest.approx(0.8256, abs=1e-3) and hi == pytest.approx(0.9448, abs=1e-3)
@@ -106,7 +112,7 @@ def test_wilson_interval():
 
 
 def test_poses_in_cells_stay_in_their_cells(small_map):
-    from placement.accuracy import poses_in_cells
+    from placement.maps.accuracy import poses_in_cells
 
     g = small_map.grid
     cells = np.random.default_rng(0).integers(0, g.size, 2000)
@@ -126,7 +132,7 @@ def test_pose_level_metrics(pr2, report, small_map):
 
 def test_pose_level_recall_and_precision_can_fail(pr2, small_map):
     """A map that marks every cell reachable has recall 1 and a poor precision; an empty one recall 0."""
-    from placement.accuracy import pose_metrics
+    from placement.maps.accuracy import pose_metrics
 
     full = BuiltMap(np.ones_like(small_map.values), small_map.meta)
     p = pose_metrics(pr2, full, samples=30, seed=2)

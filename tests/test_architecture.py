@@ -42,7 +42,7 @@ def _imports(path: Path) -> list[tuple[str, list[str]]]:
             base = node.module or ""
             if node.level:
                 anchor = package.split(".")
-                anchor = anchor[:len(anchor) - node.level + 1]
+                anchor = anchor[: len(anchor) - node.level + 1]
                 base = ".".join(anchor + ([base] if base else []))
             out.append((base, [a.name for a in node.names]))
     return out
@@ -50,13 +50,31 @@ def _imports(path: Path) -> list[tuple[str, list[str]]]:
 
 # (importer prefix, forbidden import prefixes)
 LAYERS = [
-    ("placement.kernels", ("placement.storage", "placement.planning", "placement.cli", "placement.robots",
-                           "placement.evaluation", "placement.plotting", "placement.build", "placement.rmap")),
-    ("placement.storage", ("placement.planning", "placement.cli", "placement.evaluation", "placement.build",
-                           "placement.plotting")),
-    ("placement.rmap", ("placement.build", "placement.planning", "placement.cli", "tqdm", "placement.selfcollision")),
-    ("placement.planning", ("placement.cli", "placement.evaluation", "placement.plotting", "placement.viewer",
-                            "matplotlib", "viser")),
+    (
+        "placement.kernels",
+        (
+            "placement.storage",
+            "placement.planning",
+            "placement.cli",
+            "placement.robots",
+            "placement.evaluation",
+            "placement.plotting",
+            "placement.maps.build",
+            "placement.maps.rmap",
+        ),
+    ),
+    (
+        "placement.storage",
+        ("placement.planning", "placement.cli", "placement.evaluation", "placement.maps.build", "placement.plotting"),
+    ),
+    (
+        "placement.maps.rmap",
+        ("placement.maps.build", "placement.planning", "placement.cli", "tqdm", "placement.maps.selfcollision"),
+    ),
+    (
+        "placement.planning",
+        ("placement.cli", "placement.evaluation", "placement.plotting", "placement.viewer", "matplotlib", "viser"),
+    ),
     ("placement.evaluation", ("placement.cli",)),
     ("placement.robots", ("placement.planning", "placement.cli", "placement.storage")),
 ]
@@ -80,9 +98,11 @@ def test_opening_a_map_does_not_import_the_builder():
     import subprocess
     import sys
 
-    code = ("import sys, placement; placement.open_map; placement.plan; "
-            "print(sorted(m for m in ('placement.build', 'tqdm', 'placement.selfcollision', 'placement.viewer', "
-            "'viser') if m in sys.modules))")
+    code = (
+        "import sys, placement; placement.open_map; placement.plan; "
+        "print(sorted(m for m in ('placement.maps.build', 'tqdm', 'placement.maps.selfcollision', 'placement.viewer', "
+        "'viser') if m in sys.modules))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"

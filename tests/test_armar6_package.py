@@ -8,10 +8,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
+from conftest import SHARED_ARMAR6_URDF, armar6_spec, packaged_armar6_urdf
 
 import placement
-
-from conftest import SHARED_ARMAR6_URDF, armar6_spec, packaged_armar6_urdf
 
 
 @pytest.fixture(scope="module")
@@ -46,8 +45,9 @@ def test_the_package_urdf_as_shipped_does_not_load_and_the_fixture_repairs_it(pa
     assert model.existFrame("Hand L Palm") and model.existFrame("Hand R Palm")
     # the package's meshes, found through the link beside the file (the collision check searches the
     # URDF's folders)
-    geometry = pin.buildGeomFromUrdf(model, str(packaged), pin.GeometryType.COLLISION,
-                                     package_dirs=[str(packaged.parent)])
+    geometry = pin.buildGeomFromUrdf(
+        model, str(packaged), pin.GeometryType.COLLISION, package_dirs=[str(packaged.parent)]
+    )
     assert geometry.ngeoms == 25
 
 
@@ -63,8 +63,12 @@ def test_the_package_arms_are_the_shared_arms(packaged):
         np.testing.assert_array_equal(a.lowerPositionLimit[sa], b.lowerPositionLimit[sb], err_msg=name)
         np.testing.assert_array_equal(a.upperPositionLimit[sa], b.upperPositionLimit[sb], err_msg=name)
         assert a.velocityLimit[ja.idx_v] == b.velocityLimit[jb.idx_v], name
-        np.testing.assert_allclose(a.jointPlacements[a.getJointId(name)].homogeneous,
-                                   b.jointPlacements[b.getJointId(name)].homogeneous, atol=1e-12, err_msg=name)
+        np.testing.assert_allclose(
+            a.jointPlacements[a.getJointId(name)].homogeneous,
+            b.jointPlacements[b.getJointId(name)].homogeneous,
+            atol=1e-12,
+            err_msg=name,
+        )
         assert a.names[a.parents[a.getJointId(name)]] == b.names[b.parents[b.getJointId(name)]]
 
 

@@ -41,10 +41,13 @@ def built_small(pr2):
 def assert_bitwise_equal(a: np.ndarray, b: np.ndarray):
     assert a.dtype == b.dtype == np.float32 and a.shape == b.shape
     diff = np.flatnonzero(a.view(np.uint32) != b.view(np.uint32))
-    assert diff.size == 0, f"{diff.size} cells differ, first at flat index {diff[:5]}: {a.ravel()[diff[:5]]} vs {b.ravel()[diff[:5]]}"
+    assert diff.size == 0, (
+        f"{diff.size} cells differ, first at flat index {diff[:5]}: {a.ravel()[diff[:5]]} vs {b.ravel()[diff[:5]]}"
+    )
 
 
 # --------------------------------------------------------------------------------------------
+
 
 def test_default_resolution_is_5cm(built):
     """SPEC section 4: 5 cm cells by default (as maps/pr2.yaml; maps/pr2-10cm.yaml chooses 0.1 m)."""
@@ -115,7 +118,9 @@ def _check_samples_under_map(robot, arm_name, m, n):
     vals = np.float32(placement.extended_manipulability(robot, arm_name, Q))
     flat = m.values.ravel()
     bad = np.flatnonzero(flat[cells] < vals)
-    assert bad.size == 0, f"{bad.size} samples exceed their cell, e.g. sample {bad[0]}: {vals[bad[0]]} > {flat[cells[bad[0]]]}"
+    assert bad.size == 0, (
+        f"{bad.size} samples exceed their cell, e.g. sample {bad[0]}: {vals[bad[0]]} > {flat[cells[bad[0]]]}"
+    )
     # every filled cell holds the value of one of the samples (the maximum of its samples)
     best = np.zeros(flat.size, dtype=np.float32)
     np.maximum.at(best, cells, vals)
@@ -130,8 +135,11 @@ def test_every_sample_is_below_its_cell_small_grid(pr2, built_small):
     _check_samples_under_map(pr2, "right", built_small, N_SMALL)
 
 
-@pytest.mark.parametrize("kw,index", [({}, "isotropy"), (SMALL, "isotropy"), (SMALL, "volume")],
-                         ids=["default-grid", "small-grid", "small-grid-volume"])
+@pytest.mark.parametrize(
+    "kw,index",
+    [({}, "isotropy"), (SMALL, "isotropy"), (SMALL, "volume")],
+    ids=["default-grid", "small-grid", "small-grid-volume"],
+)
 def test_equals_slow_reference_map(pr2, kw, index):
     """Build a map the slow way (pinocchio FK, Grid.index, per-sample value, python max) and compare."""
     n, seed = 3000, 11
@@ -181,7 +189,7 @@ def test_armar6_map_both_arms(armar6):
 
 
 def test_bad_arguments(pr2):
-    for samples in (0, -3, placement.buildspec.MAX_SAMPLES + 1):
+    for samples in (0, -3, placement.maps.buildspec.MAX_SAMPLES + 1):
         with pytest.raises(placement.PlacementError, match="samples must be a whole number from 1"):
             placement.build_map(pr2, "right", samples=samples, progress=False)
     for kw in ({"samples": 10.0}, {"samples": True}, {"seed": 1.5}, {"seed": "1"}):

@@ -14,12 +14,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from test_storage import SMALL, left_map, right_map  # noqa: F401 - fixtures
 
 import placement
 from placement import MapError
 from placement.cli.main import cli
 from placement.storage.lock import FileLock
-from test_storage import SMALL, left_map, right_map  # noqa: F401 - fixtures
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILD = ["--robot", "pr2", "--samples", "3000", "--resolution", "0.2", "--bins", "4,3,4", "--seed", "2", "-q"]
@@ -32,9 +32,14 @@ def _default_sigint() -> None:
 
 
 def start(*args) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "placement.cli.main", "maps", "build", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
-                            preexec_fn=_default_sigint)
+    return subprocess.Popen(
+        [sys.executable, "-m", "placement.cli.main", "maps", "build", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+        preexec_fn=_default_sigint,
+    )
 
 
 def finish(p: subprocess.Popen, timeout: float = 120) -> tuple[int, str]:
@@ -71,8 +76,9 @@ def test_a_second_build_of_an_arm_being_built_fails_at_once(tmp_path, pr2, left_
             assert time.monotonic() < deadline, "the first build never reserved its arms"
             time.sleep(0.1)
         t0 = time.monotonic()
-        result = CliRunner().invoke(cli, ["maps", "build", *BUILD, "--arm", "right", "--out", str(out)],
-                                    catch_exceptions=False)
+        result = CliRunner().invoke(
+            cli, ["maps", "build", *BUILD, "--arm", "right", "--out", str(out)], catch_exceptions=False
+        )
         assert result.exit_code == 2, result.output
         lines = result.output.strip().splitlines()
         assert len(lines) == 1 and "arm 'right' is being written by another build" in lines[0], result.output
@@ -100,7 +106,7 @@ def test_concurrent_saves_in_threads_keep_every_arm(tmp_path, pr2, right_map, le
         def save(arm, m):
             try:
                 placement.save_maps(out, pr2, {arm: m}, fmt)
-            except Exception as exc:  # noqa: BLE001 - reported below
+            except Exception as exc:
                 errors.append(exc)
 
         threads = [threading.Thread(target=save, args=a) for a in (("right", right_map), ("left", left_map))]
@@ -147,8 +153,11 @@ def test_a_stale_lock_of_a_killed_build_is_taken_over(tmp_path, pr2, right_map):
 def test_a_held_lock_names_its_holder(tmp_path, pr2, right_map):
     out = tmp_path / "m"
     with FileLock(tmp_path / ".m.arm-right.lock", "a build of arm 'right' into m (pid 4242)"):
-        with pytest.raises(MapError, match=r"arm 'right' is being written by another build \(a build of arm "
-                                           r"'right' into m \(pid 4242\)"):
+        with pytest.raises(
+            MapError,
+            match=r"arm 'right' is being written by another build \(a build of arm "
+            r"'right' into m \(pid 4242\)",
+        ):
             placement.save_maps(out, pr2, {"right": right_map})
     assert not out.exists()
 
@@ -159,8 +168,11 @@ def test_an_output_that_cannot_be_written_fails_before_sampling(tmp_path, where)
     pseudo file system: exit 2 within seconds although the build would take many minutes."""
     out = tmp_path / ("m" * 250) if where == "long name" else Path("/proc/placement-test/m")
     t0 = time.monotonic()
-    result = CliRunner().invoke(cli, ["maps", "build", "--robot", "pr2", "--arm", "right", "--samples", BIG,
-                                      "--out", str(out)], catch_exceptions=False)
+    result = CliRunner().invoke(
+        cli,
+        ["maps", "build", "--robot", "pr2", "--arm", "right", "--samples", BIG, "--out", str(out)],
+        catch_exceptions=False,
+    )
     assert result.exit_code == 2, result.output
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: --out "), result.output
@@ -171,8 +183,8 @@ def test_an_output_that_cannot_be_written_fails_before_sampling(tmp_path, where)
 
 @pytest.mark.parametrize("kind", ["fifo", "dev-zero", "huge"])
 def test_a_build_spec_that_is_no_regular_file_of_sane_size_is_not_read(tmp_path, kind):
-    from placement.buildspec import MAX_SPEC_BYTES, load_build_spec
     from placement.errors import PlacementError
+    from placement.maps.buildspec import MAX_SPEC_BYTES, load_build_spec
 
     spec = tmp_path / "spec.yaml"
     if kind == "fifo":
@@ -183,8 +195,9 @@ def test_a_build_spec_that_is_no_regular_file_of_sane_size_is_not_read(tmp_path,
         with open(spec, "wb") as fh:
             fh.truncate(MAX_SPEC_BYTES + 1)
     outcome = []
-    thread = threading.Thread(target=lambda: outcome.append(pytest.raises(PlacementError, load_build_spec, spec)),
-                              daemon=True)
+    thread = threading.Thread(
+        target=lambda: outcome.append(pytest.raises(PlacementError, load_build_spec, spec)), daemon=True
+    )
     thread.start()
     thread.join(30)
     assert not thread.is_alive(), "blocked reading the spec"

@@ -17,8 +17,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def run(*args, cwd=None):
     env = dict(os.environ)
-    return subprocess.run([sys.executable, "-m", "placement.cli.main", *args], capture_output=True,
-                          text=True, cwd=cwd, env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True, cwd=cwd, env=env
+    )
 
 
 def _assert_one_line_error(proc, *words):
@@ -32,8 +33,22 @@ def _assert_one_line_error(proc, *words):
 
 def test_build_info_json(tmp_path):
     out = tmp_path / "m"
-    p = run("maps", "build", "--robot", "pr2", "--arm", "left", "--samples", "3000", "--resolution", "0.1",
-            "--out", str(out), "--json", "-q")
+    p = run(
+        "maps",
+        "build",
+        "--robot",
+        "pr2",
+        "--arm",
+        "left",
+        "--samples",
+        "3000",
+        "--resolution",
+        "0.1",
+        "--out",
+        str(out),
+        "--json",
+        "-q",
+    )
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
     assert doc["arms"]["left"]["samples"] == 3000
@@ -49,14 +64,17 @@ def test_build_info_json(tmp_path):
     assert arm["meta"]["robot"] == "pr2" and arm["meta"]["seed"] == 0
 
 
-@pytest.mark.parametrize("args,words", [
-    (["maps", "build", "--robot", "pr3", "--out", "X"], ["pr3"]),
-    (["maps", "build", "--arm", "middle", "--out", "X"], ["middle", "right", "left"]),
-    (["maps", "build", "--samples", "0", "--out", "X"], ["samples"]),
-    (["maps", "build", "--resolution", "-1", "--out", "X"], ["resolution"]),
-    (["maps", "build", "--bins", "3,4,5", "--samples", "10", "--out", "X"], ["even"]),
-    (["maps", "info", "does-not-exist"], ["does-not-exist"]),
-])
+@pytest.mark.parametrize(
+    "args,words",
+    [
+        (["maps", "build", "--robot", "pr3", "--out", "X"], ["pr3"]),
+        (["maps", "build", "--arm", "middle", "--out", "X"], ["middle", "right", "left"]),
+        (["maps", "build", "--samples", "0", "--out", "X"], ["samples"]),
+        (["maps", "build", "--resolution", "-1", "--out", "X"], ["resolution"]),
+        (["maps", "build", "--bins", "3,4,5", "--samples", "10", "--out", "X"], ["even"]),
+        (["maps", "info", "does-not-exist"], ["does-not-exist"]),
+    ],
+)
 def test_bad_input_is_one_line(tmp_path, args, words):
     args = [str(tmp_path / a) if a == "X" else a for a in args]
     _assert_one_line_error(run(*args, cwd=tmp_path), *words)
@@ -74,8 +92,10 @@ def test_bad_preset_names_the_key(tmp_path):
     preset = tmp_path / "r.yaml"
     preset.write_text("name: r\nurdf: x.urdf\nbase_frame: b\narms: {}\nwheels: 4\n")
     _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "wheels")
-    preset.write_text("name: r\nurdf: x.urdf\nbase_frame: b\nfootprint_radius: 0.4\nv_max: 0.5\nomega_max: 1.0\n"
-                      "arms: {a: {joints: [j1, j2, j3, j4, j5, j6], tip_frame: t}}\n")
+    preset.write_text(
+        "name: r\nurdf: x.urdf\nbase_frame: b\nfootprint_radius: 0.4\nv_max: 0.5\nomega_max: 1.0\n"
+        "arms: {a: {joints: [j1, j2, j3, j4, j5, j6], tip_frame: t}}\n"
+    )
     _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")
     (tmp_path / "x.urdf").write_text("<robot name='r'><link name='l'/><joint")
     _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")
@@ -83,13 +103,20 @@ def test_bad_preset_names_the_key(tmp_path):
 
 def test_bad_frame_names_the_frame(tmp_path):
     from placement.robots.preset import PRESET_DIR
-    text = (PRESET_DIR / "pr2.yaml").read_text().replace("tip_frame: r_gripper_tool_frame",
-                                                       "tip_frame: r_gripper_tool_fram")
+
+    text = (
+        (PRESET_DIR / "pr2.yaml")
+        .read_text()
+        .replace("tip_frame: r_gripper_tool_frame", "tip_frame: r_gripper_tool_fram")
+    )
     text = text.replace("package://", "package://")
     preset = tmp_path / "pr2x.yaml"
     preset.write_text(text)
-    _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--samples", "10",
-                               "--out", str(tmp_path / "m")), "r_gripper_tool_fram", "r_gripper_tool_frame")
+    _assert_one_line_error(
+        run("maps", "build", "--robot", str(preset), "--samples", "10", "--out", str(tmp_path / "m")),
+        "r_gripper_tool_fram",
+        "r_gripper_tool_frame",
+    )
 
 
 def _readme_blocks(lang):
@@ -125,14 +152,17 @@ def test_readme_quick_start(tmp_path):
 
 def test_unreachable_dask_scheduler_is_one_line(tmp_path):
     pytest.importorskip("dask.distributed")
-    _assert_one_line_error(run("maps", "build", "--samples", "10", "--dask", "tcp://127.0.0.1:9",
-                               "--out", str(tmp_path / "m")), "Dask scheduler")
+    _assert_one_line_error(
+        run("maps", "build", "--samples", "10", "--dask", "tcp://127.0.0.1:9", "--out", str(tmp_path / "m")),
+        "Dask scheduler",
+    )
 
 
 def test_python_warnings_become_one_line_on_stderr(capsys):
     import warnings
 
     from placement.cli.options import setup_logging
+
     saved = warnings.showwarning
     try:
         setup_logging(0, False)

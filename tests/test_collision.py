@@ -22,34 +22,45 @@ from conftest import random_configs
 import placement
 from placement.collision import CLEARANCE_CAP, SceneCollision
 from placement.planning import parse_scene
-from placement.planning.scene import OccupancyMap
+from placement.scene import OccupancyMap
 
 HEIGHT = 3.0  # the documented height of polygon prisms and occupancy cells [m]
 
 
 def scene_doc(preset: str, table_x: float) -> dict:
-    return {"version": 1, "resolution": 0.05, "bounds": [-3, -3, 3, 3], "robot": {"preset": preset, "start": [-2, 0, 0]},
-            "obstacles": [
-                {"name": "table_1", "box": {"center": [table_x, 0.0, 0.36], "size": [0.6, 0.9, 0.72]}, "table": True},
-                {"name": "tilted_crate", "box": {"center": [table_x - 0.1, -0.75, 0.5], "size": [0.3, 0.3, 1.0],
-                                                 "yaw": 0.6}},
-                {"name": "pillar", "cylinder": {"center": [table_x - 0.2, 0.8, 0.6], "radius": 0.12, "height": 1.2}},
-                {"name": "cabinet", "polygon": [[-0.9, 0.6], [-0.5, 0.55], [-0.45, 1.0], [-0.85, 1.1]]}],
-            "objects": [{"name": "cup_1", "position": [table_x - 0.15, -0.2, 0.77], "yaw": 0.3, "size": [0.06, 0.06, 0.1]},
-                        {"name": "box_2", "position": [table_x - 0.2, 0.15, 0.79], "yaw": 1.2, "size": [0.05, 0.12, 0.14]}],
-            "place_locations": [{"name": "p", "position": [table_x, 0.3, 0.8]}],
-            "task": [{"pick": "cup_1", "place": "p"}]}
+    return {
+        "version": 1,
+        "resolution": 0.05,
+        "bounds": [-3, -3, 3, 3],
+        "robot": {"preset": preset, "start": [-2, 0, 0]},
+        "obstacles": [
+            {"name": "table_1", "box": {"center": [table_x, 0.0, 0.36], "size": [0.6, 0.9, 0.72]}, "table": True},
+            {
+                "name": "tilted_crate",
+                "box": {"center": [table_x - 0.1, -0.75, 0.5], "size": [0.3, 0.3, 1.0], "yaw": 0.6},
+            },
+            {"name": "pillar", "cylinder": {"center": [table_x - 0.2, 0.8, 0.6], "radius": 0.12, "height": 1.2}},
+            {"name": "cabinet", "polygon": [[-0.9, 0.6], [-0.5, 0.55], [-0.45, 1.0], [-0.85, 1.1]]},
+        ],
+        "objects": [
+            {"name": "cup_1", "position": [table_x - 0.15, -0.2, 0.77], "yaw": 0.3, "size": [0.06, 0.06, 0.1]},
+            {"name": "box_2", "position": [table_x - 0.2, 0.15, 0.79], "yaw": 1.2, "size": [0.05, 0.12, 0.14]},
+        ],
+        "place_locations": [{"name": "p", "position": [table_x, 0.3, 0.8]}],
+        "task": [{"pick": "cup_1", "place": "p"}],
+    }
 
 
 def with_occupancy(scene):
     """The scene plus a 0.1 m occupancy map: a wall behind the robot and a few posts near the table."""
     occ = np.zeros((40, 40), dtype=bool)  # x, y in [-2, 2)
-    occ[:, 5] = True                      # x in [-1.5, -1.4)
-    occ[12, 30] = occ[27, 29] = True      # posts at (1.05, -0.75), (0.95, 0.75)
+    occ[:, 5] = True  # x in [-1.5, -1.4)
+    occ[12, 30] = occ[27, 29] = True  # posts at (1.05, -0.75), (0.95, 0.75)
     return dataclasses.replace(scene, occupancy=OccupancyMap(occ, 0.1, (-2.0, -2.0, 0.0)))
 
 
 # -- the oracle ---------------------------------------------------------------------------------------
+
 
 def rz(yaw: float, centre) -> np.ndarray:
     T = np.eye(4)
@@ -76,7 +87,11 @@ def oracle_scene(scene) -> list[tuple[str, object, np.ndarray]]:
     occ = scene.occupancy
     if occ is not None:
         for r, c in zip(*np.nonzero(occ.occupied)):
-            centre = [occ.origin[0] + (c + 0.5) * occ.resolution, occ.origin[1] + (r + 0.5) * occ.resolution, HEIGHT / 2]
+            centre = [
+                occ.origin[0] + (c + 0.5) * occ.resolution,
+                occ.origin[1] + (r + 0.5) * occ.resolution,
+                HEIGHT / 2,
+            ]
             out.append((f"occupancy[{r},{c}]", coal.Box(occ.resolution, occ.resolution, HEIGHT), rz(0.0, centre)))
     return out
 
@@ -138,8 +153,9 @@ class Oracle:
 
     def distance(self, i, Ti, j, Tj, other=None) -> float:
         g2 = self.geom.geometryObjects[j].geometry if other is None else other
-        return coal.distance(self.geom.geometryObjects[i].geometry, Ti, g2, Tj, coal.DistanceRequest(),
-                             coal.DistanceResult())
+        return coal.distance(
+            self.geom.geometryObjects[i].geometry, Ti, g2, Tj, coal.DistanceRequest(), coal.DistanceResult()
+        )
 
     def check(self, pieces, qs, base, grasped=None, padding=0.0) -> tuple[bool, float, dict]:
         """(free, smallest distance, {colliding pair name: its distances at the poses where it collides})."""
@@ -183,11 +199,17 @@ def placements(robot, arm, rng, n, table_x, standoff):
     """n (qs (2, dof), base) with the base facing the table, the arm random, its pre-pose 0.1 rad away."""
     a = robot.arm(arm)
     Q = random_configs(a, n, rng)
-    return [(np.array([q, np.clip(q + rng.normal(0, 0.1, a.dof), a.lower, a.upper)]),
-             (table_x - 0.3 - rng.uniform(*standoff), rng.uniform(-0.4, 0.4), rng.uniform(-0.4, 0.4))) for q in Q]
+    return [
+        (
+            np.array([q, np.clip(q + rng.normal(0, 0.1, a.dof), a.lower, a.upper)]),
+            (table_x - 0.3 - rng.uniform(*standoff), rng.uniform(-0.4, 0.4), rng.uniform(-0.4, 0.4)),
+        )
+        for q in Q
+    ]
 
 
 # -- PR2 ----------------------------------------------------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def pr2_scene():
@@ -208,7 +230,9 @@ def test_pr2_decisions_and_clearances_equal_plain_coal(pr2, pr2_scene):
     assert 3 <= len(free) < len(outcomes)
     assert any(o.clearance_m < CLEARANCE_CAP for o in free)
     culprits = [o.culprit.split(" vs ")[1] for o in outcomes if not o.free]
-    assert any(c in {"table_1", "tilted_crate", "pillar", "cup_1", "box_2"} or c.startswith("occupancy") for c in culprits)
+    assert any(
+        c in {"table_1", "tilted_crate", "pillar", "cup_1", "box_2"} or c.startswith("occupancy") for c in culprits
+    )
     assert any(c.endswith("_link") for c in culprits)
 
 
@@ -216,18 +240,33 @@ def test_pr2_padding_equals_coal_security_margin(pr2, pr2_scene):
     checker = SceneCollision(pr2, pr2_scene, padding=0.05)
     oracle = Oracle(pr2, "right", [str(p) for p in Path(pr2.urdf_path).resolve().parents])
     pieces = oracle_scene(pr2_scene)
-    got = [compare(checker, oracle, pieces, "right", qs, base, padding=0.05)
-           for qs, base in placements(pr2, "right", np.random.default_rng(11), 10, 1.0, (0.35, 0.6))]
+    got = [
+        compare(checker, oracle, pieces, "right", qs, base, padding=0.05)
+        for qs, base in placements(pr2, "right", np.random.default_rng(11), 10, 1.0, (0.35, 0.6))
+    ]
     assert any(not g.free and g.clearance_m > 0 for g in got)  # a pair within the padding, not touching
 
 
 # -- ARMAR-6 (its meshes are not shipped: the test writes a cube for each) ------------------------------
 
+
 def cube_stl(path: Path, half: float) -> None:
     """A binary STL cube of edge 2 half [m] centred at the origin."""
     v = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (-half, half)])
-    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
-             (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    faces = [
+        (0, 1, 3),
+        (0, 3, 2),
+        (4, 6, 7),
+        (4, 7, 5),
+        (0, 4, 5),
+        (0, 5, 1),
+        (2, 3, 7),
+        (2, 7, 6),
+        (0, 2, 6),
+        (0, 6, 4),
+        (1, 5, 7),
+        (1, 7, 3),
+    ]
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "wb") as f:
         f.write(b"\0" * 80 + struct.pack("<I", len(faces)))
@@ -255,8 +294,10 @@ def test_armar6_decisions_and_clearances_equal_plain_coal(armar6, tmp_path):
     oracle = Oracle(armar6, "right", [str(tmp_path)])
     assert len(checker.geometry.names) == len(oracle.names) > 40
     pieces = oracle_scene(scene)
-    got = [compare(checker, oracle, pieces, "right", qs, base, grasped="box_2")
-           for qs, base in placements(armar6, "right", np.random.default_rng(2), 25, 1.1, (0.3, 0.6))]
+    got = [
+        compare(checker, oracle, pieces, "right", qs, base, grasped="box_2")
+        for qs, base in placements(armar6, "right", np.random.default_rng(2), 25, 1.1, (0.3, 0.6))
+    ]
     assert 0 < sum(g.free for g in got) < len(got)
     assert any(g.free and g.clearance_m < CLEARANCE_CAP for g in got)
 

@@ -16,23 +16,33 @@ from hypothesis import strategies as st
 import placement
 from placement.collision import CLEARANCE_CAP, CollisionGeometryWarning, SceneCollision, scene_shapes
 from placement.collision.scene import polygon_shapes, signed_area, triangulate
-from placement.ik import solve_ik
+from placement.kinematics.ik import solve_ik
 from placement.planning import parse_scene
-from placement.planning.scene import Obstacle, OccupancyMap, Polygon
+from placement.scene import Obstacle, OccupancyMap, Polygon
 
 BASE = (0.3, 0.0, 0.0)  # PR2 base 0.12 m from the table edge, facing it
 
 
 def table_scene(**extra):
     """A 0.7 m high table from x = 0.75 m, two cups on it, the PR2 in front of it."""
-    return parse_scene({
-        "version": 1, "resolution": 0.05, "bounds": [-3, -3, 3, 3], "robot": {"preset": "pr2", "start": [-1, 0, 0]},
-        "obstacles": [{"name": "table_1", "box": {"center": [1.05, 0.0, 0.35], "size": [0.6, 0.9, 0.7]},
-                       "table": True}],
-        "objects": [{"name": "cup_1", "position": [0.95, -0.2, 0.75], "yaw": 0.0, "size": [0.06, 0.06, 0.1]},
-                    {"name": "cup_2", "position": [0.95, -0.35, 0.75], "yaw": 0.0, "size": [0.06, 0.06, 0.1]}],
-        "place_locations": [{"name": "p", "position": [1.0, 0.3, 0.8]}], "task": [{"pick": "cup_1", "place": "p"}],
-        **extra})
+    return parse_scene(
+        {
+            "version": 1,
+            "resolution": 0.05,
+            "bounds": [-3, -3, 3, 3],
+            "robot": {"preset": "pr2", "start": [-1, 0, 0]},
+            "obstacles": [
+                {"name": "table_1", "box": {"center": [1.05, 0.0, 0.35], "size": [0.6, 0.9, 0.7]}, "table": True}
+            ],
+            "objects": [
+                {"name": "cup_1", "position": [0.95, -0.2, 0.75], "yaw": 0.0, "size": [0.06, 0.06, 0.1]},
+                {"name": "cup_2", "position": [0.95, -0.35, 0.75], "yaw": 0.0, "size": [0.06, 0.06, 0.1]},
+            ],
+            "place_locations": [{"name": "p", "position": [1.0, 0.3, 0.8]}],
+            "task": [{"pick": "cup_1", "place": "p"}],
+            **extra,
+        }
+    )
 
 
 @pytest.fixture(scope="module")
@@ -79,8 +89,16 @@ def test_the_rest_of_the_arm_still_hits_the_grasped_object(checker, pr2):
     q = top_grasp(pr2, 0.95, -0.2, 0.98)
     res = checker.check("right", [q], BASE, grasped="cup_1")
     assert res.free
-    moved = dataclasses.replace(table_scene(), objects=(dataclasses.replace(
-        table_scene().object("cup_1"), position=np.array([0.95 - 0.25, -0.2, 1.0]), size=np.array([0.1, 0.3, 0.3])),))
+    moved = dataclasses.replace(
+        table_scene(),
+        objects=(
+            dataclasses.replace(
+                table_scene().object("cup_1"),
+                position=np.array([0.95 - 0.25, -0.2, 1.0]),
+                size=np.array([0.1, 0.3, 0.3]),
+            ),
+        ),
+    )
     c = SceneCollision(pr2, moved)
     res = c.check("right", [q], BASE, grasped="cup_1")
     assert not res.free and not res.culprit.startswith("r_gripper") and res.culprit.endswith(" vs cup_1")
@@ -99,8 +117,19 @@ def test_update_takes_moved_obstacles(pr2):
     q = top_grasp(pr2, 0.9, -0.05, 0.62)
     c = SceneCollision(pr2, table_scene())
     assert not c.check("right", [q], BASE).free
-    lower = dataclasses.replace(table_scene(), obstacles=(Obstacle("table_1", dataclasses.replace(
-        table_scene().obstacle("table_1").shape, center=np.array([1.05, 0.0, 0.25]), size=np.array([0.6, 0.9, 0.5]))),))
+    lower = dataclasses.replace(
+        table_scene(),
+        obstacles=(
+            Obstacle(
+                "table_1",
+                dataclasses.replace(
+                    table_scene().obstacle("table_1").shape,
+                    center=np.array([1.05, 0.0, 0.25]),
+                    size=np.array([0.6, 0.9, 0.5]),
+                ),
+            ),
+        ),
+    )
     c.update(lower)
     assert c.check("right", [q], BASE).free
 
@@ -126,9 +155,10 @@ def test_far_from_everything_reports_the_cap(pr2):
 def test_occupancy_cells_only_near_the_robot(pr2):
     """A 4 million cell map, nearly all occupied, checked in milliseconds; cells name the culprit."""
     occ = np.ones((2000, 2000), dtype=bool)  # 0.01 m cells over [-10, 10)^2
-    occ[900:1100, 900:1100] = False          # a free 2 m x 2 m room around the origin
-    scene = dataclasses.replace(table_scene(), objects=(), obstacles=(),
-                                occupancy=OccupancyMap(occ, 0.01, (-10.0, -10.0, 0.0)))
+    occ[900:1100, 900:1100] = False  # a free 2 m x 2 m room around the origin
+    scene = dataclasses.replace(
+        table_scene(), objects=(), obstacles=(), occupancy=OccupancyMap(occ, 0.01, (-10.0, -10.0, 0.0))
+    )
     c = SceneCollision(pr2, scene)
     home = pr2.arm("right").home
     assert c.check("right", [home], (0.0, 0.0, 0.0)).free
@@ -145,8 +175,9 @@ def test_six_d_object_pose_is_used():
     tilt = np.eye(4)
     tilt[:3, :3] = [[1, 0, 0], [0, 0, -1], [0, 1, 0]]  # 90 deg about x: the 0.4 m y side stands up
     tilt[:3, 3] = (1.0, 0.0, 1.0)
-    obj = types.SimpleNamespace(name="plank", position=np.array([1.0, 0.0, 1.0]), yaw=0.0,
-                                size=np.array([0.05, 0.4, 0.02]), pose=tilt)
+    obj = types.SimpleNamespace(
+        name="plank", position=np.array([1.0, 0.0, 1.0]), yaw=0.0, size=np.array([0.05, 0.4, 0.02]), pose=tilt
+    )
     scene = types.SimpleNamespace(obstacles=(), objects=(obj,), occupancy=None)
     (shape,) = scene_shapes(scene)
     assert np.allclose(shape.aabb, [[0.975, -0.01, 0.8], [1.025, 0.01, 1.2]])
@@ -167,8 +198,12 @@ def test_non_convex_polygon_prism_keeps_its_notch():
 
     def hits(x, y, z=1.0):
         T = coal.Transform3s(np.eye(3), np.array([x, y, z]))
-        return any(coal.collide(p.geometry, coal.Transform3s(), coal.Sphere(0.05), T, coal.CollisionRequest(),
-                                coal.CollisionResult()) for p in pieces)
+        return any(
+            coal.collide(
+                p.geometry, coal.Transform3s(), coal.Sphere(0.05), T, coal.CollisionRequest(), coal.CollisionResult()
+            )
+            for p in pieces
+        )
 
     assert hits(1.5, 0.5) and hits(0.5, 1.5) and hits(0.5, 0.5, 2.9)
     assert not hits(1.5, 1.5) and not hits(0.5, 0.5, 3.1)
@@ -221,8 +256,9 @@ def test_bad_input_is_one_clear_error(checker, pr2):
 
 def test_polygon_obstacle_in_a_scene(pr2):
     """A polygon obstacle (non-convex) next to the robot: the arm swung into it collides, naming it."""
-    wall = Obstacle("l_counter", Polygon(np.array([[0.6, -1.2], [1.2, -1.2], [1.2, 0.9], [0.95, 0.9],
-                                                   [0.95, -0.75], [0.6, -0.75]])))
+    wall = Obstacle(
+        "l_counter", Polygon(np.array([[0.6, -1.2], [1.2, -1.2], [1.2, 0.9], [0.95, 0.9], [0.95, -0.75], [0.6, -0.75]]))
+    )
     scene = dataclasses.replace(table_scene(), obstacles=(wall,), objects=())
     c = SceneCollision(pr2, scene)
     for x, y in ((0.75, -0.3), (0.8, -0.4)):  # over the notch (x < 0.95, y > -0.75)
@@ -245,8 +281,13 @@ def test_a_degenerate_collision_shape_is_left_out_with_a_warning(tmp_path, pr2):
     from placement.robots import load_robot
     from placement.robots.preset import PRESET_DIR
 
-    for bad in ('<mesh filename="x.stl" scale="0 0 0"/>', '<mesh filename="x.stl" scale="nan 1 1"/>',
-                '<box size="0.1 inf 0.1"/>', '<cylinder radius="0" length="1"/>', '<sphere radius="abc"/>'):
+    for bad in (
+        '<mesh filename="x.stl" scale="0 0 0"/>',
+        '<mesh filename="x.stl" scale="nan 1 1"/>',
+        '<box size="0.1 inf 0.1"/>',
+        '<cylinder radius="0" length="1"/>',
+        '<sphere radius="abc"/>',
+    ):
         assert degenerate(ET.fromstring(f"<collision><geometry>{bad}</geometry></collision>"))
     assert not degenerate(ET.fromstring('<collision><geometry><box size="0.1 0.2 0.3"/></geometry></collision>'))
     urdf = Path(pr2.urdf_path)

@@ -9,14 +9,14 @@ import time
 
 import numpy as np
 import pytest
-
 from conftest import random_configs
+from test_collision import scene_doc, with_occupancy
+
 from placement.collision import SceneCollision
 from placement.collision.checker import GRID_PIECES, model_aabb
 from placement.collision.scene import PieceGrid
 from placement.planning import parse_scene
-from placement.planning.scene import Box, Cylinder, Obstacle, Polygon
-from test_collision import scene_doc, with_occupancy
+from placement.scene import Box, Cylinder, Obstacle, Polygon
 
 TABLE_X = 1.0
 
@@ -27,7 +27,11 @@ def clutter(rng, n: int, lo=(-8.0, -8.0), hi=(8.0, 8.0), sizes=(0.01, 0.4), keep
     out = []
     while len(out) < n:
         x, y = rng.uniform(lo, hi)
-        if keep_out is not None and keep_out[0] - 0.7 < x < keep_out[2] + 0.7 and keep_out[1] - 0.7 < y < keep_out[3] + 0.7:
+        if (
+            keep_out is not None
+            and keep_out[0] - 0.7 < x < keep_out[2] + 0.7
+            and keep_out[1] - 0.7 < y < keep_out[3] + 0.7
+        ):
             continue
         s = rng.uniform(*sizes, 3)
         kind = rng.integers(10)
@@ -45,8 +49,9 @@ def clutter(rng, n: int, lo=(-8.0, -8.0), hi=(8.0, 8.0), sizes=(0.01, 0.4), keep
 
 def cluttered(rng, n: int, occupancy: bool):
     scene = parse_scene(scene_doc("pr2", TABLE_X))
-    scene = dataclasses.replace(scene, obstacles=scene.obstacles + tuple(
-        clutter(rng, n, keep_out=(TABLE_X - 0.4, -0.5, TABLE_X + 0.4, 0.5))))
+    scene = dataclasses.replace(
+        scene, obstacles=scene.obstacles + tuple(clutter(rng, n, keep_out=(TABLE_X - 0.4, -0.5, TABLE_X + 0.4, 0.5)))
+    )
     return with_occupancy(scene) if occupancy else scene
 
 
@@ -59,8 +64,9 @@ def checkers(pr2, scene, padding):
     return fast, slow
 
 
-@pytest.mark.parametrize("seed, n, occupancy, padding", [(1, 150, False, 0.0), (2, 400, True, 0.02),
-                                                          (4, 600, False, 0.05)])
+@pytest.mark.parametrize(
+    "seed, n, occupancy, padding", [(1, 150, False, 0.0), (2, 400, True, 0.02), (4, 600, False, 0.05)]
+)
 def test_prefiltered_checks_equal_checks_of_every_piece(pr2, seed, n, occupancy, padding):
     """Random bases among the clutter (and beside the table), random arm trajectories, the gripper's
     object and objects carried away: every result (verdict, clearance, culprit, pose) equal bit for bit;
@@ -104,8 +110,13 @@ def test_prefiltered_pairs_equal_the_brute_force_pair_list(pr2):
     dense small clutter (every piece near the edge of the robot's window counts)."""
     rng = np.random.default_rng(7)
     scene = parse_scene(scene_doc("pr2", TABLE_X))
-    scene = with_occupancy(dataclasses.replace(scene, obstacles=scene.obstacles + tuple(
-        clutter(rng, 3000, sizes=(0.01, 0.1), keep_out=(TABLE_X - 0.4, -0.5, TABLE_X + 0.4, 0.5)))))
+    scene = with_occupancy(
+        dataclasses.replace(
+            scene,
+            obstacles=scene.obstacles
+            + tuple(clutter(rng, 3000, sizes=(0.01, 0.1), keep_out=(TABLE_X - 0.4, -0.5, TABLE_X + 0.4, 0.5))),
+        )
+    )
     fast, slow = checkers(pr2, scene, 0.01)
     near_edge = 0
     for k in range(40):
@@ -120,8 +131,12 @@ def test_prefiltered_pairs_equal_the_brute_force_pair_list(pr2):
             sc = c._scene_in_model(A, inst)
             p = c._pairs(inst, sc, arm_shapes, "cup_1", frozenset({"box_2"}))
             names = [s.name if hasattr(s, "name") else f"occupancy{s}" for s in sc["shapes"]]
-            pairs.append(sorted((int(a), names[int(b)] if not s else f"self{int(b)}", float(lb))
-                                for a, b, s, lb in zip(p["a"], p["b"], p["self"], p["lb"])))
+            pairs.append(
+                sorted(
+                    (int(a), names[int(b)] if not s else f"self{int(b)}", float(lb))
+                    for a, b, s, lb in zip(p["a"], p["b"], p["self"], p["lb"])
+                )
+            )
         assert pairs[0] == pairs[1], k
         near_edge += sum(lb > fast.cap - 0.05 for _, name, lb in pairs[1] if name.startswith("clutter"))
     assert near_edge > 50  # many pairs close to the cap: a prefilter that cut short would show
@@ -132,7 +147,9 @@ def test_grid_near_is_every_overlapping_piece():
     pieces and windows inside, across and outside the grid."""
     rng = np.random.default_rng(3)
     c = rng.uniform(-20, 20, (3000, 3))
-    half = rng.choice([0.005, 0.2, 3.0, 40.0], size=(3000, 1), p=[0.6, 0.3, 0.09, 0.01]) * rng.uniform(0.2, 1, (3000, 3))
+    half = rng.choice([0.005, 0.2, 3.0, 40.0], size=(3000, 1), p=[0.6, 0.3, 0.09, 0.01]) * rng.uniform(
+        0.2, 1, (3000, 3)
+    )
     aabb = np.stack([c - half, c + half], axis=1)
     for tilt in (0.0, None):
         grid = PieceGrid(aabb, tilt)
@@ -186,9 +203,13 @@ def test_far_clutter_costs_nothing_per_check(pr2):
     fast, slow = checkers(pr2, scene, 0.005)
     assert len(plain.shapes) < GRID_PIECES  # the clutter-free scene is checked piece by piece
     arm = pr2.arm("right")
-    runs = [(np.array([q, np.clip(q + 0.1, arm.lower, arm.upper)]),
-             (TABLE_X - 0.3 - rng.uniform(0.3, 0.6), rng.uniform(-0.4, 0.4), rng.uniform(-0.4, 0.4)))
-            for q in random_configs(arm, 15, rng)]
+    runs = [
+        (
+            np.array([q, np.clip(q + 0.1, arm.lower, arm.upper)]),
+            (TABLE_X - 0.3 - rng.uniform(0.3, 0.6), rng.uniform(-0.4, 0.4), rng.uniform(-0.4, 0.4)),
+        )
+        for q in random_configs(arm, 15, rng)
+    ]
     times = {}
     for name, c in (("plain", plain), ("fast", fast), ("slow", slow)):
         c.check("right", *runs[0])

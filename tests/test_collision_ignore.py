@@ -13,9 +13,9 @@ import yaml
 import placement
 from placement.collision import SceneCollision
 from placement.planning import parse_scene
-from placement.robots.init import propose
-from placement.robots.init_render import render
-from placement.robots.init_selfpairs import artefact_pairs
+from placement.robots.onboarding.propose import propose
+from placement.robots.onboarding.render import render
+from placement.robots.onboarding.selfpairs import artefact_pairs
 from placement.robots.spec import share_dir
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -32,12 +32,20 @@ def romeo_urdf() -> Path:
 
 def empty_scene():
     """Nothing near the robot: only self collisions can reject a configuration."""
-    return parse_scene({
-        "version": 1, "resolution": 0.05, "bounds": [-3, -3, 3, 3], "robot": {"preset": "pr2", "start": [0, 0, 0]},
-        "obstacles": [{"name": "far_table", "box": {"center": [2.5, 2.5, 0.35], "size": [0.4, 0.4, 0.7]},
-                       "table": True}],
-        "objects": [{"name": "cup", "position": [2.5, 2.5, 0.75], "yaw": 0.0, "size": [0.06, 0.06, 0.1]}],
-        "place_locations": [{"name": "p", "position": [2.5, 2.4, 0.8]}], "task": [{"pick": "cup", "place": "p"}]})
+    return parse_scene(
+        {
+            "version": 1,
+            "resolution": 0.05,
+            "bounds": [-3, -3, 3, 3],
+            "robot": {"preset": "pr2", "start": [0, 0, 0]},
+            "obstacles": [
+                {"name": "far_table", "box": {"center": [2.5, 2.5, 0.35], "size": [0.4, 0.4, 0.7]}, "table": True}
+            ],
+            "objects": [{"name": "cup", "position": [2.5, 2.5, 0.75], "yaw": 0.0, "size": [0.06, 0.06, 0.1]}],
+            "place_locations": [{"name": "p", "position": [2.5, 2.4, 0.8]}],
+            "task": [{"pick": "cup", "place": "p"}],
+        }
+    )
 
 
 def test_romeo_init_writes_the_wrist_pairs(tmp_path):

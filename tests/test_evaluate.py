@@ -46,9 +46,26 @@ def test_evaluate_document(tmp_path, maps_dir):
 def test_cli_evaluate_writes_report(tmp_path, maps_dir):
     paths = _scenes(tmp_path, maps_dir, n=2)
     out = tmp_path / "report"
-    p = subprocess.run([sys.executable, "-m", "placement.cli.main", "evaluate", *map(str, paths), "--methods",
-                        "sequential,single-step", "--workers", "2", "--json", "-q", "--out", str(out)],
-                       capture_output=True, text=True, env=dict(os.environ))
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "placement.cli.main",
+            "evaluate",
+            *map(str, paths),
+            "--methods",
+            "sequential,single-step",
+            "--workers",
+            "2",
+            "--json",
+            "-q",
+            "--out",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        env=dict(os.environ),
+    )
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
     assert set(doc["methods"]) == {"sequential", "single-step"}
@@ -72,9 +89,15 @@ def test_library_rejects_bad_workers_before_planning(tmp_path):
 def test_plan_outcome_names_the_first_infeasible_step():
     from placement.planning import PlanResult, StepResult
 
-    plan = PlanResult("s", "sequential", {}, [
-        StepResult(0, "pick", "box"),
-        StepResult(1, "pick", "cup", status="infeasible", reason="below threshold"),
-        StepResult(2, "place", "b", status="infeasible", reason="no IK")])
+    plan = PlanResult(
+        "s",
+        "sequential",
+        {},
+        [
+            StepResult(0, "pick", "box"),
+            StepResult(1, "pick", "cup", status="infeasible", reason="below threshold"),
+            StepResult(2, "place", "b", status="infeasible", reason="no IK"),
+        ],
+    )
     assert plan_outcome(plan, None) == (3, "step 1 (pick cup): below threshold")
     assert plan_outcome(None, "bad map") == (0, "bad map")

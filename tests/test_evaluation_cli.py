@@ -46,18 +46,21 @@ def read_only_dir(tmp_path):
     d.chmod(0o755)
 
 
-@pytest.mark.parametrize(("args", "words"), [
-    (["--count", "1e12"], ["'--count'", "1e12", f"from 1 to {MAX_SCENES}"]),
-    (["--count", "1000000000000"], ["'--count'", f"from 1 to {MAX_SCENES}"]),
-    (["--count", "0"], ["'--count'", f"from 1 to {MAX_SCENES}"]),
-    (["--objects", "100000"], ["'--objects'", f"from 1 to {MAX_OBJECTS}"]),
-    (["--objects", "0"], ["'--objects'", f"from 1 to {MAX_OBJECTS}"]),
-    (["--objects", "six"], ["'--objects'", "six"]),
-    (["--seed", "-1"], ["'--seed'", "from 0 to"]),
-    (["--seed", "1.5"], ["'--seed'", "from 0 to"]),
-    (["--seed", str(2**63)], ["'--seed'", "from 0 to"]),
-    (["--robot", "nope"], ["unknown robot 'nope'"]),
-])
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--count", "1e12"], ["'--count'", "1e12", f"from 1 to {MAX_SCENES}"]),
+        (["--count", "1000000000000"], ["'--count'", f"from 1 to {MAX_SCENES}"]),
+        (["--count", "0"], ["'--count'", f"from 1 to {MAX_SCENES}"]),
+        (["--objects", "100000"], ["'--objects'", f"from 1 to {MAX_OBJECTS}"]),
+        (["--objects", "0"], ["'--objects'", f"from 1 to {MAX_OBJECTS}"]),
+        (["--objects", "six"], ["'--objects'", "six"]),
+        (["--seed", "-1"], ["'--seed'", "from 0 to"]),
+        (["--seed", "1.5"], ["'--seed'", "from 0 to"]),
+        (["--seed", str(2**63)], ["'--seed'", "from 0 to"]),
+        (["--robot", "nope"], ["unknown robot 'nope'"]),
+    ],
+)
 def test_generate_bad_options(tmp_path, args, words):
     out = tmp_path / "out"
     assert_one_error(run(["scenes", "generate", *args, out]), *words)
@@ -80,8 +83,9 @@ def test_generate_out_dir_below_a_file(tmp_path):
 def test_generate_out_dir_read_only(read_only_dir):
     before = sorted(read_only_dir.iterdir())
     assert_one_error(run(["scenes", "generate", "--count", 1, read_only_dir]), "OUT_DIR", "cannot write")
-    assert_one_error(run(["scenes", "generate", "--count", 1, read_only_dir / "new" / "deeper"]), "OUT_DIR",
-                     "cannot create")
+    assert_one_error(
+        run(["scenes", "generate", "--count", 1, read_only_dir / "new" / "deeper"]), "OUT_DIR", "cannot create"
+    )
     assert sorted(read_only_dir.iterdir()) == before
 
 
@@ -95,14 +99,17 @@ def test_generate_failure_after_the_check_leaves_no_directory(tmp_path):
     assert not (tmp_path / "a").exists()
 
 
-@pytest.mark.parametrize(("methods", "words"), [
-    (",", ["'--methods'", "empty method name", "sequential, single-step"]),
-    ("", ["'--methods'", "empty method name"]),
-    ("  ", ["'--methods'", "empty method name"]),
-    ("sequential,,irm", ["'--methods'", "empty method name"]),
-    ("irm,sequential,irm", ["'--methods'", "'irm' is given twice"]),
-    ("sequental", ["'--methods'", "unknown method 'sequental'", "choose from"]),
-])
+@pytest.mark.parametrize(
+    ("methods", "words"),
+    [
+        (",", ["'--methods'", "empty method name", "sequential, single-step"]),
+        ("", ["'--methods'", "empty method name"]),
+        ("  ", ["'--methods'", "empty method name"]),
+        ("sequential,,irm", ["'--methods'", "empty method name"]),
+        ("irm,sequential,irm", ["'--methods'", "'irm' is given twice"]),
+        ("sequental", ["'--methods'", "unknown method 'sequental'", "choose from"]),
+    ],
+)
 def test_evaluate_bad_methods(tmp_path, scene_file, methods, words):
     out = tmp_path / "report"
     assert_one_error(run(["evaluate", scene_file, "--methods", methods, "--out", out]), *words)

@@ -21,9 +21,17 @@ METHODS = ["sequential", "irm", "fixed"]
 @pytest.fixture(scope="module")
 def client():
     """Two worker processes with one thread each, on loopback only (bounded start-up)."""
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                  dashboard_address=None, worker_dashboard_address=None) as cluster, \
-            distributed.Client(cluster, timeout="60s") as c:
+    with (
+        distributed.LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            worker_dashboard_address=None,
+        ) as cluster,
+        distributed.Client(cluster, timeout="60s") as c,
+    ):
         yield c
 
 
@@ -78,12 +86,15 @@ def test_cli_dask_equals_local(client, scenes):
     assert without_timings(json.loads(remote.stdout)) == without_timings(json.loads(local.stdout))
 
 
-@pytest.mark.parametrize(("address", "words"), [
-    # a refused port takes the connect timeout (10 s): the same dask_client() is tested so for
-    # `maps build --dask` in test_cli.py
-    ("nonsense", ["cannot reach Dask scheduler at nonsense", "missing port"]),
-    ("foo://host:1", ["unknown address scheme 'foo'"]),
-])
+@pytest.mark.parametrize(
+    ("address", "words"),
+    [
+        # a refused port takes the connect timeout (10 s): the same dask_client() is tested so for
+        # `maps build --dask` in test_cli.py
+        ("nonsense", ["cannot reach Dask scheduler at nonsense", "missing port"]),
+        ("foo://host:1", ["unknown address scheme 'foo'"]),
+    ],
+)
 def test_cli_bad_address_is_one_line(scenes, tmp_path, address, words):
     out = tmp_path / "report"
     r = CliRunner().invoke(cli, ["evaluate", str(scenes[0]), "--dask", address, "--out", str(out)])
@@ -98,5 +109,4 @@ def test_cli_bad_address_is_one_line(scenes, tmp_path, address, words):
 def test_cli_workers_and_dask_exclude_each_other(scenes):
     r = CliRunner().invoke(cli, ["evaluate", str(scenes[0]), "--dask", "tcp://127.0.0.1:1", "--workers", "2"])
     assert r.exit_code == 2
-    assert r.stderr.strip() == ("error: --workers and --dask exclude each other: the cluster's workers "
-                                "run the scenes")
+    assert r.stderr.strip() == ("error: --workers and --dask exclude each other: the cluster's workers run the scenes")

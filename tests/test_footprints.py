@@ -13,8 +13,8 @@ from placement.planning.footprints import BaseShape
 from placement.planning.manipulation import base_yaws
 from placement.planning.navgrid import NavGrid
 from placement.planning.navigation import distance_map
-from placement.planning.scene import Box, Cylinder, Polygon
 from placement.planning.world import add_shape, add_touched, world_from_occupancy
+from placement.scene import Box, Cylinder, Polygon
 
 SQUARE = np.array([[0.335, 0.335], [-0.335, 0.335], [-0.335, -0.335], [0.335, -0.335]])
 
@@ -53,8 +53,9 @@ def poly_distance(P, Q):
         for j in range(len(Q)):
             c, d = Qb[:, j], Qb[:, (j + 1) % len(Q)]
             hit |= (_cross(a, b, c) * _cross(a, b, d) < 0) & (_cross(c, d, a) * _cross(c, d, b) < 0)
-            best = np.minimum.reduce([best, _point_seg(c, a, b), _point_seg(d, a, b), _point_seg(a, c, d),
-                                      _point_seg(b, c, d)])
+            best = np.minimum.reduce(
+                [best, _point_seg(c, a, b), _point_seg(d, a, b), _point_seg(a, c, d), _point_seg(b, c, d)]
+            )
     return np.where(hit, 0.0, best)
 
 
@@ -156,7 +157,9 @@ def test_band_masks_equal_a_brute_force_reference(seed):
         P = np.stack([base.placed(xs[i], ys[j], yaw) for j, i in zip(iy, ix)])
         d = np.full(len(P), np.inf)
         for a, b in zip(*np.nonzero(world.touched)):
-            Q = np.array([[xs[b] - h, ys[a] - h], [xs[b] + h, ys[a] - h], [xs[b] + h, ys[a] + h], [xs[b] - h, ys[a] + h]])
+            Q = np.array(
+                [[xs[b] - h, ys[a] - h], [xs[b] + h, ys[a] - h], [xs[b] + h, ys[a] + h], [xs[b] - h, ys[a] + h]]
+            )
             d = np.minimum(d, poly_distance(P, Q))
         unsure = np.abs(d - pad) < 1e-5
         assert np.array_equal(allowed[~unsure, k], d[~unsure] > pad), k
@@ -211,7 +214,7 @@ def test_the_square_base_parks_flush_facing_a_table_but_not_across():
 def test_footprint_padding_key(value, ok):
     import yaml
 
-    from placement.planning.scene import SceneError, parse_scene
+    from placement.scene import SceneError, parse_scene
 
     doc = yaml.safe_load(open("examples/table_clearing.yaml"))
     doc["planner"] = {"footprint_padding": value}
@@ -232,18 +235,24 @@ def test_fixed_parks_at_the_footprints_half_depth(maps_dir, preset, gap):
 
     from placement.planning.methods.fixed import fixed_placements
     from placement.planning.planner import Planner
-    from placement.planning.scene import load_scene
+    from placement.scene import load_scene
 
     scene = load_scene("examples/table_clearing.yaml")
-    planner = Planner(replace(scene, robot_preset=str(Path(preset).resolve()) if "/" in preset else preset),
-                      "fixed", maps_dir)
+    planner = Planner(
+        replace(scene, robot_preset=str(Path(preset).resolve()) if "/" in preset else preset), "fixed", maps_dir
+    )
     xs, ys = planner.world.nav.centres()
     placements = fixed_placements(planner)
     assert len(placements) >= 10
     for flat, yaw in placements:
         iy, ix = divmod(flat, len(xs))
-        gaps = [max(abs(xs[ix] - t.shape.center[0]) - t.shape.size[0] / 2,
-                    abs(ys[iy] - t.shape.center[1]) - t.shape.size[1] / 2) for t in scene.tables]
+        gaps = [
+            max(
+                abs(xs[ix] - t.shape.center[0]) - t.shape.size[0] / 2,
+                abs(ys[iy] - t.shape.center[1]) - t.shape.size[1] / 2,
+            )
+            for t in scene.tables
+        ]
         assert min(gaps) == pytest.approx(gap, abs=1e-9)
         assert planner.world.pose_clear(xs[ix], ys[iy], yaw)
 

@@ -20,9 +20,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from placement.errors import PlacementError
-from placement.evaluation.generate import (GRIPPER_CLEARANCE, MARGIN, MAX_OBJECTS, MAX_SCENES, SHADOW, TABLE_HEIGHT,
-                                           generate_scene, write_scenes)
-from placement.planning.scene import load_scene
+from placement.evaluation.generate import (
+    GRIPPER_CLEARANCE,
+    MARGIN,
+    MAX_OBJECTS,
+    MAX_SCENES,
+    SHADOW,
+    TABLE_HEIGHT,
+    generate_scene,
+    write_scenes,
+)
+from placement.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -45,6 +53,7 @@ ALWAYS_FIT = 12
 def footprint_distance(a, b) -> float:
     """Edge-to-edge distance [m] of two objects' footprints by coal (tall boxes; 0 when they overlap):
     an oracle independent of the generator's own polygon code."""
+
     def box(o):
         c, s = math.cos(o.yaw), math.sin(o.yaw)
         R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -90,8 +99,9 @@ def assert_layout(scene) -> None:
         assert np.all(np.abs(p.position[:2] - t.center[:2]) <= t.size[:2] / 2)
         assert p.position[2] > t.center[2] + t.size[2] / 2
     assert [s.pick for s in scene.task] == [o.name for o in scene.objects]
-    assert [s.place for s in scene.task] == ["place_a", "place_b"] * (len(scene.objects) // 2) + \
-        ["place_a"] * (len(scene.objects) % 2)
+    assert [s.place for s in scene.task] == ["place_a", "place_b"] * (len(scene.objects) // 2) + ["place_a"] * (
+        len(scene.objects) % 2
+    )
 
 
 @pytest.mark.parametrize(("obstacles", "count"), list(PINNED))
@@ -147,9 +157,17 @@ def test_failed_generation_writes_nothing(tmp_path):
     assert not (tmp_path / "a").exists()
 
 
-@pytest.mark.parametrize(("kwargs", "word"), [({"count": 0}, "count"), ({"count": MAX_SCENES + 1}, "count"),
-                                              ({"objects": MAX_OBJECTS + 1}, "objects"), ({"seed": -1}, "seed"),
-                                              ({"objects": 0}, "objects"), ({"seed": 1.5}, "seed")])
+@pytest.mark.parametrize(
+    ("kwargs", "word"),
+    [
+        ({"count": 0}, "count"),
+        ({"count": MAX_SCENES + 1}, "count"),
+        ({"objects": MAX_OBJECTS + 1}, "objects"),
+        ({"seed": -1}, "seed"),
+        ({"objects": 0}, "objects"),
+        ({"seed": 1.5}, "seed"),
+    ],
+)
 def test_library_bounds(tmp_path, kwargs, word):
     args = {"seed": 0, "count": 1, **kwargs}
     with pytest.raises(PlacementError, match=f"^{word} must be a whole number from"):
@@ -182,9 +200,28 @@ def test_cli_records_default_maps_and_plans_from_another_cwd(tmp_path, maps_dir)
     (project / "maps").mkdir(parents=True)
     (project / "maps" / "pr2").symlink_to(maps_dir, target_is_directory=True)
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    p = subprocess.run([sys.executable, "-m", "placement.cli.main", "scenes", "generate", "--seed", "2",
-                        "--count", "2", "--objects", "1", "--obstacles", "--json", "build/scenes"],
-                       capture_output=True, text=True, env=env, cwd=project)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "placement.cli.main",
+            "scenes",
+            "generate",
+            "--seed",
+            "2",
+            "--count",
+            "2",
+            "--objects",
+            "1",
+            "--obstacles",
+            "--json",
+            "build/scenes",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=project,
+    )
     assert p.returncode == 0, p.stderr
     paths = [project / s for s in json.loads(p.stdout)["scenes"]]
     assert len(paths) == 2 and p.stderr == ""
@@ -192,15 +229,24 @@ def test_cli_records_default_maps_and_plans_from_another_cwd(tmp_path, maps_dir)
     doc = yaml.safe_load(paths[0].read_text())
     doc["planner"] = {"threshold": 0.01, "yaw_steps": 40}
     paths[0].write_text(yaml.safe_dump(doc))
-    q = subprocess.run([sys.executable, "-m", "placement.cli.main", "query", str(paths[0]), "--json"],
-                       capture_output=True, text=True, env=env, cwd=tmp_path)
+    q = subprocess.run(
+        [sys.executable, "-m", "placement.cli.main", "query", str(paths[0]), "--json"],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=tmp_path,
+    )
     assert q.returncode == 0, q.stderr
     assert json.loads(q.stdout)["status"] == "ok"
 
 
 @settings(max_examples=250, deadline=None)
-@given(seed=st.integers(0, 2**63 - 1), index=st.integers(0, MAX_SCENES - 1),
-       objects=st.one_of(st.integers(1, ALWAYS_FIT), st.integers(1, MAX_OBJECTS)), obstacles=st.booleans())
+@given(
+    seed=st.integers(0, 2**63 - 1),
+    index=st.integers(0, MAX_SCENES - 1),
+    objects=st.one_of(st.integers(1, ALWAYS_FIT), st.integers(1, MAX_OBJECTS)),
+    obstacles=st.booleans(),
+)
 def test_property_generated_scenes_load_and_keep_invariants(seed, index, objects, obstacles):
     """Up to ALWAYS_FIT objects always fit; more give a valid scene or the documented one-line error."""
     try:
@@ -217,9 +263,12 @@ def test_property_generated_scenes_load_and_keep_invariants(seed, index, objects
 
 
 @settings(max_examples=300, deadline=None)
-@given(length=st.one_of(st.floats(0.1, 2.2), st.floats(allow_nan=True), st.integers(), st.text(max_size=2)),
-       depth=st.one_of(st.floats(0.1, 2.2), st.floats(allow_nan=True), st.none()),
-       seed=st.integers(0, 2**32), obstacles=st.booleans())
+@given(
+    length=st.one_of(st.floats(0.1, 2.2), st.floats(allow_nan=True), st.integers(), st.text(max_size=2)),
+    depth=st.one_of(st.floats(0.1, 2.2), st.floats(allow_nan=True), st.none()),
+    seed=st.integers(0, 2**32),
+    obstacles=st.booleans(),
+)
 def test_property_table_sizes_give_a_valid_scene_or_the_documented_error(length, depth, seed, obstacles):
     """Any table size: a valid scene or one of the two documented errors, never another exception."""
     try:
@@ -277,8 +326,14 @@ def gripper_collides(robot, arm: str, tcp_poses, boxes, padding: float = 0.005) 
             for o in boxes:
                 c, s_ = math.cos(o.yaw), math.sin(o.yaw)
                 R = np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])
-                if coal.collide(shape, coal.Transform3s(M[:3, :3], M[:3, 3]), coal.Box(*o.size),
-                                coal.Transform3s(R, np.asarray(o.position, float)), req, coal.CollisionResult()):
+                if coal.collide(
+                    shape,
+                    coal.Transform3s(M[:3, :3], M[:3, 3]),
+                    coal.Box(*o.size),
+                    coal.Transform3s(R, np.asarray(o.position, float)),
+                    req,
+                    coal.CollisionResult(),
+                ):
                     return True
     return False
 

@@ -2,8 +2,8 @@ import math
 
 import numpy as np
 
-from placement.grid import pose_from_zyx
 from placement.kernels.grid import zyx_angles
+from placement.maps.grid import pose_from_zyx
 from placement.planning.grasps import place_candidates, top_grasps
 
 
@@ -14,8 +14,8 @@ def test_top_grasp_literal():
     T = g[0].poses
     np.testing.assert_allclose(T[1, :3, 3], [1.0, 2.0, 0.86])
     np.testing.assert_allclose(T[0, :3, 3], [1.0, 2.0, 0.96])
-    np.testing.assert_allclose(T[1, :3, 2], [0, 0, -1])      # approach down
-    np.testing.assert_allclose(T[1, :3, 1], [1, 0, 0])       # closing across x
+    np.testing.assert_allclose(T[1, :3, 2], [0, 0, -1])  # approach down
+    np.testing.assert_allclose(T[1, :3, 1], [1, 0, 0])  # closing across x
     np.testing.assert_allclose(g[1].poses[1, :3, 1], [-1, 0, 0])
     for c in g:
         R = c.poses[1, :3, :3]

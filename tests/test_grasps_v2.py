@@ -8,15 +8,15 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
+from test_scene_v2 import ON_SIDE, v2_doc
 
-from placement.ik import solve_ik
 from placement.kernels.grid import zyx_angles
+from placement.kinematics.ik import solve_ik
 from placement.planning.config import PlannerConfig
 from placement.planning.grasps import GRIPPER_OPENING, SIDE_TILT, box_grasps, top_grasps
-from placement.planning.scene import SceneObject, Trajectory, parse_scene
 from placement.planning.steps import object_grasps, step_candidates, task_steps
 from placement.planning.verify import base_matrix
-from test_scene_v2 import ON_SIDE, v2_doc
+from placement.scene import SceneObject, Trajectory, parse_scene
 
 
 def _se3(position, q) -> pin.SE3:
@@ -125,8 +125,13 @@ def test_place_orientations_and_reach_candidates():
     s = parse_scene(v2_doc())
     steps = task_steps(s)
     assert [(st.action, st.target) for st in steps] == [
-        ("reach", "door,door2"), ("pick", "can"), ("place", "spot"), ("pick", "cup"), ("place", "bin"),
-        ("reach", "door")]
+        ("reach", "door,door2"),
+        ("pick", "can"),
+        ("place", "spot"),
+        ("pick", "cup"),
+        ("place", "bin"),
+        ("reach", "door"),
+    ]
     cfg = PlannerConfig()
     reach = step_candidates(s, steps[0], cfg)
     assert [c.name for c in reach] == ["door", "door2"]

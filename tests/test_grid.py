@@ -9,8 +9,8 @@ import pinocchio as pin
 import pytest
 
 from placement import Grid
-from placement.grid import pose_from_zyx
 from placement.kernels.grid import pitch_bin, wrap_bin, zyx_angles
+from placement.maps.grid import pose_from_zyx
 
 GRID = Grid(origin=(-1.2, -1.1, -0.3), resolution=0.05, shape=(48, 44, 40, 20, 9, 20))
 
@@ -42,6 +42,7 @@ def orientation_bins(T, shape=GRID.shape):
 
 
 # --------------------------------------------------------------------------------------------
+
 
 def test_zyx_angles_match_pinocchio_rpy():
     rng = np.random.default_rng(0)
@@ -178,8 +179,9 @@ def test_bin_edges_and_ranges():
     np.testing.assert_array_equal(bins, np.round(angles / w).astype(int) % n)
     assert pitch_bin(-math.pi / 2, 9) == 0 and pitch_bin(math.pi / 2, 9) == 8
     pitches = np.random.default_rng(6).uniform(-math.pi / 2, math.pi / 2, 1000)
-    np.testing.assert_array_equal([pitch_bin(p, 9) for p in pitches],
-                                  np.floor((pitches + math.pi / 2) / (math.pi / 9)).astype(int))
+    np.testing.assert_array_equal(
+        [pitch_bin(p, 9) for p in pitches], np.floor((pitches + math.pi / 2) / (math.pi / 9)).astype(int)
+    )
 
 
 def test_centre_maps_back_to_index():

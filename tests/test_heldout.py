@@ -11,11 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from oracle_collision import IndependentCheck
 
 from placement.collision import SceneCollision
 from placement.planning import Planner
-
-from oracle_collision import IndependentCheck
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CAP = 0.2  # [m] the planner's clearance cap (placement.collision.CLEARANCE_CAP)
@@ -28,8 +27,12 @@ def check_plan(planner, result, robot) -> list:
     planned = [s for s in result.steps if s.ok]
     assert len(checks) == len(planned)
     for s, c in zip(planned, checks):
-        assert not c.scene_hits and not c.self_hits and not c.object_hits, (s.step, c.scene_hits, c.self_hits,
-                                                                             c.object_hits)
+        assert not c.scene_hits and not c.self_hits and not c.object_hits, (
+            s.step,
+            c.scene_hits,
+            c.self_hits,
+            c.object_hits,
+        )
         pad = planner.base_config.collision_padding
         assert c.scene_m >= pad and c.held_m >= pad and c.object_m >= pad
         if c.footprint_m is not None:
@@ -92,6 +95,7 @@ def test_v2_side_grasps_lying_object_and_reach(tmp_path, maps_dir, pr2):
 
 # -- the checker can fail ----------------------------------------------------------------------------
 
+
 def test_the_checker_sees_a_base_in_the_table_and_an_arm_in_it(tmp_path, maps_dir, pr2):
     from placement.evaluation.generate import generate_scene
 
@@ -102,8 +106,7 @@ def test_the_checker_sees_a_base_in_the_table_and_an_arm_in_it(tmp_path, maps_di
     table = next(o for o in planner.scene.obstacles if o.name == "pick_table_2")
     check = IndependentCheck(pr2, planner.scene)
     toward = np.asarray(table.shape.center[:2]) - step["base"][:2]
-    moved = dict(step, base=[*(np.asarray(step["base"][:2]) + 0.25 * toward / np.linalg.norm(toward)),
-                             step["base"][2]])
+    moved = dict(step, base=[*(np.asarray(step["base"][:2]) + 0.25 * toward / np.linalg.norm(toward)), step["base"][2]])
     c = check.check_step(moved, [], step["target"])
     assert c.footprint_m <= 0 and any("pick_table" in h for h in c.scene_hits) and not c.free
 

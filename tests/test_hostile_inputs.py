@@ -17,16 +17,17 @@ import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from robots_init_data import arm_urdf
 
 from placement.errors import PlacementError, PresetError, RobotError
-from placement.planning.scene import OccupancyMapError, SceneError, SceneObject, load_scene, load_occupancy_map
-from placement.planning.scene.checks import TOLERANCE, overlapping_objects
-from placement.planning.scene.limits import MAX_OBSTACLES, MAX_POLYGON_VERTICES
-from placement.robots import init_base, init_urdf
 from placement.robots.footprint import MAX_FOOTPRINT_VERTICES
-from placement.robots.init import propose
+from placement.robots.onboarding import base as init_base
+from placement.robots.onboarding import urdf as init_urdf
+from placement.robots.onboarding.propose import propose
 from placement.robots.preset import load_robot
-from robots_init_data import arm_urdf
+from placement.scene import OccupancyMapError, SceneError, SceneObject, load_occupancy_map, load_scene
+from placement.scene.checks import TOLERANCE, overlapping_objects
+from placement.scene.limits import MAX_OBSTACLES, MAX_POLYGON_VERTICES
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yaml"
 PR2 = Path(__file__).resolve().parents[1] / "placement" / "robots" / "presets" / "pr2.yaml"
@@ -66,14 +67,18 @@ def _scene_error(tmp_path, text: str, *words: str) -> str:
 
 # -- numbers of any size and spelling ------------------------------------------------------------
 
-@pytest.mark.parametrize("old, new, words", [
-    ("version: 1", f"version: {HUGE_DEC}", ["4300 digits"]),
-    ("version: 1", f"version: {HUGE_HEX}", ["version", "integer of about"]),
-    ("resolution: 0.05", f"resolution: {HUGE_HEX}", ["resolution", "too large"]),
-    ("name: cup_1", f"name: {HUGE_HEX}", ["objects[0].name", "integer of about"]),
-    ("version: 1", f"version: 1\n? {HUGE_HEX}\n: 3", ["unknown key", "integer of about"]),
-    ("task:", f"planner: {{yaw_steps: {HUGE_HEX}}}\ntask:", ["planner.yaw_steps", "integer of about"]),
-])
+
+@pytest.mark.parametrize(
+    "old, new, words",
+    [
+        ("version: 1", f"version: {HUGE_DEC}", ["4300 digits"]),
+        ("version: 1", f"version: {HUGE_HEX}", ["version", "integer of about"]),
+        ("resolution: 0.05", f"resolution: {HUGE_HEX}", ["resolution", "too large"]),
+        ("name: cup_1", f"name: {HUGE_HEX}", ["objects[0].name", "integer of about"]),
+        ("version: 1", f"version: 1\n? {HUGE_HEX}\n: 3", ["unknown key", "integer of about"]),
+        ("task:", f"planner: {{yaw_steps: {HUGE_HEX}}}\ntask:", ["planner.yaw_steps", "integer of about"]),
+    ],
+)
 def test_huge_integers_in_a_scene(tmp_path, old, new, words):
     _scene_error(tmp_path, _scene_text(**{old: new}), *words)
 
@@ -95,20 +100,23 @@ def _occupancy(tmp_path, yaml_text: str, image: bytes = b"P5\n2 2\n255\n\xff\xff
     return path
 
 
-@pytest.mark.parametrize("text, words", [
-    ("image: floor.pgm\nresolution: 1.0e+307\norigin: [0, 0, 0]\n", ["resolution", "within"]),
-    ("image: floor.pgm\nresolution: 0.05\norigin: [1.0e+300, 0, 0]\n", ["origin", "within"]),
-    ("image: floor.pgm\nresolution: 1e307\norigin: [0, 0, 0]\n", ["resolution", "finite number"]),  # a string
-    (f"image: floor.pgm\nresolution: {HUGE_HEX}\norigin: [0, 0, 0]\n", ["resolution", "integer of about"]),
-    (f"image: floor.pgm\nresolution: 0.05\norigin: [0, {HUGE_HEX}, 0]\n", ["origin", "integer of about"]),
-    (f"image: floor.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: {HUGE_HEX}\n", ["negate"]),
-    (f"image: floor.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nmode: {HUGE_HEX}\n", ["mode"]),
-    (f"image: {HUGE_HEX}\nresolution: 0.05\norigin: [0, 0, 0]\n", ["image"]),
-    (f"image: floor.pgm\nresolution: {HUGE_DEC}\norigin: [0, 0, 0]\n", ["4300 digits"]),
-    ("image: floor.pgm\nresolution: 0x10\norigin: [0, 0, 0]\n", None),  # a hex 16 m: a valid map
-    ("a: " + "[" * 100_000 + "]" * 100_000 + "\n", ["invalid YAML"]),
-    ("a: " + "[" * 900 + "]" * 900 + "\n", ["missing key 'image'"]),  # deep, yet within libyaml's depth
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("image: floor.pgm\nresolution: 1.0e+307\norigin: [0, 0, 0]\n", ["resolution", "within"]),
+        ("image: floor.pgm\nresolution: 0.05\norigin: [1.0e+300, 0, 0]\n", ["origin", "within"]),
+        ("image: floor.pgm\nresolution: 1e307\norigin: [0, 0, 0]\n", ["resolution", "finite number"]),  # a string
+        (f"image: floor.pgm\nresolution: {HUGE_HEX}\norigin: [0, 0, 0]\n", ["resolution", "integer of about"]),
+        (f"image: floor.pgm\nresolution: 0.05\norigin: [0, {HUGE_HEX}, 0]\n", ["origin", "integer of about"]),
+        (f"image: floor.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: {HUGE_HEX}\n", ["negate"]),
+        (f"image: floor.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nmode: {HUGE_HEX}\n", ["mode"]),
+        (f"image: {HUGE_HEX}\nresolution: 0.05\norigin: [0, 0, 0]\n", ["image"]),
+        (f"image: floor.pgm\nresolution: {HUGE_DEC}\norigin: [0, 0, 0]\n", ["4300 digits"]),
+        ("image: floor.pgm\nresolution: 0x10\norigin: [0, 0, 0]\n", None),  # a hex 16 m: a valid map
+        ("a: " + "[" * 100_000 + "]" * 100_000 + "\n", ["invalid YAML"]),
+        ("a: " + "[" * 900 + "]" * 900 + "\n", ["missing key 'image'"]),  # deep, yet within libyaml's depth
+    ],
+)
 def test_occupancy_map_numbers(tmp_path, text, words):
     path = _occupancy(tmp_path, text)
     if words is None:
@@ -121,8 +129,9 @@ def test_occupancy_map_numbers(tmp_path, text, words):
 
 def test_a_huge_image_is_refused_from_its_header(tmp_path):
     """40,000 x 40,000 pixels: refused before the raster is read (the file holds only the header)."""
-    path = _occupancy(tmp_path, "image: floor.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n",
-                      b"P5\n40000 40000\n255\n" + b"\0" * 1000)
+    path = _occupancy(
+        tmp_path, "image: floor.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n", b"P5\n40000 40000\n255\n" + b"\0" * 1000
+    )
     t0 = time.perf_counter()
     with pytest.raises(OccupancyMapError) as err:
         load_occupancy_map(path)
@@ -132,6 +141,7 @@ def test_a_huge_image_is_refused_from_its_header(tmp_path):
 
 
 # -- files that are not regular files -----------------------------------------------------------
+
 
 @pytest.fixture
 def specials(tmp_path):
@@ -156,9 +166,13 @@ def test_special_files_are_refused_at_once(specials, tmp_path, kind):
     urdf_preset = tmp_path / "p.yaml"
     urdf_preset.write_text(PR2.read_text().replace("urdf: ", f"urdf: {path} #", 1))
     t0 = time.perf_counter()
-    for load, arg, error in ((load_scene, path, SceneError), (load_robot, path, PlacementError),
-                             (load_occupancy_map, occ, OccupancyMapError), (load_robot, urdf_preset, PlacementError),
-                             (propose, path, RobotError)):
+    for load, arg, error in (
+        (load_scene, path, SceneError),
+        (load_robot, path, PlacementError),
+        (load_occupancy_map, occ, OccupancyMapError),
+        (load_robot, urdf_preset, PlacementError),
+        (propose, path, RobotError),
+    ):
         with pytest.raises(error) as err:
             load(arg)
         _one_line(err.value)
@@ -167,14 +181,23 @@ def test_special_files_are_refused_at_once(specials, tmp_path, kind):
 
 # -- cost bounds --------------------------------------------------------------------------------
 
+
 def test_too_many_obstacles_and_vertices(tmp_path):
     """Counted before any item is parsed: the items need not even be obstacles."""
     t0 = time.perf_counter()
-    _scene_error(tmp_path, _scene_text(**{"obstacles:\n": "obstacles:\n" + "- 0\n" * (MAX_OBSTACLES + 1)}),
-                 "obstacles", f"entries, more than the {MAX_OBSTACLES} allowed")
+    _scene_error(
+        tmp_path,
+        _scene_text(**{"obstacles:\n": "obstacles:\n" + "- 0\n" * (MAX_OBSTACLES + 1)}),
+        "obstacles",
+        f"entries, more than the {MAX_OBSTACLES} allowed",
+    )
     pts = ", ".join(["[0, 0]"] * (MAX_POLYGON_VERTICES + 1))
-    _scene_error(tmp_path, _scene_text(**{"obstacles:\n": f"obstacles:\n- {{name: round, polygon: [{pts}]}}\n"}),
-                 "polygon", f"more than the {MAX_POLYGON_VERTICES} allowed")
+    _scene_error(
+        tmp_path,
+        _scene_text(**{"obstacles:\n": f"obstacles:\n- {{name: round, polygon: [{pts}]}}\n"}),
+        "polygon",
+        f"more than the {MAX_POLYGON_VERTICES} allowed",
+    )
     assert time.perf_counter() - t0 < 10
 
 
@@ -190,12 +213,18 @@ def test_a_large_round_polygon_is_accepted_quickly(tmp_path):
 
 
 def test_a_self_crossing_polygon_with_unequal_lobes_is_refused(tmp_path):
-    _scene_error(tmp_path, _scene_text(**{"obstacles:\n": "obstacles:\n- {name: lobes, polygon: "
-                                                            "[[8, 6], [9, 6], [9, 7], [7.5, 5.5], [7.5, 6]]}\n"}),
-                 "obstacles[0].polygon", "crosses or touches itself")
+    _scene_error(
+        tmp_path,
+        _scene_text(
+            **{"obstacles:\n": "obstacles:\n- {name: lobes, polygon: [[8, 6], [9, 6], [9, 7], [7.5, 5.5], [7.5, 6]]}\n"}
+        ),
+        "obstacles[0].polygon",
+        "crosses or touches itself",
+    )
 
 
 # -- overlapping objects ------------------------------------------------------------------------
+
 
 def test_overlapping_objects_are_refused_naming_both(tmp_path):
     doc = _scene_doc()
@@ -209,8 +238,14 @@ def test_overlapping_objects_are_refused_naming_both(tmp_path):
 def _coal_distance(a: SceneObject, b: SceneObject) -> float:
     req, res = coal.DistanceRequest(), coal.DistanceResult()
     req.enable_signed_distance = True
-    return coal.distance(coal.Box(*a.size), coal.Transform3s(a.pose[:3, :3], a.pose[:3, 3]), coal.Box(*b.size),
-                         coal.Transform3s(b.pose[:3, :3], b.pose[:3, 3]), req, res)
+    return coal.distance(
+        coal.Box(*a.size),
+        coal.Transform3s(a.pose[:3, :3], a.pose[:3, 3]),
+        coal.Box(*b.size),
+        coal.Transform3s(b.pose[:3, :3], b.pose[:3, 3]),
+        req,
+        res,
+    )
 
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -222,8 +257,15 @@ def test_object_overlap_agrees_with_coal(seed):
     for k in range(2):
         q = rng.normal(size=4)
         upright = rng.random() < 0.3
-        objs.append(SceneObject(f"o{k}", rng.uniform(-0.15, 0.15, 3), float(rng.uniform(-3, 3)),
-                                rng.uniform(0.02, 0.2, 3), None if upright else q / np.linalg.norm(q)))
+        objs.append(
+            SceneObject(
+                f"o{k}",
+                rng.uniform(-0.15, 0.15, 3),
+                float(rng.uniform(-3, 3)),
+                rng.uniform(0.02, 0.2, 3),
+                None if upright else q / np.linalg.norm(q),
+            )
+        )
     d = _coal_distance(*objs)
     if abs(d) < 3 * TOLERANCE:
         return
@@ -231,6 +273,7 @@ def test_object_overlap_agrees_with_coal(seed):
 
 
 # -- presets and footprints ---------------------------------------------------------------------
+
 
 def _preset(tmp_path, **replace) -> Path:
     text = PR2.read_text()
@@ -250,12 +293,17 @@ def _footprint_line() -> str:
     return next(line for line in PR2.read_text().splitlines() if line.startswith("footprint"))
 
 
-@pytest.mark.parametrize("points, words", [
-    ([(1e300, -0.3), (1e300, 0.3), (-0.3, 0.3), (-0.3, -0.3)], ["footprint[0]", "from the base frame's origin"]),
-    ([(math.cos(t), math.sin(t)) for t in np.linspace(0, 2 * math.pi, 5_000, endpoint=False)],
-     ["footprint", f"{MAX_FOOTPRINT_VERTICES} allowed"]),
-    ([(0.3, 0.3), (-0.3, -0.3), (0.3, -0.3), (-0.3, 0.3)], ["crosses itself"]),
-])
+@pytest.mark.parametrize(
+    "points, words",
+    [
+        ([(1e300, -0.3), (1e300, 0.3), (-0.3, 0.3), (-0.3, -0.3)], ["footprint[0]", "from the base frame's origin"]),
+        (
+            [(math.cos(t), math.sin(t)) for t in np.linspace(0, 2 * math.pi, 5_000, endpoint=False)],
+            ["footprint", f"{MAX_FOOTPRINT_VERTICES} allowed"],
+        ),
+        ([(0.3, 0.3), (-0.3, -0.3), (0.3, -0.3), (-0.3, 0.3)], ["crosses itself"]),
+    ],
+)
 def test_hostile_footprints(tmp_path, points, words):
     t0 = time.perf_counter()
     with pytest.raises(PresetError) as err:
@@ -295,6 +343,7 @@ def test_xacro_expansions_are_bounded(tmp_path, monkeypatch):
 
 # -- robots init --------------------------------------------------------------------------------
 
+
 def _stl(path: Path, n: int, scale: float = 0.25) -> None:
     rng = np.random.default_rng(0)
     rec = np.zeros(n, dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
@@ -302,11 +351,14 @@ def _stl(path: Path, n: int, scale: float = 0.25) -> None:
     path.write_bytes(b"\0" * 80 + struct.pack("<I", n) + rec.tobytes())
 
 
-@pytest.mark.parametrize("change, words", [
-    (('<limit lower="-2" upper="2"', '<limit lower="2" upper="-2"'), ["would not load", "no usable limits"]),
-    (('<axis xyz="0 1 0"/><limit lower="-2"', '<axis xyz="0 0 0"/><limit lower="-2"'), ["no usable axis"]),
-    (('<box size="0.6 0.5 0.3"/>', '<box size="1e300 1e300 0.3"/>'), ["would not load", "footprint"]),
-])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (('<limit lower="-2" upper="2"', '<limit lower="2" upper="-2"'), ["would not load", "no usable limits"]),
+        (('<axis xyz="0 1 0"/><limit lower="-2"', '<axis xyz="0 0 0"/><limit lower="-2"'), ["no usable axis"]),
+        (('<box size="0.6 0.5 0.3"/>', '<box size="1e300 1e300 0.3"/>'), ["would not load", "footprint"]),
+    ],
+)
 def test_init_refuses_what_check_would_refuse(tmp_path, change, words):
     urdf = tmp_path / "toy.urdf"
     urdf.write_text(arm_urdf().replace(*change, 1))
@@ -319,8 +371,12 @@ def test_init_cli_exits_2_and_writes_nothing(tmp_path):
     urdf = tmp_path / "toy.urdf"
     urdf.write_text(arm_urdf().replace('<limit lower="-2" upper="2"', '<limit lower="2" upper="-2"', 1))
     out = tmp_path / "toy.yaml"
-    run = subprocess.run([sys.executable, "-m", "placement.cli.main", "robots", "init", str(urdf), "--out", str(out)],
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [sys.executable, "-m", "placement.cli.main", "robots", "init", str(urdf), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode == 2, run.stderr
     lines = run.stderr.strip().splitlines()
     assert lines[-1].startswith("error: ") and "no usable limits" in lines[-1] and "Traceback" not in run.stderr

@@ -1,4 +1,4 @@
-"""Inverse kinematics (placement.ik): reaches FK poses within limits, reports failure honestly."""
+"""Inverse kinematics (placement.kinematics.ik): reaches FK poses within limits, reports failure honestly."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from conftest import random_configs
 
 from placement.errors import PlacementError
-from placement.ik import IKResult, solve_ik
+from placement.kinematics.ik import IKResult, solve_ik
 
 
 def _rot_angle(R1: np.ndarray, R2: np.ndarray) -> float:

@@ -8,15 +8,14 @@ import numpy as np
 import pytest
 
 import placement
-from placement.grid import pose_from_zyx
+from placement.maps.grid import pose_from_zyx
 from placement.planning.manipulation import base_yaws, manipulation_map
 from placement.planning.navgrid import NavGrid
 
 
 @pytest.fixture(scope="module")
 def coarse_map(pr2, tmp_path_factory):
-    built = placement.build_map(pr2, "right", samples=600_000, seed=2, resolution=0.1, bins=(10, 5, 10),
-                                progress=False)
+    built = placement.build_map(pr2, "right", samples=600_000, seed=2, resolution=0.1, bins=(10, 5, 10), progress=False)
     path = placement.save_maps(tmp_path_factory.mktemp("m") / "pr2", pr2, {"right": built})
     return placement.open_map(path, "right", pr2)
 
@@ -35,7 +34,9 @@ def test_sliced_irm_equals_direct_lookup(coarse_map):
     # a top grasp above a table and its pre-grasp, at a random yaw
     yaw = rng.uniform(-math.pi, math.pi)
     # positions off the 0.1 m lattice: a base yaw of 45 deg must not put a pose exactly on a cell edge
-    traj = pose_from_zyx(np.array([[0.1234, 0.2345, 0.95], [0.1234, 0.2345, 0.85]]), [yaw, yaw], [0.0, 0.0], [math.pi, math.pi])
+    traj = pose_from_zyx(
+        np.array([[0.1234, 0.2345, 0.95], [0.1234, 0.2345, 0.85]]), [yaw, yaw], [0.0, 0.0], [math.pi, math.pi]
+    )
     val, arg = manipulation_map(coarse_map, traj, nav, yaws, cells=np.arange(900))
     xs, ys = nav.centres()
     reached = 0
@@ -102,8 +103,9 @@ def test_irm_max_runs_over_each_cells_allowed_yaws(coarse_map):
     rng = np.random.default_rng(8)
     nav = NavGrid((-1.5, -1.5), 0.1, (30, 30))
     yaws = base_yaws(70)  # two mask words
-    traj = pose_from_zyx(np.array([[0.1234, 0.2345, 0.95], [0.1234, 0.2345, 0.85]]), [0.4, 0.4], [0.0, 0.0],
-                         [math.pi, math.pi])
+    traj = pose_from_zyx(
+        np.array([[0.1234, 0.2345, 0.95], [0.1234, 0.2345, 0.85]]), [0.4, 0.4], [0.0, 0.0], [math.pi, math.pi]
+    )
     cells = np.sort(rng.choice(900, 250, replace=False))
     bits = rng.random((250, 70)) < 0.4
     masks = np.zeros((250, 2), np.uint64)
@@ -111,15 +113,26 @@ def test_irm_max_runs_over_each_cells_allowed_yaws(coarse_map):
         masks[:, k >> 6] |= bits[:, k].astype(np.uint64) << np.uint64(k & 63)
     val, arg = manipulation_map(coarse_map, traj, nav, yaws, cells, masks=masks)
     full = np.full((250, 2), np.iinfo(np.uint64).max, np.uint64)
-    assert [np.array_equal(a, b) for a, b in zip(manipulation_map(coarse_map, traj, nav, yaws, cells, masks=full),
-                                                 manipulation_map(coarse_map, traj, nav, yaws, cells))] == [True, True]
+    assert [
+        np.array_equal(a, b)
+        for a, b in zip(
+            manipulation_map(coarse_map, traj, nav, yaws, cells, masks=full),
+            manipulation_map(coarse_map, traj, nav, yaws, cells),
+        )
+    ] == [True, True]
     xs, ys = nav.centres()
     reached = 0
     for n, c in enumerate(cells):
         iy, ix = divmod(int(c), 30)
-        per_yaw = [coarse_map.value(np.linalg.inv(_planar(xs[ix], ys[iy], a)) @ traj).min() if bits[n, k] else 0.0
-                   for k, a in enumerate(yaws)]
+        per_yaw = [
+            coarse_map.value(np.linalg.inv(_planar(xs[ix], ys[iy], a)) @ traj).min() if bits[n, k] else 0.0
+            for k, a in enumerate(yaws)
+        ]
         assert val[iy, ix] == max(per_yaw)
-        assert (arg[iy, ix] == -1) if max(per_yaw) == 0 else (bits[n, arg[iy, ix]] and per_yaw[arg[iy, ix]] == max(per_yaw))
+        assert (
+            (arg[iy, ix] == -1)
+            if max(per_yaw) == 0
+            else (bits[n, arg[iy, ix]] and per_yaw[arg[iy, ix]] == max(per_yaw))
+        )
         reached += max(per_yaw) > 0
     assert reached > 20

@@ -6,11 +6,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import random_configs
+from test_manipulability import (  # noqa: F401 (robot: the fixture)
+    kernel_inputs,
+    reference,
+    reference_jacobian,
+    reference_measure,
+    reference_penalties,
+    robot,
+)
 
 import placement
-from test_manipulability import (  # noqa: F401 (robot: the fixture)
-    kernel_inputs, reference, reference_jacobian, reference_measure, reference_penalties, robot,
-)
 
 
 def test_sym_eig_extremes_matches_lapack():

@@ -171,7 +171,8 @@ def test_prismatic_joint_in_the_chain(tmp_path):
         "  right:\n"
         "    joints: [torso_lift_joint, r_shoulder_pan_joint, r_shoulder_lift_joint, r_upper_arm_roll_joint,\n"
         "             r_elbow_flex_joint, r_forearm_roll_joint, r_wrist_flex_joint, r_wrist_roll_joint]\n"
-        "    tip_frame: r_gripper_tool_frame\n")
+        "    tip_frame: r_gripper_tool_frame\n"
+    )
     robot = placement.load_robot(str(preset))
     arm = robot.arm("right")
     assert arm.chain.kind[0] == 1 and np.all(arm.chain.kind[1:] == 0)

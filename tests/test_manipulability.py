@@ -22,14 +22,16 @@ assert SIGNS.shape == (64, 6)
 # Reference implementation, written from SPEC section 3 (slow, obviously correct)
 # --------------------------------------------------------------------------------------------
 
+
 def reference_jacobian(robot, arm_name: str, q) -> np.ndarray:
     """(6, n) LOCAL TCP Jacobian from pinocchio, rotation rows scaled by 0.15."""
     arm = robot.arm(arm_name)
     model = pin.Model(robot.model)
     tip_id = model.getFrameId(arm.tip_frame)
     tip = model.frames[tip_id]
-    tcp_id = model.addFrame(pin.Frame("ref_tcp", tip.parentJoint, tip_id,
-                                      tip.placement * pin.SE3(arm.tcp_offset), pin.FrameType.OP_FRAME))
+    tcp_id = model.addFrame(
+        pin.Frame("ref_tcp", tip.parentJoint, tip_id, tip.placement * pin.SE3(arm.tcp_offset), pin.FrameType.OP_FRAME)
+    )
     data = model.createData()
     pin.computeJointJacobians(model, data, robot.full_q(arm_name, q))
     pin.updateFramePlacements(model, data)
@@ -103,8 +105,17 @@ def kernel_inputs(arm, Q):
     _, J = fk_jacobian_batch(Q, ch.link_T, ch.axis, ch.kind, ch.tip_T)
     J[:, 3:] *= 0.15
     n = arm.dof
-    scratch = (np.empty(n), np.empty(n), np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6)),
-               np.empty((6, 6)), np.empty((21, 64)), np.empty((W_ROWS, 64)), np.empty((2, 6)))
+    scratch = (
+        np.empty(n),
+        np.empty(n),
+        np.empty((6, n, 2)),
+        np.empty((6, 6, 2, 2)),
+        np.empty((6, 6)),
+        np.empty((6, 6)),
+        np.empty((21, 64)),
+        np.empty((W_ROWS, 64)),
+        np.empty((2, 6)),
+    )
     return J, scratch
 
 
@@ -119,6 +130,7 @@ def robot(request):
 # --------------------------------------------------------------------------------------------
 # The reference itself (so that a wrong reference cannot hide a wrong kernel)
 # --------------------------------------------------------------------------------------------
+
 
 def test_reference_penalty_formula_literal():
     lo, hi = np.array([-1.0]), np.array([3.0])
@@ -151,6 +163,7 @@ def test_reference_measure_literal():
 # Kernel against reference
 # --------------------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("index", ["isotropy", "volume"])
 @pytest.mark.parametrize("robot,arm_name", ROBOT_ARMS, indirect=["robot"])
 def test_random_configurations(robot, arm_name, index):
@@ -181,8 +194,13 @@ def exact_volume(J, pen_lo, pen_hi) -> float:
     """
     best = None
     for s in SIGNS:
-        F = [[Fraction(float(J[r, j] * (pen_hi[j] if (s[r] >= 0) != (J[r, j] < 0) else pen_lo[j])))
-              for j in range(J.shape[1])] for r in range(6)]
+        F = [
+            [
+                Fraction(float(J[r, j] * (pen_hi[j] if (s[r] >= 0) != (J[r, j] < 0) else pen_lo[j])))
+                for j in range(J.shape[1])
+            ]
+            for r in range(6)
+        ]
         A = [[sum((a * b for a, b in zip(F[r], F[c])), Fraction(0)) for c in range(6)] for r in range(6)]
         det = Fraction(1)
         for i in range(6):

@@ -50,7 +50,7 @@ def test_distance_map_empty_is_inf():
 
 def test_speed_factor_literal():
     d = np.array([0.0, 0.5, 1.0, 2.0])
-    np.testing.assert_allclose(speed_factor(d, 1.3, 4, 1.0), [1 + 1.3, 1 + 1.3 * 0.5 ** 4, 1.0, 1.0])
+    np.testing.assert_allclose(speed_factor(d, 1.3, 4, 1.0), [1 + 1.3, 1 + 1.3 * 0.5**4, 1.0, 1.0])
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -80,13 +80,15 @@ def test_tiny_literal_grid():
     cost, pred = navigation_cost(np.ones((5, 5)), feas, (2, 2), 1.0)
     inf = np.inf
     # west 1, then diagonal around the wall ends, then along rows 0 / 4, down column 4
-    expected = np.array([
-        [2 + S2, 1 + 2 * S2, 2 + 2 * S2, 3 + 2 * S2, 4 + 2 * S2],  # row 0
-        [1 + S2, inf, inf, inf, 3 + 3 * S2],                       # row 1
-        [2, 1, 0, inf, 4 + 3 * S2],                                # row 2
-        [1 + S2, inf, inf, inf, 3 + 3 * S2],                       # row 3
-        [2 + S2, 1 + 2 * S2, 2 + 2 * S2, 3 + 2 * S2, 4 + 2 * S2],  # row 4
-    ])
+    expected = np.array(
+        [
+            [2 + S2, 1 + 2 * S2, 2 + 2 * S2, 3 + 2 * S2, 4 + 2 * S2],  # row 0
+            [1 + S2, inf, inf, inf, 3 + 3 * S2],  # row 1
+            [2, 1, 0, inf, 4 + 3 * S2],  # row 2
+            [1 + S2, inf, inf, inf, 3 + 3 * S2],  # row 3
+            [2 + S2, 1 + 2 * S2, 2 + 2 * S2, 3 + 2 * S2, 4 + 2 * S2],  # row 4
+        ]
+    )
     np.testing.assert_allclose(cost, expected, rtol=1e-12)
     path = extract_path(pred, (2, 4))
     assert tuple(path[0]) == (2, 2) and tuple(path[-1]) == (2, 4)

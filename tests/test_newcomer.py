@@ -28,9 +28,15 @@ def _rotation(quaternion) -> np.ndarray:
     return pin.Quaternion(w, x, y, z).normalized().toRotationMatrix()
 
 
-@pytest.mark.parametrize("quaternion", [[0, 0, 0, 1], [0, 0, math.sin(0.6), math.cos(0.6)],
-                                        [math.sin(math.pi / 4), 0, 0, math.cos(math.pi / 4)],  # lying on its side
-                                        [0.3, -0.5, 0.2, 0.78]])
+@pytest.mark.parametrize(
+    "quaternion",
+    [
+        [0, 0, 0, 1],
+        [0, 0, math.sin(0.6), math.cos(0.6)],
+        [math.sin(math.pi / 4), 0, 0, math.cos(math.pi / 4)],  # lying on its side
+        [0.3, -0.5, 0.2, 0.78],
+    ],
+)
 def test_an_object_label_sits_just_above_the_object_in_the_world(quaternion):
     size = np.array([0.06, 0.20, 0.10])
     R = _rotation(quaternion)
@@ -43,7 +49,7 @@ def test_scene_labels_are_placed_in_their_parent_nodes_frames(tmp_path):
     """Drawn into a real viser server: every object and place label is a child of its node, at the
     offset that puts it above that node (before, world coordinates added to the parent's: a cup at
     (4, 4.1, 0.8) got its label at (8, 8.2, ...))."""
-    from placement.planning.scene import load_scene
+    from placement.scene import load_scene
     from placement.viewer.scene_view import draw_scene
     from placement.viewer.server import start_server
 
@@ -107,8 +113,10 @@ def test_the_map_view_draws_weak_cells_small_and_cells_under_the_threshold_grey(
 def test_the_legend_names_the_footprint_as_it_is_drawn(pr2):
     from placement.planning.results import StepResult
 
-    labels = {outline: [h.get_label() for h in legend_handles(_ok_step(StepResult), (0, 0, 0), True, outline)]
-              for outline in (True, False)}
+    labels = {
+        outline: [h.get_label() for h in legend_handles(_ok_step(StepResult), (0, 0, 0), True, outline)]
+        for outline in (True, False)
+    }
     assert any("footprint outline" in t for t in labels[True]) and not any("circle" in t for t in labels[True])
     assert any("footprint circle" in t for t in labels[False])
     assert pr2.footprint is not None  # the PR2's square: what query --plot draws, so the outline entry
@@ -118,19 +126,30 @@ def _ok_step(StepResult, target="cup", step=0, action="pick"):
     import dataclasses
 
     fields = {f.name for f in dataclasses.fields(StepResult)}
-    values = {"step": step, "action": action, "target": target, "ok": True, "base": (0.0, 0.0, 0.0),
-              "tcp": [np.eye(4)], "arm": "right", "grasp": "top"}
+    values = {
+        "step": step,
+        "action": action,
+        "target": target,
+        "ok": True,
+        "base": (0.0, 0.0, 0.0),
+        "tcp": [np.eye(4)],
+        "arm": "right",
+        "grasp": "top",
+    }
     return StepResult(**{k: v for k, v in values.items() if k in fields})
 
 
 def test_figure_file_names_have_no_comma_and_a_bounded_length():
     from placement.planning.results import StepResult
 
-    assert file_name(_ok_step(StepResult, "drawer_left,drawer_right", 0, "reach")) == \
-        "step00_reach_drawer_left_or_drawer_right.png"
+    assert (
+        file_name(_ok_step(StepResult, "drawer_left,drawer_right", 0, "reach"))
+        == "step00_reach_drawer_left_or_drawer_right.png"
+    )
     assert file_name(_ok_step(StepResult, "cup 1/ü", 3)) == "step03_pick_cup-1.png"
-    long = [file_name(_ok_step(StepResult, ",".join(f"trajectory_{k}" for k in range(n)), 1, "reach"))
-            for n in (200, 201)]
+    long = [
+        file_name(_ok_step(StepResult, ",".join(f"trajectory_{k}" for k in range(n)), 1, "reach")) for n in (200, 201)
+    ]
     assert all(re.fullmatch(r"[A-Za-z0-9._-]+", n) and len(n) <= MAX_NAME + 20 for n in long)
     assert long[0] != long[1]  # cut names stay distinct
 

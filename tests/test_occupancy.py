@@ -7,37 +7,29 @@ import pytest
 import yaml
 
 from placement.errors import PlacementError
-
-from placement.planning.scene.occupancy import (
-    OccupancyMap, OccupancyMapError, load_occupancy_map, parse_pgm, rasterize_occupancy,
+from placement.scene.occupancy import (
+    OccupancyMap,
+    OccupancyMapError,
+    load_occupancy_map,
+    parse_pgm,
+    rasterize_occupancy,
 )
 
 # A 4 x 3 image, file order (top row = largest y). With p = (255 - v) / 255 and the default
 # thresholds (0.65 / 0.196): 0 -> occupied, 254 -> free, 205 (p 0.196) and 100 (p 0.61) -> unknown.
-PIXELS = [
-    [0, 254, 254, 205],
-    [254, 0, 254, 254],
-    [254, 254, 100, 0],
-]
+PIXELS = [[0, 254, 254, 205], [254, 0, 254, 254], [254, 254, 100, 0]]
 # row 0 = lowest y = the image's bottom row; unknown counts as occupied
-EXPECTED = np.array([
-    [False, False, True, True],
-    [False, True, False, False],
-    [True, False, False, True],
-])
+EXPECTED = np.array([[False, False, True, True], [False, True, False, False], [True, False, False, True]])
 # negate: p = v / 255: 0 -> free, 254 and 205 -> occupied, 100 (p 0.39) -> unknown
-EXPECTED_NEGATE = np.array([
-    [True, True, True, False],
-    [True, False, True, True],
-    [False, True, True, True],
-])
+EXPECTED_NEGATE = np.array([[True, True, True, False], [True, False, True, True], [False, True, True, True]])
 
 
 def write_pgm(path, pixels=PIXELS, kind="P5", maxval=255):
     h, w = len(pixels), len(pixels[0])
     if kind == "P5":
-        path.write_bytes(f"P5\n# written by the test\n{w} {h}\n{maxval}\n".encode()
-                         + bytes(v for row in pixels for v in row))
+        path.write_bytes(
+            f"P5\n# written by the test\n{w} {h}\n{maxval}\n".encode() + bytes(v for row in pixels for v in row)
+        )
     else:
         body = "\n".join(" ".join(str(v) for v in row) for row in pixels)
         path.write_text(f"P2\n# plain PGM\n{w} {h}\n# maxval next\n{maxval}\n{body}\n")
@@ -47,8 +39,14 @@ def write_pgm(path, pixels=PIXELS, kind="P5", maxval=255):
 def write_map(tmp_path, name="floor", kind="P5", **overrides):
     """Write NAME.pgm and NAME.yaml; an override None drops the key."""
     write_pgm(tmp_path / f"{name}.pgm", kind=kind)
-    doc = {"image": f"{name}.pgm", "resolution": 0.5, "origin": [1.0, 2.0, 0.0], "negate": 0,
-           "occupied_thresh": 0.65, "free_thresh": 0.196}
+    doc = {
+        "image": f"{name}.pgm",
+        "resolution": 0.5,
+        "origin": [1.0, 2.0, 0.0],
+        "negate": 0,
+        "occupied_thresh": 0.65,
+        "free_thresh": 0.196,
+    }
     doc.update(overrides)
     doc = {k: v for k, v in doc.items() if v is not None}
     path = tmp_path / f"{name}.yaml"
@@ -76,11 +74,9 @@ def test_occupancy_map_negate(kind, tmp_path):
 def test_occupancy_map_thresholds_and_defaults(tmp_path):
     # free below p = 0.7: now 100 (p 0.61) and 205 (p 0.196) are free too
     occ = load_occupancy_map(write_map(tmp_path, free_thresh=0.7, occupied_thresh=0.9, mode="scale"))
-    np.testing.assert_array_equal(occ.occupied, np.array([
-        [False, False, False, True],
-        [False, True, False, False],
-        [True, False, False, False],
-    ]))
+    np.testing.assert_array_equal(
+        occ.occupied, np.array([[False, False, False, True], [False, True, False, False], [True, False, False, False]])
+    )
     # negate, thresholds and mode are optional (map_saver defaults 0.65 / 0.196, trinary)
     occ = load_occupancy_map(write_map(tmp_path, negate=None, free_thresh=None, occupied_thresh=None))
     np.testing.assert_array_equal(occ.occupied, EXPECTED)
@@ -96,19 +92,22 @@ def test_pgm_maxval_scales(tmp_path):
     assert load_occupancy_map(tmp_path / "m.yaml").occupied.tolist() == [[True, False, True]]
 
 
-@pytest.mark.parametrize("data, message", [
-    (b"P5\n4 3\n255\n" + bytes(11), "raster truncated: 11 bytes for 4 x 3 = 12 pixels"),
-    (b"P5\n4 3\n255\n" + bytes(12) + b"junk", "4 bytes of trailing data"),
-    (b"P5\n4 3\n", "header ends early"),
-    (b"P5\n4 x3\n255\n" + bytes(12), "header field b'x3' is not a positive integer"),
-    (b"P5\n0 3\n255\n", "size 0 x 3"),
-    (b"P5\n2 1\n65535\n" + bytes(4), "16-bit) PGM is not supported"),
-    (b"P6\n1 1\n255\n" + bytes(3), "not a PGM image"),
-    (b"\x89PNG\r\n\x1a\n", "PNG images are not supported"),
-    (b"P2\n2 2\n255\n1 2 3\n", "3 values for 2 x 2 = 4 pixels"),
-    (b"P2\n2 1\n100\n1 200\n", "pixel value 200 exceeds maxval 100"),
-    (b"P2\n2 1\n255\n1 -2\n", "not a non-negative integer"),
-])
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        (b"P5\n4 3\n255\n" + bytes(11), "raster truncated: 11 bytes for 4 x 3 = 12 pixels"),
+        (b"P5\n4 3\n255\n" + bytes(12) + b"junk", "4 bytes of trailing data"),
+        (b"P5\n4 3\n", "header ends early"),
+        (b"P5\n4 x3\n255\n" + bytes(12), "header field b'x3' is not a positive integer"),
+        (b"P5\n0 3\n255\n", "size 0 x 3"),
+        (b"P5\n2 1\n65535\n" + bytes(4), "16-bit) PGM is not supported"),
+        (b"P6\n1 1\n255\n" + bytes(3), "not a PGM image"),
+        (b"\x89PNG\r\n\x1a\n", "PNG images are not supported"),
+        (b"P2\n2 2\n255\n1 2 3\n", "3 values for 2 x 2 = 4 pixels"),
+        (b"P2\n2 1\n100\n1 200\n", "pixel value 200 exceeds maxval 100"),
+        (b"P2\n2 1\n255\n1 -2\n", "not a non-negative integer"),
+    ],
+)
 def test_malformed_pgm(data, message):
     with pytest.raises(OccupancyMapError) as err:
         parse_pgm(data, "floor.pgm")
@@ -116,16 +115,19 @@ def test_malformed_pgm(data, message):
     assert str(err.value).startswith("floor.pgm: ")
 
 
-@pytest.mark.parametrize("overrides, message", [
-    ({"origin": [1.0, 2.0, 0.3]}, "origin yaw 0.3 rad is not supported yet"),
-    ({"image": "missing.pgm"}, "image 'missing.pgm' not found"),
-    ({"image": None}, "missing key 'image'"),
-    ({"resolution": 0}, "'resolution' must be > 0"),
-    ({"origin": [1.0, 2.0]}, "'origin' must be [x, y, yaw]"),
-    ({"negate": 2}, "'negate' must be 0 or 1"),
-    ({"mode": "raw"}, "mode 'raw' is not supported; supported: trinary, scale"),
-    ({"free_thresh": 0.8}, "0 <= free_thresh <= occupied_thresh <= 1"),
-])
+@pytest.mark.parametrize(
+    "overrides, message",
+    [
+        ({"origin": [1.0, 2.0, 0.3]}, "origin yaw 0.3 rad is not supported yet"),
+        ({"image": "missing.pgm"}, "image 'missing.pgm' not found"),
+        ({"image": None}, "missing key 'image'"),
+        ({"resolution": 0}, "'resolution' must be > 0"),
+        ({"origin": [1.0, 2.0]}, "'origin' must be [x, y, yaw]"),
+        ({"negate": 2}, "'negate' must be 0 or 1"),
+        ({"mode": "raw"}, "mode 'raw' is not supported; supported: trinary, scale"),
+        ({"free_thresh": 0.8}, "0 <= free_thresh <= occupied_thresh <= 1"),
+    ],
+)
 def test_invalid_occupancy_map(overrides, message, tmp_path):
     with pytest.raises(OccupancyMapError) as err:
         load_occupancy_map(write_map(tmp_path, **overrides))
@@ -143,28 +145,27 @@ def test_rasterize_occupancy_nearest_cell():
     # target centres x: 0.85 (outside), 1.35, 1.85, 2.35, 2.85, 3.35 (outside)
     #                y: 1.65 (outside), 2.15, 2.65, 3.15, 3.65 (outside)
     out = rasterize_occupancy(occ, (0.6, 1.4), 0.5, (5, 6))
-    np.testing.assert_array_equal(out, np.array([
-        [False, False, False, False, False, False],
-        [False, False, False, True, True, False],
-        [False, False, True, False, False, False],
-        [False, True, False, False, True, False],
-        [False, False, False, False, False, False],
-    ]))
+    np.testing.assert_array_equal(
+        out,
+        np.array(
+            [
+                [False, False, False, False, False, False],
+                [False, False, False, True, True, False],
+                [False, False, True, False, False, False],
+                [False, True, False, False, True, False],
+                [False, False, False, False, False, False],
+            ]
+        ),
+    )
 
 
 def test_rasterize_occupancy_coarser_grid():
     occ = OccupancyMap(EXPECTED, 0.5, (1.0, 2.0, 0.0))
     # 1 m cells: x [0, 1] (left of the map, only touching it), [1, 2], [2, 3]; y [2, 3], [3, 4]
     centre = rasterize_occupancy(occ, (0.0, 2.0), 1.0, (2, 3))
-    np.testing.assert_array_equal(centre, np.array([
-        [False, True, False],
-        [False, False, False],
-    ]))
+    np.testing.assert_array_equal(centre, np.array([[False, True, False], [False, False, False]]))
     any_cell = rasterize_occupancy(occ, (0.0, 2.0), 1.0, (2, 3), conservative=True)
-    np.testing.assert_array_equal(any_cell, np.array([
-        [False, True, True],
-        [False, True, True],
-    ]))
+    np.testing.assert_array_equal(any_cell, np.array([[False, True, True], [False, True, True]]))
     # same grid: both modes agree with the map itself
     for conservative in (False, True):
         np.testing.assert_array_equal(rasterize_occupancy(occ, (1.0, 2.0), 0.5, (3, 4), conservative), EXPECTED)
@@ -176,8 +177,10 @@ def test_rasterize_occupancy_outside_is_occupied_when_asked():
     # (or, conservatively, only partly inside) the map: unknown space, occupied for the planner
     for conservative in (False, True):
         out = rasterize_occupancy(occ, (0.5, 1.5), 0.5, (5, 6), conservative, outside_occupied=True)
-        np.testing.assert_array_equal(out, np.array([[1, 1, 1, 1, 1, 1],
-                                                     [1, 0, 0, 0, 0, 1],
-                                                     [1, 0, 0, 0, 0, 1],
-                                                     [1, 0, 0, 0, 0, 1],
-                                                     [1, 1, 1, 1, 1, 1]], bool))
+        np.testing.assert_array_equal(
+            out,
+            np.array(
+                [[1, 1, 1, 1, 1, 1], [1, 0, 0, 0, 0, 1], [1, 0, 0, 0, 0, 1], [1, 0, 0, 0, 0, 1], [1, 1, 1, 1, 1, 1]],
+                bool,
+            ),
+        )

@@ -73,12 +73,17 @@ def test_plan_is_verified_by_independent_fk(tmp_path, maps_dir, pr2):
     result = planner.plan()
     assert result.status == "ok"
     assert [(s.action, s.target) for s in result.steps] == [
-        ("pick", "cup"), ("place", "spot"), ("pick", "box"), ("place", "spot")]
+        ("pick", "cup"),
+        ("place", "spot"),
+        ("pick", "box"),
+        ("place", "spot"),
+    ]
     _check_fk(result, pr2, planner)
     doc = result.to_json()
     for s in doc["steps"]:
         assert s["cost"]["total"] == pytest.approx(
-            s["cost"]["navigation"] + s["cost"]["manipulation"] + s["cost"]["heuristic"])
+            s["cost"]["navigation"] + s["cost"]["manipulation"] + s["cost"]["heuristic"]
+        )
 
 
 def test_verify_catches_a_wrong_plan(tmp_path, maps_dir, pr2):
@@ -114,8 +119,20 @@ def test_cli_json_and_plots(tmp_path, maps_dir):
     doc = json.loads(p.stdout)
     assert doc["robot"]["name"] == "pr2" and set(doc["robot"]["arms"]) == {"right", "left"}
     step = doc["steps"][0]
-    for key in ("step", "action", "target", "arm", "grasp", "base", "tcp", "joints", "manipulability", "cost",
-                "travel_time_s", "timings_ms"):
+    for key in (
+        "step",
+        "action",
+        "target",
+        "arm",
+        "grasp",
+        "base",
+        "tcp",
+        "joints",
+        "manipulability",
+        "cost",
+        "travel_time_s",
+        "timings_ms",
+    ):
         assert key in step
     assert len(step["tcp"][0]) == 7 and len(step["tcp"]) == 2
     assert len(list((tmp_path / "plots").glob("*.png"))) == 4

@@ -14,11 +14,11 @@ import pytest
 import yaml
 from scipy import ndimage
 from scipy.sparse.csgraph import dijkstra
+from test_navigation import grid_graph
+from test_planner import SCENE
 
 from placement.planning import Planner
 from placement.planning.verify import trajectory_ik
-from test_navigation import grid_graph
-from test_planner import SCENE
 
 # planning orders costs computed partly in float32 (map values); a placement must be cheaper than
 # the chosen one by more than this to count as a better one the planner missed
@@ -62,8 +62,7 @@ def test_each_placement_minimises_eq6_over_the_ik_feasible_cells(tmp_path, maps_
         last = s.step + 1 == len(result.steps)
         heur = np.zeros(nav.shape) if last else _oracle_heuristic(planner, s.step + 1, graph)
         chosen = nav.cell(s.base[0], s.base[1])
-        want = (cfg.lambda_n * nav_cost[chosen] + cfg.lambda_m / float(s.manipulability)
-                + cfg.lambda_nh * heur[chosen])
+        want = cfg.lambda_n * nav_cost[chosen] + cfg.lambda_m / float(s.manipulability) + cfg.lambda_nh * heur[chosen]
         assert s.cost.total == pytest.approx(want, rel=1e-9)
         for o in planner.problems.options(s.step):
             value = o.full_value(nav.shape).astype(float)
@@ -75,8 +74,10 @@ def test_each_placement_minimises_eq6_over_the_ik_feasible_cells(tmp_path, maps_
                 iy, ix = divmod(int(flat), nav.shape[1])
                 base = (float(xs[ix]), float(ys[iy]), float(planner.yaws[o.yaw_at(iy, ix)]))
                 q = trajectory_ik(planner.robot, o.arm, o.candidate.poses, base, prev_q[o.arm])
-                assert q is None, (f"step {s.step}: {o.arm}/{o.candidate.name} at {base} costs "
-                                   f"{cost[iy, ix]:.5f} < {s.cost.total:.5f} and IK solves it")
+                assert q is None, (
+                    f"step {s.step}: {o.arm}/{o.candidate.name} at {base} costs "
+                    f"{cost[iy, ix]:.5f} < {s.cost.total:.5f} and IK solves it"
+                )
                 checked += 1
         prev_cell, prev_q[s.arm] = chosen, s.q
     assert checked < 200  # the brute force stays a test, not a search
@@ -86,7 +87,10 @@ def _corridor_scene(maps_dir, place_y: float) -> dict:
     """A 3 m long table across the room with a cup at its middle, reachable from its north and south
     sides alike; the start on the table's axis, west of it; the place location north or south."""
     return {
-        "version": 1, "resolution": 0.05, "bounds": [0.0, 0.0, 9.0, 9.0], "maps": str(maps_dir),
+        "version": 1,
+        "resolution": 0.05,
+        "bounds": [0.0, 0.0, 9.0, 9.0],
+        "maps": str(maps_dir),
         "robot": {"preset": "pr2", "start": [0.8, 4.5, 0.0]},
         "obstacles": [
             {"name": "table", "box": {"center": [4.5, 4.5, 0.375], "size": [3.0, 0.6, 0.75]}, "table": True},
@@ -115,5 +119,7 @@ def test_heuristic_moves_the_pick_to_the_side_of_the_next_step(tmp_path, maps_di
     single = planner.plan()
     assert single.ok and single.steps[0].cost.heuristic == 0
     if np.sign(single.steps[0].base[1] - 4.5) != side:
-        assert seq.steps[0].cost.navigation + seq.steps[0].cost.manipulation >= \
-            single.steps[0].cost.navigation + single.steps[0].cost.manipulation
+        assert (
+            seq.steps[0].cost.navigation + seq.steps[0].cost.manipulation
+            >= single.steps[0].cost.navigation + single.steps[0].cost.manipulation
+        )

@@ -38,8 +38,9 @@ def figures(planned, tmp_path_factory):
 
     plt.Figure.savefig = keep
     try:
-        files = plot_steps(planner.world, result, tmp_path_factory.mktemp("plots"), planner.scene.start,
-                           planner.robot.footprint_radius)
+        files = plot_steps(
+            planner.world, result, tmp_path_factory.mktemp("plots"), planner.scene.start, planner.robot.footprint_radius
+        )
     finally:
         plt.Figure.savefig = real_savefig
     return files, made
@@ -89,8 +90,10 @@ def test_no_empty_panel(planned, figures):
 def test_task_time_figure(tmp_path):
     from PIL import Image
 
-    doc = {"scenes": ["a", "b", "c"], "methods": {"sequential": {"task_time_s": [10.0, 12.0, None]},
-                                                  "optimal": {"task_time_s": [None, None, None]}}}
+    doc = {
+        "scenes": ["a", "b", "c"],
+        "methods": {"sequential": {"task_time_s": [10.0, 12.0, None]}, "optimal": {"task_time_s": [None, None, None]}},
+    }
     path = plot_task_times(doc, tmp_path / "t.png")
     img = Image.open(path)
     assert round(img.info["dpi"][0]) == 150 and img.width >= 800

@@ -15,8 +15,8 @@ from conftest import armar6_spec
 
 import placement
 from placement.errors import FrameNotFound, JointNotFound, PlacementError, PresetError, RobotError
-from placement.ik import solve_ik
 from placement.kernels.ik import dls_attempt
+from placement.kinematics.ik import solve_ik
 from placement.robots.preset import PRESET_DIR
 from placement.robots.spec import parse_preset
 
@@ -64,25 +64,31 @@ def message(tmp_path, spec, cls=PresetError, *words) -> str:
 
 # -- the mapping alone -------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("value,words", [
-    ([0, 0, 0, 0, 0.5, 0, 0.5], ["norm 0.707106781", "norm 1"]),
-    ([0, 0, 0, 0, 0, 0, 0], ["norm 0"]),
-    ([0, 0, 0, 0, 0, 0], ["expected 7 numbers [x y z qx qy qz qw], got 6"]),
-    ([0, 0, "z", 0, 0, 0, 1], ["tcp_offset[2]", "expected a number, got string 'z'"]),
-    ([0, 0, 0, 0, 0, 0, math.nan], ["tcp_offset[6]", "finite"]),
-    ([math.inf, 0, 0, 0, 0, 0, 1], ["tcp_offset[0]", "finite"]),
-    ([0, 0, 0, 0, 0, True, 1], ["tcp_offset[5]", "boolean"]),
-    ("0 0 0 0 0 0 1", ["expected a list"]),
-])
+
+@pytest.mark.parametrize(
+    "value,words",
+    [
+        ([0, 0, 0, 0, 0.5, 0, 0.5], ["norm 0.707106781", "norm 1"]),
+        ([0, 0, 0, 0, 0, 0, 0], ["norm 0"]),
+        ([0, 0, 0, 0, 0, 0], ["expected 7 numbers [x y z qx qy qz qw], got 6"]),
+        ([0, 0, "z", 0, 0, 0, 1], ["tcp_offset[2]", "expected a number, got string 'z'"]),
+        ([0, 0, 0, 0, 0, 0, math.nan], ["tcp_offset[6]", "finite"]),
+        ([math.inf, 0, 0, 0, 0, 0, 1], ["tcp_offset[0]", "finite"]),
+        ([0, 0, 0, 0, 0, True, 1], ["tcp_offset[5]", "boolean"]),
+        ("0 0 0 0 0 0 1", ["expected a list"]),
+    ],
+)
 def test_bad_tcp_offset(tmp_path, value, words):
-    message(tmp_path, changed(pr2_mapping(), arms__right__tcp_offset=value), PresetError,
-            "arms.right.tcp_offset", *words)
+    message(
+        tmp_path, changed(pr2_mapping(), arms__right__tcp_offset=value), PresetError, "arms.right.tcp_offset", *words
+    )
 
 
 def test_near_unit_quaternion_is_normalised(tmp_path):
     s = 1 + 5e-7
-    spec = changed(pr2_mapping(), arms__right__tcp_offset=[0, 0, 0, 0, 0.7071067811865476 * s, 0,
-                                                          0.7071067811865476 * s])
+    spec = changed(
+        pr2_mapping(), arms__right__tcp_offset=[0, 0, 0, 0, 0.7071067811865476 * s, 0, 0.7071067811865476 * s]
+    )
     arm = placement.load_robot(write(tmp_path, spec)).arm("right")
     R = arm.tcp_offset[:3, :3]
     np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-15)
@@ -90,20 +96,32 @@ def test_near_unit_quaternion_is_normalised(tmp_path):
     message(tmp_path, changed(spec, arms__right__tcp_offset=[0, 0, 0, 0, 0, 0, 1 + 2e-6]), PresetError, "norm 1.000002")
 
 
-@pytest.mark.parametrize("key,value,words", [
-    ("home", [0, 0, "x", 0, 0, 0, 0], ["arms.right.home[2]", "string 'x'"]),
-    ("home", [0, 0, 0, math.nan, 0, 0, 0], ["arms.right.home[3]", "finite"]),
-    ("home", [0, 0, 0, 0, -math.inf, 0, 0], ["arms.right.home[4]", "finite"]),
-    ("home", [0, 0, 0, 0, 0, 0], ["arms.right.home", "expected 7 values", "got 6"]),
-    ("home", {"a": 1}, ["arms.right.home", "expected a list", "mapping"]),
-    ("joints", [1, 2, 3, 4, 5, 6, 7], ["arms.right.joints[0]", "expected a non-empty string, got 1"]),
-    ("joints", "r_shoulder_pan_joint", ["arms.right.joints", "expected a list of joint names"]),
-    ("joints", ["r_shoulder_pan_joint", "r_shoulder_lift_joint", "r_upper_arm_roll_joint", "r_elbow_flex_joint",
-                "r_forearm_roll_joint"], ["arms.right.joints", "at least 6 joint names, got 5"]),
-    ("tip_frame", ["r_gripper_tool_frame"], ["arms.right.tip_frame", "non-empty string"]),
-    ("grip", 1, ["arms.right.grip", "unknown key", "home, idle, joints, tcp_offset, tip_frame"]),
-    ("joints", DELETE, ["arms.right.joints", "missing required key"]),
-])
+@pytest.mark.parametrize(
+    "key,value,words",
+    [
+        ("home", [0, 0, "x", 0, 0, 0, 0], ["arms.right.home[2]", "string 'x'"]),
+        ("home", [0, 0, 0, math.nan, 0, 0, 0], ["arms.right.home[3]", "finite"]),
+        ("home", [0, 0, 0, 0, -math.inf, 0, 0], ["arms.right.home[4]", "finite"]),
+        ("home", [0, 0, 0, 0, 0, 0], ["arms.right.home", "expected 7 values", "got 6"]),
+        ("home", {"a": 1}, ["arms.right.home", "expected a list", "mapping"]),
+        ("joints", [1, 2, 3, 4, 5, 6, 7], ["arms.right.joints[0]", "expected a non-empty string, got 1"]),
+        ("joints", "r_shoulder_pan_joint", ["arms.right.joints", "expected a list of joint names"]),
+        (
+            "joints",
+            [
+                "r_shoulder_pan_joint",
+                "r_shoulder_lift_joint",
+                "r_upper_arm_roll_joint",
+                "r_elbow_flex_joint",
+                "r_forearm_roll_joint",
+            ],
+            ["arms.right.joints", "at least 6 joint names, got 5"],
+        ),
+        ("tip_frame", ["r_gripper_tool_frame"], ["arms.right.tip_frame", "non-empty string"]),
+        ("grip", 1, ["arms.right.grip", "unknown key", "home, idle, joints, tcp_offset, tip_frame"]),
+        ("joints", DELETE, ["arms.right.joints", "missing required key"]),
+    ],
+)
 def test_bad_arm_values(tmp_path, key, value, words):
     message(tmp_path, changed(pr2_mapping(), **{f"arms__right__{key}": value}), PresetError, *words)
 
@@ -119,14 +137,17 @@ def test_arm_joint_also_fixed(tmp_path):
     message(tmp_path, spec, PresetError, "arms.right.joints[3]", "also held in fixed_joints")
 
 
-@pytest.mark.parametrize("value,words", [
-    ({"torso_lift_joint": "high"}, ["fixed_joints.torso_lift_joint", "string 'high'"]),
-    ({"torso_lift_joint": math.nan}, ["fixed_joints.torso_lift_joint", "finite"]),
-    ({"torso_lift_joint": math.inf}, ["fixed_joints.torso_lift_joint", "finite"]),
-    ({"torso_lift_joint": True}, ["fixed_joints.torso_lift_joint", "boolean"]),
-    ({7: 0.1}, ["fixed_joints.7", "expected a non-empty string as name, got 7"]),
-    (["torso_lift_joint", 0.15], ["fixed_joints", "expected a mapping, got a list"]),
-])
+@pytest.mark.parametrize(
+    "value,words",
+    [
+        ({"torso_lift_joint": "high"}, ["fixed_joints.torso_lift_joint", "string 'high'"]),
+        ({"torso_lift_joint": math.nan}, ["fixed_joints.torso_lift_joint", "finite"]),
+        ({"torso_lift_joint": math.inf}, ["fixed_joints.torso_lift_joint", "finite"]),
+        ({"torso_lift_joint": True}, ["fixed_joints.torso_lift_joint", "boolean"]),
+        ({7: 0.1}, ["fixed_joints.7", "expected a non-empty string as name, got 7"]),
+        (["torso_lift_joint", 0.15], ["fixed_joints", "expected a mapping, got a list"]),
+    ],
+)
 def test_bad_fixed_joints(tmp_path, value, words):
     message(tmp_path, changed(pr2_mapping(), fixed_joints=value), PresetError, *words)
 
@@ -134,8 +155,14 @@ def test_bad_fixed_joints(tmp_path, value, words):
 @pytest.mark.parametrize("key,unit", [("footprint_radius", "[m]"), ("v_max", "[m/s]"), ("omega_max", "[rad/s]")])
 def test_base_values_are_required_positive_finite(tmp_path, key, unit):
     message(tmp_path, changed(pr2_mapping(), **{key: DELETE}), PresetError, f"{key}: missing required key", unit)
-    for bad, words in [(0, "> 0"), (-1.0, "> 0"), (math.inf, "finite"), (math.nan, "finite"), (True, "boolean"),
-                       ("fast", "string")]:
+    for bad, words in [
+        (0, "> 0"),
+        (-1.0, "> 0"),
+        (math.inf, "finite"),
+        (math.nan, "finite"),
+        (True, "boolean"),
+        ("fast", "string"),
+    ]:
         message(tmp_path, changed(pr2_mapping(), **{key: bad}), PresetError, key, words)
 
 
@@ -149,29 +176,35 @@ def test_builtin_and_fixture_presets_give_the_base_values(pr2):
     assert {"footprint_radius", "v_max", "omega_max"} <= set(armar6_spec())
 
 
-@pytest.mark.parametrize("spec,words", [
-    ("", ["the file is empty"]),
-    ("# only a comment\n", ["the file is empty"]),
-    ("- name: pr2\n", ["expected a mapping, got a list"]),
-    ("name: pr2\narms: [\n", ["invalid YAML at line 3, column 1"]),
-    ("name: a\nname: b\n", ["invalid YAML at line 2, column 1", "duplicate key 'name'"]),
-    ("name: pr2\nwheels: 4\n", ["wheels: unknown key; allowed keys: arms, base_frame, fixed_joints"]),
-])
+@pytest.mark.parametrize(
+    "spec,words",
+    [
+        ("", ["the file is empty"]),
+        ("# only a comment\n", ["the file is empty"]),
+        ("- name: pr2\n", ["expected a mapping, got a list"]),
+        ("name: pr2\narms: [\n", ["invalid YAML at line 3, column 1"]),
+        ("name: a\nname: b\n", ["invalid YAML at line 2, column 1", "duplicate key 'name'"]),
+        ("name: pr2\nwheels: 4\n", ["wheels: unknown key; allowed keys: arms, base_frame, fixed_joints"]),
+    ],
+)
 def test_bad_documents(tmp_path, spec, words):
     message(tmp_path, spec, PresetError, *words)
 
 
-@pytest.mark.parametrize("key,value,words", [
-    ("arms", {}, ["arms: expected at least 1 entry, got 0"]),
-    ("arms", ["right"], ["arms: expected a mapping, got a list"]),
-    ("arms", {"right": ["r_shoulder_pan_joint"]}, ["arms.right: expected a mapping, got a list"]),
-    ("arms", {None: {}}, ["arms.None: expected a non-empty string as name, got null"]),
-    ("name", 6, ["name: expected a non-empty string, got 6"]),
-    ("base_frame", None, ["base_frame: expected a non-empty string, got null"]),
-    ("urdf", "missing.urdf", ["urdf: URDF file not found", "missing.urdf"]),
-    ("urdf", "a\0b\nc", ["urdf: URDF file not found", "a\\x00b\\nc"]),
-    ("srdf", "missing.srdf", ["srdf: SRDF file not found", "missing.srdf"]),
-])
+@pytest.mark.parametrize(
+    "key,value,words",
+    [
+        ("arms", {}, ["arms: expected at least 1 entry, got 0"]),
+        ("arms", ["right"], ["arms: expected a mapping, got a list"]),
+        ("arms", {"right": ["r_shoulder_pan_joint"]}, ["arms.right: expected a mapping, got a list"]),
+        ("arms", {None: {}}, ["arms.None: expected a non-empty string as name, got null"]),
+        ("name", 6, ["name: expected a non-empty string, got 6"]),
+        ("base_frame", None, ["base_frame: expected a non-empty string, got null"]),
+        ("urdf", "missing.urdf", ["urdf: URDF file not found", "missing.urdf"]),
+        ("urdf", "a\0b\nc", ["urdf: URDF file not found", "a\\x00b\\nc"]),
+        ("srdf", "missing.srdf", ["srdf: SRDF file not found", "missing.srdf"]),
+    ],
+)
 def test_bad_top_level_values(tmp_path, key, value, words):
     message(tmp_path, changed(pr2_mapping(), **{key: value}), PresetError, *words)
 
@@ -196,25 +229,39 @@ def test_urdf_that_does_not_load(tmp_path):
 
 # -- against the model ---------------------------------------------------------------------------------
 
+
 def test_unknown_joint_and_frame_name_close_names(tmp_path):
     spec = pr2_mapping()
     spec["arms"]["right"]["joints"][2] = "r_upper_arm_rol_joint"
     msg = message(tmp_path, spec, JointNotFound, "arms.right.joints[2]", "close names: r_upper_arm_roll_joint")
     assert "'r_upper_arm_rol_joint' not found in robot 'pr2'" in msg
-    message(tmp_path, changed(pr2_mapping(), arms__left__tip_frame="l_gripper_tool_fram"), FrameNotFound,
-            "arms.left.tip_frame", "close names: l_gripper_tool_frame")
+    message(
+        tmp_path,
+        changed(pr2_mapping(), arms__left__tip_frame="l_gripper_tool_fram"),
+        FrameNotFound,
+        "arms.left.tip_frame",
+        "close names: l_gripper_tool_frame",
+    )
     message(tmp_path, changed(pr2_mapping(), base_frame="base_foot"), FrameNotFound, "base_frame: frame 'base_foot'")
-    message(tmp_path, changed(pr2_mapping(), fixed_joints={"torso_lift": 0.1}), JointNotFound,
-            "fixed_joints.torso_lift", "torso_lift_joint")
+    message(
+        tmp_path,
+        changed(pr2_mapping(), fixed_joints={"torso_lift": 0.1}),
+        JointNotFound,
+        "fixed_joints.torso_lift",
+        "torso_lift_joint",
+    )
 
 
-@pytest.mark.parametrize("index,joint,words", [
-    (0, "l_shoulder_pan_joint", ["is not on the chain from base frame 'base_footprint' to tip frame"]),
-    (0, "head_pan_joint", ["is not on the chain"]),
-    (6, "r_gripper_r_finger_joint", ["is a mimic joint (it follows 'r_gripper_l_finger_joint')"]),
-    (0, "base_footprint_joint", ["is a fixed joint in the URDF"]),
-    (6, "r_gripper_palm_joint", ["is a fixed joint in the URDF"]),
-])
+@pytest.mark.parametrize(
+    "index,joint,words",
+    [
+        (0, "l_shoulder_pan_joint", ["is not on the chain from base frame 'base_footprint' to tip frame"]),
+        (0, "head_pan_joint", ["is not on the chain"]),
+        (6, "r_gripper_r_finger_joint", ["is a mimic joint (it follows 'r_gripper_l_finger_joint')"]),
+        (0, "base_footprint_joint", ["is a fixed joint in the URDF"]),
+        (6, "r_gripper_palm_joint", ["is a fixed joint in the URDF"]),
+    ],
+)
 def test_joint_off_the_chain_fixed_or_mimic(tmp_path, index, joint, words):
     spec = pr2_mapping()
     spec["arms"]["right"]["joints"][index] = joint
@@ -232,16 +279,19 @@ def test_joints_out_of_order_or_moving_the_base(tmp_path):
 
 def test_home_outside_the_limits(tmp_path):
     spec = changed(pr2_mapping(), arms__right__home=[-0.5, 0.3, -1.5, 0.5, 0.0, -0.8, 0.0])
-    message(tmp_path, spec, PresetError, "arms.right.home[3]", "0.5 is outside the limits [",
-            "'r_elbow_flex_joint'")
+    message(tmp_path, spec, PresetError, "arms.right.home[3]", "0.5 is outside the limits [", "'r_elbow_flex_joint'")
     # a continuous joint (forearm roll) takes any finite value
     spec = changed(pr2_mapping(), arms__right__home=[-0.5, 0.3, -1.5, -1.6, 7.0, -0.8, -9.0])
     assert placement.load_robot(write(tmp_path, spec)).arm("right").home[4] == 7.0
 
 
 def test_fixed_joint_outside_its_limits(tmp_path):
-    msg = message(tmp_path, changed(pr2_mapping(), fixed_joints={"torso_lift_joint": 0.5}), PresetError,
-                  "fixed_joints.torso_lift_joint: 0.5 is outside the URDF limits [0, 0.3")
+    msg = message(
+        tmp_path,
+        changed(pr2_mapping(), fixed_joints={"torso_lift_joint": 0.5}),
+        PresetError,
+        "fixed_joints.torso_lift_joint: 0.5 is outside the URDF limits [0, 0.3",
+    )
     assert "torso_lift_joint" in msg
     assert placement.load_robot(write(tmp_path, changed(pr2_mapping(), fixed_joints={"torso_lift_joint": 0.0})))
 
@@ -249,14 +299,18 @@ def test_fixed_joint_outside_its_limits(tmp_path):
 def test_cli_prints_one_error_line(tmp_path):
     """Through the command line: exit 2, one `error:` line, nothing written."""
     path = write(tmp_path, changed(pr2_mapping(), arms__right__home=[0, 0, math.nan, 0, 0, 0, 0]))
-    proc = subprocess.run([sys.executable, "-m", "placement.cli.main", "maps", "build", "--robot", path, "--out",
-                           str(tmp_path / "m")], capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "placement.cli.main", "maps", "build", "--robot", path, "--out", str(tmp_path / "m")],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
     assert proc.stderr.strip() == f"error: {path}: arms.right.home[2]: expected a finite number, got nan"
     assert not (tmp_path / "m").exists()
 
 
 # -- the URDF model cache ----------------------------------------------------------------------------
+
 
 def test_model_cache_follows_the_urdf_bytes(tmp_path):
     from placement.robots.spec import resolve_path
@@ -289,10 +343,18 @@ def test_file_preset_equals_builtin(tmp_path, pr2):
 
 # -- numeric wrappers refuse NaN -----------------------------------------------------------------------
 
+
 def test_ik_refuses_non_finite_input(pr2):
     T = pr2.tcp_pose("right", pr2.arm("right").home)
-    for kwargs in ({"q_seed": [math.nan] * 7}, {"q_seed": ["a"] * 7}, {"pos_tol": math.nan},
-                   {"rot_tol": math.inf}, {"max_iter": 0}, {"seeds": 2.0}, {"rng_seed": -1}):
+    for kwargs in (
+        {"q_seed": [math.nan] * 7},
+        {"q_seed": ["a"] * 7},
+        {"pos_tol": math.nan},
+        {"rot_tol": math.inf},
+        {"max_iter": 0},
+        {"seeds": 2.0},
+        {"rng_seed": -1},
+    ):
         with pytest.raises(PlacementError, match=next(iter(kwargs))):
             solve_ik(pr2, "right", T, **kwargs)
     with pytest.raises(PlacementError, match="IK target"):
@@ -306,8 +368,23 @@ def test_ik_kernel_survives_nan(pr2):
     ch = a.chain
     q = a.home.copy()
     q[0] = math.nan
-    ok, *_ = dls_attempt(q, np.eye(4), a.lower, a.upper, a.continuous, ch.link_T, ch.axis, ch.kind, ch.tip_T,
-                         1e-3, 1e-2, 50, 1e-3, 0.4, 20)
+    ok, *_ = dls_attempt(
+        q,
+        np.eye(4),
+        a.lower,
+        a.upper,
+        a.continuous,
+        ch.link_T,
+        ch.axis,
+        ch.kind,
+        ch.tip_T,
+        1e-3,
+        1e-2,
+        50,
+        1e-3,
+        0.4,
+        20,
+    )
     assert not ok
 
 
@@ -328,41 +405,49 @@ RECTANGLE = [[0.4, 0.2], [0.4, -0.2], [-0.2, -0.2], [-0.2, 0.2]]
 def test_footprint_polygon_is_stored_counter_clockwise_with_its_radius(tmp_path):
     from placement.robots import load_robot
     from placement.robots.footprint import inscribed_radius, signed_area
+
     robot = load_robot(write(tmp_path, changed(pr2_mapping(), footprint_radius=DELETE, footprint=RECTANGLE)))
     assert robot.footprint.shape == (4, 2) and signed_area(robot.footprint) > 0
     assert robot.footprint_radius == pytest.approx(math.hypot(0.4, 0.2))
     assert inscribed_radius(robot.footprint) == pytest.approx(0.2)
 
 
-@pytest.mark.parametrize("value,words", [
-    (RECTANGLE, ["footprint_radius", "exactly one of footprint_radius"]),
-])
+@pytest.mark.parametrize("value,words", [(RECTANGLE, ["footprint_radius", "exactly one of footprint_radius"])])
 def test_footprint_and_radius_exclude_each_other(tmp_path, value, words):
     message(tmp_path, changed(pr2_mapping(), footprint=value), PresetError, *words)
 
 
-@pytest.mark.parametrize("value,words", [
-    ([[0.3, 0.3], [-0.3, 0.3]], ["footprint", "at least 3"]),
-    ([[0.3, 0.3], [-0.3, 0.3], [0.0]], ["footprint[2]", "expected 2"]),
-    ([[0.3, 0.3], [-0.3, "a"], [0.0, -0.3]], ["footprint[1][1]", "number"]),
-    ([[0.3, 0.3], [-0.3, -0.3], [0.3, -0.3], [-0.3, 0.3]], ["footprint", "crosses itself"]),
-    ([[0.01, 0.01], [-0.01, 0.01], [-0.01, -0.01], [0.01, -0.01]], ["footprint", "area", "metres"]),
-    ([[1.3, 0.3], [0.7, 0.3], [0.7, -0.3], [1.3, -0.3]], ["footprint", "origin (0, 0) is not inside"]),
-    ([[0.3, 0.3], [0.3, 0.3], [-0.3, 0.0], [0.3, -0.3]], ["footprint[1]", "repeats"]),
-    ("square", ["footprint", "expected a list"]),
-])
+@pytest.mark.parametrize(
+    "value,words",
+    [
+        ([[0.3, 0.3], [-0.3, 0.3]], ["footprint", "at least 3"]),
+        ([[0.3, 0.3], [-0.3, 0.3], [0.0]], ["footprint[2]", "expected 2"]),
+        ([[0.3, 0.3], [-0.3, "a"], [0.0, -0.3]], ["footprint[1][1]", "number"]),
+        ([[0.3, 0.3], [-0.3, -0.3], [0.3, -0.3], [-0.3, 0.3]], ["footprint", "crosses itself"]),
+        ([[0.01, 0.01], [-0.01, 0.01], [-0.01, -0.01], [0.01, -0.01]], ["footprint", "area", "metres"]),
+        ([[1.3, 0.3], [0.7, 0.3], [0.7, -0.3], [1.3, -0.3]], ["footprint", "origin (0, 0) is not inside"]),
+        ([[0.3, 0.3], [0.3, 0.3], [-0.3, 0.0], [0.3, -0.3]], ["footprint[1]", "repeats"]),
+        ("square", ["footprint", "expected a list"]),
+    ],
+)
 def test_bad_footprints_are_one_line_errors(tmp_path, value, words):
     message(tmp_path, changed(pr2_mapping(), footprint_radius=DELETE, footprint=value), PresetError, *words)
 
 
 def test_idle_configuration_defaults_to_home_and_is_checked(tmp_path, pr2):
     from placement.robots import load_robot
+
     assert np.allclose(pr2.arm("right").idle[:2], [-0.023593, 1.10728])  # the built-in PR2 tucks its arms
     plain = load_robot(write(tmp_path, pr2_mapping()))  # the round test copy gives no idle
     assert np.array_equal(plain.arm("right").idle, plain.arm("right").home)
     message(tmp_path, changed(pr2_mapping(), arms__right__idle=[0.0] * 6), PresetError, "arms.right.idle", "expected 7")
-    message(tmp_path, changed(pr2_mapping(), arms__right__idle=[9.0] + [0.0] * 6), PresetError,
-            "arms.right.idle[0]", "outside the limits")
+    message(
+        tmp_path,
+        changed(pr2_mapping(), arms__right__idle=[9.0] + [0.0] * 6),
+        PresetError,
+        "arms.right.idle[0]",
+        "outside the limits",
+    )
 
 
 def test_ignore_collisions_names_two_different_links(tmp_path):
@@ -370,21 +455,32 @@ def test_ignore_collisions_names_two_different_links(tmp_path):
     robot = placement.load_robot(write(tmp_path, changed(pr2_mapping(), ignore_collisions=[pair, pair[::-1]])))
     assert robot.ignore_collisions == {frozenset(pair)}
     assert placement.load_robot(write(tmp_path, pr2_mapping())).ignore_collisions == frozenset()
-    msg = message(tmp_path, changed(pr2_mapping(), ignore_collisions=[pair, ["r_wrist_rol_link", "base_link"]]),
-                  FrameNotFound, "ignore_collisions[1][0]: link 'r_wrist_rol_link' not found in robot 'pr2'",
-                  "close names: r_wrist_roll_link")
+    msg = message(
+        tmp_path,
+        changed(pr2_mapping(), ignore_collisions=[pair, ["r_wrist_rol_link", "base_link"]]),
+        FrameNotFound,
+        "ignore_collisions[1][0]: link 'r_wrist_rol_link' not found in robot 'pr2'",
+        "close names: r_wrist_roll_link",
+    )
     assert "frame" not in msg
     # a joint or a frame that is no link is no link
-    message(tmp_path, changed(pr2_mapping(), ignore_collisions=[["r_wrist_roll_joint", "base_link"]]), FrameNotFound,
-            "ignore_collisions[0][0]: link 'r_wrist_roll_joint'")
+    message(
+        tmp_path,
+        changed(pr2_mapping(), ignore_collisions=[["r_wrist_roll_joint", "base_link"]]),
+        FrameNotFound,
+        "ignore_collisions[0][0]: link 'r_wrist_roll_joint'",
+    )
 
 
-@pytest.mark.parametrize("value,words", [
-    ([["base_link", "base_link"]], ["ignore_collisions[0]: a pair of the same link 'base_link'"]),
-    ([["base_link"]], ["ignore_collisions[0]: expected 2 link names [link_a, link_b], got 1"]),
-    ([["base_link", 3]], ["ignore_collisions[0][1]: expected a non-empty string"]),
-    ("base_link", ["ignore_collisions: expected a list of link pairs"]),
-    ([["a", "b", "c"]], ["expected 2 link names"]),
-])
+@pytest.mark.parametrize(
+    "value,words",
+    [
+        ([["base_link", "base_link"]], ["ignore_collisions[0]: a pair of the same link 'base_link'"]),
+        ([["base_link"]], ["ignore_collisions[0]: expected 2 link names [link_a, link_b], got 1"]),
+        ([["base_link", 3]], ["ignore_collisions[0][1]: expected a non-empty string"]),
+        ("base_link", ["ignore_collisions: expected a list of link pairs"]),
+        ([["a", "b", "c"]], ["expected 2 link names"]),
+    ],
+)
 def test_bad_ignore_collisions(tmp_path, value, words):
     message(tmp_path, changed(pr2_mapping(), ignore_collisions=value), PresetError, *words)

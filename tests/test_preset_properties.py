@@ -31,8 +31,10 @@ from placement.robots.spec import ARM_KEYS, TOP_KEYS
 EXAMPLES = 2000
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 WORKDIR = Path(tempfile.mkdtemp(prefix="preset-properties-"))
-IGNORING = {**pr2_mapping(),
-            "ignore_collisions": [["r_wrist_roll_link", "r_forearm_link"], ["base_link", "torso_lift_link"]]}
+IGNORING = {
+    **pr2_mapping(),
+    "ignore_collisions": [["r_wrist_roll_link", "r_forearm_link"], ["base_link", "torso_lift_link"]],
+}
 BASES = [pr2_mapping(), IGNORING] + ([armar6_spec()] if ARMAR6_URDF.is_file() else [])
 
 
@@ -53,11 +55,21 @@ def write(spec) -> Path:
 
 NAMES = _model_names()
 scalars = st.one_of(
-    st.none(), st.booleans(), st.integers(-10**30, 10**30), st.floats(allow_nan=True, allow_infinity=True),
-    st.floats(-4, 4), st.text(max_size=8), st.sampled_from(NAMES), st.sampled_from(sorted(TOP_KEYS) + sorted(ARM_KEYS)))
+    st.none(),
+    st.booleans(),
+    st.integers(-(10**30), 10**30),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.floats(-4, 4),
+    st.text(max_size=8),
+    st.sampled_from(NAMES),
+    st.sampled_from(sorted(TOP_KEYS) + sorted(ARM_KEYS)),
+)
 # one level of nesting is enough to reach every branch of the checks and keeps an example cheap
-junk = scalars | st.lists(scalars, max_size=9) | st.dictionaries(scalars, scalars | st.lists(scalars, max_size=8),
-                                                                 max_size=3)
+junk = (
+    scalars
+    | st.lists(scalars, max_size=9)
+    | st.dictionaries(scalars, scalars | st.lists(scalars, max_size=8), max_size=3)
+)
 
 
 def paths(node, prefix=()):
@@ -140,8 +152,10 @@ def test_mutated_presets(data):
 
 
 @SETTINGS
-@given(st.dictionaries(st.sampled_from(sorted(TOP_KEYS)) | scalars, junk, max_size=9),
-       st.dictionaries(st.sampled_from(sorted(ARM_KEYS)) | scalars, junk, max_size=5))
+@given(
+    st.dictionaries(st.sampled_from(sorted(TOP_KEYS)) | scalars, junk, max_size=9),
+    st.dictionaries(st.sampled_from(sorted(ARM_KEYS)) | scalars, junk, max_size=5),
+)
 def test_random_presets(top, arm):
     """Random documents with the preset's keys (and others); half of them carry a random arm."""
     if arm:

@@ -20,6 +20,7 @@ def speeding_up(total: int, pause: float = 0.0, a=1.5e-6, b=6.5e-6, cells=3e6):
     the first block (a compile). The defaults fit the PR2's right arm at 0.1 m on the 2-core
     development machine under load (125 k samples/s at first, 350 k after 15 M, 150 M in about
     5 min); ``a=0.5e-6, b=7.5e-6, cells=1.3e6`` fits it idle (150 M in 121 s, `make bench`)."""
+
     def elapsed(n):  # the integral of the time per sample from 0 to n
         return a * n + b * cells * np.log1p(n / cells)
 
@@ -37,16 +38,19 @@ def test_no_eta_from_the_first_updates():
     assert Eta().remaining(total) is None and eta.remaining(0) is None
 
 
-@pytest.mark.parametrize(("pause", "total", "model"), [
-    (0.0, 150_000_000, {}),
-    (85.0, 150_000_000, {}),
-    (0.0, 150_000_000, {"cells": 1e6}),
-    (0.0, 150_000_000, {"a": 0.5e-6, "b": 7.5e-6, "cells": 1.3e6}),
-    (85.0, 150_000_000, {"a": 0.5e-6, "b": 7.5e-6, "cells": 0.5e6}),
-    (0.0, 150_000_000, {"cells": 30e6}),
-    (0.0, 40_000_000, {"a": 3e-6, "b": 20e-6, "cells": 5e6}),
-    (0.0, 20_000_000, {"b": 0.0}),  # no speed-up at all
-])
+@pytest.mark.parametrize(
+    ("pause", "total", "model"),
+    [
+        (0.0, 150_000_000, {}),
+        (85.0, 150_000_000, {}),
+        (0.0, 150_000_000, {"cells": 1e6}),
+        (0.0, 150_000_000, {"a": 0.5e-6, "b": 7.5e-6, "cells": 1.3e6}),
+        (85.0, 150_000_000, {"a": 0.5e-6, "b": 7.5e-6, "cells": 0.5e6}),
+        (0.0, 150_000_000, {"cells": 30e6}),
+        (0.0, 40_000_000, {"a": 3e-6, "b": 20e-6, "cells": 5e6}),
+        (0.0, 20_000_000, {"b": 0.0}),  # no speed-up at all
+    ],
+)
 def test_eta_follows_the_speed_up(pause, total, model):
     updates = speeding_up(total, pause=pause, **model)
     eta = Eta()

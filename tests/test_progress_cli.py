@@ -29,8 +29,7 @@ def test_a_ticking_bar_redraws_its_elapsed_time_without_updates():
     assert len(waiting) >= 4  # the first draw and the ticks, no update in between
 
 
-def test_evaluate_says_what_it_runs_and_its_bar_moves_during_the_first_scene(tmp_path, maps_dir, caplog,
-                                                                            monkeypatch):
+def test_evaluate_says_what_it_runs_and_its_bar_moves_during_the_first_scene(tmp_path, maps_dir, caplog, monkeypatch):
     import functools
 
     import placement.cli.evaluate as evaluate_cli
@@ -40,12 +39,15 @@ def test_evaluate_says_what_it_runs_and_its_bar_moves_during_the_first_scene(tmp
     monkeypatch.setattr(evaluate_cli, "Ticking", functools.partial(Ticking, interval=0.05))
 
     runner = CliRunner()
-    made = runner.invoke(cli, ["scenes", "generate", "--seed", "3", "--count", "1", "--maps", str(maps_dir),
-                               str(tmp_path / "scenes"), "-q"])
+    made = runner.invoke(
+        cli,
+        ["scenes", "generate", "--seed", "3", "--count", "1", "--maps", str(maps_dir), str(tmp_path / "scenes"), "-q"],
+    )
     assert made.exit_code == 0, made.output
     with caplog.at_level(logging.INFO, logger="placement"):  # the CLI's log lines (stderr outside pytest)
-        out = runner.invoke(cli, ["evaluate", str(tmp_path / "scenes"), "--methods", "fixed,sequential",
-                                  "--workers", "1", "--json"])
+        out = runner.invoke(
+            cli, ["evaluate", str(tmp_path / "scenes"), "--methods", "fixed,sequential", "--workers", "1", "--json"]
+        )
     assert out.exit_code == 0, out.stderr
     frames = _frames(out.stderr)
     assert "evaluating 1 scene with fixed, sequential (1 process)" in caplog.messages
@@ -68,8 +70,12 @@ def _on_a_terminal(*args: str, timeout: float = 600) -> tuple[int, str, str]:
 
     master, slave = pty.openpty()
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 120, 0, 0))  # 120 columns: tqdm draws nothing in 0
-    proc = subprocess.Popen([sys.executable, "-m", "placement.cli.main", *args], stdin=subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=slave)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "placement.cli.main", *args],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=slave,
+    )
     os.close(slave)
     drawn = []
 

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import pytest
 import yaml
-
 from test_cli import _assert_one_line_error, run
 from test_planner import SCENE, write_scene
 from test_regression import _strip
@@ -28,19 +27,30 @@ def test_placement_query_console_script_equals_placement_query(tmp_path, maps_di
     assert h.returncode == 0 and "--method" in h.stdout and "--stream" in h.stdout
 
 
-@pytest.mark.parametrize("changes, words", [
-    ({"planner": {"lambda_m": 1e308}}, ["planner.lambda_m", "<= 1e+06"]),
-    ({"planner": {"threshold": 0}}, ["planner.threshold", "> 0"]),
-    ({"objects": [{"name": "cup", "position": [3.0, 2.5, 0.5], "size": [0.06, 0.06, 0.1]},
-                  {"name": "box", "position": [2.8, 2.4, 0.8], "yaw": 1.0, "size": [0.05, 0.12, 0.1]}]},
-     ["objects[0]", "inside obstacle 'table'"]),
-    ({"place_locations": [{"name": "spot", "position": [1.0, 0.8, 0.5]}]},
-     ["place_locations[0].position", "inside obstacle 'shelf'"]),
-    ({"bounds": [0, 0, 1e9, 1e9]}, ["bounds[2]"]),
-    ({"bounds": [0, 0, 400, 400]}, ["resolution", "at most 5e+06"]),
-    ({"robot": {"preset": "pr2", "start": [3.0, 2.5, 0.0]}}, ["start pose", "inside an obstacle"]),
-    ({"maps": "/nonexistent/maps"}, ["/nonexistent/maps"]),
-])
+@pytest.mark.parametrize(
+    "changes, words",
+    [
+        ({"planner": {"lambda_m": 1e308}}, ["planner.lambda_m", "<= 1e+06"]),
+        ({"planner": {"threshold": 0}}, ["planner.threshold", "> 0"]),
+        (
+            {
+                "objects": [
+                    {"name": "cup", "position": [3.0, 2.5, 0.5], "size": [0.06, 0.06, 0.1]},
+                    {"name": "box", "position": [2.8, 2.4, 0.8], "yaw": 1.0, "size": [0.05, 0.12, 0.1]},
+                ]
+            },
+            ["objects[0]", "inside obstacle 'table'"],
+        ),
+        (
+            {"place_locations": [{"name": "spot", "position": [1.0, 0.8, 0.5]}]},
+            ["place_locations[0].position", "inside obstacle 'shelf'"],
+        ),
+        ({"bounds": [0, 0, 1e9, 1e9]}, ["bounds[2]"]),
+        ({"bounds": [0, 0, 400, 400]}, ["resolution", "at most 5e+06"]),
+        ({"robot": {"preset": "pr2", "start": [3.0, 2.5, 0.0]}}, ["start pose", "inside an obstacle"]),
+        ({"maps": "/nonexistent/maps"}, ["/nonexistent/maps"]),
+    ],
+)
 def test_bad_scenes_are_one_line(tmp_path, maps_dir, changes, words):
     _assert_one_line_error(run("query", str(write_scene(tmp_path, maps_dir, **changes)), "--json", "-q"), *words)
 

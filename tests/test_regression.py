@@ -25,7 +25,7 @@ from pathlib import Path
 import pytest
 
 from placement.planning.planner import Planner
-from placement.planning.scene import load_scene
+from placement.scene import load_scene
 
 DATA = Path(__file__).parent / "data" / "regression"
 #: stored plans per robot preset (None: the scenes' own, the built-in PR2)
@@ -53,8 +53,9 @@ def _compare(got, want, where: str) -> None:
         for i, (g, w) in enumerate(zip(got, want)):
             _compare(g, w, f"{where}[{i}]")
     elif isinstance(want, float):
-        assert isinstance(got, (int, float)) and math.isclose(got, want, rel_tol=REL, abs_tol=1e-9), \
+        assert isinstance(got, (int, float)) and math.isclose(got, want, rel_tol=REL, abs_tol=1e-9), (
             f"{where}: {got} != {want}"
+        )
     else:
         assert got == want, f"{where}: {got!r} != {want!r}"
 
@@ -66,8 +67,12 @@ def _plans(maps_dir, preset: str | None, collisions: bool = True) -> dict:
         # no time budget (the search stops when every candidate was tried, or at its cap): the plans
         # must not depend on the machine's speed
         scene = replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0})
-        planner = Planner(scene if preset is None else replace(scene, robot_preset=preset), METHODS[0], maps_dir,
-                          collisions=collisions)
+        planner = Planner(
+            scene if preset is None else replace(scene, robot_preset=preset),
+            METHODS[0],
+            maps_dir,
+            collisions=collisions,
+        )
         for method in METHODS:
             planner.set_method(method)
             out[f"{path.stem}/{method}"] = _strip(planner.plan().to_json())
@@ -92,8 +97,9 @@ def test_the_old_plans_changed_hands_and_the_new_ones_do_not(maps_dir):
     pairs placed the object with the other arm than the one that picked it. The same scenes planned
     now keep the arm (and the grasp) of every pick in its place, with every method."""
     old = json.loads((DATA / "placements_v1.json").read_text())
-    changes = sum(a[2] != b[2] for steps in old.values() for a, b in zip(steps[::2], steps[1::2])
-                  if a[0] == b[0] == "ok")
+    changes = sum(
+        a[2] != b[2] for steps in old.values() for a, b in zip(steps[::2], steps[1::2]) if a[0] == b[0] == "ok"
+    )
     assert changes == 47
     got = _plans(maps_dir, str(DATA.parent / "pr2_round.yaml"), collisions=False)
     assert sorted(got) == sorted(old)

@@ -13,19 +13,19 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
+from robots_init_data import arm_urdf
 
 import placement
-from placement.robots.check import check_robot
-from placement.robots.reach import QUANTILE, base_clearance, chain_fk, reach_band, sample_configs
-
-from robots_init_data import arm_urdf
+from placement.robots.onboarding.check import check_robot
+from placement.robots.onboarding.reach import QUANTILE, base_clearance, chain_fk, reach_band, sample_configs
 
 CELL = 0.1  # [m] the map cell the bands must agree to
 
 
 def run(*args):
-    return subprocess.run([sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True,
-                          env=dict(os.environ))
+    return subprocess.run(
+        [sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True, env=dict(os.environ)
+    )
 
 
 def pinocchio_band(robot, arm: str, approach: str, n: int, seed: int) -> tuple[float, float, float, float]:
@@ -95,9 +95,11 @@ def test_raising_the_torso_raises_the_band(tmp_path):
 def toy_preset(tmp_path, lift_tcp: str = "[0, 0, 0, 0, 0.7071068, 0, 0.7071068]") -> str:
     (tmp_path / "toy.urdf").write_text(arm_urdf(mount=0.1))  # shoulder 0.35 m above the floor
     path = tmp_path / "toy.yaml"
-    path.write_text("name: toy\nurdf: toy.urdf\nbase_frame: base_footprint\nfootprint_radius: 0.3\nv_max: 0.5\n"
-                    "omega_max: 1\narms: {arm: {joints: [joint_1, joint_2, joint_3, joint_4, joint_5, joint_6], "
-                    f"tip_frame: gripper_tool_frame, tcp_offset: {lift_tcp}}}}}\n")
+    path.write_text(
+        "name: toy\nurdf: toy.urdf\nbase_frame: base_footprint\nfootprint_radius: 0.3\nv_max: 0.5\n"
+        "omega_max: 1\narms: {arm: {joints: [joint_1, joint_2, joint_3, joint_4, joint_5, joint_6], "
+        f"tip_frame: gripper_tool_frame, tcp_offset: {lift_tcp}}}}}\n"
+    )
     return str(path)
 
 
@@ -107,15 +109,18 @@ def test_check_json_and_warnings(tmp_path):
     doc = json.loads(p.stdout)
     down = doc["arms"]["arm"]["bands"]["down"]
     assert down["z_max"] < 0.75  # shoulder 0.35 m high, 0.6 m of arm, the hand 0.22 m long
-    assert any("top-down grasp reaches only" in w and "0.75 m tables" in w and "with no joint held" in w
-               for w in doc["warnings"]), doc["warnings"]
+    assert any(
+        "top-down grasp reaches only" in w and "0.75 m tables" in w and "with no joint held" in w
+        for w in doc["warnings"]
+    ), doc["warnings"]
     assert doc["arms"]["arm"]["tcp_axis"]["ok"]
 
 
 def test_a_tcp_pointing_into_the_arm_is_flagged(tmp_path):
     # -90 deg about y: TCP z along the tool frame's -x, back into the wrist
-    doc = check_robot(placement.load_robot(toy_preset(tmp_path, "[0, 0, 0, 0, -0.7071068, 0, 0.7071068]")),
-                      samples=2000)
+    doc = check_robot(
+        placement.load_robot(toy_preset(tmp_path, "[0, 0, 0, 0, -0.7071068, 0, 0.7071068]")), samples=2000
+    )
     assert not doc["arms"]["arm"]["tcp_axis"]["ok"]
     assert any("points back towards the wrist" in w for w in doc["warnings"])
 

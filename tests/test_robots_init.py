@@ -12,29 +12,40 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import ARMAR6_URDF
+from robots_init_data import arm_urdf, arm_xacro
 
 import placement
 from placement.robots.chain import ancestors
-from placement.robots.init import propose
-from placement.robots.init_render import render
+from placement.robots.onboarding.propose import propose
+from placement.robots.onboarding.render import render
 from placement.robots.spec import share_dir
-
-from conftest import ARMAR6_URDF
-from robots_init_data import arm_urdf, arm_xacro
 
 ERD = "example-robot-data/robots/"
 #: robot -> (URDF, {expected arm name: last arm joint}, joints whose chains are not the arms')
 ROBOTS = {
-    "pr2": (ERD + "pr2_description/urdf/pr2.urdf", {"left": "l_wrist_roll_joint", "right": "r_wrist_roll_joint"},
-            ["head_tilt_joint"]),
+    "pr2": (
+        ERD + "pr2_description/urdf/pr2.urdf",
+        {"left": "l_wrist_roll_joint", "right": "r_wrist_roll_joint"},
+        ["head_tilt_joint"],
+    ),
     "armar6": (str(ARMAR6_URDF), {"left": "arm_t8_joint_r0", "right": "arm_t8_joint_r1"}, ["neck_2_pitch"]),
     "tiago": (ERD + "tiago_description/robots/tiago.urdf", {"arm": "arm_7_joint"}, ["head_2_joint"]),
-    "talos_reduced": (ERD + "talos_data/robots/talos_reduced.urdf",
-                      {"left": "arm_left_7_joint", "right": "arm_right_7_joint"}, ["head_2_joint", "leg_left_6_joint"]),
-    "romeo": (ERD + "romeo_description/urdf/romeo.urdf", {"left": "LWristPitch", "right": "RWristPitch"},
-              ["HeadRoll", "LAnkleRoll"]),
-    "tiago_pro": (ERD + "tiago_pro_description/robots/tiago_pro.urdf",
-                  {"left": "arm_left_7_joint", "right": "arm_right_7_joint"}, ["head_2_joint"]),
+    "talos_reduced": (
+        ERD + "talos_data/robots/talos_reduced.urdf",
+        {"left": "arm_left_7_joint", "right": "arm_right_7_joint"},
+        ["head_2_joint", "leg_left_6_joint"],
+    ),
+    "romeo": (
+        ERD + "romeo_description/urdf/romeo.urdf",
+        {"left": "LWristPitch", "right": "RWristPitch"},
+        ["HeadRoll", "LAnkleRoll"],
+    ),
+    "tiago_pro": (
+        ERD + "tiago_pro_description/robots/tiago_pro.urdf",
+        {"left": "arm_left_7_joint", "right": "arm_right_7_joint"},
+        ["head_2_joint"],
+    ),
     "panda": (ERD + "panda_description/urdf/panda.urdf", {"arm": "panda_joint7"}, []),
 }
 FINGER_WORDS = ("finger", "thumb", "index", "middle", "ring", "pinky")
@@ -49,8 +60,13 @@ def urdf_path(robot: str) -> Path:
 
 
 def run(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True,
-                          cwd=cwd, env=dict(os.environ))
+    return subprocess.run(
+        [sys.executable, "-m", "placement.cli.main", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        env=dict(os.environ),
+    )
 
 
 def one_line_error(proc, *words):
@@ -111,9 +127,13 @@ def test_tcp_z_points_from_the_wrist_to_the_fingers(proposed, robot):
             full = r.full_q(name, q)
             pin.framesForwardKinematics(r.model, data, full)
             last = a.joint_ids[-1]
-            fingers = [i for i, f in enumerate(r.model.frames) if f.type == pin.FrameType.BODY
-                       and last in ancestors(r.model, f.parentJoint)
-                       and any(w in f.name.lower() for w in FINGER_WORDS)]
+            fingers = [
+                i
+                for i, f in enumerate(r.model.frames)
+                if f.type == pin.FrameType.BODY
+                and last in ancestors(r.model, f.parentJoint)
+                and any(w in f.name.lower() for w in FINGER_WORDS)
+            ]
             assert fingers, f"{robot} {name}: no finger frames"
             centre = np.mean([data.oMf[i].translation for i in fingers], axis=0)
             towards = centre - data.oMi[last].translation
@@ -142,8 +162,14 @@ def _beyond(r, arm: str, depth: float) -> list[str]:
     out = []
     for k in g.arm_shapes(arm).gripper:
         res = coal.CollisionResult()
-        if coal.collide(g.geom.geometryObjects[int(k)].geometry, transform(gdata.oMg[int(k)]), past,
-                        coal.Transform3s(), coal.CollisionRequest(), res):
+        if coal.collide(
+            g.geom.geometryObjects[int(k)].geometry,
+            transform(gdata.oMg[int(k)]),
+            past,
+            coal.Transform3s(),
+            coal.CollisionRequest(),
+            res,
+        ):
             out.append(g.names[int(k)])
     return out
 
@@ -152,7 +178,7 @@ def _beyond(r, arm: str, depth: float) -> list[str]:
 def test_fingers_reach_at_most_4_cm_past_the_tcp(proposed, robot):
     """A top grasp puts the TCP on the object's top face: fingers far beyond it (TIAGo's palm-centred
     grasp frame: 9.5 cm) would go into the table. init moves such a TCP to 2 cm short of the far end."""
-    from placement.robots.init_tcp import GRASP_DEPTH, HAND_REACH_MAX
+    from placement.robots.onboarding.tcp import GRASP_DEPTH, HAND_REACH_MAX
 
     if robot not in proposed:
         pytest.skip("URDF not available")
@@ -210,7 +236,7 @@ def test_xacro_expands_and_inits(tmp_path):
     out.parent.mkdir()
     p = run("robots", "init", str(src), "--out", str(out), "-q")
     assert p.returncode == 0, p.stderr
-    assert "urdf: \"../xtoy.urdf.xacro\"" in out.read_text()
+    assert 'urdf: "../xtoy.urdf.xacro"' in out.read_text()
     r = placement.load_robot(out)  # the preset names the xacro: expanded at load
     assert r.arm("arm").joints == [f"joint_{i}" for i in range(1, 7)]
     assert r.arm("arm").lower[0] == -2.0  # the property's value reached the limits
@@ -246,18 +272,24 @@ def test_out_is_never_overwritten_without_force(tmp_path):
     assert placement.load_robot(out).name == "toy"
 
 
-@pytest.mark.parametrize("case, words", [
-    ("missing", ["not found"]),
-    ("text", ["not a URDF"]),
-    ("sdf", ["not a URDF", "<sdf>"]),
-    ("no_arm", ["no arm with >= 6", "joint_5"]),
-    ("xacro_error", ["xacro", "does not expand"]),
-    ("directory", ["not a file"]),
-])
+@pytest.mark.parametrize(
+    "case, words",
+    [
+        ("missing", ["not found"]),
+        ("text", ["not a URDF"]),
+        ("sdf", ["not a URDF", "<sdf>"]),
+        ("no_arm", ["no arm with >= 6", "joint_5"]),
+        ("xacro_error", ["xacro", "does not expand"]),
+        ("directory", ["not a file"]),
+    ],
+)
 def test_bad_input_is_one_line(tmp_path, case, words):
-    files = {"text": ("robot.urdf", "just some text\n"), "sdf": ("robot.urdf", "<sdf version='1.6'/>"),
-             "no_arm": ("small.urdf", arm_urdf(joints=5)),
-             "xacro_error": ("bad.urdf.xacro", arm_xacro().replace("${-limit}", "${-undefined_limit}"))}
+    files = {
+        "text": ("robot.urdf", "just some text\n"),
+        "sdf": ("robot.urdf", "<sdf version='1.6'/>"),
+        "no_arm": ("small.urdf", arm_urdf(joints=5)),
+        "xacro_error": ("bad.urdf.xacro", arm_xacro().replace("${-limit}", "${-undefined_limit}")),
+    }
     if case == "missing":
         path = tmp_path / "nope.urdf"
     elif case == "directory":
@@ -273,9 +305,11 @@ def test_bad_input_is_one_line(tmp_path, case, words):
 def test_preset_naming_a_broken_xacro_is_one_line(tmp_path):
     (tmp_path / "bad.xacro").write_text(arm_xacro().replace("${-limit}", "${-nope}"))
     preset = tmp_path / "p.yaml"
-    preset.write_text("name: x\nurdf: bad.xacro\nbase_frame: base_footprint\nfootprint_radius: 0.4\nv_max: 0.5\n"
-                      "omega_max: 1\narms: {arm: {joints: [joint_1, joint_2, joint_3, joint_4, joint_5, joint_6], "
-                      "tip_frame: gripper_tool_frame}}\n")
+    preset.write_text(
+        "name: x\nurdf: bad.xacro\nbase_frame: base_footprint\nfootprint_radius: 0.4\nv_max: 0.5\n"
+        "omega_max: 1\narms: {arm: {joints: [joint_1, joint_2, joint_3, joint_4, joint_5, joint_6], "
+        "tip_frame: gripper_tool_frame}}\n"
+    )
     one_line_error(run("robots", "check", str(preset)), "p.yaml: urdf", "does not expand")
 
 

@@ -10,20 +10,40 @@ from pathlib import Path
 import pinocchio as pin
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from robots_init_data import arm_urdf, arm_xacro
 
 from placement.errors import RobotError
-from placement.robots.init_tree import analyse
-from placement.robots.init_urdf import load_description
-
-from robots_init_data import arm_urdf, arm_xacro
+from placement.robots.onboarding.tree import analyse
+from placement.robots.onboarding.urdf import load_description
 
 FOLDER = Path(tempfile.mkdtemp(prefix="robots-init-props-"))
 VALID = arm_urdf()
 VALID_XACRO = arm_xacro()
 #: replacement values for attribute values and numbers, the awkward ones included
-VALUES = st.sampled_from(["", "nan", "inf", "-inf", "1e308", "-1e400", "0", "x", "1 2", "${undefined}",
-                          "$(find nothing)", "<", "&amp;", "joint_1", "base_link", "continuous", "fixed",
-                          "floating", "planar", "prismatic"]) | st.text(max_size=5)
+VALUES = st.sampled_from(
+    [
+        "",
+        "nan",
+        "inf",
+        "-inf",
+        "1e308",
+        "-1e400",
+        "0",
+        "x",
+        "1 2",
+        "${undefined}",
+        "$(find nothing)",
+        "<",
+        "&amp;",
+        "joint_1",
+        "base_link",
+        "continuous",
+        "fixed",
+        "floating",
+        "planar",
+        "prismatic",
+    ]
+) | st.text(max_size=5)
 
 
 @st.composite
@@ -42,7 +62,7 @@ def mutated(draw, text: str) -> str:
             if len(quotes) >= 2:
                 k = draw(st.integers(0, len(quotes) // 2 - 1)) * 2
                 a, b = quotes[k], quotes[k + 1]
-                text = text[:a + 1] + draw(VALUES) + text[b:]
+                text = text[: a + 1] + draw(VALUES) + text[b:]
         else:
             text = text[:i] + draw(st.text(max_size=10)) + text[i:]
     return text

@@ -8,14 +8,25 @@ import math
 import numpy as np
 import pytest
 import yaml
+from test_occupancy import EXPECTED, write_map
 
 from placement.errors import PlacementError
 from placement.planning.config import PLANNER_KEYS
-from placement.planning.scene import (
-    Box, Cylinder, Obstacle, PlaceLocation, Polygon, Scene, SceneError, SceneObject, TaskStep,
-    load_scene, parse_scene, save_scene, scene_to_dict,
+from placement.scene import (
+    Box,
+    Cylinder,
+    Obstacle,
+    PlaceLocation,
+    Polygon,
+    Scene,
+    SceneError,
+    SceneObject,
+    TaskStep,
+    load_scene,
+    parse_scene,
+    save_scene,
+    scene_to_dict,
 )
-from test_occupancy import EXPECTED, write_map
 
 FULL_SCENE = """\
 version: 1
@@ -65,8 +76,10 @@ def test_full_scene_loads(scene_file, tmp_path):
     assert s.obstacles[0] == Obstacle("table_1", Box([2.0, 0.0, 0.375], [0.8, 0.6, 0.75], 0.1), True)
     assert s.obstacles[1] == Obstacle("pillar", Cylinder([-1.0, 3.0, 1.0], 0.2, 2.0))
     assert s.obstacles[2] == Obstacle("wall", Polygon([[-2.5, -2.5], [6.5, -2.5], [6.5, -2.4], [-2.5, -2.4]]))
-    assert s.objects == (SceneObject("cup_1", [2.1, 0.1, 0.8], 0.3, [0.08, 0.08, 0.1]),
-                         SceneObject("cup_2", [1.9, -0.1, 0.81], 0.0, [0.06, 0.1, 0.12]))
+    assert s.objects == (
+        SceneObject("cup_1", [2.1, 0.1, 0.8], 0.3, [0.08, 0.08, 0.1]),
+        SceneObject("cup_2", [1.9, -0.1, 0.81], 0.0, [0.06, 0.1, 0.12]),
+    )
     assert s.place_locations == (PlaceLocation("bin_a", [5.0, 1.0, 0.9]), PlaceLocation("bin_b", [5.0, -1.0, 0.9]))
     assert s.task == (TaskStep("cup_1", "bin_a"), TaskStep("cup_2", "bin_b"))
     assert s.planner == {"lambda_n": 0.05, "yaw_steps": 60, "grasp_yaws": [0.0, 1.5707963]}
@@ -119,15 +132,20 @@ def test_default_bounds_cover_everything_plus_a_metre():
 
 def test_default_bounds_include_the_occupancy_map(tmp_path):
     write_map(tmp_path)  # extent x 1 .. 3, y 2 .. 3.5
-    doc = {"version": 1, "robot": {"start": [0.0, 0.0, 0.0]}, "occupancy_map": "floor.yaml",
-           "objects": [{"name": "o", "position": [1.5, 0.5, 0.8], "size": [0.1, 0.1, 0.1]}],
-           "place_locations": [{"name": "p", "position": [0.5, 0.5, 0.8]}],
-           "task": [{"pick": "o", "place": "p"}]}
+    doc = {
+        "version": 1,
+        "robot": {"start": [0.0, 0.0, 0.0]},
+        "occupancy_map": "floor.yaml",
+        "objects": [{"name": "o", "position": [1.5, 0.5, 0.8], "size": [0.1, 0.1, 0.1]}],
+        "place_locations": [{"name": "p", "position": [0.5, 0.5, 0.8]}],
+        "task": [{"pick": "o", "place": "p"}],
+    }
     s = parse_scene(doc, tmp_path, "s")
     assert s.bounds == pytest.approx((-1.0, -1.0, 4.0, 4.5))
 
 
 # -- validation ------------------------------------------------------------------------------------
+
 
 def base_doc() -> dict:
     return yaml.safe_load(FULL_SCENE.replace("occupancy_map: floor.yaml\n", ""))
@@ -135,6 +153,7 @@ def base_doc() -> dict:
 
 def set_key(path, value):
     """Mutation setting the key at ``path`` (a list of keys/indices); value ``KeyError`` deletes it."""
+
     def mutate(d):
         for k in path[:-1]:
             d = d[k]
@@ -142,25 +161,37 @@ def set_key(path, value):
             del d[path[-1]]
         else:
             d[path[-1]] = value
+
     return mutate
 
 
 ERRORS = [
     # unknown keys, with the allowed set
-    (set_key(["obstacles", 0, "colour"], "red"),
-     "scene.yaml: unknown key 'obstacles[0].colour'; allowed: box, cylinder, name, polygon, table"),
-    (set_key(["robots"], {}), "unknown key 'robots'; allowed: bounds, maps, objects, obstacles, occupancy_map, place_locations"),
+    (
+        set_key(["obstacles", 0, "colour"], "red"),
+        "scene.yaml: unknown key 'obstacles[0].colour'; allowed: box, cylinder, name, polygon, table",
+    ),
+    (
+        set_key(["robots"], {}),
+        "unknown key 'robots'; allowed: bounds, maps, objects, obstacles, occupancy_map, place_locations",
+    ),
     (set_key(["robot", "goal"], [0, 0, 0]), "unknown key 'robot.goal'; allowed: preset, start"),
     (set_key(["task", 0, "arm"], "left"), "unknown key 'task[0].arm'; allowed: pick, place"),
     (set_key(["place_locations", 1, "yaw"], 0.0), "unknown key 'place_locations[1].yaw'; allowed: name, position"),
-    (set_key(["planner", "speed"], 2.0),
-     "unknown key 'planner.speed'; allowed: collision_padding, d_max, footprint_padding, grasp_yaws, ik_budget_ms, "
-     "lambda_m, lambda_n, lambda_nh, threshold, velocity_k, velocity_lambda, yaw_steps"),
+    (
+        set_key(["planner", "speed"], 2.0),
+        "unknown key 'planner.speed'; allowed: collision_padding, d_max, footprint_padding, grasp_yaws, ik_budget_ms, "
+        "lambda_m, lambda_n, lambda_nh, threshold, velocity_k, velocity_lambda, yaw_steps",
+    ),
     # yaw only, no quaternions
-    (set_key(["obstacles", 0, "box", "quaternion"], [0, 0, 0, 1]),
-     "unknown key 'obstacles[0].box.quaternion'; allowed: center, size, yaw (shapes and objects rotate about z only"),
-    (set_key(["objects", 0, "orientation"], [0, 0, 0, 1]),
-     "scene.yaml: objects[0].orientation: 'orientation' needs version: 2 (this scene has version: 1)"),
+    (
+        set_key(["obstacles", 0, "box", "quaternion"], [0, 0, 0, 1]),
+        "unknown key 'obstacles[0].box.quaternion'; allowed: center, size, yaw (shapes and objects rotate about z only",
+    ),
+    (
+        set_key(["objects", 0, "orientation"], [0, 0, 0, 1]),
+        "scene.yaml: objects[0].orientation: 'orientation' needs version: 2 (this scene has version: 1)",
+    ),
     # missing required keys
     (set_key(["version"], KeyError), "scene.yaml: missing required key 'version'"),
     (set_key(["robot"], KeyError), "missing required key 'robot'"),
@@ -170,13 +201,22 @@ ERRORS = [
     (set_key(["obstacles", 1, "cylinder", "height"], KeyError), "missing required key 'obstacles[1].cylinder.height'"),
     (set_key(["task", 1, "place"], KeyError), "missing required key 'task[1].place'"),
     # version
-    (set_key(["version"], 3), "scene.yaml: version: unsupported scene format version 3; this build reads versions 1, 2"),
+    (
+        set_key(["version"], 3),
+        "scene.yaml: version: unsupported scene format version 3; this build reads versions 1, 2",
+    ),
     (set_key(["version"], "1"), "version: expected an integer, got string '1'"),
     # wrong types and shapes
-    (set_key(["obstacles", 0, "box", "size"], [0.8, 0.6]), "scene.yaml: obstacles[0].box.size: expected 3 numbers, got 2"),
+    (
+        set_key(["obstacles", 0, "box", "size"], [0.8, 0.6]),
+        "scene.yaml: obstacles[0].box.size: expected 3 numbers, got 2",
+    ),
     (set_key(["robot", "start"], "origin"), "robot.start: expected a list of 3 numbers, got string 'origin'"),
     (set_key(["objects", 0, "yaw"], "0.3"), "objects[0].yaw: expected a number, got string '0.3'"),
-    (set_key(["obstacles", 1, "cylinder", "radius"], True), "obstacles[1].cylinder.radius: expected a number, got bool"),
+    (
+        set_key(["obstacles", 1, "cylinder", "radius"], True),
+        "obstacles[1].cylinder.radius: expected a number, got bool",
+    ),
     (set_key(["obstacles", 0, "table"], 1), "obstacles[0].table: expected true or false, got 1"),
     (set_key(["obstacles"], {"name": "x"}), "scene.yaml: obstacles: expected a list, got a mapping"),
     (set_key(["objects", 0], "cup"), "objects[0]: expected a mapping, got string 'cup'"),
@@ -185,8 +225,10 @@ ERRORS = [
     (set_key(["task"], []), "task: expected at least one {pick, place} step"),
     (set_key(["maps"], 3), "maps: expected a non-empty string, got 3"),
     # non-finite numbers
-    (set_key(["objects", 0, "position"], [float("nan"), 0.0, 0.8]),
-     "objects[0].position[0]: expected a finite number, got nan"),
+    (
+        set_key(["objects", 0, "position"], [float("nan"), 0.0, 0.8]),
+        "objects[0].position[0]: expected a finite number, got nan",
+    ),
     (set_key(["robot", "start"], [0.0, 0.0, float("inf")]), "robot.start[2]: expected a finite number, got inf"),
     (set_key(["resolution"], float("inf")), "resolution: expected a finite number, got inf"),
     # non-positive sizes, radius, resolution
@@ -200,17 +242,26 @@ ERRORS = [
     (set_key(["obstacles", 2, "polygon"], [[0, 0], [1, 0]]), "obstacles[2].polygon: expected at least 3 points, got 2"),
     (set_key(["obstacles", 2, "polygon"], [[0, 0], [1, 1], [2, 2]]), "obstacles[2].polygon: the polygon has zero area"),
     (set_key(["obstacles", 2, "polygon"], [[0, 0], [1, 0], [1]]), "obstacles[2].polygon[2]: expected 2 numbers, got 1"),
-    (set_key(["obstacles", 1, "box"], {"center": [0, 0, 0], "size": [1, 1, 1]}),
-     "obstacles[1]: expected exactly one shape (box, cylinder, polygon), got box and cylinder"),
-    (set_key(["obstacles", 1, "cylinder"], KeyError), "obstacles[1]: expected exactly one shape (box, cylinder, polygon), got none"),
+    (
+        set_key(["obstacles", 1, "box"], {"center": [0, 0, 0], "size": [1, 1, 1]}),
+        "obstacles[1]: expected exactly one shape (box, cylinder, polygon), got box and cylinder",
+    ),
+    (
+        set_key(["obstacles", 1, "cylinder"], KeyError),
+        "obstacles[1]: expected exactly one shape (box, cylinder, polygon), got none",
+    ),
     (set_key(["obstacles", 2, "table"], True), "obstacles[2].table: a polygon has no height"),
     # names and task references
     (set_key(["objects", 1, "name"], "cup_1"), "objects[1].name: duplicate name 'cup_1' (already used by objects[0])"),
-    (set_key(["place_locations", 0, "name"], "table_1"),
-     "place_locations[0].name: duplicate name 'table_1' (already used by obstacles[0])"),
+    (
+        set_key(["place_locations", 0, "name"], "table_1"),
+        "place_locations[0].name: duplicate name 'table_1' (already used by obstacles[0])",
+    ),
     (set_key(["task", 0, "pick"], "mug"), "scene.yaml: task[0].pick: 'mug' is not an object; objects: cup_1, cup_2"),
-    (set_key(["task", 1, "place"], "bin_c"),
-     "task[1].place: 'bin_c' is not a place location; place locations: bin_a, bin_b"),
+    (
+        set_key(["task", 1, "place"], "bin_c"),
+        "task[1].place: 'bin_c' is not a place location; place locations: bin_a, bin_b",
+    ),
     (set_key(["task", 0, "pick"], "bin_a"), "task[0].pick: 'bin_a' is not an object; objects: cup_1, cup_2"),
     (set_key(["task", 1, "pick"], "cup_1"), "task[1].pick: object 'cup_1' is already picked in task[0]"),
     # planner values
@@ -223,13 +274,22 @@ ERRORS = [
     # bounds
     (set_key(["bounds"], [0.0, 0.0, 1.0]), "bounds: expected 4 numbers, got 3"),
     (set_key(["bounds"], [7.0, -3.0, -3.0, 5.0]), "bounds: expected [xmin, ymin, xmax, ymax] with xmin < xmax"),
-    (set_key(["robot", "start"], [20.0, 0.0, 0.0]),
-     "scene.yaml: robot.start: the start position at (20, 0) is outside bounds [-3, -3, 7, 5]"),
-    (set_key(["objects", 1, "position"], [1.9, -3.5, 0.8]),
-     "objects[1].position: object 'cup_2' at (1.9, -3.5) is outside bounds [-3, -3, 7, 5]"),
-    (set_key(["place_locations", 0, "position"], [8.0, 1.0, 0.9]),
-     "place_locations[0].position: place location 'bin_a' at (8, 1) is outside bounds"),
-    (set_key(["bounds"], [-3, -3, 3000, 200]), "resolution: bounds [-3, -3, 3000, 200] at 0.1 m give a 30030 x 2030 grid"),
+    (
+        set_key(["robot", "start"], [20.0, 0.0, 0.0]),
+        "scene.yaml: robot.start: the start position at (20, 0) is outside bounds [-3, -3, 7, 5]",
+    ),
+    (
+        set_key(["objects", 1, "position"], [1.9, -3.5, 0.8]),
+        "objects[1].position: object 'cup_2' at (1.9, -3.5) is outside bounds [-3, -3, 7, 5]",
+    ),
+    (
+        set_key(["place_locations", 0, "position"], [8.0, 1.0, 0.9]),
+        "place_locations[0].position: place location 'bin_a' at (8, 1) is outside bounds",
+    ),
+    (
+        set_key(["bounds"], [-3, -3, 3000, 200]),
+        "resolution: bounds [-3, -3, 3000, 200] at 0.1 m give a 30030 x 2030 grid",
+    ),
     (set_key(["resolution"], 0.0001), "resolution: must be >= 0.01, got 0.0001"),
     (set_key(["bounds"], [0, 0, 1e300, 1]), "bounds[2]: must be within +-1e+06, got 1e+300"),
     (set_key(["planner", "lambda_m"], 1e308), "planner.lambda_m: must be <= 1e+06, got 1e+308"),
@@ -253,15 +313,20 @@ def test_invalid_scene(mutate, message, tmp_path):
     assert isinstance(err.value, PlacementError)
 
 
-@pytest.mark.parametrize("text, message", [
-    (FULL_SCENE.replace("resolution: 0.1", "resolution: .nan"), "resolution: expected a finite number, got nan"),
-    (FULL_SCENE.replace("version: 1\n", "version: 1\nversion: 1\n"), "invalid YAML at line 2, column 1: duplicate key 'version'"),
-    (FULL_SCENE.replace("yaw: 0.3", "yaw: [0.3"), "invalid YAML at line 14"),
-    ("", "the scene is empty"),
-    ("- 1\n- 2\n", "expected a mapping, got a list"),
-    (FULL_SCENE.replace("occupancy_map: floor.yaml", "occupancy_map: floor_rotated.yaml"),
-     "occupancy_map: "),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (FULL_SCENE.replace("resolution: 0.1", "resolution: .nan"), "resolution: expected a finite number, got nan"),
+        (
+            FULL_SCENE.replace("version: 1\n", "version: 1\nversion: 1\n"),
+            "invalid YAML at line 2, column 1: duplicate key 'version'",
+        ),
+        (FULL_SCENE.replace("yaw: 0.3", "yaw: [0.3"), "invalid YAML at line 14"),
+        ("", "the scene is empty"),
+        ("- 1\n- 2\n", "expected a mapping, got a list"),
+        (FULL_SCENE.replace("occupancy_map: floor.yaml", "occupancy_map: floor_rotated.yaml"), "occupancy_map: "),
+    ],
+)
 def test_invalid_scene_file(text, message, tmp_path):
     write_map(tmp_path)
     write_map(tmp_path, "floor_rotated", origin=[0.0, 0.0, 0.5])
@@ -289,6 +354,17 @@ def test_preset_path_is_relative_to_the_scene(tmp_path):
 
 
 def test_planner_keys_are_documented():
-    assert set(PLANNER_KEYS) == {"lambda_n", "lambda_m", "lambda_nh", "yaw_steps", "threshold", "velocity_lambda",
-                                 "velocity_k", "d_max", "grasp_yaws", "footprint_padding",
-                                 "collision_padding", "ik_budget_ms"}
+    assert set(PLANNER_KEYS) == {
+        "lambda_n",
+        "lambda_m",
+        "lambda_nh",
+        "yaw_steps",
+        "threshold",
+        "velocity_lambda",
+        "velocity_k",
+        "d_max",
+        "grasp_yaws",
+        "footprint_padding",
+        "collision_padding",
+        "ik_budget_ms",
+    }

@@ -6,16 +6,48 @@ import math
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
 from mutations import documents, mutated
-from placement.planning.scene import Scene, SceneError, parse_scene, scene_to_dict
 from test_scene import base_doc
 from test_scene_v2 import v2_doc
 
-KEYS = ("version", "resolution", "bounds", "robot", "preset", "start", "maps", "obstacles", "objects",
-        "place_locations", "task", "planner", "name", "box", "cylinder", "polygon", "center", "size", "yaw",
-        "radius", "height", "table", "position", "pick", "place", "threshold", "yaw_steps", "grasp_yaws",
-        "orientation", "grasps", "poses", "orientations", "trajectories", "reach")
+from placement.scene import Scene, SceneError, parse_scene, scene_to_dict
+
+KEYS = (
+    "version",
+    "resolution",
+    "bounds",
+    "robot",
+    "preset",
+    "start",
+    "maps",
+    "obstacles",
+    "objects",
+    "place_locations",
+    "task",
+    "planner",
+    "name",
+    "box",
+    "cylinder",
+    "polygon",
+    "center",
+    "size",
+    "yaw",
+    "radius",
+    "height",
+    "table",
+    "position",
+    "pick",
+    "place",
+    "threshold",
+    "yaw_steps",
+    "grasp_yaws",
+    "orientation",
+    "grasps",
+    "poses",
+    "orientations",
+    "trajectories",
+    "reach",
+)
 BASE = base_doc()
 BASE_V2 = v2_doc()
 
@@ -42,8 +74,10 @@ def test_mutated_scenes(doc):
 
 
 @settings(max_examples=1000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(doc=documents(KEYS) | st.fixed_dictionaries({"version": st.just(1), "robot": documents(KEYS),
-                                                     "task": documents(KEYS)}))
+@given(
+    doc=documents(KEYS)
+    | st.fixed_dictionaries({"version": st.just(1), "robot": documents(KEYS), "task": documents(KEYS)})
+)
 def test_random_documents(doc):
     _check(doc)
 
@@ -55,8 +89,17 @@ def test_mutated_v2_scenes(doc):
 
 
 @settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(doc=st.fixed_dictionaries({"version": st.just(2), "robot": st.just({"start": [0, 0, 0]}),
-                                  "objects": documents(KEYS), "trajectories": documents(KEYS),
-                                  "place_locations": documents(KEYS), "task": documents(KEYS)}))
+@given(
+    doc=st.fixed_dictionaries(
+        {
+            "version": st.just(2),
+            "robot": st.just({"start": [0, 0, 0]}),
+            "objects": documents(KEYS),
+            "trajectories": documents(KEYS),
+            "place_locations": documents(KEYS),
+            "task": documents(KEYS),
+        }
+    )
+)
 def test_random_v2_documents(doc):
     _check(doc)

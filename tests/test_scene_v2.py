@@ -11,12 +11,12 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
-
-from placement.planning.scene import SceneError, TaskStep, load_scene, parse_scene, save_scene, scene_to_dict
-from placement.planning.scene.checks import TOLERANCE, object_penetrates
-from placement.planning.scene.model import Box, SceneObject
-from placement.planning.updates import parse_update
 from test_scene import set_key
+
+from placement.planning.updates import parse_update
+from placement.scene import SceneError, TaskStep, load_scene, parse_scene, save_scene, scene_to_dict
+from placement.scene.checks import TOLERANCE, object_penetrates
+from placement.scene.model import Box, SceneObject
 
 KITCHEN = Path(__file__).resolve().parents[1] / "examples" / "kitchen.yaml"
 S = math.sqrt(0.5)
@@ -31,15 +31,28 @@ def v2_doc() -> dict:
         "obstacles": [{"name": "table", "box": {"center": [2.0, 0.0, 0.375], "size": [0.8, 0.6, 0.75]}, "table": True}],
         "objects": [
             {"name": "can", "position": [2.0, 0.1, 0.785], "orientation": ON_SIDE, "size": [0.07, 0.07, 0.12]},
-            {"name": "cup", "position": [1.9, -0.1, 0.8], "yaw": 0.3, "size": [0.06, 0.06, 0.1],
-             "grasps": [{"name": "rim", "poses": [[0, 0, 0.15, 1, 0, 0, 0], [0, 0, 0.05, 1, 0, 0, 0]]}]},
+            {
+                "name": "cup",
+                "position": [1.9, -0.1, 0.8],
+                "yaw": 0.3,
+                "size": [0.06, 0.06, 0.1],
+                "grasps": [{"name": "rim", "poses": [[0, 0, 0.15, 1, 0, 0, 0], [0, 0, 0.05, 1, 0, 0, 0]]}],
+            },
         ],
-        "place_locations": [{"name": "spot", "position": [2.2, 0.0, 0.85], "orientations": [[0.5, 0.5, 0.5, 0.5]]},
-                            {"name": "bin", "position": [2.2, 0.2, 0.85]}],
-        "trajectories": [{"name": "door", "poses": [[1.0, 1.0, 1.0, 0, 0, 0, 1]]},
-                         {"name": "door2", "poses": [[1.0, 1.5, 1.0, 0, 0, 0, 1], [1.1, 1.5, 1.0, 0, 0, 0, 1]]}],
-        "task": [{"reach": ["door", "door2"]}, {"pick": "can", "place": "spot"}, {"pick": "cup", "place": "bin"},
-                 {"reach": "door"}],
+        "place_locations": [
+            {"name": "spot", "position": [2.2, 0.0, 0.85], "orientations": [[0.5, 0.5, 0.5, 0.5]]},
+            {"name": "bin", "position": [2.2, 0.2, 0.85]},
+        ],
+        "trajectories": [
+            {"name": "door", "poses": [[1.0, 1.0, 1.0, 0, 0, 0, 1]]},
+            {"name": "door2", "poses": [[1.0, 1.5, 1.0, 0, 0, 0, 1], [1.1, 1.5, 1.0, 0, 0, 0, 1]]},
+        ],
+        "task": [
+            {"reach": ["door", "door2"]},
+            {"pick": "can", "place": "spot"},
+            {"pick": "cup", "place": "bin"},
+            {"reach": "door"},
+        ],
     }
 
 
@@ -55,8 +68,12 @@ def test_v2_scene_parses():
     np.testing.assert_allclose(cup.orientation, [0, 0, math.sin(0.15), math.cos(0.15)])
     assert s.place_locations[0].orientations.shape == (1, 4) and s.place_locations[1].orientations is None
     assert [t.name for t in s.trajectories] == ["door", "door2"]
-    assert s.task == (TaskStep(reach=("door", "door2")), TaskStep("can", "spot"), TaskStep("cup", "bin"),
-                      TaskStep(reach=("door",)))
+    assert s.task == (
+        TaskStep(reach=("door", "door2")),
+        TaskStep("can", "spot"),
+        TaskStep("cup", "bin"),
+        TaskStep(reach=("door",)),
+    )
     assert s.trajectory("door2").matrices().shape == (2, 4, 4)
     with pytest.raises(SceneError, match="no trajectory 'x'; trajectories: door, door2"):
         s.trajectory("x")
@@ -71,8 +88,12 @@ def test_v2_scene_parses():
 def test_orientation_is_normalised_and_yaw_derived():
     doc = v2_doc()
     q = np.array([0.0, 0.0, math.sin(0.6), math.cos(0.6)]) * (1 + 5e-7)
-    doc["objects"][1] = {"name": "cup", "position": [1.9, -0.1, 0.8], "orientation": q.tolist(),
-                         "size": [0.06, 0.06, 0.1]}
+    doc["objects"][1] = {
+        "name": "cup",
+        "position": [1.9, -0.1, 0.8],
+        "orientation": q.tolist(),
+        "size": [0.06, 0.06, 0.1],
+    }
     cup = parse_scene(doc).objects[1]
     assert np.linalg.norm(cup.orientation) == pytest.approx(1, abs=1e-15)
     assert cup.yaw == pytest.approx(1.2) and cup.upright
@@ -103,9 +124,13 @@ def test_round_trip(tmp_path):
     assert parse_scene(changed) != s2
 
 
-V1_KEYS = [(["objects", 0, "orientation"], "objects[0].orientation"), (["objects", 1, "grasps"], "objects[1].grasps"),
-           (["place_locations", 0, "orientations"], "place_locations[0].orientations"),
-           (["trajectories"], "trajectories"), (["task", 0, "reach"], "task[0].reach")]
+V1_KEYS = [
+    (["objects", 0, "orientation"], "objects[0].orientation"),
+    (["objects", 1, "grasps"], "objects[1].grasps"),
+    (["place_locations", 0, "orientations"], "place_locations[0].orientations"),
+    (["trajectories"], "trajectories"),
+    (["task", 0, "reach"], "task[0].reach"),
+]
 
 
 @pytest.mark.parametrize("path, where", V1_KEYS, ids=[w for _, w in V1_KEYS])
@@ -114,9 +139,14 @@ def test_v2_keys_need_version_2(path, where):
     value = doc
     for k in path:
         value = value[k]
-    doc = {**doc, "version": 1, "trajectories": None, "task": [{"pick": "cup", "place": "bin"}],
-           "objects": [{"name": "cup", "position": [1.9, -0.1, 0.8], "size": [0.06, 0.06, 0.1]}],
-           "place_locations": [{"name": "bin", "position": [2.2, 0.2, 0.85]}]}
+    doc = {
+        **doc,
+        "version": 1,
+        "trajectories": None,
+        "task": [{"pick": "cup", "place": "bin"}],
+        "objects": [{"name": "cup", "position": [1.9, -0.1, 0.8], "size": [0.06, 0.06, 0.1]}],
+        "place_locations": [{"name": "bin", "position": [2.2, 0.2, 0.85]}],
+    }
     del doc["trajectories"]
     parse_scene(doc)  # valid as version 1
     set_key([p if not isinstance(p, int) else 0 for p in path], value)(doc)
@@ -128,38 +158,63 @@ def test_v2_keys_need_version_2(path, where):
 
 ERRORS = [
     (set_key(["objects", 0, "yaw"], 0.1), "objects[0]: give 'orientation' [x, y, z, w] or 'yaw' [rad], not both"),
-    (set_key(["objects", 0, "orientation"], [0, 0, 0, 2]),
-     "objects[0].orientation: expected a unit quaternion [x, y, z, w] (ROS order), got norm 2"),
+    (
+        set_key(["objects", 0, "orientation"], [0, 0, 0, 2]),
+        "objects[0].orientation: expected a unit quaternion [x, y, z, w] (ROS order), got norm 2",
+    ),
     (set_key(["objects", 0, "orientation"], [0, 0, 1]), "objects[0].orientation: expected 4 numbers, got 3"),
     (set_key(["objects", 0, "orientation"], [0, 0, 0, float("nan")]), "objects[0].orientation[3]: expected a finite"),
     (set_key(["objects", 0, "quaternion"], [0, 0, 0, 1]), "unknown key 'objects[0].quaternion'"),
     (set_key(["objects", 1, "grasps"], []), "objects[1].grasps: expected a list of grasps {name, poses}, got an empty"),
-    (set_key(["objects", 1, "grasps", 0, "poses"], []), "objects[1].grasps[0].poses: expected a list of 1 to 100 poses"),
-    (set_key(["objects", 1, "grasps", 0, "poses"], [[0, 0, 0, 0, 0, 1]] * 2),
-     "objects[1].grasps[0].poses[0]: expected a pose [x, y, z, qx, qy, qz, qw], got 6 numbers"),
-    (set_key(["objects", 1, "grasps", 0, "poses", 1], [0, 0, 0, 0, 0, 0, 0]),
-     "objects[1].grasps[0].poses[1][3:7]: expected a unit quaternion"),
-    (lambda d: d["objects"][1]["grasps"].append({"name": "rim", "poses": [[0, 0, 0, 0, 0, 0, 1]]}),
-     "objects[1].grasps[1].name: duplicate grasp name 'rim'"),
-    (set_key(["objects", 1, "grasps", 0, "colour"], 1), "unknown key 'objects[1].grasps[0].colour'; allowed: name, poses"),
+    (
+        set_key(["objects", 1, "grasps", 0, "poses"], []),
+        "objects[1].grasps[0].poses: expected a list of 1 to 100 poses",
+    ),
+    (
+        set_key(["objects", 1, "grasps", 0, "poses"], [[0, 0, 0, 0, 0, 1]] * 2),
+        "objects[1].grasps[0].poses[0]: expected a pose [x, y, z, qx, qy, qz, qw], got 6 numbers",
+    ),
+    (
+        set_key(["objects", 1, "grasps", 0, "poses", 1], [0, 0, 0, 0, 0, 0, 0]),
+        "objects[1].grasps[0].poses[1][3:7]: expected a unit quaternion",
+    ),
+    (
+        lambda d: d["objects"][1]["grasps"].append({"name": "rim", "poses": [[0, 0, 0, 0, 0, 0, 1]]}),
+        "objects[1].grasps[1].name: duplicate grasp name 'rim'",
+    ),
+    (
+        set_key(["objects", 1, "grasps", 0, "colour"], 1),
+        "unknown key 'objects[1].grasps[0].colour'; allowed: name, poses",
+    ),
     (set_key(["trajectories", 1, "name"], "table"), "trajectories[1].name: duplicate name 'table'"),
     (set_key(["trajectories", 0, "poses"], [[0, 0, 0, 0, 0, 0, 1]] * 101), "expected at most 100 poses, got 101"),
-    (set_key(["task", 0, "reach"], ["door", "drawer"]),
-     "task[0].reach[1]: 'drawer' is not a trajectory; trajectories: door, door2"),
+    (
+        set_key(["task", 0, "reach"], ["door", "drawer"]),
+        "task[0].reach[1]: 'drawer' is not a trajectory; trajectories: door, door2",
+    ),
     (set_key(["task", 0, "reach"], ["door", "door"]), "task[0].reach[1]: trajectory 'door' is listed twice"),
     (set_key(["task", 0, "reach"], []), "task[0].reach: expected a trajectory name or a non-empty list"),
     (set_key(["task", 3, "reach"], 3), "task[3].reach: expected a non-empty string, got"),
     (set_key(["task", 0, "pick"], "can"), "task[0]: a step is {pick, place} or {reach}, not both"),
     (set_key(["task", 1, "reach"], "door"), "task[1]: a step is {pick, place} or {reach}, not both"),
-    (set_key(["place_locations", 0, "orientations"], []), "place_locations[0].orientations: expected a list of quatern"),
-    (set_key(["place_locations", 0, "orientations"], [[1, 1, 0, 0]]),
-     "place_locations[0].orientations[0]: expected a unit quaternion"),
-    (lambda d: d.update(bounds=[-1, -1, 3, 3]) or d["trajectories"][1]["poses"].append([3.5, 1, 1, 0, 0, 0, 1]),
-     "trajectories[1].poses[2]: the end of trajectory 'door2' at (3.5, 1) is outside bounds [-1, -1, 3, 3]"),
+    (
+        set_key(["place_locations", 0, "orientations"], []),
+        "place_locations[0].orientations: expected a list of quatern",
+    ),
+    (
+        set_key(["place_locations", 0, "orientations"], [[1, 1, 0, 0]]),
+        "place_locations[0].orientations[0]: expected a unit quaternion",
+    ),
+    (
+        lambda d: d.update(bounds=[-1, -1, 3, 3]) or d["trajectories"][1]["poses"].append([3.5, 1, 1, 0, 0, 0, 1]),
+        "trajectories[1].poses[2]: the end of trajectory 'door2' at (3.5, 1) is outside bounds [-1, -1, 3, 3]",
+    ),
     # the lying can sunk 2 cm into the table: only its 6D box says so (its yaw-only box is 12 cm tall)
     (set_key(["objects", 0, "position"], [2.0, 0.1, 0.765]), "object 'can' is inside obstacle 'table'"),
-    (lambda d: d["objects"][0].update(size=[0.1, 0.2, 0.1], position=[2.0, 0.1, 0.85]),
-     "objects[0].size: object 'can' is wider than the gripper opening (0.09 m) across every side"),
+    (
+        lambda d: d["objects"][0].update(size=[0.1, 0.2, 0.1], position=[2.0, 0.1, 0.85]),
+        "objects[0].size: object 'can' is wider than the gripper opening (0.09 m) across every side",
+    ),
 ]
 
 
@@ -189,8 +244,9 @@ def _coal_depth(o: SceneObject, box: Box) -> float:
     Tb[:3, 3] = box.center
     req, res = coal.DistanceRequest(), coal.DistanceResult()
     req.enable_signed_distance = True
-    return coal.distance(a, coal.Transform3s(o.pose[:3, :3], o.pose[:3, 3]), b,
-                         coal.Transform3s(Tb[:3, :3], Tb[:3, 3]), req, res)
+    return coal.distance(
+        a, coal.Transform3s(o.pose[:3, :3], o.pose[:3, 3]), b, coal.Transform3s(Tb[:3, :3], Tb[:3, 3]), req, res
+    )
 
 
 def test_tilted_box_penetration_against_coal():
@@ -199,8 +255,9 @@ def test_tilted_box_penetration_against_coal():
     checked = 0
     for _ in range(400):
         q = rng.normal(size=4)
-        o = SceneObject("o", rng.uniform([-0.5, -0.4, 0.6], [0.5, 0.4, 1.0]), 0.0, rng.uniform(0.05, 0.3, 3),
-                        q / np.linalg.norm(q))
+        o = SceneObject(
+            "o", rng.uniform([-0.5, -0.4, 0.6], [0.5, 0.4, 1.0]), 0.0, rng.uniform(0.05, 0.3, 3), q / np.linalg.norm(q)
+        )
         d = _coal_depth(o, obstacle)
         if abs(d) < 3 * TOLERANCE:  # the tolerance band: touching counts as outside, by design
             continue
@@ -211,8 +268,9 @@ def test_tilted_box_penetration_against_coal():
 
 def test_update_may_turn_an_object():
     s = parse_scene(v2_doc())
-    new, moved, _, _ = parse_update({"objects": [{"name": "cup", "orientation": ON_SIDE,
-                                                  "position": [1.9, -0.1, 0.78]}]}, s)
+    new, moved, _, _ = parse_update(
+        {"objects": [{"name": "cup", "orientation": ON_SIDE, "position": [1.9, -0.1, 0.78]}]}, s
+    )
     cup = new.object("cup")
     assert moved == {"cup"} and not cup.upright and cup.grasps == s.object("cup").grasps
     np.testing.assert_allclose(cup.orientation, ON_SIDE)
@@ -228,9 +286,14 @@ def test_update_may_turn_an_object():
             parse_update(change, s)
         assert str(err.value).startswith("update: ") and message in str(err.value)
     v1_doc = {k: v for k, v in v2_doc().items() if k != "trajectories"}
-    v1 = parse_scene({**v1_doc, "version": 1, "objects": [{"name": "cup", "position": [1.9, -0.1, 0.8],
-                                                             "size": [0.06, 0.06, 0.1]}],
-                      "place_locations": [{"name": "bin", "position": [2.2, 0.2, 0.85]}],
-                      "task": [{"pick": "cup", "place": "bin"}]})
+    v1 = parse_scene(
+        {
+            **v1_doc,
+            "version": 1,
+            "objects": [{"name": "cup", "position": [1.9, -0.1, 0.8], "size": [0.06, 0.06, 0.1]}],
+            "place_locations": [{"name": "bin", "position": [2.2, 0.2, 0.85]}],
+            "task": [{"pick": "cup", "place": "bin"}],
+        }
+    )
     with pytest.raises(SceneError, match=r"update: objects\[0\].orientation: 'orientation' needs version: 2"):
         parse_update({"objects": [{"name": "cup", "orientation": ON_SIDE}]}, v1)

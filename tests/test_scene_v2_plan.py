@@ -6,15 +6,15 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+from test_scene_v2 import KITCHEN
 
+from placement.maps.rmap import open_map
 from placement.planning import Planner
 from placement.planning.grasps import box_grasps
 from placement.planning.manipulation import base_yaws, manipulation_map
 from placement.planning.navgrid import NavGrid
-from placement.planning.scene import SceneObject, load_scene
 from placement.planning.verify import base_matrix, trajectory_ik
-from placement.rmap import open_map
-from test_scene_v2 import KITCHEN
+from placement.scene import SceneObject, load_scene
 
 
 def test_kitchen_plans_with_reach_side_grasps_and_orientations(maps_dir, pr2):
@@ -25,8 +25,14 @@ def test_kitchen_plans_with_reach_side_grasps_and_orientations(maps_dir, pr2):
     assert result.ok, [s.reason for s in result.steps if s.status != "ok"]
     steps = result.steps
     assert [(s.action, s.target) for s in steps] == [
-        ("reach", "drawer_left,drawer_right"), ("pick", "cup"), ("place", "side_table_spot"), ("pick", "can_lying"),
-        ("place", "counter_spot"), ("pick", "juice"), ("place", "table_spot")]
+        ("reach", "drawer_left,drawer_right"),
+        ("pick", "cup"),
+        ("place", "side_table_spot"),
+        ("pick", "can_lying"),
+        ("place", "counter_spot"),
+        ("pick", "juice"),
+        ("place", "table_spot"),
+    ]
     assert steps[0].grasp in ("drawer_left", "drawer_right")
     # the cup is set down upright at one of the two allowed yaws, held as it was picked
     assert steps[2].trajectory in (f"{steps[1].grasp}@orientation0", f"{steps[1].grasp}@orientation1")

@@ -10,24 +10,34 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from ik_oracle import find_placement, find_transfer
+from test_planner import write_scene
 
 from placement.errors import PlacementError
 from placement.planning.planner import Planner
 from placement.planning.steps import step_candidates
 from placement.planning.verify import base_matrix, trajectory_ik
 
-from ik_oracle import find_placement, find_transfer
-from test_planner import write_scene
-
 PR2_MAPS = Path(__file__).resolve().parents[1] / "maps" / "pr2"
 
 
-def edge_scene(tmp_path, maps, height: float, depth: float, along: float = 0.0, threshold: float = 0.01,
-               name: str = "edge", preset: str = "pr2") -> Path:
+def edge_scene(
+    tmp_path,
+    maps,
+    height: float,
+    depth: float,
+    along: float = 0.0,
+    threshold: float = 0.01,
+    name: str = "edge",
+    preset: str = "pr2",
+) -> Path:
     """A 2 m deep table of ``height`` [m] reachable from its -y side only (walls on the others), a
     cup ``depth`` [m] in from that side and ``along`` [m] off its centre, and a place table."""
     doc = {
-        "version": 1, "resolution": 0.05, "bounds": [0.0, 0.0, 5.0, 5.0], "maps": str(maps),
+        "version": 1,
+        "resolution": 0.05,
+        "bounds": [0.0, 0.0, 5.0, 5.0],
+        "maps": str(maps),
         "robot": {"preset": preset, "start": [2.5, 0.8, 0.0]},
         "obstacles": [
             {"name": "table", "box": {"center": [2.5, 2.5, height / 2], "size": [1.6, 2.0, height]}, "table": True},
@@ -36,8 +46,14 @@ def edge_scene(tmp_path, maps, height: float, depth: float, along: float = 0.0, 
             {"name": "wall_r", "box": {"center": [3.4, 2.5, 0.5], "size": [0.2, 2.4, 1.0]}},
             {"name": "side", "box": {"center": [4.2, 1.0, 0.35], "size": [0.5, 0.5, 0.7]}, "table": True},
         ],
-        "objects": [{"name": "cup", "position": [2.5 + along, 1.5 + depth, height + 0.05], "yaw": 0.3,
-                     "size": [0.06, 0.06, 0.1]}],
+        "objects": [
+            {
+                "name": "cup",
+                "position": [2.5 + along, 1.5 + depth, height + 0.05],
+                "yaw": 0.3,
+                "size": [0.06, 0.06, 0.1],
+            }
+        ],
         "place_locations": [{"name": "spot", "position": [4.2, 1.0, 0.76]}],
         "task": [{"pick": "cup", "place": "spot"}],
         # no time budget: what the search finds must not depend on the machine's load
@@ -52,15 +68,25 @@ def _oracle(planner, step_index: int, samples: int = 500, collisions: bool = Fal
     """An independent placement of the step (a pick with its place: a transfer), or None."""
     steps = planner.problems.steps
     step = steps[step_index]
-    alone = find_placement(planner, [c.poses for c in step_candidates(planner.scene, step, planner.config)],
-                           samples=samples, step_index=step_index, collisions=collisions)
-    if alone is not None and step.action == "pick" and step_index + 1 < len(steps) \
-            and steps[step_index + 1].pick == step_index:  # a pick is done only with its place
+    alone = find_placement(
+        planner,
+        [c.poses for c in step_candidates(planner.scene, step, planner.config)],
+        samples=samples,
+        step_index=step_index,
+        collisions=collisions,
+    )
+    if (
+        alone is not None
+        and step.action == "pick"
+        and step_index + 1 < len(steps)
+        and steps[step_index + 1].pick == step_index
+    ):  # a pick is done only with its place
         return find_transfer(planner, step_index, samples, collisions=collisions)
     return alone
 
 
 # -- trajectory IK -------------------------------------------------------------------------------
+
 
 def _trajectory(pr2, base, q):
     """World poses (2, 4, 4): the TCP at q from ``base`` and 5 cm above it (pre-pose first)."""
@@ -86,7 +112,8 @@ def test_trajectory_ik_gives_every_pose_and_the_failing_one(pr2):
     assert not bad.ok and bad.failed_pose == 1 and bad.qs.shape == (1, arm.dof)
     reached = (base_matrix(*base) @ pr2.tcp_pose("right", bad.best_q))[:3, 3]
     assert 2.0 < bad.residual_m < 3.5 and np.linalg.norm(reached - far[1, :3, 3]) == pytest.approx(
-        bad.residual_m, abs=1e-6)
+        bad.residual_m, abs=1e-6
+    )
     none = trajectory_ik(pr2, "right", far[::-1], base, arm.home)
     assert none.failed_pose == 0 and none.qs.shape == (0, arm.dof)
 
@@ -110,6 +137,7 @@ def test_the_witness_is_the_first_start(pr2):
 
 
 # -- the collision hook ------------------------------------------------------------------------------
+
 
 class XLimit:
     """A real (if simple) collision check: bases with x beyond ``limit`` [m] hit a wall."""
@@ -153,11 +181,14 @@ def test_all_placements_in_collision_are_explained(tmp_path, maps_dir):
     d = bad.to_json()["diagnosis"]
     assert bad.step == 0 and d["collision_failures"] + d["ik_failures"] == d["tried"]
     assert d["collision_failures"] > max(25, d["ik_failures"]) and d["culprit"] == "base_link-wall"
-    assert f"IK reached every pose at {d['collision_failures']} of them but the arm collided there, mostly " \
-           "base_link-wall" in bad.reason
+    assert (
+        f"IK reached every pose at {d['collision_failures']} of them but the arm collided there, mostly "
+        "base_link-wall" in bad.reason
+    )
 
 
 # -- the plan document -------------------------------------------------------------------------------
+
 
 def test_plan_json_has_every_pose_with_its_joints(tmp_path, maps_dir, pr2):
     result = Planner(write_scene(tmp_path, maps_dir)).plan()
@@ -190,6 +221,7 @@ def test_ik_budget_is_a_scene_key_with_bounds(tmp_path, maps_dir):
 
 
 # -- explanations ------------------------------------------------------------------------------------
+
 
 def test_a_pose_above_the_band_says_above(tmp_path, maps_dir):
     objects = json.loads(json.dumps(yaml.safe_load(write_scene(tmp_path, maps_dir).read_text())["objects"]))
@@ -224,14 +256,27 @@ def test_a_scene_that_gave_up_after_the_best_placements_now_plans(tmp_path, maps
 
 # -- no false "infeasible" ---------------------------------------------------------------------------
 
+
 def _held_out(tmp_path, maps, threshold):
     """Edge-of-reach scenes (tables low to high, objects near and far from the edge) and generated
     table-clearing scenes, for the real (square) PR2."""
     from placement.evaluation.generate import generate_scene
 
-    paths = [edge_scene(tmp_path, maps, h, d, a, threshold, f"edge{i}") for i, (h, d, a) in enumerate(
-        [(0.5, 0.53, 0.0), (0.5, 0.62, 0.0), (0.8, 0.51, 0.0), (0.8, 0.62, 0.37), (0.95, 0.47, 0.37),
-         (0.62, 0.45, 0.2), (1.0, 0.3, 0.0), (0.75, 0.66, 0.0)])]
+    paths = [
+        edge_scene(tmp_path, maps, h, d, a, threshold, f"edge{i}")
+        for i, (h, d, a) in enumerate(
+            [
+                (0.5, 0.53, 0.0),
+                (0.5, 0.62, 0.0),
+                (0.8, 0.51, 0.0),
+                (0.8, 0.62, 0.37),
+                (0.95, 0.47, 0.37),
+                (0.62, 0.45, 0.2),
+                (1.0, 0.3, 0.0),
+                (0.75, 0.66, 0.0),
+            ]
+        )
+    ]
     for seed in (3, 5):
         doc = generate_scene(seed, 0, objects=2, obstacles=True, maps=str(maps))
         doc["planner"] = {"threshold": threshold, "yaw_steps": 40}
@@ -252,8 +297,9 @@ def _no_false_infeasible(tmp_path, maps, threshold):
                 feasible_checked += 1
             continue
         infeasible += 1
-        assert _oracle(planner, bad.step, collisions=True) is None, \
+        assert _oracle(planner, bad.step, collisions=True) is None, (
             f"{path.name}: step {bad.step} has a placement: {bad.reason}"
+        )
     assert infeasible >= 3
 
 

@@ -8,7 +8,7 @@ import pytest
 from conftest import random_configs
 
 import placement
-from placement.selfcollision import SelfCollision
+from placement.maps.selfcollision import SelfCollision
 
 
 @pytest.fixture(scope="module")
@@ -54,14 +54,15 @@ def test_home_is_free_and_hand_in_torso_collides(checker, pr2):
 
 def test_map_with_self_collision_is_the_max_over_free_samples(pr2, checker):
     """Equal, cell by cell, to a brute-force max over the collision-free samples (direct measure)."""
-    from placement.build import default_grid
     from placement.kernels.grid import cell_indices
     from placement.kernels.kinematics import fk_jacobian_batch
     from placement.kernels.sampling import sample_configs
+    from placement.maps.build import default_grid
 
     n, res = 3000, 0.2
-    built = placement.build_map(pr2, "right", samples=n, seed=4, resolution=res, progress=False,
-                                self_collision=True, block=512)
+    built = placement.build_map(
+        pr2, "right", samples=n, seed=4, resolution=res, progress=False, self_collision=True, block=512
+    )
     assert built.meta["measure"]["self_collision"] is True
     assert "collision shapes" in built.meta["measure"]["self_collision_geometry"]
     arm = pr2.arm("right")
@@ -86,7 +87,7 @@ def test_missing_collision_geometry_is_one_clear_error(armar6):
 
 
 def test_distance_penalty_literal():
-    from placement.selfcollision import distance_penalty
+    from placement.maps.selfcollision import distance_penalty
 
     assert distance_penalty(0.05) == pytest.approx(np.exp(-2.0) / 0.05, rel=1e-15)
     assert distance_penalty(0.2) == pytest.approx(np.exp(-8.0) / 0.2, rel=1e-15)
@@ -94,7 +95,7 @@ def test_distance_penalty_literal():
 
 def test_row_factors_against_pinocchio_distances(checker, pr2):
     """Rotation rows untouched; translational rows penalised towards the body only, by P(d) |n_r|."""
-    from placement.selfcollision import distance_penalty
+    from placement.maps.selfcollision import distance_penalty
 
     arm = pr2.arm("right")
     Q = random_configs(arm, 200, np.random.default_rng(8))
@@ -112,24 +113,26 @@ def test_row_factors_against_pinocchio_distances(checker, pr2):
         all_d = [r.min_distance for r in gdata.distanceResults]
         d = min(all_d)
         # the bounding-sphere pruned search finds the same pair as measuring every pair
-        k, res = checker._nearest_pair(pr2.full_q("right", q), np.empty_like(checker._centre),
-                                       checker._pair_ids[:, 0], checker._pair_ids[:, 1])
+        k, res = checker._nearest_pair(
+            pr2.full_q("right", q), np.empty_like(checker._centre), checker._pair_ids[:, 0], checker._pair_ids[:, 1]
+        )
         assert k == int(np.argmin(all_d)) and res.min_distance == d
         # (1/f^2 - 1) = P(d) |n_r| summed over both signs, and |n| = 1
         pn = (1.0 / f[:3, 0] ** 2 - 1.0) + (1.0 / f[:3, 1] ** 2 - 1.0)
-        assert np.sqrt(np.sum(pn ** 2)) == pytest.approx(distance_penalty(d), rel=1e-9, abs=1e-12)
+        assert np.sqrt(np.sum(pn**2)) == pytest.approx(distance_penalty(d), rel=1e-9, abs=1e-12)
 
 
 def test_map_with_self_distance_is_the_max_over_penalised_samples(pr2, checker):
     """A build with the self-distance penalty equals the brute-force per-cell max of penalised values."""
-    from placement.build import default_grid
     from placement.kernels.grid import cell_indices
     from placement.kernels.kinematics import fk_jacobian_batch
     from placement.kernels.sampling import sample_configs
+    from placement.maps.build import default_grid
 
     n, res = 1500, 0.2
-    built = placement.build_map(pr2, "right", samples=n, seed=9, resolution=res, progress=False,
-                                self_distance=True, block=400)
+    built = placement.build_map(
+        pr2, "right", samples=n, seed=9, resolution=res, progress=False, self_distance=True, block=400
+    )
     assert built.meta["measure"]["self_distance_penalty"]["alpha_per_m"] == 40.0
     arm = pr2.arm("right")
     Q = sample_configs(np.uint64(9), 0, n, arm.lower, arm.upper)
@@ -143,8 +146,9 @@ def test_map_with_self_distance_is_the_max_over_penalised_samples(pr2, checker):
     expect = np.zeros(grid.size, np.float32)
     np.maximum.at(expect, cells, vals)
     assert np.array_equal(built.values.ravel(), expect)
-    collision_only = placement.build_map(pr2, "right", samples=n, seed=9, resolution=res, progress=False,
-                                         self_collision=True)
+    collision_only = placement.build_map(
+        pr2, "right", samples=n, seed=9, resolution=res, progress=False, self_collision=True
+    )
     assert np.any(built.values != collision_only.values)  # the penalty changes values
     assert np.array_equal(built.values > 0, collision_only.values > 0)  # but not which cells are reached
 
@@ -156,12 +160,16 @@ def test_no_pair_left_is_one_clear_error(tmp_path):
     joints = "".join(
         f'<joint name="j{i}" type="revolute"><parent link="l{i}"/><child link="l{i + 1}"/>'
         f'<origin xyz="0 0 0.3"/><axis xyz="{"0 0 1" if i % 2 == 0 else "0 1 0"}"/>'
-        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>' for i in range(7))
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+        for i in range(7)
+    )
     urdf = tmp_path / "chain.urdf"
     urdf.write_text(f'<robot name="chain">{links}{joints}</robot>')
     preset = tmp_path / "chain.yaml"
-    preset.write_text(f"name: chain\nurdf: {urdf}\nbase_frame: l0\nfootprint_radius: 0.3\nv_max: 0.5\nomega_max: 1.0\n"
-                      "arms:\n  a:\n    joints: [j0, j1, j2, j3, j4, j5, j6]\n    tip_frame: l7\n")
+    preset.write_text(
+        f"name: chain\nurdf: {urdf}\nbase_frame: l0\nfootprint_radius: 0.3\nv_max: 0.5\nomega_max: 1.0\n"
+        "arms:\n  a:\n    joints: [j0, j1, j2, j3, j4, j5, j6]\n    tip_frame: l7\n"
+    )
     robot = placement.load_robot(str(preset))
     with pytest.raises(placement.PlacementError, match="no collision shape pair involves arm 'a'"):
         SelfCollision(robot, "a")

@@ -76,8 +76,9 @@ def _owners(modules) -> dict[str, list[str]]:
 def test_every_imported_third_party_module_is_declared():
     local = {p.stem for p in (ROOT / "tests").glob("*.py")} | {p.stem for p in (ROOT / "tools").glob("*.py")}
     local |= {"placement"}
-    third_party = sorted(m for m in _imported_top_modules()
-                         if m not in sys.stdlib_module_names and m not in local and m != "__future__")
+    third_party = sorted(
+        m for m in _imported_top_modules() if m not in sys.stdlib_module_names and m not in local and m != "__future__"
+    )
     owners = _owners(third_party)
     declared = set(_declared())
     missing = {m: owners.get(m) for m in third_party if not {_name(d) for d in owners.get(m, [])} & declared}
@@ -137,8 +138,10 @@ def test_numba_cache_dir_set_by_the_user_is_kept():
 def test_a_test_run_ends_with_its_skips_grouped_by_reason(tmp_path):
     (tmp_path / "conftest.py").write_text(
         f"import sys\nsys.path.insert(0, {str(ROOT / 'tests')!r})\n"
-        "from skip_summary import pytest_terminal_summary  # noqa: F401\n")
-    (tmp_path / "test_a.py").write_text(textwrap.dedent("""
+        "from skip_summary import pytest_terminal_summary  # noqa: F401\n"
+    )
+    (tmp_path / "test_a.py").write_text(
+        textwrap.dedent("""
         import pytest
 
         @pytest.mark.parametrize("i", range(3))
@@ -150,17 +153,25 @@ def test_a_test_run_ends_with_its_skips_grouped_by_reason(tmp_path):
 
         def test_ok():
             pass
-    """))
-    (tmp_path / "test_b.py").write_text("import pytest\n\n@pytest.mark.skip(reason='ARMAR-6 URDF not found')\n"
-                                        "def test_other():\n    pass\n")
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                           "-ra", str(tmp_path)], capture_output=True, text=True, cwd=tmp_path,
-                          env=dict(os.environ, PYTEST_DISABLE_PLUGIN_AUTOLOAD="1"))
+    """)
+    )
+    (tmp_path / "test_b.py").write_text(
+        "import pytest\n\n@pytest.mark.skip(reason='ARMAR-6 URDF not found')\ndef test_other():\n    pass\n"
+    )
+    proc = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-ra", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env=dict(os.environ, PYTEST_DISABLE_PLUGIN_AUTOLOAD="1"),
+    )
     lines = proc.stdout.splitlines()
     assert proc.returncode == 0, proc.stdout
     start = next(i for i, line in enumerate(lines) if "5 skipped, by reason" in line)
-    assert lines[start + 1:start + 3] == ["3 skipped: no Chromium (viewer browser tests) (test_a.py)",
-                                          "2 skipped: ARMAR-6 URDF not found (test_a.py, test_b.py)"]
+    assert lines[start + 1 : start + 3] == [
+        "3 skipped: no Chromium (viewer browser tests) (test_a.py)",
+        "2 skipped: ARMAR-6 URDF not found (test_a.py, test_b.py)",
+    ]
     # after pytest's own one-per-test list, and pytest's count stays the closing line
     assert start > max(i for i, line in enumerate(lines) if line.startswith("SKIPPED"))
     assert re.fullmatch(r"1 passed, 5 skipped in .*", lines[-1])

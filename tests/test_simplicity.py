@@ -37,8 +37,9 @@ def _agree(points):
 
 # small integer grids: vertical edges, shared vertices, collinear overlaps and spikes are common
 grid_polygons = st.lists(st.tuples(st.integers(0, 4), st.integers(0, 4)), min_size=3, max_size=9).filter(_no_repeats)
-float_polygons = st.lists(st.tuples(st.floats(-10, 10, allow_nan=False), st.floats(-10, 10, allow_nan=False)),
-                          min_size=3, max_size=12).filter(_no_repeats)
+float_polygons = st.lists(
+    st.tuples(st.floats(-10, 10, allow_nan=False), st.floats(-10, 10, allow_nan=False)), min_size=3, max_size=12
+).filter(_no_repeats)
 
 
 @settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
@@ -54,8 +55,12 @@ def test_sweep_agrees_with_the_naive_test_on_random_polygons(points):
 
 
 @settings(max_examples=100, deadline=None)
-@given(n=st.integers(3, 60), seed=st.integers(0, 2**32 - 1), scale=st.sampled_from([1e-3, 1.0, 1e5]),
-       offset=st.sampled_from([0.0, 1e5, -3e5]))
+@given(
+    n=st.integers(3, 60),
+    seed=st.integers(0, 2**32 - 1),
+    scale=st.sampled_from([1e-3, 1.0, 1e5]),
+    offset=st.sampled_from([0.0, 1e5, -3e5]),
+)
 def test_star_shaped_polygons_are_simple(n, seed, scale, offset):
     """Random radii at sorted angles: always simple, also tiny or far from the origin."""
     rng = np.random.default_rng(seed)
@@ -69,18 +74,21 @@ def test_star_shaped_polygons_are_simple(n, seed, scale, offset):
     _agree(pts)
 
 
-@pytest.mark.parametrize("points, simple", [
-    ([(0, 0), (1, 0), (1, 1), (0, 1)], True),
-    ([(0, 0), (1, 1), (1, 0), (0, 1)], False),                    # bow tie
-    ([(0, 0), (4, 0), (4, 4), (2, 0.0), (0, 4)], False),          # a vertex on another edge
-    ([(0, 0), (2, 0), (1, 0), (1, 1)], False),                     # a spike back along an edge
-    ([(0, 0), (3, 0), (3, 1), (1, 1), (1, 0.0), (0, 1)], False),   # a vertex touching an edge from above
-    ([(0, 0), (4, 0), (4, 1), (2, 1), (2, 0), (1, 1)], False),     # collinear edges overlapping
-    ([(0, 0), (2, 0), (2, 2), (1, 2), (1, 1), (1, 2), (0, 2)], False),  # a vertex visited twice
-    ([(0, 0), (10, 0), (10, 10), (1, 1), (1, 9), (0, 10)], True),
-    # a self-crossing polygon with unequal lobes (its area is not zero, so the area test misses it)
-    ([(0, 0), (4, 0), (4, 3), (-1, -1), (-1, 1)], False),
-])
+@pytest.mark.parametrize(
+    "points, simple",
+    [
+        ([(0, 0), (1, 0), (1, 1), (0, 1)], True),
+        ([(0, 0), (1, 1), (1, 0), (0, 1)], False),  # bow tie
+        ([(0, 0), (4, 0), (4, 4), (2, 0.0), (0, 4)], False),  # a vertex on another edge
+        ([(0, 0), (2, 0), (1, 0), (1, 1)], False),  # a spike back along an edge
+        ([(0, 0), (3, 0), (3, 1), (1, 1), (1, 0.0), (0, 1)], False),  # a vertex touching an edge from above
+        ([(0, 0), (4, 0), (4, 1), (2, 1), (2, 0), (1, 1)], False),  # collinear edges overlapping
+        ([(0, 0), (2, 0), (2, 2), (1, 2), (1, 1), (1, 2), (0, 2)], False),  # a vertex visited twice
+        ([(0, 0), (10, 0), (10, 10), (1, 1), (1, 9), (0, 10)], True),
+        # a self-crossing polygon with unequal lobes (its area is not zero, so the area test misses it)
+        ([(0, 0), (4, 0), (4, 3), (-1, -1), (-1, 1)], False),
+    ],
+)
 def test_known_polygons(points, simple):
     assert (self_crossing(points) is None) == simple
     assert (naive_crossing(points) is None) == simple

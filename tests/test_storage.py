@@ -17,8 +17,20 @@ from placement.storage.format import FORMAT_VERSION, ROOT_KEY
 
 SMALL = dict(resolution=0.2, bins=(4, 3, 4))
 FORMATS = ["zarr", "hdf5"]
-META_KEYS = ("format_version", "robot", "urdf_sha256", "arm", "base_frame", "tip_frame", "grid", "measure",
-             "samples", "seed", "build_time_s", "software")
+META_KEYS = (
+    "format_version",
+    "robot",
+    "urdf_sha256",
+    "arm",
+    "base_frame",
+    "tip_frame",
+    "grid",
+    "measure",
+    "samples",
+    "seed",
+    "build_time_s",
+    "software",
+)
 
 
 @pytest.fixture(scope="module")
@@ -46,6 +58,7 @@ def saved(request, tmp_path, pr2, right_map):
 def set_root(path: Path, fmt: str, edit, reseal: bool = True) -> None:
     """Apply ``edit(root_dict)`` to the stored root metadata (simulates other maps and versions: with
     ``reseal``, the root's digest is made to match, as if it had been written so; else damage)."""
+
     def change(root):
         edit(root)
         if reseal and isinstance(root.get(DIGEST_KEY), dict):
@@ -92,6 +105,7 @@ def snapshot(directory: Path) -> dict:
 # --------------------------------------------------------------------------------------------
 # Round trip and metadata
 # --------------------------------------------------------------------------------------------
+
 
 def test_round_trip_values(saved, right_map):
     fmt, path = saved
@@ -175,6 +189,7 @@ def test_saving_another_arm_keeps_the_first(tmp_path, pr2, right_map, left_map, 
 # --------------------------------------------------------------------------------------------
 # Bad input: clear MapError
 # --------------------------------------------------------------------------------------------
+
 
 def test_missing_path(tmp_path):
     with pytest.raises(MapError, match="no such map"):

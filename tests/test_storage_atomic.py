@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_storage import FORMATS, left_map, right_map, set_root, snapshot  # noqa: F401 - fixtures
 
 import placement
 from placement import MapError
@@ -15,8 +16,6 @@ from placement.storage import backend
 from placement.storage.base import atomic_replace
 from placement.storage.format import FORMAT_VERSION
 from placement.storage.zarr import ZarrBackend
-from test_storage import FORMATS, left_map, right_map, set_root, snapshot  # noqa: F401 - fixtures
-
 
 
 class Interrupted(Exception):
@@ -41,7 +40,10 @@ def test_atomic_replace_keeps_old_map(tmp_path, pr2, right_map, left_map, exc):
     path = placement.save_maps(tmp_path / "pr2", pr2, {"right": right_map}, "zarr")
     before = snapshot(path)
     root = {"format_version": FORMAT_VERSION, "preset": "pr2", **pr2.fingerprint, "arms": ["left", "right"]}
-    arms = {"left": (left_map.values, left_map.meta, left_map.witness), "right": (right_map.values, right_map.meta, right_map.witness)}
+    arms = {
+        "left": (left_map.values, left_map.meta, left_map.witness),
+        "right": (right_map.values, right_map.meta, right_map.witness),
+    }
     with pytest.raises(type(exc)):
         atomic_replace(FailingZarr(exc), path, root, arms)
     assert snapshot(path) == before
@@ -56,8 +58,15 @@ def test_atomic_replace_keeps_old_map(tmp_path, pr2, right_map, left_map, exc):
 def test_atomic_replace_fresh_target_leaves_nothing(tmp_path, pr2, right_map):
     root = {"format_version": FORMAT_VERSION, "preset": "pr2", **pr2.fingerprint, "arms": ["right"]}
     with pytest.raises(Interrupted):
-        atomic_replace(FailingZarr(Interrupted("boom")), tmp_path / "new", root,
-                       {"right": (right_map.values, right_map.meta, right_map.witness), "x": (right_map.values, right_map.meta, right_map.witness)})
+        atomic_replace(
+            FailingZarr(Interrupted("boom")),
+            tmp_path / "new",
+            root,
+            {
+                "right": (right_map.values, right_map.meta, right_map.witness),
+                "x": (right_map.values, right_map.meta, right_map.witness),
+            },
+        )
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(MapError, match="no such map"):
         placement.open_map(tmp_path / "new", "right")
@@ -123,5 +132,3 @@ def test_atomic_replace_restores_old_map_if_the_final_rename_fails(tmp_path, pr2
     assert snapshot(path) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pr2"]
     placement.open_map(path, "right").verify()
-
-

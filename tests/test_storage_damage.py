@@ -16,10 +16,10 @@ import h5py
 import numpy as np
 import pytest
 import zarr
+from test_storage import right_map, zarr_chunk_files  # noqa: F401 - a fixture
 
 import placement
 from placement import MapError
-from test_storage import right_map, zarr_chunk_files  # noqa: F401 - a fixture
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -39,7 +39,7 @@ def garble(data: bytes) -> bytes:
     """Overwrite a run of bytes after the header with a fixed pattern."""
     start = min(32, len(data) // 2)
     n = max(8, (len(data) - start) // 2)
-    return data[:start] + bytes((i * 37 + 11) & 0xFF for i in range(n)) + data[start + n:]
+    return data[:start] + bytes((i * 37 + 11) & 0xFF for i in range(n)) + data[start + n :]
 
 
 def changed_bytes(path):
@@ -76,8 +76,9 @@ def moved(path):
     arr = zarr.open_group(str(path), mode="r")["right"]
     _, _, nz, _, n_pitch, n_roll = arr.shape
     stored = {chunk_index(path, p) for p in zarr_chunk_files(path)}
-    iz, ip, ir = next((z, p, r) for z in range(nz) for p in range(n_pitch) for r in range(n_roll)
-                      if (z, p, r) not in stored)
+    iz, ip, ir = next(
+        (z, p, r) for z in range(nz) for p in range(n_pitch) for r in range(n_roll) if (z, p, r) not in stored
+    )
     target = path / "right" / "c" / "0" / "0" / str(iz) / "0" / str(ip) / str(ir)
     target.parent.mkdir(parents=True, exist_ok=True)
     os.replace(f, target)
@@ -136,8 +137,9 @@ IDS = [d.__name__ for _, d in CASES]
 def damaged(request, tmp_path, pr2, right_map):
     """(path, (iz, ip, ir) of a damaged chunk, damage name) of a saved map with one damage."""
     fmt, damage = request.param
-    path = placement.save_maps(tmp_path / ("pr2" + placement.storage.backend(fmt).suffix), pr2,
-                               {"right": right_map}, fmt)
+    path = placement.save_maps(
+        tmp_path / ("pr2" + placement.storage.backend(fmt).suffix), pr2, {"right": right_map}, fmt
+    )
     placement.open_map(path, "right").verify()  # sound before the damage
     return path, damage(path), damage.__name__
 
@@ -196,8 +198,12 @@ def test_damage_is_named_as_such(damaged):
 
 def test_maps_info_fails_with_one_line(damaged):
     path, _, _ = damaged
-    p = subprocess.run([sys.executable, "-m", "placement.cli.main", "maps", "info", str(path)],
-                       capture_output=True, text=True, cwd=ROOT)
+    p = subprocess.run(
+        [sys.executable, "-m", "placement.cli.main", "maps", "info", str(path)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
     assert p.returncode == 2, p.stderr
     assert p.stdout == ""
     lines = p.stderr.splitlines()
@@ -210,9 +216,13 @@ def test_sound_chunks_still_read_beside_a_damaged_one(damaged, right_map):
     if name in ("deleted", "moved", "swapped"):
         pytest.skip("these touch two chunk keys or fail at open")
     rmap = placement.open_map(path, "right")
-    other = next((z, p, r) for z in range(right_map.grid.shape[2]) for p in range(right_map.grid.shape[4])
-                 for r in range(right_map.grid.shape[5])
-                 if (z, p, r) != (iz, ip, ir) and right_map.values[:, :, z, :, p, r].any())
+    other = next(
+        (z, p, r)
+        for z in range(right_map.grid.shape[2])
+        for p in range(right_map.grid.shape[4])
+        for r in range(right_map.grid.shape[5])
+        if (z, p, r) != (iz, ip, ir) and right_map.values[:, :, z, :, p, r].any()
+    )
     np.testing.assert_array_equal(rmap.slice(*other), right_map.values[:, :, other[0], :, other[1], other[2]])
 
 
@@ -227,8 +237,7 @@ def test_truncated_hdf5_file(tmp_path, pr2, right_map):
 @pytest.mark.parametrize("fmt", ["zarr", "hdf5"])
 def test_backends_check_bytes_too(tmp_path, pr2, right_map, fmt):
     """zarr stores chunks with a crc32c codec, HDF5 with the fletcher32 filter."""
-    path = placement.save_maps(tmp_path / ("m" + placement.storage.backend(fmt).suffix), pr2,
-                               {"right": right_map}, fmt)
+    path = placement.save_maps(tmp_path / ("m" + placement.storage.backend(fmt).suffix), pr2, {"right": right_map}, fmt)
     if fmt == "zarr":
         codecs = [c.to_dict()["name"] for c in zarr.open_group(str(path), mode="r")["right"].metadata.codecs]
         assert codecs[-1] == "crc32c"

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 import yaml
+from test_storage import SMALL, reseal_arm, set_root
 
 import placement
 from placement import MapError
 from placement.robots.preset import PRESET_DIR
-from test_storage import SMALL, reseal_arm, set_root
 
 
 @pytest.fixture(scope="module")
@@ -29,6 +29,7 @@ def variant(tmp_path, edit) -> placement.Robot:
 def shift_tcp(dx):
     def edit(arm):
         arm["tcp_offset"] = [dx, *arm["tcp_offset"][1:]]
+
     return edit
 
 
@@ -48,6 +49,7 @@ def test_tcp_offset_differs(saved, tmp_path, dx):
 def test_tcp_rotation_differs(saved, tmp_path):
     def edit(arm):
         arm["tcp_offset"] = [0, 0, 0, 0, 0, 0, 1]
+
     with pytest.raises(MapError, match="TCP offset"):
         placement.open_map(saved, "right", robot=variant(tmp_path, edit))
 
@@ -55,16 +57,19 @@ def test_tcp_rotation_differs(saved, tmp_path):
 def test_tip_frame_differs(saved, tmp_path):
     def edit(arm):
         arm["tip_frame"] = "r_gripper_palm_link"
+
     with pytest.raises(MapError, match="tip frame r_gripper_tool_frame, the preset has r_gripper_palm_link"):
         placement.open_map(saved, "right", robot=variant(tmp_path, edit))
 
 
 def test_six_joint_arm_against_a_seven_joint_map(saved, tmp_path):
     """(A 5-joint arm is refused by the preset itself: arms need 6 joints.)"""
+
     def edit(arm):
         arm["joints"] = arm["joints"][:6]
         arm["home"] = arm["home"][:6]
         arm.pop("idle", None)
+
     with pytest.raises(MapError, match="joints .*r_wrist_roll_joint.*the preset has"):
         placement.open_map(saved, "right", robot=variant(tmp_path, edit))
 
@@ -88,9 +93,14 @@ def test_joint_order_differs(saved, tmp_path, pr2):
 def test_stored_arm_metadata_damaged(tmp_path, pr2):
     """Missing or malformed arm fields and chunk checksums in the file: a MapError, not a traceback."""
     m = placement.build_map(pr2, "right", samples=500, seed=2, progress=False, **SMALL)
-    for field, value, words in [("tcp_offset", "x", "TCP offset"), ("tcp_offset", [[1, 2]], "TCP offset"),
-                                ("joints", None, "joints"), ("tip_frame", 3, "tip.frame"),
-                                ("chunk_crc32", [1, 2], "checksums"), ("chunk_crc32", None, "checksums")]:
+    for field, value, words in [
+        ("tcp_offset", "x", "TCP offset"),
+        ("tcp_offset", [[1, 2]], "TCP offset"),
+        ("joints", None, "joints"),
+        ("tip_frame", 3, "tip.frame"),
+        ("chunk_crc32", [1, 2], "checksums"),
+        ("chunk_crc32", None, "checksums"),
+    ]:
         path = placement.save_maps(tmp_path / f"m-{field}-{type(value).__name__}", pr2, {"right": m})
         import zarr
 

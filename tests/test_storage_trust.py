@@ -22,13 +22,13 @@ import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
+from test_storage import SMALL, left_map, right_map, set_root, zarr_chunk_files  # noqa: F401 - fixtures
 
 import placement
 from placement import MapError
 from placement.cli.main import cli
 from placement.storage.digest import DIGEST_KEY
 from placement.storage.format import ROOT_KEY
-from test_storage import SMALL, left_map, right_map, set_root, zarr_chunk_files  # noqa: F401 - fixtures
 
 ROOT = Path(__file__).resolve().parents[1]
 FORMATS = ["zarr", "hdf5"]
@@ -38,14 +38,19 @@ FORMATS = ["zarr", "hdf5"]
 def sources(pr2, right_map, left_map, tmp_path_factory):
     """One sound two-arm map per format, copied by each test that damages it."""
     d = tmp_path_factory.mktemp("trust")
-    return {fmt: placement.save_maps(d / ("pr2" + placement.storage.backend(fmt).suffix), pr2,
-                                     {"right": right_map, "left": left_map}, fmt) for fmt in FORMATS}
+    return {
+        fmt: placement.save_maps(
+            d / ("pr2" + placement.storage.backend(fmt).suffix), pr2, {"right": right_map, "left": left_map}, fmt
+        )
+        for fmt in FORMATS
+    }
 
 
 def copy_map(src: Path, dst_dir: Path) -> Path:
     dst = dst_dir / src.name
     if src.is_dir():
         import shutil
+
         shutil.copytree(src, dst)
     else:
         dst.write_bytes(src.read_bytes())
@@ -115,9 +120,17 @@ def other_witness_numbering(m):
     m["witness"]["plain_samples"] += 1
 
 
-ARM_EDITS = {shift_origin: "grid.origin", double_resolution: "grid.resolution", other_seed: "seed",
-             other_samples: "samples", other_crc: "chunk_crc32", other_witness_crc: "witness_crc32",
-             other_index: "measure.index", other_tcp: "tcp_offset", other_witness_numbering: "witness.plain_samples"}
+ARM_EDITS = {
+    shift_origin: "grid.origin",
+    double_resolution: "grid.resolution",
+    other_seed: "seed",
+    other_samples: "samples",
+    other_crc: "chunk_crc32",
+    other_witness_crc: "witness_crc32",
+    other_index: "measure.index",
+    other_tcp: "tcp_offset",
+    other_witness_numbering: "witness.plain_samples",
+}
 
 
 @pytest.mark.parametrize("fmt", FORMATS)
@@ -198,9 +211,10 @@ def test_a_map_without_digests(sources, tmp_path, fmt):
         warnings.simplefilter("default")
         result = CliRunner().invoke(cli, ["maps", "info", str(path)], catch_exceptions=False)
     assert result.exit_code == 0, result.output
-    assert [ln for ln in result.output.splitlines() if ln.startswith("warning:")] == \
-        [f"warning: {path}: map of format version 3 has no metadata digests, so changed metadata goes unnoticed; "
-         f"rebuild it to have it checked"]
+    assert [ln for ln in result.output.splitlines() if ln.startswith("warning:")] == [
+        f"warning: {path}: map of format version 3 has no metadata digests, so changed metadata goes unnoticed; "
+        f"rebuild it to have it checked"
+    ]
 
 
 def test_info_reads_every_witness_chunk(sources, tmp_path, right_map):
@@ -218,6 +232,7 @@ def test_info_reads_every_witness_chunk(sources, tmp_path, right_map):
 # --------------------------------------------------------------------------------------------
 # Bytes flipped anywhere in an HDF5 file: a clean error, or exactly the sound map's result
 # --------------------------------------------------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def hdf5_truth(sources):
@@ -262,10 +277,12 @@ def test_hdf5_bytes_flipped_anywhere(hdf5_truth, tmp_path_factory, where, flip):
 # Files that are not regular files of a sane size: never read
 # --------------------------------------------------------------------------------------------
 
+
 def run_cli(*args, timeout=60):
     """A command in a fresh process under a timeout (a blocking read would fail the test, not hang it)."""
-    return subprocess.run([sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True,
-                          cwd=ROOT, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True, cwd=ROOT, timeout=timeout
+    )
 
 
 def assert_refused(p, *words):
@@ -305,8 +322,11 @@ def guarded(fn, timeout: float = 30.0):
     return out[0] if out else None
 
 
-HOSTILE = [(replace_with_fifo, "is a FIFO"), (replace_with_dev_zero, "is a character device"),
-           (replace_with_loop, "symbolic links")]
+HOSTILE = [
+    (replace_with_fifo, "is a FIFO"),
+    (replace_with_dev_zero, "is a character device"),
+    (replace_with_loop, "symbolic links"),
+]
 
 
 @pytest.mark.parametrize("replace, words", HOSTILE, ids=["fifo", "dev-zero", "link-loop"])

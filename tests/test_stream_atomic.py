@@ -8,11 +8,11 @@ import io
 import json
 
 import pytest
+from test_planner import write_scene
 
 from placement.cli.options import MESSAGE_CHARS, bounded, cut
 from placement.cli.query import stream_lines, stream_plans
 from placement.planning import Planner, SceneError
-from test_planner import write_scene
 
 START = [1.0, 4.0, 0.0]
 CRATE = {"name": "crate", "box": {"center": [1.0, 4.0, 0.3], "size": [0.4, 0.4, 0.6]}}  # on the start pose
@@ -26,8 +26,9 @@ def scene_path(tmp_path_factory, maps_dir):
 def run_stream(planner, lines: list, capsys) -> tuple[list[dict], str]:
     """stream_plans over ``lines`` (dicts are sent as JSON, bytes and str as they are): the answers
     (the first plan first) and stderr."""
-    raw = b"".join((x if isinstance(x, bytes) else (x if isinstance(x, str) else json.dumps(x)).encode()) + b"\n"
-                   for x in lines)
+    raw = b"".join(
+        (x if isinstance(x, bytes) else (x if isinstance(x, str) else json.dumps(x)).encode()) + b"\n" for x in lines
+    )
     stream_plans(planner, stream=io.BytesIO(raw))
     out, err = capsys.readouterr()
     return [json.loads(x) for x in out.splitlines()], err
@@ -35,14 +36,18 @@ def run_stream(planner, lines: list, capsys) -> tuple[list[dict], str]:
 
 def test_each_answer_says_refused_or_applied(scene_path, capsys):
     planner = Planner(scene_path)
-    answers, err = run_stream(planner, [
-        {"start": [1.5, 4.0, 0.0]},                                      # 1 applied, planned
-        {"start": [1.2, 4.0, 0.0], "objects": [{"name": "mug"}]},        # 2 refused: nothing of it taken
-        "not json",                                                      # 3 refused
-        {"start": START, "obstacles": {"add": [CRATE]}},                 # 4 applied, planning fails
-        {"obstacles": {"add": [dict(CRATE, box={"center": [5.5, 0.5, 0.3], "size": [0.2, 0.2, 0.6]})]}},  # 5
-        {"start": [1.5, 3.0, 0.0]},                                      # 6 applied, plans again
-    ], capsys)
+    answers, err = run_stream(
+        planner,
+        [
+            {"start": [1.5, 4.0, 0.0]},  # 1 applied, planned
+            {"start": [1.2, 4.0, 0.0], "objects": [{"name": "mug"}]},  # 2 refused: nothing of it taken
+            "not json",  # 3 refused
+            {"start": START, "obstacles": {"add": [CRATE]}},  # 4 applied, planning fails
+            {"obstacles": {"add": [dict(CRATE, box={"center": [5.5, 0.5, 0.3], "size": [0.2, 0.2, 0.6]})]}},  # 5
+            {"start": [1.5, 3.0, 0.0]},  # 6 applied, plans again
+        ],
+        capsys,
+    )
     assert len(answers) == 7 and answers[0]["status"] == "ok" and "update" not in answers[0]
     first, refused, not_json, blocked, duplicate, again = answers[1:]
     assert first["update"]["status"] == "applied" and first["update"]["line"] == 1
@@ -77,8 +82,9 @@ def test_obstacles_and_start_together_list_both(scene_path):
     crate = dict(CRATE, box={"center": [5.5, 0.5, 0.3], "size": [0.2, 0.2, 0.6]})
     info = planner.update({"obstacles": {"add": [crate]}, "start": [1.5, 4.0, 0.0]})
     assert info["updated"] == ["obstacles", "start"]
-    info = planner.update({"obstacles": {"remove": ["crate"]}, "start": [1.5, 4.1, 0.0],
-                           "objects": [{"name": "cup", "yaw": 0.5}]})
+    info = planner.update(
+        {"obstacles": {"remove": ["crate"]}, "start": [1.5, 4.1, 0.0], "objects": [{"name": "cup", "yaw": 0.5}]}
+    )
     assert info["updated"] == ["cup", "obstacles", "start"]
 
 
@@ -87,13 +93,17 @@ def test_long_keys_and_values_are_not_echoed(scene_path, capsys):
     each answer and each stderr line stays short and says how long the value was."""
     planner = Planner(scene_path)
     big = "k" * 1_000_000
-    answers, err = run_stream(planner, [
-        {"x" * 20_000_000: 1},
-        {big: 1},
-        {"objects": [{"name": big, "yaw": 1.0}]},
-        {"obstacles": {"remove": [big]}},
-        {"objects": [{"name": "cup", big: 1}]},
-    ], capsys)
+    answers, err = run_stream(
+        planner,
+        [
+            {"x" * 20_000_000: 1},
+            {big: 1},
+            {"objects": [{"name": big, "yaw": 1.0}]},
+            {"obstacles": {"remove": [big]}},
+            {"objects": [{"name": "cup", big: 1}]},
+        ],
+        capsys,
+    )
     assert [a["update"]["status"] for a in answers[1:]] == ["refused"] * 5
     assert "more than the" in answers[1]["error"] and "bytes a stream line may hold" in answers[1]["error"]
     for a in answers[1:]:

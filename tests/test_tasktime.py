@@ -7,8 +7,9 @@ from placement.planning import PlanResult, StepResult
 
 
 def _step(pr2, arm, base, q, travel):
-    return StepResult(0, "pick", "x", arm=arm, base=tuple(base), joints=dict(zip(pr2.arm(arm).joints, q)),
-                      travel_time_s=travel)
+    return StepResult(
+        0, "pick", "x", arm=arm, base=tuple(base), joints=dict(zip(pr2.arm(arm).joints, q)), travel_time_s=travel
+    )
 
 
 def test_literal_two_steps(pr2):
@@ -17,8 +18,12 @@ def test_literal_two_steps(pr2):
     q1[0] += 1.044  # shoulder pan: 1.044 rad at 2.088 rad/s = 0.5 s
     q2 = q1.copy()
     q2[4] += 2 * math.pi - 0.36  # continuous forearm roll: the short way is 0.36 rad at 3.6 rad/s = 0.1 s
-    res = PlanResult("s", "sequential", {}, [_step(pr2, "right", [1, 0, math.pi / 2], q1, 2.0),
-                                             _step(pr2, "right", [1, 0, -math.pi / 2], q2, 0.2)])
+    res = PlanResult(
+        "s",
+        "sequential",
+        {},
+        [_step(pr2, "right", [1, 0, math.pi / 2], q1, 2.0), _step(pr2, "right", [1, 0, -math.pi / 2], q2, 0.2)],
+    )
     t = task_time(pr2, res, (0, 0, 0))
     # step 0: base max(2.0, (pi/2)/1.0) = 2.0; arm 0.5 -> 2.0
     # step 1: base max(0.2, pi/1.0) = pi; arm 0.1 -> pi

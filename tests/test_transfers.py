@@ -10,18 +10,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from oracle_collision import IndependentCheck
 
 from placement.collision import SceneCollision
 from placement.planning import Planner
 from placement.planning.config import PlannerConfig
-from placement.planning.scene import SceneError, load_scene, parse_scene
-from placement.planning.scene.poses import quaternion_matrix, yaw_quaternion
 from placement.planning.steps import object_grasps, step_candidates, task_steps
 from placement.planning.transfer import (
-    Held, held_object, place_orientations, placed_pose, support_surface, tilt_between, transfer_places,
+    Held,
+    held_object,
+    place_orientations,
+    placed_pose,
+    support_surface,
+    tilt_between,
+    transfer_places,
 )
-
-from oracle_collision import IndependentCheck
+from placement.scene import SceneError, load_scene, parse_scene
+from placement.scene.poses import quaternion_matrix, yaw_quaternion
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 METHODS = ("sequential", "single-step", "irm", "fixed", "optimal")
@@ -49,15 +54,29 @@ def assert_transfers(result) -> int:
 
 # -- the object's place poses -----------------------------------------------------------------------
 
+
 def scene_doc(**extra) -> dict:
-    doc = {"version": 2, "resolution": 0.05, "bounds": [0, 0, 4, 4], "robot": {"preset": "pr2", "start": [0.6, 0.6, 0]},
-           "obstacles": [{"name": "table", "table": True, "box": {"center": [2, 2, 0.375], "size": [0.8, 0.6, 0.75]}},
-                         {"name": "side", "table": True, "box": {"center": [3.2, 1, 0.25], "size": [0.5, 0.5, 0.5]}}],
-           "objects": [{"name": "cup", "position": [1.9, 2.1, 0.8], "yaw": 0.3, "size": [0.06, 0.06, 0.10]},
-                       {"name": "can", "position": [2.2, 1.9, 0.785], "orientation": [0.7071068, 0, 0, 0.7071068],
-                        "size": [0.07, 0.07, 0.12]}],
-           "place_locations": [{"name": "spot", "position": [3.2, 1.0, 0.6]}],
-           "task": [{"pick": "cup", "place": "spot"}, {"pick": "can", "place": "spot"}]}
+    doc = {
+        "version": 2,
+        "resolution": 0.05,
+        "bounds": [0, 0, 4, 4],
+        "robot": {"preset": "pr2", "start": [0.6, 0.6, 0]},
+        "obstacles": [
+            {"name": "table", "table": True, "box": {"center": [2, 2, 0.375], "size": [0.8, 0.6, 0.75]}},
+            {"name": "side", "table": True, "box": {"center": [3.2, 1, 0.25], "size": [0.5, 0.5, 0.5]}},
+        ],
+        "objects": [
+            {"name": "cup", "position": [1.9, 2.1, 0.8], "yaw": 0.3, "size": [0.06, 0.06, 0.10]},
+            {
+                "name": "can",
+                "position": [2.2, 1.9, 0.785],
+                "orientation": [0.7071068, 0, 0, 0.7071068],
+                "size": [0.07, 0.07, 0.12],
+            },
+        ],
+        "place_locations": [{"name": "spot", "position": [3.2, 1.0, 0.6]}],
+        "task": [{"pick": "cup", "place": "spot"}, {"pick": "can", "place": "spot"}],
+    }
     doc.update(extra)
     return doc
 
@@ -92,9 +111,18 @@ def test_a_place_holds_the_object_as_the_grasp_did(seed):
         return [float(x) for x in v / np.linalg.norm(v)]
 
     poses = [[*(float(x) for x in rng.uniform(-0.05, 0.05, 3)), *unit(rng.normal(size=4))] for _ in range(3)]
-    doc = scene_doc(objects=[{"name": "cup", "position": [1.9, 2.1, 0.9], "orientation": unit(rng.normal(size=4)),
-                              "size": [0.05, 0.06, 0.07], "grasps": [{"name": "g", "poses": poses}]}],
-                    task=[{"pick": "cup", "place": "spot"}])
+    doc = scene_doc(
+        objects=[
+            {
+                "name": "cup",
+                "position": [1.9, 2.1, 0.9],
+                "orientation": unit(rng.normal(size=4)),
+                "size": [0.05, 0.06, 0.07],
+                "grasps": [{"name": "g", "poses": poses}],
+            }
+        ],
+        task=[{"pick": "cup", "place": "spot"}],
+    )
     scene = parse_scene(doc)
     obj = scene.object("cup")
     grasps = object_grasps(obj, 2)
@@ -131,12 +159,15 @@ def test_place_orientations_that_turn_the_object_over_are_refused():
     doc = scene_doc(task=[{"pick": "cup", "place": "spot"}])
     # top-down TCP quaternions: the meaning place orientations had before transfers
     doc["place_locations"][0]["orientations"] = [[0.0, 0.0, 0.0, 1.0], [0.7071068, 0.7071068, 0.0, 0.0]]
-    with pytest.raises(SceneError, match=r"place_locations\[0\]\.orientations\[1\]: would set object 'cup' "
-                                         r"down tilted 180 deg"):
+    with pytest.raises(
+        SceneError,
+        match=r"place_locations\[0\]\.orientations\[1\]: would set object 'cup' "
+        r"down tilted 180 deg",
+    ):
         parse_scene(doc)
     doc["place_locations"][0]["orientations"] = [[0.0, 0.0, 0.7071068, 0.7071068]]
     scene = parse_scene(doc)
-    (label, R), = place_orientations(scene.object("cup"), scene.place_location("spot"), 8)
+    ((label, R),) = place_orientations(scene.object("cup"), scene.place_location("spot"), 8)
     np.testing.assert_allclose(R, quaternion_matrix(yaw_quaternion(math.pi / 2)), atol=1e-7)
     # the lying can keeps lying: its picked orientation turned about z is allowed
     doc = scene_doc(task=[{"pick": "can", "place": "spot"}])
@@ -148,6 +179,7 @@ def test_place_orientations_that_turn_the_object_over_are_refused():
 
 
 # -- plans --------------------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("name", ["table_clearing.yaml", "table_clearing_obstacles.yaml"])
 def test_every_method_keeps_arm_and_grasp_and_sets_objects_upright(maps_dir, pr2, name):
@@ -171,6 +203,7 @@ def test_every_method_keeps_arm_and_grasp_and_sets_objects_upright(maps_dir, pr2
 
 def test_generated_scenes_keep_transfers_with_every_method(maps_dir, pr2, tmp_path):
     from placement.evaluation.generate import generate_scene
+
     for k, obstacles in ((0, False), (1, True)):
         doc = generate_scene(11 + k, k, obstacles=obstacles, objects=4)
         scene = unbudgeted(parse_scene(doc, name=f"gen{k}"))
@@ -183,7 +216,9 @@ def test_generated_scenes_keep_transfers_with_every_method(maps_dir, pr2, tmp_pa
 
 
 SHELF = {
-    "version": 2, "resolution": 0.05, "bounds": [0, 0, 5, 4],
+    "version": 2,
+    "resolution": 0.05,
+    "bounds": [0, 0, 5, 4],
     "robot": {"preset": "pr2", "start": [1.0, 2.0, 0.0]},
     "obstacles": [
         {"name": "table", "table": True, "box": {"center": [2.5, 0.8, 0.375], "size": [0.6, 0.6, 0.75]}},
@@ -284,6 +319,7 @@ def test_a_place_only_one_arm_reaches_decides_the_arm_of_the_pick(maps_dir, tmp_
     left does not. The pick on its own would take the left arm; the transfer takes the right."""
     from placement.planning.methods.stepwise import plan_step, rank_eq6
     from placement.robots.preset import PRESET_DIR
+
     preset = yaml.safe_load((PRESET_DIR / "pr2.yaml").read_text())
     preset["footprint"] = [[0.335, 0.335], [-0.9, 0.335], [-0.9, -0.335], [0.335, -0.335]]
     (tmp_path / "pr2_cart.yaml").write_text(yaml.safe_dump(preset))
@@ -293,8 +329,9 @@ def test_a_place_only_one_arm_reaches_decides_the_arm_of_the_pick(maps_dir, tmp_
     home = {a: planner.robot.arm(a).home.copy() for a in planner.maps}
     alone, _ = plan_step(planner, pick, planner.start_cell(), home, rank_eq6, False)
     assert alone.ok and alone.arm == "left"
-    left, _ = plan_step(planner, place, planner.start_cell(), home, rank_eq6, False,
-                        {("left", "top"), ("left", "top-flipped")})
+    left, _ = plan_step(
+        planner, place, planner.start_cell(), home, rank_eq6, False, {("left", "top"), ("left", "top-flipped")}
+    )
     assert not left.ok
     result = planner.plan()
     assert result.ok, [s.reason for s in result.steps if not s.ok]
@@ -306,6 +343,7 @@ def test_evaluation_counts_transfer_faults(maps_dir, pr2):
     """The check `placement evaluate` runs on every plan: a place with another arm or grasp than its
     pick, or tilted, is counted (here made so by hand)."""
     from placement.evaluation.evaluate import transfer_faults
+
     scene = unbudgeted(load_scene(EXAMPLES / "table_clearing.yaml"))
     result = Planner(scene, maps=maps_dir).plan()
     assert result.ok and transfer_faults(result) == 0
@@ -329,6 +367,7 @@ def test_the_viewer_refuses_a_plan_whose_place_changes_the_grasp(maps_dir, tmp_p
     import json
 
     from placement.viewer.plan_file import PlanFileError, load_checked_plan
+
     scene = unbudgeted(load_scene(EXAMPLES / "table_clearing.yaml"))
     doc = Planner(scene, maps=maps_dir).plan().to_json()
     path = tmp_path / "plan.json"

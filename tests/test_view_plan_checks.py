@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from placement.planning.scene import load_scene
+from placement.scene import load_scene
 from placement.viewer.plan_file import PlanFileError, load_checked_plan
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -97,25 +97,28 @@ def _long_scene_name(d):
     d["scene"] = "s" * 1_000_000
 
 
-@pytest.mark.parametrize("mutate, words", [
-    (lambda d: d.update(scene="kitchen"), ["scene", "'kitchen'", "table_clearing"]),
-    (lambda d: d.pop("scene"), ["does not name its scene"]),
-    (lambda d: d["robot"].update(name="tiago"), ["robot.name", "tiago"]),
-    (_other_target, ["steps[0]", "mug_7", "pick 'cup_1'"]),
-    (_swap_steps, ["steps[0].step", "expected 0"]),
-    (_other_action, ["steps[1]", "place 'place_a'"]),
-    (_stop_short, ["stops after 3 of the task's 6 steps"]),
-    (_too_many, ["7 steps", "has 6"]),
-    (_elbow_100, ["elbow_flex_joint", "100", "outside the URDF limits"]),
-    (_pose_elbow_100, ["poses[0].joints", "elbow_flex_joint", "outside the URDF limits"]),
-    (_unknown_joint, ["knee_joint", "no such joint"]),
-    (_fixed_joint, ["torso_lift_joint", "holds it at 0.15"]),
-    (_moved_tcp, ["TCP", "cm", "another robot or scene"]),
-    (_moved_base, ["TCP", "cm"]),
-    (_base_outside, ["base", "outside the scene's bounds"]),
-    (_arm_joints, ["robot.arms", "another robot model"]),
-    (_long_scene_name, ["1,000,000 characters"]),
-])
+@pytest.mark.parametrize(
+    "mutate, words",
+    [
+        (lambda d: d.update(scene="kitchen"), ["scene", "'kitchen'", "table_clearing"]),
+        (lambda d: d.pop("scene"), ["does not name its scene"]),
+        (lambda d: d["robot"].update(name="tiago"), ["robot.name", "tiago"]),
+        (_other_target, ["steps[0]", "mug_7", "pick 'cup_1'"]),
+        (_swap_steps, ["steps[0].step", "expected 0"]),
+        (_other_action, ["steps[1]", "place 'place_a'"]),
+        (_stop_short, ["stops after 3 of the task's 6 steps"]),
+        (_too_many, ["7 steps", "has 6"]),
+        (_elbow_100, ["elbow_flex_joint", "100", "outside the URDF limits"]),
+        (_pose_elbow_100, ["poses[0].joints", "elbow_flex_joint", "outside the URDF limits"]),
+        (_unknown_joint, ["knee_joint", "no such joint"]),
+        (_fixed_joint, ["torso_lift_joint", "holds it at 0.15"]),
+        (_moved_tcp, ["TCP", "cm", "another robot or scene"]),
+        (_moved_base, ["TCP", "cm"]),
+        (_base_outside, ["base", "outside the scene's bounds"]),
+        (_arm_joints, ["robot.arms", "another robot model"]),
+        (_long_scene_name, ["1,000,000 characters"]),
+    ],
+)
 def test_a_plan_for_another_scene_or_robot_is_refused(plan_doc, scene, tmp_path, mutate, words):
     doc = copy.deepcopy(plan_doc)
     mutate(doc)
@@ -152,8 +155,9 @@ def test_a_fifo_is_not_read(scene, tmp_path):
 
 
 def run(*args, timeout: float = 300) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True,
-                          timeout=timeout, cwd=ROOT)
+    return subprocess.run(
+        [sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True, timeout=timeout, cwd=ROOT
+    )
 
 
 def test_view_refuses_in_one_line_and_serves_the_right_plan(plan_doc, tmp_path):

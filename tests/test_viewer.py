@@ -16,13 +16,13 @@ import pytest
 
 pytest.importorskip("viser", reason="the viewer extra is not installed: pip install 'placement[view]'")
 
-import pinocchio as pin  # noqa: E402
+import pinocchio as pin
 
-from placement.viewer import ViewerError, view_map, view_scene  # noqa: E402
-from placement.viewer.colors import Scale, layer_image  # noqa: E402
-from placement.viewer.geometry import ear_clip, pose_matrix, prism  # noqa: E402
-from placement.viewer.map_view import approach_bins, best_values, cloud  # noqa: E402
-from placement.viewer.server import HOST, check_port  # noqa: E402
+from placement.viewer import ViewerError, view_map, view_scene
+from placement.viewer.colors import Scale, layer_image
+from placement.viewer.geometry import ear_clip, pose_matrix, prism
+from placement.viewer.map_view import approach_bins, best_values, cloud
+from placement.viewer.server import HOST, check_port
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yaml"
 
@@ -135,9 +135,11 @@ def test_bad_port_is_refused_before_anything_starts():
 def test_polygon_prism_is_closed_and_covers_a_concave_polygon():
     pts = np.array([[0, 0], [2, 0], [2, 2], [1, 1], [0, 2]], dtype=float)  # concave at (1, 1)
     tris = ear_clip(pts)
+
     def area2(a, b, c):
         (ux, uy), (vx, vy) = pts[b] - pts[a], pts[c] - pts[a]
         return abs(ux * vy - uy * vx)
+
     area = sum(area2(*t) for t in tris) / 2
     assert len(tris) == 3 and math.isclose(area, 3.0)
     v, f = prism(pts, 0.0, 1.0)
@@ -152,7 +154,7 @@ def test_every_kind_of_obstacle_and_the_occupancy_map_are_drawn(tmp_path):
     from test_occupancy import write_map
     from test_scene import FULL_SCENE
 
-    from placement.planning.scene import load_scene
+    from placement.scene import load_scene
     from placement.viewer.scene_view import draw_scene
     from placement.viewer.server import start_server
 
@@ -164,8 +166,14 @@ def test_every_kind_of_obstacle_and_the_occupancy_map_are_drawn(tmp_path):
         nodes = draw_scene(server, scene, 0.47)
     finally:
         server.stop()
-    assert set(nodes) == {"/scene/tables/table_1", "/scene/obstacles/pillar", "/scene/obstacles/wall",
-                          "/scene/occupancy", "/scene/objects/cup_1", "/scene/objects/cup_2"}
+    assert set(nodes) == {
+        "/scene/tables/table_1",
+        "/scene/obstacles/pillar",
+        "/scene/obstacles/wall",
+        "/scene/occupancy",
+        "/scene/objects/cup_1",
+        "/scene/objects/cup_2",
+    }
     pillar = nodes["/scene/obstacles/pillar"]
     v = np.asarray(pillar.vertices)
     r = np.hypot(v[:, 0] + 1.0, v[:, 1] - 3.0)
@@ -180,7 +188,7 @@ def test_direction_bins_point_the_tcp_that_way(maps_dir):
     from placement import open_map
 
     grid = open_map(maps_dir, "right").grid
-    from placement.grid import pose_from_zyx
+    from placement.maps.grid import pose_from_zyx
 
     down = approach_bins(grid, (0, 0, -1))
     assert 0 < down.sum() < down.size and approach_bins(grid, None).all()

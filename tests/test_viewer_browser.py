@@ -10,12 +10,13 @@ import pytest
 
 pytest.importorskip("viser", reason="the viewer extra is not installed: pip install 'placement[view]'")
 
-from placement.viewer import view_map, view_scene  # noqa: E402
-from placement.viewer.screenshot import find_browser, screenshot  # noqa: E402
+from placement.viewer import view_map, view_scene
+from placement.viewer.screenshot import find_browser, screenshot
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yaml"
-pytestmark = pytest.mark.skipif(find_browser() is None,
-                                reason="no chromium on PATH (.ci/run installs Debian's chromium)")
+pytestmark = pytest.mark.skipif(
+    find_browser() is None, reason="no chromium on PATH (.ci/run installs Debian's chromium)"
+)
 
 
 def pixels(path: Path) -> np.ndarray:
@@ -51,8 +52,11 @@ def shots(maps_dir, tmp_path_factory):
         # a page is drawn in steps (scene, then the robot's meshes): a shot that caught it early is
         # taken again, a few times at most
         # (the tables too: a shot of the second page once caught the room without them)
-        with_robot = _shot(v.url, out / "robot.png",
-                           lambda im: robot_blue(im).sum() > 1500 and drawn(im) > 0.1 and table_brown(im).sum() > 1000)
+        with_robot = _shot(
+            v.url,
+            out / "robot.png",
+            lambda im: robot_blue(im).sum() > 1500 and drawn(im) > 0.1 and table_brown(im).sum() > 1000,
+        )
         v.content.robot_drawing.visible = False
         without = _shot(v.url, out / "no_robot.png", lambda im: drawn(im) > 0.1 and table_brown(im).sum() > 1000)
     finally:

@@ -14,20 +14,44 @@ from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
-
 from mutations import documents, mutated
+
 from placement.planning import StepResult
 from placement.viewer.plan_file import PlanFileError, parse_plan
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yaml"
 ROOT = Path(__file__).resolve().parents[1]
-PLAN_KEYS = ("steps", "robot", "name", "step", "action", "target", "status", "arm", "base", "tcp", "joints",
-             "cost", "total", "manipulability", "travel_time_s", "grasp", "reason", "r_shoulder_pan_joint")
+PLAN_KEYS = (
+    "steps",
+    "robot",
+    "name",
+    "step",
+    "action",
+    "target",
+    "status",
+    "arm",
+    "base",
+    "tcp",
+    "joints",
+    "cost",
+    "total",
+    "manipulability",
+    "travel_time_s",
+    "grasp",
+    "reason",
+    "r_shoulder_pan_joint",
+)
 
 
 def run(*args, stdin: str | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True,
-                          input=stdin, timeout=timeout, cwd=ROOT)
+    return subprocess.run(
+        [sys.executable, "-m", "placement.cli.main", *args],
+        capture_output=True,
+        text=True,
+        input=stdin,
+        timeout=timeout,
+        cwd=ROOT,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -45,13 +69,16 @@ def one_line_error(p, *words):
         assert w in lines[0], (w, lines[0])
 
 
-@pytest.mark.parametrize("args, words", [
-    (["--plan", "p.json", "--method", "fixed"], ["--plan", "--method"]),
-    (["--plan", "p.json", "--stream"], ["--plan", "--stream"]),
-    (["--plan", "/nonexistent/plan.json"], ["--plan", "/nonexistent/plan.json", "cannot read"]),
-    (["--port", "70000"], ["--port", "70000", "0 to 65535"]),
-    (["--method", "best"], ["--method"]),
-])
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--plan", "p.json", "--method", "fixed"], ["--plan", "--method"]),
+        (["--plan", "p.json", "--stream"], ["--plan", "--stream"]),
+        (["--plan", "/nonexistent/plan.json"], ["--plan", "/nonexistent/plan.json", "cannot read"]),
+        (["--port", "70000"], ["--port", "70000", "0 to 65535"]),
+        (["--method", "best"], ["--method"]),
+    ],
+)
 def test_bad_options_are_one_line(args, words):
     one_line_error(run("view", str(EXAMPLE), *args), *words)
 
@@ -68,9 +95,25 @@ def test_bad_plan_files_are_one_line(tmp_path, plan_doc):
 
 
 def test_view_serves_until_stopped_and_prints_its_url(maps_dir):
-    p = subprocess.Popen([sys.executable, "-m", "placement.cli.main", "view", str(EXAMPLE), "--maps", str(maps_dir),
-                          "--port", "0", "--json", "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         cwd=ROOT)
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "placement.cli.main",
+            "view",
+            str(EXAMPLE),
+            "--maps",
+            str(maps_dir),
+            "--port",
+            "0",
+            "--json",
+            "-q",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
     try:
         info = json.loads(p.stdout.readline())
         assert info["url"].startswith("http://127.0.0.1:") and info["timings_s"]["first_step_s"] > 0
@@ -87,8 +130,19 @@ def test_view_serves_until_stopped_and_prints_its_url(maps_dir):
 
 def test_stream_applies_updates_live(maps_dir):
     updates = "\n".join([json.dumps({"start": [1.5, 6.0, 0.0]}), "{oops", json.dumps({"start": [-50, 0, 0]})]) + "\n"
-    p = run("view", str(EXAMPLE), "--maps", str(maps_dir), "--port", "0", "--stream", "--timeout", "0.5", "-q",
-            stdin=updates)
+    p = run(
+        "view",
+        str(EXAMPLE),
+        "--maps",
+        str(maps_dir),
+        "--port",
+        "0",
+        "--stream",
+        "--timeout",
+        "0.5",
+        "-q",
+        stdin=updates,
+    )
     assert p.returncode == 0, p.stderr
     lines = [json.loads(x) for x in p.stdout.splitlines()]
     assert len(lines) == 4 and lines[0]["status"] == "ok" and lines[1]["status"] == "ok"
@@ -97,8 +151,21 @@ def test_stream_applies_updates_live(maps_dir):
 
 
 def test_maps_view_runs(maps_dir):
-    p = run("maps", "view", str(maps_dir), "--arm", "right", "--direction", "down", "--port", "0", "--json",
-            "--timeout", "0.5", "-q")
+    p = run(
+        "maps",
+        "view",
+        str(maps_dir),
+        "--arm",
+        "right",
+        "--direction",
+        "down",
+        "--port",
+        "0",
+        "--json",
+        "--timeout",
+        "0.5",
+        "-q",
+    )
     assert p.returncode == 0, p.stderr
     info = json.loads(p.stdout)
     assert info["url"].startswith("http://127.0.0.1:") and info["timings_s"]["render_s"] > 0
@@ -123,15 +190,39 @@ def test_random_plan_documents(pr2, doc):
     check({"steps": [doc]}, pr2)
 
 
-VALID = {"robot": {"name": "pr2"}, "steps": [
-    {"step": 0, "action": "pick", "target": "cup", "arm": "right", "grasp": "top", "base": [1.0, 2.0, 0.5],
-     "tcp": [[2.0, 2.0, 0.8, 0.0, 0.0, 0.0, 1.0], [2.0, 2.0, 0.75, 0.0, 0.7071067811865476, 0.0, 0.7071067811865476]],
-     "joints": {f"r_{j}": 0.1 for j in ("shoulder_pan_joint", "shoulder_lift_joint", "upper_arm_roll_joint",
-                                        "elbow_flex_joint", "forearm_roll_joint", "wrist_flex_joint",
-                                        "wrist_roll_joint")},
-     "manipulability": 0.05, "cost": {"total": 0.4, "navigation": 0.2, "manipulation": 0.15, "heuristic": 0.05},
-     "travel_time_s": 3.0},
-    {"step": 1, "action": "place", "target": "a", "status": "infeasible", "reason": "no placement"}]}
+VALID = {
+    "robot": {"name": "pr2"},
+    "steps": [
+        {
+            "step": 0,
+            "action": "pick",
+            "target": "cup",
+            "arm": "right",
+            "grasp": "top",
+            "base": [1.0, 2.0, 0.5],
+            "tcp": [
+                [2.0, 2.0, 0.8, 0.0, 0.0, 0.0, 1.0],
+                [2.0, 2.0, 0.75, 0.0, 0.7071067811865476, 0.0, 0.7071067811865476],
+            ],
+            "joints": {
+                f"r_{j}": 0.1
+                for j in (
+                    "shoulder_pan_joint",
+                    "shoulder_lift_joint",
+                    "upper_arm_roll_joint",
+                    "elbow_flex_joint",
+                    "forearm_roll_joint",
+                    "wrist_flex_joint",
+                    "wrist_roll_joint",
+                )
+            },
+            "manipulability": 0.05,
+            "cost": {"total": 0.4, "navigation": 0.2, "manipulation": 0.15, "heuristic": 0.05},
+            "travel_time_s": 3.0,
+        },
+        {"step": 1, "action": "place", "target": "a", "status": "infeasible", "reason": "no placement"},
+    ],
+}
 
 
 @settings(max_examples=2000, deadline=None, suppress_health_check=list(HealthCheck))

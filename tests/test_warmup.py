@@ -19,8 +19,13 @@ def stderr_of(args, cache_dir, stop_at_notice=False, timeout=120) -> str:
     """stderr of a CLI run with NUMBA_CACHE_DIR=cache_dir; with ``stop_at_notice`` the run is
     killed as soon as the notice appears (the compilation it announces is not waited for)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir))
-    p = subprocess.Popen([sys.executable, "-m", "placement.cli.main", *map(str, args)], stdout=subprocess.DEVNULL,
-                         stderr=subprocess.PIPE, text=True, env=env)
+    p = subprocess.Popen(
+        [sys.executable, "-m", "placement.cli.main", *map(str, args)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
     timer = threading.Timer(timeout, p.kill)
     timer.start()
     lines = []
@@ -46,9 +51,25 @@ def scene(maps_dir, tmp_path_factory):
 
 
 def commands(tmp_path, scene):
-    return {"build": ["maps", "build", "--robot", "pr2", "--arm", "right", "--samples", "2000", "--resolution", "0.2",
-                      "--bins", "4,3,4", "--out", tmp_path / "m"],
-            "query": ["query", scene]}
+    return {
+        "build": [
+            "maps",
+            "build",
+            "--robot",
+            "pr2",
+            "--arm",
+            "right",
+            "--samples",
+            "2000",
+            "--resolution",
+            "0.2",
+            "--bins",
+            "4,3,4",
+            "--out",
+            tmp_path / "m",
+        ],
+        "query": ["query", scene],
+    }
 
 
 @pytest.mark.parametrize("command", ["build", "query"])
@@ -85,9 +106,11 @@ def test_notice_is_logged_once_per_process(caplog):
 
 def test_warmup_compiles_every_kernel(tmp_path):
     # a fresh process on the session's (warm) cache: what it finds compiled, the warm-up loaded or compiled
-    code = ("import tempfile, pathlib; from placement.warmup import warm, uncompiled_kernels, kernel_dispatchers\n"
-            "warm(pathlib.Path(tempfile.mkdtemp()), say=lambda m: None)\n"
-            "print(len(kernel_dispatchers())); print(','.join(uncompiled_kernels()))")
+    code = (
+        "import tempfile, pathlib; from placement.warmup import warm, uncompiled_kernels, kernel_dispatchers\n"
+        "warm(pathlib.Path(tempfile.mkdtemp()), say=lambda m: None)\n"
+        "print(len(kernel_dispatchers())); print(','.join(uncompiled_kernels()))"
+    )
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
     count, missing = p.stdout.splitlines()
@@ -98,8 +121,14 @@ def test_kernel_list_is_what_python_calls():
     from placement.warmup import kernel_dispatchers, uncompiled_kernels
 
     names = kernel_dispatchers()
-    assert {"placement.kernels.sampling.sample_block", "placement.kernels.irm.trajectory_maps",
-            "placement.kernels.navigation.shortest_costs", "placement.kernels.ik.dls_attempt"} <= set(names)
+    assert {
+        "placement.kernels.sampling.sample_block",
+        "placement.kernels.irm.trajectory_maps",
+        "placement.kernels.navigation.shortest_costs",
+        "placement.kernels.ik.dls_attempt",
+    } <= set(names)
     # called only from other kernels: compiled into them, never on their own
-    assert not any(n.startswith(("placement.kernels.rng.", "placement.kernels.octants")) for n in names)  # and octants_refine
+    assert not any(
+        n.startswith(("placement.kernels.rng.", "placement.kernels.octants")) for n in names
+    )  # and octants_refine
     assert set(uncompiled_kernels()) <= set(names)

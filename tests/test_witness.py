@@ -12,7 +12,7 @@ from click.testing import CliRunner
 import placement
 from placement import MapError
 from placement.cli.main import cli
-from placement.witness import K, empty_value, verify_witnesses, witness_configs
+from placement.maps.witness import K, empty_value, verify_witnesses, witness_configs
 
 SMALL = dict(resolution=0.1, bins=(10, 5, 10))
 N = 30_000
@@ -66,8 +66,11 @@ def fk_pinocchio(robot, arm_name, q):
     model = pin.Model(robot.model)
     tip_id = model.getFrameId(arm.tip_frame)
     tip = model.frames[tip_id]
-    tcp = model.addFrame(pin.Frame("witness_tcp", tip.parentJoint, tip_id, tip.placement * pin.SE3(arm.tcp_offset),
-                                   pin.FrameType.OP_FRAME))
+    tcp = model.addFrame(
+        pin.Frame(
+            "witness_tcp", tip.parentJoint, tip_id, tip.placement * pin.SE3(arm.tcp_offset), pin.FrameType.OP_FRAME
+        )
+    )
     data = model.createData()
     qf = robot.full_q(arm_name, q)
     pin.framesForwardKinematics(model, data, qf)
@@ -84,7 +87,7 @@ def test_witness_q_lies_in_the_cell_of_the_pose(pr2, saved, completed):
     refined = reached[w[reached] >= N]
     cells = np.concatenate([rng.choice(reached, 20, replace=False), rng.choice(refined, 20, replace=False)])
     # a pose anywhere in the cell (not just the centre) finds the cell's witness
-    from placement.accuracy import poses_in_cells
+    from placement.maps.accuracy import poses_in_cells
 
     for cell, pose in zip(cells, poses_in_cells(g, cells, rng)):
         q = rmap.witness_q(pose)
@@ -146,8 +149,12 @@ def test_cli_verify(tmp_path, pr2, completed, fmt):
     bad = completed.values.copy()
     cell = np.flatnonzero(bad.reshape(-1) > 0)[5]
     bad.reshape(-1)[cell] *= 0.5
-    path2 = placement.save_maps(tmp_path / ("b.h5" if fmt == "hdf5" else "b"), pr2,
-                                {"right": placement.BuiltMap(bad, completed.meta, completed.witness)}, fmt)
+    path2 = placement.save_maps(
+        tmp_path / ("b.h5" if fmt == "hdf5" else "b"),
+        pr2,
+        {"right": placement.BuiltMap(bad, completed.meta, completed.witness)},
+        fmt,
+    )
     res = CliRunner().invoke(cli, ["maps", "verify", str(path2), "-q"])
     assert res.exit_code == 1
     lines = res.output.strip().splitlines()
@@ -176,15 +183,34 @@ def test_map_without_witnesses_cannot_be_saved(tmp_path, pr2, completed):
 
 
 def test_completion_from_spec_and_cli(tmp_path):
-    from placement.buildspec import parse_build_spec
     from placement.errors import PlacementError
+    from placement.maps.buildspec import parse_build_spec
 
     assert parse_build_spec({"completion": True}).completion is True
     with pytest.raises(PlacementError, match="completion must be true or false"):
         parse_build_spec({"completion": "yes"}, "spec")
     out = tmp_path / "m"
-    res = CliRunner().invoke(cli, ["maps", "build", "--robot", "pr2", "--arm", "right", "--samples", "2000",
-                                   "--resolution", "0.2", "--bins", "4,3,4", "--completion", "--out", str(out), "-q"])
+    res = CliRunner().invoke(
+        cli,
+        [
+            "maps",
+            "build",
+            "--robot",
+            "pr2",
+            "--arm",
+            "right",
+            "--samples",
+            "2000",
+            "--resolution",
+            "0.2",
+            "--bins",
+            "4,3,4",
+            "--completion",
+            "--out",
+            str(out),
+            "-q",
+        ],
+    )
     assert res.exit_code == 0, res.output
     meta = placement.open_map(out, "right").meta
     assert meta["witness"]["completion"] and meta["completion"]["cells_added"] > 0
@@ -220,8 +246,9 @@ def _sources_reference(grid, witness, plain, shape):
         for d in range(len(NEIGHBOURS)):
             t = _neighbour_reference(c, d, shape)
             if t >= 0 and grid[t] == 0:
-                first = next((n for n in (_neighbour_reference(t, e, shape) for e in range(len(NEIGHBOURS)))
-                              if ok(n)), -1)
+                first = next(
+                    (n for n in (_neighbour_reference(t, e, shape) for e in range(len(NEIGHBOURS))) if ok(n)), -1
+                )
                 if first == c:
                     out.append((int(witness[c]), d))
     return out

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from placement.planning.navgrid import NavGrid
-from placement.planning.scene import Box, Cylinder, Polygon
 from placement.planning.world import add_shape
+from placement.scene import Box, Cylinder, Polygon
 
 
 def _every_cell(shape, nav: NavGrid) -> np.ndarray:
@@ -19,7 +19,7 @@ def _every_cell(shape, nav: NavGrid) -> np.ndarray:
         ly = -s * (X - shape.center[0]) + c * (Y - shape.center[1])
         return (np.abs(lx) <= shape.size[0] / 2) & (np.abs(ly) <= shape.size[1] / 2)
     if isinstance(shape, Cylinder):
-        return (X - shape.center[0]) ** 2 + (Y - shape.center[1]) ** 2 <= shape.radius ** 2
+        return (X - shape.center[0]) ** 2 + (Y - shape.center[1]) ** 2 <= shape.radius**2
     from matplotlib.path import Path  # an independent point-in-polygon test
 
     return Path(np.asarray(shape.points)).contains_points(np.c_[X.ravel(), Y.ravel()]).reshape(X.shape)

@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT))  # measure this checkout, not an installed copy
 
 def real_placements(scene_path: Path, maps: Path) -> list[tuple]:
     """(arm, qs (P, n), base, grasped) of the planned steps of every method."""
-    from placement.ik import solve_ik
+    from placement.kinematics.ik import solve_ik
     from placement.planning import Planner
     from placement.planning.verify import base_matrix
 
@@ -104,20 +104,26 @@ def main() -> None:
     scene = load_scene(args.scene)
     robot = placement.load_robot(scene.robot_preset)
     checker = SceneCollision(robot, scene)
-    sets = {"planned steps (4 methods)": real_placements(Path(args.scene), Path(args.maps)),
-            "random arms near the tables": random_placements(robot, scene, args.random, np.random.default_rng(1))}
+    sets = {
+        "planned steps (4 methods)": real_placements(Path(args.scene), Path(args.maps)),
+        "random arms near the tables": random_placements(robot, scene, args.random, np.random.default_rng(1)),
+    }
     for placements in sets.values():  # warm-up: geometry, arm pairs
         timed(checker, placements[:3], 1)
-    print(f"Collision check per placement (2-pose trajectory), PR2, {Path(args.scene).name}; "
-          f"median of {args.runs} runs over each set\n")
+    print(
+        f"Collision check per placement (2-pose trajectory), PR2, {Path(args.scene).name}; "
+        f"median of {args.runs} runs over each set\n"
+    )
     print("| placements | count | free | mean per placement [ms] | CPU per placement [ms] | median check [ms] |")
     print("|---|---:|---:|---:|---:|---:|")
     for name, placements in sets.items():
         mean, cpu, med, free = timed(checker, placements, args.runs)
         print(f"| {name} | {len(placements)} | {free} | {mean:.2f} | {cpu:.2f} | {med:.2f} |")
     load = f", load average {os.getloadavg()[0]:.1f}" if hasattr(os, "getloadavg") else ""
-    print(f"\nMachine: {platform.machine()} {platform.processor() or ''}, {os.cpu_count()} CPUs{load}, "
-          f"Python {platform.python_version()}")
+    print(
+        f"\nMachine: {platform.machine()} {platform.processor() or ''}, {os.cpu_count()} CPUs{load}, "
+        f"Python {platform.python_version()}"
+    )
 
 
 if __name__ == "__main__":

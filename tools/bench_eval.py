@@ -70,18 +70,22 @@ def report(runs: dict[str, list[float]], cpu: dict[str, list[float]], n: int) ->
     for name, wall in walls.items():
         cores = 1 if name == "serial" else n
         eff = f"{walls['serial'] / (cores * wall):.2f}" if "serial" in walls else "-"
-        print(f"| {name} | {wall:.1f} ({', '.join(f'{w:.1f}' for w in runs[name])}) | {eff} | "
-              f"{statistics.median(cpu[name]):.1f} |")
+        print(
+            f"| {name} | {wall:.1f} ({', '.join(f'{w:.1f}' for w in runs[name])}) | {eff} | "
+            f"{statistics.median(cpu[name]):.1f} |"
+        )
     ratio = walls["dask"] / walls["local"]
-    print(f"dask / local wall time: {ratio:.3f} ({'within' if ratio <= TARGET else 'NOT within'} "
-          f"the {100 * (TARGET - 1):.0f} % target)")
+    print(
+        f"dask / local wall time: {ratio:.3f} ({'within' if ratio <= TARGET else 'NOT within'} "
+        f"the {100 * (TARGET - 1):.0f} % target)"
+    )
     return walls
 
 
 def alternate(repeat: int, run) -> None:
     """``run("local")`` and ``run("dask")`` ``repeat`` times each, in the order l d d l l d ..."""
     for k in range(repeat):
-        for name in (("local", "dask") if k % 2 == 0 else ("dask", "local")):
+        for name in ("local", "dask") if k % 2 == 0 else ("dask", "local"):
             run(name)
 
 
@@ -104,8 +108,7 @@ def bench_evaluation(args, client) -> bool:
             run("serial")
         alternate(args.repeat, run)
     same = all(without_timings(d) == without_timings(docs[0]) for d in docs)
-    print(f"\nEvaluation: {args.count} scenes (seed {args.seed}), {len(docs[0]['methods'])} methods, "
-          f"maps {args.maps}")
+    print(f"\nEvaluation: {args.count} scenes (seed {args.seed}), {len(docs[0]['methods'])} methods, maps {args.maps}")
     report(runs, cpu, args.workers)
     print(f"results identical (timings aside): {'yes' if same else 'NO'}")
     return same
@@ -127,8 +130,9 @@ def bench_build(args, client) -> bool:
     def run(name):
         numba.set_num_threads(1 if name == "serial" else threads)
         c = cpu_seconds(client)
-        built, wall = timed(lambda: placement.build_map(robot, "right", client=client if name == "dask" else None,
-                                                        **kwargs))
+        built, wall = timed(
+            lambda: placement.build_map(robot, "right", client=client if name == "dask" else None, **kwargs)
+        )
         cpu[name].append(cpu_seconds(client) - c)
         numba.set_num_threads(threads)
         maps.append(built.values)
@@ -139,8 +143,10 @@ def bench_build(args, client) -> bool:
         run("serial")
     alternate(args.repeat, run)
     same = all(np.array_equal(m, maps[0]) for m in maps)
-    print(f"\nMap build: PR2 right arm, {args.build_samples:,} samples at 0.1 m, bins 20,9,20 "
-          f"(local: one process, {threads} numba threads)")
+    print(
+        f"\nMap build: PR2 right arm, {args.build_samples:,} samples at 0.1 m, bins 20,9,20 "
+        f"(local: one process, {threads} numba threads)"
+    )
     report(runs, cpu, args.workers)
     print(f"maps identical: {'yes' if same else 'NO'}")
     return same
@@ -151,8 +157,12 @@ def main(argv=None) -> int:
     ap.add_argument("--maps", default=str(ROOT / "maps" / "pr2"), help="PR2 maps (default: maps/pr2)")
     ap.add_argument("--count", type=int, default=45, help="scenes (default 45, as make eval; 0: no evaluation)")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--build-samples", type=int, default=10_000_000,
-                    help="samples of the map build comparison (default 10 M; 0: none)")
+    ap.add_argument(
+        "--build-samples",
+        type=int,
+        default=10_000_000,
+        help="samples of the map build comparison (default 10 M; 0: none)",
+    )
     ap.add_argument("--workers", type=int, default=2, help="local processes = Dask workers (default 2)")
     ap.add_argument("--repeat", type=int, default=3, help="runs of local and of dask each (default 3)")
     ap.add_argument("--no-serial", action="store_true", help="skip the serial runs (no efficiency then)")
@@ -164,11 +174,20 @@ def main(argv=None) -> int:
 
     print(f"load average {os.getloadavg()[0]:.2f} at the start; best of {args.repeat} runs each")
     # one numba thread per worker process: the workers already use every core between them
-    cluster, start = timed(lambda: LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
-                                                host="127.0.0.1", dashboard_address=None,
-                                                env={"NUMBA_NUM_THREADS": "1"}))
-    print(f"Dask LocalCluster: {args.workers} worker processes, 1 thread each; its start ({start:.1f} s) "
-          f"is in no wall time below")
+    cluster, start = timed(
+        lambda: LocalCluster(
+            n_workers=args.workers,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            env={"NUMBA_NUM_THREADS": "1"},
+        )
+    )
+    print(
+        f"Dask LocalCluster: {args.workers} worker processes, 1 thread each; its start ({start:.1f} s) "
+        f"is in no wall time below"
+    )
     with cluster, Client(cluster) as client:
         same = bench_evaluation(args, client) if args.count else True
         same = (bench_build(args, client) if args.build_samples else True) and same

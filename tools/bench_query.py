@@ -28,11 +28,14 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = {"navigation": 1.39, "manipulation": 1053.94, "heuristic": 58.20, "combine": 4.93, "total": 1118.49}
 STAGES = ("navigation", "manipulation", "heuristic", "combine", "search", "ik", "collision", "total")
-ROBOTS = {"pr2": ("examples/table_clearing.yaml", "maps/pr2"),
-          "armar6": ("examples/table_clearing_armar6.yaml", "maps/armar6")}
+ROBOTS = {
+    "pr2": ("examples/table_clearing.yaml", "maps/pr2"),
+    "armar6": ("examples/table_clearing_armar6.yaml", "maps/armar6"),
+}
 
 
 # -- child: runs inside the measured code's process -------------------------------------------------
+
 
 def _steps(result) -> list[dict]:
     """The steps of a plan as dicts (typed results and the first release's dicts alike)."""
@@ -65,11 +68,21 @@ def child(scene: str, maps: str, runs: int, mode: str) -> dict:
     sx, sy, _ = planner.scene.start
     times: dict[str, list[float]] = {"update": [], "update_obstacle": []}
     for k in range(runs):
-        moves = {"update": {"objects": [{"name": name, "position": [x + 0.02 * (k % 2), y, z]}]},
-                 # a crate 1.4 m from the start, moved back and forth by 10 cm
-                 "update_obstacle": {"obstacles": {"add": [{"name": f"crate{k}", "box": {
-                     "center": [sx + 1.0 + 0.1 * (k % 2), sy - 1.0, 0.3], "size": [0.4, 0.4, 0.6]}}],
-                     "remove": [f"crate{k - 1}"] if k else []}}}
+        moves = {
+            "update": {"objects": [{"name": name, "position": [x + 0.02 * (k % 2), y, z]}]},
+            # a crate 1.4 m from the start, moved back and forth by 10 cm
+            "update_obstacle": {
+                "obstacles": {
+                    "add": [
+                        {
+                            "name": f"crate{k}",
+                            "box": {"center": [sx + 1.0 + 0.1 * (k % 2), sy - 1.0, 0.3], "size": [0.4, 0.4, 0.6]},
+                        }
+                    ],
+                    "remove": [f"crate{k - 1}"] if k else [],
+                }
+            },
+        }
         for key, change in moves.items():
             t = time.perf_counter()
             planner.update(change)
@@ -80,10 +93,16 @@ def child(scene: str, maps: str, runs: int, mode: str) -> dict:
 
 # -- parent ------------------------------------------------------------------------------------------
 
+
 def _run(code_dir: Path, scene: Path, maps: Path, runs: int, mode: str, cache: Path) -> dict:
     env = dict(os.environ, PYTHONPATH=str(code_dir), NUMBA_CACHE_DIR=str(cache))
-    out = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--child", str(scene), str(maps), str(runs),
-                          mode], capture_output=True, text=True, env=env, cwd=code_dir)
+    out = subprocess.run(
+        [sys.executable, str(Path(__file__).resolve()), "--child", str(scene), str(maps), str(runs), mode],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=code_dir,
+    )
     if out.returncode != 0:
         raise SystemExit(f"{code_dir}: {mode} on {scene.name} failed:\n{out.stderr[-2000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -142,8 +161,11 @@ def _scenes(robot: str, example: str, build: Path, maps: Path) -> list[Path]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=5, help="fresh planners per scene (medians over their placements)")
-    ap.add_argument("--baseline", default=os.environ.get("BASELINE", "d44e44e"),
-                    help="git revision of the baseline release (default: the last release before issue 11)")
+    ap.add_argument(
+        "--baseline",
+        default=os.environ.get("BASELINE", "d44e44e"),
+        help="git revision of the baseline release (default: the last release before issue 11)",
+    )
     ap.add_argument("--baseline-format", type=int, default=1, help="map format version the baseline reads")
     ap.add_argument("--robots", default="pr2,armar6")
     args = ap.parse_args(argv)
@@ -163,16 +185,21 @@ def main(argv=None) -> int:
             old_scene.write_text(scene.read_text().replace(str(maps), str(old_maps)))
             old = _measure(base_dir, old_scene, old_maps, args.runs, build / "baseline-numba-cache")
             rows.append((robot, scene.stem.split("_", 1)[1], old, now))
-    lines.append(f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
-                 f"{platform.python_version()}; baseline {args.baseline}; medians per placement over {args.runs} fresh "
-                 "planners per scene [ms]")
+    lines.append(
+        f"Machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python "
+        f"{platform.python_version()}; baseline {args.baseline}; medians per placement over {args.runs} fresh "
+        "planners per scene [ms]"
+    )
     lines.append("")
     lines.append("| robot | scene | stage | baseline | now | speed-up | paper |")
     lines.append("|---|---|---|---|---|---|---|")
     for robot, scene, old, now in rows:
         for k in (*STAGES, "first", "update", "update_obstacle"):
-            label = {"first": "first step, fresh process", "update": "object moved + next placement",
-                     "update_obstacle": "obstacle moved + next placement"}.get(k, k)
+            label = {
+                "first": "first step, fresh process",
+                "update": "object moved + next placement",
+                "update_obstacle": "obstacle moved + next placement",
+            }.get(k, k)
             o, n = old.get(k), now.get(k)
             ratio = f"{o / n:.2f}x" if o and n else "-"
             fo, fn = (f"{v:.2f}" if v is not None else "-" for v in (o, n))

@@ -19,8 +19,8 @@ KERNELS = Path(__file__).resolve().parents[1] / "placement" / "kernels"
 OUT = KERNELS / "octants.py"
 OUT_REFINE = KERNELS / "octants_refine.py"
 IND = " " * 8
-POWER_STEPS = 3    # power steps for rho (lower bound of lambda_max)
-REFINE_STEPS = 5   # further power steps when a sample needs its exact value
+POWER_STEPS = 3  # power steps for rho (lower bound of lambda_max)
+REFINE_STEPS = 5  # further power steps when a sample needs its exact value
 INVERSE_STEPS = 2  # inverse-iteration steps for mu (upper bound of lambda_min)
 
 
@@ -69,14 +69,18 @@ def matvec(x: str, y: str) -> list[str]:
 
 
 def normalise(x: str) -> list[str]:
-    return [f"nm = max(max(max(abs({x}0), abs({x}1)), max(abs({x}2), abs({x}3))), max(abs({x}4), abs({x}5)))",
-            "nm = 1.0 / nm if nm > 0.0 else 1.0"] + [f"{x}{r} *= nm" for r in range(6)]
+    return [
+        f"nm = max(max(max(abs({x}0), abs({x}1)), max(abs({x}2), abs({x}3))), max(abs({x}4), abs({x}5)))",
+        "nm = 1.0 / nm if nm > 0.0 else 1.0",
+    ] + [f"{x}{r} *= nm" for r in range(6)]
 
 
 def rayleigh(x: str, y: str, out: str) -> list[str]:
-    return [f"num = " + " + ".join(f"{x}{r} * {y}{r}" for r in range(6)),
-            f"den = " + " + ".join(f"{x}{r} * {x}{r}" for r in range(6)),
-            f"{out} = num / den if den > 0.0 else 0.0"]
+    return [
+        "num = " + " + ".join(f"{x}{r} * {y}{r}" for r in range(6)),
+        "den = " + " + ".join(f"{x}{r} * {x}{r}" for r in range(6)),
+        f"{out} = num / den if den > 0.0 else 0.0",
+    ]
 
 
 def solve(x: str) -> list[str]:
@@ -96,7 +100,7 @@ def body(lines: list[str]) -> str:
 def _bodies() -> tuple[str, str, str, str]:
     """The unrolled loop bodies: positive-definiteness, rho, refined rho, mu."""
     pd = body(["b = beta[s]"] + load(True) + factor("b") + ["out[s] = 1.0 if pd else 0.0"])
-    power = (["x%d = top[%d]" % (r, r) for r in range(6)] + load(False))
+    power = [f"x{r} = top[{r}]" for r in range(6)] + load(False)
     # the iteration counts are unrolled: an inner loop would stop LLVM vectorising across octants
     step = matvec("x", "y") + [f"x{r} = y{r}" for r in range(6)]
 
@@ -110,11 +114,16 @@ def _bodies() -> tuple[str, str, str, str]:
     # (the iterates are not stored for a later continuation: a second output stream costs the vectorisation)
     rho_lines = power + steps(POWER_STEPS) + matvec("x", "y") + rayleigh("x", "y", "rho[s]")
     refine_lines = power + steps(POWER_STEPS + REFINE_STEPS) + matvec("x", "y") + rayleigh("x", "y", "rho[s]")
-    mu_lines = (load(False) + factor(None)
-                + ["w%d = bottom[%d]" % (r, r) for r in range(6)]
-                + (solve("w") + normalise("w")) + solve("w") * (INVERSE_STEPS - 1)
-                + matvec("w", "y") + rayleigh("w", "y", "m")
-                + ["mu[s] = m if pd else 0.0"])
+    mu_lines = (
+        load(False)
+        + factor(None)
+        + [f"w{r} = bottom[{r}]" for r in range(6)]
+        + (solve("w") + normalise("w"))
+        + solve("w") * (INVERSE_STEPS - 1)
+        + matvec("w", "y")
+        + rayleigh("w", "y", "m")
+        + ["mu[s] = m if pd else 0.0"]
+    )
     return pd, body(rho_lines), body(refine_lines), body(mu_lines)
 
 
@@ -226,8 +235,16 @@ _FM = {"contract"}
 
 
 """
-    return head + REFINE_TEMPLATE.format(power_total=POWER_STEPS + REFINE_STEPS, INVERSE_STEPS=INVERSE_STEPS,
-                                         refine_body=refine_body, mu_body=mu_body).rstrip() + "\n"
+    return (
+        head
+        + REFINE_TEMPLATE.format(
+            power_total=POWER_STEPS + REFINE_STEPS,
+            INVERSE_STEPS=INVERSE_STEPS,
+            refine_body=refine_body,
+            mu_body=mu_body,
+        ).rstrip()
+        + "\n"
+    )
 
 
 def outputs() -> dict[Path, str]:

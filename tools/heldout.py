@@ -29,15 +29,26 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
 from oracle_collision import IndependentCheck  # noqa: E402
+
 from placement.evaluation.generate import TABLE_HEIGHT, generate_scene  # noqa: E402
 from placement.planning import Planner  # noqa: E402
-from placement.planning.scene.poses import quaternion_matrix  # noqa: E402
+from placement.scene.poses import quaternion_matrix  # noqa: E402
 
 MAPS = {"pr2": ROOT / "maps" / "pr2"}
 ONBOARD_MAPS = ROOT / "maps"
-KEYS = ["robot", "scenes", "steps planned", "infeasible", "FK-verified", "collision-free (independent)",
-        "footprint clear", "smallest clearance [m]", "clearance = independent (1 mm)", "hand changes",
-        "objects tilted > 6 deg"]
+KEYS = [
+    "robot",
+    "scenes",
+    "steps planned",
+    "infeasible",
+    "FK-verified",
+    "collision-free (independent)",
+    "footprint clear",
+    "smallest clearance [m]",
+    "clearance = independent (1 mm)",
+    "hand changes",
+    "objects tilted > 6 deg",
+]
 
 
 def transfer_faults(doc: dict) -> tuple[int, int]:
@@ -78,8 +89,15 @@ def robot_scenes(robot: str, n: int, objects: int) -> list[dict]:
     height = pick["size"][2]
     out = [base]
     for k in range(1, n):
-        doc = generate_scene(200 + k, k, objects=objects, obstacles=bool(k % 2), preset=preset,
-                             table_size=tuple(pick["size"][:2]), maps=maps)
+        doc = generate_scene(
+            200 + k,
+            k,
+            objects=objects,
+            obstacles=bool(k % 2),
+            preset=preset,
+            table_size=tuple(pick["size"][:2]),
+            maps=maps,
+        )
         for o in doc["obstacles"]:
             if o.get("table"):
                 o["box"]["size"][:2] = tables[o["name"]]["size"][:2]
@@ -116,8 +134,11 @@ def run(robot: str, docs: list[dict], tmp: Path) -> dict:
         row["hand changes"] += changes
         row["objects tilted > 6 deg"] += tilted
         bad = result.failed_step
-        print(f"{robot} scene {i}: {len(planned)} planned, {sum(free)} free, problems {problems[:2]}"
-              + (f"; step {bad.step} infeasible: {bad.reason[:300]}" if bad else ""), file=sys.stderr)
+        print(
+            f"{robot} scene {i}: {len(planned)} planned, {sum(free)} free, problems {problems[:2]}"
+            + (f"; step {bad.step} infeasible: {bad.reason[:300]}" if bad else ""),
+            file=sys.stderr,
+        )
         for s, c in zip(planned, checks):
             if c.scene_hits or c.self_hits or c.object_hits:
                 print(f"  step {s.step}: {c.scene_hits[:3]} {c.self_hits[:3]} {c.object_hits[:3]}", file=sys.stderr)
@@ -138,14 +159,23 @@ def main(argv=None) -> int:
             if not (maps / "zarr.json").exists() and not any(maps.glob("*/zarr.json")):
                 print(f"{robot}: no maps at {maps}, skipped", file=sys.stderr)
                 continue
-            docs = pr2_scenes(args.scenes, args.objects) if robot == "pr2" else \
-                robot_scenes(robot, args.scenes, args.objects)
+            docs = (
+                pr2_scenes(args.scenes, args.objects)
+                if robot == "pr2"
+                else robot_scenes(robot, args.scenes, args.objects)
+            )
             rows.append(run(robot, docs, Path(tmp)))
     print("| " + " | ".join(KEYS) + " |\n|" + "---|" * len(KEYS))
     for r in rows:
         print("| " + " | ".join(str(r[k]) for k in KEYS) + " |")
-    bad = [r for r in rows if r["collision-free (independent)"] != r["steps planned"]
-           or r["FK-verified"] != r["steps planned"] or r["hand changes"] or r["objects tilted > 6 deg"]]
+    bad = [
+        r
+        for r in rows
+        if r["collision-free (independent)"] != r["steps planned"]
+        or r["FK-verified"] != r["steps planned"]
+        or r["hand changes"]
+        or r["objects tilted > 6 deg"]
+    ]
     return 1 if bad else 0
 
 

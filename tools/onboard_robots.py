@@ -28,15 +28,17 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from placement.robots import load_robot  # noqa: E402
-from placement.robots.init import propose  # noqa: E402
-from placement.robots.init_render import render  # noqa: E402
-from placement.robots.reach import reach_band  # noqa: E402
+from placement.robots.onboarding.propose import propose  # noqa: E402
+from placement.robots.onboarding.reach import reach_band  # noqa: E402
+from placement.robots.onboarding.render import render  # noqa: E402
 from placement.robots.spec import share_dir  # noqa: E402
 
 ERD = "example-robot-data/robots/"
-ROBOTS = {"tiago": ERD + "tiago_description/robots/tiago.urdf",
-          "talos_reduced": ERD + "talos_data/robots/talos_reduced.urdf",
-          "romeo": ERD + "romeo_description/urdf/romeo.urdf"}
+ROBOTS = {
+    "tiago": ERD + "tiago_description/robots/tiago.urdf",
+    "talos_reduced": ERD + "talos_data/robots/talos_reduced.urdf",
+    "romeo": ERD + "romeo_description/urdf/romeo.urdf",
+}
 #: Gap between the base's edge and the table edge [m], and the largest table depth used [m].
 GAP, MAX_DEPTH = 0.05, 0.8
 #: Height above the table top [m] a top-down pre-grasp needs (object centre ~5 cm up, 10-15 cm above it).
@@ -85,8 +87,9 @@ def make_scene(name: str, robot, objects: int) -> Path:
 
     height = table_height(robot)
     depth = table_depth(robot, height)
-    doc = generate_scene(0, 0, objects=objects, preset=f"examples/robots/{name}.yaml", table_size=(0.8, depth),
-                         maps=f"maps/{name}")
+    doc = generate_scene(
+        0, 0, objects=objects, preset=f"examples/robots/{name}.yaml", table_size=(0.8, depth), maps=f"maps/{name}"
+    )
     for o in doc["obstacles"]:
         if o["name"].startswith("place_table"):
             o["box"]["size"][:2] = [depth, depth]
@@ -97,8 +100,10 @@ def make_scene(name: str, robot, objects: int) -> Path:
     doc["robot"]["preset"] = f"robots/{name}.yaml"
     doc["maps"] = f"../maps/{name}"
     path = ROOT / "examples" / f"table_clearing_{name}.yaml"
-    head = (f"# Table clearing sized for {name} (tools/onboard_robots.py): tables {depth} m deep (twice its top-down "
-            f"reach into a table) and {height} m high.\n# Units: metres, radians.\n")
+    head = (
+        f"# Table clearing sized for {name} (tools/onboard_robots.py): tables {depth} m deep (twice its top-down "
+        f"reach into a table) and {height} m high.\n# Units: metres, radians.\n"
+    )
     path.write_text(head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None))
     return path
 
@@ -107,7 +112,7 @@ def independent_search(robot, scene: Path, step, tries: int = 3000, seed: int = 
     """Whether a failed step is really infeasible: random base poses 0.1-0.9 m from the target, clear of
     every obstacle box by the base's circumscribed radius, each tried with IK (1 cm, 0.05 rad, 4 seeds)
     on every candidate trajectory and arm. Returns 'N of M base poses work'."""
-    from placement.ik import solve_ik
+    from placement.kinematics.ik import solve_ik
     from placement.planning.grasps import place_candidates, top_grasps
 
     doc = yaml.safe_load(scene.read_text())
@@ -123,17 +128,24 @@ def independent_search(robot, scene: Path, step, tries: int = 3000, seed: int = 
     for _ in range(tries):
         ang, d, yaw = rng.uniform(-math.pi, math.pi), rng.uniform(0.1, 0.9), rng.uniform(-math.pi, math.pi)
         x, y = p[0] + d * math.cos(ang), p[1] + d * math.sin(ang)
-        if any(math.hypot(max(abs(x - b["center"][0]) - b["size"][0] / 2, 0),
-                          max(abs(y - b["center"][1]) - b["size"][1] / 2, 0)) < robot.footprint_radius
-               for b in (o["box"] for o in doc["obstacles"])):
+        if any(
+            math.hypot(
+                max(abs(x - b["center"][0]) - b["size"][0] / 2, 0), max(abs(y - b["center"][1]) - b["size"][1] / 2, 0)
+            )
+            < robot.footprint_radius
+            for b in (o["box"] for o in doc["obstacles"])
+        ):
             continue
         tried += 1
         B = np.eye(4)
         B[:2, :2] = [[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]]
         B[:2, 3] = x, y
         Bi = np.linalg.inv(B)
-        found += any(all(solve_ik(robot, arm, Bi @ P, seeds=4, pos_tol=0.01, rot_tol=0.05).success for P in c.poses)
-                     for c in cands for arm in robot.arms)
+        found += any(
+            all(solve_ik(robot, arm, Bi @ P, seeds=4, pos_tol=0.01, rot_tol=0.05).success for P in c.poses)
+            for c in cands
+            for arm in robot.arms
+        )
     return f"{found} of {tried} clear base poses work"
 
 
@@ -155,9 +167,23 @@ def onboard(name: str, urdf: Path, samples: int, rebuild: bool, objects: int) ->
     row["build s"] = "-"
     if rebuild or not out.exists():
         t = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", "placement.cli.main", "maps", "build", "--spec",
-                               str(spec.relative_to(ROOT)), "--out", str(out.relative_to(ROOT)), "-q"], cwd=ROOT,
-                              capture_output=True, text=True)
+        proc = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "placement.cli.main",
+                "maps",
+                "build",
+                "--spec",
+                str(spec.relative_to(ROOT)),
+                "--out",
+                str(out.relative_to(ROOT)),
+                "-q",
+            ],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+        )
         if proc.returncode:
             row["result"] = f"build failed: {proc.stderr.strip()[:200]}"
             return row
@@ -170,9 +196,16 @@ def onboard(name: str, urdf: Path, samples: int, rebuild: bool, objects: int) ->
     problems = result.verify(robot)
     row["steps planned / verified"] = f"{len(planned)}/{len(result.steps)} / {len(planned) - len(problems)}"
     bad = result.failed_step
-    row["result"] = "ok" if bad is None and not problems else (
-        f"step {bad.step} ({bad.action} {bad.target}): {bad.reason}; independent IK search: "
-        f"{independent_search(robot, scene, bad)}" if bad is not None else "; ".join(problems))
+    row["result"] = (
+        "ok"
+        if bad is None and not problems
+        else (
+            f"step {bad.step} ({bad.action} {bad.target}): {bad.reason}; independent IK search: "
+            f"{independent_search(robot, scene, bad)}"
+            if bad is not None
+            else "; ".join(problems)
+        )
+    )
     return row
 
 
@@ -186,8 +219,9 @@ def main(argv=None) -> int:
     rows = []
     for name in args.robots:
         urdf = share_dir() / ROBOTS[name] if name in ROBOTS else Path(name)
-        rows.append(onboard(name if name in ROBOTS else urdf.stem.split(".")[0], urdf, args.samples, args.rebuild,
-                            args.objects))
+        rows.append(
+            onboard(name if name in ROBOTS else urdf.stem.split(".")[0], urdf, args.samples, args.rebuild, args.objects)
+        )
         print(rows[-1], file=sys.stderr)
     keys = ["robot", "arms", "dof", "init s", "build s", "steps planned / verified", "result"]
     print("| " + " | ".join(keys) + " |\n|" + "---|" * len(keys))

@@ -11,16 +11,15 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
-from ..errors import PlacementError
-from ..evaluation.evaluate import MAX_WORKERS, check_methods, check_scenes, summary_rows
-from ..evaluation.evaluate import evaluate as run_evaluation
-from ..evaluation.outdir import output_dir
-from ..planning.planner import METHODS
-from ..progress import Ticking
-from .maps import dask_client
-from .options import emit, setup_logging, standard_options
-from .params import Bounded, OneLineCommand
-
+from placement.cli.maps import dask_client
+from placement.cli.options import emit, setup_logging, standard_options
+from placement.cli.params import Bounded, OneLineCommand
+from placement.errors import PlacementError
+from placement.evaluation.evaluate import MAX_WORKERS, check_methods, check_scenes, summary_rows
+from placement.evaluation.evaluate import evaluate as run_evaluation
+from placement.evaluation.outdir import output_dir
+from placement.planning.planner import METHODS
+from placement.progress import Ticking
 
 log = logging.getLogger("placement")
 
@@ -41,16 +40,36 @@ class MethodList(click.ParamType):
 
 @click.command(cls=OneLineCommand)
 @click.argument("scenes", nargs=-1, required=True, type=click.Path())
-@click.option("--methods", type=MethodList(), default=",".join(METHODS), show_default=True,
-              help="Comma-separated methods, each at most once.")
+@click.option(
+    "--methods",
+    type=MethodList(),
+    default=",".join(METHODS),
+    show_default=True,
+    help="Comma-separated methods, each at most once.",
+)
 @click.option("--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: each scene's).")
-@click.option("--out", "out_dir", default=None, type=click.Path(),
-              help="Write table (md, csv), JSON and box plot here (created and checked before the evaluation).")
-@click.option("--workers", type=Bounded(1, MAX_WORKERS), default=2, show_default=True,
-              help=f"Scenes evaluated in parallel, 1 to {MAX_WORKERS}.")
-@click.option("--dask", "dask_address", default=None, metavar="ADDRESS",
-              help="Spread the scenes over a Dask cluster (scheduler address, e.g. tcp://host:8786) instead of "
-                   "local processes; its workers must see the scene and map files at the same paths.")
+@click.option(
+    "--out",
+    "out_dir",
+    default=None,
+    type=click.Path(),
+    help="Write table (md, csv), JSON and box plot here (created and checked before the evaluation).",
+)
+@click.option(
+    "--workers",
+    type=Bounded(1, MAX_WORKERS),
+    default=2,
+    show_default=True,
+    help=f"Scenes evaluated in parallel, 1 to {MAX_WORKERS}.",
+)
+@click.option(
+    "--dask",
+    "dask_address",
+    default=None,
+    metavar="ADDRESS",
+    help="Spread the scenes over a Dask cluster (scheduler address, e.g. tcp://host:8786) instead of "
+    "local processes; its workers must see the scene and map files at the same paths.",
+)
 @standard_options
 def evaluate(scenes, methods, maps_path, out_dir, workers, dask_address, as_json, verbose, quiet):
     """Plan every scene with each method and compare task times (SPEC section 8)."""
@@ -67,9 +86,15 @@ def evaluate(scenes, methods, maps_path, out_dir, workers, dask_address, as_json
         bars[0].n = done
         bars[0].refresh()
 
-    log.info("evaluating %d scene%s with %s (%s)", len(files), "" if len(files) == 1 else "s", ", ".join(methods),
-             "on the Dask cluster" if dask_address else f"{min(workers, len(files))} process"
-             + ("" if min(workers, len(files)) == 1 else "es"))
+    log.info(
+        "evaluating %d scene%s with %s (%s)",
+        len(files),
+        "" if len(files) == 1 else "s",
+        ", ".join(methods),
+        "on the Dask cluster"
+        if dask_address
+        else f"{min(workers, len(files))} process" + ("" if min(workers, len(files)) == 1 else "es"),
+    )
     with contextlib.ExitStack() as stack, contextlib.ExitStack() as ticking:
         if out_dir:
             stack.enter_context(output_dir(out_dir, "--out"))
@@ -98,7 +123,7 @@ def markdown_table(rows: list[dict]) -> str:
 
 def write_report(doc: dict, out: Path) -> None:
     """``results.json``, ``summary.md``, ``summary.csv`` and ``task_times.png`` in ``out``."""
-    from ..evaluation.plots import plot_task_times
+    from placement.evaluation.plots import plot_task_times
 
     rows = summary_rows(doc)
     (out / "results.json").write_text(json.dumps(doc, indent=1))
@@ -108,4 +133,3 @@ def write_report(doc: dict, out: Path) -> None:
         w.writeheader()
         w.writerows(rows)
     plot_task_times(doc, out / "task_times.png")
-

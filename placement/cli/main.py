@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import click
 
-from .. import __version__
-from .evaluate import evaluate
-from .maps import maps
-from .params import OneLineGroup
-from .query import query
-from .robots import robots
-from .scenes import scenes
-from .view import view
+from placement import __version__
+from placement.cli.evaluate import evaluate
+from placement.cli.maps import maps
+from placement.cli.params import OneLineGroup
+from placement.cli.query import query
+from placement.cli.robots import robots
+from placement.cli.scenes import scenes
+from placement.cli.view import view
 
 
 @click.group(cls=OneLineGroup, context_settings={"help_option_names": ["-h", "--help"]})

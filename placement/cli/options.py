@@ -13,15 +13,16 @@ from pathlib import Path
 
 import click
 
-from ..errors import PlacementError
-from ..validation import one_line
+from placement.errors import PlacementError
+from placement.validation import one_line
 
 log = logging.getLogger("placement")
 
 
 def robot_option(f):
-    return click.option("--robot", default=None, metavar="PRESET",
-                        help="Built-in preset name (pr2) or path to a robot YAML.")(f)
+    return click.option(
+        "--robot", default=None, metavar="PRESET", help="Built-in preset name (pr2) or path to a robot YAML."
+    )(f)
 
 
 def arm_option(f):
@@ -54,8 +55,9 @@ def _json(data, indent) -> str:
     try:
         return json.dumps(data, indent=indent, sort_keys=False, allow_nan=False)
     except ValueError:  # NaN or inf: JSON has no such numbers, and they would mean a silent wrong answer
-        raise PlacementError("the result holds a non-finite number (NaN or inf); refusing to print invalid "
-                             "JSON") from None
+        raise PlacementError(
+            "the result holds a non-finite number (NaN or inf); refusing to print invalid JSON"
+        ) from None
 
 
 def to_json_line(data) -> str:
@@ -91,14 +93,14 @@ ECHO_CHARS = 80
 #: :data:`ECHO_CHARS` are cut, then the message itself.
 MESSAGE_CHARS = 2000
 
-_LONG_RUN = re.compile(r"\S{%d,}" % (ECHO_CHARS + 1))
+_LONG_RUN = re.compile(rf"\S{{{ECHO_CHARS + 1},}}")
 
 
 def cut(text: str) -> str:
     """``text`` if it is at most :data:`ECHO_CHARS` long, else its start and its length in characters."""
     if len(text) <= ECHO_CHARS:
         return text
-    return f"{text[:ECHO_CHARS - 20]}... ({len(text):,} characters)"
+    return f"{text[: ECHO_CHARS - 20]}... ({len(text):,} characters)"
 
 
 def long_strings(data, limit: int = ECHO_CHARS) -> list[str]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ..errors import PlacementError
+from placement.errors import PlacementError
 
 
 class OneLineCommand(click.Command):
@@ -65,7 +65,7 @@ class OneLineError(click.ClickException):
 
 
 class Checked(click.ParamType):
-    """An option type checked by a :mod:`placement.buildspec` validator (same rules as in spec files)."""
+    """An option type checked by a :mod:`placement.maps.buildspec` validator (same rules as in spec files)."""
 
     def __init__(self, name: str, check):
         self.name = name

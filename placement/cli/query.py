@@ -6,20 +6,25 @@ import sys
 
 import click
 
-from ..planning import METHODS, Planner
-from ..warmup import QUERY_COMPILE_S, announce_compilation
-from .params import OneLineCommand
-from .options import bounded, emit, setup_logging, standard_options, to_json_line, writable_dir
+from placement.cli.options import bounded, emit, setup_logging, standard_options, to_json_line, writable_dir
+from placement.cli.params import OneLineCommand
+from placement.planning import METHODS, Planner
+from placement.warmup import QUERY_COMPILE_S, announce_compilation
 
 
 @click.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("scene", type=click.Path())
-@click.option("--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`).")
+@click.option(
+    "--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`)."
+)
 @click.option("--method", type=click.Choice(METHODS), default="sequential", show_default=True)
 @click.option("--plot", "plot_dir", default=None, type=click.Path(), help="Write PNG cost maps of each step here.")
-@click.option("--stream", is_flag=True,
-              help="After the first plan, read scene updates as JSON lines on stdin and print a new plan "
-                   "(one JSON line) after each.")
+@click.option(
+    "--stream",
+    is_flag=True,
+    help="After the first plan, read scene updates as JSON lines on stdin and print a new plan "
+    "(one JSON line) after each.",
+)
 @standard_options
 def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
     """Plan the base placement, arm, grasp and IK solution of every step."""
@@ -33,7 +38,7 @@ def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
         return
     result = planner.plan(keep_maps=plot_dir is not None)
     if plot_dir:
-        from ..plotting import plot_steps
+        from placement.plotting import plot_steps
 
         files = plot_steps(planner.world, result, plot_dir, planner.scene.start, planner.robot.footprint_radius)
         if not quiet:
@@ -51,8 +56,20 @@ def main() -> None:
 
 
 #: (header, alignment) of the result table's columns; each is as wide as its longest entry
-COLUMNS = (("step", ">"), ("action", "<"), ("target", "<"), ("arm", "<"), ("grasp", "<"), ("x [m]", ">"),
-           ("y [m]", ">"), ("yaw [rad]", ">"), ("manip", ">"), ("cost", ">"), ("travel [s]", ">"), ("ms", ">"))
+COLUMNS = (
+    ("step", ">"),
+    ("action", "<"),
+    ("target", "<"),
+    ("arm", "<"),
+    ("grasp", "<"),
+    ("x [m]", ">"),
+    ("y [m]", ">"),
+    ("yaw [rad]", ">"),
+    ("manip", ">"),
+    ("cost", ">"),
+    ("travel [s]", ">"),
+    ("ms", ">"),
+)
 
 
 def _table(r: dict) -> str:
@@ -65,11 +82,26 @@ def _table(r: dict) -> str:
             rows.append((head, f"infeasible: {s['reason']}"))
             continue
         x, y, yaw = s["base"]
-        rows.append((head + [str(s["arm"]), str(s["grasp"]), f"{x:.3f}", f"{y:.3f}", f"{yaw:.3f}",
-                             f"{s['manipulability']:.4f}", f"{s['cost']['total']:.3f}",
-                             f"{s['travel_time_s']:.2f}", f"{s['timings_ms']['total']:.1f}"], None))
-    widths = [max([len(name)] + [len(cells[i]) for cells, _ in rows if i < len(cells)])
-              for i, (name, _) in enumerate(COLUMNS)]
+        rows.append(
+            (
+                head
+                + [
+                    str(s["arm"]),
+                    str(s["grasp"]),
+                    f"{x:.3f}",
+                    f"{y:.3f}",
+                    f"{yaw:.3f}",
+                    f"{s['manipulability']:.4f}",
+                    f"{s['cost']['total']:.3f}",
+                    f"{s['travel_time_s']:.2f}",
+                    f"{s['timings_ms']['total']:.1f}",
+                ],
+                None,
+            )
+        )
+    widths = [
+        max([len(name)] + [len(cells[i]) for cells, _ in rows if i < len(cells)]) for i, (name, _) in enumerate(COLUMNS)
+    ]
 
     def line(cells, reason=None) -> str:
         text = " ".join(f"{c:{a}{w}}" for c, (_, a), w in zip(cells, COLUMNS, widths))
@@ -100,8 +132,11 @@ def stream_lines(stream, max_bytes: int = MAX_LINE_BYTES):
             while raw and not raw.endswith(b"\n"):  # skip the rest of the line, a bounded piece at a time
                 raw = stream.readline(1 << 20)
                 size += len(raw)
-            yield number, None, (f"line {number}: {size:,} bytes, more than the {max_bytes:,} bytes a stream line "
-                                 "may hold")
+            yield (
+                number,
+                None,
+                (f"line {number}: {size:,} bytes, more than the {max_bytes:,} bytes a stream line may hold"),
+            )
             continue
         try:
             text = raw.decode("utf-8")
@@ -121,8 +156,8 @@ def stream_plans(planner, keep_maps: bool = False, on_result=None, stream=None) 
     import json
     import time
 
-    from ..errors import PlacementError
-    from ..validation import one_line
+    from placement.errors import PlacementError
+    from placement.validation import one_line
 
     def say(answer: dict) -> None:
         click.echo(to_json_line(answer))
@@ -140,8 +175,9 @@ def stream_plans(planner, keep_maps: bool = False, on_result=None, stream=None) 
             try:
                 change = json.loads(line)
             except (ValueError, RecursionError) as exc:  # RecursionError: absurdly deep nesting
-                raise PlacementError(f"line {number}: not valid JSON ({type(exc).__name__}: "
-                                     f"{str(exc)[:80] or 'too deeply nested'})") from None
+                raise PlacementError(
+                    f"line {number}: not valid JSON ({type(exc).__name__}: {str(exc)[:80] or 'too deeply nested'})"
+                ) from None
             info = planner.update(change)  # all or nothing: on error the planner is as it was
         except PlacementError as exc:
             msg = first_line(exc, change)

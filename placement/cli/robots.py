@@ -9,9 +9,9 @@ from pathlib import Path
 
 import click
 
-from ..errors import PlacementError
-from .options import emit, log, setup_logging, standard_options, writable_dir
-from .params import OneLineCommand, OneLineGroup
+from placement.cli.options import emit, log, setup_logging, standard_options, writable_dir
+from placement.cli.params import OneLineCommand, OneLineGroup
+from placement.errors import PlacementError
 
 
 @click.group(cls=OneLineGroup)
@@ -48,8 +48,8 @@ def write_atomic(path: Path, text: str) -> None:
 def init(urdf, out, force, as_json, verbose, quiet):
     """Propose a commented preset for the robot in URDF (a .urdf or .xacro file)."""
     setup_logging(verbose, quiet)
-    from ..robots.init import propose
-    from ..robots.init_render import render
+    from placement.robots.onboarding.propose import propose
+    from placement.robots.onboarding.render import render
 
     out_path = Path(out) if out else None
     if out_path is not None:
@@ -66,27 +66,34 @@ def init(urdf, out, force, as_json, verbose, quiet):
     elif out_path is None:
         click.echo(text, nl=False)
     else:
-        click.echo(f"{out_path}: preset for {proposal.name} with arms {', '.join(a.name for a in proposal.arms)} "
-                   f"({proposal.seconds:.1f} s); check it with: placement robots check {out_path}")
+        click.echo(
+            f"{out_path}: preset for {proposal.name} with arms {', '.join(a.name for a in proposal.arms)} "
+            f"({proposal.seconds:.1f} s); check it with: placement robots check {out_path}"
+        )
 
 
 @robots.command(cls=OneLineCommand)
 @click.argument("preset")
-@click.option("--plot", "plot_dir", default=None, type=click.Path(),
-              help="Write a side view with the reach bands and a TCP close-up per arm (PNG) here.")
+@click.option(
+    "--plot",
+    "plot_dir",
+    default=None,
+    type=click.Path(),
+    help="Write a side view with the reach bands and a TCP close-up per arm (PNG) here.",
+)
 @standard_options
 def check(preset, plot_dir, as_json, verbose, quiet):
     """Load PRESET and show the heights and distances each arm reaches top-down and horizontally."""
     setup_logging(verbose, quiet)
-    from ..robots import load_robot
-    from ..robots.check import check_robot, render_table
+    from placement.robots import load_robot
+    from placement.robots.onboarding.check import check_robot, render_table
 
     if plot_dir:
         writable_dir(plot_dir, "--plot")
     robot = load_robot(preset)
     doc = check_robot(robot)
     if plot_dir:
-        from ..robots.check_plot import plot_check
+        from placement.robots.onboarding.check_plot import plot_check
 
         doc["plots"] = plot_check(robot, doc, Path(plot_dir))
     emit(doc, as_json, render_table)

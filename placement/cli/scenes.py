@@ -6,11 +6,11 @@ from pathlib import Path
 
 import click
 
-from ..evaluation.generate import MAX_OBJECTS, MAX_SCENES, MAX_SEED, TABLE_DEPTH, TABLE_SIZES, write_scenes
-from ..evaluation.outdir import output_dir
-from ..robots import load_robot
-from .options import emit, log, setup_logging, standard_options
-from .params import Bounded, OneLineCommand, OneLineGroup
+from placement.cli.options import emit, log, setup_logging, standard_options
+from placement.cli.params import Bounded, OneLineCommand, OneLineGroup
+from placement.evaluation.generate import MAX_OBJECTS, MAX_SCENES, MAX_SEED, TABLE_DEPTH, TABLE_SIZES, write_scenes
+from placement.evaluation.outdir import output_dir
+from placement.robots import load_robot
 
 
 @click.group(cls=OneLineGroup)
@@ -20,18 +20,35 @@ def scenes():
 
 @scenes.command(cls=OneLineCommand)
 @click.option("--seed", type=Bounded(0, MAX_SEED), default=0, show_default=True, help="Seed, 0 to 2^63-1.")
-@click.option("--count", type=Bounded(1, MAX_SCENES), default=10, show_default=True,
-              help=f"Scenes, 1 to {MAX_SCENES}.")
-@click.option("--objects", type=Bounded(1, MAX_OBJECTS), default=6, show_default=True,
-              help=f"Objects per scene, 1 to {MAX_OBJECTS}.")
+@click.option("--count", type=Bounded(1, MAX_SCENES), default=10, show_default=True, help=f"Scenes, 1 to {MAX_SCENES}.")
+@click.option(
+    "--objects",
+    type=Bounded(1, MAX_OBJECTS),
+    default=6,
+    show_default=True,
+    help=f"Objects per scene, 1 to {MAX_OBJECTS}.",
+)
 @click.option("--obstacles", is_flag=True, help="Add crates beside the pick tables.")
-@click.option("--robot", "preset", default="pr2", show_default=True,
-              help="Preset name or preset YAML path (sets the table size); a path is recorded relative to the scenes.")
-@click.option("--maps", default=None, type=click.Path(),
-              help="Reachability maps the scenes record (relative to the scenes unless absolute) "
-                   "[default: maps/<robot name> in the current directory].")
-@click.option("--table-depth", type=float, default=None,
-              help=f"Pick table depth [m], {TABLE_DEPTH[0]:g} to {TABLE_DEPTH[1]:g} [default: per robot, 0.6 for the PR2].")
+@click.option(
+    "--robot",
+    "preset",
+    default="pr2",
+    show_default=True,
+    help="Preset name or preset YAML path (sets the table size); a path is recorded relative to the scenes.",
+)
+@click.option(
+    "--maps",
+    default=None,
+    type=click.Path(),
+    help="Reachability maps the scenes record (relative to the scenes unless absolute) "
+    "[default: maps/<robot name> in the current directory].",
+)
+@click.option(
+    "--table-depth",
+    type=float,
+    default=None,
+    help=f"Pick table depth [m], {TABLE_DEPTH[0]:g} to {TABLE_DEPTH[1]:g} [default: per robot, 0.6 for the PR2].",
+)
 @click.argument("out_dir", type=click.Path())
 @standard_options
 def generate(seed, count, objects, obstacles, preset, maps, table_depth, out_dir, as_json, verbose, quiet):
@@ -42,8 +59,9 @@ def generate(seed, count, objects, obstacles, preset, maps, table_depth, out_dir
             # the planner's own default, seen from here: the scenes then plan from any directory
             maps = str(Path("maps") / load_robot(preset).name)
         size = None if table_depth is None else (TABLE_SIZES.get(preset, (0.8, 0.8))[0], table_depth)
-        paths = write_scenes(out_dir, seed, count, objects=objects, obstacles=obstacles, preset=preset, maps=maps,
-                             table_size=size)
+        paths = write_scenes(
+            out_dir, seed, count, objects=objects, obstacles=obstacles, preset=preset, maps=maps, table_size=size
+        )
     if not Path(maps).exists():
         log.warning("note: %s does not exist (yet); the scenes record it as their maps", maps)
     emit({"scenes": [str(p) for p in paths]}, as_json, lambda d: "\n".join(d["scenes"]))

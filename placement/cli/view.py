@@ -6,17 +6,22 @@ import sys
 
 import click
 
-from ..planning import METHODS
-from .options import setup_logging, standard_options, to_json_line
-from .params import Bounded, OneLineCommand, OneLineError
-from .query import stream_plans
+from placement.cli.options import setup_logging, standard_options, to_json_line
+from placement.cli.params import Bounded, OneLineCommand, OneLineError
+from placement.cli.query import stream_plans
+from placement.planning import METHODS
 
 PORT = Bounded(0, 65535)
 
 
 def port_option(f):
-    return click.option("--port", type=PORT, default=8080, show_default=True,
-                        help="Port on 127.0.0.1 (0: any free one; a busy port: the next free one).")(f)
+    return click.option(
+        "--port",
+        type=PORT,
+        default=8080,
+        show_default=True,
+        help="Port on 127.0.0.1 (0: any free one; a busy port: the next free one).",
+    )(f)
 
 
 def serve(view, as_json: bool, what: str, timeout: float | None = None) -> None:
@@ -32,13 +37,23 @@ def serve(view, as_json: bool, what: str, timeout: float | None = None) -> None:
 
 @click.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("scene", type=click.Path())
-@click.option("--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`).")
+@click.option(
+    "--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`)."
+)
 @click.option("--method", type=click.Choice(METHODS), default=None, help="Planning method (default sequential).")
-@click.option("--plan", "plan_path", default=None, type=click.Path(),
-              help="Show this plan (JSON of `placement query --json`) instead of planning; no maps needed.")
-@click.option("--stream", is_flag=True,
-              help="Read scene updates as JSON lines on stdin (as `placement query --stream`), show each new "
-                   "plan live and print it as one JSON line.")
+@click.option(
+    "--plan",
+    "plan_path",
+    default=None,
+    type=click.Path(),
+    help="Show this plan (JSON of `placement query --json`) instead of planning; no maps needed.",
+)
+@click.option(
+    "--stream",
+    is_flag=True,
+    help="Read scene updates as JSON lines on stdin (as `placement query --stream`), show each new "
+    "plan live and print it as one JSON line.",
+)
 @port_option
 @click.option("--timeout", type=float, default=None, hidden=True, help="Stop after this many seconds (tests).")
 @standard_options
@@ -48,11 +63,11 @@ def view(scene, maps_path, method, plan_path, stream, port, timeout, as_json, ve
     if plan_path and (method or stream or maps_path):
         given = [o for o, v in (("--method", method), ("--stream", stream), ("--maps", maps_path)) if v]
         raise OneLineError(f"--plan shows a plan file; it cannot be combined with {', '.join(given)}")
-    from ..viewer import view_scene
+    from placement.viewer import view_scene
 
     if plan_path:  # a plan made for another scene or robot is refused before anything is served
-        from ..planning.scene import load_scene
-        from ..viewer.plan_file import load_checked_plan
+        from placement.scene import load_scene
+        from placement.viewer.plan_file import load_checked_plan
 
         scene = load_scene(scene)
         load_checked_plan(plan_path, scene)
@@ -71,18 +86,28 @@ def view(scene, maps_path, method, plan_path, stream, port, timeout, as_json, ve
 @click.command("view", cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("path", type=click.Path())
 @click.option("--arm", default=None, metavar="ARM", help="Arm to show (default: the first mapped arm).")
-@click.option("--direction", default="best", show_default=True,
-              type=click.Choice(["best", "down", "up", "forward", "backward", "left", "right"]),
-              help="Colour by the best value over all orientations, or for this TCP approach direction.")
-@click.option("--max-points", type=Bounded(1000, 5_000_000), default=200_000, show_default=True,
-              help="Reached cells drawn at most (a uniform sample beyond).")
+@click.option(
+    "--direction",
+    default="best",
+    show_default=True,
+    type=click.Choice(["best", "down", "up", "forward", "backward", "left", "right"]),
+    help="Colour by the best value over all orientations, or for this TCP approach direction.",
+)
+@click.option(
+    "--max-points",
+    type=Bounded(1000, 5_000_000),
+    default=200_000,
+    show_default=True,
+    help="Reached cells drawn at most (a uniform sample beyond).",
+)
 @port_option
 @click.option("--timeout", type=float, default=None, hidden=True, help="Stop after this many seconds (tests).")
 @standard_options
 def maps_view(path, arm, direction, max_points, port, timeout, as_json, verbose, quiet):
     """Serve a 3D view of a reachability map: reached cells coloured by value, the robot at home."""
     setup_logging(verbose, quiet)
-    from ..viewer import view_map
+    from placement.viewer import view_map
 
-    serve(view_map(path, arm=arm, direction=direction, port=port, max_points=max_points), as_json, "map viewer",
-          timeout)
+    serve(
+        view_map(path, arm=arm, direction=direction, port=port, max_points=max_points), as_json, "map viewer", timeout
+    )

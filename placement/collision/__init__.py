@@ -4,10 +4,28 @@
 :mod:`placement.collision.checker` for the pairs and rules, :mod:`.robot` and :mod:`.scene` for the geometry.
 """
 
-from .checker import CLEARANCE_CAP, CollisionResult, SceneCollision, base_matrix
-from .robot import CollisionGeometryWarning, RobotGeometry, load_geometry, moved_joints, robot_geometry
-from .scene import PRISM_HEIGHT, OccupancyCells, SceneShape, scene_shapes
+from placement.collision.checker import CLEARANCE_CAP, CollisionResult, SceneCollision, base_matrix
+from placement.collision.robot import (
+    CollisionGeometryWarning,
+    RobotGeometry,
+    load_geometry,
+    moved_joints,
+    robot_geometry,
+)
+from placement.collision.scene import PRISM_HEIGHT, OccupancyCells, SceneShape, scene_shapes
 
-__all__ = sorted(["CLEARANCE_CAP", "CollisionGeometryWarning", "CollisionResult", "OccupancyCells",
-                  "PRISM_HEIGHT", "RobotGeometry", "SceneCollision", "SceneShape", "base_matrix",
-                  "load_geometry", "moved_joints", "robot_geometry", "scene_shapes"])
+__all__ = [
+    "CLEARANCE_CAP",
+    "CollisionGeometryWarning",
+    "CollisionResult",
+    "OccupancyCells",
+    "PRISM_HEIGHT",
+    "RobotGeometry",
+    "SceneCollision",
+    "SceneShape",
+    "base_matrix",
+    "load_geometry",
+    "moved_joints",
+    "robot_geometry",
+    "scene_shapes",
+]

@@ -29,11 +29,11 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from ..errors import PlacementError
-from ..robots import Robot
-from .held import HeldCheck
-from .robot import robot_geometry
-from .scene import OccupancyCells, PieceGrid, SceneShape, scene_shapes
+from placement.collision.held import HeldCheck
+from placement.collision.robot import robot_geometry
+from placement.collision.scene import OccupancyCells, PieceGrid, SceneShape, scene_shapes
+from placement.errors import PlacementError
+from placement.robots import Robot
 
 #: Distances are measured up to this [m]; a free trajectory farther from everything reports it.
 CLEARANCE_CAP = 0.2
@@ -100,17 +100,19 @@ class SceneCollision:
 
     Args:
         robot: the robot (its collision shapes load once per robot object; missing meshes warn).
-        scene: a :class:`~placement.planning.scene.Scene` (obstacles, tables, objects, occupancy map).
+        scene: a :class:`~placement.scene.Scene` (obstacles, tables, objects, occupancy map).
         padding: robot-scene pairs closer than this [m] collide.
         clearance_cap: distances are measured up to this [m].
         package_dirs: extra folders holding the URDF's ``package://`` meshes.
     """
 
-    def __init__(self, robot: Robot, scene, padding: float = 0.0, clearance_cap: float = CLEARANCE_CAP,
-                 package_dirs=()):
+    def __init__(
+        self, robot: Robot, scene, padding: float = 0.0, clearance_cap: float = CLEARANCE_CAP, package_dirs=()
+    ):
         if not (np.isfinite(padding) and padding >= 0) or not (np.isfinite(clearance_cap) and clearance_cap > 0):
-            raise PlacementError(f"collision check: padding ({padding}) must be >= 0 and clearance_cap "
-                                 f"({clearance_cap}) > 0 [m]")
+            raise PlacementError(
+                f"collision check: padding ({padding}) must be >= 0 and clearance_cap ({clearance_cap}) > 0 [m]"
+            )
         self.robot = robot
         self.geometry = robot_geometry(robot, package_dirs)
         self.padding, self.cap = float(padding), float(clearance_cap)
@@ -138,10 +140,16 @@ class SceneCollision:
         aabb = np.array([s.aabb for s in shapes]).reshape(-1, 2, 3)
         occ = getattr(scene, "occupancy", None)
         cells = OccupancyCells(occ) if occ is not None else None
-        grid = (PieceGrid(aabb, self._tilt()) if self.prefilter and len(shapes) >= GRID_PIECES else None)
+        grid = PieceGrid(aabb, self._tilt()) if self.prefilter and len(shapes) >= GRID_PIECES else None
         # all or nothing: a scene the check cannot take leaves the checker as it was
         self.shapes, self.objects, self._object_of, self._aabb, self.cells, self._grid = (
-            shapes, objects, object_of, aabb, cells, grid)
+            shapes,
+            objects,
+            object_of,
+            aabb,
+            cells,
+            grid,
+        )
 
     def _tilt(self) -> float | None:
         """How far the base frame's z leaves the model's z (0: a turn about z; None: more than 1e-9)."""
@@ -160,12 +168,15 @@ class SceneCollision:
         qs = np.atleast_2d(np.asarray(qs, dtype=float))
         n = self.robot.arm(arm).dof
         if qs.ndim != 2 or qs.shape[1] != n or not np.all(np.isfinite(qs)):
-            raise PlacementError(f"collision check: qs must be (poses, {n}) finite joint values of arm '{arm}', "
-                                 f"got shape {qs.shape}")
+            raise PlacementError(
+                f"collision check: qs must be (poses, {n}) finite joint values of arm '{arm}', got shape {qs.shape}"
+            )
         for name in ([grasped] if grasped is not None else []) + list(gone):
             if name not in self.objects:
-                raise PlacementError(f"collision check: object '{name}' is not in the scene; objects: "
-                                     f"{', '.join(self.objects) or '(none)'}")
+                raise PlacementError(
+                    f"collision check: object '{name}' is not in the scene; objects: "
+                    f"{', '.join(self.objects) or '(none)'}"
+                )
         A = self.geometry.base_in_model @ np.linalg.inv(base_matrix(*(float(v) for v in base)))
         inst = self._instances(arm, qs, shapes)
         scene = self._scene_in_model(A, inst)
@@ -209,8 +220,9 @@ class SceneCollision:
         poses = [np.full(len(shapes.static), -1)]
         R, t = [self._home_R[shapes.static]], [self._home_t[shapes.static]]
         for p, q in enumerate(qs):
-            pin.updateGeometryPlacements(model, self._data, geo.geom, self._gdata,
-                                         self.robot.full_q(arm, q, geo.home_q))
+            pin.updateGeometryPlacements(
+                model, self._data, geo.geom, self._gdata, self.robot.full_q(arm, q, geo.home_q)
+            )
             Ms = [self._gdata.oMg[int(g)] for g in shapes.moving]
             ids.append(shapes.moving)
             poses.append(np.full(len(shapes.moving), p))
@@ -219,8 +231,17 @@ class SceneCollision:
         ids, R, t = np.concatenate(ids).astype(int), np.concatenate(R), np.concatenate(t)
         centre = np.einsum("nij,nj->ni", R, geo.centre[ids]) + t
         gripper = np.isin(ids, shapes.gripper)
-        return {"id": ids, "pose": np.concatenate(poses), "poses": len(qs), "R": R, "t": t, "centre": centre,
-                "radius": geo.radius[ids], "gripper": gripper, "tf": {}}
+        return {
+            "id": ids,
+            "pose": np.concatenate(poses),
+            "poses": len(qs),
+            "R": R,
+            "t": t,
+            "centre": centre,
+            "radius": geo.radius[ids],
+            "gripper": gripper,
+            "tf": {},
+        }
 
     def _scene_in_model(self, A: np.ndarray, inst: dict) -> dict:
         """Scene pieces near the robot in the model frame: the shapes (those the grid finds in reach,
@@ -245,8 +266,13 @@ class SceneCollision:
                     objects = objects + [None] * len(rows)
         elif self._grid is not None:  # no robot shapes: nothing can pair
             shapes, aabb, objects = [], aabb[:0], []
-        return {"shapes": list(shapes), "aabb": model_aabb(aabb, A) if len(aabb) else aabb, "A": A, "tf": {},
-                "objects": objects}
+        return {
+            "shapes": list(shapes),
+            "aabb": model_aabb(aabb, A) if len(aabb) else aabb,
+            "A": A,
+            "tf": {},
+            "objects": objects,
+        }
 
     def _pairs(self, inst: dict, scene: dict, shapes, grasped, gone: frozenset) -> dict:
         """Candidate pairs with a lower bound of their distance [m]: robot-scene then self."""
@@ -261,9 +287,12 @@ class SceneCollision:
         c, r = inst["centre"], inst["radius"]
         self_lb = np.linalg.norm(c[sa] - c[sb], axis=1) - r[sa] - r[sb]
         keep = self_lb <= self.cap
-        return {"a": np.concatenate([a, sa[keep]]), "b": np.concatenate([b, sb[keep]]),
-                "self": np.concatenate([np.zeros(len(a), bool), np.ones(int(keep.sum()), bool)]),
-                "lb": np.concatenate([lb[a, b], self_lb[keep]])}
+        return {
+            "a": np.concatenate([a, sa[keep]]),
+            "b": np.concatenate([b, sb[keep]]),
+            "self": np.concatenate([np.zeros(len(a), bool), np.ones(int(keep.sum()), bool)]),
+            "lb": np.concatenate([lb[a, b], self_lb[keep]]),
+        }
 
     def _self_instances(self, shapes, poses: int) -> tuple[np.ndarray, np.ndarray]:
         """Instance indices (see :meth:`_instances`) of both shapes of every self pair at every pose."""
@@ -287,8 +316,12 @@ class SceneCollision:
         if hit is None:
             g = int(inst["id"][k])
             geo = self.geometry
-            hit = inst["tf"][k] = (geo.geom.geometryObjects[g].geometry, geo.hulls[g], bool(geo.exact[g]),
-                                   coal.Transform3s(inst["R"][k], inst["t"][k]))
+            hit = inst["tf"][k] = (
+                geo.geom.geometryObjects[g].geometry,
+                geo.hulls[g],
+                bool(geo.exact[g]),
+                coal.Transform3s(inst["R"][k], inst["t"][k]),
+            )
         return hit
 
     def _scene(self, scene: dict, s: int):

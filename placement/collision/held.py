@@ -18,7 +18,7 @@ from __future__ import annotations
 import coal
 import numpy as np
 
-from .scene import box_aabb
+from placement.collision.scene import box_aabb
 
 #: [m] how far the held object may sink into the surface it is set on (its lowest face is raised
 #: by this much against the support): the place puts it exactly on the surface.
@@ -77,8 +77,9 @@ class HeldCheck:
                     near.append((gap, p, piece))
         for gap, p, piece in near:
             g, Tg, req = self._operand(p, piece)
-            if gap <= self.padding and coal.collide(g, _tf(Tg), piece.geometry, _tf(piece.pose), req,
-                                                    coal.CollisionResult()):
+            if gap <= self.padding and coal.collide(
+                g, _tf(Tg), piece.geometry, _tf(piece.pose), req, coal.CollisionResult()
+            ):
                 return (self._distance(g, Tg, piece.geometry, piece.pose), piece.name, p), 0.0
         best = self.cap
         for gap, p, piece in sorted((n for n in near if n[2].name != self.held.support), key=lambda n: n[0]):

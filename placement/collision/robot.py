@@ -28,8 +28,8 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from ..errors import PlacementError
-from ..robots import Robot
+from placement.errors import PlacementError
+from placement.robots import Robot
 
 
 class CollisionGeometryWarning(UserWarning):
@@ -45,14 +45,14 @@ def package_dirs(urdf: Path, extra=()) -> list[str]:
 def resolve_mesh(filename: str, urdf: Path, dirs: list[str]) -> Path | None:
     """The file a URDF mesh ``filename`` names, or None if it does not exist."""
     if filename.startswith("package://"):
-        rest = filename[len("package://"):]
+        rest = filename[len("package://") :]
         for d in dirs:
             p = Path(d) / rest
             if p.is_file():
                 return p
         return None
     if filename.startswith("file://"):
-        filename = filename[len("file://"):]
+        filename = filename[len("file://") :]
     p = Path(filename)
     p = p if p.is_absolute() else Path(urdf).resolve().parent / p
     return p if p.is_file() else None
@@ -119,18 +119,23 @@ def load_geometry(robot: Robot, extra_dirs=(), strict: bool = False) -> tuple[pi
     try:
         text, lost, missing = usable_urdf(robot.urdf_path, dirs)
         if strict and missing:
-            raise PlacementError(f"robot '{robot.name}': collision geometry of {robot.urdf_path} does not load "
-                                 f"({missing[0]}); build without self-collision")
+            raise PlacementError(
+                f"robot '{robot.name}': collision geometry of {robot.urdf_path} does not load "
+                f"({missing[0]}); build without self-collision"
+            )
         geom = pin.buildGeomFromUrdfString(robot.model, text, pin.GeometryType.COLLISION, None, dirs)
     except PlacementError:
         raise
     except Exception as exc:  # ET.ParseError, pinocchio's ValueError/RuntimeError with multi-line messages
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise PlacementError(f"robot '{robot.name}': collision geometry of {robot.urdf_path} "
-                             f"does not load ({first})") from None
+        raise PlacementError(
+            f"robot '{robot.name}': collision geometry of {robot.urdf_path} does not load ({first})"
+        ) from None
     if strict and geom.ngeoms == 0:
-        raise PlacementError(f"robot '{robot.name}': the URDF has no <collision> shapes (collision geometry); "
-                             "build without self-collision")
+        raise PlacementError(
+            f"robot '{robot.name}': the URDF has no <collision> shapes (collision geometry); "
+            "build without self-collision"
+        )
     return geom, lost
 
 
@@ -196,10 +201,16 @@ class RobotGeometry:
         model = robot.model
         self.geom, self.lost = load_geometry(robot, extra_dirs, strict=False)
         if self.lost or self.geom.ngeoms == 0:
-            what = (f"links without their collision meshes: {', '.join(self.lost)}" if self.lost
-                    else "the URDF has no <collision> shapes")
-            warnings.warn(f"robot '{robot.name}': {what}; collision checks use the {self.geom.ngeoms} "
-                          "shapes that loaded", CollisionGeometryWarning, stacklevel=3)
+            what = (
+                f"links without their collision meshes: {', '.join(self.lost)}"
+                if self.lost
+                else "the URDF has no <collision> shapes"
+            )
+            warnings.warn(
+                f"robot '{robot.name}': {what}; collision checks use the {self.geom.ngeoms} shapes that loaded",
+                CollisionGeometryWarning,
+                stacklevel=3,
+            )
         objs = self.geom.geometryObjects
         self.names = [model.frames[o.parentFrame].name for o in objs]
         self.joint = np.array([o.parentJoint for o in objs], dtype=int)
@@ -262,14 +273,20 @@ class RobotGeometry:
             if frozenset((self.names[i], self.names[j])) in robot.ignore_collisions:
                 continue
             res.clear()
-            if coal.collide(self.geom.geometryObjects[i].geometry, transform(self.home_placements[i]),
-                            self.geom.geometryObjects[j].geometry, transform(self.home_placements[j]), req, res):
+            if coal.collide(
+                self.geom.geometryObjects[i].geometry,
+                transform(self.home_placements[i]),
+                self.geom.geometryObjects[j].geometry,
+                transform(self.home_placements[j]),
+                req,
+                res,
+            ):
                 continue
             keep.append((i, j))
         return np.array(keep, dtype=int).reshape(-1, 2)
 
 
-_CACHE: "weakref.WeakKeyDictionary[Robot, dict]" = weakref.WeakKeyDictionary()
+_CACHE: weakref.WeakKeyDictionary[Robot, dict] = weakref.WeakKeyDictionary()
 
 
 def robot_geometry(robot: Robot, extra_dirs=()) -> RobotGeometry:

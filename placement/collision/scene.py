@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import coal
 import numpy as np
 
-from ..errors import PlacementError
+from placement.errors import PlacementError
 
 #: Height [m] given to polygon prisms and occupancy cells (unbounded in the scene model).
 PRISM_HEIGHT = 3.0
@@ -46,9 +46,11 @@ def pose_of(thing, centre, yaw: float) -> np.ndarray:
     quat = getattr(thing, "orientation", None)
     if quat is not None:
         x, y, z, w = (float(v) for v in quat)
-        out[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                       [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                       [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+        out[:3, :3] = [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
     else:
         c, s = math.cos(yaw), math.sin(yaw)
         out[:2, :2] = [[c, -s], [s, c]]
@@ -70,8 +72,9 @@ def cylinder_shape(name: str, centre, radius: float, height: float) -> SceneShap
     pose = np.eye(4)
     pose[:3, 3] = centre
     half = np.array([radius, radius, height / 2])
-    return SceneShape(name, coal.Cylinder(float(radius), float(height)), pose,
-                      np.array([pose[:3, 3] - half, pose[:3, 3] + half]))
+    return SceneShape(
+        name, coal.Cylinder(float(radius), float(height)), pose, np.array([pose[:3, 3] - half, pose[:3, 3] + half])
+    )
 
 
 def signed_area(points: np.ndarray) -> float:
@@ -146,8 +149,10 @@ def obstacle_shapes(name: str, shape) -> list[SceneShape]:
         return [cylinder_shape(name, shape.center, shape.radius, shape.height)]
     if hasattr(shape, "size"):
         return [box_shape(name, shape, shape.center, shape.size, getattr(shape, "yaw", 0.0))]
-    raise PlacementError(f"obstacle '{name}': shape {type(shape).__name__} is not supported by the collision "
-                         "check (box, cylinder, polygon)")
+    raise PlacementError(
+        f"obstacle '{name}': shape {type(shape).__name__} is not supported by the collision "
+        "check (box, cylinder, polygon)"
+    )
 
 
 def scene_shapes(scene) -> list[SceneShape]:
@@ -188,16 +193,16 @@ class OccupancyCells:
     def centres(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """(k, 3) world centres of cells [m]."""
         res, (ox, oy) = self.resolution, self.origin
-        return np.stack([ox + (cols + 0.5) * res, oy + (rows + 0.5) * res,
-                         np.full(len(rows), self.height / 2)], axis=1)
+        return np.stack([ox + (cols + 0.5) * res, oy + (rows + 0.5) * res, np.full(len(rows), self.height / 2)], axis=1)
 
     def shape(self, row: int, col: int) -> SceneShape:
         """Cell (row, col) as a :class:`SceneShape` named ``occupancy[row,col]``."""
         pose = np.eye(4)
         pose[:3, 3] = self.centres(np.array([row]), np.array([col]))[0]
         half = np.array([self.resolution / 2, self.resolution / 2, self.height / 2])
-        return SceneShape(f"occupancy[{row},{col}]", self.geometry, pose,
-                          np.array([pose[:3, 3] - half, pose[:3, 3] + half]))
+        return SceneShape(
+            f"occupancy[{row},{col}]", self.geometry, pose, np.array([pose[:3, 3] - half, pose[:3, 3] + half])
+        )
 
 
 class PieceGrid:
@@ -232,8 +237,9 @@ class PieceGrid:
         centre, half = aabb.mean(axis=1), (aabb[:, 1] - aabb[:, 0]) / 2
         slack = 1e-9 * (1.0 + np.abs(centre).max(axis=1) + np.abs(half).max(axis=1))
         if tilt is not None and 0.0 <= tilt <= 1e-9:
-            r = math.sqrt(2.0) * (np.linalg.norm(half[:, :2], axis=1) + tilt * (half[:, 2] + np.abs(centre[:, 2])
-                                                                               + self.ROBOT_HEIGHT))
+            r = math.sqrt(2.0) * (
+                np.linalg.norm(half[:, :2], axis=1) + tilt * (half[:, 2] + np.abs(centre[:, 2]) + self.ROBOT_HEIGHT)
+            )
         else:
             r = math.sqrt(3.0) * np.linalg.norm(half, axis=1)
         r = r + slack

@@ -1,13 +1,19 @@
 """Evaluation (SPEC section 8): generated benchmark scenes, the task time model, batch
 evaluation of the planning methods against each other, and its figures."""
 
-from .evaluate import (
-    check_methods, check_scenes, evaluate, evaluate_scene, scene_files, scene_task, summary_rows,
+from placement.evaluation.evaluate import (
+    check_methods,
+    check_scenes,
+    evaluate,
+    evaluate_scene,
+    scene_files,
+    scene_task,
+    summary_rows,
 )
-from .generate import generate_scene, write_scenes
-from .outdir import output_dir, prepare_output_dir
-from .plots import plot_task_times
-from .tasktime import task_time
+from placement.evaluation.generate import generate_scene, write_scenes
+from placement.evaluation.outdir import output_dir, prepare_output_dir
+from placement.evaluation.plots import plot_task_times
+from placement.evaluation.tasktime import task_time
 
 __all__ = [
     "check_methods",

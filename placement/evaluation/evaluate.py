@@ -9,12 +9,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import PlacementError
-from ..planning import METHODS, Planner, PlanResult
-from ..planning.results import transfer_problems
-from ..planning.scene import load_scene
-from ..planning.transfer import UPRIGHT_TOLERANCE
-from .tasktime import task_time
+from placement.errors import PlacementError
+from placement.evaluation.tasktime import task_time
+from placement.planning import METHODS, Planner, PlanResult
+from placement.planning.results import transfer_problems
+from placement.planning.transfer import UPRIGHT_TOLERANCE
+from placement.scene import load_scene
 
 MAX_WORKERS = 64  # processes; each holds its own maps and world
 
@@ -72,10 +72,13 @@ def evaluate_scene(path: str, methods: list[str], maps: str | None = None) -> di
         ms = (time.perf_counter() - t) * 1e3
         tt = task_time(planner.robot, result, planner.scene.start)
         steps, reason = plan_outcome(result, error)
-        out[m] = {"task_time_s": None if tt is None else tt["total_s"], "success": tt is not None,
-                  "planning_ms_per_placement": ms / max(1, steps),
-                  "reason": None if tt is not None else reason,
-                  "transfer_faults": transfer_faults(result)}
+        out[m] = {
+            "task_time_s": None if tt is None else tt["total_s"],
+            "success": tt is not None,
+            "planning_ms_per_placement": ms / max(1, steps),
+            "reason": None if tt is not None else reason,
+            "transfer_faults": transfer_faults(result),
+        }
     return out
 
 
@@ -137,8 +140,7 @@ def _on_dask(client, files, methods, maps, progress) -> list[dict]:
 
     # absolute paths: a worker's working directory need not be ours
     maps = None if maps is None else str(Path(maps).resolve())
-    futures = {client.submit(scene_task, str(f.resolve()), methods, maps, pure=False): k
-               for k, f in enumerate(files)}
+    futures = {client.submit(scene_task, str(f.resolve()), methods, maps, pure=False): k for k, f in enumerate(files)}
     results: list[dict | None] = [None] * len(files)
     try:
         for done, fut in enumerate(as_completed(futures), 1):
@@ -178,16 +180,20 @@ def evaluate(paths, methods=METHODS, maps=None, workers: int = 2, progress=None,
         results = _in_pool(files, methods, maps, workers, progress)
     doc = {"scenes": [f.stem for f in files], "methods": {}, "reductions": {}}
     for m in methods:
-        doc["methods"][m] = {key: [r[m][key] for r in results]
-                             for key in ("task_time_s", "success", "planning_ms_per_placement", "reason",
-                                         "transfer_faults")}
+        doc["methods"][m] = {
+            key: [r[m][key] for r in results]
+            for key in ("task_time_s", "success", "planning_ms_per_placement", "reason", "transfer_faults")
+        }
     for m in methods:
         doc["reductions"][m] = {}
         for b in methods:
             if b == m:
                 continue
-            pairs = [(x, y) for x, y in zip(doc["methods"][m]["task_time_s"], doc["methods"][b]["task_time_s"])
-                     if x is not None and y is not None]
+            pairs = [
+                (x, y)
+                for x, y in zip(doc["methods"][m]["task_time_s"], doc["methods"][b]["task_time_s"])
+                if x is not None and y is not None
+            ]
             doc["reductions"][m][b] = (1.0 - sum(x for x, _ in pairs) / sum(y for _, y in pairs)) if pairs else None
     return doc
 
@@ -197,9 +203,16 @@ def summary_rows(doc: dict) -> list[dict]:
     rows = []
     for m, r in doc["methods"].items():
         t = np.array([x for x in r["task_time_s"] if x is not None], dtype=float)
-        rows.append({"method": m, "scenes": len(r["success"]), "success_rate": float(np.mean(r["success"])),
-                     "mean_s": float(t.mean()) if t.size else None, "median_s": float(np.median(t)) if t.size else None,
-                     "std_s": float(t.std()) if t.size else None,
-                     "planning_ms_per_placement": float(np.mean(r["planning_ms_per_placement"])),
-                     **{f"reduction_vs_{b}": v for b, v in doc["reductions"][m].items()}})
+        rows.append(
+            {
+                "method": m,
+                "scenes": len(r["success"]),
+                "success_rate": float(np.mean(r["success"])),
+                "mean_s": float(t.mean()) if t.size else None,
+                "median_s": float(np.median(t)) if t.size else None,
+                "std_s": float(t.std()) if t.size else None,
+                "planning_ms_per_placement": float(np.mean(r["planning_ms_per_placement"])),
+                **{f"reduction_vs_{b}": v for b, v in doc["reductions"][m].items()},
+            }
+        )
     return rows

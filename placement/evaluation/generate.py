@@ -37,18 +37,18 @@ from __future__ import annotations
 
 import math
 import os
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from ..errors import PlacementError
-from ..planning.config import PlannerConfig
-from ..planning.scene import parse_scene
-from ..robots import load_robot
-from ..robots.preset import builtin_presets
-from .outdir import output_dir
+from placement.errors import PlacementError
+from placement.evaluation.outdir import output_dir
+from placement.planning.config import PlannerConfig
+from placement.robots import load_robot
+from placement.robots.preset import builtin_presets
+from placement.scene import parse_scene
 
 ROOM = (10.0, 8.0)
 TABLE_HEIGHT = 0.75
@@ -77,7 +77,7 @@ TABLE_DEPTH = (2 * MARGIN, 2.0)
 MAX_SEED = 2**63 - 1  # seeds are 0 .. MAX_SEED (numpy's SeedSequence takes any; YAML/JSON keep int64 exact)
 
 
-@lru_cache(maxsize=None)
+@cache
 def place_table_edge(preset: str) -> float:
     """Edge of the square place tables [m]: twice what is left of the robot's :data:`PLACE_REACH`
     after the ``fixed`` standoff (the footprint's half-depth, a round base's radius, plus
@@ -99,6 +99,7 @@ def footprint(x: float, y: float, yaw: float, size) -> np.ndarray:
 
 def footprint_gap(a: np.ndarray, b: np.ndarray) -> float:
     """Edge-to-edge distance [m] of two convex polygons (k, 2) given counter-clockwise; 0 when they overlap."""
+
     def separated(p, q):  # some edge of p has every corner of q strictly outside it
         edges = np.roll(p, -1, axis=0) - p
         normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
@@ -117,14 +118,25 @@ def footprint_gap(a: np.ndarray, b: np.ndarray) -> float:
 
 def check_counts(seed: int, objects: int, count: int = 1) -> None:
     """Raise :class:`PlacementError` unless seed, objects and count are within their bounds."""
-    for name, value, lo, hi in (("seed", seed, 0, MAX_SEED), ("objects", objects, 1, MAX_OBJECTS),
-                                ("count", count, 1, MAX_SCENES)):
+    for name, value, lo, hi in (
+        ("seed", seed, 0, MAX_SEED),
+        ("objects", objects, 1, MAX_OBJECTS),
+        ("count", count, 1, MAX_SCENES),
+    ):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
             raise PlacementError(f"{name} must be a whole number from {lo} to {hi}, got {value!r}")
 
 
-def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bool = False,
-                   preset: str = "pr2", table_size=None, maps: str | None = None) -> dict:
+def generate_scene(
+    seed: int,
+    index: int = 0,
+    *,
+    objects: int = 6,
+    obstacles: bool = False,
+    preset: str = "pr2",
+    table_size=None,
+    maps: str | None = None,
+) -> dict:
     """Scene ``index`` of ``seed`` as a scene-file mapping (validated; paths as given, from the cwd).
 
     ``table_size``: pick table (length, depth) [m] (default per preset, ``TABLE_SIZES``).
@@ -146,13 +158,22 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
         {"name": "wall_east", "box": {"center": [w - 0.05, h / 2, 1.0], "size": [0.1, h, 2.0]}},
     ]
     for k in range(3):
-        obs.append({"name": f"pick_table_{k + 1}", "table": True,
-                    "box": {"center": [cx + (k - 1) * length, cy, TABLE_HEIGHT / 2],
-                            "size": [length, depth, TABLE_HEIGHT]}})
+        obs.append(
+            {
+                "name": f"pick_table_{k + 1}",
+                "table": True,
+                "box": {"center": [cx + (k - 1) * length, cy, TABLE_HEIGHT / 2], "size": [length, depth, TABLE_HEIGHT]},
+            }
+        )
     places = []
     for name, (x, y) in (("a", (1.6, 1.6)), ("b", (8.4, 1.6))):
-        obs.append({"name": f"place_table_{name}", "table": True, "box": {"center": [x, y, TABLE_HEIGHT / 2],
-                                                           "size": [place_edge, place_edge, TABLE_HEIGHT]}})
+        obs.append(
+            {
+                "name": f"place_table_{name}",
+                "table": True,
+                "box": {"center": [x, y, TABLE_HEIGHT / 2], "size": [place_edge, place_edge, TABLE_HEIGHT]},
+            }
+        )
         places.append({"name": f"place_{name}", "position": [x, y, TABLE_HEIGHT + 0.10]})
     if obstacles:
         # two crates beside the long sides of the pick row, each hiding part of one side
@@ -160,8 +181,9 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
             side = 1.0 if rng.random() < 0.5 else -1.0
             x = cx + rng.uniform(-1.5 * length + 0.3, 1.5 * length - 0.3)
             y = cy + side * (depth / 2 + 0.35)
-            obs.append({"name": f"crate_{k + 1}", "box": {"center": [round(x, 3), round(y, 3), 0.25],
-                                                          "size": [0.5, 0.5, 0.5]}})
+            obs.append(
+                {"name": f"crate_{k + 1}", "box": {"center": [round(x, 3), round(y, 3), 0.25], "size": [0.5, 0.5, 0.5]}}
+            )
     objs = []
     placed = []  # (centre, bounding radius, footprint corners) of the objects so far
     crates = [o["box"]["center"] for o in obs if o["name"].startswith("crate")]
@@ -184,20 +206,31 @@ def generate_scene(seed: int, index: int = 0, *, objects: int = 6, obstacles: bo
             if all(footprint_gap(corners, q[2]) >= GRIPPER_CLEARANCE for q in near):
                 break
         else:
-            raise PlacementError(f"scene {index} of seed {seed}: object_{k + 1} found no position free of the "
-                                 f"crates' shadows and {GRIPPER_CLEARANCE} m from the other objects in {TRIES} "
-                                 f"tries (pick tables {length} x {depth} m too short for {objects} objects)")
+            raise PlacementError(
+                f"scene {index} of seed {seed}: object_{k + 1} found no position free of the "
+                f"crates' shadows and {GRIPPER_CLEARANCE} m from the other objects in {TRIES} "
+                f"tries (pick tables {length} x {depth} m too short for {objects} objects)"
+            )
         placed.append(((x, y), math.hypot(*size[:2]) / 2, corners))
-        objs.append({"name": f"object_{k + 1}", "position": [x, y, TABLE_HEIGHT + size[2] / 2],
-                     "yaw": yaw, "size": list(size)})
-    start = [round(float(rng.uniform(1.0, w - 1.0)), 3), round(float(rng.uniform(h - 1.8, h - 0.8)), 3),
-             round(float(rng.uniform(-math.pi, math.pi)), 4)]
-    doc = {"version": 1, "resolution": 0.05, "bounds": [0.0, 0.0, w, h],
-           "robot": {"preset": preset, "start": start}}
+        objs.append(
+            {"name": f"object_{k + 1}", "position": [x, y, TABLE_HEIGHT + size[2] / 2], "yaw": yaw, "size": list(size)}
+        )
+    start = [
+        round(float(rng.uniform(1.0, w - 1.0)), 3),
+        round(float(rng.uniform(h - 1.8, h - 0.8)), 3),
+        round(float(rng.uniform(-math.pi, math.pi)), 4),
+    ]
+    doc = {"version": 1, "resolution": 0.05, "bounds": [0.0, 0.0, w, h], "robot": {"preset": preset, "start": start}}
     if maps:
         doc["maps"] = maps
-    doc.update({"obstacles": obs, "objects": objs, "place_locations": places,
-                "task": [{"pick": o["name"], "place": places[k % 2]["name"]} for k, o in enumerate(objs)]})
+    doc.update(
+        {
+            "obstacles": obs,
+            "objects": objs,
+            "place_locations": places,
+            "task": [{"pick": o["name"], "place": places[k % 2]["name"]} for k, o in enumerate(objs)],
+        }
+    )
     parse_scene(doc, ".", "generated")  # the generator never writes a scene the planner would reject
     return doc
 

@@ -7,7 +7,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from ..errors import PlacementError
+from placement.errors import PlacementError
 
 
 def _missing(path: Path) -> list[Path]:

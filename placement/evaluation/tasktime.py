@@ -7,8 +7,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..planning.results import PlanResult
-from ..robots import Robot
+from placement.planning.results import PlanResult
+from placement.robots import Robot
 
 
 class Move(NamedTuple):

@@ -146,7 +146,9 @@ def pose_blocked(touched, ox, oy, res, poly, pad):
     j1 = min(int(math.ceil((y1 - oy) / res)) + 1, ny)
     for j in range(j0, j1):
         for i in range(i0, i1):
-            if touched[j, i] and polygon_square_distance(poly, ox + (i + 0.5) * res, oy + (j + 0.5) * res,
-                                                         res / 2) <= pad:
+            if (
+                touched[j, i]
+                and polygon_square_distance(poly, ox + (i + 0.5) * res, oy + (j + 0.5) * res, res / 2) <= pad
+            ):
                 return True
     return False

@@ -7,8 +7,8 @@ import math
 import numpy as np
 from numba import njit
 
-from .kinematics import fk_jacobian
-from .linalg6 import cho_solve6, cholesky6
+from placement.kernels.kinematics import fk_jacobian
+from placement.kernels.linalg6 import cho_solve6, cholesky6
 
 _TWO_PI = 2.0 * math.pi
 
@@ -57,8 +57,23 @@ def log3(R, out):
 
 
 @njit(cache=True)
-def dls_attempt(q0, target, lower, upper, continuous, link_T, axis, kind, tip_T,
-                pos_tol, rot_tol, max_iter, damping, max_step, stall):
+def dls_attempt(
+    q0,
+    target,
+    lower,
+    upper,
+    continuous,
+    link_T,
+    axis,
+    kind,
+    tip_T,
+    pos_tol,
+    rot_tol,
+    max_iter,
+    damping,
+    max_step,
+    stall,
+):
     """One DLS descent of the TCP to ``target`` (4, 4) (base frame) from q0 (n,).
 
     Error: position in the TCP frame and the rotation vector of R^T R_target;

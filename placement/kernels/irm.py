@@ -13,15 +13,31 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .grid import wrap_bin
-
+from placement.kernels.grid import wrap_bin
 
 CHUNK = 64  # cells per parallel task: per-task scratch, no allocation per cell
 
 
 @njit(cache=True, parallel=True)
-def trajectory_maps(slices, tcp_x, tcp_y, tcp_yaw, rm_origin, rm_res, base_yaws,
-                    grid_origin, grid_res, ny, nx, cells, masks, out_val, out_yaw, out_y0=0, out_x0=0):
+def trajectory_maps(
+    slices,
+    tcp_x,
+    tcp_y,
+    tcp_yaw,
+    rm_origin,
+    rm_res,
+    base_yaws,
+    grid_origin,
+    grid_res,
+    ny,
+    nx,
+    cells,
+    masks,
+    out_val,
+    out_yaw,
+    out_y0=0,
+    out_x0=0,
+):
     """Min over the trajectory, max over the cell's allowed base yaws, of the map value, per base cell, for C
     trajectories at once that share their positions and map slices and differ only in yaw.
 

@@ -25,10 +25,10 @@ from __future__ import annotations
 
 from numba import njit
 
-from .linalg6 import cho_solve6, cholesky6
-from .manipulability import gram_from, octant_gram, octant_gram_direct, octant_value, penalised_rows
-from .octants import fill_grams, lambda_max_lower, pd_flags, traces
-from .octants_refine import lambda_max_tight, lambda_min_upper
+from placement.kernels.linalg6 import cho_solve6, cholesky6
+from placement.kernels.manipulability import gram_from, octant_gram, octant_gram_direct, octant_value, penalised_rows
+from placement.kernels.octants import fill_grams, lambda_max_lower, pd_flags, traces
+from placement.kernels.octants_refine import lambda_max_tight, lambda_min_upper
 
 __all__ = ["W_ROWS", "isotropy_batched"]
 
@@ -72,7 +72,7 @@ def _below(P, s, t2, A, L, z):
     k = _largest_column(A, z)
     num = 0.0
     den = 0.0
-    for it in range(2):
+    for _it in range(2):
         num = 0.0
         den = 0.0
         for r in range(6):
@@ -93,7 +93,7 @@ def _top_start(G, A, top, z):
     """An approximate top eigenvector (6,) of octant 0 (A (6, 6), z (6,) scratch): the common power-step start."""
     octant_gram(G, 0, A)
     _largest_column(A, top)
-    for it in range(4):
+    for _it in range(4):
         m = 0.0
         for r in range(6):
             acc = 0.0
@@ -115,7 +115,7 @@ def _bottom_start(G, s, A, L, bottom, z):
         bottom[r] = 1.0
     if not cholesky6(A, 1.0, 0.0, L):
         return
-    for it in range(3):
+    for _it in range(3):
         cho_solve6(L, bottom, z, bottom)
         m = 0.0
         for r in range(6):

@@ -166,7 +166,7 @@ def sym_eig_extremes(A, de):
         e[i - 1] = e[i]
     e[n - 1] = 0.0
     for l in range(n):
-        for it in range(60):
+        for _it in range(60):
             m = l
             while m < n - 1:
                 dd = abs(d[m]) + abs(d[m + 1])
@@ -259,7 +259,7 @@ def _octant_r(P, s, R):
 @njit(cache=True)
 def _singular_extremes(R):
     """Smallest and largest singular value of a (6, 6) matrix by one-sided Jacobi (R is overwritten)."""
-    for sweep in range(60):
+    for _sweep in range(60):
         rotated = False
         for p in range(5):
             for q in range(p + 1, 6):

@@ -9,7 +9,7 @@ its cell's current value is dropped early (value -1): that cannot change the
 result either.
 
 Witnesses: every cell also keeps the number of the sample that set its value
-(see placement/witness.py for the numbering). Among samples of equal value the
+(see placement/maps/witness.py for the numbering). Among samples of equal value the
 smallest number wins; blocks are applied in increasing sample order and a
 dropped sample never beats the earlier one that set the threshold, so the
 witnesses are as deterministic as the values.
@@ -20,20 +20,39 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .grid import cell_index
-from .ik import dls_attempt
-from .kinematics import fk_jacobian
-from .isotropy import W_ROWS, isotropy_batched
-from .manipulability import ISOTROPY, extended_manipulability, joint_penalties
-from .rng import uniform
-
+from placement.kernels.grid import cell_index
+from placement.kernels.ik import dls_attempt
+from placement.kernels.isotropy import W_ROWS, isotropy_batched
+from placement.kernels.kinematics import fk_jacobian
+from placement.kernels.manipulability import ISOTROPY, extended_manipulability, joint_penalties
+from placement.kernels.rng import uniform
 
 CHUNK = 256  # samples per parallel task; its buffers (q, J) stay in the L2 cache
 
 
 @njit(cache=True, parallel=True)
-def sample_block(seed, start, count, given, lower, upper, continuous, link_T, axis, kind, tip_T,
-                 index, rot_scale, origin, res, shape, grid, rowfac, out_cell, out_val):
+def sample_block(
+    seed,
+    start,
+    count,
+    given,
+    lower,
+    upper,
+    continuous,
+    link_T,
+    axis,
+    kind,
+    tip_T,
+    index,
+    rot_scale,
+    origin,
+    res,
+    shape,
+    grid,
+    rowfac,
+    out_cell,
+    out_val,
+):
     """Evaluate samples start .. start+count-1 into out_cell (count,) and out_val (count,).
 
     ``given`` (count, n) holds the configurations [rad or m] to evaluate (the
@@ -71,7 +90,9 @@ def sample_block(seed, start, count, given, lower, upper, continuous, link_T, ax
             sid = start + i
             qi = q[i - lo]
             for j in range(n):
-                qi[j] = given[i, j] if given.shape[0] > 0 else lower[j] + (upper[j] - lower[j]) * uniform(seed, sid * n + j)
+                qi[j] = (
+                    given[i, j] if given.shape[0] > 0 else lower[j] + (upper[j] - lower[j]) * uniform(seed, sid * n + j)
+                )
             fk_jacobian(qi, link_T, axis, kind, tip_T, T, J[i - lo], work)
             out_cell[i] = cell_index(T, origin, res, shape)
         for i in range(lo, hi):
@@ -173,8 +194,9 @@ def cell_centre(cell, origin, res, shape, T):
 
 
 @njit(cache=True)
-def refined_config(seed, source, direction, lower, upper, continuous, link_T, axis, kind, tip_T, origin, res, shape,
-                   out):
+def refined_config(
+    seed, source, direction, lower, upper, continuous, link_T, axis, kind, tip_T, origin, res, shape, out
+):
     """Completion sample into ``out`` (n,) [rad or m]: from sample ``source`` of ``seed``, a few DLS steps
     towards the centre of the ``direction``-th face neighbour of the cell that sample lies in.
 
@@ -194,9 +216,23 @@ def refined_config(seed, source, direction, lower, upper, continuous, link_T, ax
         return False
     cell_centre(t, origin, res, shape, T)
     # tolerances 0: always the fixed number of steps (the result must not depend on a float test)
-    _, q, _, _, _ = dls_attempt(out.copy(), T, lower, upper, continuous, link_T, axis, kind, tip_T, 0.0, 0.0,
-                                COMPLETION_ITERATIONS, COMPLETION_DAMPING, COMPLETION_MAX_STEP,
-                                COMPLETION_ITERATIONS + 1)
+    _, q, _, _, _ = dls_attempt(
+        out.copy(),
+        T,
+        lower,
+        upper,
+        continuous,
+        link_T,
+        axis,
+        kind,
+        tip_T,
+        0.0,
+        0.0,
+        COMPLETION_ITERATIONS,
+        COMPLETION_DAMPING,
+        COMPLETION_MAX_STEP,
+        COMPLETION_ITERATIONS + 1,
+    )
     out[:] = q
     return True
 
@@ -208,8 +244,9 @@ def refined_configs(seed, sources, dirs, lower, upper, continuous, link_T, axis,
     out = np.empty((m, lower.shape[0]))
     ok = np.zeros(m, dtype=np.bool_)
     for i in prange(m):
-        ok[i] = refined_config(seed, sources[i], dirs[i], lower, upper, continuous, link_T, axis, kind, tip_T,
-                               origin, res, shape, out[i])
+        ok[i] = refined_config(
+            seed, sources[i], dirs[i], lower, upper, continuous, link_T, axis, kind, tip_T, origin, res, shape, out[i]
+        )
     return out, ok
 
 
@@ -249,8 +286,17 @@ def _scan_part(lo, hi, grid, witness, plain, shape, sources, dirs, m):
 def _count_parts(edges, grid, witness, plain, shape):
     counts = np.zeros(edges.shape[0] - 1, dtype=np.int64)
     for p in prange(counts.shape[0]):
-        counts[p] = _scan_part(edges[p], edges[p + 1], grid, witness, plain, shape, np.empty(0, dtype=np.int64),
-                               np.empty(0, dtype=np.int64), 0)
+        counts[p] = _scan_part(
+            edges[p],
+            edges[p + 1],
+            grid,
+            witness,
+            plain,
+            shape,
+            np.empty(0, dtype=np.int64),
+            np.empty(0, dtype=np.int64),
+            0,
+        )
     return counts
 
 
@@ -277,7 +323,4 @@ def completion_sources(grid, witness, plain, shape):
     sources = np.empty(offsets[-1], dtype=np.int64)
     dirs = np.empty(offsets[-1], dtype=np.int64)
     _fill_parts(edges, offsets, grid, witness, plain, shape, sources, dirs)  # (always: compiled in warm-up)
-    return sources, dirs
-    for p in prange(parts):
-        _scan_part(edges[p], edges[p + 1], grid, witness, plain, shape, sources, dirs, offsets[p])
     return sources, dirs

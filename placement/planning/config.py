@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, replace
 
-from ..errors import PlacementError
+from placement.errors import PlacementError
 
 METHODS = ("sequential", "single-step", "irm", "fixed", "optimal")
 
@@ -50,31 +50,75 @@ class PlannerConfig:
             half-depth (the radius of a round base) [m].
     """
 
-    lambda_n: float = _key(1 / 20, "weight of the navigation cost [1/m], 0 .. 1e6 (default 1/20)",
-                           minimum=0.0, maximum=MAX_WEIGHT)
-    lambda_m: float = _key(0.002353, "weight of the manipulation cost 1/m, 0 .. 1e6 (default 0.002353)",
-                           minimum=0.0, maximum=MAX_WEIGHT)
-    lambda_nh: float = _key(1 / 20, "weight of the heuristic cost towards the next step [1/m], 0 .. 1e6 "
-                                    "(default 1/20)", minimum=0.0, maximum=MAX_WEIGHT)
-    yaw_steps: int = _key(100, "number of base yaws tried per cell, integer 1 .. 3600 (default 100)",
-                          integer=True, minimum=1, maximum=3600)
-    threshold: float = _key(0.0235, "manipulability below which a placement is infeasible, > 0 and <= 1 "
-                                    "(default 0.0235)", minimum=0.0, strict=True, maximum=1.0)
-    velocity_lambda: float = _key(1.3, "lambda of the velocity model (Eq. 4), 0 .. 1e6 (default 1.3)",
-                                  minimum=0.0, maximum=MAX_WEIGHT)
-    velocity_k: float = _key(4.0, "exponent k of the velocity model (Eq. 4), > 0 and <= 100 (default 4)",
-                             minimum=0.0, strict=True, maximum=100.0)
-    d_max: float = _key(1.0, "distance [m] beyond which obstacles do not slow the base, > 0 and <= 1000 "
-                             "(default 1)", minimum=0.0, strict=True, maximum=1000.0)
-    grasp_yaws: int | tuple[float, ...] = _key(8, "gripper yaws of place steps: a count (integer 1 .. 360, "
-                                                  "evenly spaced) or a list of yaws [rad] (default 8)",
-                                               integer=True, minimum=1, maximum=360, or_list=True)
-    collision_padding: float = _key(0.005, "distance [m] below which the robot's collision shapes touch the "
-                                           "scene's, 0 .. 0.5 (default 0.005)", minimum=0.0, maximum=0.5)
-    footprint_padding: float = _key(0.02, "clearance [m] a polygon base footprint keeps from obstacles, 0 .. 1 "
-                                           "(default 0.02; round bases ignore it)", minimum=0.0, maximum=1.0)
-    ik_budget_ms: float = _key(300.0, "time the IK search of one step may spend [ms], >= 1 and <= 60000 "
-                                      "(default 300)", minimum=1.0, maximum=60000.0)
+    lambda_n: float = _key(
+        1 / 20, "weight of the navigation cost [1/m], 0 .. 1e6 (default 1/20)", minimum=0.0, maximum=MAX_WEIGHT
+    )
+    lambda_m: float = _key(
+        0.002353, "weight of the manipulation cost 1/m, 0 .. 1e6 (default 0.002353)", minimum=0.0, maximum=MAX_WEIGHT
+    )
+    lambda_nh: float = _key(
+        1 / 20,
+        "weight of the heuristic cost towards the next step [1/m], 0 .. 1e6 (default 1/20)",
+        minimum=0.0,
+        maximum=MAX_WEIGHT,
+    )
+    yaw_steps: int = _key(
+        100,
+        "number of base yaws tried per cell, integer 1 .. 3600 (default 100)",
+        integer=True,
+        minimum=1,
+        maximum=3600,
+    )
+    threshold: float = _key(
+        0.0235,
+        "manipulability below which a placement is infeasible, > 0 and <= 1 (default 0.0235)",
+        minimum=0.0,
+        strict=True,
+        maximum=1.0,
+    )
+    velocity_lambda: float = _key(
+        1.3, "lambda of the velocity model (Eq. 4), 0 .. 1e6 (default 1.3)", minimum=0.0, maximum=MAX_WEIGHT
+    )
+    velocity_k: float = _key(
+        4.0,
+        "exponent k of the velocity model (Eq. 4), > 0 and <= 100 (default 4)",
+        minimum=0.0,
+        strict=True,
+        maximum=100.0,
+    )
+    d_max: float = _key(
+        1.0,
+        "distance [m] beyond which obstacles do not slow the base, > 0 and <= 1000 (default 1)",
+        minimum=0.0,
+        strict=True,
+        maximum=1000.0,
+    )
+    grasp_yaws: int | tuple[float, ...] = _key(
+        8,
+        "gripper yaws of place steps: a count (integer 1 .. 360, evenly spaced) or a list of yaws [rad] (default 8)",
+        integer=True,
+        minimum=1,
+        maximum=360,
+        or_list=True,
+    )
+    collision_padding: float = _key(
+        0.005,
+        "distance [m] below which the robot's collision shapes touch the scene's, 0 .. 0.5 (default 0.005)",
+        minimum=0.0,
+        maximum=0.5,
+    )
+    footprint_padding: float = _key(
+        0.02,
+        "clearance [m] a polygon base footprint keeps from obstacles, 0 .. 1 (default 0.02; round bases ignore it)",
+        minimum=0.0,
+        maximum=1.0,
+    )
+    ik_budget_ms: float = _key(
+        300.0,
+        "time the IK search of one step may spend [ms], >= 1 and <= 60000 (default 300)",
+        minimum=1.0,
+        maximum=60000.0,
+    )
     ik_tries: int = 25
     ik_cap: int = 2000
     min_region: float = 0.02

@@ -14,16 +14,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..kernels.grid import pitch_bin, wrap_bin, zyx_angles
-from ..rmap import ReachabilityMap
-from ..robots import matrix_to_pose
-from .manipulation import pose_reach
+from placement.kernels.grid import pitch_bin, wrap_bin, zyx_angles
+from placement.maps.rmap import ReachabilityMap
+from placement.planning.manipulation import pose_reach
+from placement.robots import matrix_to_pose
 
 if TYPE_CHECKING:
-    from .option import Option
-    from .planner import Planner
-    from .search import Search
-    from .steps import Step
+    from placement.planning.option import Option
+    from placement.planning.planner import Planner
+    from placement.planning.search import Search
+    from placement.planning.steps import Step
 
 
 def pose_role(action: str, index: int, count: int) -> str:
@@ -37,7 +37,7 @@ def pose_role(action: str, index: int, count: int) -> str:
 
 
 def orientation_words(pose: np.ndarray) -> str:
-    """"top-down", "horizontal" or "tilted": where the TCP's approach axis (z) points."""
+    """ "top-down", "horizontal" or "tilted": where the TCP's approach axis (z) points."""
     down = float(pose[2, 2])
     return "top-down" if down < -0.95 else "horizontal" if abs(down) < 0.05 else "tilted"
 
@@ -73,22 +73,30 @@ def _hint(planner: Planner, o: Option, pose_index: int, role: str, band, searche
         return f"{arm} reaches no {how} TCP orientation like this one at any height (another grasp would help)"
     lo, hi = band
     if z > hi or z < lo:
-        return (f"the {role} pose at {z:.2f} m is {'above' if z > hi else 'below'} the {lo:.2f}-{hi:.2f} m band "
-                f"{arm} reaches {how}")
+        return (
+            f"the {role} pose at {z:.2f} m is {'above' if z > hi else 'below'} the {lo:.2f}-{hi:.2f} m band "
+            f"{arm} reaches {how}"
+        )
     reach = pose_reach(planner.maps[o.arm], pose)
     near = nearest_free_m(planner, pose[:2, 3])
     if near > reach:
-        return (f"the {role} pose at {z:.2f} m is within the {lo:.2f}-{hi:.2f} m band {arm} reaches {how}, but "
-                f"the nearest free base cell is {near:.2f} m away and the arm reaches {max(reach, 0):.2f} m "
-                f"there (an object closer to a free side would help)")
-    inside = (f"the {role} pose at {z:.2f} m is within the {lo:.2f}-{hi:.2f} m band {arm} reaches {how} and "
-              f"within its {reach:.2f} m reach of a free base cell")
+        return (
+            f"the {role} pose at {z:.2f} m is within the {lo:.2f}-{hi:.2f} m band {arm} reaches {how}, but "
+            f"the nearest free base cell is {near:.2f} m away and the arm reaches {max(reach, 0):.2f} m "
+            f"there (an object closer to a free side would help)"
+        )
+    inside = (
+        f"the {role} pose at {z:.2f} m is within the {lo:.2f}-{hi:.2f} m band {arm} reaches {how} and "
+        f"within its {reach:.2f} m reach of a free base cell"
+    )
     if searched:
         return f"{inside}, but IK confirmed none of the map cells the placements tried fall in"
     if planner.method == "fixed":
         return f"{inside}, but the map marks none of the fixed placements beside the tables reached for it"
-    return (f"{inside}, but the map values there stay below the threshold {planner.config.threshold:g} "
-            f"(a lower planner.threshold would help)")
+    return (
+        f"{inside}, but the map values there stay below the threshold {planner.config.threshold:g} "
+        f"(a lower planner.threshold would help)"
+    )
 
 
 def _worst_pose(planner: Planner, opts: list[Option]) -> tuple[int, int, tuple | None]:
@@ -105,8 +113,9 @@ def _worst_pose(planner: Planner, opts: list[Option]) -> tuple[int, int, tuple |
     return best[:3]
 
 
-def explain(planner: Planner, step: Step, opts: list[Option], search: Search | None, base_reason: str = "") \
-        -> tuple[str, dict]:
+def explain(
+    planner: Planner, step: Step, opts: list[Option], search: Search | None, base_reason: str = ""
+) -> tuple[str, dict]:
     """(reason, diagnosis) of an infeasible step: ``search`` is the IK search (None when no
     placement kept the map threshold; ``base_reason`` then says that in words)."""
     if not opts:
@@ -125,27 +134,43 @@ def explain(planner: Planner, step: Step, opts: list[Option], search: Search | N
     role = pose_role(step.action, i, len(o.candidate.poses))
     hint = _hint(planner, o, i, role, band, search is not None)
     culprit = collisions.most_common(1)[0][0] if collisions else None
-    d = {"arm": o.arm, "trajectory": o.candidate.name, "pose_index": i, "pose_role": role,
-         "pose": matrix_to_pose(pose), "height_m": round(float(pose[2, 3]), 6),
-         "orientation": orientation_words(pose), "band_m": [round(v, 6) for v in band] if band else None,
-         "residual_m": None if f is None else round(f.residual_m, 6),
-         "residual_rad": None if f is None else round(f.residual_rad, 6),
-         "tried": search.tried if search else 0, "ik_failures": len(ik_fails),
-         "collision_failures": sum(collisions.values()) if search else 0, "culprit": culprit,
-         "stopped": search.stop if search else None, "hint": hint}
+    d = {
+        "arm": o.arm,
+        "trajectory": o.candidate.name,
+        "pose_index": i,
+        "pose_role": role,
+        "pose": matrix_to_pose(pose),
+        "height_m": round(float(pose[2, 3]), 6),
+        "orientation": orientation_words(pose),
+        "band_m": [round(v, 6) for v in band] if band else None,
+        "residual_m": None if f is None else round(f.residual_m, 6),
+        "residual_rad": None if f is None else round(f.residual_rad, 6),
+        "tried": search.tried if search else 0,
+        "ik_failures": len(ik_fails),
+        "collision_failures": sum(collisions.values()) if search else 0,
+        "culprit": culprit,
+        "stopped": search.stop if search else None,
+        "hint": hint,
+    }
     if search is None:
         return f"{base_reason}; {hint}", d
-    stop = {"budget": f", when the {planner.config.ik_budget_ms:g} ms IK budget ran out",
-            "cap": f", the most the search tries ({planner.config.ik_cap})"}.get(search.stop, ", every candidate")
+    stop = {
+        "budget": f", when the {planner.config.ik_budget_ms:g} ms IK budget ran out",
+        "cap": f", the most the search tries ({planner.config.ik_cap})",
+    }.get(search.stop, ", every candidate")
     if search.tried == 0:
         return f"the base cannot get to any of the placements that reach the target from where it is; {hint}", d
     ncol = d["collision_failures"]
     tried = f"no placement verified after {search.tried} tries{stop} ({len(ik_fails)} failed IK, {ncol} in collision)"
     parts = []
     if ncol and ncol >= len(ik_fails):
-        parts.append(f"IK reached every pose at {ncol} of them but the arm collided there"
-                     + (f", mostly {culprit}" if culprit else ""))
+        parts.append(
+            f"IK reached every pose at {ncol} of them but the arm collided there"
+            + (f", mostly {culprit}" if culprit else "")
+        )
     if f is not None:
-        parts.append(f"the {role} pose (pose {i} of '{o.candidate.name}', {float(pose[2, 3]):.2f} m high) is out of "
-                     f"reach for arm {o.arm} by {f.residual_m * 100:.1f} cm and {f.residual_rad:.2f} rad at best")
+        parts.append(
+            f"the {role} pose (pose {i} of '{o.candidate.name}', {float(pose[2, 3]):.2f} m high) is out of "
+            f"reach for arm {o.arm} by {f.residual_m * 100:.1f} cm and {f.residual_rad:.2f} rad at best"
+        )
     return f"{tried}: {'; '.join(parts + [hint])}", d

@@ -19,9 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kernels.footprint import band_masks, block_table, pose_blocked
-from ..robots.footprint import circumradius, inscribed_radius
-from .navgrid import NavGrid
+from placement.kernels.footprint import band_masks, block_table, pose_blocked
+from placement.planning.navgrid import NavGrid
+from placement.robots.footprint import inscribed_radius
 
 EPS = 1e-9  # [m] float slack of the band limits, always on the safe side
 PAD_SLACK = 1e-6  # [m] added to the padding: covers the squares' float shrink (world.SHRINK)
@@ -90,7 +90,7 @@ def _offsets(base: BaseShape, res: float):
         hi = base.radius + base.padding + PAD_SLACK + res * math.sqrt(0.5) + EPS
         reach = int(math.ceil(hi / res))
         table = block_table(base.polygon, base.yaws, base.padding + PAD_SLACK, res, reach)
-        dy, dx = np.mgrid[-reach:reach + 1, -reach:reach + 1]
+        dy, dx = np.mgrid[-reach : reach + 1, -reach : reach + 1]
         # band cells have no touched cell closer than lo: those offsets are never read
         use = table.any(axis=2) & (np.hypot(dy, dx) * res >= lo)
         got = (lo, hi, dy[use].astype(np.int64), dx[use].astype(np.int64), np.ascontiguousarray(table[use]))
@@ -100,8 +100,13 @@ def _offsets(base: BaseShape, res: float):
     return got
 
 
-def polygon_feasibility(base: BaseShape, touched: np.ndarray, touched_distance: np.ndarray,
-                        res: float, previous: tuple[np.ndarray, YawMasks] | None = None) -> tuple[np.ndarray, YawMasks]:
+def polygon_feasibility(
+    base: BaseShape,
+    touched: np.ndarray,
+    touched_distance: np.ndarray,
+    res: float,
+    previous: tuple[np.ndarray, YawMasks] | None = None,
+) -> tuple[np.ndarray, YawMasks]:
     """(ny, nx) bool feasible at some yaw, and the band's yaw masks, of a polygon base over the
     ``touched`` layer (ny, nx) with its ``touched_distance`` [m] (cell centres) on a grid of ``res`` [m].
 
@@ -122,8 +127,12 @@ def polygon_feasibility(base: BaseShape, touched: np.ndarray, touched_distance: 
         else:
             reach = int(max(np.abs(off_y).max(initial=0), np.abs(off_x).max(initial=0)))
             iy, ix = np.divmod(band, touched.shape[1])
-            todo = ((iy >= cy.min() - reach) & (iy <= cy.max() + reach)
-                    & (ix >= cx.min() - reach) & (ix <= cx.max() + reach))
+            todo = (
+                (iy >= cy.min() - reach)
+                & (iy <= cy.max() + reach)
+                & (ix >= cx.min() - reach)
+                & (ix <= cx.max() + reach)
+            )
         keep = np.flatnonzero(~todo)
         if keep.size:
             pos = np.minimum(np.searchsorted(old.cells, band[keep]), max(len(old.cells) - 1, 0))
@@ -151,5 +160,11 @@ def masks_at(base: BaseShape, feasible: np.ndarray, masks: YawMasks | None, cell
 
 def pose_clear(base: BaseShape, touched: np.ndarray, nav: NavGrid, x: float, y: float, yaw: float) -> bool:
     """Whether a polygon base at (x, y) [m] with ``yaw`` [rad] keeps its padding from every touched square."""
-    return not pose_blocked(touched, float(nav.origin[0]), float(nav.origin[1]), float(nav.resolution),
-                            base.placed(x, y, yaw), base.padding + PAD_SLACK)
+    return not pose_blocked(
+        touched,
+        float(nav.origin[0]),
+        float(nav.origin[1]),
+        float(nav.resolution),
+        base.placed(x, y, yaw),
+        base.padding + PAD_SLACK,
+    )

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
 APPROACH = 0.10  # [m] pre-grasp / pre-place height above the final TCP pose
 GRIPPER_OPENING = 0.09  # [m] widest chord the gripper closes across (the PR2 opens about 0.09 m)
 SIDE_TILT = math.radians(10.0)  # [rad] side grasps' closing axis above horizontal (see the module docstring)
@@ -63,8 +62,10 @@ def top_grasps(position, yaw: float, size, approach: float = APPROACH) -> list[C
     c, s = math.cos(yaw), math.sin(yaw)
     across = (c, s) if size[0] <= size[1] else (-s, c)
     top = np.asarray(position, dtype=float) + (0.0, 0.0, 0.5 * float(size[2]))
-    return [Candidate("top", _down(top, across, approach)),
-            Candidate("top-flipped", _down(top, (-across[0], -across[1]), approach))]
+    return [
+        Candidate("top", _down(top, across, approach)),
+        Candidate("top-flipped", _down(top, (-across[0], -across[1]), approach)),
+    ]
 
 
 def place_candidates(position, yaws=8, approach: float = APPROACH) -> list[Candidate]:
@@ -75,7 +76,9 @@ def place_candidates(position, yaws=8, approach: float = APPROACH) -> list[Candi
     angles = [2 * math.pi * k / yaws for k in range(int(yaws))] if np.isscalar(yaws) else list(yaws)
     out = []
     for a in angles:
-        out.append(Candidate(f"place-yaw{round(math.degrees(a))}", _down(position, (math.cos(a), math.sin(a)), approach)))
+        out.append(
+            Candidate(f"place-yaw{round(math.degrees(a))}", _down(position, (math.cos(a), math.sin(a)), approach))
+        )
     return out
 
 
@@ -97,8 +100,7 @@ def chord(R: np.ndarray, size, direction) -> float:
     return float(min(size[m] / d[m] for m in range(3) if d[m] > 1e-12))
 
 
-def box_grasps(pose: np.ndarray, size, opening: float = GRIPPER_OPENING,
-               approach: float = APPROACH) -> list[Candidate]:
+def box_grasps(pose: np.ndarray, size, opening: float = GRIPPER_OPENING, approach: float = APPROACH) -> list[Candidate]:
     """Generated grasps of a box centred at ``pose`` (4, 4) with edge lengths ``size`` (3,) [m] along
     its axes (see the module docstring): "top", "top-flipped", then "side-+x", "side--x", ... named
     by the object axis of the face. Empty when the gripper closes across no side."""
@@ -112,8 +114,10 @@ def box_grasps(pose: np.ndarray, size, opening: float = GRIPPER_OPENING,
     out = []
     if min(size[i], size[j]) <= opening:
         top = p + top_axis * size[k] / 2
-        out += [Candidate("top", _frame(top, -top_axis, across, approach)),
-                Candidate("top-flipped", _frame(top, -top_axis, -across, approach))]
+        out += [
+            Candidate("top", _frame(top, -top_axis, across, approach)),
+            Candidate("top-flipped", _frame(top, -top_axis, -across, approach)),
+        ]
     for m in (i, j):
         for sign in (1.0, -1.0):
             n = sign * R[:, m]

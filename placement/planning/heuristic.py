@@ -5,12 +5,13 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from .navigation import navigation_cost
-from .world import World
+from placement.planning.navigation import navigation_cost
+from placement.planning.world import World
 
 
-def region_heuristic(region: np.ndarray, world: World, min_region: float,
-                     targets: np.ndarray | None = None) -> np.ndarray:
+def region_heuristic(
+    region: np.ndarray, world: World, min_region: float, targets: np.ndarray | None = None
+) -> np.ndarray:
     """Navigation cost [m] towards the connected regions of ``region`` (ny, nx) bool.
 
     Each 8-connected region contributes the cost map from its centre cell (the region cell nearest

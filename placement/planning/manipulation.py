@@ -6,12 +6,12 @@ import math
 
 import numpy as np
 
-from ..errors import PlacementError
-from ..grid import Grid
-from ..kernels.grid import pitch_bin, wrap_bin, zyx_angles
-from ..kernels.irm import trajectory_maps
-from ..rmap import ReachabilityMap
-from .navgrid import NavGrid, Window
+from placement.errors import PlacementError
+from placement.kernels.grid import pitch_bin, wrap_bin, zyx_angles
+from placement.kernels.irm import trajectory_maps
+from placement.maps.grid import Grid
+from placement.maps.rmap import ReachabilityMap
+from placement.planning.navgrid import NavGrid, Window
 
 
 def base_yaws(count: int) -> np.ndarray:
@@ -23,9 +23,15 @@ def base_yaws(count: int) -> np.ndarray:
     return np.where(a >= math.pi, a - 2 * math.pi, a)
 
 
-def manipulation_map(rmap: ReachabilityMap, tcp_world: np.ndarray, nav: NavGrid, yaws: np.ndarray,
-                     cells: np.ndarray | None = None, window: Window | None = None,
-                     masks: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def manipulation_map(
+    rmap: ReachabilityMap,
+    tcp_world: np.ndarray,
+    nav: NavGrid,
+    yaws: np.ndarray,
+    cells: np.ndarray | None = None,
+    window: Window | None = None,
+    masks: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """IRM of a TCP trajectory: per base cell, the best yaw's worst map value along the trajectory.
 
     Args:
@@ -59,7 +65,9 @@ def _pose_keys(rmap: ReachabilityMap, T: np.ndarray) -> tuple | None:
         iz = int(math.floor((pose[2, 3] - g.origin[2]) / g.resolution))
         if not 0 <= iz < g.shape[2]:
             return None
-        keys.append((float(pose[0, 3]), float(pose[1, 3]), iz, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5])))
+        keys.append(
+            (float(pose[0, 3]), float(pose[1, 3]), iz, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5]))
+        )
         yaws.append(yaw)
     return tuple(keys), yaws
 
@@ -70,9 +78,15 @@ def pose_slices(rmap: ReachabilityMap, T: np.ndarray) -> list[tuple[int, int, in
     return [] if keyed is None else [k[2:] for k in keyed[0]]
 
 
-def manipulation_maps(rmap: ReachabilityMap, trajectories: list[np.ndarray], nav: NavGrid, yaws: np.ndarray,
-                      cells: np.ndarray, window: Window | None = None,
-                      masks: np.ndarray | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
+def manipulation_maps(
+    rmap: ReachabilityMap,
+    trajectories: list[np.ndarray],
+    nav: NavGrid,
+    yaws: np.ndarray,
+    cells: np.ndarray,
+    window: Window | None = None,
+    masks: np.ndarray | None = None,
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """:func:`manipulation_map` of several trajectories over the same ``cells``, ``window`` and ``masks``.
 
     Trajectories whose poses share positions and map slices (they differ only in the gripper's
@@ -89,8 +103,9 @@ def manipulation_maps(rmap: ReachabilityMap, trajectories: list[np.ndarray], nav
         masks = np.full((len(cells), (len(yaws) + 63) // 64), np.iinfo(np.uint64).max, np.uint64)
     masks = np.ascontiguousarray(masks, dtype=np.uint64)
     if masks.shape != (len(cells), (len(yaws) + 63) // 64):
-        raise PlacementError(f"manipulation_map: yaw masks {masks.shape} do not fit {len(cells)} cells and "
-                             f"{len(yaws)} yaws")
+        raise PlacementError(
+            f"manipulation_map: yaw masks {masks.shape} do not fit {len(cells)} cells and {len(yaws)} yaws"
+        )
     out: list = [None] * len(trajectories)
     groups: dict[tuple, list[tuple[int, list[float]]]] = {}
     for i, T in enumerate(trajectories):
@@ -103,10 +118,25 @@ def manipulation_maps(rmap: ReachabilityMap, trajectories: list[np.ndarray], nav
         slices = np.ascontiguousarray(np.stack([rmap.slice(iz, ip, ir) for _, _, iz, ip, ir in keys]))
         vals = np.zeros((len(members), *window.shape), np.float32)
         args = np.full((len(members), *window.shape), -1, np.int64)
-        trajectory_maps(slices, np.array([k[0] for k in keys]), np.array([k[1] for k in keys]),
-                        np.array([m[1] for m in members], dtype=float), np.array(g.origin[:2]), g.resolution,
-                        np.asarray(yaws, dtype=float), np.array(nav.origin, dtype=float), nav.resolution, ny, nx,
-                        cells, masks, vals, args, window.y0, window.x0)
+        trajectory_maps(
+            slices,
+            np.array([k[0] for k in keys]),
+            np.array([k[1] for k in keys]),
+            np.array([m[1] for m in members], dtype=float),
+            np.array(g.origin[:2]),
+            g.resolution,
+            np.asarray(yaws, dtype=float),
+            np.array(nav.origin, dtype=float),
+            nav.resolution,
+            ny,
+            nx,
+            cells,
+            masks,
+            vals,
+            args,
+            window.y0,
+            window.x0,
+        )
         for j, (i, _) in enumerate(members):
             out[i] = (vals[j], args[j])
     return out

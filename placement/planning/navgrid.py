@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import PlacementError
+from placement.errors import PlacementError
 
 
 @dataclass(frozen=True)
@@ -50,8 +50,12 @@ class Window:
         if len(cells) == 0:
             return cls(0, 0, 0, 0)
         iy, ix = np.divmod(np.asarray(cells), shape[1])
-        return cls(max(int(iy.min()) - margin, 0), min(int(iy.max()) + 1 + margin, shape[0]),
-                   max(int(ix.min()) - margin, 0), min(int(ix.max()) + 1 + margin, shape[1]))
+        return cls(
+            max(int(iy.min()) - margin, 0),
+            min(int(iy.max()) + 1 + margin, shape[0]),
+            max(int(ix.min()) - margin, 0),
+            min(int(ix.max()) + 1 + margin, shape[1]),
+        )
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import PlacementError
-from ..kernels.navigation import distance_transform, shortest_costs
+from placement.errors import PlacementError
+from placement.kernels.navigation import distance_transform, shortest_costs
 
 
 def distance_map(occupied: np.ndarray, resolution: float) -> np.ndarray:
@@ -34,8 +34,14 @@ def speed_factor(d_o: np.ndarray, lam: float, k: float, d_max: float) -> np.ndar
     return 1.0 + lam * d_s
 
 
-def navigation_cost(factor: np.ndarray, feasible: np.ndarray, starts, resolution: float,
-                    start_costs=None, targets: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def navigation_cost(
+    factor: np.ndarray,
+    feasible: np.ndarray,
+    starts,
+    resolution: float,
+    start_costs=None,
+    targets: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Minimal travel cost [m] from the start cells to every cell (Eq. 5, exact, Dijkstra).
 
     Args:

@@ -6,9 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..rmap import ReachabilityMap
-from .grasps import Candidate
-from .navgrid import Window
+from placement.maps.rmap import ReachabilityMap
+from placement.planning.grasps import Candidate
+from placement.planning.navgrid import Window
 
 
 @dataclass(frozen=True)

@@ -15,23 +15,23 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..errors import MapError, PlacementError
-from ..rmap import ReachabilityMap, open_map
-from ..collision import SceneCollision
-from ..robots import Robot, load_robot
-from ..storage import open_store
-from .config import METHODS, PlannerConfig
-from .footprints import BaseShape
-from .manipulation import base_yaws
-from .methods.fixed import rank_fixed
-from .methods.optimal import plan_optimal
-from .methods.stepwise import plan_stepwise, rank_eq6
-from .prepare import prefetch_slices, warm_checks, warm_kernels
-from .problems import StepProblems
-from .results import PlanResult, robot_info
-from .scene import Scene, load_scene
-from .updates import apply_update
-from .world import World, build_world
+from placement.collision import SceneCollision
+from placement.errors import MapError, PlacementError
+from placement.maps.rmap import ReachabilityMap, open_map
+from placement.planning.config import METHODS, PlannerConfig
+from placement.planning.footprints import BaseShape
+from placement.planning.manipulation import base_yaws
+from placement.planning.methods.fixed import rank_fixed
+from placement.planning.methods.optimal import plan_optimal
+from placement.planning.methods.stepwise import plan_stepwise, rank_eq6
+from placement.planning.prepare import prefetch_slices, warm_checks, warm_kernels
+from placement.planning.problems import StepProblems
+from placement.planning.results import PlanResult, robot_info
+from placement.planning.updates import apply_update
+from placement.planning.world import World, build_world
+from placement.robots import Robot, load_robot
+from placement.scene import Scene, load_scene
+from placement.storage import open_store
 
 
 def default_maps_path(scene: Scene, robot: Robot) -> Path:
@@ -49,9 +49,11 @@ def default_maps_path(scene: Scene, robot: Robot) -> Path:
     if cwd.exists():
         return cwd
     looked.append(Path(os.path.abspath(cwd)))
-    raise MapError(f"no maps for robot '{robot.name}': the scene has no 'maps' key and none of "
-                   f"{', '.join(str(p) for p in dict.fromkeys(looked))} exists (build them with `make maps` or "
-                   "`placement maps build`, or pass --maps)")
+    raise MapError(
+        f"no maps for robot '{robot.name}': the scene has no 'maps' key and none of "
+        f"{', '.join(str(p) for p in dict.fromkeys(looked))} exists (build them with `make maps` or "
+        "`placement maps build`, or pass --maps)"
+    )
 
 
 def mapped_arms(path: Path, robot: Robot) -> list[str]:
@@ -82,17 +84,24 @@ class Planner:
         collisions (the :class:`~placement.collision.SceneCollision` checker, or None).
     """
 
-    def __init__(self, scene: Scene | str | Path, method: str = "sequential", maps: str | Path | None = None,
-                 collisions: bool = True):
+    def __init__(
+        self,
+        scene: Scene | str | Path,
+        method: str = "sequential",
+        maps: str | Path | None = None,
+        collisions: bool = True,
+    ):
         self.scene: Scene = scene if isinstance(scene, Scene) else load_scene(scene)
         self.base_config = PlannerConfig.from_overrides(self.scene.planner)
         self.set_method(method)
         self.robot: Robot = load_robot(self.scene.robot_preset)
         map_path = Path(maps or self.scene.maps or default_maps_path(self.scene, self.robot))
-        self.maps: dict[str, ReachabilityMap] = {arm: open_map(map_path, arm, self.robot)
-                                                 for arm in mapped_arms(map_path, self.robot)}
-        self.collisions = (SceneCollision(self.robot, self.scene, padding=self.base_config.collision_padding)
-                           if collisions else None)
+        self.maps: dict[str, ReachabilityMap] = {
+            arm: open_map(map_path, arm, self.robot) for arm in mapped_arms(map_path, self.robot)
+        }
+        self.collisions = (
+            SceneCollision(self.robot, self.scene, padding=self.base_config.collision_padding) if collisions else None
+        )
         self.yaws = base_yaws(self.base_config.yaw_steps)
         base = BaseShape.of(self.robot, self.base_config.footprint_padding, self.yaws)
         self.world: World = build_world(self.scene, base, self.base_config)
@@ -130,15 +139,21 @@ class Planner:
             raise PlacementError(f"start pose ({x}, {y}) is outside the scene bounds") from None
         if self.robot.footprint is not None:
             if not self.world.pose_clear(x, y, yaw):
-                raise PlacementError(f"start pose ({x:.2f}, {y:.2f}, {yaw:.2f} rad) is inside an obstacle or the base "
-                                     f"footprint comes closer than footprint_padding "
-                                     f"{self.base_config.footprint_padding} m to one")
+                raise PlacementError(
+                    f"start pose ({x:.2f}, {y:.2f}, {yaw:.2f} rad) is inside an obstacle or the base "
+                    f"footprint comes closer than footprint_padding "
+                    f"{self.base_config.footprint_padding} m to one"
+                )
             if not self.world.feasible[cell]:
-                raise PlacementError(f"start pose ({x:.2f}, {y:.2f}): the base footprint does not fit at the centre "
-                                     f"of its grid cell at any of the {len(self.yaws)} base yaws")
+                raise PlacementError(
+                    f"start pose ({x:.2f}, {y:.2f}): the base footprint does not fit at the centre "
+                    f"of its grid cell at any of the {len(self.yaws)} base yaws"
+                )
         elif not self.world.feasible[cell]:
-            raise PlacementError(f"start pose ({x:.2f}, {y:.2f}) is inside an obstacle or closer than the base "
-                                 f"footprint radius {self.robot.footprint_radius} m to one")
+            raise PlacementError(
+                f"start pose ({x:.2f}, {y:.2f}) is inside an obstacle or closer than the base "
+                f"footprint radius {self.robot.footprint_radius} m to one"
+            )
         return cell
 
     def plan(self, keep_maps: bool = False) -> PlanResult:

@@ -9,14 +9,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ik import solve_ik
-from .config import PlannerConfig
-from .manipulation import manipulation_maps, pose_slices
-from .navgrid import NavGrid, Window
-from .navigation import navigation_cost
-from .option import Option
-from .ranking import rank_by_cost
-from .steps import step_candidates
+from placement.kinematics.ik import solve_ik
+from placement.planning.config import PlannerConfig
+from placement.planning.manipulation import manipulation_maps, pose_slices
+from placement.planning.navgrid import NavGrid, Window
+from placement.planning.navigation import navigation_cost
+from placement.planning.option import Option
+from placement.planning.ranking import rank_by_cost
+from placement.planning.steps import step_candidates
 
 _warm = False
 

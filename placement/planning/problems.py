@@ -14,16 +14,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rmap import ReachabilityMap
-from .config import PlannerConfig
-from .heuristic import region_heuristic
-from .manipulation import cells_within, manipulation_maps, pose_reach
-from .navgrid import Window
-from .option import Option, height_range
-from .refresh import refreshed_options
-from .scene import Scene
-from .steps import Step, step_candidates, task_steps
-from .world import World
+from placement.maps.rmap import ReachabilityMap
+from placement.planning.config import PlannerConfig
+from placement.planning.heuristic import region_heuristic
+from placement.planning.manipulation import cells_within, manipulation_maps, pose_reach
+from placement.planning.navgrid import Window
+from placement.planning.option import Option, height_range
+from placement.planning.refresh import refreshed_options
+from placement.planning.steps import Step, step_candidates, task_steps
+from placement.planning.world import World
+from placement.scene import Scene
 
 
 class StepProblems:
@@ -35,8 +35,9 @@ class StepProblems:
         yaws: (K,) base yaws tried per cell [rad].
     """
 
-    def __init__(self, scene: Scene, world: World, maps: dict[str, ReachabilityMap], config: PlannerConfig,
-                 yaws: np.ndarray):
+    def __init__(
+        self, scene: Scene, world: World, maps: dict[str, ReachabilityMap], config: PlannerConfig, yaws: np.ndarray
+    ):
         self.scene, self.world, self.maps, self.config, self.yaws = scene, world, maps, config, yaws
         self.steps: list[Step] = task_steps(scene)
         self._options: dict[int, list[Option]] = {}
@@ -87,8 +88,11 @@ class StepProblems:
     def pairs(self, i: int) -> set[tuple[str, str | None]]:
         """The (arm, grasp) pairs of step i's options that keep the threshold somewhere: for a place,
         the arms and grasps with which the object picked before can be set down."""
-        return {(o.arm, o.candidate.grasp) for o in self.options(i) if o.value.size and
-                float(o.value.max()) >= self.config.threshold}
+        return {
+            (o.arm, o.candidate.grasp)
+            for o in self.options(i)
+            if o.value.size and float(o.value.max()) >= self.config.threshold
+        }
 
     def feasible_region(self, i: int, options: list[Option] | None = None) -> np.ndarray:
         """(ny, nx) bool: base cells from which some arm and candidate of step i (of ``options``,
@@ -117,8 +121,13 @@ class StepProblems:
         # a moved object's place poses follow its orientation when picked: its place too
         moved = {i for i, s in enumerate(self.steps) if s.carries is not None and s.carries in moved_objects}
         if world is not self.world:  # a place rests on the obstacles: one added or removed may move it
-            moved |= {i for i, s in enumerate(self.steps) if s.action == "place" and i in self._options | self._stale
-                      and not _same_places(self._candidates_of(i), step_candidates(scene, s, self.config))}
+            moved |= {
+                i
+                for i, s in enumerate(self.steps)
+                if s.action == "place"
+                and i in self._options | self._stale
+                and not _same_places(self._candidates_of(i), step_candidates(scene, s, self.config))
+            }
         kept = {i: o for i, o in self._options.items() if i not in moved}
         new._stale = {i: v for i, v in self._stale.items() if i not in moved}
         if world is not self.world:  # refreshed on first use: an update touches only what it re-plans
@@ -133,7 +142,7 @@ class StepProblems:
     def _candidates_of(self, i: int) -> list:
         """The candidates step i's cached options were computed for (one per option of the first arm)."""
         opts = self._options[i] if i in self._options else self._stale[i][0]
-        return [o.candidate for o in opts[:len(opts) // max(len(self.maps), 1)]]
+        return [o.candidate for o in opts[: len(opts) // max(len(self.maps), 1)]]
 
 
 def _same_places(a: list, b: list) -> bool:

@@ -6,10 +6,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..kernels.ranking import rank_window
-
-from .config import PlannerConfig
-from .option import Option
+from placement.kernels.ranking import rank_window
+from placement.planning.config import PlannerConfig
+from placement.planning.option import Option
 
 
 class Ranked(NamedTuple):
@@ -28,8 +27,9 @@ def combined_cost(config: PlannerConfig, nav_cost, value, heuristic):
     return config.lambda_n * nav_cost + config.lambda_m / value + config.lambda_nh * heuristic
 
 
-def combined_map(options: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray,
-                 config: PlannerConfig) -> np.ndarray:
+def combined_map(
+    options: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray, config: PlannerConfig
+) -> np.ndarray:
     """(ny, nx) Eq. 6 cost of the best option per cell (inf where none keeps the threshold), for plots."""
     best = np.full(nav_cost.shape, np.inf)
     for o in options:
@@ -41,8 +41,9 @@ def combined_map(options: list[Option], nav_cost: np.ndarray, heuristic: np.ndar
     return best
 
 
-def rank_by_cost(options: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray, config: PlannerConfig,
-                 yaws: np.ndarray) -> list[Ranked]:
+def rank_by_cost(
+    options: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray, config: PlannerConfig, yaws: np.ndarray
+) -> list[Ranked]:
     """Placements of every option in the order IK should try them.
 
     Per option, the ``config.ik_tries`` cheapest cells whose 3 x 3 neighbourhood keeps the threshold
@@ -55,9 +56,16 @@ def rank_by_cost(options: list[Option], nav_cost: np.ndarray, heuristic: np.ndar
     ranked = []  # (tier, cost, option index, flat cell, base yaw)
     for k, o in enumerate(options):
         win = o.window.slices
-        i0, c0, i1, c1 = rank_window(o.value, np.ascontiguousarray(nav_cost[win]),
-                                     np.ascontiguousarray(heuristic[win]), thr32, float(config.lambda_n), lam_m32,
-                                     float(config.lambda_nh), config.ik_tries)
+        i0, c0, i1, c1 = rank_window(
+            o.value,
+            np.ascontiguousarray(nav_cost[win]),
+            np.ascontiguousarray(heuristic[win]),
+            thr32,
+            float(config.lambda_n),
+            lam_m32,
+            float(config.lambda_nh),
+            config.ik_tries,
+        )
         for tier, local, costs in ((0, i0, c0), (1, i1, c1)):
             cells = o.window.to_global(local, nx)
             yaw_idx = o.yaw_index.ravel()[local]

@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..rmap import ReachabilityMap
-from .manipulation import cells_within, manipulation_maps, pose_reach
-from .navgrid import Window
-from .option import Option
-from .world import World
+from placement.maps.rmap import ReachabilityMap
+from placement.planning.manipulation import cells_within, manipulation_maps, pose_reach
+from placement.planning.navgrid import Window
+from placement.planning.option import Option
+from placement.planning.world import World
 
 
 def _moved(src: Option, dst_window: Window, cells: np.ndarray, nx: int, value: np.ndarray, yaw: np.ndarray) -> None:
@@ -25,8 +25,9 @@ def _moved(src: Option, dst_window: Window, cells: np.ndarray, nx: int, value: n
     yaw[iy - dst_window.y0, ix - dst_window.x0] = src.yaw_index[iy - src.window.y0, ix - src.window.x0]
 
 
-def refreshed_options(options: list[Option], maps: dict[str, ReachabilityMap], yaws: np.ndarray,
-                      was: World, now: World) -> list[Option]:
+def refreshed_options(
+    options: list[Option], maps: dict[str, ReachabilityMap], yaws: np.ndarray, was: World, now: World
+) -> list[Option]:
     """``options`` of one step for the world ``now``, computed for the world ``was``.
 
     Options whose reach disc saw no change of allowed yaws are returned as they are (same objects).
@@ -47,8 +48,19 @@ def refreshed_options(options: list[Option], maps: dict[str, ReachabilityMap], y
         feasible = now.feasible.flat[disc]
         window = Window.around(disc[feasible], nav.shape)
         kept, fresh = disc[feasible & same], disc[feasible & ~same]
-        computed = manipulation_maps(maps[arm], [options[j].candidate.poses for j in members], nav, yaws, fresh,
-                                     window, after[feasible & ~same]) if fresh.size else None
+        computed = (
+            manipulation_maps(
+                maps[arm],
+                [options[j].candidate.poses for j in members],
+                nav,
+                yaws,
+                fresh,
+                window,
+                after[feasible & ~same],
+            )
+            if fresh.size
+            else None
+        )
         for n, j in enumerate(members):
             o = options[j]
             value = np.zeros(window.shape, np.float32)

@@ -12,9 +12,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..robots import Robot, matrix_to_pose
-from .transfer import UPRIGHT_TOLERANCE, tilt_between
-from .verify import base_matrix
+from placement.planning.transfer import UPRIGHT_TOLERANCE, tilt_between
+from placement.planning.verify import base_matrix
+from placement.robots import Robot, matrix_to_pose
 
 
 @dataclass
@@ -102,21 +102,38 @@ class StepResult:
     def to_json(self) -> dict:
         timings = {k: round(v, 3) for k, v in self.timings_ms.items()}
         if not self.ok:
-            return {"step": self.step, "action": self.action, "target": self.target, "status": self.status,
-                    "reason": self.reason, "diagnosis": self.diagnosis or {}, "timings_ms": timings}
+            return {
+                "step": self.step,
+                "action": self.action,
+                "target": self.target,
+                "status": self.status,
+                "reason": self.reason,
+                "diagnosis": self.diagnosis or {},
+                "timings_ms": timings,
+            }
         names = self.joints_of_arm()
         return {
-            "step": self.step, "action": self.action, "target": self.target, "arm": self.arm, "grasp": self.grasp,
+            "step": self.step,
+            "action": self.action,
+            "target": self.target,
+            "arm": self.arm,
+            "grasp": self.grasp,
             "trajectory": self.trajectory or self.grasp,
             "base": [round(float(v), 6) for v in self.base],
             "tcp": [matrix_to_pose(T) for T in self.tcp],
-            "poses": [{"pose": matrix_to_pose(T), "joints": {n: float(v) for n, v in zip(names, q)}}
-                      for T, q in zip(self.tcp, self.pose_qs())],
+            "poses": [
+                {"pose": matrix_to_pose(T), "joints": {n: float(v) for n, v in zip(names, q)}}
+                for T, q in zip(self.tcp, self.pose_qs())
+            ],
             "joints": dict(self.joints),
             "clearance_m": None if self.clearance_m is None else float(self.clearance_m),
             "manipulability": float(self.manipulability),
-            "cost": {"total": self.cost.total, "navigation": self.cost.navigation,
-                     "manipulation": self.cost.manipulation, "heuristic": self.cost.heuristic},
+            "cost": {
+                "total": self.cost.total,
+                "navigation": self.cost.navigation,
+                "manipulation": self.cost.manipulation,
+                "heuristic": self.cost.heuristic,
+            },
             "travel_time_s": float(self.travel_time_s),
             "timings_ms": timings,
         } | self._transfer_json()
@@ -131,10 +148,9 @@ class StepResult:
             out["support"] = self.support
         return out
 
-
     def joints_of_arm(self) -> list[str]:
         """The arm's joint names, in ``q`` order (the first entries of ``joints``)."""
-        return list(self.joints)[:len(self.q)]
+        return list(self.joints)[: len(self.q)]
 
     def pose_qs(self) -> np.ndarray:
         """(P, n) the arm's configuration at every TCP pose (the last one only, repeated, for
@@ -144,9 +160,18 @@ class StepResult:
 
 def robot_info(robot: Robot, arms) -> dict:
     """The ``robot`` block of the plan document for the mapped ``arms``."""
-    return {"name": robot.name, "base_frame": robot.base_frame,
-            "arms": {a: {"joints": list(robot.arm(a).joints), "tip_frame": robot.arm(a).tip_frame,
-                         "tcp_offset": matrix_to_pose(robot.arm(a).tcp_offset)} for a in arms}}
+    return {
+        "name": robot.name,
+        "base_frame": robot.base_frame,
+        "arms": {
+            a: {
+                "joints": list(robot.arm(a).joints),
+                "tip_frame": robot.arm(a).tip_frame,
+                "tcp_offset": matrix_to_pose(robot.arm(a).tcp_offset),
+            }
+            for a in arms
+        },
+    }
 
 
 @dataclass
@@ -174,8 +199,13 @@ class PlanResult:
         return next((s for s in self.steps if not s.ok), None)
 
     def to_json(self) -> dict:
-        out = {"scene": self.scene, "method": self.method, "robot": self.robot, "status": self.status,
-               "steps": [s.to_json() for s in self.steps]}
+        out = {
+            "scene": self.scene,
+            "method": self.method,
+            "robot": self.robot,
+            "status": self.status,
+            "steps": [s.to_json() for s in self.steps],
+        }
         if self.update is not None:
             out["update"] = self.update
         return out
@@ -223,14 +253,15 @@ def transfer_problems(s: StepResult, steps: list[StepResult], where: str, rot_to
     the hand, so that is the object's turn) within ``rot_tol`` [rad]."""
     if s.action != "place" or s.object is None:
         return []
-    before = steps[:next(i for i, x in enumerate(steps) if x is s)]
+    before = steps[: next(i for i, x in enumerate(steps) if x is s)]
     pick = next((p for p in reversed(before) if p.action == "pick" and p.object == s.object), None)
     if pick is None or not pick.ok:
         return [f"{where}: no planned pick of '{s.object}' before it"]
     out = []
     if (pick.arm, pick.grasp) != (s.arm, s.grasp):
-        out.append(f"{where}: placed by arm {s.arm} with grasp {s.grasp}, picked by arm {pick.arm} with "
-                   f"grasp {pick.grasp}")
+        out.append(
+            f"{where}: placed by arm {s.arm} with grasp {s.grasp}, picked by arm {pick.arm} with grasp {pick.grasp}"
+        )
     tilt = tilt_between(np.asarray(s.tcp)[-1][:3, :3], np.asarray(pick.tcp)[-1][:3, :3])
     if tilt > rot_tol:
         out.append(f"{where}: '{s.object}' set down tilted {math.degrees(tilt):.1f} deg from how it was picked")

@@ -18,21 +18,22 @@ from __future__ import annotations
 import math
 import time
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..kernels.grid import zyx_angles
-from .manipulation import pose_slices
-from .ranking import Ranked, combined_cost
-from .transfer import held_object
-from .verify import TrajectoryIK, base_matrix, trajectory_ik
+from placement.kernels.grid import zyx_angles
+from placement.planning.manipulation import pose_slices
+from placement.planning.ranking import Ranked, combined_cost
+from placement.planning.transfer import held_object
+from placement.planning.verify import TrajectoryIK, base_matrix, trajectory_ik
 
 if TYPE_CHECKING:
-    from .option import Option
-    from .planner import Planner
-    from .steps import Step
+    from placement.planning.option import Option
+    from placement.planning.planner import Planner
+    from placement.planning.steps import Step
 
 #: A failure whose TCP stopped this far [m] or more short of its target teaches the search.
 SHORTFALL_M = 0.02
@@ -92,7 +93,7 @@ def collision_args(planner: Planner, step: Step, o: Option) -> dict:
     touch the object it grasps; a place carries its object (``held``: it moves with the gripper and
     is no longer where the scene has it); objects picked before are ``gone`` (where earlier places
     set them down is not modelled as an obstacle)."""
-    gone = [s.target for s in planner.problems.steps[:step.index] if s.action == "pick"]
+    gone = [s.target for s in planner.problems.steps[: step.index] if s.action == "pick"]
     if step.action == "pick":
         return {"grasped": step.target, "gone": [g for g in gone if g != step.target]}
     if step.action == "place" and step.carries is not None and o.candidate.object_pose is not None:
@@ -127,16 +128,20 @@ class _Learner:
             self.short.append((f.option, f.pose, base[2], math.atan2(h[1], h[0]) - base[2], d))
 
     def near_failure(self, k: int, iy: int, ix: int, yaw: float, any_yaw: bool) -> bool:
-        return any(fk == k and abs(fy - iy) <= 1 and abs(fx - ix) <= 1
-                   and (any_yaw or abs(_wrap(yaw - fyaw)) <= 2 * self.yaw_step + 1e-9)
-                   for fk, fy, fx, fyaw in self.failed)
+        return any(
+            fk == k
+            and abs(fy - iy) <= 1
+            and abs(fx - ix) <= 1
+            and (any_yaw or abs(_wrap(yaw - fyaw)) <= 2 * self.yaw_step + 1e-9)
+            for fk, fy, fx, fyaw in self.failed
+        )
 
     def hopeless(self, k: int, o: Option, base) -> bool:
         for fk, pose, fyaw, bearing, d in self.short:
             if fk != k or abs(_wrap(base[2] - fyaw)) > SAME_DIRECTION:
                 continue
             h = o.candidate.poses[pose, :2, 3] - np.asarray(base[:2])
-            if (np.hypot(*h) >= d and abs(_wrap(math.atan2(h[1], h[0]) - base[2] - bearing)) <= SAME_DIRECTION):
+            if np.hypot(*h) >= d and abs(_wrap(math.atan2(h[1], h[0]) - base[2] - bearing)) <= SAME_DIRECTION:
                 return True
         return False
 
@@ -166,8 +171,9 @@ def yaw_values(rmap, poses: np.ndarray, bx: np.ndarray, by: np.ndarray, yaws: np
     return out
 
 
-def other_yaws(planner: Planner, opts: list[Option], nav_cost: np.ndarray,
-               heuristic: np.ndarray) -> tuple[list[Ranked], dict]:
+def other_yaws(
+    planner: Planner, opts: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray
+) -> tuple[list[Ranked], dict]:
     """Every (cell, base yaw) of every option that keeps the map threshold other than each cell's
     best yaw, ranked by Eq. 6 with its own map value; and {(option, cell, yaw): value}."""
     cfg, nav = planner.config, planner.world.nav
@@ -193,9 +199,16 @@ def other_yaws(planner: Planner, opts: list[Option], nav_cost: np.ndarray,
     return out, values
 
 
-def search_placement(planner: Planner, step: Step, opts: list[Option], ranked: list[Ranked],
-                     more: Callable[[], list[Ranked]] | None, nav_cost: np.ndarray, heuristic: np.ndarray,
-                     prev_q: dict) -> Search:
+def search_placement(
+    planner: Planner,
+    step: Step,
+    opts: list[Option],
+    ranked: list[Ranked],
+    more: Callable[[], list[Ranked]] | None,
+    nav_cost: np.ndarray,
+    heuristic: np.ndarray,
+    prev_q: dict,
+) -> Search:
     """Try ``ranked`` placements of ``step`` (then ``more()``, every ranked placement, and when
     ``more`` is given every other base yaw that keeps the threshold) until one verifies by IK
     (and the collision hook, when the planner has one); see the module docstring."""

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .config import PlannerConfig
-from .grasps import Candidate, box_grasps, in_world, top_grasps
-from .scene import Scene, SceneObject
-from .transfer import transfer_places
+from placement.planning.config import PlannerConfig
+from placement.planning.grasps import Candidate, box_grasps, in_world, top_grasps
+from placement.planning.transfer import transfer_places
+from placement.scene import Scene, SceneObject
 
 
 @dataclass(frozen=True)
@@ -60,5 +60,6 @@ def step_candidates(scene: Scene, step: Step, config: PlannerConfig) -> list[Can
     if step.action == "reach":
         return [Candidate(n, scene.trajectory(n).matrices()) for n in step.options]
     obj = scene.object(step.carries)
-    return transfer_places(scene, obj, scene.place_location(step.target), object_grasps(obj, scene.version),
-                           config.grasp_yaws)
+    return transfer_places(
+        scene, obj, scene.place_location(step.target), object_grasps(obj, scene.version), config.grasp_yaws
+    )

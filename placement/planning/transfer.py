@@ -27,10 +27,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .grasps import Candidate
-from .scene import PlaceLocation, Scene, SceneObject
-from .scene.places import UPRIGHT_TOLERANCE_DEG
-from .scene.poses import quaternion_matrix
+from placement.planning.grasps import Candidate
+from placement.scene import PlaceLocation, Scene, SceneObject
+from placement.scene.places import UPRIGHT_TOLERANCE_DEG
+from placement.scene.poses import quaternion_matrix
 
 #: [m] how far below a place location's z a support surface is looked for.
 SUPPORT_SEARCH = 0.25
@@ -100,8 +100,10 @@ def place_orientations(obj: SceneObject, loc: PlaceLocation, grasp_yaws) -> list
     count evenly over a turn, or a list of turns [rad])."""
     R0 = quaternion_matrix(obj.orientation)
     if loc.orientations is not None:
-        return [(f"orientation{k}", rot_z(turn_about_z(quaternion_matrix(q), R0)) @ R0)
-                for k, q in enumerate(loc.orientations)]
+        return [
+            (f"orientation{k}", rot_z(turn_about_z(quaternion_matrix(q), R0)) @ R0)
+            for k, q in enumerate(loc.orientations)
+        ]
     if np.isscalar(grasp_yaws):
         turns = [2 * math.pi * k / int(grasp_yaws) for k in range(int(grasp_yaws))]
     else:
@@ -119,8 +121,9 @@ def placed_pose(scene: Scene, obj: SceneObject, loc: PlaceLocation, R: np.ndarra
     return T, support
 
 
-def transfer_places(scene: Scene, obj: SceneObject, loc: PlaceLocation, grasps: list[Candidate],
-                    grasp_yaws) -> list[Candidate]:
+def transfer_places(
+    scene: Scene, obj: SceneObject, loc: PlaceLocation, grasps: list[Candidate], grasp_yaws
+) -> list[Candidate]:
     """The place candidates of ``obj`` at ``loc`` for each of its ``grasps`` (world-frame pick
     trajectories): per grasp and allowed orientation, the grasp carried to the object's place pose."""
     T_pick_inv = np.linalg.inv(obj.pose)
@@ -129,8 +132,11 @@ def transfer_places(scene: Scene, obj: SceneObject, loc: PlaceLocation, grasps: 
         T_place, support = placed_pose(scene, obj, loc, R)
         carry = T_place @ T_pick_inv
         for g in grasps:
-            out.append(Candidate(f"{g.name}@{label}", settled(carry @ g.poses), grasp=g.name, object_pose=T_place,
-                                 support=support))
+            out.append(
+                Candidate(
+                    f"{g.name}@{label}", settled(carry @ g.poses), grasp=g.name, object_pose=T_place, support=support
+                )
+            )
     return out
 
 
@@ -148,9 +154,20 @@ def settled(poses: np.ndarray) -> np.ndarray:
 def held_object(obj: SceneObject, cand: Candidate) -> Held:
     """What the gripper holds along the place candidate ``cand``: ``obj`` at ``cand.object_pose``,
     rigidly attached to the TCP of its last pose."""
-    return Held(obj.name, np.asarray(obj.size, dtype=float), np.linalg.inv(cand.poses[-1]) @ cand.object_pose,
-                cand.support)
+    return Held(
+        obj.name, np.asarray(obj.size, dtype=float), np.linalg.inv(cand.poses[-1]) @ cand.object_pose, cand.support
+    )
 
 
-__all__ = ["Held", "SUPPORT_SEARCH", "UPRIGHT_TOLERANCE", "held_object", "place_orientations", "placed_pose",
-           "support_surface", "tilt_between", "transfer_places", "turn_about_z"]
+__all__ = [
+    "Held",
+    "SUPPORT_SEARCH",
+    "UPRIGHT_TOLERANCE",
+    "held_object",
+    "place_orientations",
+    "placed_pose",
+    "support_surface",
+    "tilt_between",
+    "transfer_places",
+    "turn_about_z",
+]

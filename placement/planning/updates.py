@@ -19,13 +19,13 @@ import time
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
-from .scene import Scene, SceneParser, check_scene
-from .scene.parse import OBJECT_KEYS_V1
-from ..validation import describe
-from .world import add_touched, build_world, changed_occupancy, world_from_occupancy
+from placement.planning.world import add_touched, build_world, changed_occupancy, world_from_occupancy
+from placement.scene import Scene, SceneParser, check_scene
+from placement.scene.parse import OBJECT_KEYS_V1
+from placement.validation import describe
 
 if TYPE_CHECKING:
-    from .planner import Planner
+    from placement.planning.planner import Planner
 
 UPDATE_KEYS = ("objects", "obstacles", "start")
 WHERE = "update"
@@ -36,14 +36,14 @@ NAME_CHARS = 60
 
 def _quoted(name: str) -> str:
     """``'name'``, cut to :data:`NAME_CHARS` with its length said (a message must not echo 100 MB)."""
-    return f"'{name}'" if len(name) <= NAME_CHARS else f"'{name[:NAME_CHARS - 20]}...' ({len(name):,} characters)"
+    return f"'{name}'" if len(name) <= NAME_CHARS else f"'{name[: NAME_CHARS - 20]}...' ({len(name):,} characters)"
 
 
 def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
     """The scene after ``change``, the names of moved objects, whether obstacles changed, and
     whether some were removed (additions alone only add occupied cells).
 
-    Raises :class:`~placement.planning.scene.SceneError` (one line, ``update: KEY.PATH: problem``).
+    Raises :class:`~placement.scene.SceneError` (one line, ``update: KEY.PATH: problem``).
     """
     P = SceneParser(WHERE, scene.version)
     if not isinstance(change, dict) or not change:
@@ -76,8 +76,12 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
         if "orientation" in item:
             yaw, q = 0.0, P.quaternion(item["orientation"], f"{p}.orientation")
         objects[name] = replace(
-            o, position=P.coords(item["position"], f"{p}.position", 3) if "position" in item else o.position,
-            yaw=yaw, orientation=q, size=P.sizes(item["size"], f"{p}.size", 3) if "size" in item else o.size)
+            o,
+            position=P.coords(item["position"], f"{p}.position", 3) if "position" in item else o.position,
+            yaw=yaw,
+            orientation=q,
+            size=P.sizes(item["size"], f"{p}.size", 3) if "size" in item else o.size,
+        )
         moved.add(name)
     obstacles = list(scene.obstacles)
     added = []
@@ -89,17 +93,22 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
             p = f"obstacles.remove[{i}]"
             P.string(name, p)
             if name not in {o.name for o in obstacles} or name in removed:
-                P.fail(p, f"unknown obstacle {_quoted(name)}; obstacles: {', '.join(o.name for o in obstacles) or '(none)'}")
+                P.fail(
+                    p,
+                    f"unknown obstacle {_quoted(name)}; obstacles: {', '.join(o.name for o in obstacles) or '(none)'}",
+                )
             removed.add(name)
         obstacles = [o for o in obstacles if o.name not in removed]
         for n in [*(o.name for o in obstacles), *objects, *(p.name for p in scene.place_locations)]:
             P.names[n] = "the scene"
-        added = [P.obstacle(item, f"obstacles.add[{i}]")
-                 for i, item in enumerate(items(ch.get("add", []), "obstacles.add"))]
+        added = [
+            P.obstacle(item, f"obstacles.add[{i}]") for i, item in enumerate(items(ch.get("add", []), "obstacles.add"))
+        ]
         obstacles += added
     start = P.coords(change["start"], "start", 3) if "start" in change else scene.start
-    new = replace(scene, objects=tuple(objects[o.name] for o in scene.objects), obstacles=tuple(obstacles),
-                  start=tuple(start))
+    new = replace(
+        scene, objects=tuple(objects[o.name] for o in scene.objects), obstacles=tuple(obstacles), start=tuple(start)
+    )
     removed_any = changed and len(obstacles) - len(added) < len(scene.obstacles)
     return check_scene(new, WHERE, moved, {o.name for o in added}), moved, changed, removed_any
 
@@ -118,11 +127,15 @@ def apply_update(planner: Planner, change) -> dict:
             # by identity: a name removed and added again in one change is a different obstacle
             old = {id(o) for o in planner.scene.obstacles}
             new = {id(o) for o in scene.obstacles}
-            diff = ([o for o in planner.scene.obstacles if id(o) not in new],
-                    [o for o in scene.obstacles if id(o) in old], [o for o in scene.obstacles if id(o) not in old])
+            diff = (
+                [o for o in planner.scene.obstacles if id(o) not in new],
+                [o for o in scene.obstacles if id(o) in old],
+                [o for o in scene.obstacles if id(o) not in old],
+            )
             occupied = changed_occupancy(world.occupied, world.nav, *diff)
-            touched = None if world.touched is None else changed_occupancy(world.touched, world.nav, *diff,
-                                                                           draw=add_touched)
+            touched = (
+                None if world.touched is None else changed_occupancy(world.touched, world.nav, *diff, draw=add_touched)
+            )
             world = world_from_occupancy(world.nav, occupied, world.base, planner.base_config, touched, world)
         timings["distance"] = (time.perf_counter() - t) * 1e3
     problems = planner.problems.changed(scene, world, moved)
@@ -133,5 +146,9 @@ def apply_update(planner: Planner, change) -> dict:
         planner.replace_state(*before)
         raise
     timings["update"] = (time.perf_counter() - t0) * 1e3
-    return {"updated": sorted(moved) + (["obstacles"] if obstacles_changed else []) +
-            (["start"] if "start" in change else []), "timings_ms": timings}
+    return {
+        "updated": sorted(moved)
+        + (["obstacles"] if obstacles_changed else [])
+        + (["start"] if "start" in change else []),
+        "timings_ms": timings,
+    }

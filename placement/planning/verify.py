@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
-from ..ik import solve_ik
-from ..robots import Robot
+from placement.kinematics.ik import solve_ik
+from placement.robots import Robot
 
 #: IK tolerances of a verified pose: position [m], rotation [rad].
 POS_TOL, ROT_TOL = 2e-3, 2e-2
@@ -58,8 +58,14 @@ class TrajectoryIK:
 Witness = Callable[[np.ndarray], "np.ndarray | None"]
 
 
-def trajectory_ik(robot: Robot, arm: str, poses_world: np.ndarray, base: tuple[float, float, float],
-                  seed: np.ndarray, witness: Witness | None = None) -> TrajectoryIK:
+def trajectory_ik(
+    robot: Robot,
+    arm: str,
+    poses_world: np.ndarray,
+    base: tuple[float, float, float],
+    seed: np.ndarray,
+    witness: Witness | None = None,
+) -> TrajectoryIK:
     """IK of every pose of ``poses_world`` (P, 4, 4) with the base at ``base`` (x [m], y [m], yaw [rad]).
 
     Start configurations, in order: for the first pose the map witness of its cell (when
@@ -93,8 +99,9 @@ def trajectory_ik(robot: Robot, arm: str, poses_world: np.ndarray, base: tuple[f
             if best is None or res.pos_err + 0.1 * res.rot_err < best.pos_err + 0.1 * best.rot_err:
                 best = res
         if not best.success:
-            return TrajectoryIK(np.array(qs).reshape(len(qs), len(q)), i, float(best.pos_err), float(best.rot_err),
-                                best.q)
+            return TrajectoryIK(
+                np.array(qs).reshape(len(qs), len(q)), i, float(best.pos_err), float(best.rot_err), best.q
+            )
         q = best.q
         qs.append(q)
     return TrajectoryIK(np.array(qs))

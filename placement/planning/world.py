@@ -6,13 +6,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import PlacementError
-from .config import PlannerConfig
-from .footprints import BaseShape, YawMasks, masks_at, polygon_feasibility, pose_clear
-from .navgrid import NavGrid
-from .navigation import distance_map, speed_factor
-from .scene import Box, Cylinder, Polygon, Scene
-from .scene.occupancy import rasterize_occupancy
+from placement.errors import PlacementError
+from placement.planning.config import PlannerConfig
+from placement.planning.footprints import BaseShape, YawMasks, masks_at, polygon_feasibility, pose_clear
+from placement.planning.navgrid import NavGrid
+from placement.planning.navigation import distance_map, speed_factor
+from placement.scene import Box, Cylinder, Polygon, Scene
+from placement.scene.occupancy import rasterize_occupancy
 
 #: [m] the squares are shrunk by this so that float rounding on a shared edge marks nothing; the
 #: footprint test pads by far more (footprints.PAD_SLACK)
@@ -52,8 +52,9 @@ def shape_window(shape, nav: NavGrid) -> tuple[int, int, int, int]:
     return j0, j1, i0, i1
 
 
-def changed_occupancy(occupied: np.ndarray, nav: NavGrid, removed: list, kept: list, added: list,
-                      draw=None) -> np.ndarray:
+def changed_occupancy(
+    occupied: np.ndarray, nav: NavGrid, removed: list, kept: list, added: list, draw=None
+) -> np.ndarray:
     """The occupancy after obstacles changed, from the old one (no occupancy map involved): the cells
     of removed shapes are cleared and every kept shape that reaches them is drawn again, then the
     added shapes are drawn; the same grid as rasterising everything anew. ``draw``: how a shape is
@@ -89,7 +90,7 @@ def add_shape(occupied: np.ndarray, shape, nav: NavGrid) -> None:
         lx, ly = c * dx + s * dy, -s * dx + c * dy
         inside = (np.abs(lx) <= shape.size[0] / 2) & (np.abs(ly) <= shape.size[1] / 2)
     elif isinstance(shape, Cylinder):
-        inside = (X - shape.center[0]) ** 2 + (Y - shape.center[1]) ** 2 <= shape.radius ** 2
+        inside = (X - shape.center[0]) ** 2 + (Y - shape.center[1]) ** 2 <= shape.radius**2
     elif isinstance(shape, Polygon):
         inside = _inside_polygon(X, Y, np.asarray(shape.points))
     else:
@@ -138,7 +139,6 @@ def _segment_meets_square(a, b, X, Y, h: float) -> np.ndarray:
             t0 = np.maximum(t0, np.minimum(ta, tb))
             t1 = np.minimum(t1, np.maximum(ta, tb))
     return t0 <= t1
-
 
 
 @dataclass(frozen=True)
@@ -190,8 +190,9 @@ def build_world(scene: Scene, base: BaseShape, config: PlannerConfig) -> World:
         add_shape(occ, ob.shape, nav)
     raster = None
     if scene.occupancy is not None:
-        raster = rasterize_occupancy(scene.occupancy, nav.origin, nav.resolution, nav.shape, conservative=True,
-                                     outside_occupied=True)
+        raster = rasterize_occupancy(
+            scene.occupancy, nav.origin, nav.resolution, nav.shape, conservative=True, outside_occupied=True
+        )
         occ |= raster
     touched = None
     if base.polygon is not None:
@@ -202,8 +203,14 @@ def build_world(scene: Scene, base: BaseShape, config: PlannerConfig) -> World:
     return world_from_occupancy(nav, occ, base, config, touched)
 
 
-def world_from_occupancy(nav: NavGrid, occ: np.ndarray, base: BaseShape, config: PlannerConfig,
-                         touched: np.ndarray | None = None, previous: World | None = None) -> World:
+def world_from_occupancy(
+    nav: NavGrid,
+    occ: np.ndarray,
+    base: BaseShape,
+    config: PlannerConfig,
+    touched: np.ndarray | None = None,
+    previous: World | None = None,
+) -> World:
     """Distance, feasibility and speed from an occupancy grid (ny, nx) bool (and, for a polygon
     base, the touched layer (ny, nx) bool). ``previous``: the world of the same grid and base before
     an obstacle change (the yaw masks far from the change are taken from it)."""
@@ -212,9 +219,7 @@ def world_from_occupancy(nav: NavGrid, occ: np.ndarray, base: BaseShape, config:
     if base.polygon is None:
         return World(nav, occ, dist, dist >= base.radius, factor, base)
     before = None
-    if previous is not None and previous.touched is not None and previous.masks is not None \
-            and previous.base is base:
+    if previous is not None and previous.touched is not None and previous.masks is not None and previous.base is base:
         before = (previous.touched, previous.masks)
-    feasible, masks = polygon_feasibility(base, touched, distance_map(touched, nav.resolution), nav.resolution,
-                                          before)
+    feasible, masks = polygon_feasibility(base, touched, distance_map(touched, nav.resolution), nav.resolution, before)
     return World(nav, occ, dist, feasible, factor, base, touched, masks)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..errors import RobotError
+from placement.errors import RobotError
 
 REVOLUTE = 0
 PRISMATIC = 1

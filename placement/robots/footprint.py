@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ..simplicity import self_crossing
-from ..validation import Checker
+from placement.simplicity import self_crossing
+from placement.validation import Checker
 
 #: Smallest footprint area accepted [m^2]: anything smaller is a units mistake (millimetres?).
 MIN_AREA = 1e-3
@@ -54,22 +54,31 @@ def parse_footprint(c: Checker, value: Any, key: str) -> tuple[tuple[float, floa
     area >= :data:`MIN_AREA`, around the base frame's origin; returned counter-clockwise."""
     items = c.sequence(value, key, minimum=3, what="[x, y] points [m]")
     if len(items) > MAX_FOOTPRINT_VERTICES:
-        c.fail(key, f"{len(items)} points, more than the {MAX_FOOTPRINT_VERTICES} allowed (the planner tests every "
-                    "point at every base yaw): simplify the outline")
+        c.fail(
+            key,
+            f"{len(items)} points, more than the {MAX_FOOTPRINT_VERTICES} allowed (the planner tests every "
+            "point at every base yaw): simplify the outline",
+        )
     pts = np.array([c.vector(p, f"{key}[{i}]", 2, "numbers [x y] [m]") for i, p in enumerate(items)])
     far = np.flatnonzero(np.hypot(pts[:, 0], pts[:, 1]) > MAX_BASE_RADIUS)
     if len(far):
         i = int(far[0])
-        c.fail(f"{key}[{i}]", f"the point {list(pts[i])} is more than {MAX_BASE_RADIUS:g} m from the base frame's "
-                              "origin; the footprint is in metres")
+        c.fail(
+            f"{key}[{i}]",
+            f"the point {list(pts[i])} is more than {MAX_BASE_RADIUS:g} m from the base frame's "
+            "origin; the footprint is in metres",
+        )
     for i in range(len(pts)):
         if np.array_equal(pts[i], pts[i - 1]):
             c.fail(f"{key}[{i}]", f"repeats the point before it {list(pts[i])}")
     crossing = first_self_crossing(pts)
     if crossing is not None:
         i, j = crossing
-        c.fail(key, f"the polygon crosses itself (edge {i}-{(i + 1) % len(pts)} meets edge {j}-{(j + 1) % len(pts)}); "
-                    "list the corners in order around the base")
+        c.fail(
+            key,
+            f"the polygon crosses itself (edge {i}-{(i + 1) % len(pts)} meets edge {j}-{(j + 1) % len(pts)}); "
+            "list the corners in order around the base",
+        )
     area = signed_area(pts)
     if abs(area) < MIN_AREA:
         c.fail(key, f"the polygon's area is {abs(area):.3g} m^2 (< {MIN_AREA:g}); the footprint is in metres")

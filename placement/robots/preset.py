@@ -26,11 +26,11 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
-from ..validation import Checker, one_line, read_regular, read_yaml
-from .chain import Chain, ancestors, extract_chain
-from .init_urdf import MAX_URDF_BYTES, expand_xacro, is_xacro
-from .spec import MAX_PRESET_BYTES, QUATERNION_TOLERANCE, ArmSpec, PresetSpec, parse_preset
+from placement.errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
+from placement.robots.chain import Chain, ancestors, extract_chain
+from placement.robots.onboarding.urdf import MAX_URDF_BYTES, expand_xacro, is_xacro
+from placement.robots.spec import MAX_PRESET_BYTES, QUATERNION_TOLERANCE, ArmSpec, PresetSpec, parse_preset
+from placement.validation import Checker, one_line, read_regular, read_yaml
 
 PRESET_DIR = Path(__file__).parent / "presets"
 #: Parsed URDF models kept in memory, keyed by (path, sha256 of the bytes parsed).
@@ -70,8 +70,7 @@ def _mimic_joints(xml: bytes) -> dict[str, str]:
         root = ET.fromstring(xml)
     except ET.ParseError:  # pinocchio parsed it, so only an exotic encoding gets here: no mimic info
         return {}
-    return {j.get("name"): j.find("mimic").get("joint", "?") for j in root.iter("joint")
-            if j.find("mimic") is not None}
+    return {j.get("name"): j.find("mimic").get("joint", "?") for j in root.iter("joint") if j.find("mimic") is not None}
 
 
 def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
@@ -190,7 +189,8 @@ class Robot:
         self._arms = {name: self._make_arm(a, data) for name, a in spec.arms.items()}
         self.ignore_collisions = frozenset(
             frozenset(self._link(name, f"ignore_collisions[{i}][{k}]") for k, name in enumerate(pair))
-            for i, pair in enumerate(spec.ignore_collisions))
+            for i, pair in enumerate(spec.ignore_collisions)
+        )
 
     # -- model helpers -------------------------------------------------
     def _frame_id(self, name: str, key: str | None = None) -> int:
@@ -205,7 +205,7 @@ class Robot:
         links = [f.name for f in self.model.frames if f.type == pin.FrameType.BODY]
         if name not in links:
             exc = FrameNotFound(name, self.name, difflib.get_close_matches(name, links, 5, 0.4))
-            exc.args = (f"link{str(exc)[len('frame'):]}",)
+            exc.args = (f"link{str(exc)[len('frame') :]}",)
             raise _located(exc, self._check.where, key)
         return name
 
@@ -219,13 +219,17 @@ class Robot:
             exc = JointNotFound(name, self.name, difflib.get_close_matches(name, names, 5, 0.4))
             raise _located(exc, self._check.where, key)
         if arm and name in self._mimic:
-            self._check.fail(key, f"'{name}' is a mimic joint (it follows '{self._mimic[name]}'); "
-                                  "arm joints must move independently")
+            self._check.fail(
+                key, f"'{name}' is a mimic joint (it follows '{self._mimic[name]}'); arm joints must move independently"
+            )
         jid = m.getJointId(name)
         nv = m.joints[jid].nv
         if nv != 1:
-            self._check.fail(key, f"joint '{name}' has {nv} degrees of freedom; only revolute, "
-                                  "continuous and prismatic joints can be used")
+            self._check.fail(
+                key,
+                f"joint '{name}' has {nv} degrees of freedom; only revolute, "
+                "continuous and prismatic joints can be used",
+            )
         return jid
 
     def _limits(self, jid: int) -> tuple[float, float, bool]:
@@ -242,15 +246,24 @@ class Robot:
         for i, (j, jid) in enumerate(zip(a.joints, jids)):
             key = f"arms.{a.name}.joints[{i}]"
             if jid not in tip_chain:
-                self._check.fail(key, f"joint '{j}' is not on the chain from base frame '{self.base_frame}' "
-                                      f"to tip frame '{a.tip_frame}' (it does not move the tip)")
+                self._check.fail(
+                    key,
+                    f"joint '{j}' is not on the chain from base frame '{self.base_frame}' "
+                    f"to tip frame '{a.tip_frame}' (it does not move the tip)",
+                )
             if jid in base_chain:
-                self._check.fail(key, f"joint '{j}' moves the base frame '{self.base_frame}'; arm joints "
-                                      "must lie between the base frame and the tip frame")
+                self._check.fail(
+                    key,
+                    f"joint '{j}' moves the base frame '{self.base_frame}'; arm joints "
+                    "must lie between the base frame and the tip frame",
+                )
             # tip_chain is ordered tip first: a joint nearer the base has a larger index
             if i and tip_chain.index(jid) > tip_chain.index(jids[i - 1]):
-                self._check.fail(key, f"joints must be listed from the base to the tip; '{j}' is nearer "
-                                      f"the base than '{a.joints[i - 1]}'")
+                self._check.fail(
+                    key,
+                    f"joints must be listed from the base to the tip; '{j}' is nearer "
+                    f"the base than '{a.joints[i - 1]}'",
+                )
 
     def reference_q(self) -> np.ndarray:
         """Pinocchio configuration: neutral, with the preset's fixed joints set."""
@@ -278,15 +291,19 @@ class Robot:
         for i, jid in enumerate(jids):
             lower[i], upper[i], cont[i] = self._limits(jid)
             if not (np.isfinite(lower[i]) and np.isfinite(upper[i]) and lower[i] < upper[i]):
-                self._check.fail(f"{path}.joints[{i}]", f"joint '{a.joints[i]}' has no usable limits "
-                                                        f"({lower[i]:g}, {upper[i]:g}) in the URDF")
+                self._check.fail(
+                    f"{path}.joints[{i}]",
+                    f"joint '{a.joints[i]}' has no usable limits ({lower[i]:g}, {upper[i]:g}) in the URDF",
+                )
             vel[i] = self.model.velocityLimit[self.model.joints[jid].idx_v]
         home = (lower + upper) / 2 * ~cont if a.home is None else np.array(a.home, dtype=float)
         idle = home if a.idle is None else np.array(a.idle, dtype=float)
         for key, values in (("home", home), ("idle", idle)):
             for i in np.flatnonzero(~cont & ((values < lower) | (values > upper))):
-                self._check.fail(f"{path}.{key}[{i}]", f"{values[i]:g} is outside the limits [{lower[i]:g}, "
-                                                       f"{upper[i]:g}] of joint '{a.joints[i]}'")
+                self._check.fail(
+                    f"{path}.{key}[{i}]",
+                    f"{values[i]:g} is outside the limits [{lower[i]:g}, {upper[i]:g}] of joint '{a.joints[i]}'",
+                )
         tcp = pose_to_matrix(a.tcp_offset)
         q0 = self.reference_q()
         for jid in jids:
@@ -330,8 +347,12 @@ class Robot:
     @cached_property
     def fingerprint(self) -> dict:
         """What a map must match to be used with this robot."""
-        return {"robot": self.name, "urdf_sha256": self.urdf_sha256, "base_frame": self.base_frame,
-                "fixed_joints": dict(self.fixed_joints)}
+        return {
+            "robot": self.name,
+            "urdf_sha256": self.urdf_sha256,
+            "base_frame": self.base_frame,
+            "fixed_joints": dict(self.fixed_joints),
+        }
 
 
 def load_robot(preset: str | Path = "pr2") -> Robot:
@@ -350,6 +371,7 @@ def load_robot(preset: str | Path = "pr2") -> Robot:
     except (OSError, ValueError, RuntimeError):  # NUL bytes, unknown ~user, name too long
         found = False
     if not found:
-        raise RobotError(f"unknown robot {preset!r}: not a built-in preset ({', '.join(builtin_presets())}) "
-                         "nor a preset file")
+        raise RobotError(
+            f"unknown robot {preset!r}: not a built-in preset ({', '.join(builtin_presets())}) nor a preset file"
+        )
     return Robot(parse_preset(read_yaml(path, PresetError, max_bytes=MAX_PRESET_BYTES), path.parent, str(path)))

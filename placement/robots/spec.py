@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import PresetError
-from ..validation import Checker
-from .footprint import MAX_BASE_RADIUS, circumradius, parse_footprint
+from placement.errors import PresetError
+from placement.robots.footprint import MAX_BASE_RADIUS, circumradius, parse_footprint
+from placement.validation import Checker
 
 #: Top-level keys of a preset and what they hold (repeated when a required one is missing).
 TOP_KEYS = {
@@ -123,7 +123,7 @@ def share_dir() -> Path:
 def resolve_path(path: str, origin: Path) -> Path:
     """``path`` as written in a preset in folder ``origin``: ``package://``, ``~``, relative or absolute."""
     if path.startswith("package://"):
-        return share_dir() / path[len("package://"):]
+        return share_dir() / path[len("package://") :]
     p = Path(path).expanduser()
     return p if p.is_absolute() else (origin / p)
 
@@ -149,8 +149,9 @@ def _tcp_offset(c: Checker, value: Any, key: str) -> tuple[float, ...]:
             c.fail(f"{key}[{i}]", f"must be within +-{MAX_TCP_OFFSET:g} m, got {v:g}")
     norm = math.sqrt(sum(v * v for v in quat))
     if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
-        c.fail(key, f"the quaternion [qx qy qz qw] must have norm 1 (within {QUATERNION_TOLERANCE:g}), "
-                    f"got norm {norm:.9g}")
+        c.fail(
+            key, f"the quaternion [qx qy qz qw] must have norm 1 (within {QUATERNION_TOLERANCE:g}), got norm {norm:.9g}"
+        )
     return (x, y, z, *(v / norm for v in quat))
 
 
@@ -197,9 +198,12 @@ def _link_pairs(c: Checker, value: Any, key: str) -> tuple[tuple[str, str], ...]
 def _base_shape(c: Checker, d: dict) -> tuple[float, tuple | None]:
     """(radius [m], polygon or None) from exactly one of ``footprint_radius`` and ``footprint``."""
     if ("footprint" in d) == ("footprint_radius" in d):
-        c.fail("footprint" if "footprint" in d else "footprint_radius",
-               "give exactly one of footprint_radius ([m] round base) and footprint ([[x, y], ...] [m] polygon)"
-               if "footprint" in d else f"missing required key ({TOP_KEYS['footprint_radius']})")
+        c.fail(
+            "footprint" if "footprint" in d else "footprint_radius",
+            "give exactly one of footprint_radius ([m] round base) and footprint ([[x, y], ...] [m] polygon)"
+            if "footprint" in d
+            else f"missing required key ({TOP_KEYS['footprint_radius']})",
+        )
     if "footprint_radius" in d:
         radius = c.positive(d["footprint_radius"], "footprint_radius")
         if radius > MAX_BASE_RADIUS:
@@ -238,5 +242,6 @@ def parse_preset(data: Any, origin: Path, where: str) -> PresetSpec:
     # the files last: a typo in the mapping is reported without touching the file system
     urdf = _existing_file(c, d["urdf"], "urdf", origin)
     srdf = _existing_file(c, d["srdf"], "srdf", origin) if d.get("srdf") is not None else None
-    return PresetSpec(where, name, urdf, srdf, base_frame, fixed, footprint_radius, footprint, v_max, omega_max, arms,
-                      ignore)
+    return PresetSpec(
+        where, name, urdf, srdf, base_frame, fixed, footprint_radius, footprint, v_max, omega_max, arms, ignore
+    )

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import MapError
-from .base import Backend, StoredMap, atomic_replace
-from .hdf5 import Hdf5Backend
-from .zarr import ZarrBackend
+from placement.errors import MapError
+from placement.storage.base import Backend, StoredMap, atomic_replace
+from placement.storage.hdf5 import Hdf5Backend
+from placement.storage.zarr import ZarrBackend
 
 BACKENDS: dict[str, Backend] = {"zarr": ZarrBackend(), "hdf5": Hdf5Backend()}
 

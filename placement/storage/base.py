@@ -23,15 +23,21 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MapError
-from .chunks import ChunkReader
-from .digest import check_arm_digest, check_root_digest
-from .files import FileRefused
-from .format import (
-    CRC_KEY, READABLE_VERSIONS, ROOT_KEY, UNSEALED_VERSION, WITNESS_CRC_KEY, chunk_crc, chunk_shape,
+from placement.errors import MapError
+from placement.storage.chunks import ChunkReader
+from placement.storage.digest import check_arm_digest, check_root_digest
+from placement.storage.files import FileRefused
+from placement.storage.format import (
+    CRC_KEY,
+    READABLE_VERSIONS,
+    ROOT_KEY,
+    UNSEALED_VERSION,
+    WITNESS_CRC_KEY,
+    chunk_crc,
+    chunk_shape,
     witness_name,
 )
-from .schema import check_arm_types, check_arms, check_root_types
+from placement.storage.schema import check_arm_types, check_arms, check_root_types
 
 __all__ = ["ROOT_KEY", "Backend", "StoredMap", "atomic_replace", "chunk_shape", "first_line", "partial_path"]
 
@@ -68,13 +74,17 @@ class StoredMap(ABC):
             try:
                 sealed = check_root_digest(self.path, root)
             except (TypeError, ValueError, RecursionError) as exc:  # e.g. a string no JSON can hold
-                raise MapError(f"{self.path}: the root metadata is corrupt ({first_line(exc)}); "
-                               f"rebuild the map") from None
+                raise MapError(
+                    f"{self.path}: the root metadata is corrupt ({first_line(exc)}); rebuild the map"
+                ) from None
             if not sealed:
                 if root.get("format_version") != UNSEALED_VERSION:
                     raise MapError(f"{self.path}: the map has no metadata digests (corrupt); rebuild the map")
-                warnings.warn(f"{self.path}: map of format version {UNSEALED_VERSION} has no metadata digests, so "
-                              f"changed metadata goes unnoticed; rebuild it to have it checked", stacklevel=2)
+                warnings.warn(
+                    f"{self.path}: map of format version {UNSEALED_VERSION} has no metadata digests, so "
+                    f"changed metadata goes unnoticed; rebuild it to have it checked",
+                    stacklevel=2,
+                )
         return root
 
     def arm_meta(self, arm: str) -> dict:
@@ -87,16 +97,18 @@ class StoredMap(ABC):
             except MapError:
                 raise
             except Exception as exc:
-                raise MapError(f"{self.path}: metadata of arm '{arm}' is corrupt ({first_line(exc)}); "
-                               f"rebuild the map") from None
+                raise MapError(
+                    f"{self.path}: metadata of arm '{arm}' is corrupt ({first_line(exc)}); rebuild the map"
+                ) from None
             if not isinstance(meta, dict):
                 raise MapError(f"{self.path}: metadata of arm '{arm}' is not a mapping (corrupt); rebuild the map")
             try:
                 check_arm_digest(self.path, self.root, arm, meta)
                 check_arm_types(self.path, arm, meta)
             except (TypeError, ValueError, RecursionError) as exc:  # e.g. a string no JSON can hold
-                raise MapError(f"{self.path}: metadata of arm '{arm}' is corrupt ({first_line(exc)}); "
-                               f"rebuild the map") from None
+                raise MapError(
+                    f"{self.path}: metadata of arm '{arm}' is corrupt ({first_line(exc)}); rebuild the map"
+                ) from None
             cache[arm] = meta
         return cache[arm]
 
@@ -118,11 +130,15 @@ class StoredMap(ABC):
             shape = tuple(meta["grid"]["shape"])
             dtype = np.dtype(meta["witness"]["dtype"] if witness else np.float32)
             what = f"the {'witness ' if witness else ''}array of arm '{arm}'"
-            for field, have, want in (("shape", tuple(array.shape), shape), ("dtype", np.dtype(array.dtype), dtype),
-                                      ("chunks", tuple(array.chunks or ()), chunk_shape(shape))):
+            for field, have, want in (
+                ("shape", tuple(array.shape), shape),
+                ("dtype", np.dtype(array.dtype), dtype),
+                ("chunks", tuple(array.chunks or ()), chunk_shape(shape)),
+            ):
                 if have != want:
-                    raise MapError(f"{self.path}: {what} has {field} {have}, its metadata says {want} (corrupt); "
-                                   f"rebuild the map")
+                    raise MapError(
+                        f"{self.path}: {what} has {field} {have}, its metadata says {want} (corrupt); rebuild the map"
+                    )
             cache[(arm, witness)] = array
         return cache[(arm, witness)]
 
@@ -140,8 +156,9 @@ class StoredMap(ABC):
         except MapError:
             raise
         except Exception as exc:
-            raise MapError(f"{self.path}: {what} for arm '{arm}' is missing or corrupt ({first_line(exc)}); "
-                           f"rebuild the map") from None
+            raise MapError(
+                f"{self.path}: {what} for arm '{arm}' is missing or corrupt ({first_line(exc)}); rebuild the map"
+            ) from None
 
     def expected_crcs(self, arm: str, witness: bool = False) -> np.ndarray:
         """The stored CRC32 of every chunk of ``arm``'s values (or witnesses), (nz, n_pitch, n_roll) uint32;
@@ -153,13 +170,15 @@ class StoredMap(ABC):
             try:
                 shape = tuple(int(s) for s in meta["grid"]["shape"])
                 crcs = np.asarray(meta[key], dtype=np.int64)
-                ok = crcs.shape == (shape[2], shape[4], shape[5]) and bool(np.all((crcs >= 0) & (crcs < 2 ** 32)))
+                ok = crcs.shape == (shape[2], shape[4], shape[5]) and bool(np.all((crcs >= 0) & (crcs < 2**32)))
             except (KeyError, TypeError, ValueError, IndexError, OverflowError):
                 ok = False
             if not ok:
                 what = "witness" if witness else "chunk"
-                raise MapError(f"{self.path}: the {what} checksums of arm '{arm}' are missing or malformed "
-                               f"(corrupt); rebuild the map")
+                raise MapError(
+                    f"{self.path}: the {what} checksums of arm '{arm}' are missing or malformed "
+                    f"(corrupt); rebuild the map"
+                )
             cache[(arm, key)] = crcs.astype(np.uint32)
         return cache[(arm, key)]
 
@@ -213,8 +232,9 @@ class StoredMap(ABC):
         except FileRefused as exc:
             raise MapError(f"{self.path}: {what} of arm '{arm}': {first_line(exc)}; rebuild the map") from None
         except Exception as exc:  # codec and I/O errors
-            raise MapError(f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)}); "
-                           f"rebuild the map") from None
+            raise MapError(
+                f"{self.path}: {what} of arm '{arm}' is corrupt ({first_line(exc)}); rebuild the map"
+            ) from None
 
     @abstractmethod
     def _reader(self, arm: str, witness: bool, array) -> ChunkReader:
@@ -224,8 +244,10 @@ class StoredMap(ABC):
     def _damaged(self, arm: str, chunk: tuple[int, int, int], count: int = 1, witness: bool = False) -> MapError:
         more = f" (and {count - 1} more)" if count > 1 else ""
         what = "witness chunk" if witness else "chunk"
-        return MapError(f"{self.path}: {what} (z, pitch, roll) = {chunk} of arm '{arm}'{more} does not match its "
-                        f"checksum (changed, swapped or missing chunk data: corrupt); rebuild the map")
+        return MapError(
+            f"{self.path}: {what} (z, pitch, roll) = {chunk} of arm '{arm}'{more} does not match its "
+            f"checksum (changed, swapped or missing chunk data: corrupt); rebuild the map"
+        )
 
     @abstractmethod
     def chunks_present(self, name: str) -> int | None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 
-from ..errors import MapError
+from placement.errors import MapError
 
 DIGEST_KEY = "digests"
 ALGORITHM = "sha256"
@@ -34,8 +34,10 @@ def _leaves(doc, prefix: str = ""):
 
 def document_digest(doc: dict) -> dict:
     """{"document": sha256 hex, "keys": {key path: short hex}} of a metadata document."""
-    return {"document": hashlib.sha256(canonical(doc)).hexdigest(),
-            "keys": {k: hashlib.sha256(canonical(v)).hexdigest()[:_LEAF_HEX] for k, v in _leaves(doc)}}
+    return {
+        "document": hashlib.sha256(canonical(doc)).hexdigest(),
+        "keys": {k: hashlib.sha256(canonical(v)).hexdigest()[:_LEAF_HEX] for k, v in _leaves(doc)},
+    }
 
 
 def seal(root: dict, metas: dict[str, dict]) -> dict:
@@ -43,8 +45,14 @@ def seal(root: dict, metas: dict[str, dict]) -> dict:
     exactly as stored and read back)."""
     body = {k: v for k, v in root.items() if k != DIGEST_KEY}
     body = json.loads(json.dumps(body))  # as it will read back
-    return {**body, DIGEST_KEY: {"algorithm": ALGORITHM, "root": document_digest(body),
-                                 "arms": {arm: document_digest(m) for arm, m in metas.items()}}}
+    return {
+        **body,
+        DIGEST_KEY: {
+            "algorithm": ALGORITHM,
+            "root": document_digest(body),
+            "arms": {arm: document_digest(m) for arm, m in metas.items()},
+        },
+    }
 
 
 def _changed_key(doc: dict, sealed: dict) -> str | None:

@@ -18,8 +18,13 @@ from pathlib import Path
 #: metadata documents (zarr.json of the group and of every array) [bytes]; a 5 cm PR2 arm's holds ~0.2 MB
 META_LIMIT = 64 << 20
 
-_KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-          (stat.S_ISSOCK, "a socket"), (stat.S_ISDIR, "a directory"))
+_KINDS = (
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISDIR, "a directory"),
+)
 
 
 class FileRefused(OSError):
@@ -34,8 +39,9 @@ def _check(st: os.stat_result, path: str | Path, limit: int) -> None:
     if not stat.S_ISREG(st.st_mode):
         raise FileRefused(f"{path} is {_kind(st.st_mode)}, not a regular file; refusing to read it")
     if st.st_size > limit:
-        raise FileRefused(f"{path} has {st.st_size} bytes, more than the {limit} a map file of its kind can hold; "
-                          f"refusing to read it")
+        raise FileRefused(
+            f"{path} has {st.st_size} bytes, more than the {limit} a map file of its kind can hold; refusing to read it"
+        )
 
 
 def regular_size(path: str | Path, limit: int) -> int:

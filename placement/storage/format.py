@@ -7,7 +7,7 @@ float32 array per arm, shape (nx, ny, nz, n_yaw, n_pitch, n_roll), chunked
 roll) reads exactly one chunk; the arm's metadata in the array's attributes,
 including ``chunk_crc32``: the CRC32 of every decoded chunk (see :func:`chunk_crcs`).
 Beside it, the array ``<arm>.witness`` of the same shape and chunking holds the
-cells' witnesses (uint32 or int64, see placement/witness.py), with its own
+cells' witnesses (uint32 or int64, see placement/maps/witness.py), with its own
 per-chunk CRC32 table ``witness_crc32`` in the arm's metadata. The root's ``digests``
 entry seals the root and every arm's metadata (placement/storage/digest.py).
 """
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..grid import Grid
+from placement.maps.grid import Grid
 
 # 2: per-chunk CRC32 of the decoded data, crc32c (zarr) / fletcher32 (HDF5) on the stored bytes
 # 3: a witness array per arm (the sample behind every cell's value), chunked and CRC-checked alike
@@ -42,7 +42,7 @@ def witness_name(arm: str) -> str:
 @dataclass
 class BuiltMap:
     """An arm's map in memory: values (6D float32, 0 = unreachable), metadata and witnesses
-    (same shape, uint32 or int64, see placement/witness.py; None for a map that has none, e.g. a
+    (same shape, uint32 or int64, see placement/maps/witness.py; None for a map that has none, e.g. a
     convergence snapshot: such a map cannot be saved)."""
 
     values: np.ndarray

@@ -13,12 +13,12 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from ..errors import MapError
-from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line, opened
-from .chunks import ChunkReader
-from .digest import seal
-from .files import META_LIMIT, FileRefused, read_head, regular_size
-from .format import witness_name
+from placement.errors import MapError
+from placement.storage.base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line, opened
+from placement.storage.chunks import ChunkReader
+from placement.storage.digest import seal
+from placement.storage.files import META_LIMIT, FileRefused, read_head, regular_size
+from placement.storage.format import witness_name
 
 _SIGNATURE = b"\x89HDF\r\n\x1a\n"
 #: an HDF5 map file may be this large [bytes] (a 5 cm PR2 map with both arms: ~0.6 GB)
@@ -93,8 +93,9 @@ class Hdf5Map(StoredMap):
     def _get(self, name: str):
         link = self.file.get(name, getlink=True)
         if not isinstance(link, h5py.HardLink):
-            raise ValueError(f"'{name}' is {type(link).__name__ if link is not None else 'missing'}, not a dataset "
-                             f"of this file")
+            raise ValueError(
+                f"'{name}' is {type(link).__name__ if link is not None else 'missing'}, not a dataset of this file"
+            )
         ds = self.file[name]
         if not isinstance(ds, h5py.Dataset) or ds.external or ds.is_virtual:
             raise ValueError(f"'{name}' is not a dataset stored in this file")
@@ -104,8 +105,10 @@ class Hdf5Map(StoredMap):
         plist = array.id.get_create_plist()
         filters = tuple(plist.get_filter(i)[0] for i in range(plist.get_nfilters()))
         if filters != FILTERS:
-            raise MapError(f"{self.path}: the {'witness ' if witness else ''}dataset of arm '{arm}' has filters "
-                           f"{list(filters)} (not written by placement: corrupt); rebuild the map")
+            raise MapError(
+                f"{self.path}: the {'witness ' if witness else ''}dataset of arm '{arm}' has filters "
+                f"{list(filters)} (not written by placement: corrupt); rebuild the map"
+            )
         return Hdf5Chunks(array)
 
     def _arm_meta(self, arm: str) -> dict:
@@ -133,14 +136,30 @@ class Hdf5Backend(Backend):
         with h5py.File(path, "w") as fh:
             metas = {}
             for arm, (values, meta, witness) in arms.items():
-                ds = fh.create_dataset(arm, data=values, dtype="float32", chunks=chunk_shape(values.shape),
-                                       compression="gzip", compression_opts=1, shuffle=True, fletcher32=True,
-                                       fillvalue=0.0)
+                ds = fh.create_dataset(
+                    arm,
+                    data=values,
+                    dtype="float32",
+                    chunks=chunk_shape(values.shape),
+                    compression="gzip",
+                    compression_opts=1,
+                    shuffle=True,
+                    fletcher32=True,
+                    fillvalue=0.0,
+                )
                 ds.attrs["meta"] = json.dumps(meta)
                 metas[arm] = json.loads(ds.attrs["meta"])  # sealed as it reads back
-                fh.create_dataset(witness_name(arm), data=witness, dtype=witness.dtype,
-                                  chunks=chunk_shape(values.shape), compression="gzip", compression_opts=1,
-                                  shuffle=True, fletcher32=True, fillvalue=np.iinfo(witness.dtype).max)
+                fh.create_dataset(
+                    witness_name(arm),
+                    data=witness,
+                    dtype=witness.dtype,
+                    chunks=chunk_shape(values.shape),
+                    compression="gzip",
+                    compression_opts=1,
+                    shuffle=True,
+                    fletcher32=True,
+                    fillvalue=np.iinfo(witness.dtype).max,
+                )
             root = dict(root)
             root["complete"] = True
             fh.attrs[ROOT_KEY] = json.dumps(seal(root, metas))

@@ -14,7 +14,7 @@ import os
 import time
 from pathlib import Path
 
-from ..errors import MapError
+from placement.errors import MapError
 
 
 def lock_path(target: Path, what: str) -> Path:

@@ -18,12 +18,12 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from ..errors import MapError
-from . import backend, detect, open_store
-from .base import atomic_replace, partial_path
-from .format import CRC_KEY, FORMAT_VERSION, READABLE_VERSIONS, WITNESS_CRC_KEY, BuiltMap, chunk_crcs
-from .lock import FileLock, lock_path
-from .validate import validate_robot
+from placement.errors import MapError
+from placement.storage import backend, detect, open_store
+from placement.storage.base import atomic_replace, partial_path
+from placement.storage.format import CRC_KEY, FORMAT_VERSION, READABLE_VERSIONS, WITNESS_CRC_KEY, BuiltMap, chunk_crcs
+from placement.storage.lock import FileLock, lock_path
+from placement.storage.validate import validate_robot
 
 #: how long a save waits for another build's save into the same map to finish [s]
 SAVE_WAIT_S = 1800.0
@@ -104,13 +104,16 @@ class MapOutput:
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             for arm in self.arms:
-                lock = FileLock(_arm_lock(self.path, arm), f"a build of arm '{arm}' into {self.path} "
-                                                           f"(pid {os.getpid()})")
+                lock = FileLock(
+                    _arm_lock(self.path, arm), f"a build of arm '{arm}' into {self.path} (pid {os.getpid()})"
+                )
                 try:
                     self.locks.append(lock.acquire())
                 except MapError as exc:
-                    raise MapError(f"{self.name}: arm '{arm}' is being written by another build ({exc}); wait for "
-                                   f"it to finish or choose another output") from None
+                    raise MapError(
+                        f"{self.name}: arm '{arm}' is being written by another build ({exc}); wait for "
+                        f"it to finish or choose another output"
+                    ) from None
             self._probe()
         except OSError as exc:
             self.__exit__()
@@ -149,9 +152,11 @@ class MapOutput:
             root = old.root
             kept = [a for a in root.get("arms") or [] if a not in self.arms]
             if root.get("complete") is True and kept and root.get("format_version") not in READABLE_VERSIONS:
-                raise MapError(f"{self.name} is a map of format version {root.get('format_version')!r}, which this "
-                               f"software cannot read, holding arm(s) {', '.join(kept)} that this build does not "
-                               f"rebuild; rebuild them too or choose another output")
+                raise MapError(
+                    f"{self.name} is a map of format version {root.get('format_version')!r}, which this "
+                    f"software cannot read, holding arm(s) {', '.join(kept)} that this build does not "
+                    f"rebuild; rebuild them too or choose another output"
+                )
         finally:
             old.close()
 
@@ -162,11 +167,18 @@ class MapOutput:
             raise MapError(f"{self.name}: arm(s) {', '.join(unreserved) or 'all'} not reserved for this save")
         for arm, m in maps.items():
             if m.witness is None or m.witness.shape != m.values.shape:
-                raise MapError(f"{self.path}: the map of arm '{arm}' has no witnesses of its shape; only a map from "
-                               f"placement.build_map can be saved")
-        arms = {arm: (m.values, {**m.meta, CRC_KEY: chunk_crcs(m.values).tolist(),
-                                 WITNESS_CRC_KEY: chunk_crcs(m.witness).tolist()}, m.witness)
-                for arm, m in maps.items()}
+                raise MapError(
+                    f"{self.path}: the map of arm '{arm}' has no witnesses of its shape; only a map from "
+                    f"placement.build_map can be saved"
+                )
+        arms = {
+            arm: (
+                m.values,
+                {**m.meta, CRC_KEY: chunk_crcs(m.values).tolist(), WITNESS_CRC_KEY: chunk_crcs(m.witness).tolist()},
+                m.witness,
+            )
+            for arm, m in maps.items()
+        }
         holder = f"a save into {self.path} (pid {os.getpid()})"
         with FileLock(lock_path(self.path, "save"), holder).acquire(wait_s=SAVE_WAIT_S):
             check_target(self.path, self.robot, self.fmt)
@@ -180,15 +192,20 @@ class MapOutput:
                                 arms[arm] = (old.read_all(arm), old.arm_meta(arm), old.read_all(arm, witness=True))
                 finally:
                     old.close()
-            root = {"format_version": FORMAT_VERSION, "preset": preset_name(self.robot), **self.robot.fingerprint,
-                    "arms": sorted(arms)}
+            root = {
+                "format_version": FORMAT_VERSION,
+                "preset": preset_name(self.robot),
+                **self.robot.fingerprint,
+                "arms": sorted(arms),
+            }
             atomic_replace(backend(self.fmt), self.path, root, arms)
         return self.path
 
 
 def preset_name(robot) -> str:
     """How the map names the robot's preset: the built-in preset's name, else the preset file's path."""
-    from ..robots.preset import PRESET_DIR
+    from placement.robots.preset import PRESET_DIR
+
     return robot.name if Path(robot.source).parent == PRESET_DIR else robot.source
 
 

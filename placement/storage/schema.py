@@ -9,9 +9,9 @@ from __future__ import annotations
 import math
 import numbers
 
-from ..errors import MapError
+from placement.errors import MapError
 
-MAX_SEED = 2 ** 64 - 1
+MAX_SEED = 2**64 - 1
 WITNESS_DTYPES = ("uint32", "int64")
 
 
@@ -95,17 +95,20 @@ def check_arm_types(path, arm: str, meta: dict) -> None:
         if _real(grid.get("resolution"), "grid.resolution") <= 0:
             raise _Bad("grid.resolution", "a positive length", grid.get("resolution"))
         shape = grid.get("shape")
-        if not isinstance(shape, list) or len(shape) != 6 or not all(
-                isinstance(s, int) and not isinstance(s, bool) and 1 <= s <= 1 << 31 for s in shape):
+        if (
+            not isinstance(shape, list)
+            or len(shape) != 6
+            or not all(isinstance(s, int) and not isinstance(s, bool) and 1 <= s <= 1 << 31 for s in shape)
+        ):
             raise _Bad("grid.shape", "6 positive counts", shape)
-        samples = _int(meta, "samples", 1, 10 ** 12)
+        samples = _int(meta, "samples", 1, 10**12)
         _int(meta, "seed", 0, MAX_SEED)
         _str(_dict(meta, "measure"), "index", "measure.")
         witness = _dict(meta, "witness")
         if witness.get("dtype") not in WITNESS_DTYPES:
             raise _Bad("witness.dtype", " or ".join(WITNESS_DTYPES), witness.get("dtype"))
-        _int(witness, "empty", 0, 2 ** 64, "witness.")
-        if _int(witness, "plain_samples", 1, 10 ** 12, "witness.") != samples:
+        _int(witness, "empty", 0, 2**64, "witness.")
+        if _int(witness, "plain_samples", 1, 10**12, "witness.") != samples:
             raise _Bad("witness.plain_samples", f"the sample count {samples}", witness.get("plain_samples"))
     except _Bad as exc:
         raise MapError(f"{path}: metadata of arm '{arm}': {exc}; rebuild the map") from None

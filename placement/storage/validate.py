@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MapError
-from .format import FORMAT_VERSION, READABLE_VERSIONS, ROOT_KEY
+from placement.errors import MapError
+from placement.storage.format import FORMAT_VERSION, READABLE_VERSIONS, ROOT_KEY
 
 # stored and preset TCP offsets (4, 4) [m, dimensionless rotation] agree to this
 TCP_TOLERANCE = 1e-9
@@ -20,9 +20,11 @@ def check_root(path: Path, root: dict) -> None:
     if root.get("complete") is not True:
         raise MapError(f"{path}: map is half-written (an interrupted build); rebuild it")
     if root.get("format_version") not in READABLE_VERSIONS:
-        raise MapError(f"{path}: map format version {root.get('format_version')!r} is not supported "
-                       f"(this software reads versions {' and '.join(map(str, READABLE_VERSIONS))}, writes "
-                       f"{FORMAT_VERSION}); rebuild it")
+        raise MapError(
+            f"{path}: map format version {root.get('format_version')!r} is not supported "
+            f"(this software reads versions {' and '.join(map(str, READABLE_VERSIONS))}, writes "
+            f"{FORMAT_VERSION}); rebuild it"
+        )
 
 
 def validate_robot(path: Path, root: dict, robot) -> None:
@@ -32,15 +34,17 @@ def validate_robot(path: Path, root: dict, robot) -> None:
     if root.get("urdf_sha256") != robot.urdf_sha256:
         raise MapError(f"{path}: map was built from another URDF of '{robot.name}' (hash differs); rebuild it")
     if root.get("base_frame") != robot.base_frame:
-        raise MapError(f"{path}: map base frame '{root.get('base_frame')}' differs from the robot's "
-                       f"'{robot.base_frame}'")
+        raise MapError(
+            f"{path}: map base frame '{root.get('base_frame')}' differs from the robot's '{robot.base_frame}'"
+        )
     try:
         fixed = {k: float(v) for k, v in (root.get("fixed_joints") or {}).items()}
     except (AttributeError, TypeError, ValueError):
         fixed = None
     if fixed != robot.fixed_joints:
-        raise MapError(f"{path}: map was built with fixed joints {root.get('fixed_joints')}, the robot "
-                       f"holds {robot.fixed_joints}")
+        raise MapError(
+            f"{path}: map was built with fixed joints {root.get('fixed_joints')}, the robot holds {robot.fixed_joints}"
+        )
 
 
 def validate_arm(path: Path, meta: dict, robot, arm: str) -> None:
@@ -63,7 +67,7 @@ def _differs(path: Path, arm: str, field: str, stored, preset) -> None:
     def show(v):
         return np.round(np.asarray(v, dtype=float), 6).tolist() if isinstance(v, np.ndarray) else v
 
-    raise MapError(f"{path}: the map of arm '{arm}' was built for {field} {show(stored)}, the preset has "
-                   f"{show(preset)}; rebuild the map")
-
-
+    raise MapError(
+        f"{path}: the map of arm '{arm}' was built for {field} {show(stored)}, the preset has "
+        f"{show(preset)}; rebuild the map"
+    )

@@ -22,12 +22,12 @@ from zarr.codecs import BloscCodec, Crc32cCodec
 from zarr.core.buffer.core import default_buffer_prototype
 from zarr.storage import LocalStore
 
-from ..errors import MapError
-from .base import ROOT_KEY, Backend, StoredMap, chunk_shape, opened
-from .chunks import ChunkReader
-from .digest import seal
-from .files import META_LIMIT, read_bounded
-from .format import witness_name
+from placement.errors import MapError
+from placement.storage.base import ROOT_KEY, Backend, StoredMap, chunk_shape, opened
+from placement.storage.chunks import ChunkReader
+from placement.storage.digest import seal
+from placement.storage.files import META_LIMIT, read_bounded
+from placement.storage.format import witness_name
 
 #: the codecs of every array this package writes (anything else is not one of its maps)
 CODECS = ("bytes", "blosc", "crc32c")
@@ -72,8 +72,9 @@ class ChunkFiles(ChunkReader):
             raise ValueError("stored and computed crc32c do not match")
         nbytes, cbytes = int.from_bytes(body[4:8], "little"), int.from_bytes(body[12:16], "little")
         if nbytes != self.raw or cbytes != len(body):
-            raise ValueError(f"blosc header says {nbytes} bytes from {cbytes}, the chunk holds {self.raw} "
-                             f"from {len(body)}")
+            raise ValueError(
+                f"blosc header says {nbytes} bytes from {cbytes}, the chunk holds {self.raw} from {len(body)}"
+            )
         out = np.empty(self.raw, dtype=np.uint8)
         blosc.decompress(body, out)
         return out
@@ -100,10 +101,15 @@ class ZarrMap(StoredMap):
         md = array.metadata.to_dict()
         codecs = tuple(c.get("name") for c in md.get("codecs", ()))
         encoding = md.get("chunk_key_encoding", {})
-        if codecs != CODECS or md["codecs"][0].get("configuration", {}).get("endian") != "little" or \
-                encoding.get("configuration", {}).get("separator") != "/":
-            raise MapError(f"{self.path}: the {'witness ' if witness else ''}array of arm '{arm}' has codecs "
-                           f"{list(codecs)} (not written by placement: corrupt); rebuild the map")
+        if (
+            codecs != CODECS
+            or md["codecs"][0].get("configuration", {}).get("endian") != "little"
+            or encoding.get("configuration", {}).get("separator") != "/"
+        ):
+            raise MapError(
+                f"{self.path}: the {'witness ' if witness else ''}array of arm '{arm}' has codecs "
+                f"{list(codecs)} (not written by placement: corrupt); rebuild the map"
+            )
         name = witness_name(arm) if witness else arm
         return ChunkFiles(self.path / name / "c", tuple(array.shape), array.dtype, array.metadata.fill_value)
 
@@ -131,15 +137,23 @@ class ZarrBackend(Backend):
         metas = {}
         for arm, (values, meta, witness) in arms.items():
             arr = group.create_array(
-                arm, shape=values.shape, dtype="float32", chunks=chunk_shape(values.shape),
+                arm,
+                shape=values.shape,
+                dtype="float32",
+                chunks=chunk_shape(values.shape),
                 compressors=[BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()],
-                fill_value=0.0, dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
+                fill_value=0.0,
+                dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
             )
             arr[...] = values
             wit = group.create_array(
-                witness_name(arm), shape=witness.shape, dtype=witness.dtype, chunks=chunk_shape(values.shape),
+                witness_name(arm),
+                shape=witness.shape,
+                dtype=witness.dtype,
+                chunks=chunk_shape(values.shape),
                 compressors=[BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()],
-                fill_value=np.iinfo(witness.dtype).max, dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
+                fill_value=np.iinfo(witness.dtype).max,
+                dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
             )
             wit[...] = witness
             meta = dict(meta)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from .server import View, ViewerError, start_server
+from placement.viewer.server import View, ViewerError, start_server
 
 SCENE_SUFFIXES = (".yaml", ".yml")
 
@@ -19,12 +19,12 @@ def view_scene(scene, maps=None, method: str = "sequential", plan=None, port: in
     with ``plan``). ``view.timings`` holds ``load_s`` (scene, robot and maps opened), ``first_step_s``
     (planned and drawn after loading) [s].
     """
-    from ..planning import Planner
-    from ..planning.scene import Scene, load_scene
-    from ..robots import load_robot
-    from .plan_file import load_plan
-    from .plan_view import PlanView
-    from .scene_view import draw_scene
+    from placement.planning import Planner
+    from placement.robots import load_robot
+    from placement.scene import Scene, load_scene
+    from placement.viewer.plan_file import load_plan
+    from placement.viewer.plan_view import PlanView
+    from placement.viewer.scene_view import draw_scene
 
     t0 = time.perf_counter()
     planner = None
@@ -40,7 +40,11 @@ def view_scene(scene, maps=None, method: str = "sequential", plan=None, port: in
     try:
         if planner is not None:
             steps = planner.plan(keep_maps=True).steps
-        server.initial_camera.look_at = ((scene.bounds[0] + scene.bounds[2]) / 2, (scene.bounds[1] + scene.bounds[3]) / 2, 0.0)
+        server.initial_camera.look_at = (
+            (scene.bounds[0] + scene.bounds[2]) / 2,
+            (scene.bounds[1] + scene.bounds[3]) / 2,
+            0.0,
+        )
         server.initial_camera.position = (scene.bounds[0] - 1.0, scene.bounds[1] - 2.5, 6.0)
         server.initial_camera.up = (0.0, 0.0, 1.0)
         draw_scene(server, scene, robot.footprint_radius, robot.footprint)
@@ -52,16 +56,17 @@ def view_scene(scene, maps=None, method: str = "sequential", plan=None, port: in
     return View(server, content, planner, {"load_s": t1 - t0, "first_step_s": time.perf_counter() - t1})
 
 
-def view_map(path, arm: str | None = None, direction: str = "best", port: int = 0,
-             max_points: int | None = None) -> View:
+def view_map(
+    path, arm: str | None = None, direction: str = "best", port: int = 0, max_points: int | None = None
+) -> View:
     """Serve a 3D view of the reachability map at ``path`` for ``arm`` (default: the first mapped arm)
     on 127.0.0.1:``port``: reached cells as points coloured by value (best over orientations, or for
     the TCP ``direction``), a threshold slider, the robot at home. ``view.timings["render_s"]``: from
     opening the map to the cloud sent [s]."""
-    from ..rmap import check_root, open_map
-    from ..robots import load_robot
-    from ..storage import open_store
-    from .map_view import DEFAULT_POINTS, DIRECTIONS, MapView
+    from placement.maps.rmap import check_root, open_map
+    from placement.robots import load_robot
+    from placement.storage import open_store
+    from placement.viewer.map_view import DEFAULT_POINTS, DIRECTIONS, MapView
 
     if direction not in DIRECTIONS:
         raise ViewerError(f"--direction: '{direction}' is not one of {', '.join(DIRECTIONS)}")
@@ -91,7 +96,7 @@ def view(target, **options) -> View:
     """``placement.view(...)``: a scene file or Scene (options of :func:`view_scene`) or a map
     directory or HDF5 file (options of :func:`view_map`). The view keeps serving in a background
     thread; ``view.wait()`` blocks until Ctrl-C, ``view.stop()`` ends it."""
-    from ..planning.scene import Scene
+    from placement.scene import Scene
 
     if isinstance(target, Scene) or str(target).endswith(SCENE_SUFFIXES):
         return view_scene(target, **options)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .api import view_map, view_scene
+from placement.viewer.api import view_map, view_scene
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "table_clearing.yaml"
 
@@ -31,11 +31,16 @@ def bench_scene(scene, maps, shots: Path | None = None) -> dict:
             t = time.perf_counter()
             pv.show(i)
             times.append((time.perf_counter() - t) * 1e3)
-        out = {"scene": str(scene), "steps": n, "load_s": round(v.timings["load_s"], 2),
-               "first_step_s": round(v.timings["first_step_s"], 2),
-               "step_switch_ms_median": round(statistics.median(times), 1), "step_switch_ms_max": round(max(times), 1)}
+        out = {
+            "scene": str(scene),
+            "steps": n,
+            "load_s": round(v.timings["load_s"], 2),
+            "first_step_s": round(v.timings["first_step_s"], 2),
+            "step_switch_ms_median": round(statistics.median(times), 1),
+            "step_switch_ms_max": round(max(times), 1),
+        }
         if shots is not None:
-            from .screenshot import screenshot
+            from placement.viewer.screenshot import screenshot
 
             pv.show(0)
             screenshot(v.url, shots / "viewer_scene.png")
@@ -55,14 +60,20 @@ def bench_map(path, arm=None, shots: Path | None = None) -> dict:
         mv = v.content
         total = time.perf_counter() - t
         g = mv.rmap.grid
-        out = {"map": str(path), "arm": mv.rmap.arm, "cells": g.size, "position_cells_reached": mv.reached,
-               "points_shown": mv.shown, "render_s": round(total, 2)}
+        out = {
+            "map": str(path),
+            "arm": mv.rmap.arm,
+            "cells": g.size,
+            "position_cells_reached": mv.reached,
+            "points_shown": mv.shown,
+            "render_s": round(total, 2),
+        }
         t = time.perf_counter()
         mv.threshold.value = mv.scale.hi / 2
         out["threshold_update_ms"] = round((time.perf_counter() - t) * 1e3, 1)
         mv.threshold.value = 0.0
         if shots is not None:
-            from .screenshot import screenshot
+            from placement.viewer.screenshot import screenshot
 
             mv.section.value = float(np.median(mv.all_points[:, 1]))  # cut open at the middle
             screenshot(v.url, shots / "viewer_map.png")

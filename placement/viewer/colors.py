@@ -38,10 +38,12 @@ class Scale:
     def html(self) -> str:
         """The scale as a small HTML block: a CSS gradient between its end values and the unit."""
         stops = ", ".join(f"rgb({r},{g},{b})" for r, g, b in self.rgb(np.linspace(self.lo, self.hi, 9)))
-        return (f"<div style='font-size:0.8em;margin:2px 0'><b>{self.label}</b> [{self.unit}]"
-                f"<div style='height:10px;border-radius:2px;background:linear-gradient(to right, {stops})'></div>"
-                f"<div style='display:flex;justify-content:space-between'><span>{self.lo:.3g}</span>"
-                f"<span>{self.hi:.3g}</span></div></div>")
+        return (
+            f"<div style='font-size:0.8em;margin:2px 0'><b>{self.label}</b> [{self.unit}]"
+            f"<div style='height:10px;border-radius:2px;background:linear-gradient(to right, {stops})'></div>"
+            f"<div style='display:flex;justify-content:space-between'><span>{self.lo:.3g}</span>"
+            f"<span>{self.hi:.3g}</span></div></div>"
+        )
 
 
 def scale_of(values: np.ndarray, label: str, unit: str, cmap: str = "viridis", valid=None) -> Scale:

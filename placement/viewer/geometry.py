@@ -30,9 +30,13 @@ def label_offset(orientation, size, above: float = 0.08) -> tuple[float, float, 
     x, y, z, w = (float(v) for v in orientation)
     n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
     x, y, z, w = x / n, y / n, z / n, w / n
-    R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                  [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    R = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
     half_height = float(np.abs(R[2]) @ (np.asarray(size, dtype=float) / 2))  # the box's half extent along world z
     return tuple(float(v) for v in R.T @ np.array([0.0, 0.0, half_height + above]))
 
@@ -65,6 +69,7 @@ def ear_clip(points: np.ndarray) -> np.ndarray:
 def _inside(p, a, b, c) -> bool:
     def side(u, v, w):
         return (v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])
+
     return side(a, b, p) >= 0 and side(b, c, p) >= 0 and side(c, a, p) >= 0
 
 

@@ -8,13 +8,20 @@ import time
 
 import numpy as np
 
-from ..grid import pose_from_zyx
-from .colors import Scale
-from .robot_view import RobotDrawing, home_config
+from placement.maps.grid import pose_from_zyx
+from placement.viewer.colors import Scale
+from placement.viewer.robot_view import RobotDrawing, home_config
 
 # approach (TCP z) directions in the base frame; "best" takes every orientation
-DIRECTIONS = {"best": None, "down": (0, 0, -1), "up": (0, 0, 1), "forward": (1, 0, 0), "backward": (-1, 0, 0),
-              "left": (0, 1, 0), "right": (0, -1, 0)}
+DIRECTIONS = {
+    "best": None,
+    "down": (0, 0, -1),
+    "up": (0, 0, 1),
+    "forward": (1, 0, 0),
+    "backward": (-1, 0, 0),
+    "left": (0, 1, 0),
+    "right": (0, -1, 0),
+}
 DIRECTION_TOLERANCE = math.radians(30)  # orientation bins whose approach is this close count as the direction
 DEFAULT_POINTS = 200_000  # more points than this are subsampled: the browser stays responsive
 BELOW = (205, 205, 205)  # cells whose value is under the colour scale (below the planner's threshold): light grey
@@ -27,7 +34,7 @@ def value_scale(values: np.ndarray, label: str) -> Scale:
     """The colour scale of a map cloud's ``values`` (> 0): from the planner's default threshold (cells
     below it are no placement; a raw minimum can be 1e-19, which spent the dark end of the colour map on
     the unusable boundary shell) to the 99th percentile; the smallest value when all are below it."""
-    from .. import PlannerConfig
+    from placement import PlannerConfig
 
     v = np.asarray(values, dtype=float)
     v = v[v > 0]
@@ -46,8 +53,12 @@ def approach_bins(grid, direction) -> np.ndarray:
     if direction is None:
         return np.ones((n_yaw, n_pitch, n_roll), dtype=bool)
     dyaw, dpitch, droll = grid.angle_steps
-    y, p, r = np.meshgrid(np.arange(n_yaw) * dyaw, -math.pi / 2 + (np.arange(n_pitch) + 0.5) * dpitch,
-                          np.arange(n_roll) * droll, indexing="ij")
+    y, p, r = np.meshgrid(
+        np.arange(n_yaw) * dyaw,
+        -math.pi / 2 + (np.arange(n_pitch) + 0.5) * dpitch,
+        np.arange(n_roll) * droll,
+        indexing="ij",
+    )
     z = pose_from_zyx(np.zeros((y.size, 3)), y.ravel(), p.ravel(), r.ravel())[:, :3, 2]
     angle = np.arccos(np.clip(z @ np.asarray(direction, dtype=float), -1, 1)).reshape(y.shape)
     return angle <= max(DIRECTION_TOLERANCE, float(angle.min()) + 1e-9)
@@ -79,8 +90,7 @@ def best_per_direction(rmap, directions: dict, workers: int | None = None) -> di
 
     def reduce(iz):
         slab = rmap.store.read_slab(rmap.arm, iz)  # (nx, ny, n_yaw, n_pitch, n_roll)
-        return {name: slab.max(axis=(2, 3, 4)) if b.all() else slab[:, :, b].max(axis=2)
-                for name, b in bins.items()}
+        return {name: slab.max(axis=(2, 3, 4)) if b.all() else slab[:, :, b].max(axis=2) for name, b in bins.items()}
 
     with ThreadPoolExecutor(max_workers=workers or min(4, os.cpu_count() or 1)) as pool:
         layers = list(pool.map(reduce, range(g.shape[2])))
@@ -100,7 +110,7 @@ def cloud(grid, best: np.ndarray, max_points: int, seed: int = 0) -> tuple[np.nd
 
 
 class MapView:
-    """Draws one arm's map (a :class:`~placement.rmap.ReachabilityMap`) and ``robot`` in ``server``.
+    """Draws one arm's map (a :class:`~placement.maps.rmap.ReachabilityMap`) and ``robot`` in ``server``.
 
     Attributes: scale (the current colour :class:`Scale`), shown (points drawn now), reached (cells
     with a value for the direction), update_ms (the last redraw [ms]).
@@ -113,8 +123,10 @@ class MapView:
         self.robot_drawing.show((0.0, 0.0, 0.0), home_config(robot))
         gui = server.gui
         g = rmap.grid
-        gui.add_markdown(f"**map {rmap.path.name}, {rmap.arm} arm**  \n{'x'.join(map(str, g.shape[:3]))} positions "
-                         f"of {g.resolution * 100:.0f} cm, {'x'.join(map(str, g.shape[3:]))} orientations")
+        gui.add_markdown(
+            f"**map {rmap.path.name}, {rmap.arm} arm**  \n{'x'.join(map(str, g.shape[:3]))} positions "
+            f"of {g.resolution * 100:.0f} cm, {'x'.join(map(str, g.shape[3:]))} orientations"
+        )
         self.direction = gui.add_dropdown("TCP direction", tuple(DIRECTIONS), initial_value=direction)
         self.threshold = gui.add_slider("threshold", 0.0, 1.0, 0.001, 0.0)
         # a cut through the cloud: cells nearer the default camera (lower y) hidden, to see inside
@@ -141,9 +153,10 @@ class MapView:
             self.threshold.max = top
             self.threshold.step = top / 200
         self.scale_html.content = self.scale.html() + (
-            f"<div style='font-size:0.8em'>small grey points: below {self.scale.lo:.3g} (the planner's "
-            "threshold)</div>"
-            if float(self.all_values.min(initial=np.inf)) < self.scale.lo else "")
+            f"<div style='font-size:0.8em'>small grey points: below {self.scale.lo:.3g} (the planner's threshold)</div>"
+            if float(self.all_values.min(initial=np.inf)) < self.scale.lo
+            else ""
+        )
         self.draw()
 
     def draw(self) -> None:
@@ -165,9 +178,16 @@ class MapView:
                 p, v = np.zeros((1, 3), np.float32), np.full(1, self.scale.lo)
             colors = np.tile(np.array(BELOW, np.uint8), (len(p), 1)) if g < 0 else self.scale.rgb(v)
             self.clouds[name] = self.server.scene.add_point_cloud(
-                name, p, colors, point_size=edge * (BELOW_SIZE if g < 0 else SIZES[g]), point_shape="square",
-                visible=bool(part.any()))
+                name,
+                p,
+                colors,
+                point_size=edge * (BELOW_SIZE if g < 0 else SIZES[g]),
+                point_shape="square",
+                visible=bool(part.any()),
+            )
         sub = f" (a uniform sample of {len(self.all_points):,})" if self.reached > len(self.all_points) else ""
-        self.info.content = (f"{self.reached:,} position cells reached{sub}; {self.shown:,} shown at value "
-                             f">= {float(self.threshold.value):.3g}")
+        self.info.content = (
+            f"{self.reached:,} position cells reached{sub}; {self.shown:,} shown at value "
+            f">= {float(self.threshold.value):.3g}"
+        )
         self.update_ms = (time.perf_counter() - t) * 1e3

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..planning.results import Cost, StepResult, transfer_problems
-from ..planning.transfer import UPRIGHT_TOLERANCE
-from ..robots import pose_to_matrix
-from .server import ViewerError
+from placement.planning.results import Cost, StepResult, transfer_problems
+from placement.planning.transfer import UPRIGHT_TOLERANCE
+from placement.robots import pose_to_matrix
+from placement.viewer.server import ViewerError
 
 
 class PlanFileError(ViewerError):
@@ -37,8 +37,11 @@ def _need(cond: bool, where: str, msg: str) -> None:
 
 
 def _number(v, where: str) -> float:
-    _need(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v), where,
-          f"must be a finite number, got {json.dumps(v)[:40] if _jsonable(v) else type(v).__name__}")
+    _need(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v),
+        where,
+        f"must be a finite number, got {json.dumps(v)[:40] if _jsonable(v) else type(v).__name__}",
+    )
     return float(v)
 
 
@@ -57,8 +60,11 @@ def _text(d: dict, key: str, where: str) -> str:
 
 
 def _numbers(v, n: int | None, where: str) -> list[float]:
-    _need(isinstance(v, list) and (n is None or len(v) == n), where,
-          f"must be a list of {n if n is not None else 'some'} numbers")
+    _need(
+        isinstance(v, list) and (n is None or len(v) == n),
+        where,
+        f"must be a list of {n if n is not None else 'some'} numbers",
+    )
     return [_number(x, f"{where}[{i}]") for i, x in enumerate(v)]
 
 
@@ -66,8 +72,11 @@ def parse_step(d, where: str, robot) -> StepResult:
     """One step of a plan document; ``robot`` names the arms and joints it may use."""
     _need(isinstance(d, dict), where, "must be a mapping")
     step = d.get("step")
-    _need(isinstance(step, int) and not isinstance(step, bool) and step >= 0, f"{where}.step",
-          "must be a step index (an integer >= 0)")
+    _need(
+        isinstance(step, int) and not isinstance(step, bool) and step >= 0,
+        f"{where}.step",
+        "must be a step index (an integer >= 0)",
+    )
     action, target = _text(d, "action", where), _text(d, "target", where)
     if d.get("status", "ok") != "ok":
         _need(d.get("status") == "infeasible", f"{where}.status", "must be 'ok' or 'infeasible'")
@@ -77,7 +86,11 @@ def parse_step(d, where: str, robot) -> StepResult:
     _need(arm in robot.arms, f"{where}.arm", f"no arm '{arm}' on robot '{robot.name}'; arms: {', '.join(robot.arms)}")
     base = tuple(_numbers(d.get("base"), 3, f"{where}.base"))
     tcp = d.get("tcp")
-    _need(isinstance(tcp, list) and len(tcp) > 0, f"{where}.tcp", "must be a non-empty list of poses [x, y, z, qx, qy, qz, qw]")
+    _need(
+        isinstance(tcp, list) and len(tcp) > 0,
+        f"{where}.tcp",
+        "must be a non-empty list of poses [x, y, z, qx, qy, qz, qw]",
+    )
     poses = []
     for i, p in enumerate(tcp):
         v = _numbers(p, 7, f"{where}.tcp[{i}]")
@@ -91,14 +104,29 @@ def parse_step(d, where: str, robot) -> StepResult:
     missing = [j for j in names if j not in joints]
     _need(not missing, f"{where}.joints", f"lacks joint(s) {', '.join(missing)} of the {arm} arm")
     q = np.array([_number(joints[j], f"{where}.joints.{j}") for j in names])
-    extra = {key: _number(d[key], f"{where}.{key}") if key in d else None
-             for key in ("manipulability", "travel_time_s")}
+    extra = {
+        key: _number(d[key], f"{where}.{key}") if key in d else None for key in ("manipulability", "travel_time_s")
+    }
     cost = d.get("cost") if isinstance(d.get("cost"), dict) else {}
     terms = ("navigation", "manipulation", "heuristic")
     cost = Cost(*(_number(cost[t], f"{where}.cost.{t}") for t in terms)) if all(t in cost for t in terms) else None
     grasp = d.get("grasp") if isinstance(d.get("grasp"), str) else "?"
-    out = StepResult(step, action, target, "ok", None, arm, grasp, base, np.stack(poses), q,
-                     {j: float(v) for j, v in zip(names, q)}, extra["manipulability"], cost, extra["travel_time_s"])
+    out = StepResult(
+        step,
+        action,
+        target,
+        "ok",
+        None,
+        arm,
+        grasp,
+        base,
+        np.stack(poses),
+        q,
+        {j: float(v) for j, v in zip(names, q)},
+        extra["manipulability"],
+        cost,
+        extra["travel_time_s"],
+    )
     # the transfer: the object a pick takes or a place sets down (plans made before transfers have none)
     out.object = d.get("object") if isinstance(d.get("object"), str) else None
     out.trajectory = d.get("trajectory") if isinstance(d.get("trajectory"), str) else None
@@ -110,11 +138,17 @@ def parse_plan(doc, where: str, robot) -> list[StepResult]:
     not one, or uses an arm or joint ``robot`` lacks."""
     _need(isinstance(doc, dict), where, "not a plan document (a JSON object with 'steps')")
     steps = doc.get("steps")
-    _need(isinstance(steps, list) and len(steps) > 0, f"{where}: steps",
-          "must be a non-empty list (write one with `placement query SCENE --json > plan.json`)")
+    _need(
+        isinstance(steps, list) and len(steps) > 0,
+        f"{where}: steps",
+        "must be a non-empty list (write one with `placement query SCENE --json > plan.json`)",
+    )
     name = (doc.get("robot") or {}).get("name") if isinstance(doc.get("robot"), dict) else None
-    _need(name in (None, robot.name), f"{where}: robot.name",
-          f"the plan is for robot '{name}', the scene's robot is '{robot.name}'")
+    _need(
+        name in (None, robot.name),
+        f"{where}: robot.name",
+        f"the plan is for robot '{name}', the scene's robot is '{robot.name}'",
+    )
     return [parse_step(s, f"{where}: steps[{i}]", robot) for i, s in enumerate(steps)]
 
 
@@ -124,9 +158,14 @@ def _read(path) -> tuple[object, str]:
     try:
         st = p.stat()  # a FIFO or a device would block or never end: only a regular file is read
         if not stat.S_ISREG(st.st_mode) or st.st_size > MAX_PLAN_BYTES:
-            raise PlanFileError(f"--plan {p}: " + ("not a regular file" if not stat.S_ISREG(st.st_mode) else
-                                                   f"{st.st_size:,} bytes, more than the {MAX_PLAN_BYTES:,} a plan "
-                                                   "file may have"))
+            raise PlanFileError(
+                f"--plan {p}: "
+                + (
+                    "not a regular file"
+                    if not stat.S_ISREG(st.st_mode)
+                    else f"{st.st_size:,} bytes, more than the {MAX_PLAN_BYTES:,} a plan file may have"
+                )
+            )
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise PlanFileError(f"--plan {p}: cannot read it ({getattr(exc, 'strerror', None) or exc})") from None
@@ -163,36 +202,55 @@ def check_plan(doc: dict, steps: list[StepResult], scene, robot, where: str) -> 
     step of that index (action and target) up to the first infeasible one, bases inside the scene's
     bounds, only joints of the robot, arm joints within the URDF limits (every pose's), fixed joints
     at the preset's values, and the last TCP pose where the joints put the TCP."""
-    from ..planning.steps import task_steps
+    from placement.planning.steps import task_steps
 
     name = doc.get("scene")
-    _need(isinstance(name, str), f"{where}: scene", "the plan does not name its scene (write it with "
-                                                     "`placement query SCENE --json > plan.json`)")
+    _need(
+        isinstance(name, str),
+        f"{where}: scene",
+        "the plan does not name its scene (write it with `placement query SCENE --json > plan.json`)",
+    )
     _need(name == scene.name, f"{where}: scene", f"the plan is for scene {_cut(name)}, not '{scene.name}'")
     info = doc.get("robot")
-    _need(isinstance(info, dict) and isinstance(info.get("name"), str), f"{where}: robot.name",
-          "the plan does not name its robot")
+    _need(
+        isinstance(info, dict) and isinstance(info.get("name"), str),
+        f"{where}: robot.name",
+        "the plan does not name its robot",
+    )
     arms = info.get("arms", {})
     _need(isinstance(arms, dict), f"{where}: robot.arms", "must be a mapping of arm name to its joints")
     for arm, a in arms.items():
         at = f"{where}: robot.arms.{_cut(arm)[1:-1]}"
         _need(arm in robot.arms, at, f"robot '{robot.name}' has no arm {_cut(arm)}; arms: {', '.join(robot.arms)}")
-        _need(isinstance(a, dict) and a.get("joints") == list(robot.arm(arm).joints)
-              and a.get("tip_frame", robot.arm(arm).tip_frame) == robot.arm(arm).tip_frame, at,
-              f"the joints or tip frame differ from robot '{robot.name}''s (a plan for another robot model)")
+        _need(
+            isinstance(a, dict)
+            and a.get("joints") == list(robot.arm(arm).joints)
+            and a.get("tip_frame", robot.arm(arm).tip_frame) == robot.arm(arm).tip_frame,
+            at,
+            f"the joints or tip frame differ from robot '{robot.name}''s (a plan for another robot model)",
+        )
     task = task_steps(scene)
-    _need(len(steps) <= len(task), f"{where}: steps",
-          f"{len(steps)} steps, but the task of scene '{scene.name}' has {len(task)}")
+    _need(
+        len(steps) <= len(task),
+        f"{where}: steps",
+        f"{len(steps)} steps, but the task of scene '{scene.name}' has {len(task)}",
+    )
     for i, (s, t) in enumerate(zip(steps, task)):
         at = f"{where}: steps[{i}]"
         _need(s.step == t.index, f"{at}.step", f"is {s.step}, expected {t.index}")
-        _need((s.action, s.target) == (t.action, t.target), at,
-              f"{s.action} {_cut(s.target)} is not step {t.index} of scene '{scene.name}' ({t.action} '{t.target}')")
+        _need(
+            (s.action, s.target) == (t.action, t.target),
+            at,
+            f"{s.action} {_cut(s.target)} is not step {t.index} of scene '{scene.name}' ({t.action} '{t.target}')",
+        )
         if s.ok:
             _check_step(doc["steps"][i], s, scene, robot, at)
     if len(steps) < len(task):
-        _need(not steps[-1].ok, f"{where}: steps",
-              f"the plan stops after {len(steps)} of the task's {len(task)} steps without an infeasible one")
+        _need(
+            not steps[-1].ok,
+            f"{where}: steps",
+            f"the plan stops after {len(steps)} of the task's {len(task)} steps without an infeasible one",
+        )
     for i, s in enumerate(steps):  # a place by its pick's arm and grasp, the object upright as picked
         problems = transfer_problems(s, steps, "", rot_tol=UPRIGHT_TOLERANCE) if s.ok else []
         _need(not problems, f"{where}: steps[{i}]", problems[0].lstrip(": ") if problems else "")
@@ -203,54 +261,77 @@ def _check_step(d: dict, s: StepResult, scene, robot, at: str) -> None:
     fixed joints as the preset holds them, the TCP where the joints put it."""
     xmin, ymin, xmax, ymax = scene.bounds
     x, y, yaw = s.base
-    _need(xmin <= x <= xmax and ymin <= y <= ymax, f"{at}.base",
-          f"({x:.3f}, {y:.3f}) is outside the scene's bounds [{xmin:g}, {ymin:g}, {xmax:g}, {ymax:g}]")
+    _need(
+        xmin <= x <= xmax and ymin <= y <= ymax,
+        f"{at}.base",
+        f"({x:.3f}, {y:.3f}) is outside the scene's bounds [{xmin:g}, {ymin:g}, {xmax:g}, {ymax:g}]",
+    )
     arm = robot.arm(s.arm)
     model = robot.model
     for j, v in d["joints"].items():
-        _need(isinstance(j, str) and model.existJointName(j), f"{at}.joints.{_cut(j)[1:-1]}",
-              f"robot '{robot.name}' has no such joint")
+        _need(
+            isinstance(j, str) and model.existJointName(j),
+            f"{at}.joints.{_cut(j)[1:-1]}",
+            f"robot '{robot.name}' has no such joint",
+        )
         value = _number(v, f"{at}.joints.{j}")
         if j in robot.fixed_joints:
-            _need(abs(value - robot.fixed_joints[j]) <= LIMIT_SLACK, f"{at}.joints.{j}",
-                  f"is {value:g}; robot '{robot.name}' holds it at {robot.fixed_joints[j]:g}")
+            _need(
+                abs(value - robot.fixed_joints[j]) <= LIMIT_SLACK,
+                f"{at}.joints.{j}",
+                f"is {value:g}; robot '{robot.name}' holds it at {robot.fixed_joints[j]:g}",
+            )
         jm = model.joints[model.getJointId(j)]
         if jm.nq == 1 and j not in arm.joints:  # the arm's joints are checked below (continuous ones too)
             lo, hi = float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q])
-            _need(lo - LIMIT_SLACK <= value <= hi + LIMIT_SLACK, f"{at}.joints.{j}",
-                  f"{value:g} is outside the URDF limits [{lo:g}, {hi:g}] of robot '{robot.name}'")
+            _need(
+                lo - LIMIT_SLACK <= value <= hi + LIMIT_SLACK,
+                f"{at}.joints.{j}",
+                f"{value:g} is outside the URDF limits [{lo:g}, {hi:g}] of robot '{robot.name}'",
+            )
     qs = [s.q]
     poses = d.get("poses")
     if poses is not None:
-        _need(isinstance(poses, list) and len(poses) == len(s.tcp), f"{at}.poses",
-              f"must be a list of {len(s.tcp)} poses, one per TCP pose")
+        _need(
+            isinstance(poses, list) and len(poses) == len(s.tcp),
+            f"{at}.poses",
+            f"must be a list of {len(s.tcp)} poses, one per TCP pose",
+        )
         qs = []
         for k, p in enumerate(poses):
             pj = p.get("joints") if isinstance(p, dict) else None
-            _need(isinstance(pj, dict) and set(pj) == set(arm.joints), f"{at}.poses[{k}].joints",
-                  f"must give exactly the joints of arm '{s.arm}': {', '.join(arm.joints)}")
+            _need(
+                isinstance(pj, dict) and set(pj) == set(arm.joints),
+                f"{at}.poses[{k}].joints",
+                f"must give exactly the joints of arm '{s.arm}': {', '.join(arm.joints)}",
+            )
             qs.append(np.array([_number(pj[j], f"{at}.poses[{k}].joints.{j}") for j in arm.joints]))
     for q, label in [(s.q, "joints"), *((q, f"poses[{k}].joints") for k, q in enumerate(qs) if poses is not None)]:
         bad = np.flatnonzero((q < arm.lower - LIMIT_SLACK) | (q > arm.upper + LIMIT_SLACK))
         if len(bad):
             j = int(bad[0])
-            raise PlanFileError(f"{at}.{label}.{arm.joints[j]}: {q[j]:g} is outside the URDF limits "
-                                f"[{arm.lower[j]:g}, {arm.upper[j]:g}] of robot '{robot.name}'")
+            raise PlanFileError(
+                f"{at}.{label}.{arm.joints[j]}: {q[j]:g} is outside the URDF limits "
+                f"[{arm.lower[j]:g}, {arm.upper[j]:g}] of robot '{robot.name}'"
+            )
     c, sn = math.cos(yaw), math.sin(yaw)
     B = np.array([[c, -sn, 0, x], [sn, c, 0, y], [0, 0, 1, 0], [0, 0, 0, 1]])
     T = B @ robot.tcp_pose(s.arm, s.q)
     want = s.tcp[-1]
     off = float(np.linalg.norm(T[:3, 3] - want[:3, 3]))
     turn = math.acos(float(np.clip((np.trace(T[:3, :3].T @ want[:3, :3]) - 1) / 2, -1, 1)))
-    _need(off <= FK_TOLERANCE_M and turn <= FK_TOLERANCE_RAD, f"{at}.joints",
-          f"put the TCP {off * 100:.1f} cm and {math.degrees(turn):.1f} deg from the step's last TCP pose "
-          f"(robot '{robot.name}', base {list(s.base)}): a plan for another robot or scene")
+    _need(
+        off <= FK_TOLERANCE_M and turn <= FK_TOLERANCE_RAD,
+        f"{at}.joints",
+        f"put the TCP {off * 100:.1f} cm and {math.degrees(turn):.1f} deg from the step's last TCP pose "
+        f"(robot '{robot.name}', base {list(s.base)}): a plan for another robot or scene",
+    )
 
 
 def load_checked_plan(path, scene) -> list[StepResult]:
     """The steps of the plan file at ``path``, checked to belong to ``scene`` (a Scene) and its robot
     (see :func:`check_plan`); PlanFileError naming the file and the key otherwise."""
-    from ..robots import load_robot
+    from placement.robots import load_robot
 
     robot = load_robot(scene.robot_preset)
     doc, where = _read(path)

@@ -8,18 +8,22 @@ import time
 
 import numpy as np
 
-from .colors import Scale, layer_image, scale_of
-from .geometry import footprint_segments, polyline_segments, ring_segments, yaw_wxyz
-from .plan_file import title
-from .robot_view import RobotDrawing, config_of
+from placement.viewer.colors import Scale, layer_image, scale_of
+from placement.viewer.geometry import footprint_segments, polyline_segments, ring_segments, yaw_wxyz
+from placement.viewer.plan_file import title
+from placement.viewer.robot_view import RobotDrawing, config_of
 
 PATH = (220, 40, 40)
 TCP = (250, 200, 20)
 FOOTPRINT = (20, 60, 200)
 # (key, label, unit, colour map); distance is the world's, the others a step's StepMaps fields
-LAYERS = (("distance", "distance to obstacles", "m", "magma"), ("navigation", "navigation cost", "m", "viridis"),
-          ("manipulation", "IRM manipulability", "dimensionless", "viridis"),
-          ("heuristic", "heuristic cost", "m", "cividis"), ("combined", "combined cost (Eq. 6)", "dimensionless", "viridis"))
+LAYERS = (
+    ("distance", "distance to obstacles", "m", "magma"),
+    ("navigation", "navigation cost", "m", "viridis"),
+    ("manipulation", "IRM manipulability", "dimensionless", "viridis"),
+    ("heuristic", "heuristic cost", "m", "cividis"),
+    ("combined", "combined cost (Eq. 6)", "dimensionless", "viridis"),
+)
 DISTANCE_CAP = 2.0  # [m] farther than this is all the same to the velocity model's look
 
 
@@ -39,8 +43,7 @@ class PlanView:
         self.robot_drawing = RobotDrawing(server, robot)
         gui = server.gui
         gui.add_markdown(f"**{title}**")
-        self.slider = gui.add_slider("step", 0, max(len(self.steps) - 1, 1), 1, 0,
-                                     disabled=len(self.steps) < 2)
+        self.slider = gui.add_slider("step", 0, max(len(self.steps) - 1, 1), 1, 0, disabled=len(self.steps) < 2)
         self.info = gui.add_markdown("")
         with gui.add_folder("cost layers (floor)"):
             self.toggles = {key: gui.add_checkbox(label, key == "combined") for key, label, _, _ in LAYERS}
@@ -132,8 +135,9 @@ class PlanView:
             # later layers a little higher, so the one ticked last in the list is on top
             pos = (nav.origin[0] + w / 2, nav.origin[1] + h / 2, 0.004 + 0.002 * z)
             if node is None:
-                self.images[key] = self.server.scene.add_image(f"/layers/{key}", img, w, h, format="png",
-                                                               position=pos, cast_shadow=False)
+                self.images[key] = self.server.scene.add_image(
+                    f"/layers/{key}", img, w, h, format="png", position=pos, cast_shadow=False
+                )
             else:
                 node.image = img
                 node.visible = True
@@ -152,11 +156,18 @@ class PlanView:
                 scene.add_frame(f"/plan/{name}", show_axes=False, visible=False)
             return
         x, y, yaw = s.base
-        scene.add_line_segments("/plan/footprint", footprint_segments(r, self.robot.footprint, 0.015), FOOTPRINT,
-                                thickness=0.025, position=(x, y, 0.0), wxyz=yaw_wxyz(yaw))
+        scene.add_line_segments(
+            "/plan/footprint",
+            footprint_segments(r, self.robot.footprint, 0.015),
+            FOOTPRINT,
+            thickness=0.025,
+            position=(x, y, 0.0),
+            wxyz=yaw_wxyz(yaw),
+        )
         head = polyline_segments(np.array([[0, 0, 0.015], [r, 0, 0.015]]))
-        scene.add_line_segments("/plan/heading", head, FOOTPRINT, thickness=0.04, position=(x, y, 0.0),
-                                wxyz=yaw_wxyz(yaw))
+        scene.add_line_segments(
+            "/plan/heading", head, FOOTPRINT, thickness=0.04, position=(x, y, 0.0), wxyz=yaw_wxyz(yaw)
+        )
         scene.add_line_segments("/plan/tcp", polyline_segments(s.tcp[:, :3, 3]), TCP, thickness=0.012)
         path = self.base_path(index)
         scene.add_line_segments("/plan/path", polyline_segments(path), PATH, thickness=0.03)
@@ -166,18 +177,29 @@ class PlanView:
         ok = [s for s in self.steps if s.ok]
         rings = [ring_segments(0.12, 0.01, 16) + np.array([*s.base[:2], 0.0], np.float32) for s in ok]
         scene = self.server.scene
-        scene.add_line_segments("/plan/all", np.concatenate(rings) if rings else np.zeros((1, 2, 3), np.float32),
-                                FOOTPRINT, thickness=0.015, visible=bool(rings))
+        scene.add_line_segments(
+            "/plan/all",
+            np.concatenate(rings) if rings else np.zeros((1, 2, 3), np.float32),
+            FOOTPRINT,
+            thickness=0.015,
+            visible=bool(rings),
+        )
         tour = [self.start[:2]] if self.start is not None else []
         tour = np.array(tour + [s.base[:2] for s in ok]).reshape(-1, 2)
         if len(tour) < 2:
             tour = np.zeros((2, 2))
-        scene.add_line_segments("/plan/tour", polyline_segments(np.c_[tour, np.full(len(tour), 0.008)]), PATH,
-                                thickness=0.008, visible=len(ok) > 0)
+        scene.add_line_segments(
+            "/plan/tour",
+            polyline_segments(np.c_[tour, np.full(len(tour), 0.008)]),
+            PATH,
+            thickness=0.008,
+            visible=len(ok) > 0,
+        )
         for label in getattr(self, "labels", []):
             label.remove()
-        self.labels = [scene.add_label(f"/plan/labels/{s.step}", str(s.step), position=(s.base[0], s.base[1], 0.15))
-                       for s in ok]
+        self.labels = [
+            scene.add_label(f"/plan/labels/{s.step}", str(s.step), position=(s.base[0], s.base[1], 0.15)) for s in ok
+        ]
 
     def base_path(self, index: int) -> np.ndarray:
         """(m, 3) points [m] of the base path to step ``index`` (at z = 2 cm, above the layers)."""

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .geometry import pose_matrix
+from placement.viewer.geometry import pose_matrix
 
 log = logging.getLogger("placement")
 
@@ -64,20 +64,35 @@ class RobotDrawing:
         self.nodes = []
         self.geom = None
         try:
-            self.geom = pin.buildGeomFromUrdf(robot.model, str(robot.urdf_path), pin.GeometryType.VISUAL,
-                                              package_dirs=package_dirs(robot.urdf_path))
+            self.geom = pin.buildGeomFromUrdf(
+                robot.model, str(robot.urdf_path), pin.GeometryType.VISUAL, package_dirs=package_dirs(robot.urdf_path)
+            )
         except (ValueError, RuntimeError) as exc:
-            log.warning("robot %s: visual meshes not loaded (%s); drawing its joints only", robot.name,
-                        " ".join(str(exc).split())[:120])
+            log.warning(
+                "robot %s: visual meshes not loaded (%s); drawing its joints only",
+                robot.name,
+                " ".join(str(exc).split())[:120],
+            )
         if self.geom is not None:
             self.geom_data = pin.GeometryData(self.geom)
             for i, obj in enumerate(self.geom.geometryObjects):
                 mesh = geometry_mesh(obj)
                 if mesh is not None:
-                    self.nodes.append((i, server.scene.add_mesh_simple(f"{root}/{i:03d}_{obj.name}", *mesh,
-                                                                       color=color, flat_shading=False)))
-        self.sticks = None if self.nodes else server.scene.add_line_segments(
-            f"{root}/joints", np.zeros((1, 2, 3), np.float32), color, thickness=0.03)
+                    self.nodes.append(
+                        (
+                            i,
+                            server.scene.add_mesh_simple(
+                                f"{root}/{i:03d}_{obj.name}", *mesh, color=color, flat_shading=False
+                            ),
+                        )
+                    )
+        self.sticks = (
+            None
+            if self.nodes
+            else server.scene.add_line_segments(
+                f"{root}/joints", np.zeros((1, 2, 3), np.float32), color, thickness=0.03
+            )
+        )
 
     @property
     def visible(self) -> bool:

@@ -5,9 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .colors import Scale, layer_image
-from .geometry import (
-    POLYGON_HEIGHT, circle, footprint_segments, label_offset, polyline_segments, prism, yaw_wxyz,
+from placement.viewer.colors import Scale, layer_image
+from placement.viewer.geometry import (
+    POLYGON_HEIGHT,
+    circle,
+    footprint_segments,
+    label_offset,
+    polyline_segments,
+    prism,
+    yaw_wxyz,
 )
 
 FLOOR = (222, 222, 216)
@@ -24,18 +30,31 @@ def draw_floor(server, bounds) -> None:
     xmin, ymin, xmax, ymax = bounds
     w, h = xmax - xmin, ymax - ymin
     centre = ((xmin + xmax) / 2, (ymin + ymax) / 2)
-    server.scene.add_box("/scene/floor", color=FLOOR, dimensions=(w, h, 0.02), position=(*centre, -0.011),
-                         flat_shading=False, cast_shadow=False)
-    server.scene.add_grid("/scene/grid", width=w, height=h, cell_size=0.5, section_size=1.0,
-                          position=(*centre, 0.001), shadow_opacity=0.0)
+    server.scene.add_box(
+        "/scene/floor",
+        color=FLOOR,
+        dimensions=(w, h, 0.02),
+        position=(*centre, -0.011),
+        flat_shading=False,
+        cast_shadow=False,
+    )
+    server.scene.add_grid(
+        "/scene/grid", width=w, height=h, cell_size=0.5, section_size=1.0, position=(*centre, 0.001), shadow_opacity=0.0
+    )
 
 
 def draw_shape(server, name: str, shape, color, opacity: float | None = None):
     """One Box, Cylinder or Polygon of the scene model; returns its scene node."""
     kind = type(shape).__name__
     if kind == "Box":
-        return server.scene.add_box(name, color=color, dimensions=tuple(shape.size), position=tuple(shape.center),
-                                    wxyz=yaw_wxyz(shape.yaw), opacity=opacity)
+        return server.scene.add_box(
+            name,
+            color=color,
+            dimensions=tuple(shape.size),
+            position=tuple(shape.center),
+            wxyz=yaw_wxyz(shape.yaw),
+            opacity=opacity,
+        )
     elif kind == "Cylinder":
         # a prism of many sides, so the axis is z whatever a library's cylinder convention is
         z0 = float(shape.center[2] - shape.height / 2)
@@ -54,24 +73,38 @@ def draw_occupancy(server, occupancy):
     res = occupancy.resolution
     ox, oy = occupancy.origin[:2]
     img = layer_image(np.where(occ, 0.8, np.nan), OCCUPIED, alpha=200)
-    return server.scene.add_image("/scene/occupancy", img, cols * res, rows * res, format="png",
-                                  position=(ox + cols * res / 2, oy + rows * res / 2, 0.003), cast_shadow=False)
+    return server.scene.add_image(
+        "/scene/occupancy",
+        img,
+        cols * res,
+        rows * res,
+        format="png",
+        position=(ox + cols * res / 2, oy + rows * res / 2, 0.003),
+        cast_shadow=False,
+    )
 
 
 def draw_start(server, start, footprint_radius: float, polygon=None) -> None:
     """The start pose: the footprint (``polygon`` (k, 2) [m] in the base frame, else the circle), a
     heading line and a label."""
     x, y, yaw = start
-    server.scene.add_line_segments("/scene/start/ring", footprint_segments(footprint_radius, polygon, 0.01), START,
-                                   thickness=0.02, position=(x, y, 0.0), wxyz=yaw_wxyz(yaw))
+    server.scene.add_line_segments(
+        "/scene/start/ring",
+        footprint_segments(footprint_radius, polygon, 0.01),
+        START,
+        thickness=0.02,
+        position=(x, y, 0.0),
+        wxyz=yaw_wxyz(yaw),
+    )
     head = np.array([[0, 0, 0.01], [footprint_radius, 0, 0.01]])
-    server.scene.add_line_segments("/scene/start/heading", polyline_segments(head), START, thickness=0.03,
-                                   position=(x, y, 0.0), wxyz=yaw_wxyz(yaw))
+    server.scene.add_line_segments(
+        "/scene/start/heading", polyline_segments(head), START, thickness=0.03, position=(x, y, 0.0), wxyz=yaw_wxyz(yaw)
+    )
     server.scene.add_label("/scene/start/label", "start", position=(x, y, 0.3))
 
 
 def draw_scene(server, scene, footprint_radius: float, polygon=None) -> dict:
-    """Everything of ``scene`` (a :class:`placement.planning.scene.Scene`) that does not change
+    """Everything of ``scene`` (a :class:`placement.scene.Scene`) that does not change
     between steps. ``footprint_radius`` [m] of the robot, for the start pose. Returns the nodes of the
     obstacles, objects and occupancy map by node name."""
     draw_floor(server, scene.bounds)
@@ -84,13 +117,18 @@ def draw_scene(server, scene, footprint_radius: float, polygon=None) -> dict:
     for o in scene.objects:
         x, y, z, w = (float(v) for v in o.orientation)  # ROS order in the scene, wxyz in viser
         nodes[f"/scene/objects/{o.name}"] = server.scene.add_box(
-            f"/scene/objects/{o.name}", color=OBJECT, dimensions=tuple(o.size), position=tuple(o.position),
-            wxyz=(w, x, y, z))
+            f"/scene/objects/{o.name}",
+            color=OBJECT,
+            dimensions=tuple(o.size),
+            position=tuple(o.position),
+            wxyz=(w, x, y, z),
+        )
         # children of the object's node: positions in the object's frame
         server.scene.add_label(f"/scene/objects/{o.name}/label", o.name, position=label_offset(o.orientation, o.size))
     for p in scene.place_locations:
-        server.scene.add_cylinder(f"/scene/places/{p.name}", radius=0.06, height=0.01, color=PLACE,
-                                  position=tuple(p.position))
+        server.scene.add_cylinder(
+            f"/scene/places/{p.name}", radius=0.06, height=0.01, color=PLACE, position=tuple(p.position)
+        )
         server.scene.add_label(f"/scene/places/{p.name}/label", p.name, position=(0.0, 0.0, 0.08))
     draw_start(server, scene.start, footprint_radius, polygon)
     return nodes

@@ -8,7 +8,7 @@ import logging
 import threading
 import time
 
-from ..errors import PlacementError
+from placement.errors import PlacementError
 
 HOST = "127.0.0.1"  # never another interface: the viewer has no authentication
 

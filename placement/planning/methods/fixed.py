@@ -7,14 +7,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ...errors import PlacementError
-from ..manipulation import manipulation_map
-from ..navgrid import Window
-from ..option import Option
-from ..ranking import Ranked
+from placement.errors import PlacementError
+from placement.planning.manipulation import manipulation_map
+from placement.planning.navgrid import Window
+from placement.planning.option import Option
+from placement.planning.ranking import Ranked
 
 if TYPE_CHECKING:
-    from ..planner import Planner
+    from placement.planning.planner import Planner
 
 
 #: cells further out along a side's normal tried when a polygon base does not fit on the first
@@ -42,8 +42,12 @@ def fixed_placements(planner: Planner) -> list[tuple[int, float]]:
             half = (sh.size[0] / 2, sh.size[1] / 2)
             sides = [((c, s_), half[0]), ((-c, -s_), half[0]), ((-s_, c), half[1]), ((s_, -c), half[1])]
         else:  # cylinder: four sides along the world axes
-            sides = [((1.0, 0.0), sh.radius), ((-1.0, 0.0), sh.radius), ((0.0, 1.0), sh.radius),
-                     ((0.0, -1.0), sh.radius)]
+            sides = [
+                ((1.0, 0.0), sh.radius),
+                ((-1.0, 0.0), sh.radius),
+                ((0.0, 1.0), sh.radius),
+                ((0.0, -1.0), sh.radius),
+            ]
         for (nx_, ny_), h in sides:
             yaw = math.atan2(-ny_, -nx_)
             for step in range(STEPS_OUT + 1 if polygon else 1):
@@ -58,8 +62,7 @@ def fixed_placements(planner: Planner) -> list[tuple[int, float]]:
     return out
 
 
-def rank_fixed(planner: Planner, options: list[Option], nav_cost: np.ndarray,
-               heuristic: np.ndarray) -> list[Ranked]:
+def rank_fixed(planner: Planner, options: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray) -> list[Ranked]:
     """Fixed placements by decreasing manipulability of each (arm, candidate) at the placement's yaw
     (``cost`` = minus that value).
 
@@ -74,8 +77,14 @@ def rank_fixed(planner: Planner, options: list[Option], nav_cost: np.ndarray,
     for flat, yaw in fixed_placements(planner):
         for k, o in enumerate(options):
             cell = np.array([flat])
-            v, _ = manipulation_map(planner.maps[o.arm], o.candidate.poses, nav, np.array([yaw]), cell,
-                                    Window.around(cell, nav.shape, margin=0))
+            v, _ = manipulation_map(
+                planner.maps[o.arm],
+                o.candidate.poses,
+                nav,
+                np.array([yaw]),
+                cell,
+                Window.around(cell, nav.shape, margin=0),
+            )
             value = float(v[0, 0])
             if value > 0.0:
                 ranked.append((-value, k, flat, yaw))

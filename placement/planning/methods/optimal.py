@@ -19,15 +19,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import ndimage
 
-from ..explain import explain
-from ..navigation import extract_path, navigation_cost
-from ..results import StepMaps, StepResult
-from ..search import collision_args
-from ..verify import trajectory_ik
-from .stepwise import placed, unreachable_reason
+from placement.planning.explain import explain
+from placement.planning.methods.stepwise import placed, unreachable_reason
+from placement.planning.navigation import extract_path, navigation_cost
+from placement.planning.results import StepMaps, StepResult
+from placement.planning.search import collision_args
+from placement.planning.verify import trajectory_ik
 
 if TYPE_CHECKING:
-    from ..planner import Planner
+    from placement.planning.planner import Planner
 
 CANDIDATES = 40
 MIN_PER_GROUP = 8
@@ -63,12 +63,18 @@ def _candidates(planner: Planner, i: int):
             flat = np.flatnonzero(best_opt >= 0)
         flat = flat[np.argsort(-best_val.flat[flat], kind="stable")[:per_group]]
         yaws = [planner.yaws[opts[best_opt.flat[f]].yaw_at(*divmod(int(f), nav.shape[1]))] for f in flat]
-        for part, values in zip(out, (flat, best_opt.flat[flat], yaws, best_val.flat[flat].astype(float),
-                                      np.full(flat.size, gi))):
+        for part, values in zip(
+            out, (flat, best_opt.flat[flat], yaws, best_val.flat[flat].astype(float), np.full(flat.size, gi))
+        ):
             part.append(np.asarray(values))
     flat, opt, yaw, value, group = (np.concatenate(p) if p else np.zeros(0) for p in out)
-    return (flat.astype(np.int64), opt.astype(np.int64), yaw.astype(float), value.astype(float),
-            np.array([groups[int(g)] for g in group], dtype=str) if group.size else np.zeros(0, dtype=str))
+    return (
+        flat.astype(np.int64),
+        opt.astype(np.int64),
+        yaw.astype(float),
+        value.astype(float),
+        np.array([groups[int(g)] for g in group], dtype=str) if group.size else np.zeros(0, dtype=str),
+    )
 
 
 def _group(o) -> str:
@@ -125,19 +131,24 @@ def plan_optimal(planner: Planner, start_cell, keep_maps: bool = False) -> list[
     removed: list[set] = [set() for _ in steps]
     ik_failures = [0] * len(steps)
     for _ in range(MAX_REPAIRS):
-        live = [np.array([j for j in range(len(c[0])) if j not in removed[i]], dtype=np.int64)
-                for i, c in enumerate(cands)]
+        live = [
+            np.array([j for j in range(len(c[0])) if j not in removed[i]], dtype=np.int64) for i, c in enumerate(cands)
+        ]
         for i, lv in enumerate(live):
             if lv.size == 0:
                 if ik_failures[i]:
                     return [_infeasible(steps[i], f"IK failed for all {ik_failures[i]} of its DP candidates")]
                 opts = planner.problems.options(i)
-                return [_infeasible(steps[i], *explain(planner, steps[i], opts, None,
-                                                       unreachable_reason(planner, opts)))]
+                return [
+                    _infeasible(steps[i], *explain(planner, steps[i], opts, None, unreachable_reason(planner, opts)))
+                ]
         chosen = _dp(planner, start_cell, cands, live)
         if chosen is None:
-            return [_infeasible(steps[0], "no chain of DP candidates keeps each object's arm and grasp from its pick "
-                                          "to its place")]
+            return [
+                _infeasible(
+                    steps[0], "no chain of DP candidates keeps each object's arm and grasp from its pick to its place"
+                )
+            ]
         out, prev_cell, failed = [], start_cell, None
         q_state = {arm: planner.robot.arm(arm).home.copy() for arm in planner.maps}
         xs, ys = nav.centres()
@@ -146,8 +157,14 @@ def plan_optimal(planner: Planner, start_cell, keep_maps: bool = False) -> list[
             o = planner.problems.options(i)[k]
             iy, ix = divmod(int(flat), nav.shape[1])
             base = (float(xs[ix]), float(ys[iy]), float(yaw))
-            ik = trajectory_ik(planner.robot, o.arm, o.candidate.poses, base, q_state[o.arm],
-                               getattr(planner.maps[o.arm], "witness_q", None))
+            ik = trajectory_ik(
+                planner.robot,
+                o.arm,
+                o.candidate.poses,
+                base,
+                q_state[o.arm],
+                getattr(planner.maps[o.arm], "witness_q", None),
+            )
             clearance = free = None
             if ik.ok and getattr(planner, "collisions", None) is not None:
                 check = planner.collisions.check(o.arm, ik.qs, base, **collision_args(planner, steps[i], o))
@@ -174,8 +191,13 @@ def plan_optimal(planner: Planner, start_cell, keep_maps: bool = False) -> list[
         removed[failed[0]].add(failed[1])
         ik_failures[failed[0]] += 1
     worst = int(np.argmax(ik_failures))
-    return [_infeasible(steps[worst], f"IK kept failing on the DP's choices ({ik_failures[worst]} failures "
-                                      f"at this step in {MAX_REPAIRS} repairs)")]
+    return [
+        _infeasible(
+            steps[worst],
+            f"IK kept failing on the DP's choices ({ik_failures[worst]} failures "
+            f"at this step in {MAX_REPAIRS} repairs)",
+        )
+    ]
 
 
 def _infeasible(step, reason: str, diagnosis: dict | None = None) -> StepResult:

@@ -7,28 +7,30 @@ Used by ``sequential``, ``single-step`` and ``irm`` (ranked by Eq. 6 with their 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import replace
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..explain import explain
-from ..navigation import extract_path, navigation_cost
-from ..option import Option, height_range
-from ..ranking import Ranked, combined_map, rank_by_cost
-from ..results import Cost, StepMaps, StepResult
-from ..search import search_placement
-from ..steps import Step
+from placement.planning.explain import explain
+from placement.planning.navigation import extract_path, navigation_cost
+from placement.planning.option import Option, height_range
+from placement.planning.ranking import Ranked, combined_map, rank_by_cost
+from placement.planning.results import Cost, StepMaps, StepResult
+from placement.planning.search import search_placement
+from placement.planning.steps import Step
 
 if TYPE_CHECKING:
-    from ..planner import Planner
+    from placement.planning.planner import Planner
 
 #: ranker(planner, options, navigation cost, heuristic) -> ranked placements
 Ranker = Callable[["Planner", list, np.ndarray, np.ndarray], list[Ranked]]
 
 
-def rank_eq6(planner: Planner, options: list[Option], nav_cost: np.ndarray,
-             heuristic: np.ndarray, per_option: int | None = None) -> list[Ranked]:
+def rank_eq6(
+    planner: Planner, options: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray, per_option: int | None = None
+) -> list[Ranked]:
     """Eq. 6 with the method's weights (see :func:`~placement.planning.ranking.rank_by_cost`): the
     ``per_option`` cheapest cells of each option and tier (default ``ik_tries``)."""
     cfg = planner.config if per_option is None else replace(planner.config, ik_tries=per_option)
@@ -63,8 +65,9 @@ def plan_stepwise(planner: Planner, start_cell: tuple[int, int], rank: Ranker, k
     return out
 
 
-def plan_transfer(planner: Planner, pick: Step, place: Step, prev_cell, prev_q: dict, rank: Ranker,
-                  keep_maps: bool) -> tuple[list[StepResult], tuple[int, int] | None]:
+def plan_transfer(
+    planner: Planner, pick: Step, place: Step, prev_cell, prev_q: dict, rank: Ranker, keep_maps: bool
+) -> tuple[list[StepResult], tuple[int, int] | None]:
     """A pick and its place with the same arm and grasp.
 
     The pick may use only the (arm, grasp) pairs with which the maps reach a place pose of the
@@ -82,16 +85,22 @@ def plan_transfer(planner: Planner, pick: Step, place: Step, prev_cell, prev_q: 
     while True:
         allowed = picks - failed.keys()
         if not allowed:
-            result = StepResult(pick.index, pick.action, pick.target, status="infeasible",
-                                reason=transfer_reason(planner, pick, place, failed),
-                                diagnosis={"place": place.target, "transfers": transfer_diagnosis(failed)},
-                                timings_ms={"total": (time.perf_counter() - t0) * 1e3})
+            result = StepResult(
+                pick.index,
+                pick.action,
+                pick.target,
+                status="infeasible",
+                reason=transfer_reason(planner, pick, place, failed),
+                diagnosis={"place": place.target, "transfers": transfer_diagnosis(failed)},
+                timings_ms={"total": (time.perf_counter() - t0) * 1e3},
+            )
             return [result], None
         first, cell = plan_step(planner, pick, prev_cell, prev_q, rank, keep_maps, allowed)
         if not first.ok:
             if failed:
-                first.reason += f" (not tried: {excluded_words(failed)}, which cannot set '{pick.target}' " \
-                                f"down at '{place.target}')"
+                first.reason += (
+                    f" (not tried: {excluded_words(failed)}, which cannot set '{pick.target}' down at '{place.target}')"
+                )
             first.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
             return [first], None
         t1 = time.perf_counter()
@@ -106,7 +115,7 @@ def plan_transfer(planner: Planner, pick: Step, place: Step, prev_cell, prev_q: 
 
 
 def excluded_words(failed: dict) -> str:
-    """"arm left: top, top-flipped; arm right: top" for the (arm, grasp) pairs of ``failed``."""
+    """ "arm left: top, top-flipped; arm right: top" for the (arm, grasp) pairs of ``failed``."""
     arms: dict[str, list] = {}
     for arm, grasp in sorted(failed, key=lambda p: (p[0], str(p[1]))):
         arms.setdefault(arm, []).append(str(grasp))
@@ -119,22 +128,29 @@ def transfer_reason(planner: Planner, pick: Step, place: Step, failed: dict) -> 
     tried = {p: r for p, r in failed.items() if r}
     parts = []
     if unreached:
-        parts.append(f"{excluded_words(unreached)}: no base placement reaches a place pose with the map threshold "
-                     f"{planner.config.threshold:g}")
+        parts.append(
+            f"{excluded_words(unreached)}: no base placement reaches a place pose with the map threshold "
+            f"{planner.config.threshold:g}"
+        )
     for p, r in tried.items():
         parts.append(f"arm {p[0]}, grasp {p[1]}: picked, but the place failed: {r}")
-    return (f"no grasp of '{pick.target}' lets the arm that picks it set it down at '{place.target}' "
-            f"(a transfer keeps the arm and the grasp): {'; '.join(parts)}")
+    return (
+        f"no grasp of '{pick.target}' lets the arm that picks it set it down at '{place.target}' "
+        f"(a transfer keeps the arm and the grasp): {'; '.join(parts)}"
+    )
 
 
 def transfer_diagnosis(failed: dict) -> list[dict]:
     """Per (arm, grasp) pair: why its place failed (JSON)."""
-    return [{"arm": a, "grasp": g, "failed": r or "no place pose keeps the map threshold"}
-            for (a, g), r in sorted(failed.items(), key=lambda kv: (kv[0][0], str(kv[0][1])))]
+    return [
+        {"arm": a, "grasp": g, "failed": r or "no place pose keeps the map threshold"}
+        for (a, g), r in sorted(failed.items(), key=lambda kv: (kv[0][0], str(kv[0][1])))
+    ]
 
 
-def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranker,
-              keep_maps: bool, pairs: set | None = None) -> tuple[StepResult, tuple[int, int] | None]:
+def plan_step(
+    planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranker, keep_maps: bool, pairs: set | None = None
+) -> tuple[StepResult, tuple[int, int] | None]:
     """The best verified placement of one step (or an infeasible result) and its cell; ``pairs``:
     the (arm, grasp) pairs the step may use (default all)."""
     cfg, problems, world = planner.config, planner.problems, planner.world
@@ -167,8 +183,10 @@ def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranke
     t = time.perf_counter()
     more = None
     if rank is rank_eq6:  # every ranked placement, for the spread phase of the search
+
         def more():
             return rank_eq6(planner, opts, nav_cost, heur, per_option=cfg.ik_cap)
+
     found = search = None
     if ranked:
         search = search_placement(planner, step, opts, ranked, more, nav_cost, heur, prev_q)
@@ -184,14 +202,32 @@ def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranke
         if maps is not None:
             maps.path = extract_path(pred, (iy, ix))
         value = found.value or (o.value_at(iy, ix) if planner.method != "fixed" else -r.cost)
-        result = placed(planner, step, o, found.base, found.ik.qs, float(nav_cost[iy, ix]), float(heur[iy, ix]),
-                        value, timings, found.clearance_m)
+        result = placed(
+            planner,
+            step,
+            o,
+            found.base,
+            found.ik.qs,
+            float(nav_cost[iy, ix]),
+            float(heur[iy, ix]),
+            value,
+            timings,
+            found.clearance_m,
+        )
         result.maps = maps
         result.tried = search.tried
         return result, (iy, ix)
     reason, diagnosis = explain(planner, step, opts, search, "" if ranked else unreachable_reason(planner, opts))
-    result = StepResult(step.index, step.action, step.target, status="infeasible", reason=reason,
-                        diagnosis=diagnosis, timings_ms=timings, maps=maps)
+    result = StepResult(
+        step.index,
+        step.action,
+        step.target,
+        status="infeasible",
+        reason=reason,
+        diagnosis=diagnosis,
+        timings_ms=timings,
+        maps=maps,
+    )
     result.tried = search.tried if search else 0
     return result, None
 
@@ -199,16 +235,29 @@ def plan_step(planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranke
 def unreachable_reason(planner: Planner, opts: list[Option]) -> str:
     """Why no placement of a step keeps the threshold, in words."""
     if opts and all(o.out_of_range for o in opts):
-        ranges = ", ".join(f"{arm} {lo:.2f}..{hi:.2f} m" for arm, (lo, hi) in
-                           ((a, height_range(m)) for a, m in planner.maps.items()))
+        ranges = ", ".join(
+            f"{arm} {lo:.2f}..{hi:.2f} m" for arm, (lo, hi) in ((a, height_range(m)) for a, m in planner.maps.items())
+        )
         z = sorted({round(float(v), 3) for o in opts for v in o.candidate.poses[:, 2, 3]})
-        return (f"the TCP poses (heights {', '.join(f'{v:g}' for v in z)} m) are outside the height range of "
-                f"the maps ({ranges} above the base frame)")
+        return (
+            f"the TCP poses (heights {', '.join(f'{v:g}' for v in z)} m) are outside the height range of "
+            f"the maps ({ranges} above the base frame)"
+        )
     return f"no base placement reaches the target with the map threshold {planner.config.threshold}"
 
 
-def placed(planner: Planner, step: Step, o: Option, base, qs: np.ndarray, nav_c: float, heur_c: float,
-           value: float, timings: dict, clearance_m: float | None = None) -> StepResult:
+def placed(
+    planner: Planner,
+    step: Step,
+    o: Option,
+    base,
+    qs: np.ndarray,
+    nav_c: float,
+    heur_c: float,
+    value: float,
+    timings: dict,
+    clearance_m: float | None = None,
+) -> StepResult:
     """The result of a verified placement: weighted Eq. 6 terms, joints by name (``qs`` (P, n): the
     arm at every pose of the trajectory), travel time, clearance [m] (None without a collision check)."""
     cfg = planner.config
@@ -218,9 +267,24 @@ def placed(planner: Planner, step: Step, o: Option, base, qs: np.ndarray, nav_c:
     joints.update(planner.robot.fixed_joints)
     cost = Cost(cfg.lambda_n * nav_c, cfg.lambda_m / value, cfg.lambda_nh * heur_c)
     c = o.candidate
-    return StepResult(step.index, step.action, step.target, arm=o.arm, grasp=c.grasp or c.name,
-                      base=(base[0], base[1], base[2]), tcp=c.poses, q=q, qs=qs, joints=joints,
-                      clearance_m=clearance_m,
-                      manipulability=value, cost=cost, travel_time_s=nav_c / planner.robot.v_max,
-                      timings_ms=timings, trajectory=c.name, object=step.carries, placed_pose=c.object_pose,
-                      support=c.support)
+    return StepResult(
+        step.index,
+        step.action,
+        step.target,
+        arm=o.arm,
+        grasp=c.grasp or c.name,
+        base=(base[0], base[1], base[2]),
+        tcp=c.poses,
+        q=q,
+        qs=qs,
+        joints=joints,
+        clearance_m=clearance_m,
+        manipulability=value,
+        cost=cost,
+        travel_time_s=nav_c / planner.robot.v_max,
+        timings_ms=timings,
+        trajectory=c.name,
+        object=step.carries,
+        placed_pose=c.object_pose,
+        support=c.support,
+    )

@@ -1,0 +1,64 @@
+"""The extended manipulability of an arm configuration (public wrapper of the kernels)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from placement.errors import PlacementError
+from placement.kernels.kinematics import fk_jacobian
+from placement.kernels.manipulability import extended_manipulability as _kernel
+from placement.kernels.manipulability import joint_penalties
+from placement.robots import Robot
+from placement.validation import finite_array
+
+INDEX_NAMES = ("isotropy", "volume")
+ROTATION_SCALE = 0.15  # Simox: rotational Jacobian rows are weighted against metres
+
+
+def extended_manipulability(robot: Robot, arm: str, q, index: str = "isotropy", row_factors=None) -> np.ndarray | float:
+    """Simox's extended manipulability of ``arm`` at joint angles ``q``.
+
+    Args:
+        robot: the robot.
+        arm: arm name.
+        q: (n,) or (N, n) joint values [rad, m], in the arm's joint order.
+        index: "isotropy" (min over octants of sigma_min/sigma_max, default) or
+            "volume" (min over octants of the product of singular values).
+        row_factors: optional (6, 2) or (N, 6, 2) penalty factor per Jacobian row
+            and octant sign (0 = +, 1 = -), e.g. the self-distance penalty of
+            :mod:`placement.maps.selfcollision`; all ones by default.
+
+    Returns:
+        A float for (n,) input, else (N,) values; dimensionless (isotropy) or
+        [m^6-ish] (volume), 0 at singularities.
+    """
+    if index not in INDEX_NAMES:
+        raise PlacementError(f"unknown manipulability index '{index}'; choose from {', '.join(INDEX_NAMES)}")
+    a = robot.arm(arm)
+    Q = finite_array(q, "joint values q", PlacementError)
+    single = Q.ndim == 1
+    Q = np.atleast_2d(Q)
+    if Q.ndim != 2 or Q.shape[1] != a.dof:
+        raise PlacementError(f"arm '{arm}' has {a.dof} joints, got configurations of shape {Q.shape[1:]}")
+    if a.dof < 6:
+        raise PlacementError(f"arm '{arm}' has {a.dof} joints; the extended manipulability needs at least 6")
+    n, ch = a.dof, a.chain
+    T, J, work = np.empty((4, 4)), np.empty((6, n)), np.empty((n + 3, 4, 4))
+    plo, phi, P, G, A = np.empty(n), np.empty(n), np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((6, 6))
+    cont = a.continuous.astype(np.bool_)
+    de = np.empty((2, 6))
+    if row_factors is None:
+        rf = np.ones((len(Q), 6, 2))
+    else:
+        rf = finite_array(row_factors, "row_factors", PlacementError)
+        try:
+            rf = np.broadcast_to(rf, (len(Q), 6, 2))
+        except ValueError:
+            raise PlacementError(f"row_factors must have shape (6, 2) or ({len(Q)}, 6, 2), got {rf.shape}") from None
+    out = np.empty(len(Q))
+    for i, qi in enumerate(Q):
+        fk_jacobian(qi, ch.link_T, ch.axis, ch.kind, ch.tip_T, T, J, work)
+        J[3:] *= ROTATION_SCALE
+        joint_penalties(qi, a.lower, a.upper, cont, plo, phi)
+        out[i] = _kernel(J, plo, phi, np.ascontiguousarray(rf[i]), INDEX_NAMES.index(index), -1.0, P, G, A, de)
+    return float(out[0]) if single else out

@@ -1,0 +1,224 @@
+"""Build specs: what `placement maps build` builds, from a YAML file (``--spec``) and options.
+
+Every value is checked here, before any work, and a bad one raises
+:class:`PlacementError` with one line naming the file and key (or the option)
+and what is allowed. ``arms`` is a list of arm names, or a string for one arm.
+The validators (``parse_*``) are also used for the command-line options and
+by :func:`placement.build_map`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from placement.errors import PlacementError
+from placement.kinematics.manipulability import INDEX_NAMES
+from placement.storage import BACKENDS
+from placement.storage.files import FileRefused, read_bounded
+
+MAX_SAMPLES = 10**11  # ~1 day of sampling at 1.2 M samples/s [count per arm]
+MAX_SEED = 2**64 - 1  # seeds are uint64
+MIN_RESOLUTION = 0.005  # [m]
+MAX_RESOLUTION = 1.0  # [m]
+MAX_BINS = 360  # per orientation axis (1 deg bins)
+DEFAULT_SAMPLES = 1_000_000
+DEFAULT_RESOLUTION = 0.05  # [m]: SPEC section 4's 5 cm cells
+DEFAULT_BINS = (20, 9, 20)  # yaw 18 deg, pitch 20 deg, roll 18 deg
+INDEXES = INDEX_NAMES
+FORMATS = tuple(BACKENDS)
+SPEC_KEYS = (
+    "robot",
+    "arms",
+    "samples",
+    "seed",
+    "resolution",
+    "bins",
+    "index",
+    "format",
+    "self_collision",
+    "self_distance",
+    "completion",
+)
+
+
+@dataclass(frozen=True)
+class BuildSpec:
+    """A checked build spec (units in brackets); build one with :func:`parse_build_spec`.
+
+    Attributes:
+        robot: preset name or path.
+        arms: arm names, or None for every arm of the robot.
+        samples: joint samples per arm [count], 1 .. MAX_SAMPLES.
+        seed: sampling seed, 0 .. 2^64 - 1.
+        resolution: position cell edge [m], MIN_RESOLUTION .. MAX_RESOLUTION.
+        bins: orientation bin counts (yaw even, pitch odd, roll even).
+        index: manipulability index, one of INDEXES.
+        format: storage backend, one of FORMATS.
+        self_collision, self_distance, completion: see `placement maps build --help`.
+    """
+
+    robot: str = "pr2"
+    arms: tuple[str, ...] | None = None
+    samples: int = DEFAULT_SAMPLES
+    seed: int = 0
+    resolution: float = DEFAULT_RESOLUTION
+    bins: tuple[int, int, int] = DEFAULT_BINS
+    index: str = "isotropy"
+    format: str = "zarr"
+    self_collision: bool = False
+    self_distance: bool = False
+    completion: bool = False
+
+    def arms_of(self, robot) -> list[str]:
+        """The arms to build on ``robot`` (ArmNotFound, naming the robot's arms, for an unknown one)."""
+        arms = list(self.arms) if self.arms else list(robot.arms)
+        for arm in arms:
+            robot.arm(arm)
+        return arms
+
+
+def show(value) -> str:
+    """A short one-line rendering of a bad value for an error message."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def whole_number(value) -> int | None:
+    """``value`` as an int if it is a whole number (int, integral float, or such a string), else None."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, int):
+        return value
+    if isinstance(value, str):
+        try:
+            return int(value.strip())
+        except ValueError:
+            pass
+        try:
+            value = float(value)
+        except ValueError:
+            return None
+    if isinstance(value, float) and math.isfinite(value) and value == int(value):
+        return int(value)
+    return None
+
+
+def parse_count(value, where: str, lo: int, hi: int) -> int:
+    """A whole number in [lo, hi] (``1e6`` is accepted as 1000000, 1.5 is not)."""
+    n = whole_number(value)
+    if n is None or not lo <= n <= hi:
+        raise PlacementError(f"{where} must be a whole number from {lo:,} to {hi:,}, got {show(value)}")
+    return n
+
+
+def parse_length(value, where: str, lo: float, hi: float) -> float:
+    """A finite length [m] in [lo, hi] (a number or a numeric string)."""
+    x = None
+    if not isinstance(value, bool) and isinstance(value, (int, float, str)):
+        try:
+            x = float(value)
+        except (ValueError, OverflowError):
+            x = None
+    if x is None or not (math.isfinite(x) and lo <= x <= hi):
+        raise PlacementError(f"{where} must be a length from {lo:g} to {hi:g} m, got {show(value)}")
+    return x
+
+
+def parse_bins(value, where: str) -> tuple[int, int, int]:
+    """Three orientation bin counts YAW,PITCH,ROLL (a list, or a comma-separated string)."""
+    items = value.split(",") if isinstance(value, str) else value
+    counts = [whole_number(b) for b in items] if isinstance(items, (list, tuple)) else []
+    if len(counts) != 3 or any(c is None or not 1 <= c <= MAX_BINS for c in counts):
+        raise PlacementError(f"{where} must be three bin counts YAW,PITCH,ROLL from 1 to {MAX_BINS}, got {show(value)}")
+    yaw, pitch, roll = counts
+    if yaw % 2 or roll % 2:
+        raise PlacementError(
+            f"{where}: yaw and roll bin counts must be even (roll +-pi is a bin centre), got {yaw} and {roll}"
+        )
+    if pitch % 2 == 0:
+        raise PlacementError(f"{where}: the pitch bin count must be odd (pitch 0 is a bin centre), got {pitch}")
+    return yaw, pitch, roll
+
+
+def parse_choice(value, where: str, choices) -> str:
+    if not isinstance(value, str) or value not in choices:
+        raise PlacementError(f"{where} must be one of {', '.join(choices)}, got {show(value)}")
+    return value
+
+
+def parse_flag(value, where: str) -> bool:
+    if not isinstance(value, bool):
+        raise PlacementError(f"{where} must be true or false, got {show(value)}")
+    return value
+
+
+def parse_name(value, where: str) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise PlacementError(f"{where} must be a name (a non-empty string), got {show(value)}")
+    return value
+
+
+def parse_arms(value, where: str) -> tuple[str, ...]:
+    """A list of distinct arm names, or one name as a string."""
+    names = [value] if isinstance(value, str) else value
+    if not isinstance(names, (list, tuple)) or not names:
+        raise PlacementError(f"{where} must be an arm name or a list of arm names, got {show(value)}")
+    arms = tuple(parse_name(a, where) for a in names)
+    if len(set(arms)) != len(arms):
+        raise PlacementError(f"{where} names an arm twice: {show(value)}")
+    return arms
+
+
+def parse_build_spec(data, source: str = "build spec") -> BuildSpec:
+    """Check a build spec mapping (from YAML) and return it as a :class:`BuildSpec`."""
+    if not isinstance(data, dict) or not data:
+        raise PlacementError(f"{source} must be a non-empty mapping of {', '.join(SPEC_KEYS)}, got {show(data)}")
+    unknown = [k for k in data if k not in SPEC_KEYS]
+    if unknown:
+        raise PlacementError(f"{source}: unknown key {show(unknown[0])}; allowed: {', '.join(SPEC_KEYS)}")
+    parsers = {
+        "robot": lambda v, w: parse_name(v, w),
+        "arms": parse_arms,
+        "samples": lambda v, w: parse_count(v, w, 1, MAX_SAMPLES),
+        "seed": lambda v, w: parse_count(v, w, 0, MAX_SEED),
+        "resolution": lambda v, w: parse_length(v, w, MIN_RESOLUTION, MAX_RESOLUTION),
+        "bins": parse_bins,
+        "index": lambda v, w: parse_choice(v, w, INDEXES),
+        "format": lambda v, w: parse_choice(v, w, FORMATS),
+        "self_collision": parse_flag,
+        "self_distance": parse_flag,
+        "completion": parse_flag,
+    }
+    return BuildSpec(**{key: parsers[key](value, f"{source}: {key}") for key, value in data.items()})
+
+
+#: a build spec file is read only up to this size [bytes] (the default one has under 1 kB)
+MAX_SPEC_BYTES = 1 << 20
+
+
+def load_build_spec(path: str | Path) -> BuildSpec:
+    """Read and check the build spec YAML at ``path``."""
+    source = f"build spec {path}"
+    try:
+        text = read_bounded(path, MAX_SPEC_BYTES).decode("utf-8")
+    except FileNotFoundError:
+        raise PlacementError(f"{source} not found") from None
+    except FileRefused as exc:  # a directory, FIFO, device or a file too large for a spec
+        raise PlacementError(f"build spec {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PlacementError(f"{source} cannot be read ({type(exc).__name__})") from None
+    return parse_build_spec_text(text, source)
+
+
+def parse_build_spec_text(text: str, source: str = "build spec") -> BuildSpec:
+    """Parse and check build spec YAML text (``source`` names it in errors)."""
+    try:
+        data = yaml.safe_load(text)
+    except (yaml.YAMLError, ValueError, OverflowError, RecursionError) as exc:  # ValueError: 2020-02-30
+        lines = str(exc).strip().splitlines() or [type(exc).__name__]
+        raise PlacementError(f"{source} is not valid YAML: {lines[0]}") from None
+    return parse_build_spec(data, source)

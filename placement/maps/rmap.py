@@ -1,0 +1,221 @@
+"""Opening, validating, saving and querying reachability maps."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from placement.errors import GridError, MapError, PlacementError
+from placement.kernels.grid import cell_indices
+from placement.maps.grid import Grid
+from placement.maps.witness import empty_value, plain_samples, witness_configs
+from placement.robots import Robot, load_robot
+from placement.storage import open_store
+from placement.storage.format import witness_name
+from placement.storage.output import MapOutput, check_target, save_maps
+from placement.storage.validate import TCP_TOLERANCE, check_root, validate_arm, validate_robot
+
+__all__ = [
+    "TCP_TOLERANCE",
+    "MapOutput",
+    "ReachabilityMap",
+    "check_root",
+    "check_target",
+    "open_map",
+    "save_maps",
+    "validate_arm",
+    "validate_robot",
+]
+
+
+class ReachabilityMap:
+    """One arm's map, opened lazily: slices are read on first use and cached.
+
+    Attributes:
+        path: where the map lives; arm: arm name; meta: the arm's metadata;
+        grid: the 6D :class:`Grid`; robot: the :class:`Robot` it was validated
+        against (None if opened without :func:`open_map`).
+    """
+
+    def __init__(self, store, arm: str, robot: Robot | None = None):
+        self.store = store
+        self.path = store.path
+        self.arm = arm
+        self.robot = robot
+        self.meta = store.arm_meta(arm)
+        self.grid = Grid.from_dict(self.meta["grid"])
+        self._slices: dict[tuple[int, int, int], np.ndarray] = {}
+        self._witness_slices: dict[tuple[int, int, int], np.ndarray] = {}
+        self._reach: dict[tuple[int, int, int], float] = {}
+        self._full: np.ndarray | None = None
+        self._full_witness: np.ndarray | None = None
+        self._plain = plain_samples(self.meta)
+        self._empty = int(self.meta["witness"]["empty"])
+        self._seed = int(self.meta["seed"])
+
+    def __repr__(self) -> str:
+        return f"ReachabilityMap({str(self.path)!r}, arm={self.arm!r}, shape={self.grid.shape})"
+
+    @property
+    def in_memory(self) -> bool:
+        """Whether the whole values array has been read (:meth:`load`)."""
+        return self._full is not None
+
+    def load(self) -> ReachabilityMap:
+        """Read the whole array into memory (faster for many scattered queries)."""
+        if self._full is None:
+            self._full = self.store.read_all(self.arm)
+        return self
+
+    @property
+    def values(self) -> np.ndarray:
+        """The whole 6D float32 array (x, y, z, yaw, pitch, roll), read on first use."""
+        self.load()
+        return self._full
+
+    @property
+    def witness(self) -> np.ndarray:
+        """The whole 6D witness array (uint32 or int64, see :mod:`placement.maps.witness`), read on first use."""
+        if self._full_witness is None:
+            self._full_witness = self.store.read_all(self.arm, witness=True)
+        return self._full_witness
+
+    def witness_slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
+        """Witnesses (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""
+        return self._chunk(self._full_witness, self._witness_slices, (iz, ip, ir), True)
+
+    def _chunk(self, full: np.ndarray | None, cache: dict, key: tuple, witness: bool) -> np.ndarray:
+        """Chunk ``key`` = (iz, ip, ir) of the values or witnesses: from the whole array if read, else
+        read once and cached."""
+        if full is not None:
+            return full[:, :, key[0], :, key[1], key[2]]
+        key = (int(key[0]), int(key[1]), int(key[2]))
+        s = cache.get(key)
+        if s is None:
+            s = cache[key] = self.store.read_chunk(self.arm, *key, witness=witness)
+        return s
+
+    def witness_q(self, pose_base) -> np.ndarray | None:
+        """The witness configuration of the cell holding a TCP pose, or None if that cell is empty or outside.
+
+        Args:
+            pose_base: (4, 4) TCP pose in the arm's base frame [m].
+
+        Returns:
+            (n,) joint values [rad or m] of the sample that set the cell's value (its FK lies in
+            the same cell), regenerated from the stored sample number; a few microseconds once the
+            cell's chunk is cached (the first use of a chunk reads it, ~1 ms).
+        """
+        T = np.ascontiguousarray(pose_base, dtype=float)
+        if T.shape != (4, 4):
+            raise PlacementError(f"pose must have shape (4, 4), got {T.shape}")
+        if self.robot is None:
+            raise PlacementError("witness_q needs the robot: open the map with placement.open_map")
+        g = self.grid
+        flat = int(cell_indices(T.reshape(1, 4, 4), g.origin_array, g.resolution, g.shape_array)[0])
+        if flat < 0:
+            return None
+        sx, sy, sz, s_yaw, sp, sr = g.shape
+        rest, ir = divmod(flat, sr)
+        rest, ip = divmod(rest, sp)
+        rest, iyaw = divmod(rest, s_yaw)
+        rest, iz = divmod(rest, sz)
+        ix, iy = divmod(rest, sy)
+        w = int(self.witness_slice(iz, ip, ir)[ix, iy, iyaw])
+        if w == self._empty:
+            return None
+        return witness_configs(self.robot.arm(self.arm), g, self._seed, self._plain, np.array([w]))[0]
+
+    def slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
+        """Values (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""
+        return self._chunk(self._full, self._slices, (iz, ip, ir), False)
+
+    def slice_reach(self, iz: int, ip: int, ir: int) -> float:
+        """Largest horizontal distance [m] from the base origin to any point of a reached cell of
+        slice (iz, ip, ir), over every yaw bin; -1 if the slice is empty. A TCP pose of this slice
+        farther than that from the base is unreachable at every base yaw."""
+        key = (int(iz), int(ip), int(ir))
+        r = self._reach.get(key)
+        if r is None:
+            hit = np.nonzero(self.slice(*key).any(axis=2))
+            if hit[0].size == 0:
+                r = -1.0
+            else:
+                g = self.grid
+                # the farthest corner of each reached cell
+                xs = g.origin[0] + g.resolution * np.stack([hit[0], hit[0] + 1])
+                ys = g.origin[1] + g.resolution * np.stack([hit[1], hit[1] + 1])
+                r = float(np.sqrt(np.max(np.abs(xs), axis=0) ** 2 + np.max(np.abs(ys), axis=0) ** 2).max())
+            self._reach[key] = r
+        return r
+
+    def value(self, T) -> np.ndarray:
+        """Map values of TCP poses T (4, 4) or (N, 4, 4) in the base frame -> (N,); 0 = unreachable."""
+        T = np.ascontiguousarray(T, dtype=float)
+        if T.shape[-2:] != (4, 4):
+            raise PlacementError(f"poses must have shape (4, 4) or (N, 4, 4), got {T.shape}")
+        T = T.reshape(-1, 4, 4)
+        g = self.grid
+        flat = g.index(T)
+        out = np.zeros(len(flat), dtype=np.float64)
+        ok = flat >= 0
+        if not ok.any():
+            return out
+        idx = np.unravel_index(flat[ok], g.shape)
+        if self._full is None and len(flat) > 2000:
+            self.load()
+        if self._full is not None:
+            out[ok] = self._full[idx]
+            return out
+        pos = np.flatnonzero(ok)
+        for k in range(len(pos)):
+            ix, iy, iz, iyaw, ip, ir = (int(a[k]) for a in idx)
+            out[pos[k]] = self.slice(iz, ip, ir)[ix, iy, iyaw]
+        return out
+
+    def verify(self) -> None:
+        """Read every chunk and compare it with its stored CRC32 (MapError if any is damaged)."""
+        self.store.read_all(self.arm)
+
+
+def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> ReachabilityMap:
+    """Open the map of ``arm`` at ``path`` (Zarr directory or HDF5 file), lazily.
+
+    The map is validated against ``robot`` (a :class:`Robot` or preset name/path);
+    by default against the preset recorded in the map. Checked here: the
+    metadata is complete, the format version, robot name, URDF hash, base frame
+    and fixed joints, the arm's joints (names, order, count), tip frame and TCP
+    offset (to 1e-9), the chunk checksum table and (Zarr) the stored chunk count.
+    Every later read checks each chunk's CRC32. Raises :class:`MapError` for a
+    missing, half-written, corrupt, foreign or outdated map.
+    """
+    path = Path(path)
+    store = open_store(path)
+    root = store.root
+    check_root(path, root)
+    if robot is None:
+        robot = root.get("preset") or root.get("robot")
+    if not isinstance(robot, Robot):
+        robot = load_robot(robot)
+    validate_robot(path, root, robot)
+    arms = list(root.get("arms") or [])
+    if arm not in arms:
+        raise MapError(f"{path}: no map for arm '{arm}'; it has: {', '.join(arms) or 'none'}")
+    try:
+        rmap = ReachabilityMap(store, arm, robot)  # its metadata checked against its digest and for its types
+    except GridError as exc:
+        raise MapError(f"{path}: metadata of arm '{arm}': {exc} (corrupt); rebuild the map") from None
+    if rmap.meta["witness"]["empty"] != empty_value(rmap.meta["witness"]["dtype"]):
+        raise MapError(f"{path}: metadata of arm '{arm}' is inconsistent (corrupt); rebuild the map")
+    validate_arm(path, rmap.meta, robot, arm)
+    store.check_arrays(arm)
+    for name, key in ((arm, "stored_chunks"), (witness_name(arm), "stored_witness_chunks")):
+        want = rmap.meta.get(key)
+        have = store.chunks_present(name)
+        if want is not None and have is not None and have != want:
+            raise MapError(
+                f"{path}: arm '{arm}' has {have} of {want} {'witness' if name != arm else 'data'} "
+                f"chunks (half-written or corrupt); rebuild the map"
+            )
+    return rmap

@@ -1,0 +1,312 @@
+"""The base of a robot read by ``placement robots init``: the frame on the floor and the footprint.
+
+Base frame: a root-level frame named ``*footprint*``, else the root link when it is on the floor (its
+origin within :data:`ON_FLOOR` of the lowest point of the robot's collision shapes), else (a root
+above the floor, as a humanoid's pelvis) the frame on the floor nearest the root's vertical axis.
+
+Footprint: the convex hull of the floor projection of the bounding boxes of every collision shape
+the arms do not move (through pinocchio/coal geometry), in the base frame, rounded outwards to the
+millimetre; without loadable collision shapes, a circle around the links' origins plus
+:data:`RADIUS_MARGIN`.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import os
+import stat
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from placement.errors import RobotError
+from placement.robots.footprint import contains_origin
+from placement.robots.spec import share_dir
+from placement.validation import one_line
+
+#: A root link whose origin is this close to the floor [m] is on the floor.
+ON_FLOOR = 0.05
+#: Added to the links' origins when the footprint cannot come from collision shapes [m].
+RADIUS_MARGIN = 0.1
+#: Largest collision mesh file read [bytes] (a binary STL of 335,000 triangles; Romeo's largest is
+#: 3.9 MB) and most triangles over all collision meshes once loaded: a random-soup mesh of 200,000
+#: triangles takes 20 s in init; Romeo has 105,000.
+MAX_MESH_BYTES = 16 * 2**20
+MAX_COLLISION_TRIANGLES = 250_000
+
+
+@dataclass
+class Base:
+    """What init found about the base.
+
+    Attributes:
+        frame: base frame name.
+        footprint: (k, 2) [m] counter-clockwise polygon in the base frame, or None (use ``radius``).
+        radius: [m] circumscribed radius (of the polygon, or the circle when footprint is None).
+        notes: plain words on how each value was found; warnings: what was guessed.
+    """
+
+    frame: str
+    footprint: np.ndarray | None
+    radius: float
+    notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+def package_dirs(urdf: Path) -> list[str]:
+    """Folders to resolve ``package://`` mesh paths: example-robot-data's and the URDF's parents."""
+    out = [str(p) for p in list(Path(urdf).resolve().parents)[:3]]
+    try:
+        out.insert(0, str(share_dir()))
+    except Exception:  # example-robot-data not installed: only the URDF's own folders
+        pass
+    return out
+
+
+def _mesh_path(name: str, urdf: Path) -> Path | None:
+    """The file a URDF mesh ``filename`` names, as pinocchio looks for it; None when none exists."""
+    if name.startswith("file://"):
+        name = name[len("file://") :]
+    if name.startswith("package://"):
+        rest = name[len("package://") :]
+        options = [Path(d) / rest for d in package_dirs(urdf)]
+    else:
+        p = Path(name).expanduser()
+        options = [p] if p.is_absolute() else [Path(urdf).parent / p, Path.cwd() / p]
+    for p in options:
+        try:
+            if os.path.lexists(p):
+                return p
+        except (OSError, ValueError):
+            pass
+    return None
+
+
+def _numbers(text: str | None, n: int) -> list[float] | None:
+    """The floats of a URDF attribute (``n`` of them, or 1 for a uniform scale), None if unreadable."""
+    try:
+        v = [float(t) for t in (text or "").split()]
+    except ValueError:
+        return None
+    return v if len(v) in (n, 1 if n == 3 else n) else None
+
+
+def _shape_problem(geometry, urdf: Path) -> str:
+    """Why a collision ``<geometry>`` cannot be used ("" when it can)."""
+    for kind, attrs in (
+        ("box", {"size": 3}),
+        ("cylinder", {"radius": 1, "length": 1}),
+        ("sphere", {"radius": 1}),
+        ("mesh", {"scale": 3}),
+    ):
+        el = geometry.find(kind)
+        if el is None:
+            continue
+        for attr, n in attrs.items():
+            if kind == "mesh" and el.get(attr) is None:
+                continue
+            v = _numbers(el.get(attr), n)
+            # a mesh may be mirrored (a negative scale); nothing may be flat, NaN or infinite
+            if v is None or not all(math.isfinite(x) and (x != 0 if kind == "mesh" else x > 0) for x in v):
+                return f"{kind} {attr} '{el.get(attr)}' (needs finite, non-zero numbers)"
+        if kind == "mesh":
+            path = _mesh_path(el.get("filename", ""), urdf)
+            if path is None:
+                return ""  # pinocchio reports a missing mesh itself
+            try:
+                st = os.stat(path)
+            except OSError as exc:
+                return f"mesh {path}: {exc.strerror or exc}"
+            if not stat.S_ISREG(st.st_mode):
+                return f"mesh {path} is not a regular file"
+            if st.st_size > MAX_MESH_BYTES:
+                return (
+                    f"mesh {path} is {st.st_size / 2**20:.3g} MiB, more than the {MAX_MESH_BYTES // 2**20} MiB allowed"
+                )
+        return ""
+    return ""
+
+
+def screen_collisions(xml: str, urdf: Path) -> tuple[str, list[str]]:
+    """(the URDF text without the ``<collision>`` shapes that cannot be used, warnings naming them).
+
+    Unusable: a mesh with a zero, negative or NaN scale (coal crashes on its hull), a mesh that is not
+    a regular file or is larger than :data:`MAX_MESH_BYTES`, a primitive with a size that is not a
+    positive finite number, an origin that is not finite."""
+    try:
+        root = ET.fromstring(xml)
+    except ET.ParseError:
+        return xml, []
+    warnings = []
+    for link in root.iter("link"):
+        for col in list(link.findall("collision")):
+            origin = col.find("origin")
+            why = ""
+            if origin is not None:
+                for attr in ("xyz", "rpy"):
+                    v = _numbers(origin.get(attr, "0 0 0"), 3)
+                    if v is None or not all(math.isfinite(x) for x in v):
+                        why = f"origin {attr} '{origin.get(attr)}'"
+            geometry = col.find("geometry")
+            why = why or ("" if geometry is None else _shape_problem(geometry, urdf))
+            if why:
+                link.remove(col)
+                warnings.append(
+                    f"link '{link.get('name')}': a collision shape is left out ({why}): it is not in "
+                    "the footprint nor in the self-collision sampling; fix the URDF before planning with "
+                    "collision checks"
+                )
+    if not warnings:
+        return xml, []
+    return ET.tostring(root, encoding="unicode"), warnings
+
+
+def load_collision(model: pin.Model, xml: str, urdf: Path):
+    """(pinocchio GeometryModel of the usable ``<collision>`` shapes (see :func:`screen_collisions`),
+    "") or (None, reason). Raises :class:`RobotError` when the meshes hold more than
+    :data:`MAX_COLLISION_TRIANGLES` triangles."""
+    xml, _ = screen_collisions(xml, urdf)
+    try:
+        geom = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION, package_dirs=package_dirs(urdf))
+    except Exception as exc:  # a mesh that cannot be found or read
+        return None, one_line(" ".join(str(exc).split()))[:160]
+    tris = sum(int(getattr(o.geometry, "num_tris", 0) or 0) for o in geom.geometryObjects)
+    if tris > MAX_COLLISION_TRIANGLES:
+        raise RobotError(
+            f"{urdf}: the collision meshes hold {tris} triangles, more than the "
+            f"{MAX_COLLISION_TRIANGLES} allowed: use simplified collision meshes"
+        )
+    return geom, ""
+
+
+def collision_boxes(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip: set[int]):
+    """((m, 8, 3) corners [m] of the bounding boxes of collision shapes not on joints ``skip``, in the
+    root frame at ``q``) or (None, reason)."""
+    geom, why = load_collision(model, xml, urdf)
+    if geom is None:
+        return None, why
+    gdata = geom.createData()
+    dropped: list[str] = []
+    data = model.createData()
+    pin.updateGeometryPlacements(model, data, geom, gdata, q)
+    boxes = []
+    for k, obj in enumerate(geom.geometryObjects):
+        if obj.parentJoint in skip:
+            continue
+        obj.geometry.computeLocalAABB()
+        lo, hi = np.array(obj.geometry.aabb_local.min_), np.array(obj.geometry.aabb_local.max_)
+        corners = np.array(list(itertools.product(*zip(lo, hi))))
+        M = gdata.oMg[k]
+        corners = corners @ M.rotation.T + M.translation
+        if not np.all(np.isfinite(corners)):
+            dropped.append(obj.name)
+            continue
+        boxes.append(corners)
+    if dropped:
+        why = f"collision shapes {', '.join(dropped[:5])} have a bounding box that is not finite"
+    if not boxes:
+        return None, why or "no collision shapes outside the arms"
+    return np.array(boxes), why
+
+
+def _turn(a, b, c) -> float:
+    """z of (b - a) x (c - a): positive for a left turn."""
+    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+
+def hull(points: np.ndarray) -> np.ndarray:
+    """(k, 2) counter-clockwise convex hull of (m, 2) points (monotone chain)."""
+    pts = sorted(set(map(tuple, np.round(points, 9))))
+    if len(pts) < 3:
+        return np.array(pts)
+
+    def half(seq):
+        out = []
+        for p in seq:
+            while len(out) >= 2 and _turn(out[-2], out[-1], p) <= 0:
+                out.pop()
+            out.append(p)
+        return out
+
+    lower, upper = half(pts), half(pts[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def find_base(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, arm_joints: set[int]) -> Base:
+    """Base frame and footprint of ``model`` at ``q``; ``arm_joints``: joints of the arms and hands."""
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    boxes, why = collision_boxes(model, xml, urdf, q, arm_joints)
+    frames_z = [data.oMf[i].translation[2] for i in range(len(model.frames))]
+    floor = float(min(frames_z) if boxes is None else min(boxes[..., 2].min(), min(frames_z)))
+    root = next(i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY)
+    notes, warnings = [], list(screen_collisions(xml, urdf)[1])
+    if boxes is not None and why:  # shapes left out of the footprint
+        warnings.append(f"{why}: they are left out of the footprint")
+    prints = [i for i, f in enumerate(model.frames) if f.parentJoint == 0 and "footprint" in f.name.lower()]
+    root_z = float(data.oMf[root].translation[2]) - floor
+    if prints:
+        base = prints[0]
+        notes.append(f"base frame '{model.frames[base].name}': named as a footprint, on the root")
+    elif root_z <= ON_FLOOR:
+        base = root
+        notes.append(
+            f"base frame '{model.frames[base].name}': the root link, {root_z:.3f} m above the robot's lowest point"
+        )
+    else:
+        axis = data.oMf[root].translation[:2]
+        low = [
+            i
+            for i in range(len(model.frames))
+            if model.frames[i].type == pin.FrameType.BODY
+            and model.frames[i].parentJoint not in arm_joints
+            and frames_z[i] - floor <= ON_FLOOR
+        ]
+        if low:
+            base = min(low, key=lambda i: (np.linalg.norm(data.oMf[i].translation[:2] - axis), i))
+            off = float(np.linalg.norm(data.oMf[base].translation[:2] - axis))
+            warnings.append(
+                f"the root link '{model.frames[root].name}' is {root_z:.2f} m above the floor; the base "
+                f"frame is '{model.frames[base].name}' on the floor, {off:.3f} m off the root's "
+                "vertical axis (with every other joint at its neutral value)"
+            )
+        else:
+            base = root
+            warnings.append(
+                f"the root link '{model.frames[root].name}' is {root_z:.2f} m above the robot's lowest "
+                "point and no frame lies on the floor: heights are measured from the root; edit base_frame"
+            )
+    B = data.oMf[base].inverse()
+    if boxes is None:
+        pts = np.array(
+            [
+                (B * data.oMf[i]).translation[:2]
+                for i in range(len(model.frames))
+                if model.frames[i].parentJoint not in arm_joints
+            ]
+        )
+        radius = float(np.max(np.hypot(pts[:, 0], pts[:, 1]))) + RADIUS_MARGIN
+        warnings.append(
+            f"no collision geometry for the footprint ({why}); footprint_radius is the farthest "
+            f"link origin + {RADIUS_MARGIN} m: measure the base"
+        )
+        return Base(model.frames[base].name, None, round(radius, 3), notes, warnings)
+    flat = boxes.reshape(-1, 3) @ B.rotation.T + B.translation
+    poly = hull(flat[:, :2])
+    poly = np.sign(poly) * np.ceil(np.abs(poly) * 1000) / 1000
+    if len(poly) < 3 or not contains_origin(poly):
+        radius = float(np.max(np.hypot(flat[:, 0], flat[:, 1])))
+        warnings.append(
+            "the collision shapes' outline does not surround the base frame's origin; footprint_radius "
+            "is their farthest point: check the base frame"
+        )
+        return Base(model.frames[base].name, None, round(radius + 0.005, 3), notes, warnings)
+    notes.append(
+        f"footprint: convex hull of the floor projection of the bounding boxes of {len(boxes)} collision "
+        "shapes the arms do not move"
+    )
+    return Base(model.frames[base].name, poly, float(np.max(np.hypot(poly[:, 0], poly[:, 1]))), notes, warnings)
