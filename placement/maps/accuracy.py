@@ -74,8 +74,8 @@ def check_map(
         seed: 0 .. 2^64 - 1, seed of the cell draws and of the IK restarts (deterministic).
         threshold: map value at or below which a cell counts as unreachable
             (0 = never reached; the planner's feasibility threshold otherwise).
-        ik_seeds, max_iter: IK start configurations and iterations per start
-            (see :func:`placement.kinematics.ik.solve_ik`).
+        ik_seeds: IK start configurations (see :func:`placement.kinematics.ik.solve_ik`).
+        max_iter: IK iterations per start.
         pose_level: also the honest pose-level metrics (:func:`pose_metrics`, same samples and
             seed), under ``pose_level``; the cell-level numbers above use a cell-sized tolerance.
         progress: optional ``progress(done, total)`` called after each IK solve.
