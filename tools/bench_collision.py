@@ -8,7 +8,8 @@ placement (wall clock and CPU time), and the median time of a single check:
 * random: bases 0.40-0.75 m in front of a pick table, facing it, with random arm configurations whose
   TCP is within 0.4 m of the table top (pre-pose and pose 5 cm apart in joint space).
 
-Run: ``.venv/bin/python tools/bench_collision.py [--maps maps/pr2] [--runs 5]``; prints a Markdown table.
+Run: ``.venv/bin/python tools/bench_collision.py [--maps maps/pr2] [--runs 5]``; prints a Markdown table and
+writes it to docs/bench/collision.md (atomically; ``--out`` elsewhere), which docs/benchmarks.md includes.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from bench_output import write_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # measure this checkout, not an installed copy
@@ -95,6 +97,9 @@ def main() -> None:
     ap.add_argument("--scene", default=str(ROOT / "examples/table_clearing.yaml"))
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--random", type=int, default=200, help="random placements near the tables")
+    ap.add_argument(
+        "--out", default=str(ROOT / "docs/bench/collision.md"), help="the table's file (the docs include it)"
+    )
     args = ap.parse_args()
 
     import placement
@@ -110,20 +115,25 @@ def main() -> None:
     }
     for placements in sets.values():  # warm-up: geometry, arm pairs
         timed(checker, placements[:3], 1)
-    print(
+    lines = [
         f"Collision check per placement (2-pose trajectory), PR2, {Path(args.scene).name}; "
-        f"median of {args.runs} runs over each set\n"
-    )
-    print("| placements | count | free | mean per placement [ms] | CPU per placement [ms] | median check [ms] |")
-    print("|---|---:|---:|---:|---:|---:|")
+        f"median of {args.runs} runs over each set",
+        "",
+        "| placements | count | free | mean per placement [ms] | CPU per placement [ms] | median check [ms] |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
     for name, placements in sets.items():
         mean, cpu, med, free = timed(checker, placements, args.runs)
-        print(f"| {name} | {len(placements)} | {free} | {mean:.2f} | {cpu:.2f} | {med:.2f} |")
+        lines.append(f"| {name} | {len(placements)} | {free} | {mean:.2f} | {cpu:.2f} | {med:.2f} |")
     load = f", load average {os.getloadavg()[0]:.1f}" if hasattr(os, "getloadavg") else ""
-    print(
-        f"\nMachine: {platform.machine()} {platform.processor() or ''}, {os.cpu_count()} CPUs{load}, "
-        f"Python {platform.python_version()}"
-    )
+    lines += [
+        "",
+        f"Machine: {platform.machine()} {platform.processor() or ''}, {os.cpu_count()} CPUs{load}, "
+        f"Python {platform.python_version()}",
+    ]
+    text = "\n".join(lines) + "\n"
+    write_atomic(Path(args.out), text)
+    print(text, end="")
 
 
 if __name__ == "__main__":

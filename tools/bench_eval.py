@@ -19,7 +19,8 @@ best wall time of each counts: on a shared machine other work only ever slows a 
 Prints the wall times, dask/local, the efficiency per core (serial / (workers * wall)), the
 CPU time of each run (this process, its pool and the Dask workers: a measure of the work done
 that other load hardly changes) and whether all results are identical (timings aside); exits 1
-if they are not.
+if they are not. Writes each comparison to docs/bench/dask_evaluate.md and docs/bench/dask_build.md
+(atomically; ``--out`` elsewhere), which docs/benchmarks.md includes.
 """
 
 from __future__ import annotations
@@ -34,10 +35,26 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench_output import write_atomic
+
 from placement.evaluation import evaluate, write_scenes
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGET = 1.15  # the issue's bound on dask / local wall time
+
+
+def numba_threads() -> int:
+    import numba
+
+    return numba.get_num_threads()
+
+
+def shown(path: str) -> str:
+    """``path`` relative to the checkout when it lies in it (the tables name maps/pr2, not /home/...)."""
+    try:
+        return str(Path(path).resolve().relative_to(ROOT))
+    except ValueError:
+        return path
 
 
 def without_timings(doc: dict) -> dict:
@@ -61,25 +78,36 @@ def cpu_seconds(client) -> float:
     return own + children.ru_utime + children.ru_stime + sum(client.run(time.process_time).values())
 
 
-def report(runs: dict[str, list[float]], cpu: dict[str, list[float]], n: int) -> dict[str, float]:
-    """Print the best wall time of each run kind, its efficiency per core and its median CPU time;
-    return the best times."""
+def report(
+    title: str, labels: tuple[str, str, str], runs: dict[str, list[float]], cpu: dict[str, list[float]], n: int
+) -> list[str]:
+    """The Markdown table of the best wall time of each run kind (``labels``: the row names of serial,
+    local and dask; dask's gets the worker count), its efficiency per core and its median CPU time,
+    and the dask / local ratio below it."""
+    serial, local, dask = labels
+    names = {"serial": serial, "local": local, "dask": dask.replace("Dask", f"Dask, {n} workers", 1)}
     walls = {name: min(times) for name, times in runs.items() if times}
-    print("| run | wall [s] (all runs) | efficiency per core | CPU [s], median |")
-    print("|---|---|---|---|")
+    lines = [f"| {title} | wall [s], best (all runs) | efficiency per core | CPU [s], median |", "|---|---|---|---|"]
     for name, wall in walls.items():
         cores = 1 if name == "serial" else n
         eff = f"{walls['serial'] / (cores * wall):.2f}" if "serial" in walls else "-"
-        print(
-            f"| {name} | {wall:.1f} ({', '.join(f'{w:.1f}' for w in runs[name])}) | {eff} | "
-            f"{statistics.median(cpu[name]):.1f} |"
-        )
+        every = f" ({', '.join(f'{w:.1f}' for w in runs[name])})" if len(runs[name]) > 1 else ""
+        lines.append(f"| {names[name]} | {wall:.1f}{every} | {eff} | {statistics.median(cpu[name]):.1f} |")
     ratio = walls["dask"] / walls["local"]
-    print(
+    lines += [
+        "",
         f"dask / local wall time: {ratio:.3f} ({'within' if ratio <= TARGET else 'NOT within'} "
-        f"the {100 * (TARGET - 1):.0f} % target)"
-    )
-    return walls
+        f"the {100 * (TARGET - 1):.0f} % target)",
+    ]
+    return lines
+
+
+def write_report(args, name: str, head: str, table: tuple, same: str) -> None:
+    """Print one comparison (``table``: ``report``'s arguments but ``n``) and write it to ``--out``/``name``
+    (a table docs/benchmarks.md includes), atomically."""
+    text = "\n".join([f"{head}; {args.machine}", "", *report(*table, args.workers), same]) + "\n"
+    print("\n" + text, end="")
+    write_atomic(Path(args.out) / name, text)
 
 
 def alternate(repeat: int, run) -> None:
@@ -108,9 +136,18 @@ def bench_evaluation(args, client) -> bool:
             run("serial")
         alternate(args.repeat, run)
     same = all(without_timings(d) == without_timings(docs[0]) for d in docs)
-    print(f"\nEvaluation: {args.count} scenes (seed {args.seed}), {len(docs[0]['methods'])} methods, maps {args.maps}")
-    report(runs, cpu, args.workers)
-    print(f"results identical (timings aside): {'yes' if same else 'NO'}")
+    write_report(
+        args,
+        "dask_evaluate.md",
+        f"Evaluation: {args.count} scenes (seed {args.seed}), {len(docs[0]['methods'])} methods, maps {shown(args.maps)}",
+        (
+            f"evaluation, {args.count} scenes",
+            (f"one process (numba on {numba_threads()} threads)", f"local, `--workers {args.workers}`", "Dask"),
+            runs,
+            cpu,
+        ),
+        f"results identical (timings aside): {'yes' if same else 'NO'}",
+    )
     return same
 
 
@@ -143,12 +180,19 @@ def bench_build(args, client) -> bool:
         run("serial")
     alternate(args.repeat, run)
     same = all(np.array_equal(m, maps[0]) for m in maps)
-    print(
-        f"\nMap build: PR2 right arm, {args.build_samples:,} samples at 0.1 m, bins 20,9,20 "
-        f"(local: one process, {threads} numba threads)"
+    write_report(
+        args,
+        "dask_build.md",
+        f"Map build: PR2 right arm, {args.build_samples:,} samples at 0.1 m, bins 20,9,20 "
+        f"(local: one process, {threads} numba threads)",
+        (
+            f"map build, {args.build_samples / 1e6:g} M samples",
+            ("one thread", f"local, {threads} numba threads", "Dask (`build_map(client=)`)"),
+            runs,
+            cpu,
+        ),
+        f"maps identical: {'yes' if same else 'NO'}",
     )
-    report(runs, cpu, args.workers)
-    print(f"maps identical: {'yes' if same else 'NO'}")
     return same
 
 
@@ -166,13 +210,21 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2, help="local processes = Dask workers (default 2)")
     ap.add_argument("--repeat", type=int, default=3, help="runs of local and of dask each (default 3)")
     ap.add_argument("--no-serial", action="store_true", help="skip the serial runs (no efficiency then)")
+    ap.add_argument(
+        "--out",
+        default=str(ROOT / "docs/bench"),
+        help="folder of the tables docs/benchmarks.md includes (dask_evaluate.md, dask_build.md)",
+    )
     args = ap.parse_args(argv)
     if args.count and not Path(args.maps, "zarr.json").is_file() and not Path(args.maps).is_file():
         print(f"error: --maps {args.maps}: no maps there (make maps)", file=sys.stderr)
         return 2
     from dask.distributed import Client, LocalCluster
 
-    print(f"load average {os.getloadavg()[0]:.2f} at the start; best of {args.repeat} runs each")
+    args.machine = (
+        f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at the start; best of {args.repeat} runs each"
+    )
+    print(args.machine)
     # one numba thread per worker process: the workers already use every core between them
     cluster, start = timed(
         lambda: LocalCluster(

@@ -10,7 +10,8 @@ old format version, same values):
 * the first step of a fresh process (cold map slices, warm JIT cache);
 * an update (an object moved) plus the re-planned next placement, on a live planner.
 
-Needs the maps (`make maps`, `make maps-armar6`). Prints a Markdown table and writes docs/bench_query.md.
+Needs the maps (`make maps`, `make maps-armar6`). Prints a Markdown table and writes it to docs/bench/query.md
+(atomically), which docs/benchmarks.md includes.
 """
 
 from __future__ import annotations
@@ -24,6 +25,8 @@ import statistics
 import subprocess
 import sys
 from pathlib import Path
+
+from bench_output import write_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = {"navigation": 1.39, "manipulation": 1053.94, "heuristic": 58.20, "combine": 4.93, "total": 1118.49}
@@ -205,8 +208,7 @@ def main(argv=None) -> int:
             fo, fn = (f"{v:.2f}" if v is not None else "-" for v in (o, n))
             lines.append(f"| {robot} | {scene} | {label} | {fo} | {fn} | {ratio} | {PAPER.get(k, '-')} |")
     text = "\n".join(lines)
-    (ROOT / "docs").mkdir(exist_ok=True)
-    (ROOT / "docs/bench_query.md").write_text(text + "\n")
+    write_atomic(ROOT / "docs/bench/query.md", text + "\n")
     print(text)
     subprocess.run(["git", "worktree", "remove", "--force", str(base_dir)], cwd=ROOT, capture_output=True)
     return 0
