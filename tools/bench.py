@@ -1,8 +1,9 @@
 """`make bench`: kernel and end-to-end speed, map quality; prints a Markdown table.
 
 Every timing is the median of several runs on this machine; ratios compare
-against baselines measured in the same run. Writes docs/bench.md and
-docs/convergence.png.
+against baselines measured in the same run. Writes the table to docs/bench/map_build.md (which
+docs/benchmarks.md includes), its data to docs/bench/map_build.json and the convergence figure to
+docs/bench/convergence.png, each atomically (``--out`` another folder).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from pathlib import Path
 import numba
 import numpy as np
 from bench_kernels import kernel_rows, machine, median_time
+from bench_output import write_atomic, write_file_atomic
 
 import placement
 from placement.kernels.kinematics import fk_jacobian_batch
@@ -39,7 +41,7 @@ def main(argv=None):
         help="end-to-end builds of one arm (the median is reported; the full build adds one per arm)",
     )
     ap.add_argument("--spec", default=str(ROOT / "maps/pr2.yaml"))
-    ap.add_argument("--out", default=str(ROOT / "docs"))
+    ap.add_argument("--out", default=str(ROOT / "docs/bench"), help="folder of map_build.md, .json, convergence.png")
     ap.add_argument(
         "--check", type=int, default=150, help="IK checks per class (cell level) and per metric (pose level)"
     )
@@ -229,18 +231,18 @@ def main(argv=None):
                 f"{100 * (c['precision'] or 0):.0f} %"
                 for c in convergence
             ),
-            "docs/convergence.png",
+            "docs/bench/convergence.png",
         )
     )
 
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     _plot(curve, convergence, grid.size, out / "convergence.png", f"{robot.name}/{arm}, grid {grid.shape}")
     table = ["| measurement | value | ratio / detail |", "|---|---|---|"]
     table += [f"| {a} | {b} | {c} |" for a, b, c in rows]
     text = "\n".join([f"Machine: {machine()}", "", *table, ""])
-    (out / "bench.md").write_text(text)
-    (out / "bench.json").write_text(
+    write_atomic(out / "map_build.md", text)
+    write_atomic(
+        out / "map_build.json",
         json.dumps(
             {
                 "rows": rows,
@@ -250,7 +252,7 @@ def main(argv=None):
             },
             indent=1,
             default=str,
-        )
+        ),
     )
     print(text)
 
@@ -352,7 +354,7 @@ def _plot(curve, convergence, cells, path, title):
     ax.legend(lines, [ln.get_label() for ln in lines], loc="lower right", fontsize=8)
     ax.set_title(f"Map convergence ({title})", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    write_file_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
     plt.close(fig)
 
 
