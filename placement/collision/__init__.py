@@ -4,7 +4,8 @@
 :mod:`placement.collision.checker` for the pairs and rules, :mod:`.robot` and :mod:`.scene` for the geometry.
 """
 
-from placement.collision.checker import CLEARANCE_CAP, CollisionResult, SceneCollision, base_matrix
+from placement.collision.bounds import base_matrix
+from placement.collision.checker import CLEARANCE_CAP, SceneCollision
 from placement.collision.robot import (
     CollisionGeometryWarning,
     RobotGeometry,
@@ -13,6 +14,7 @@ from placement.collision.robot import (
     robot_geometry,
 )
 from placement.collision.scene import PRISM_HEIGHT, OccupancyCells, SceneShape, scene_shapes
+from placement.collision.tables import CollisionResult
 
 __all__ = [
     "CLEARANCE_CAP",

@@ -23,17 +23,26 @@ trajectory gets distance queries, in order of the bound, until the bound exceeds
 from __future__ import annotations
 
 import heapq
-from dataclasses import dataclass
+from collections.abc import Collection, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import coal
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
+from placement.collision.bounds import base_matrix, box_distance, model_aabb
 from placement.collision.held import HeldCheck
-from placement.collision.robot import robot_geometry
+from placement.collision.robot import ArmShapes, robot_geometry
 from placement.collision.scene import OccupancyCells, PieceGrid, SceneShape, scene_shapes
+from placement.collision.tables import CollisionResult, Instances, Operand, Pairs, ScenePieces
 from placement.errors import PlacementError
 from placement.robots import Robot
+
+if TYPE_CHECKING:
+    from placement.planning.transfer import Held
+    from placement.scene import Scene
 
 #: Distances are measured up to this [m]; a free trajectory farther from everything reports it.
 CLEARANCE_CAP = 0.2
@@ -46,53 +55,6 @@ GRID_SLACK = 1e-6
 
 #: [m] a convex hull this much farther than the best distance so far is not measured exactly.
 HULL_SLACK = 1e-5
-
-_CORNERS = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=bool)
-
-
-@dataclass(frozen=True)
-class CollisionResult:
-    """Outcome of :meth:`SceneCollision.check`.
-
-    Attributes:
-        free: no pair collides.
-        clearance_m: free: the smallest distance over the checked pairs, capped at the checker's
-            ``clearance_cap`` [m]; colliding: the signed distance of ``culprit`` (negative: penetration
-            depth; >= 0 only when it is within ``padding``).
-        culprit: ``"r_gripper_palm_link vs table_1"``: the first colliding pair found, or when free the
-            closest pair (None when nothing is within the cap). Robot shapes are named by their link,
-            occupancy cells as ``occupancy[row,col]``.
-        pose: index of the trajectory pose of ``culprit``, None for a part of the robot the arm does
-            not move (or no culprit).
-    """
-
-    free: bool
-    clearance_m: float
-    culprit: str | None
-    pose: int | None = None
-
-
-def base_matrix(x: float, y: float, yaw: float) -> np.ndarray:
-    """(4, 4) pose of the base frame on the floor at (x, y) [m], heading ``yaw`` [rad]."""
-    B = np.eye(4)
-    c, s = np.cos(yaw), np.sin(yaw)
-    B[:2, :2] = [[c, -s], [s, c]]
-    B[:2, 3] = (x, y)
-    return B
-
-
-def box_distance(centres: np.ndarray, aabb: np.ndarray) -> np.ndarray:
-    """(N, S) distances [m] from points (N, 3) to boxes (S, 2, 3) (0 inside)."""
-    lo, hi = aabb[None, :, 0], aabb[None, :, 1]
-    p = centres[:, None, :]
-    return np.linalg.norm(np.maximum(lo - p, 0.0) + np.maximum(p - hi, 0.0), axis=2)
-
-
-def model_aabb(aabb: np.ndarray, A: np.ndarray) -> np.ndarray:
-    """(S, 2, 3) boxes ``aabb`` (S, 2, 3) moved by ``A`` (4, 4), bounded again by axis-aligned boxes."""
-    corners = np.where(_CORNERS[None], aabb[:, None, 1], aabb[:, None, 0])  # (S, 8, 3)
-    moved = corners @ A[:3, :3].T + A[:3, 3]
-    return np.stack([moved.min(axis=1), moved.max(axis=1)], axis=1)
 
 
 class SceneCollision:
@@ -107,8 +69,13 @@ class SceneCollision:
     """
 
     def __init__(
-        self, robot: Robot, scene, padding: float = 0.0, clearance_cap: float = CLEARANCE_CAP, package_dirs=()
-    ):
+        self,
+        robot: Robot,
+        scene: Scene,
+        padding: float = 0.0,
+        clearance_cap: float = CLEARANCE_CAP,
+        package_dirs: Sequence[Path | str] = (),
+    ) -> None:
         if not (np.isfinite(padding) and padding >= 0) or not (np.isfinite(clearance_cap) and clearance_cap > 0):
             raise PlacementError(
                 f"collision check: padding ({padding}) must be >= 0 and clearance_cap ({clearance_cap}) > 0 [m]"
@@ -131,12 +98,12 @@ class SceneCollision:
     #: there are at least :data:`GRID_PIECES` of them, so that a check looks only at those near the robot.
     prefilter = True
 
-    def update(self, scene) -> None:
+    def update(self, scene: Scene) -> None:
         """Take the scene's obstacles, objects and occupancy map as they are now (after moves)."""
         shapes: list[SceneShape] = scene_shapes(scene)
         objects = [o.name for o in scene.objects]
         names = set(objects)
-        object_of = [s.name if s.name in names else None for s in shapes]
+        object_of: list[str | None] = [s.name if s.name in names else None for s in shapes]
         aabb = np.array([s.aabb for s in shapes]).reshape(-1, 2, 3)
         occ = getattr(scene, "occupancy", None)
         cells = OccupancyCells(occ) if occ is not None else None
@@ -158,18 +125,26 @@ class SceneCollision:
         return tilt if tilt <= 1e-9 and R[2, 2] > 0 else None
 
     # -- the check -----------------------------------------------------
-    def check(self, arm: str, qs, base, grasped: str | None = None, gone=(), held=None) -> CollisionResult:
+    def check(
+        self,
+        arm: str,
+        qs: npt.ArrayLike,
+        base: tuple[float, float, float] | npt.NDArray[np.float64],
+        grasped: str | None = None,
+        gone: Collection[str] = (),
+        held: Held | None = None,
+    ) -> CollisionResult:
         """Check the configurations ``qs`` (P, n) [rad/m] of ``arm`` with the base at ``base``
         (x [m], y [m], yaw [rad]); the gripper may touch the object named ``grasped``; the objects
         named in ``gone`` are not where the scene has them (already carried away) and are skipped;
         ``held`` (a :class:`~placement.planning.transfer.Held`): the object the gripper carries,
         checked along with the arm (see :mod:`placement.collision.held`)."""
         shapes = self.geometry.arm_shapes(arm)
-        qs = np.atleast_2d(np.asarray(qs, dtype=float))
+        Q = np.atleast_2d(np.asarray(qs, dtype=float))
         n = self.robot.arm(arm).dof
-        if qs.ndim != 2 or qs.shape[1] != n or not np.all(np.isfinite(qs)):
+        if Q.ndim != 2 or Q.shape[1] != n or not np.all(np.isfinite(Q)):
             raise PlacementError(
-                f"collision check: qs must be (poses, {n}) finite joint values of arm '{arm}', got shape {qs.shape}"
+                f"collision check: qs must be (poses, {n}) finite joint values of arm '{arm}', got shape {Q.shape}"
             )
         for name in ([grasped] if grasped is not None else []) + list(gone):
             if name not in self.objects:
@@ -178,7 +153,7 @@ class SceneCollision:
                     f"{', '.join(self.objects) or '(none)'}"
                 )
         A = self.geometry.base_in_model @ np.linalg.inv(base_matrix(*(float(v) for v in base)))
-        inst = self._instances(arm, qs, shapes)
+        inst = self._instances(arm, Q, shapes)
         scene = self._scene_in_model(A, inst)
         pairs = self._pairs(inst, scene, shapes, grasped, frozenset(gone))
         hit = self._first_collision(pairs, inst, scene)
@@ -186,13 +161,22 @@ class SceneCollision:
             return hit
         if held is None:
             return self._closest(pairs, inst, scene)
-        carried = self._held(arm, qs, base, held, A, inst, frozenset(gone) | {held.name})
+        carried = self._held(arm, Q, base, held, A, inst, frozenset(gone) | {held.name})
         if not carried.free:
             return carried
         free = self._closest(pairs, inst, scene)
         return free if free.clearance_m <= carried.clearance_m else carried
 
-    def _held(self, arm: str, qs: np.ndarray, base, held, A: np.ndarray, inst: dict, skip) -> CollisionResult:
+    def _held(
+        self,
+        arm: str,
+        qs: npt.NDArray[np.float64],
+        base: tuple[float, float, float] | npt.NDArray[np.float64],
+        held: Held,
+        A: npt.NDArray[np.float64],
+        inst: Instances,
+        skip: frozenset[str],
+    ) -> CollisionResult:
         """The held object along the trajectory against the scene and the robot (see held.py)."""
         B = base_matrix(*(float(v) for v in base))
         world = np.array([B @ self.robot.tcp_pose(arm, q) @ held.tcp_to_object for q in qs])
@@ -213,22 +197,22 @@ class SceneCollision:
             return CollisionResult(False, d, f"{name} vs {self.geometry.names[int(inst['id'][k])]}", pose)
         return CollisionResult(True, clearance, None if clearance >= self.cap else name, None)
 
-    def _instances(self, arm: str, qs: np.ndarray, shapes) -> dict:
+    def _instances(self, arm: str, qs: npt.NDArray[np.float64], shapes: ArmShapes) -> Instances:
         """Robot shapes to test, in the model frame: the static ones once, the moving ones per pose."""
         model, geo = self.robot.model, self.geometry
-        ids = [shapes.static]
+        id_parts = [shapes.static]
         poses = [np.full(len(shapes.static), -1)]
-        R, t = [self._home_R[shapes.static]], [self._home_t[shapes.static]]
+        R_parts, t_parts = [self._home_R[shapes.static]], [self._home_t[shapes.static]]
         for p, q in enumerate(qs):
             pin.updateGeometryPlacements(
                 model, self._data, geo.geom, self._gdata, self.robot.full_q(arm, q, geo.home_q)
             )
             Ms = [self._gdata.oMg[int(g)] for g in shapes.moving]
-            ids.append(shapes.moving)
+            id_parts.append(shapes.moving)
             poses.append(np.full(len(shapes.moving), p))
-            R.append(np.array([M.rotation for M in Ms]).reshape(-1, 3, 3))
-            t.append(np.array([M.translation for M in Ms]).reshape(-1, 3))
-        ids, R, t = np.concatenate(ids).astype(int), np.concatenate(R), np.concatenate(t)
+            R_parts.append(np.array([M.rotation for M in Ms]).reshape(-1, 3, 3))
+            t_parts.append(np.array([M.translation for M in Ms]).reshape(-1, 3))
+        ids, R, t = np.concatenate(id_parts).astype(int), np.concatenate(R_parts), np.concatenate(t_parts)
         centre = np.einsum("nij,nj->ni", R, geo.centre[ids]) + t
         gripper = np.isin(ids, shapes.gripper)
         return {
@@ -243,10 +227,11 @@ class SceneCollision:
             "tf": {},
         }
 
-    def _scene_in_model(self, A: np.ndarray, inst: dict) -> dict:
+    def _scene_in_model(self, A: npt.NDArray[np.float64], inst: Instances) -> ScenePieces:
         """Scene pieces near the robot in the model frame: the shapes (those the grid finds in reach,
         in scene order) and the occupancy cells in reach; ``objects``: the object of each piece or None."""
-        shapes, aabb, objects = self.shapes, self._aabb, self._object_of
+        shapes: Sequence[SceneShape | tuple[int, int]] = self.shapes
+        aabb, objects = self._aabb, self._object_of
         if (self.cells is not None or self._grid is not None) and len(inst["id"]):
             reach = inst["radius"].max() + self.cap + self.padding
             Ainv = np.linalg.inv(A)
@@ -262,7 +247,7 @@ class SceneCollision:
                     c = self.cells.centres(rows, cols)
                     half = np.array([self.cells.resolution / 2, self.cells.resolution / 2, self.cells.height / 2])
                     aabb = np.concatenate([aabb, np.stack([c - half, c + half], axis=1)])
-                    shapes = shapes + [(int(r), int(k)) for r, k in zip(rows, cols)]  # made into pieces when needed
+                    shapes = [*shapes, *((int(r), int(k)) for r, k in zip(rows, cols))]  # made into pieces when needed
                     objects = objects + [None] * len(rows)
         elif self._grid is not None:  # no robot shapes: nothing can pair
             shapes, aabb, objects = [], aabb[:0], []
@@ -274,7 +259,9 @@ class SceneCollision:
             "objects": objects,
         }
 
-    def _pairs(self, inst: dict, scene: dict, shapes, grasped, gone: frozenset) -> dict:
+    def _pairs(
+        self, inst: Instances, scene: ScenePieces, shapes: ArmShapes, grasped: str | None, gone: frozenset[str]
+    ) -> Pairs:
         """Candidate pairs with a lower bound of their distance [m]: robot-scene then self."""
         lb = box_distance(inst["centre"], scene["aabb"]) - inst["radius"][:, None]  # (N, S)
         if gone:
@@ -294,7 +281,7 @@ class SceneCollision:
             "lb": np.concatenate([lb[a, b], self_lb[keep]]),
         }
 
-    def _self_instances(self, shapes, poses: int) -> tuple[np.ndarray, np.ndarray]:
+    def _self_instances(self, shapes: ArmShapes, poses: int) -> tuple[npt.NDArray[np.int_], npt.NDArray[np.int_]]:
         """Instance indices (see :meth:`_instances`) of both shapes of every self pair at every pose."""
         G = self.geometry.geom.ngeoms
         slot = np.full(G, -1)
@@ -310,7 +297,7 @@ class SceneCollision:
         return out[0], out[1]
 
     # -- narrow phase --------------------------------------------------
-    def _robot(self, inst: dict, k: int):
+    def _robot(self, inst: Instances, k: int) -> Operand:
         """(shape, its convex hull, hull is the shape, coal transform) of robot instance ``k``."""
         hit = inst["tf"].get(k)
         if hit is None:
@@ -324,36 +311,51 @@ class SceneCollision:
             )
         return hit
 
-    def _scene(self, scene: dict, s: int):
+    def _piece(self, scene: ScenePieces, s: int) -> SceneShape:
+        """Scene piece ``s``, an occupancy cell made into its shape on first use."""
+        piece = scene["shapes"][s]
+        if isinstance(piece, tuple):
+            assert self.cells is not None  # cells enter the pieces only from the occupancy map
+            piece = scene["shapes"][s] = self.cells.shape(*piece)
+        return piece
+
+    def _scene(self, scene: ScenePieces, s: int) -> Operand:
         hit = scene["tf"].get(s)
         if hit is None:
-            piece = scene["shapes"][s]
-            if isinstance(piece, tuple):
-                piece = scene["shapes"][s] = self.cells.shape(*piece)
+            piece = self._piece(scene, s)
             T = scene["A"] @ piece.pose
             hit = scene["tf"][s] = (piece.geometry, piece.geometry, True, coal.Transform3s(T[:3, :3], T[:3, 3]))
         return hit
 
-    def _operands(self, pairs, k, inst, scene):
+    def _operands(self, pairs: Pairs, k: int, inst: Instances, scene: ScenePieces) -> tuple[Operand, Operand]:
         a, b = int(pairs["a"][k]), int(pairs["b"][k])
         return self._robot(inst, a), (self._robot(inst, b) if pairs["self"][k] else self._scene(scene, b))
 
-    def _name(self, pairs, k, inst, scene) -> tuple[str, int | None]:
+    def _name(self, pairs: Pairs, k: int, inst: Instances, scene: ScenePieces) -> tuple[str, int | None]:
         a, b = int(pairs["a"][k]), int(pairs["b"][k])
         names = self.geometry.names
-        other = names[int(inst["id"][b])] if pairs["self"][k] else scene["shapes"][b].name
+        other = names[int(inst["id"][b])] if pairs["self"][k] else self._piece(scene, b).name
         p = max(int(inst["pose"][a]), int(inst["pose"][b]) if pairs["self"][k] else -1)
         return f"{names[int(inst['id'][a])]} vs {other}", (None if p < 0 else p)
 
-    def _distance(self, g1, T1, g2, T2) -> float:
+    def _distance(
+        self, g1: coal.CollisionGeometry, T1: coal.Transform3s, g2: coal.CollisionGeometry, T2: coal.Transform3s
+    ) -> float:
         self._dres.clear()
         return float(coal.distance(g1, T1, g2, T2, self._dreq, self._dres))
 
-    def _collide(self, g1, T1, g2, T2, req) -> bool:
+    def _collide(
+        self,
+        g1: coal.CollisionGeometry,
+        T1: coal.Transform3s,
+        g2: coal.CollisionGeometry,
+        T2: coal.Transform3s,
+        req: coal.CollisionRequest,
+    ) -> bool:
         self._cres.clear()
         return bool(coal.collide(g1, T1, g2, T2, req, self._cres))
 
-    def _first_collision(self, pairs, inst, scene) -> CollisionResult | None:
+    def _first_collision(self, pairs: Pairs, inst: Instances, scene: ScenePieces) -> CollisionResult | None:
         margin = np.where(pairs["self"], 0.0, self.padding)
         near = np.flatnonzero(pairs["lb"] <= margin)
         for k in near[np.argsort(pairs["lb"][near], kind="stable")]:
@@ -366,7 +368,7 @@ class SceneCollision:
             return CollisionResult(False, self._distance(g1, T1, g2, T2), name, pose)
         return None
 
-    def _closest(self, pairs, inst, scene) -> CollisionResult:
+    def _closest(self, pairs: Pairs, inst: Instances, scene: ScenePieces) -> CollisionResult:
         """The pair at the smallest distance below the cap, best first: each pair's key is a lower bound
         of its distance (bounding volumes, then its convex hulls' distance, then the exact distance); the
         pair with the smallest key is refined until an exact distance comes first: no other pair can be

@@ -15,29 +15,39 @@ object's distance to the scene pieces other than its support (the clearance of t
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 import coal
 import numpy as np
+import numpy.typing as npt
 
-from placement.collision.scene import box_aabb
+from placement.collision.scene import SceneShape, box_aabb
+from placement.collision.tables import Instances, Operand
+
+if TYPE_CHECKING:
+    from placement.planning.transfer import Held
 
 #: [m] how far the held object may sink into the surface it is set on (its lowest face is raised
 #: by this much against the support): the place puts it exactly on the surface.
 SUPPORT_TOLERANCE = 0.01
 
 
-def support_box(size, T_obj: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def support_box(
+    size: npt.ArrayLike, T_obj: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(size (3,), offset (4, 4) in the object frame) of the box ``size`` [m] at pose ``T_obj`` with
     its lowest face (the axis nearest world z) raised by :data:`SUPPORT_TOLERANCE`."""
-    size = np.asarray(size, dtype=float).copy()
+    trimmed = np.asarray(size, dtype=float).copy()
     m = int(np.argmax(np.abs(T_obj[2, :3])))
-    cut = min(SUPPORT_TOLERANCE, 0.5 * size[m])
-    size[m] -= cut
+    cut = min(SUPPORT_TOLERANCE, 0.5 * float(trimmed[m]))
+    trimmed[m] -= cut
     offset = np.eye(4)
     offset[m, 3] = 0.5 * cut * (1.0 if T_obj[2, m] >= 0 else -1.0)
-    return size, offset
+    return trimmed, offset
 
 
-def _tf(T: np.ndarray) -> coal.Transform3s:
+def _tf(T: npt.NDArray[np.float64]) -> coal.Transform3s:
     return coal.Transform3s(T[:3, :3], T[:3, 3])
 
 
@@ -50,7 +60,7 @@ class HeldCheck:
         padding: robot/object-scene distance below which they collide [m]; cap: distances measured up to [m].
     """
 
-    def __init__(self, held, world: np.ndarray, padding: float, cap: float):
+    def __init__(self, held: Held, world: npt.NDArray[np.float64], padding: float, cap: float):
         self.held, self.world, self.padding, self.cap = held, world, padding, cap
         self.box = coal.Box(*(float(v) for v in held.size))
         size, self.offset = support_box(held.size, world[-1])
@@ -60,13 +70,13 @@ class HeldCheck:
         self.touch = coal.CollisionRequest()
         self.radius = 0.5 * float(np.linalg.norm(held.size))
 
-    def scene(self, pieces: list, skip: set[str]) -> tuple[tuple[float, str, int] | None, float]:
+    def scene(self, pieces: list[SceneShape], skip: set[str]) -> tuple[tuple[float, str, int] | None, float]:
         """First collision with the scene ``pieces`` (:class:`~.scene.SceneShape`, named ``skip``
         ignored) as (signed distance [m], piece name, pose index), and the clearance [m] (capped).
 
         Collisions first, over every pose; distances only when all are free, nearest bounds first,
         skipping pieces whose bounds are already farther than the best distance."""
-        near = []  # (bounds gap [m], pose index, piece)
+        near: list[tuple[float, int, SceneShape]] = []  # (bounds gap [m], pose index, piece)
         for p, T in enumerate(self.world):
             lo, hi = box_aabb(T, self.held.size)
             for piece in pieces:
@@ -89,7 +99,9 @@ class HeldCheck:
             best = min(best, self._distance(g, Tg, piece.geometry, piece.pose))
         return None, best
 
-    def _operand(self, p: int, piece):
+    def _operand(
+        self, p: int, piece: SceneShape
+    ) -> tuple[coal.CollisionGeometry, npt.NDArray[np.float64], coal.CollisionRequest]:
         """(geometry, world pose, request) of the held object at pose ``p`` against ``piece``: the
         box with its lowest face raised against its support, the whole box with padding otherwise."""
         T = self.world[p]
@@ -97,7 +109,9 @@ class HeldCheck:
             return self.trimmed, T @ self.offset, self.touch
         return self.box, T, self.req
 
-    def robot(self, A: np.ndarray, inst: dict, operand) -> tuple[float, int, int] | None:
+    def robot(
+        self, A: npt.NDArray[np.float64], inst: Instances, operand: Callable[[int], Operand]
+    ) -> tuple[float, int, int] | None:
         """First collision with a robot shape instance of the checker's ``inst`` (model frame, ``A``
         world -> model), gripper instances excepted: (distance [m], instance, pose index).
         ``operand(k)`` gives (geometry, hull, hull is exact, coal transform) of instance k."""
@@ -116,7 +130,12 @@ class HeldCheck:
         return None
 
     @staticmethod
-    def _distance(g1, T1, g2, T2) -> float:
+    def _distance(
+        g1: coal.CollisionGeometry,
+        T1: coal.Transform3s | npt.NDArray[np.float64],
+        g2: coal.CollisionGeometry,
+        T2: coal.Transform3s | npt.NDArray[np.float64],
+    ) -> float:
         res = coal.DistanceResult()
         T1 = T1 if isinstance(T1, coal.Transform3s) else _tf(T1)
         T2 = T2 if isinstance(T2, coal.Transform3s) else _tf(T2)

@@ -21,11 +21,13 @@ import os
 import warnings
 import weakref
 import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import coal
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from placement.errors import PlacementError
@@ -36,7 +38,7 @@ class CollisionGeometryWarning(UserWarning):
     """Some (or all) of a robot's collision shapes could not be loaded; the check uses the rest."""
 
 
-def package_dirs(urdf: Path, extra=()) -> list[str]:
+def package_dirs(urdf: Path, extra: Sequence[Path | str] = ()) -> list[str]:
     """Folders searched for ``package://name/...``: ``extra``, ``ROS_PACKAGE_PATH``, the URDF's ancestors."""
     ros = [p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
     return [str(p) for p in extra] + ros + [str(p) for p in Path(urdf).resolve().parents]
@@ -62,14 +64,16 @@ def usable_urdf(urdf: Path, dirs: list[str]) -> tuple[str, list[str], list[str]]
     """(URDF text with every mesh path made absolute and the ``<collision>`` elements of unfound meshes
     and degenerate shapes removed, links that lost a shape, what was removed in words)."""
     root = ET.fromstring(Path(urdf).read_bytes())
-    lost, missing = [], []
+    lost: list[str] = []
+    missing: list[str] = []
     for link in root.iter("link"):
+        name = str(link.get("name"))  # "None" for a nameless link (pinocchio rejects it later)
         for col in link.findall("collision"):
             if degenerate(col):  # a zero, NaN or infinite scale or size: no body (and coal's hull fails)
                 link.remove(col)
-                missing.append(f"a degenerate shape of link {link.get('name')}")
-                if link.get("name") not in lost:
-                    lost.append(link.get("name"))
+                missing.append(f"a degenerate shape of link {name}")
+                if name not in lost:
+                    lost.append(name)
                 continue
             mesh = col.find("geometry/mesh")
             if mesh is None:
@@ -78,8 +82,8 @@ def usable_urdf(urdf: Path, dirs: list[str]) -> tuple[str, list[str], list[str]]
             if found is None:
                 link.remove(col)
                 missing.append(f"mesh {mesh.get('filename', '')} not found")
-                if link.get("name") not in lost:
-                    lost.append(link.get("name"))
+                if name not in lost:
+                    lost.append(name)
             else:
                 mesh.set("filename", str(found))
     return ET.tostring(root, encoding="unicode"), lost, missing
@@ -109,7 +113,9 @@ def degenerate(collision: ET.Element) -> bool:
     return False
 
 
-def load_geometry(robot: Robot, extra_dirs=(), strict: bool = False) -> tuple[pin.GeometryModel, list[str]]:
+def load_geometry(
+    robot: Robot, extra_dirs: Sequence[Path | str] = (), strict: bool = False
+) -> tuple[pin.GeometryModel, list[str]]:
     """(collision GeometryModel without pairs, links whose shapes were left out) of ``robot``.
 
     Raises :class:`PlacementError` naming the robot when the URDF's geometry does not load, and with
@@ -139,7 +145,7 @@ def load_geometry(robot: Robot, extra_dirs=(), strict: bool = False) -> tuple[pi
     return geom, lost
 
 
-def moved_joints(model: pin.Model, joint_ids) -> set[int]:
+def moved_joints(model: pin.Model, joint_ids: Iterable[int]) -> set[int]:
     """The joints ``joint_ids`` and every joint below them in the kinematic tree."""
     moved = set(int(j) for j in joint_ids)
     for j in range(1, model.njoints):
@@ -177,10 +183,10 @@ class ArmShapes:
     """Shape indices of one arm: ``moving`` (moved by its joints), ``gripper`` (moved by its last joint
     or carrying the tip frame), ``static`` (the rest) and ``self_pairs`` (K, 2) checked against each other."""
 
-    moving: np.ndarray
-    gripper: np.ndarray
-    static: np.ndarray
-    self_pairs: np.ndarray
+    moving: npt.NDArray[np.int_]
+    gripper: npt.NDArray[np.int_]
+    static: npt.NDArray[np.int_]
+    self_pairs: npt.NDArray[np.int_]
 
 
 class RobotGeometry:
@@ -196,7 +202,7 @@ class RobotGeometry:
         base_in_model: (4, 4) pose of the base frame in the model's root frame at ``home_q``.
     """
 
-    def __init__(self, robot: Robot, extra_dirs=()):
+    def __init__(self, robot: Robot, extra_dirs: Sequence[Path | str] = ()):
         self.robot = robot
         model = robot.model
         self.geom, self.lost = load_geometry(robot, extra_dirs, strict=False)
@@ -252,7 +258,7 @@ class RobotGeometry:
         static = np.array([g for g in range(geom.ngeoms) if int(self.joint[g]) not in moved], dtype=int)
         return ArmShapes(moving, gripper, static, self._self_pairs(moved))
 
-    def _self_pairs(self, moved: set[int]) -> np.ndarray:
+    def _self_pairs(self, moved: set[int]) -> npt.NDArray[np.int_]:
         """Pairs with a shape moved by the arm, minus same/adjacent links, the SRDF's disabled pairs, the
         preset's ``ignore_collisions`` and pairs already in contact with every arm at home (they touch by
         design or by the model's slack)."""
@@ -286,10 +292,10 @@ class RobotGeometry:
         return np.array(keep, dtype=int).reshape(-1, 2)
 
 
-_CACHE: weakref.WeakKeyDictionary[Robot, dict] = weakref.WeakKeyDictionary()
+_CACHE: weakref.WeakKeyDictionary[Robot, dict[tuple[str, ...], RobotGeometry]] = weakref.WeakKeyDictionary()
 
 
-def robot_geometry(robot: Robot, extra_dirs=()) -> RobotGeometry:
+def robot_geometry(robot: Robot, extra_dirs: Sequence[Path | str] = ()) -> RobotGeometry:
     """The :class:`RobotGeometry` of ``robot`` (loaded once per robot object and package folders)."""
     per_robot = _CACHE.setdefault(robot, {})
     key = tuple(str(d) for d in extra_dirs)

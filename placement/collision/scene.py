@@ -14,11 +14,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import coal
 import numpy as np
+import numpy.typing as npt
 
 from placement.errors import PlacementError
+
+if TYPE_CHECKING:
+    from placement.scene import Box, Cylinder, OccupancyMap, Polygon, Scene
 
 #: Height [m] given to polygon prisms and occupancy cells (unbounded in the scene model).
 PRISM_HEIGHT = 3.0
@@ -31,11 +36,11 @@ class SceneShape:
 
     name: str
     geometry: coal.CollisionGeometry
-    pose: np.ndarray
-    aabb: np.ndarray
+    pose: npt.NDArray[np.float64]
+    aabb: npt.NDArray[np.float64]
 
 
-def pose_of(thing, centre, yaw: float) -> np.ndarray:
+def pose_of(thing: object, centre: npt.ArrayLike, yaw: float) -> npt.NDArray[np.float64]:
     """(4, 4) pose of a box-like thing: its ``pose``, else ``orientation`` [x, y, z, w] at ``centre``,
     else ``yaw`` about z at ``centre`` [m, rad]."""
     T = getattr(thing, "pose", None)
@@ -57,18 +62,18 @@ def pose_of(thing, centre, yaw: float) -> np.ndarray:
     return out
 
 
-def box_aabb(pose: np.ndarray, size) -> np.ndarray:
+def box_aabb(pose: npt.NDArray[np.float64], size: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """(2, 3) world AABB of a box of full ``size`` (3,) at ``pose`` (4, 4)."""
     half = np.abs(pose[:3, :3]) @ (np.asarray(size, dtype=float) / 2)
     return np.array([pose[:3, 3] - half, pose[:3, 3] + half])
 
 
-def box_shape(name: str, thing, centre, size, yaw: float) -> SceneShape:
+def box_shape(name: str, thing: object, centre: npt.ArrayLike, size: npt.NDArray[np.float64], yaw: float) -> SceneShape:
     pose = pose_of(thing, centre, yaw)
     return SceneShape(name, coal.Box(*(float(v) for v in size)), pose, box_aabb(pose, size))
 
 
-def cylinder_shape(name: str, centre, radius: float, height: float) -> SceneShape:
+def cylinder_shape(name: str, centre: npt.ArrayLike, radius: float, height: float) -> SceneShape:
     pose = np.eye(4)
     pose[:3, 3] = centre
     half = np.array([radius, radius, height / 2])
@@ -77,24 +82,25 @@ def cylinder_shape(name: str, centre, radius: float, height: float) -> SceneShap
     )
 
 
-def signed_area(points: np.ndarray) -> float:
+def signed_area(points: npt.NDArray[np.float64]) -> float:
     x, y = points[:, 0], points[:, 1]
     return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 
 
-def is_convex(points: np.ndarray) -> bool:
+def is_convex(points: npt.NDArray[np.float64]) -> bool:
     """True if the counter-clockwise polygon ``points`` (k, 2) turns left (or straight) at every vertex."""
     d = np.roll(points, -1, axis=0) - points
     cross = d[:, 0] * np.roll(d[:, 1], -1) - d[:, 1] * np.roll(d[:, 0], -1)
     return bool(np.all(cross >= -1e-12))
 
 
-def triangulate(points: np.ndarray) -> list[np.ndarray]:
+def triangulate(points: npt.NDArray[np.float64]) -> list[npt.NDArray[np.float64]]:
     """Ear-clipping triangulation of a simple polygon (k, 2) -> list of (3, 2) triangles."""
     pts = [np.asarray(p, dtype=float) for p in points]
     if signed_area(np.array(pts)) < 0:
         pts.reverse()
-    out, guard = [], 0
+    out: list[npt.NDArray[np.float64]] = []
+    guard = 0
     while len(pts) > 3 and guard < 10_000:
         guard += 1
         n = len(pts)
@@ -114,26 +120,28 @@ def triangulate(points: np.ndarray) -> list[np.ndarray]:
     return out
 
 
-def inside_triangle(p, a, b, c) -> bool:
-    def side(u, v, w):
-        return (v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])
+def inside_triangle(
+    p: npt.NDArray[np.float64], a: npt.NDArray[np.float64], b: npt.NDArray[np.float64], c: npt.NDArray[np.float64]
+) -> bool:
+    def side(u: npt.NDArray[np.float64], v: npt.NDArray[np.float64], w: npt.NDArray[np.float64]) -> float:
+        return float((v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0]))
 
-    return side(a, b, p) >= 0 and side(b, c, p) >= 0 and side(c, a, p) >= 0
+    return bool(side(a, b, p) >= 0 and side(b, c, p) >= 0 and side(c, a, p) >= 0)
 
 
-def prism(points: np.ndarray, height: float) -> coal.ConvexBase:
+def prism(points: npt.NDArray[np.float64], height: float) -> coal.ConvexBase:
     """A convex prism over the convex polygon ``points`` (k, 2), z from 0 to ``height``."""
     verts = coal.StdVec_Vec3s()
     verts.extend([np.array([x, y, z]) for z in (0.0, height) for x, y in points])
     return coal.Convex.convexHull(verts, False, None)
 
 
-def polygon_shapes(name: str, points, height: float = PRISM_HEIGHT) -> list[SceneShape]:
+def polygon_shapes(name: str, points: npt.ArrayLike, height: float = PRISM_HEIGHT) -> list[SceneShape]:
     """Convex prisms covering the polygon prism ``points`` (k, 2) [m], ``height`` [m] tall."""
-    points = np.asarray(points, dtype=float)
-    if signed_area(points) < 0:
-        points = points[::-1]
-    pieces = [points] if is_convex(points) else triangulate(points)
+    pts = np.asarray(points, dtype=float)
+    if signed_area(pts) < 0:
+        pts = pts[::-1]
+    pieces = [pts] if is_convex(pts) else triangulate(pts)
     out = []
     for piece in pieces:
         aabb = np.array([[*piece.min(axis=0), 0.0], [*piece.max(axis=0), height]])
@@ -141,11 +149,11 @@ def polygon_shapes(name: str, points, height: float = PRISM_HEIGHT) -> list[Scen
     return out
 
 
-def obstacle_shapes(name: str, shape) -> list[SceneShape]:
+def obstacle_shapes(name: str, shape: Box | Cylinder | Polygon) -> list[SceneShape]:
     """The convex pieces of one obstacle shape (Box, Cylinder or Polygon of the scene model)."""
     if hasattr(shape, "points"):
         return polygon_shapes(name, shape.points)
-    if hasattr(shape, "radius"):
+    if hasattr(shape, "radius") and hasattr(shape, "height"):
         return [cylinder_shape(name, shape.center, shape.radius, shape.height)]
     if hasattr(shape, "size"):
         return [box_shape(name, shape, shape.center, shape.size, getattr(shape, "yaw", 0.0))]
@@ -155,9 +163,9 @@ def obstacle_shapes(name: str, shape) -> list[SceneShape]:
     )
 
 
-def scene_shapes(scene) -> list[SceneShape]:
+def scene_shapes(scene: Scene) -> list[SceneShape]:
     """Every obstacle (tables included) and object of ``scene`` as convex pieces, in file order."""
-    out = []
+    out: list[SceneShape] = []
     for ob in scene.obstacles:
         out += obstacle_shapes(ob.name, ob.shape)
     for obj in scene.objects:
@@ -172,14 +180,16 @@ class OccupancyCells:
     robot's reach), all sharing one coal box.
     """
 
-    def __init__(self, occupancy, height: float = PRISM_HEIGHT):
+    def __init__(self, occupancy: OccupancyMap, height: float = PRISM_HEIGHT):
         self.occupied = np.asarray(occupancy.occupied, dtype=bool)
         self.resolution = float(occupancy.resolution)
         self.origin = (float(occupancy.origin[0]), float(occupancy.origin[1]))
         self.height = float(height)
         self.geometry = coal.Box(self.resolution, self.resolution, self.height)
 
-    def near(self, xmin: float, ymin: float, xmax: float, ymax: float) -> tuple[np.ndarray, np.ndarray]:
+    def near(
+        self, xmin: float, ymin: float, xmax: float, ymax: float
+    ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
         """(rows, cols) of the occupied cells overlapping the window [m] (world frame)."""
         res, (ox, oy) = self.resolution, self.origin
         rows, cols = self.occupied.shape
@@ -190,7 +200,7 @@ class OccupancyCells:
         r, c = np.nonzero(self.occupied[r0:r1, c0:c1])
         return r + r0, c + c0
 
-    def centres(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    def centres(self, rows: npt.NDArray[np.integer], cols: npt.NDArray[np.integer]) -> npt.NDArray[np.float64]:
         """(k, 3) world centres of cells [m]."""
         res, (ox, oy) = self.resolution, self.origin
         return np.stack([ox + (cols + 0.5) * res, oy + (rows + 0.5) * res, np.full(len(rows), self.height / 2)], axis=1)
@@ -211,7 +221,7 @@ class PieceGrid:
 
     Each piece is entered with its *reach square*: its AABB's centre +- r in x and y. The check bounds a
     piece by the AABB of its AABB turned into the robot's model frame (see
-    :func:`~placement.collision.checker.model_aabb`); within ``r`` of the centre lies all of that bound,
+    :func:`~placement.collision.bounds.model_aabb`); within ``r`` of the centre lies all of that bound,
     so a piece whose reach square stays ``d`` away from a point (in x, y) is more than ``d`` away from
     it in the check's bound as well: :meth:`near` never leaves out a piece the check could pair.
 
@@ -232,7 +242,7 @@ class PieceGrid:
     #: [m] heights of the robot's shapes above the floor are taken to be below this (the margin of a ``tilt``).
     ROBOT_HEIGHT = 10.0
 
-    def __init__(self, aabb: np.ndarray, tilt: float | None = 0.0, cell: float = 0.5, spread: int = 64):
+    def __init__(self, aabb: npt.ArrayLike, tilt: float | None = 0.0, cell: float = 0.5, spread: int = 64):
         aabb = np.asarray(aabb, dtype=float).reshape(-1, 2, 3)
         centre, half = aabb.mean(axis=1), (aabb[:, 1] - aabb[:, 0]) / 2
         slack = 1e-9 * (1.0 + np.abs(centre).max(axis=1) + np.abs(half).max(axis=1))
@@ -267,7 +277,7 @@ class PieceGrid:
         order = np.argsort(ids, kind="stable")
         self._ids, self._pieces = ids[order], pieces[order]
 
-    def near(self, lo, hi) -> np.ndarray:
+    def near(self, lo: npt.NDArray[np.float64], hi: npt.NDArray[np.float64]) -> npt.NDArray[np.int64]:
         """Sorted indices of the pieces whose reach square overlaps the window ``lo`` .. ``hi`` ((2,) or
         more: x, y first, world frame [m])."""
         x0, y0, x1, y1 = float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])

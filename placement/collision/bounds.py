@@ -1,0 +1,32 @@
+"""Bounding boxes and the base frame: the cheap bounds that decide which pairs a collision check gives to coal."""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+_CORNERS = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=bool)
+
+
+def base_matrix(x: float, y: float, yaw: float) -> npt.NDArray[np.float64]:
+    """(4, 4) pose of the base frame on the floor at (x, y) [m], heading ``yaw`` [rad]."""
+    B = np.eye(4)
+    c, s = np.cos(yaw), np.sin(yaw)
+    B[:2, :2] = [[c, -s], [s, c]]
+    B[:2, 3] = (x, y)
+    return B
+
+
+def box_distance(centres: npt.NDArray[np.float64], aabb: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """(N, S) distances [m] from points (N, 3) to boxes (S, 2, 3) (0 inside)."""
+    lo, hi = aabb[None, :, 0], aabb[None, :, 1]
+    p = centres[:, None, :]
+    out: npt.NDArray[np.float64] = np.linalg.norm(np.maximum(lo - p, 0.0) + np.maximum(p - hi, 0.0), axis=2)
+    return out
+
+
+def model_aabb(aabb: npt.NDArray[np.float64], A: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """(S, 2, 3) boxes ``aabb`` (S, 2, 3) moved by ``A`` (4, 4), bounded again by axis-aligned boxes."""
+    corners = np.where(_CORNERS[None], aabb[:, None, 1], aabb[:, None, 0])  # (S, 8, 3)
+    moved = corners @ A[:3, :3].T + A[:3, 3]
+    return np.stack([moved.min(axis=1), moved.max(axis=1)], axis=1)
