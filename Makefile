@@ -4,7 +4,7 @@ PY ?= .venv/bin/python
 # (placement/__init__.py), so .venv/bin/placement finds what `make install` compiled; same place here.
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 
-.PHONY: install constraints lint test maps maps-armar6 demo bench bench-eval eval robots clean
+.PHONY: install constraints lint test maps maps-armar6 demo bench bench-eval eval robots clean docs
 
 install: .venv/installed $(NUMBA_CACHE_DIR)/warm
 
@@ -36,6 +36,12 @@ lint: install
 # Two pytest workers (pytest-xdist): the 2-core machine runs the suite in about 6.5 minutes instead of 11.6.
 test: install
 	$(PY) -m pytest -q -n 2
+
+# The documentation site into site/; --strict: any warning (a broken link, a page missing from the nav,
+# a docstring that does not match its signature) fails the build. The benchmark tables it includes are
+# the files `make bench`, `make bench-eval` and `make eval` write.
+docs: .venv/installed
+	NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict --site-dir site
 
 maps: install
 	$(PY) -m placement.cli.main maps build --robot pr2 --spec maps/pr2.yaml --out maps/pr2
