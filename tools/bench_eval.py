@@ -40,7 +40,7 @@ from bench_output import write_atomic
 from placement.evaluation import evaluate, write_scenes
 
 ROOT = Path(__file__).resolve().parents[1]
-TARGET = 1.15  # the bound on dask / local wall time
+TARGET = 1.15  # the goal's bound on dask / local wall time
 
 
 def numba_threads() -> int:

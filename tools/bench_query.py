@@ -167,7 +167,7 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--baseline",
         default=os.environ.get("BASELINE", "d44e44e"),
-        help="git revision of the baseline release (default: the last release before issue 11)",
+        help="git revision of the baseline (default: the planner before its planning layer was restructured)",
     )
     ap.add_argument("--baseline-format", type=int, default=1, help="map format version the baseline reads")
     ap.add_argument("--robots", default="pr2,armar6")
