@@ -19,7 +19,9 @@ import shutil
 import threading
 import warnings
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -39,7 +41,20 @@ from placement.storage.format import (
 )
 from placement.storage.schema import check_arm_types, check_arms, check_root_types
 
-__all__ = ["ROOT_KEY", "Backend", "StoredMap", "atomic_replace", "chunk_shape", "first_line", "partial_path"]
+__all__ = [
+    "ROOT_KEY",
+    "ArmArrays",
+    "Backend",
+    "StoredMap",
+    "atomic_replace",
+    "chunk_shape",
+    "first_line",
+    "partial_path",
+]
+
+T = TypeVar("T")
+#: what a backend writes of one arm: (values, metadata, witnesses)
+ArmArrays = tuple[np.ndarray, dict[str, Any], np.ndarray]
 
 
 def first_line(exc: BaseException) -> str:
@@ -48,7 +63,7 @@ def first_line(exc: BaseException) -> str:
     return text.splitlines()[0] if text else type(exc).__name__
 
 
-def opened(path: Path, kind: str, open_fn):
+def opened(path: Path, kind: str, open_fn: Callable[[], T]) -> T:
     """``open_fn()``, with any failure turned into one MapError line naming ``path`` and ``kind``."""
     try:
         return open_fn()
@@ -60,9 +75,9 @@ class StoredMap(ABC):
     """An opened map file or directory: metadata now (checked), data on demand, every read checked."""
 
     path: Path
-    root: dict
+    root: dict[str, Any]
 
-    def accept_root(self, root) -> dict:
+    def accept_root(self, root: object) -> dict[str, Any]:
         """``root`` as read, checked: a mapping with a list of arm names; for a complete map of a readable
         version also the types of its keys and its digest (a map without digests is accepted with a warning
         if it is of format version 3, the last one without them)."""
@@ -87,10 +102,10 @@ class StoredMap(ABC):
                 )
         return root
 
-    def arm_meta(self, arm: str) -> dict:
+    def arm_meta(self, arm: str) -> dict[str, Any]:
         """The metadata of ``arm`` (as written by :func:`placement.build_map` and :func:`placement.save_maps`),
         checked against its digest and for the types reading needs (MapError naming the key otherwise)."""
-        cache = self.__dict__.setdefault("_metas", {})
+        cache: dict[str, dict[str, Any]] = self.__dict__.setdefault("_metas", {})
         if arm not in cache:
             try:
                 meta = self._arm_meta(arm)
@@ -113,17 +128,17 @@ class StoredMap(ABC):
         return cache[arm]
 
     @abstractmethod
-    def _arm_meta(self, arm: str) -> dict:
+    def _arm_meta(self, arm: str) -> object:
         """The stored metadata of ``arm``, unchecked (any exception if unreadable)."""
 
     @abstractmethod
-    def _get(self, name: str):
+    def _get(self, name: str) -> Any:  # a zarr.Array or an h5py.Dataset (h5py has no types)
         """The backend's array object called ``name`` (sliceable); any exception if it is missing."""
 
-    def _array(self, arm: str, witness: bool = False):
+    def _array(self, arm: str, witness: bool = False) -> Any:
         """The backend's array object of ``arm`` (its values, or its witnesses), its shape, dtype and chunks
         checked against the arm's metadata; MapError if missing, unreadable or not as described."""
-        cache = self.__dict__.setdefault("_arrays", {})
+        cache: dict[tuple[str, bool], Any] = self.__dict__.setdefault("_arrays", {})
         if (arm, witness) not in cache:
             array = self._raw_array(arm, witness)
             meta = self.arm_meta(arm)
@@ -149,7 +164,7 @@ class StoredMap(ABC):
             self._array(arm, witness)
             self.expected_crcs(arm, witness)
 
-    def _raw_array(self, arm: str, witness: bool = False):
+    def _raw_array(self, arm: str, witness: bool = False) -> Any:
         what = "witness array" if witness else "array"
         try:
             return self._get(witness_name(arm) if witness else arm)
@@ -163,7 +178,7 @@ class StoredMap(ABC):
     def expected_crcs(self, arm: str, witness: bool = False) -> np.ndarray:
         """The stored CRC32 of every chunk of ``arm``'s values (or witnesses), (nz, n_pitch, n_roll) uint32;
         MapError if malformed."""
-        cache = self.__dict__.setdefault("_crcs", {})
+        cache: dict[tuple[str, str], np.ndarray] = self.__dict__.setdefault("_crcs", {})
         key = WITNESS_CRC_KEY if witness else CRC_KEY
         if (arm, key) not in cache:
             meta = self.arm_meta(arm)
@@ -220,9 +235,9 @@ class StoredMap(ABC):
     def _all_data(self, arm: str, witness: bool) -> tuple[np.ndarray, np.ndarray]:
         return self._direct(arm, witness, "witnesses" if witness else "data", lambda r: r.whole())
 
-    def _direct(self, arm: str, witness: bool, what: str, read):
+    def _direct(self, arm: str, witness: bool, what: str, read: Callable[[ChunkReader], T]) -> T:
         """``read(reader)`` with the arm's :class:`ChunkReader`, any failure one MapError naming ``what``."""
-        cache = self.__dict__.setdefault("_readers", {})
+        cache: dict[tuple[str, bool], ChunkReader] = self.__dict__.setdefault("_readers", {})
         try:
             if (arm, witness) not in cache:
                 cache[(arm, witness)] = self._reader(arm, witness, self._array(arm, witness))
@@ -237,11 +252,11 @@ class StoredMap(ABC):
             ) from None
 
     @abstractmethod
-    def _reader(self, arm: str, witness: bool, array) -> ChunkReader:
+    def _reader(self, arm: str, witness: bool, array: Any) -> ChunkReader:
         """The chunk reader of ``arm``'s values or witnesses (``array``: its checked array object); MapError if
         the array is not stored as this package stores it."""
 
-    def _damaged(self, arm: str, chunk: tuple[int, int, int], count: int = 1, witness: bool = False) -> MapError:
+    def _damaged(self, arm: str, chunk: tuple[int, ...], count: int = 1, witness: bool = False) -> MapError:
         more = f" (and {count - 1} more)" if count > 1 else ""
         what = "witness chunk" if witness else "chunk"
         return MapError(
@@ -267,7 +282,7 @@ class Backend(ABC):
         """Whether ``path`` looks like a map of this backend (complete or not)."""
 
     @abstractmethod
-    def write(self, path: Path, root: dict, arms: dict[str, tuple[np.ndarray, dict, np.ndarray]]) -> None:
+    def write(self, path: Path, root: dict[str, Any], arms: dict[str, ArmArrays]) -> None:
         """Write a complete map to ``path`` (a fresh path; not atomic by itself); ``arms`` maps each arm
         to (values, metadata, witnesses)."""
 
@@ -281,7 +296,7 @@ def partial_path(target: Path) -> Path:
     return target.with_name(f".{target.name}.partial-{os.getpid()}-{threading.get_native_id()}")
 
 
-def atomic_replace(backend: Backend, target: Path, root: dict, arms: dict) -> None:
+def atomic_replace(backend: Backend, target: Path | str, root: dict[str, Any], arms: dict[str, ArmArrays]) -> None:
     """Write via a sibling partial path, then swap it in; the old map survives a failure."""
     target = Path(target)
     partial = partial_path(target)

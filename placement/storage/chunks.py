@@ -17,6 +17,7 @@ from abc import ABC, abstractmethod
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+import numpy.typing as npt
 
 _POOL = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 1), thread_name_prefix="placement-chunks")
 
@@ -25,7 +26,7 @@ class ChunkReader(ABC):
     """The chunks of one array of ``shape`` (nx, ny, nz, n_yaw, n_pitch, n_roll) and ``dtype``; ``fill`` is
     the value of a chunk that is not stored."""
 
-    def __init__(self, shape: tuple, dtype, fill):
+    def __init__(self, shape: tuple[int, ...], dtype: npt.DTypeLike, fill: float | np.generic) -> None:
         self.shape = tuple(int(s) for s in shape)
         self.dtype = np.dtype(dtype).newbyteorder("<")
         nx, ny, _, n_yaw, _, _ = self.shape
@@ -36,13 +37,14 @@ class ChunkReader(ABC):
         self.fill = np.full(self.chunk, fill, dtype=self.dtype)
 
     @abstractmethod
-    def decoded(self, iz: int, ip: int, ir: int) -> bytes | np.ndarray | None:
+    def decoded(self, iz: int, ip: int, ir: int) -> bytes | npt.NDArray[np.uint8] | None:
         """The decoded bytes (``raw`` of them, C order) of chunk (iz, ip, ir), None if it is not stored;
         any exception if its stored bytes are damaged, too large or unreadable."""
 
     def read(self, iz: int, ip: int, ir: int, out: np.ndarray | None = None) -> tuple[np.ndarray, int]:
         """Chunk (iz, ip, ir) (nx, ny, n_yaw) (also written into ``out`` if given) and the CRC32 of its bytes."""
         data = self.decoded(iz, ip, ir)
+        chunk: np.ndarray
         if data is None:
             chunk = self.fill
         else:

@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
 
 from placement.errors import MapError
 
@@ -19,12 +22,12 @@ ALGORITHM = "sha256"
 _LEAF_HEX = 16  # 64 bits per key: enough to name the changed key; the document digest decides
 
 
-def canonical(doc) -> bytes:
+def canonical(doc: object) -> bytes:
     """The canonical JSON bytes of ``doc`` (sorted keys, no spaces)."""
     return json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=True, allow_nan=True).encode()
 
 
-def _leaves(doc, prefix: str = ""):
+def _leaves(doc: object, prefix: str = "") -> Iterator[tuple[str, object]]:
     if isinstance(doc, dict) and doc:
         for k in sorted(doc):
             yield from _leaves(doc[k], f"{prefix}{k}.")
@@ -32,7 +35,7 @@ def _leaves(doc, prefix: str = ""):
         yield prefix[:-1], doc
 
 
-def document_digest(doc: dict) -> dict:
+def document_digest(doc: dict[str, Any]) -> dict[str, Any]:
     """{"document": sha256 hex, "keys": {key path: short hex}} of a metadata document."""
     return {
         "document": hashlib.sha256(canonical(doc)).hexdigest(),
@@ -40,7 +43,7 @@ def document_digest(doc: dict) -> dict:
     }
 
 
-def seal(root: dict, metas: dict[str, dict]) -> dict:
+def seal(root: dict[str, Any], metas: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """``root`` with its :data:`DIGEST_KEY` entry covering itself and the arm metadata ``metas`` (arm -> meta,
     exactly as stored and read back)."""
     body = {k: v for k, v in root.items() if k != DIGEST_KEY}
@@ -55,16 +58,18 @@ def seal(root: dict, metas: dict[str, dict]) -> dict:
     }
 
 
-def _changed_key(doc: dict, sealed: dict) -> str | None:
-    keys = sealed.get("keys") if isinstance(sealed.get("keys"), dict) else {}
-    now = document_digest(doc)["keys"]
+def _changed_key(doc: dict[str, Any], sealed: dict[str, Any]) -> str | None:
+    keys = sealed.get("keys")
+    if not isinstance(keys, dict):
+        keys = {}
+    now: dict[str, str] = document_digest(doc)["keys"]
     for k in sorted(set(now) | set(keys)):
         if now.get(k) != keys.get(k):
-            return k
+            return str(k)
     return None
 
 
-def check_document(where: str, doc: dict, sealed) -> None:
+def check_document(where: str, doc: dict[str, Any], sealed: object) -> None:
     """MapError naming the changed key unless ``doc`` matches its ``sealed`` digest entry."""
     if not isinstance(sealed, dict) or not isinstance(sealed.get("document"), str):
         raise MapError(f"{where} has no digest (the digest table is corrupt); rebuild the map")
@@ -75,7 +80,7 @@ def check_document(where: str, doc: dict, sealed) -> None:
     raise MapError(f"{where} does not match its digest ({what} after the build: corrupt); rebuild the map")
 
 
-def digests(path, root: dict) -> dict | None:
+def digests(path: Path | str, root: dict[str, Any]) -> dict[str, Any] | None:
     """The digest table of a root (None if it has none: a map written before digests); MapError if malformed."""
     table = root.get(DIGEST_KEY)
     if table is None:
@@ -85,7 +90,7 @@ def digests(path, root: dict) -> dict | None:
     return table
 
 
-def check_root_digest(path, root: dict) -> bool:
+def check_root_digest(path: Path | str, root: dict[str, Any]) -> bool:
     """Check the root metadata against its digest; False if the map has no digests at all."""
     table = digests(path, root)
     if table is None:
@@ -94,7 +99,7 @@ def check_root_digest(path, root: dict) -> bool:
     return True
 
 
-def check_arm_digest(path, root: dict, arm: str, meta: dict) -> None:
+def check_arm_digest(path: Path | str, root: dict[str, Any], arm: str, meta: dict[str, Any]) -> None:
     """Check an arm's metadata against the digest the root holds for it (no-op for a map without digests)."""
     table = digests(path, root)
     if table is not None:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import zlib
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -46,7 +47,7 @@ class BuiltMap:
     convergence snapshot: such a map cannot be saved)."""
 
     values: np.ndarray
-    meta: dict
+    meta: dict[str, Any]
     witness: np.ndarray | None = None
 
     @property
@@ -54,7 +55,7 @@ class BuiltMap:
         return Grid.from_dict(self.meta["grid"])
 
 
-def chunk_shape(shape) -> tuple[int, ...]:
+def chunk_shape(shape: tuple[int, ...]) -> tuple[int, ...]:
     """Chunk of a (nx, ny, nz, n_yaw, n_pitch, n_roll) array: one (z, pitch, roll) slice."""
     nx, ny, _, n_yaw, _, _ = shape
     return (nx, ny, 1, n_yaw, 1, 1)
@@ -74,5 +75,5 @@ def chunk_crcs(values: np.ndarray) -> np.ndarray:
     slab = np.empty((n_pitch, n_roll, nx, ny, n_yaw), dtype=values.dtype)
     for iz in range(nz):
         np.copyto(slab, values[:, :, iz].transpose(3, 4, 0, 1, 2))
-        out[iz] = [zlib.crc32(run) for run in slab.reshape(n_pitch * n_roll, -1)]
+        out[iz] = [zlib.crc32(run.data) for run in slab.reshape(n_pitch * n_roll, -1)]
     return out.reshape(nz, n_pitch, n_roll)

@@ -9,12 +9,14 @@ from __future__ import annotations
 import json
 import zlib
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
+import numpy.typing as npt
 
 from placement.errors import MapError
-from placement.storage.base import ROOT_KEY, Backend, StoredMap, chunk_shape, first_line, opened
+from placement.storage.base import ROOT_KEY, ArmArrays, Backend, StoredMap, chunk_shape, first_line, opened
 from placement.storage.chunks import ChunkReader
 from placement.storage.digest import seal
 from placement.storage.files import META_LIMIT, FileRefused, read_head, regular_size
@@ -37,13 +39,13 @@ class Hdf5Chunks(ChunkReader):
     only repeats that check on the compressed bytes; the CRC32 of the decoded chunk decides).
     """
 
-    def __init__(self, ds: h5py.Dataset):
+    def __init__(self, ds: h5py.Dataset) -> None:
         super().__init__(ds.shape, ds.dtype, ds.fillvalue)
         self.ds = ds
-        self.sizes: dict[tuple, int] = {}  # chunk offset -> stored size [bytes], of every stored chunk
+        self.sizes: dict[tuple[int, ...], int] = {}  # chunk offset -> stored size [bytes], of every stored chunk
         ds.id.chunk_iter(lambda info: self.sizes.__setitem__(tuple(info.chunk_offset), int(info.size)))
 
-    def decoded(self, iz: int, ip: int, ir: int) -> np.ndarray | None:
+    def decoded(self, iz: int, ip: int, ir: int) -> npt.NDArray[np.uint8] | None:
         coord = (0, 0, iz, 0, ip, ir)
         size = self.sizes.get(coord)
         if size is None:
@@ -66,14 +68,14 @@ class Hdf5Chunks(ChunkReader):
 
 
 class Hdf5Map(StoredMap):
-    def __init__(self, path: Path):
+    def __init__(self, path: Path) -> None:
         self.path = path
         try:
             regular_size(path, HDF5_LIMIT)
         except FileRefused as exc:
             raise MapError(f"{path}: {first_line(exc)}") from None
 
-        def read():
+        def read() -> tuple[h5py.File, object]:
             f = h5py.File(path, "r")
             return f, json.loads(self._attribute(f, ROOT_KEY, "{}"))
 
@@ -81,7 +83,7 @@ class Hdf5Map(StoredMap):
         self.root = self.accept_root(root)
 
     @staticmethod
-    def _attribute(obj, name: str, default=None):
+    def _attribute(obj: h5py.HLObject, name: str, default: str | None = None) -> Any:  # h5py has no types
         """A JSON text attribute of at most META_LIMIT bytes (``default`` if absent)."""
         if name not in obj.attrs:
             return default
@@ -90,7 +92,7 @@ class Hdf5Map(StoredMap):
             raise ValueError(f"attribute '{name}' has {size} bytes, more than {META_LIMIT}")
         return obj.attrs[name]
 
-    def _get(self, name: str):
+    def _get(self, name: str) -> h5py.Dataset:
         link = self.file.get(name, getlink=True)
         if not isinstance(link, h5py.HardLink):
             raise ValueError(
@@ -101,7 +103,7 @@ class Hdf5Map(StoredMap):
             raise ValueError(f"'{name}' is not a dataset stored in this file")
         return ds
 
-    def _reader(self, arm: str, witness: bool, array) -> Hdf5Chunks:
+    def _reader(self, arm: str, witness: bool, array: h5py.Dataset) -> Hdf5Chunks:
         plist = array.id.get_create_plist()
         filters = tuple(plist.get_filter(i)[0] for i in range(plist.get_nfilters()))
         if filters != FILTERS:
@@ -111,7 +113,7 @@ class Hdf5Map(StoredMap):
             )
         return Hdf5Chunks(array)
 
-    def _arm_meta(self, arm: str) -> dict:
+    def _arm_meta(self, arm: str) -> object:
         return json.loads(self._attribute(self._raw_array(arm), "meta"))
 
     def chunks_present(self, name: str) -> int | None:
@@ -132,7 +134,7 @@ class Hdf5Backend(Backend):
         except OSError:  # no regular file (a FIFO or a device is never opened), or unreadable
             return False
 
-    def write(self, path: Path, root: dict, arms: dict) -> None:
+    def write(self, path: Path, root: dict[str, Any], arms: dict[str, ArmArrays]) -> None:
         with h5py.File(path, "w") as fh:
             metas = {}
             for arm, (values, meta, witness) in arms.items():

@@ -25,7 +25,7 @@ def lock_path(target: Path, what: str) -> Path:
 class FileLock:
     """An exclusive flock on ``path``; ``holder`` is written into the file for the error of a second comer."""
 
-    def __init__(self, path: Path, holder: str):
+    def __init__(self, path: Path | str, holder: str) -> None:
         self.path = Path(path)
         self.holder = holder
         self.fd: int | None = None
@@ -70,7 +70,7 @@ class FileLock:
     def __enter__(self) -> FileLock:
         return self if self.fd is not None else self.acquire()
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.release()
 
 

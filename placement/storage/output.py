@@ -16,20 +16,27 @@ import os
 import re
 import shutil
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from placement.errors import MapError
 from placement.storage import backend, detect, open_store
-from placement.storage.base import atomic_replace, partial_path
+from placement.storage.base import ArmArrays, atomic_replace, partial_path
 from placement.storage.format import CRC_KEY, FORMAT_VERSION, READABLE_VERSIONS, WITNESS_CRC_KEY, BuiltMap, chunk_crcs
 from placement.storage.lock import FileLock, lock_path
 from placement.storage.validate import validate_robot
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from placement.robots.preset import Robot
 
 #: how long a save waits for another build's save into the same map to finish [s]
 SAVE_WAIT_S = 1800.0
 
 
-def check_target(path: str | Path, robot, fmt: str, what: str = "") -> None:
+def check_target(path: str | Path, robot: Robot, fmt: str, what: str = "") -> None:
     """Fail now, before a build, if the map could not be saved to ``path`` (``what`` names the option).
 
     The nearest existing ancestor must be a writable directory; an existing
@@ -87,7 +94,7 @@ class MapOutput:
     writes; leaving releases the reservations (and removes nothing but what it created).
     """
 
-    def __init__(self, path: str | Path, robot, fmt: str, arms, what: str = ""):
+    def __init__(self, path: str | Path, robot: Robot, fmt: str, arms: Iterable[str], what: str = "") -> None:
         self.path = Path(path)
         self.robot = robot
         self.fmt = fmt
@@ -123,7 +130,7 @@ class MapOutput:
             raise
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         for lock in reversed(self.locks):
             lock.release()
         self.locks = []
@@ -165,17 +172,23 @@ class MapOutput:
         unreserved = sorted(set(maps) - set(self.arms))
         if unreserved or not self.locks:
             raise MapError(f"{self.name}: arm(s) {', '.join(unreserved) or 'all'} not reserved for this save")
+        witnesses: dict[str, np.ndarray] = {}
         for arm, m in maps.items():
             if m.witness is None or m.witness.shape != m.values.shape:
                 raise MapError(
                     f"{self.path}: the map of arm '{arm}' has no witnesses of its shape; only a map from "
                     f"placement.build_map can be saved"
                 )
-        arms = {
+            witnesses[arm] = m.witness
+        arms: dict[str, ArmArrays] = {
             arm: (
                 m.values,
-                {**m.meta, CRC_KEY: chunk_crcs(m.values).tolist(), WITNESS_CRC_KEY: chunk_crcs(m.witness).tolist()},
-                m.witness,
+                {
+                    **m.meta,
+                    CRC_KEY: chunk_crcs(m.values).tolist(),
+                    WITNESS_CRC_KEY: chunk_crcs(witnesses[arm]).tolist(),
+                },
+                witnesses[arm],
             )
             for arm, m in maps.items()
         }
@@ -202,14 +215,14 @@ class MapOutput:
         return self.path
 
 
-def preset_name(robot) -> str:
+def preset_name(robot: Robot) -> str:
     """How the map names the robot's preset: the built-in preset's name, else the preset file's path."""
     from placement.robots.preset import PRESET_DIR
 
     return robot.name if Path(robot.source).parent == PRESET_DIR else robot.source
 
 
-def save_maps(path: str | Path, robot, maps: dict[str, BuiltMap], fmt: str = "zarr") -> Path:
+def save_maps(path: str | Path, robot: Robot, maps: dict[str, BuiltMap], fmt: str = "zarr") -> Path:
     """Write ``maps`` (arm -> BuiltMap) to ``path`` atomically, with the CRC32 of every chunk and the
     metadata digests.
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 import numbers
+from pathlib import Path
+from typing import Any
 
 from placement.errors import MapError
 
@@ -16,46 +18,46 @@ WITNESS_DTYPES = ("uint32", "int64")
 
 
 class _Bad(Exception):
-    def __init__(self, key: str, expected: str, got):
+    def __init__(self, key: str, expected: str, got: object) -> None:
         text = repr(got)
         super().__init__(f"{key}: expected {expected}, got {text if len(text) <= 60 else text[:57] + '...'}")
 
 
-def _int(doc: dict, key: str, lo: int, hi: int, prefix: str = "") -> int:
+def _int(doc: dict[str, Any], key: str, lo: int, hi: int, prefix: str = "") -> int:
     v = doc.get(key)
     if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
         raise _Bad(prefix + key, f"a whole number from {lo} to {hi}", v)
     return v
 
 
-def _str(doc: dict, key: str, prefix: str = "") -> str:
+def _str(doc: dict[str, Any], key: str, prefix: str = "") -> str:
     v = doc.get(key)
     if not isinstance(v, str) or not v:
         raise _Bad(prefix + key, "a non-empty string", v)
     return v
 
 
-def _real(v, key: str) -> float:
+def _real(v: object, key: str) -> float:
     if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
         raise _Bad(key, "a finite number", v)
     return float(v)
 
 
-def _dict(doc: dict, key: str, prefix: str = "") -> dict:
+def _dict(doc: dict[str, Any], key: str, prefix: str = "") -> dict[str, Any]:
     v = doc.get(key)
     if not isinstance(v, dict):
         raise _Bad(prefix + key, "a mapping", v)
     return v
 
 
-def _names(doc: dict, key: str) -> list:
+def _names(doc: dict[str, Any], key: str) -> list[str]:
     v = doc.get(key)
     if not isinstance(v, list) or not v or not all(isinstance(a, str) and a for a in v) or len(set(v)) != len(v):
         raise _Bad(key, "a non-empty list of distinct names", v)
     return v
 
 
-def check_arms(path, root: dict) -> None:
+def check_arms(path: Path | str, root: dict[str, Any]) -> None:
     """MapError unless the root's arm list (if any) is a list of names (read by everything that opens a map)."""
     if "arms" in root:
         try:
@@ -66,7 +68,7 @@ def check_arms(path, root: dict) -> None:
             raise MapError(f"{path}: root metadata: {exc}; rebuild the map") from None
 
 
-def check_root_types(path, root: dict) -> None:
+def check_root_types(path: Path | str, root: dict[str, Any]) -> None:
     """MapError naming the key unless the root metadata of a complete map has the stored types."""
     try:
         for key in ("robot", "urdf_sha256", "base_frame", "preset"):
@@ -78,7 +80,7 @@ def check_root_types(path, root: dict) -> None:
         raise MapError(f"{path}: root metadata: {exc}; rebuild the map") from None
 
 
-def check_arm_types(path, arm: str, meta: dict) -> None:
+def check_arm_types(path: Path | str, arm: str, meta: dict[str, Any]) -> None:
     """MapError naming the key unless an arm's metadata has what reading and verifying it needs."""
     try:
         if meta.get("arm") != arm:

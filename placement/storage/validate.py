@@ -3,17 +3,21 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
 from placement.errors import MapError
 from placement.storage.format import FORMAT_VERSION, READABLE_VERSIONS, ROOT_KEY
 
+if TYPE_CHECKING:
+    from placement.robots.preset import Robot
+
 # stored and preset TCP offsets (4, 4) [m, dimensionless rotation] agree to this
 TCP_TOLERANCE = 1e-9
 
 
-def check_root(path: Path, root: dict) -> None:
+def check_root(path: Path, root: dict[str, Any]) -> None:
     """MapError unless ``root`` is the metadata of a complete map of this format version."""
     if not root:
         raise MapError(f"{path}: not a reachability map (no '{ROOT_KEY}' metadata)")
@@ -27,7 +31,7 @@ def check_root(path: Path, root: dict) -> None:
         )
 
 
-def validate_robot(path: Path, root: dict, robot) -> None:
+def validate_robot(path: Path, root: dict[str, Any], robot: Robot) -> None:
     """MapError if the map at ``path`` was not built for ``robot`` as it is now."""
     if root.get("robot") != robot.name:
         raise MapError(f"{path}: map was built for robot '{root.get('robot')}', not '{robot.name}'")
@@ -47,7 +51,7 @@ def validate_robot(path: Path, root: dict, robot) -> None:
         )
 
 
-def validate_arm(path: Path, meta: dict, robot, arm: str) -> None:
+def validate_arm(path: Path, meta: dict[str, Any], robot: Robot, arm: str) -> None:
     """MapError if the map of ``arm`` was built for other arm joints, tip frame or TCP offset than ``robot``'s."""
     a = robot.arm(arm)
     if meta.get("joints") != list(a.joints):
@@ -63,8 +67,8 @@ def validate_arm(path: Path, meta: dict, robot, arm: str) -> None:
         _differs(path, arm, "TCP offset (4x4)", meta.get("tcp_offset"), a.tcp_offset)
 
 
-def _differs(path: Path, arm: str, field: str, stored, preset) -> None:
-    def show(v):
+def _differs(path: Path, arm: str, field: str, stored: object, preset: object) -> NoReturn:
+    def show(v: object) -> object:
         return np.round(np.asarray(v, dtype=float), 6).tolist() if isinstance(v, np.ndarray) else v
 
     raise MapError(

@@ -12,10 +12,13 @@ from __future__ import annotations
 import asyncio
 import json
 import os
+from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import google_crc32c
 import numpy as np
+import numpy.typing as npt
 import zarr
 from numcodecs import blosc
 from zarr.codecs import BloscCodec, Crc32cCodec
@@ -23,11 +26,15 @@ from zarr.core.buffer.core import default_buffer_prototype
 from zarr.storage import LocalStore
 
 from placement.errors import MapError
-from placement.storage.base import ROOT_KEY, Backend, StoredMap, chunk_shape, opened
+from placement.storage.base import ROOT_KEY, ArmArrays, Backend, StoredMap, chunk_shape, opened
 from placement.storage.chunks import ChunkReader
 from placement.storage.digest import seal
 from placement.storage.files import META_LIMIT, read_bounded
 from placement.storage.format import witness_name
+
+if TYPE_CHECKING:
+    from zarr.abc.store import ByteRequest
+    from zarr.core.buffer import Buffer, BufferPrototype
 
 #: the codecs of every array this package writes (anything else is not one of its maps)
 CODECS = ("bytes", "blosc", "crc32c")
@@ -37,10 +44,12 @@ _BLOSC_HEADER = 16
 class BoundedStore(LocalStore):
     """A read-only LocalStore that reads only regular files of at most :data:`META_LIMIT` bytes."""
 
-    def __init__(self, root, read_only: bool = True):
+    def __init__(self, root: Path | str, read_only: bool = True) -> None:
         super().__init__(root, read_only=True)
 
-    async def get(self, key, prototype=None, byte_range=None):
+    async def get(
+        self, key: str, prototype: BufferPrototype | None = None, byte_range: ByteRequest | None = None
+    ) -> Buffer | None:
         if byte_range is not None:
             raise ValueError(f"{key}: byte-range reads are not used by maps")
         try:
@@ -49,18 +58,20 @@ class BoundedStore(LocalStore):
             return None
         return (prototype or default_buffer_prototype()).buffer.from_bytes(data)
 
-    async def get_partial_values(self, prototype, key_ranges):
+    async def get_partial_values(
+        self, prototype: BufferPrototype, key_ranges: Iterable[tuple[str, ByteRequest | None]]
+    ) -> list[Buffer | None]:
         return [await self.get(key, prototype, byte_range) for key, byte_range in key_ranges]
 
 
 class ChunkFiles(ChunkReader):
     """The chunk files of one array (codecs :data:`CODECS`), read directly: bounded, crc32c checked."""
 
-    def __init__(self, folder: Path, shape: tuple, dtype, fill):
+    def __init__(self, folder: Path, shape: tuple[int, ...], dtype: npt.DTypeLike, fill: float | np.generic) -> None:
         super().__init__(shape, dtype, fill)
         self.prefix = os.path.join(folder, "0", "0", "")
 
-    def decoded(self, iz: int, ip: int, ir: int) -> np.ndarray | None:
+    def decoded(self, iz: int, ip: int, ir: int) -> npt.NDArray[np.uint8] | None:
         try:
             data = read_bounded(f"{self.prefix}{iz}/0/{ip}/{ir}", self.limit)
         except (FileNotFoundError, NotADirectoryError):
@@ -81,24 +92,27 @@ class ChunkFiles(ChunkReader):
 
 
 class ZarrMap(StoredMap):
-    def __init__(self, path: Path):
+    def __init__(self, path: Path) -> None:
         self.path = path
 
-        def read():
+        def read() -> tuple[zarr.Group, object]:
             group = zarr.open_group(store=BoundedStore(path), mode="r")
             return group, group.attrs.get(ROOT_KEY, {})
 
         self.group, root = opened(path, "Zarr", read)
         self.root = self.accept_root(root)
 
-    def _get(self, name: str):
-        return self.group[name]
+    def _get(self, name: str) -> zarr.Array[Any]:
+        node = self.group[name]
+        if not isinstance(node, zarr.Array):
+            raise ValueError(f"'{name}' is a {type(node).__name__}, not an array")
+        return node
 
-    def _arm_meta(self, arm: str) -> dict:
+    def _arm_meta(self, arm: str) -> dict[str, Any]:
         return dict(self._raw_array(arm).attrs.asdict())
 
-    def _reader(self, arm: str, witness: bool, array) -> ChunkFiles:
-        md = array.metadata.to_dict()
+    def _reader(self, arm: str, witness: bool, array: zarr.Array[Any]) -> ChunkFiles:
+        md: dict[str, Any] = array.metadata.to_dict()  # walked as plain JSON: any layout but ours fails below
         codecs = tuple(c.get("name") for c in md.get("codecs", ()))
         encoding = md.get("chunk_key_encoding", {})
         if (
@@ -110,8 +124,14 @@ class ZarrMap(StoredMap):
                 f"{self.path}: the {'witness ' if witness else ''}array of arm '{arm}' has codecs "
                 f"{list(codecs)} (not written by placement: corrupt); rebuild the map"
             )
+        fill = array.metadata.fill_value
+        if not isinstance(fill, (int, float, np.generic)):  # zarr parses a v3 fill value to a scalar of the dtype
+            raise MapError(
+                f"{self.path}: the {'witness ' if witness else ''}array of arm '{arm}' has fill value {fill!r} "
+                f"(corrupt); rebuild the map"
+            )
         name = witness_name(arm) if witness else arm
-        return ChunkFiles(self.path / name / "c", tuple(array.shape), array.dtype, array.metadata.fill_value)
+        return ChunkFiles(self.path / name / "c", tuple(array.shape), array.dtype, fill)
 
     def chunks_present(self, name: str) -> int | None:
         return count_chunks(self.path / name)
@@ -132,7 +152,7 @@ class ZarrBackend(Backend):
     def is_map(self, path: Path) -> bool:
         return os.path.lexists(Path(path) / "zarr.json")  # a zarr.json that is no regular file fails when read
 
-    def write(self, path: Path, root: dict, arms: dict) -> None:
+    def write(self, path: Path, root: dict[str, Any], arms: dict[str, ArmArrays]) -> None:
         group = zarr.open_group(store=str(path), mode="w", zarr_format=3)
         metas = {}
         for arm, (values, meta, witness) in arms.items():
