@@ -7,6 +7,7 @@ maps (:func:`build_map`, :func:`open_map`, :func:`check_map`), IK, and planning 
 
 import os as _os
 import sys as _sys
+from typing import Any as _Any
 
 
 def _default_numba_cache_dir() -> "str | None":
@@ -23,8 +24,9 @@ def _default_numba_cache_dir() -> "str | None":
 
 
 # before anything imports numba or placement.kernels (which reads the variable)
-if not _os.environ.get("NUMBA_CACHE_DIR") and _default_numba_cache_dir():
-    _os.environ["NUMBA_CACHE_DIR"] = _default_numba_cache_dir()
+_cache_dir = _default_numba_cache_dir()
+if not _os.environ.get("NUMBA_CACHE_DIR") and _cache_dir:
+    _os.environ["NUMBA_CACHE_DIR"] = _cache_dir
 
 from placement.errors import (  # noqa: E402
     ArmNotFound,
@@ -51,7 +53,7 @@ from placement.version import __version__  # noqa: E402
 _LAZY = {"build_map": "placement.maps.build", "check_map": "placement.maps.accuracy", "view": "placement.viewer"}
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> _Any:  # the lazy function, of its own type
     if name in _LAZY:
         import importlib
 

@@ -20,7 +20,7 @@ class _NameNotFound(RobotError):
 
     kind = "name"
 
-    def __init__(self, name: str, robot: str, candidates: list[str] | None = None):
+    def __init__(self, name: str, robot: str, candidates: list[str] | None = None) -> None:
         hint = "; close names: " + ", ".join(candidates[:8]) if candidates else ""
         super().__init__(f"{self.kind} '{name}' not found in robot '{robot}'{hint}")
         self.name = name
@@ -49,7 +49,7 @@ class JointNotFound(_NameNotFound):
 class ArmNotFound(RobotError):
     """An arm name that the robot preset does not define."""
 
-    def __init__(self, arm: str, robot: str, arms: list[str]):
+    def __init__(self, arm: str, robot: str, arms: list[str]) -> None:
         super().__init__(f"robot '{robot}' has no arm '{arm}'; its arms are: {', '.join(arms)}")
         self.arm = arm
 

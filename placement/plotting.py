@@ -6,8 +6,17 @@ from __future__ import annotations
 import hashlib
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
+    from matplotlib.axes import Axes
+
+    from placement.planning.navgrid import NavGrid
+    from placement.planning.results import PlanResult, StepMaps, StepResult
+    from placement.planning.world import World
 
 DPI = 150
 DISTANCE_CAP = 2.0  # [m] the distance panel saturates here: farther is all open floor
@@ -21,7 +30,7 @@ PANELS = (
 )
 
 
-def panel_data(key: str, world, maps) -> np.ma.MaskedArray | None:
+def panel_data(key: str, world: World, maps: StepMaps) -> np.ma.MaskedArray | None:
     """The masked (ny, nx) layer of a panel, or None when it would be an empty panel (no layer, or
     a single value everywhere, such as the heuristic of the last step, which has no next step)."""
     layer = np.minimum(world.distance, DISTANCE_CAP) if key == "distance" else getattr(maps, key)
@@ -35,7 +44,14 @@ def panel_data(key: str, world, maps) -> np.ma.MaskedArray | None:
     return data
 
 
-def draw_markers(ax, world, step, maps, start, footprint_radius) -> None:
+def draw_markers(
+    ax: Axes,
+    world: World,
+    step: StepResult,
+    maps: StepMaps,
+    start: tuple[float, float, float] | None,
+    footprint_radius: float | None,
+) -> None:
     """Obstacles, the infeasible area, the path, the start, the target and the chosen placement."""
     from matplotlib.patches import Circle
     from matplotlib.patches import Polygon as PolygonPatch
@@ -59,6 +75,7 @@ def draw_markers(ax, world, step, maps, start, footprint_radius) -> None:
     if start is not None:
         ax.plot(start[0], start[1], "o", color="white", mec="k", ms=7)
     if step.ok:
+        assert step.base is not None and step.tcp is not None  # a planned step has both
         x, y, yaw = step.base
         r = footprint_radius or 0.3
         base = getattr(world, "base", None)
@@ -76,7 +93,7 @@ def draw_markers(ax, world, step, maps, start, footprint_radius) -> None:
         ax.plot(step.tcp[-1][0, 3], step.tcp[-1][1, 3], "*", color="white", mec="k", ms=13)
 
 
-def extent_of(nav) -> tuple[float, float, float, float]:
+def extent_of(nav: NavGrid) -> tuple[float, float, float, float]:
     return (
         nav.origin[0],
         nav.origin[0] + nav.shape[1] * nav.resolution,
@@ -85,13 +102,15 @@ def extent_of(nav) -> tuple[float, float, float, float]:
     )
 
 
-def legend_handles(step, start, has_path: bool, outline: bool = False) -> list:
+def legend_handles(
+    step: StepResult, start: tuple[float, float, float] | None, has_path: bool, outline: bool = False
+) -> list[Artist]:
     """The legend's entries; ``outline``: the chosen placement is drawn as the robot's footprint polygon
     (else as its footprint circle)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    h = [
+    h: list[Artist] = [
         Line2D([], [], color="k", lw=0.8, label="obstacle outline"),
         Patch(color="0.55", alpha=0.55, label="infeasible for the base\n(obstacle or closer than footprint)"),
     ]
@@ -120,7 +139,13 @@ def legend_handles(step, start, has_path: bool, outline: bool = False) -> list:
     return h
 
 
-def plot_step(world, step, path, start=None, footprint_radius: float | None = None) -> Path | None:
+def plot_step(
+    world: World,
+    step: StepResult,
+    path: Path | str,
+    start: tuple[float, float, float] | None = None,
+    footprint_radius: float | None = None,
+) -> Path | None:
     """One PNG of ``step`` (a StepResult with ``maps``) over ``world`` at ``path``; None without maps.
 
     ``start`` (x [m], y [m], yaw [rad]) and ``footprint_radius`` [m] add the start pose and the true
@@ -174,7 +199,7 @@ def plot_step(world, step, path, start=None, footprint_radius: float | None = No
 MAX_NAME = 80  # characters of a target in a figure's file name; longer ones are cut and get a hash
 
 
-def file_name(step) -> str:
+def file_name(step: StepResult) -> str:
     """``stepNN_action_target.png`` with only letters, digits, ``.``, ``_`` and ``-`` (a reach step's
     target lists its trajectories with commas: ``a,b`` becomes ``a_or_b``; other characters become ``-``)."""
     target = re.sub(r"[^A-Za-z0-9._-]+", "-", str(step.target).replace(",", "_or_")).strip(".-") or "target"
@@ -183,7 +208,13 @@ def file_name(step) -> str:
     return f"step{step.step:02d}_{step.action}_{target}.png"
 
 
-def plot_steps(world, result, out_dir, start=None, footprint_radius: float | None = None) -> list[Path]:
+def plot_steps(
+    world: World,
+    result: PlanResult,
+    out_dir: Path | str,
+    start: tuple[float, float, float] | None = None,
+    footprint_radius: float | None = None,
+) -> list[Path]:
     """One PNG per step of ``result`` (a PlanResult planned with ``keep_maps``) over ``world`` (the
     planner's World) in ``out_dir``: distance, navigation, manipulability, heuristic and combined cost
     (panels that would be empty are left out), with the path, start, target and chosen placement."""

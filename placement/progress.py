@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from typing import Any
 
 from tqdm import tqdm
 
@@ -79,19 +80,19 @@ class Eta:
 class EtaBar(tqdm):
     """A tqdm bar whose ETA ("<?" until it can be estimated) comes from :class:`Eta`."""
 
-    def __init__(self, *args, eta: Eta | None = None, **kwargs):
+    def __init__(self, *args: Any, eta: Eta | None = None, **kwargs: Any) -> None:
         kwargs.setdefault("bar_format", "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}<{eta}, {rate_fmt}{postfix}]")
         self.eta = eta or Eta()
         super().__init__(*args, **kwargs)
         self.eta.start(time.monotonic())
 
-    def update(self, n=1):
+    def update(self, n: float = 1) -> bool | None:
         if not self.disable:  # recorded first: the update below redraws the bar
             self.eta.add(self.n + n, time.monotonic())
         return super().update(n)
 
     @property
-    def format_dict(self):
+    def format_dict(self) -> dict[str, Any]:
         d = super().format_dict
         left = self.eta.remaining(d.get("total"))
         d["eta"] = "?" if left is None else self.format_interval(left)
@@ -104,7 +105,7 @@ class Ticking:
     takes seconds to minutes; tqdm alone redraws only on an update, and a bar frozen at ``00:00`` reads
     as a hung command)."""
 
-    def __init__(self, bar, interval: float = 1.0):
+    def __init__(self, bar: tqdm, interval: float = 1.0) -> None:
         self.bar, self.interval = bar, interval
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="progress-ticker", daemon=True)
@@ -114,10 +115,10 @@ class Ticking:
             if not self.bar.disable:
                 self.bar.refresh()
 
-    def __enter__(self):
+    def __enter__(self) -> tqdm:
         self._thread.start()
         return self.bar
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self._stop.set()
         self._thread.join()

@@ -22,14 +22,18 @@ import bisect
 from fractions import Fraction
 
 import numpy as np
+import numpy.typing as npt
 
 #: Shewchuk's ccwerrboundA: |det| above this times (|detleft| + |detright|) has the right sign.
 _ERRBOUND = (3.0 + 16.0 * 2.0**-53) * 2.0**-53
 #: Below this magnitude products may be subnormal and the bound does not hold: decide exactly.
 _TINY = 1e-280
 
+#: A vertex (x, y).
+Point = tuple[float, float]
 
-def orient(a, b, c) -> int:
+
+def orient(a: Point, b: Point, c: Point) -> int:
     """Sign of the turn a -> b -> c: 1 left (counter-clockwise), -1 right, 0 collinear; exact."""
     if c == a or c == b or a == b:
         return 0
@@ -49,7 +53,7 @@ def orient(a, b, c) -> int:
     return (e > 0) - (e < 0)
 
 
-def segments_meet(p1, p2, q1, q2) -> bool:
+def segments_meet(p1: Point, p2: Point, q1: Point, q2: Point) -> bool:
     """Whether the closed segments p1p2 and q1q2 share a point (exact; points as (x, y) tuples)."""
     o1, o2 = orient(p1, p2, q1), orient(p1, p2, q2)
     if o1 == o2 != 0:
@@ -62,12 +66,12 @@ def segments_meet(p1, p2, q1, q2) -> bool:
     return True
 
 
-def spike(prev, v, nxt) -> bool:
+def spike(prev: Point, v: Point, nxt: Point) -> bool:
     """Whether the edges prev-v and v-nxt (adjacent at v) overlap beyond v: collinear, nxt back towards prev."""
     return orient(prev, v, nxt) == 0 and (prev > v) == (nxt > v)
 
 
-def edges_meet(pts: list, i: int, j: int) -> bool:
+def edges_meet(pts: list[Point], i: int, j: int) -> bool:
     """Whether edges i and j (edge i runs from vertex i to vertex i + 1) of the closed polygon ``pts``
     meet other than adjacent edges at their shared vertex."""
     k = len(pts)
@@ -85,7 +89,7 @@ class _Edge:
 
     __slots__ = ("i", "left", "right", "ylo", "yhi")
 
-    def __init__(self, i: int, a: tuple, b: tuple):
+    def __init__(self, i: int, a: Point, b: Point) -> None:
         self.i = i
         self.left, self.right = (a, b) if a <= b else (b, a)
         self.ylo, self.yhi = (a[1], b[1]) if a[1] <= b[1] else (b[1], a[1])
@@ -101,7 +105,7 @@ class _Edge:
         return self.i < other.i if o == 0 else o > 0
 
 
-def self_crossing(points) -> tuple[int, int] | None:
+def self_crossing(points: npt.ArrayLike) -> tuple[int, int] | None:
     """A pair of edges (i, j), i < j, of the closed polygon ``points`` (k, 2) that meet (edge i runs
     from vertex i to vertex i + 1), or None when the polygon is simple. O(k log k) for a simple
     polygon. Points must be finite; consecutive points must differ (not checked)."""
@@ -110,14 +114,14 @@ def self_crossing(points) -> tuple[int, int] | None:
     if k < 3:
         return None
     edges = [_Edge(i, pts[i], pts[(i + 1) % k]) for i in range(k)]
-    events = []  # (point, 0 = insert before 1 = remove, edge index)
+    events: list[tuple[Point, int, int]] = []  # (point, 0 = insert before 1 = remove, edge index)
     for e in edges:
         events.append((e.left, 0, e.i))
         events.append((e.right, 1, e.i))
     events.sort()
     active: list[_Edge] = []
 
-    def check(a: _Edge | None, b: _Edge | None):
+    def check(a: _Edge | None, b: _Edge | None) -> tuple[int, int] | None:
         # both cross the sweep line, so their x ranges overlap: edges whose y ranges do not cannot meet
         if a is None or b is None or a.yhi < b.ylo or b.yhi < a.ylo:
             return None

@@ -19,9 +19,9 @@ from __future__ import annotations
 import math
 import os
 import stat
-from collections.abc import Iterable, Mapping
+from collections.abc import Hashable, Iterable, Mapping
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 import yaml
@@ -94,7 +94,7 @@ class Checker:
     # -- containers ----------------------------------------------------
     def mapping(
         self, value: Any, path: str, allowed: Mapping[str, str] | Iterable[str], required: Iterable[str] = ()
-    ) -> dict:
+    ) -> dict[str, Any]:
         """A mapping with string keys among ``allowed`` and every key of ``required``.
 
         ``allowed`` may map each key to a short description (with its unit), which
@@ -112,7 +112,7 @@ class Checker:
                 self.fail(join(path, key), f"missing required key{hint}")
         return value
 
-    def keyed(self, value: Any, path: str, minimum: int = 0) -> dict:
+    def keyed(self, value: Any, path: str, minimum: int = 0) -> dict[str, Any]:
         """A mapping with non-empty string keys (names chosen by the user) and >= ``minimum`` entries."""
         if not isinstance(value, dict):
             self.fail(path, f"expected a mapping, got {describe(value)}")
@@ -125,7 +125,7 @@ class Checker:
 
     def sequence(
         self, value: Any, path: str, length: int | None = None, minimum: int = 0, what: str = "values"
-    ) -> list:
+    ) -> list[Any]:
         """A list of exactly ``length`` (if given) or at least ``minimum`` items."""
         if not isinstance(value, list):
             self.fail(path, f"expected a list of {what}, got {describe(value)}")
@@ -207,14 +207,20 @@ def finite_array(values: Any, what: str, error: type[Exception]) -> np.ndarray:
     return out
 
 
-class UniqueKeyLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):
+if TYPE_CHECKING:  # both have the same interface; the stubs cannot say which one loaded
+    _SafeLoader = yaml.SafeLoader
+else:
+    _SafeLoader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+class UniqueKeyLoader(_SafeLoader):
     """Safe loader (libyaml's when installed: ~10x faster) that refuses duplicate mapping keys.
 
     PyYAML silently keeps the last of two equal keys.
     """
 
 
-def _construct_mapping(loader, node, deep=False):
+def _construct_mapping(loader: UniqueKeyLoader, node: yaml.MappingNode, deep: bool = False) -> dict[Hashable, Any]:
     seen = set()
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=True)

@@ -24,6 +24,7 @@ import logging
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from numba.core import event
@@ -41,17 +42,17 @@ QUERY_COMPILE_S = 20
 class CompileNotice(event.Listener):
     """Logs the notice at the start of the first compilation it hears of, then stays quiet."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.seconds = 0.0
         self.told = False
         self.listening = False
 
-    def on_start(self, ev):
+    def on_start(self, ev: event.Event) -> None:
         if not self.told:
             self.told = True
             log.info("compiling kernels (first run only, about %.0f s)", self.seconds)
 
-    def on_end(self, ev):
+    def on_end(self, ev: event.Event) -> None:
         pass
 
 
@@ -104,7 +105,7 @@ def uncompiled_kernels() -> list[str]:
     return sorted(name for name, d in kernel_dispatchers().items() if not d.signatures)
 
 
-def warm(work: Path, say=print) -> dict[str, float]:
+def warm(work: Path, say: Callable[[str], object] = print) -> dict[str, float]:
     """Run every entry point that compiles kernels on tiny inputs in ``work`` (a directory);
     returns the seconds each stage took (its compile time when the cache is cold)."""
     import yaml
@@ -119,7 +120,7 @@ def warm(work: Path, say=print) -> dict[str, float]:
     from placement.robots import load_robot
 
     robot = load_robot("pr2")
-    times = {}
+    times: dict[str, float] = {}
     t = time.perf_counter()
     # the maps of the test suite's planning tests: small, yet good enough that plans succeed
     maps = {
@@ -150,7 +151,7 @@ def warm(work: Path, say=print) -> dict[str, float]:
     return times
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="python -m placement.warmup",
         description="Compile every numba kernel "
@@ -163,7 +164,8 @@ def main(argv=None) -> int:
     import placement.kernels  # noqa: F401  (sets numba's cache directory)
 
     say = (lambda *a: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
-    say(f"warming the numba cache in {numba.config.CACHE_DIR}")
+    # numba sets its config attributes at run time (from the environment): mypy cannot see them
+    say(f"warming the numba cache in {numba.config.CACHE_DIR}")  # type: ignore[attr-defined]
     with tempfile.TemporaryDirectory() as tmp:
         warm(Path(tmp), say)
     missing = uncompiled_kernels()
