@@ -19,7 +19,7 @@ import numpy as np
 
 import placement
 from placement.maps.accuracy import pose_metrics
-from placement.maps.build import complete
+from placement.maps.completion import complete
 
 KEYS = ("precision", "precision_ci95", "recall", "recall_ci95", "recall_cells", "recall_draws")
 

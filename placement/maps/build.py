@@ -8,15 +8,8 @@ import time
 import numpy as np
 
 from placement.errors import GridError, PlacementError
-from placement.kernels.sampling import (
-    completion_sources,
-    configs_at,
-    reduce_max,
-    refined_config,
-    refined_configs,
-    sample_block,
-)
-from placement.kinematics.manipulability import INDEX_NAMES, ROTATION_SCALE
+from placement.kernels.sampling import configs_at, refined_config, refined_configs
+from placement.kinematics.manipulability import ROTATION_SCALE
 from placement.maps.buildspec import (
     DEFAULT_BINS,
     DEFAULT_RESOLUTION,
@@ -26,15 +19,18 @@ from placement.maps.buildspec import (
     parse_choice,
     parse_count,
 )
+from placement.maps.completion import complete
+from placement.maps.distributed import sample_distributed
 from placement.maps.grid import Grid
+from placement.maps.sampling import sample_range
 from placement.maps.selfcollision import ALPHA, BETA, SelfCollision
-from placement.maps.witness import K, completion_id, empty_witnesses, witness_info
+from placement.maps.witness import empty_witnesses, witness_info
 from placement.progress import EtaBar
-from placement.robots import Robot, load_robot
+from placement.robots import Robot
 from placement.storage.format import FORMAT_VERSION, BuiltMap
 from placement.version import __version__
 
-__all__ = ["DEFAULT_BINS", "BuiltMap", "arm_reach", "build_grid", "build_map", "default_grid", "sample_range"]
+__all__ = ["DEFAULT_BINS", "BuiltMap", "arm_reach", "build_grid", "build_map", "default_grid"]
 
 
 def arm_reach(robot: Robot, arm: str) -> tuple[np.ndarray, float]:
@@ -65,162 +61,6 @@ def build_grid(robot: Robot, arm: str, resolution: float = DEFAULT_RESOLUTION, b
     if a.dof < 6:
         raise PlacementError(f"arm '{arm}' has {a.dof} joints; the extended manipulability needs at least 6")
     return default_grid(robot, arm, resolution, bins)
-
-
-def sample_range(
-    robot: Robot,
-    arm: str,
-    grid: Grid,
-    values: np.ndarray,
-    witness: np.ndarray,
-    *,
-    seed: int,
-    start: int,
-    count: int,
-    index: str,
-    block: int = 1 << 19,
-    on_block=None,
-    self_collision: SelfCollision | None = None,
-    self_distance: bool = False,
-) -> int:
-    """Fold samples ``start .. start+count-1`` of ``seed`` into ``values`` (flat float32, per-cell max)
-    and ``witness`` (flat, the winning sample's number, see :mod:`placement.maps.witness`).
-
-    The one sampling loop of both the local and the distributed build. Returns
-    how many samples fell outside the grid (0 unless the reach bound is wrong).
-    ``on_block(samples_done_in_range, values)`` is called after each block.
-    With ``self_collision``, a sample that would raise its cell is dropped if
-    the arm collides with the robot; samples that cannot raise their cell need
-    no test, so the map is the maximum over collision-free samples exactly.
-    With ``self_distance`` as well (the checker is then required), every
-    sample gets its self-distance row penalties before it is evaluated.
-    """
-    if self_distance and self_collision is None:
-        raise PlacementError("the self-distance penalty needs a SelfCollision checker (self_collision=...)")
-    if self_distance:
-        # ~1.6 ms of distance queries per sample: small blocks keep the progress bar moving
-        # (the block size never changes the map)
-        block = min(block, 1 << 12)
-    block = int(max(1, min(block, count)))
-    done = 0
-    outside = 0
-    while done < count:
-        n = min(block, count - done)
-        ids = np.arange(start + done, start + done + n, dtype=np.int64)
-        outside += fold(robot, arm, grid, values, witness, seed, ids, None, index, self_collision, self_distance)
-        done += n
-        if on_block is not None:
-            on_block(done, values)
-    return outside
-
-
-def fold(
-    robot: Robot,
-    arm: str,
-    grid: Grid,
-    values: np.ndarray,
-    witness: np.ndarray,
-    seed: int,
-    ids: np.ndarray,
-    configs: np.ndarray | None,
-    index: str,
-    self_collision: SelfCollision | None = None,
-    self_distance: bool = False,
-) -> int:
-    """Evaluate one block of samples numbered ``ids`` (m,) (ascending, consecutive when ``configs`` is None:
-    the counter-based samples) or of the given ``configs`` (m, n) [rad or m], and fold them into
-    ``values``/``witness``. Returns how many fell outside the grid."""
-    a = robot.arm(arm)
-    ch = a.chain
-    n = len(ids)
-    given = np.zeros((0, a.dof)) if configs is None else np.ascontiguousarray(configs, dtype=float)
-    cells = np.empty(n, dtype=np.int64)
-    vals = np.empty(n, dtype=np.float64)
-    rowfac = np.ones((0, 6, 2))
-    if self_distance:
-        q = configs_at(np.uint64(seed), ids, a.lower, a.upper) if configs is None else given
-        rowfac = self_collision.row_factors(q)
-    sample_block(
-        np.uint64(seed),
-        int(ids[0]) if n else 0,
-        n,
-        given,
-        a.lower,
-        a.upper,
-        a.continuous.astype(np.bool_),
-        ch.link_T,
-        ch.axis,
-        ch.kind,
-        ch.tip_T,
-        INDEX_NAMES.index(index),
-        ROTATION_SCALE,
-        grid.origin_array,
-        grid.resolution,
-        grid.shape_array,
-        values,
-        rowfac,
-        cells,
-        vals,
-    )
-    if self_collision is not None and not self_distance:  # (row_factors already rejected collisions)
-        raising = np.flatnonzero((cells >= 0) & (vals.astype(np.float32) > values[np.maximum(cells, 0)]))
-        if raising.size:
-            q = configs_at(np.uint64(seed), ids[raising], a.lower, a.upper) if configs is None else given[raising]
-            vals[raising[self_collision.collides(q)]] = -1.0
-    reduce_max(values, witness, cells, vals, ids)
-    return int(np.count_nonzero(cells < 0))
-
-
-def complete(
-    robot: Robot,
-    arm: str,
-    grid: Grid,
-    values: np.ndarray,
-    witness: np.ndarray,
-    *,
-    seed: int,
-    plain: int,
-    index: str,
-    block: int = 1 << 18,
-    self_collision: SelfCollision | None = None,
-    self_distance: bool = False,
-    on_block=None,
-) -> int:
-    """Map completion: every empty cell next to a reached one gets one more sample, a few DLS steps
-    from the witness of its first reached face neighbour (with a plain-sample witness) towards its
-    centre pose (see :func:`placement.kernels.sampling.completion_sources`, and
-    :mod:`placement.maps.witness` for its number), folded in like any other.
-
-    The candidates come from the map after sampling and are applied in increasing witness number,
-    so the result does not depend on ``block``. Returns the number of candidates.
-    """
-    a = robot.arm(arm)
-    ch = a.chain
-    sources, dirs = completion_sources(values, witness, plain, grid.shape_array)
-    ids = np.sort(completion_id(plain, sources, dirs))
-    del sources, dirs
-    for lo in range(0, len(ids), block):
-        part = ids[lo : lo + block]
-        c = part - plain
-        q, ok = refined_configs(
-            np.uint64(seed),
-            c // K,
-            c % K,
-            a.lower,
-            a.upper,
-            a.continuous.astype(np.bool_),
-            ch.link_T,
-            ch.axis,
-            ch.kind,
-            ch.tip_T,
-            grid.origin_array,
-            grid.resolution,
-            grid.shape_array,
-        )
-        fold(robot, arm, grid, values, witness, seed, part[ok], q[ok], index, self_collision, self_distance)
-        if on_block is not None:
-            on_block(lo + len(part), len(ids))
-    return int(len(ids))
 
 
 def compile_sampling(
@@ -286,81 +126,6 @@ def compile_sampling(
         configs_at(np.uint64(0), np.zeros(1, dtype=np.int64), a.lower, a.upper)
 
 
-def _distributed(
-    client, robot, arm, grid, values, witness, seed, samples, index, tasks, bar, self_collision, self_distance
-) -> int:
-    from dask.distributed import as_completed
-
-    if tasks is None:
-        threads = sum(client.nthreads().values()) or 1
-        tasks = 4 * threads
-    tasks = int(max(1, min(tasks, samples)))
-    edges = np.linspace(0, samples, tasks + 1).astype(np.int64)
-    preset = robot.source
-    futures = {
-        client.submit(
-            _remote_range,
-            preset,
-            arm,
-            grid.to_dict(),
-            int(seed),
-            int(lo),
-            int(hi - lo),
-            index,
-            self_collision,
-            self_distance,
-            samples,
-            pure=False,
-        ): int(hi - lo)
-        for lo, hi in zip(edges[:-1], edges[1:])
-        if hi > lo
-    }
-    outside = 0
-    for fut in as_completed(futures):
-        idx, vals, wit, out = fut.result()
-        # the witness tie rule makes the merge independent of the order the tasks finish in
-        reduce_max(values, witness, idx, vals.astype(np.float64), wit.astype(np.int64))
-        outside += out
-        bar.update(futures[fut])
-    return outside
-
-
-def _remote_range(
-    preset: str,
-    arm: str,
-    grid_dict: dict,
-    seed: int,
-    start: int,
-    count: int,
-    index: str,
-    self_collision: bool = False,
-    self_distance: bool = False,
-    total: int = 0,
-):
-    """Dask task: a sub-range into a private grid, returned sparse (flat indices int64, values float32,
-    witnesses)."""
-    robot = load_robot(preset)
-    grid = Grid.from_dict(grid_dict)
-    values = np.zeros(grid.size, dtype=np.float32)
-    witness = empty_witnesses(grid.size, total)
-    checker = SelfCollision(robot, arm) if (self_collision or self_distance) else None
-    outside = sample_range(
-        robot,
-        arm,
-        grid,
-        values,
-        witness,
-        seed=seed,
-        start=start,
-        count=count,
-        index=index,
-        self_collision=checker,
-        self_distance=self_distance,
-    )
-    idx = np.flatnonzero(values)
-    return idx, values[idx], witness[idx], outside
-
-
 def build_map(
     robot: Robot,
     arm: str,
@@ -405,7 +170,8 @@ def build_map(
         self_distance: also apply the self-distance penalty (implies
             self_collision; every sample needs a distance query: slow).
         completion: after sampling, one completion pass from the witnesses into the empty
-            face neighbours of reached cells (see :func:`complete`; runs locally with a client too).
+            face neighbours of reached cells (see :func:`placement.maps.completion.complete`;
+            runs locally with a client too).
 
     The result's ``witness`` (flat-compatible 6D array, see :mod:`placement.maps.witness`) names the
     sample behind every cell's value; meta["witness"] says how to read it.
@@ -454,7 +220,7 @@ def build_map(
                 self_distance=self_distance,
             )
         else:
-            outside = _distributed(
+            outside = sample_distributed(
                 client,
                 robot,
                 arm,
