@@ -5,7 +5,9 @@ from __future__ import annotations
 import concurrent.futures as cf
 import multiprocessing as mp
 import time
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -16,10 +18,18 @@ from placement.planning.results import transfer_problems
 from placement.planning.transfer import UPRIGHT_TOLERANCE
 from placement.scene import load_scene
 
+if TYPE_CHECKING:
+    from dask.distributed import Client
+
+#: ``progress(done, total)``: called with the number of scenes evaluated so far.
+Progress = Callable[[int, int], object]
+#: One scene's results: per method, its task time, success, planning time, reason and transfer faults.
+SceneResults = dict[str, dict[str, Any]]
+
 MAX_WORKERS = 64  # processes; each holds its own maps and world
 
 
-def check_methods(methods) -> list[str]:
+def check_methods(methods: Iterable[str]) -> list[str]:
     """``methods`` as a list, or :class:`PlacementError` for an empty, blank, repeated or unknown name."""
     out = list(methods)
     choose = f"choose from {', '.join(METHODS)}"
@@ -35,9 +45,9 @@ def check_methods(methods) -> list[str]:
     return out
 
 
-def scene_files(paths) -> list[Path]:
+def scene_files(paths: Iterable[Path | str]) -> list[Path]:
     """Scene files from files and directories (``*.yaml`` inside, sorted)."""
-    out = []
+    out: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
             out += sorted(p.glob("*.yaml"))
@@ -50,7 +60,7 @@ def scene_files(paths) -> list[Path]:
     return out
 
 
-def check_scenes(paths) -> list[Path]:
+def check_scenes(paths: Iterable[Path | str]) -> list[Path]:
     """:func:`scene_files`, each loaded and checked (PlacementError naming the file)."""
     files = scene_files(paths)
     for f in files:
@@ -58,10 +68,10 @@ def check_scenes(paths) -> list[Path]:
     return files
 
 
-def evaluate_scene(path: str, methods: list[str], maps: str | None = None) -> dict:
+def evaluate_scene(path: str, methods: list[str], maps: str | None = None) -> SceneResults:
     """All methods on one scene, sharing one planner (maps, world, IRMs). Failures are results."""
     planner = Planner(path, methods[0], maps)
-    out = {}
+    out: SceneResults = {}
     for m in methods:
         planner.set_method(m)
         t = time.perf_counter()
@@ -101,7 +111,7 @@ def plan_outcome(result: PlanResult | None, error: str | None) -> tuple[int, str
     return len(result.steps), "failed"
 
 
-def scene_task(path: str, methods: list[str], maps: str | None = None) -> dict:
+def scene_task(path: str, methods: list[str], maps: str | None = None) -> SceneResults:
     """:func:`evaluate_scene` in a worker (process pool or Dask): numba on one thread, since the
     workers already run one scene per core and more threads would only compete for it."""
     import numba
@@ -110,7 +120,9 @@ def scene_task(path: str, methods: list[str], maps: str | None = None) -> dict:
     return evaluate_scene(path, methods, maps)
 
 
-def _in_process(files, methods, maps, progress) -> list[dict]:
+def _in_process(
+    files: list[Path], methods: list[str], maps: str | None, progress: Progress | None
+) -> list[SceneResults]:
     out = []
     for k, f in enumerate(files):
         out.append(evaluate_scene(str(f), methods, maps))
@@ -119,8 +131,10 @@ def _in_process(files, methods, maps, progress) -> list[dict]:
     return out
 
 
-def _in_pool(files, methods, maps, workers, progress) -> list[dict]:
-    results: list[dict | None] = [None] * len(files)
+def _in_pool(
+    files: list[Path], methods: list[str], maps: str | None, workers: int, progress: Progress | None
+) -> list[SceneResults]:
+    results: list[SceneResults | None] = [None] * len(files)
     ctx = mp.get_context("spawn")
     with cf.ProcessPoolExecutor(max_workers=min(workers, len(files)), mp_context=ctx) as pool:
         futures = {pool.submit(scene_task, str(f), methods, maps): k for k, f in enumerate(files)}
@@ -132,16 +146,18 @@ def _in_pool(files, methods, maps, workers, progress) -> list[dict]:
         except BaseException:
             pool.shutdown(cancel_futures=True)  # an error stops the run instead of waiting for every scene
             raise
-    return results
+    return [r for r in results if r is not None]  # every one, as every future completed
 
 
-def _on_dask(client, files, methods, maps, progress) -> list[dict]:
+def _on_dask(
+    client: Client, files: list[Path], methods: list[str], maps: str | None, progress: Progress | None
+) -> list[SceneResults]:
     from dask.distributed import as_completed
 
     # absolute paths: a worker's working directory need not be ours
     maps = None if maps is None else str(Path(maps).resolve())
     futures = {client.submit(scene_task, str(f.resolve()), methods, maps, pure=False): k for k, f in enumerate(files)}
-    results: list[dict | None] = [None] * len(files)
+    results: list[SceneResults | None] = [None] * len(files)
     try:
         for done, fut in enumerate(as_completed(futures), 1):
             results[futures[fut]] = fut.result()
@@ -150,10 +166,17 @@ def _on_dask(client, files, methods, maps, progress) -> list[dict]:
     except BaseException:
         client.cancel(list(futures))  # an error stops the run instead of waiting for every scene
         raise
-    return results
+    return [r for r in results if r is not None]  # every one, as every future completed
 
 
-def evaluate(paths, methods=METHODS, maps=None, workers: int = 2, progress=None, client=None) -> dict:
+def evaluate(
+    paths: Iterable[Path | str],
+    methods: Iterable[str] = METHODS,
+    maps: str | None = None,
+    workers: int = 2,
+    progress: Progress | None = None,
+    client: Client | None = None,
+) -> dict[str, Any]:
     """Evaluate ``methods`` on every scene; ``progress(done, total)`` after each scene.
 
     Returns the document of SPEC section 8: scenes, per-method lists, and ``reductions``:
@@ -166,39 +189,40 @@ def evaluate(paths, methods=METHODS, maps=None, workers: int = 2, progress=None,
     unused. Every path runs the same per-scene function, so the documents agree
     except for the planning times.
     """
-    methods = check_methods(methods)
+    names = check_methods(methods)
     if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= MAX_WORKERS:
         raise PlacementError(f"workers must be a whole number from 1 to {MAX_WORKERS}, got {workers!r}")
     files = check_scenes(paths)
     if progress:
         progress(0, len(files))
     if client is not None:
-        results = _on_dask(client, files, methods, maps, progress)
+        results = _on_dask(client, files, names, maps, progress)
     elif workers <= 1 or len(files) == 1:
-        results = _in_process(files, methods, maps, progress)
+        results = _in_process(files, names, maps, progress)
     else:
-        results = _in_pool(files, methods, maps, workers, progress)
-    doc = {"scenes": [f.stem for f in files], "methods": {}, "reductions": {}}
-    for m in methods:
-        doc["methods"][m] = {
+        results = _in_pool(files, names, maps, workers, progress)
+    per_method: dict[str, dict[str, list[Any]]] = {}
+    for m in names:
+        per_method[m] = {
             key: [r[m][key] for r in results]
             for key in ("task_time_s", "success", "planning_ms_per_placement", "reason", "transfer_faults")
         }
-    for m in methods:
-        doc["reductions"][m] = {}
-        for b in methods:
+    reductions: dict[str, dict[str, float | None]] = {}
+    for m in names:
+        reductions[m] = {}
+        for b in names:
             if b == m:
                 continue
             pairs = [
                 (x, y)
-                for x, y in zip(doc["methods"][m]["task_time_s"], doc["methods"][b]["task_time_s"])
+                for x, y in zip(per_method[m]["task_time_s"], per_method[b]["task_time_s"])
                 if x is not None and y is not None
             ]
-            doc["reductions"][m][b] = (1.0 - sum(x for x, _ in pairs) / sum(y for _, y in pairs)) if pairs else None
-    return doc
+            reductions[m][b] = (1.0 - sum(x for x, _ in pairs) / sum(y for _, y in pairs)) if pairs else None
+    return {"scenes": [f.stem for f in files], "methods": per_method, "reductions": reductions}
 
 
-def summary_rows(doc: dict) -> list[dict]:
+def summary_rows(doc: dict[str, Any]) -> list[dict[str, Any]]:
     """Per method: mean/median/std task time [s], success rate, mean planning ms per placement."""
     rows = []
     for m, r in doc["methods"].items():

@@ -39,8 +39,10 @@ import math
 import os
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import yaml
 
 from placement.errors import PlacementError
@@ -89,7 +91,7 @@ def place_table_edge(preset: str) -> float:
     return round(2 * (PLACE_REACH[preset] - half_depth - PlannerConfig().fixed_margin), 2)
 
 
-def footprint(x: float, y: float, yaw: float, size) -> np.ndarray:
+def footprint(x: float, y: float, yaw: float, size: tuple[float, ...]) -> npt.NDArray[np.float64]:
     """(4, 2) corners [m], counter-clockwise, of a box's footprint: centre (x, y) [m], ``yaw`` [rad],
     ``size`` (length, width, ...) [m] along its own axes."""
     c, s = math.cos(yaw), math.sin(yaw)
@@ -97,10 +99,12 @@ def footprint(x: float, y: float, yaw: float, size) -> np.ndarray:
     return local @ np.array([[c, s], [-s, c]]) + (x, y)
 
 
-def footprint_gap(a: np.ndarray, b: np.ndarray) -> float:
+def footprint_gap(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> float:
     """Edge-to-edge distance [m] of two convex polygons (k, 2) given counter-clockwise; 0 when they overlap."""
 
-    def separated(p, q):  # some edge of p has every corner of q strictly outside it
+    def separated(
+        p: npt.NDArray[np.float64], q: npt.NDArray[np.float64]
+    ) -> bool:  # some edge of p has every corner of q strictly outside it
         edges = np.roll(p, -1, axis=0) - p
         normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
         return bool(np.any(np.min(np.einsum("ej,qej->qe", normals, q[:, None] - p[None]), axis=0) > 0))
@@ -108,7 +112,9 @@ def footprint_gap(a: np.ndarray, b: np.ndarray) -> float:
     if not (separated(a, b) or separated(b, a)):
         return 0.0
 
-    def corner_to_edges(p, q):  # least distance of q's corners to p's edges
+    def corner_to_edges(
+        p: npt.NDArray[np.float64], q: npt.NDArray[np.float64]
+    ) -> float:  # least distance of q's corners to p's edges
         start, d = p, np.roll(p, -1, axis=0) - p
         t = np.clip(np.einsum("qej,ej->qe", q[:, None] - start[None], d) / np.einsum("ej,ej->e", d, d), 0, 1)
         return float(np.min(np.linalg.norm(q[:, None] - (start[None] + t[..., None] * d[None]), axis=2)))
@@ -134,9 +140,9 @@ def generate_scene(
     objects: int = 6,
     obstacles: bool = False,
     preset: str = "pr2",
-    table_size=None,
+    table_size: tuple[float, float] | None = None,
     maps: str | None = None,
-) -> dict:
+) -> dict[str, Any]:
     """Scene ``index`` of ``seed`` as a scene-file mapping (validated; paths as given, from the cwd).
 
     ``table_size``: pick table (length, depth) [m] (default per preset, ``TABLE_SIZES``).
@@ -151,7 +157,7 @@ def generate_scene(
     place_edge = place_table_edge(preset)
     w, h = ROOM
     cx, cy = 5.0, 4.0
-    obs = [
+    obs: list[dict[str, Any]] = [
         {"name": "wall_south", "box": {"center": [w / 2, 0.05, 1.0], "size": [w, 0.1, 2.0]}},
         {"name": "wall_north", "box": {"center": [w / 2, h - 0.05, 1.0], "size": [w, 0.1, 2.0]}},
         {"name": "wall_west", "box": {"center": [0.05, h / 2, 1.0], "size": [0.1, h, 2.0]}},
@@ -165,7 +171,7 @@ def generate_scene(
                 "box": {"center": [cx + (k - 1) * length, cy, TABLE_HEIGHT / 2], "size": [length, depth, TABLE_HEIGHT]},
             }
         )
-    places = []
+    places: list[dict[str, Any]] = []
     for name, (x, y) in (("a", (1.6, 1.6)), ("b", (8.4, 1.6))):
         obs.append(
             {
@@ -184,8 +190,10 @@ def generate_scene(
             obs.append(
                 {"name": f"crate_{k + 1}", "box": {"center": [round(x, 3), round(y, 3), 0.25], "size": [0.5, 0.5, 0.5]}}
             )
-    objs = []
-    placed = []  # (centre, bounding radius, footprint corners) of the objects so far
+    objs: list[dict[str, Any]] = []
+    placed: list[
+        tuple[tuple[float, float], float, npt.NDArray[np.float64]]
+    ] = []  # (centre, bounding radius, footprint corners)
     crates = [o["box"]["center"] for o in obs if o["name"].startswith("crate")]
     for k in range(objects):
         size = OBJECT_SIZES[int(rng.integers(len(OBJECT_SIZES)))]
@@ -220,7 +228,12 @@ def generate_scene(
         round(float(rng.uniform(h - 1.8, h - 0.8)), 3),
         round(float(rng.uniform(-math.pi, math.pi)), 4),
     ]
-    doc = {"version": 1, "resolution": 0.05, "bounds": [0.0, 0.0, w, h], "robot": {"preset": preset, "start": start}}
+    doc: dict[str, Any] = {
+        "version": 1,
+        "resolution": 0.05,
+        "bounds": [0.0, 0.0, w, h],
+        "robot": {"preset": preset, "start": start},
+    }
     if maps:
         doc["maps"] = maps
     doc.update(
@@ -247,7 +260,7 @@ def scene_path(value: str, scene_dir: Path) -> str:
     return rel if ("/" in rel or rel.endswith((".yaml", ".yml"))) else "./" + rel
 
 
-def write_scenes(out_dir, seed: int, count: int, **kwargs) -> list[Path]:
+def write_scenes(out_dir: Path | str, seed: int, count: int, **kwargs: Any) -> list[Path]:
     """Write ``count`` scenes of ``seed`` to ``out_dir``; returns their paths.
 
     ``kwargs`` go to :func:`generate_scene`; a preset path and ``maps`` are taken from the current

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 from placement.errors import PlacementError
@@ -12,7 +13,7 @@ from placement.errors import PlacementError
 
 def _missing(path: Path) -> list[Path]:
     """The directories ``path.mkdir(parents=True)`` would create, deepest first."""
-    out = []
+    out: list[Path] = []
     p = Path(os.path.abspath(path))
     while not os.path.lexists(p) and p != p.parent:
         out.append(p)
@@ -26,7 +27,7 @@ def _remove_empty(dirs: list[Path]) -> None:
             d.rmdir()
 
 
-def prepare_output_dir(path, what: str) -> list[Path]:
+def prepare_output_dir(path: Path | str, what: str) -> list[Path]:
     """Create ``path`` and write and delete a probe file in it; returns the directories created.
 
     ``what`` names the option or argument in the error ("--out", "OUT_DIR"). Raises
@@ -56,7 +57,7 @@ def prepare_output_dir(path, what: str) -> list[Path]:
 
 
 @contextlib.contextmanager
-def output_dir(path, what: str):
+def output_dir(path: Path | str, what: str) -> Iterator[Path]:
     """:func:`prepare_output_dir`, then run the block; if it fails, remove the directories created
     here that are still empty (so a failed run leaves no trace)."""
     created = prepare_output_dir(path, what)

@@ -4,11 +4,12 @@ legend). Never imported by algorithms."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 DPI = 150
 
 
-def plot_task_times(doc: dict, path) -> Path:
+def plot_task_times(doc: dict[str, Any], path: Path | str) -> Path:
     """Box plot of task times per method (successful scenes), like the paper's Fig. 10 / 11.
 
     A method with no successful scene gets a labelled empty slot rather than a box."""

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -17,21 +17,25 @@ class Move(NamedTuple):
     yaw: float  # base yaw of the placement [rad]
     travel_s: float  # base travel time from the previous placement [s]
     arm: str
-    joints: dict  # joint name -> IK solution [rad or m]
+    joints: dict[str, float]  # joint name -> IK solution [rad or m]
 
 
 def plan_moves(result: PlanResult | None) -> list[Move] | None:
     """The steps of a plan as moves, or None unless the plan succeeded."""
     if result is None or not result.ok:
         return None
-    return [Move(float(s.base[2]), float(s.travel_time_s), s.arm, s.joints) for s in result.steps]
+    moves = []
+    for s in result.steps:
+        assert s.base is not None and s.travel_time_s is not None and s.arm is not None  # a planned step has them
+        moves.append(Move(float(s.base[2]), float(s.travel_time_s), s.arm, s.joints))
+    return moves
 
 
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
-def task_time(robot: Robot, result: PlanResult | None, start) -> dict | None:
+def task_time(robot: Robot, result: PlanResult | None, start: tuple[float, float, float]) -> dict[str, Any] | None:
     """Per-step and total time [s] of a planned task, or None if a step failed.
 
     ``start``: the start pose (x [m], y [m], yaw [rad]). Step time = max(base time, arm time):
@@ -45,7 +49,7 @@ def task_time(robot: Robot, result: PlanResult | None, start) -> dict | None:
         return None
     prev_yaw = float(start[2])
     prev_q = {arm: robot.arm(arm).home.copy() for arm in robot.arms}
-    steps = []
+    steps: list[dict[str, float]] = []
     for m in moves:
         base_s = max(m.travel_s, abs(_wrap(m.yaw - prev_yaw)) / robot.omega_max)
         arm = robot.arm(m.arm)
