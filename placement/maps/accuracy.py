@@ -38,16 +38,32 @@ import numpy as np
 
 from placement.errors import MapError, PlacementError
 from placement.kinematics.ik import solve_ik
-from placement.maps.build import arm_reach
 from placement.maps.buildspec import MAX_SEED, parse_count
+from placement.maps.pose_accuracy import (
+    POSE_POS_TOL,
+    POSE_ROT_TOL,
+    pose_metrics,
+    poses_in_cells,
+    ratio,
+    reach_sphere,
+    wilson,
+)
 from placement.robots import Robot
+
+# the pose level's names keep their import path here (the CLI, tools and tests read them from this module)
+__all__ = [
+    "MAX_CHECK_SAMPLES",
+    "POSE_POS_TOL",
+    "POSE_ROT_TOL",
+    "check_map",
+    "pose_metrics",
+    "poses_in_cells",
+    "reach_sphere",
+    "wilson",
+]
 
 _CHUNK = 1 << 24
 MAX_CHECK_SAMPLES = 100_000  # IK checks per class; ~10 ms each
-
-
-def _ratio(num: float, den: float) -> float | None:
-    return float(num / den) if den > 0 else None
 
 
 def check_map(
@@ -166,8 +182,8 @@ def check_map(
     hit_pos, hit_neg = reached[:k_pos], reached[k_pos:]
     tp, fp = int(hit_pos.sum()), int((~hit_pos).sum())
     fn, tn = int(hit_neg.sum()), int((~hit_neg).sum())
-    precision = _ratio(tp, tp + fp)
-    npv = _ratio(tn, tn + fn)
+    precision = ratio(tp, tp + fp)
+    npv = ratio(tn, tn + fn)
     # Class-size weighted estimates over the population (map positives + in-reach map negatives).
     recall = specificity = acc_est = None
     if precision is not None and npv is not None:
@@ -175,9 +191,9 @@ def check_map(
         missed_pop = n_neg * (1.0 - npv)  # map negatives that IK reaches
         true_neg_pop = n_neg * npv
         false_pos_pop = n_pos * (1.0 - precision)
-        recall = _ratio(true_pos_pop, true_pos_pop + missed_pop)
-        specificity = _ratio(true_neg_pop, true_neg_pop + false_pos_pop)
-        acc_est = _ratio(true_pos_pop + true_neg_pop, n_pos + n_neg)
+        recall = ratio(true_pos_pop, true_pos_pop + missed_pop)
+        specificity = ratio(true_neg_pop, true_neg_pop + false_pos_pop)
+        acc_est = ratio(true_pos_pop + true_neg_pop, n_pos + n_neg)
     return {
         "robot": robot.name,
         "arm": arm,
@@ -196,7 +212,7 @@ def check_map(
         "negative_predictive_value": npv,
         "recall_estimate": recall,
         "specificity_estimate": specificity,
-        "accuracy": _ratio(tp + tn, len(cells)),
+        "accuracy": ratio(tp + tn, len(cells)),
         "accuracy_estimate": acc_est,
         "map_positive_cells": n_pos,
         "map_negative_cells_in_reach": n_neg,
@@ -211,16 +227,6 @@ def check_map(
         "pose_level": pose,
         "time_s": round(time.perf_counter() - t_start, 4),
     }
-
-
-def reach_sphere(robot: Robot, arm: str, grid) -> tuple[np.ndarray, float, np.ndarray]:
-    """(centre (3,) [m], reach bound [m], in_reach (nx*ny*nz,) bool): position cells whose centre lies
-    in the arm's reach sphere (:func:`placement.maps.build.arm_reach`)."""
-    centre, reach = arm_reach(robot, arm)
-    axes = [grid.origin[i] + (np.arange(grid.shape[i]) + 0.5) * grid.resolution for i in range(3)]
-    X, Y, Z = np.meshgrid(*axes, indexing="ij")
-    in_reach = ((X - centre[0]) ** 2 + (Y - centre[1]) ** 2 + (Z - centre[2]) ** 2 <= reach**2).reshape(-1)
-    return centre, reach, in_reach
 
 
 def _draw_negatives(
@@ -257,146 +263,3 @@ def _draw_negatives(
             if len(chosen) == k:
                 break
     return np.sort(np.fromiter(chosen, dtype=np.int64, count=k))
-
-
-POSE_POS_TOL = 0.01  # [m]: pose-level metrics ask IK for the drawn pose itself, not "somewhere in the cell"
-POSE_ROT_TOL = 0.05  # [rad]
-Z95 = 1.959963984540054
-
-
-def wilson(k: int, n: int) -> list[float] | None:
-    """95 % Wilson score interval [lo, hi] of a proportion k / n (None for n = 0)."""
-    if n == 0:
-        return None
-    p = k / n
-    d = 1 + Z95**2 / n
-    mid = (p + Z95**2 / (2 * n)) / d
-    half = Z95 * np.sqrt(p * (1 - p) / n + Z95**2 / (4 * n * n)) / d
-    return [float(max(0.0, mid - half)), float(min(1.0, mid + half))]
-
-
-def poses_in_cells(grid, cells: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Poses (N, 4, 4) drawn uniformly inside the cells ``cells`` (N,): position uniform in the cube,
-    yaw / pitch / roll uniform within their bins [rad]."""
-    from placement.maps.grid import pose_from_zyx
-
-    idx = np.stack(np.unravel_index(np.asarray(cells, dtype=np.int64), grid.shape), axis=-1).astype(float)
-    u = rng.random((len(cells), 6))
-    dyaw, dpitch, droll = grid.angle_steps
-    pos = grid.origin_array + (idx[:, :3] + u[:, :3]) * grid.resolution
-    return pose_from_zyx(
-        pos,
-        (idx[:, 3] - 0.5 + u[:, 3]) * dyaw,
-        -np.pi / 2 + (idx[:, 4] + u[:, 4]) * dpitch,
-        (idx[:, 5] - 0.5 + u[:, 5]) * droll,
-    )
-
-
-def pose_metrics(
-    robot: Robot,
-    rmap,
-    samples: int = 200,
-    seed: int = 0,
-    threshold: float = 0.0,
-    *,
-    ik_seeds: int = 8,
-    max_iter: int = 200,
-    max_draws: int | None = None,
-    progress: Callable[[int, int], None] | None = None,
-) -> dict:
-    """Pose-level precision and recall of a map against IK (1 cm, 0.05 rad).
-
-    * precision: ``samples`` cells drawn uniformly among those the map calls reachable
-      (value > threshold), one pose drawn uniformly inside each (:func:`poses_in_cells`);
-      the fraction IK reaches to POSE_POS_TOL / POSE_ROT_TOL, IK seeded by the cell's witness
-      (when the map has witnesses) and then ``ik_seeds - 1`` random restarts.
-    * recall: cells drawn uniformly among those in the reach sphere, kept when an independent
-      IK (home + random restarts, no witness) reaches the cell's centre pose to the same
-      tolerances, until ``samples`` are kept or ``max_draws`` (default 50 * samples) are drawn;
-      the fraction of kept cells the map marks reachable.
-
-    Returns a dict with ``precision``, ``recall`` (None without data), their 95 % Wilson
-    intervals ``*_ci95``, the counts, ``pos_tol_m``, ``rot_tol_rad`` and ``time_s``.
-    """
-    from placement.maps.witness import witness_configs
-
-    t0 = time.perf_counter()
-    meta = rmap.meta
-    arm = meta["arm"]
-    grid = rmap.grid
-    flat = rmap.values.reshape(-1)
-    rng = np.random.default_rng(seed)
-    reached = np.flatnonzero(flat > threshold)
-    k = min(samples, reached.size)
-    cells = np.sort(rng.choice(reached, size=k, replace=False)) if k else reached[:0]
-    del reached
-    poses = poses_in_cells(grid, cells, rng)
-    witness = getattr(rmap, "witness", None)
-    starts = [None] * k
-    if witness is not None and k and "witness" in meta:
-        starts = list(
-            witness_configs(
-                robot.arm(arm),
-                grid,
-                int(meta["seed"]),
-                int(meta["witness"]["plain_samples"]),
-                witness.reshape(-1)[cells],
-            )
-        )
-    max_draws = 50 * samples if max_draws is None else max_draws
-    total = k + samples
-    hits = 0
-    for i in range(k):
-        hits += solve_ik(
-            robot,
-            arm,
-            poses[i],
-            q_seed=starts[i],
-            seeds=ik_seeds,
-            rng_seed=seed * 7919 + i,
-            pos_tol=POSE_POS_TOL,
-            rot_tol=POSE_ROT_TOL,
-            max_iter=max_iter,
-        ).success
-        if progress is not None:
-            progress(i + 1, total)
-    _, _, in_reach = reach_sphere(robot, arm, grid)
-    positions = np.flatnonzero(in_reach)
-    n_orient = int(np.prod(grid.shape[3:]))
-    kept = marked = draws = 0
-    # its own stream: the same seed draws the same recall cells for any map of this grid (paired comparisons)
-    rng = np.random.default_rng([seed, 1])
-    while kept < samples and draws < max_draws:
-        cell = int(positions[rng.integers(positions.size)]) * n_orient + int(rng.integers(n_orient))
-        draws += 1
-        res = solve_ik(
-            robot,
-            arm,
-            grid.centre(np.array([cell]))[0],
-            seeds=ik_seeds,
-            rng_seed=seed * 104729 + draws,
-            pos_tol=POSE_POS_TOL,
-            rot_tol=POSE_ROT_TOL,
-            max_iter=max_iter,
-        )
-        if res.success:
-            kept += 1
-            marked += bool(flat[cell] > threshold)
-            if progress is not None:
-                progress(k + kept, total)
-    return {
-        "pos_tol_m": POSE_POS_TOL,
-        "rot_tol_rad": POSE_ROT_TOL,
-        "precision": _ratio(hits, k),
-        "precision_ci95": wilson(hits, k),
-        "precision_poses": int(k),
-        "precision_reached": int(hits),
-        "witness_seeded": witness is not None and "witness" in meta,
-        "recall": _ratio(marked, kept),
-        "recall_ci95": wilson(marked, kept),
-        "recall_cells": int(kept),
-        "recall_marked": int(marked),
-        "recall_draws": int(draws),
-        "reachable_fraction_in_reach": _ratio(kept, draws),
-        "time_s": round(time.perf_counter() - t0, 3),
-    }
