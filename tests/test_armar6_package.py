@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
-from conftest import SHARED_ARMAR6_URDF, armar6_spec, packaged_armar6_urdf
+from support.robots import SHARED_ARMAR6_URDF, armar6_spec, packaged_armar6_urdf
 
 import placement
 

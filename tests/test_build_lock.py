@@ -14,7 +14,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from test_storage import SMALL, left_map, right_map  # noqa: F401 - fixtures
 
 import placement
 from placement import MapError
@@ -103,7 +102,7 @@ def test_concurrent_saves_in_threads_keep_every_arm(tmp_path, pr2, right_map, le
         out = tmp_path / f"m{i}{placement.storage.backend(fmt).suffix}"
         errors = []
 
-        def save(arm, m):
+        def save(arm, m, out=out, errors=errors):
             try:
                 placement.save_maps(out, pr2, {arm: m}, fmt)
             except Exception as exc:

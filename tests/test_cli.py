@@ -6,29 +6,9 @@ import json
 import os
 import re
 import shlex
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def run(*args, cwd=None):
-    env = dict(os.environ)
-    return subprocess.run(
-        [sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True, cwd=cwd, env=env
-    )
-
-
-def _assert_one_line_error(proc, *words):
-    assert proc.returncode == 2, proc.stderr
-    assert "Traceback" not in proc.stderr
-    lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("error:")]
-    assert len(lines) == 1, proc.stderr
-    for w in words:
-        assert w in lines[0], lines[0]
+from support.cli import ROOT, assert_one_line_error, run
 
 
 def test_build_info_json(tmp_path):
@@ -77,28 +57,28 @@ def test_build_info_json(tmp_path):
 )
 def test_bad_input_is_one_line(tmp_path, args, words):
     args = [str(tmp_path / a) if a == "X" else a for a in args]
-    _assert_one_line_error(run(*args, cwd=tmp_path), *words)
+    assert_one_line_error(run(*args, cwd=tmp_path), *words)
 
 
 def test_build_refuses_to_overwrite_non_map(tmp_path):
     target = tmp_path / "precious"
     target.mkdir()
     (target / "thesis.txt").write_text("do not delete")
-    _assert_one_line_error(run("maps", "build", "--samples", "10", "--out", str(target)), "not a map")
+    assert_one_line_error(run("maps", "build", "--samples", "10", "--out", str(target)), "not a map")
     assert (target / "thesis.txt").read_text() == "do not delete"
 
 
 def test_bad_preset_names_the_key(tmp_path):
     preset = tmp_path / "r.yaml"
     preset.write_text("name: r\nurdf: x.urdf\nbase_frame: b\narms: {}\nwheels: 4\n")
-    _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "wheels")
+    assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "wheels")
     preset.write_text(
         "name: r\nurdf: x.urdf\nbase_frame: b\nfootprint_radius: 0.4\nv_max: 0.5\nomega_max: 1.0\n"
         "arms: {a: {joints: [j1, j2, j3, j4, j5, j6], tip_frame: t}}\n"
     )
-    _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")
+    assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")
     (tmp_path / "x.urdf").write_text("<robot name='r'><link name='l'/><joint")
-    _assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")
+    assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")
 
 
 def test_bad_frame_names_the_frame(tmp_path):
@@ -112,7 +92,7 @@ def test_bad_frame_names_the_frame(tmp_path):
     text = text.replace("package://", "package://")
     preset = tmp_path / "pr2x.yaml"
     preset.write_text(text)
-    _assert_one_line_error(
+    assert_one_line_error(
         run("maps", "build", "--robot", str(preset), "--samples", "10", "--out", str(tmp_path / "m")),
         "r_gripper_tool_fram",
         "r_gripper_tool_frame",
@@ -152,7 +132,7 @@ def test_readme_quick_start(tmp_path):
 
 def test_unreachable_dask_scheduler_is_one_line(tmp_path):
     pytest.importorskip("dask.distributed")
-    _assert_one_line_error(
+    assert_one_line_error(
         run("maps", "build", "--samples", "10", "--dask", "tcp://127.0.0.1:9", "--out", str(tmp_path / "m")),
         "Dask scheduler",
     )
@@ -168,7 +148,7 @@ def test_python_warnings_become_one_line_on_stderr(capsys):
         setup_logging(0, False)
         with warnings.catch_warnings():
             warnings.simplefilter("always")
-            warnings.warn("robot 'r': links without their collision meshes: a,\nb", UserWarning)
+            warnings.warn("robot 'r': links without their collision meshes: a,\nb", UserWarning, stacklevel=1)
     finally:
         warnings.showwarning = saved
     err = capsys.readouterr().err

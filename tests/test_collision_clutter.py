@@ -9,8 +9,8 @@ import time
 
 import numpy as np
 import pytest
-from conftest import random_configs
-from test_collision import scene_doc, with_occupancy
+from support.collision import scene_doc, with_occupancy
+from support.robots import random_configs
 
 from placement.collision import SceneCollision
 from placement.collision.checker import GRID_PIECES, model_aabb

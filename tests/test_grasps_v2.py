@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
-from test_scene_v2 import ON_SIDE, v2_doc
+from support.scenes import ON_SIDE, v2_doc
 
 from placement.kernels.grid import zyx_angles
 from placement.kinematics.ik import solve_ik

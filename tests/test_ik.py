@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import random_configs
+from support.robots import random_configs
 
 from placement.errors import PlacementError
 from placement.kinematics.ik import IKResult, solve_ik

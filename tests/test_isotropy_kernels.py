@@ -5,15 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import random_configs
-from test_manipulability import (  # noqa: F401 (robot: the fixture)
-    kernel_inputs,
-    reference,
-    reference_jacobian,
-    reference_measure,
-    reference_penalties,
-    robot,
-)
+from support.manipulability import kernel_inputs, reference_jacobian, reference_measure, reference_penalties
+from support.robots import random_configs
 
 import placement
 
@@ -70,15 +63,14 @@ def test_batched_kernel_proves_or_matches(robot_name, arm_name, request):
     assert proven > 50 and exact_count > 50  # the thresholds exercise both outcomes
 
 
-def test_octant_bounds_against_numpy(pr2):
+def test_octant_bounds_against_numpy():
     """The vectorised 64-octant kernels: rho <= lambda_max, mu >= lambda_min, pd_flags = eigvalsh > 0."""
     from placement.kernels import manipulability as km
     from placement.kernels import octants as ko
     from placement.kernels import octants_refine as kr
 
-    arm = pr2.arm("right")
     rng = np.random.default_rng(5)
-    for trial in range(30):
+    for _ in range(30):
         J = rng.normal(size=(6, 7)) * rng.uniform(0.05, 1.0, size=(6, 1))
         plo, phi = rng.uniform(0.2, 1.0, 7), rng.uniform(0.2, 1.0, 7)
         P, G = np.empty((6, 7, 2)), np.empty((6, 6, 2, 2))

@@ -7,7 +7,7 @@ import zlib
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import random_configs
+from support.robots import random_configs
 
 from placement.kernels.kinematics import fk_jacobian, fk_jacobian_batch
 

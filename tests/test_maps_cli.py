@@ -11,7 +11,7 @@ import stat
 
 import pytest
 from click.testing import CliRunner
-from test_storage import SMALL, snapshot
+from support.storage import SMALL, snapshot
 
 import placement
 from placement.cli.main import cli

@@ -14,8 +14,8 @@ import pytest
 import yaml
 from scipy import ndimage
 from scipy.sparse.csgraph import dijkstra
-from test_navigation import grid_graph
-from test_planner import SCENE
+from support.navigation import grid_graph
+from support.planning import SCENE
 
 from placement.planning import Planner
 from placement.planning.verify import trajectory_ik

@@ -17,10 +17,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
-from conftest import ARMAR6_URDF, armar6_spec
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
-from test_preset import pr2_mapping
+from support.presets import pr2_mapping
+from support.robots import ARMAR6_URDF, armar6_spec
 
 import placement
 from placement.errors import RobotError

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 import yaml
-from test_cli import _assert_one_line_error, run
-from test_planner import SCENE, write_scene
-from test_regression import _strip
+from support.cli import assert_one_line_error, run
+from support.planning import SCENE, write_scene
+from support.plans import strip_timings
 
 
 def test_placement_query_console_script_equals_placement_query(tmp_path, maps_dir):
@@ -22,7 +22,7 @@ def test_placement_query_console_script_equals_placement_query(tmp_path, maps_di
     a = subprocess.run([exe, str(path), "--json", "-q"], capture_output=True, text=True)
     b = run("query", str(path), "--json", "-q")
     assert a.returncode == b.returncode == 0, a.stderr + b.stderr
-    assert _strip(json.loads(a.stdout)) == _strip(json.loads(b.stdout))
+    assert strip_timings(json.loads(a.stdout)) == strip_timings(json.loads(b.stdout))
     h = subprocess.run([exe, "--help"], capture_output=True, text=True)
     assert h.returncode == 0 and "--method" in h.stdout and "--stream" in h.stdout
 
@@ -52,13 +52,13 @@ def test_placement_query_console_script_equals_placement_query(tmp_path, maps_di
     ],
 )
 def test_bad_scenes_are_one_line(tmp_path, maps_dir, changes, words):
-    _assert_one_line_error(run("query", str(write_scene(tmp_path, maps_dir, **changes)), "--json", "-q"), *words)
+    assert_one_line_error(run("query", str(write_scene(tmp_path, maps_dir, **changes)), "--json", "-q"), *words)
 
 
 def test_plot_dir_below_a_file_fails_before_planning(tmp_path, maps_dir):
     (tmp_path / "file").write_text("x")
     p = run("query", str(write_scene(tmp_path, maps_dir)), "--plot", str(tmp_path / "file" / "plots"), "-q")
-    _assert_one_line_error(p, "--plot", "file")
+    assert_one_line_error(p, "--plot", "file")
     assert p.stdout == ""  # nothing planned, nothing printed
 
 
@@ -68,7 +68,7 @@ def test_missing_maps_name_where_they_were_looked_for(tmp_path):
     path.parent.mkdir()
     path.write_text(yaml.safe_dump(doc))
     p = run("query", str(path), "-q", cwd=tmp_path)
-    _assert_one_line_error(p, "no maps for robot 'pr2'", str(tmp_path / "deep" / "maps" / "pr2"))
+    assert_one_line_error(p, "no maps for robot 'pr2'", str(tmp_path / "deep" / "maps" / "pr2"))
 
 
 def test_maps_are_found_beside_the_scene_from_any_directory(tmp_path, maps_dir):
@@ -85,5 +85,5 @@ def test_maps_are_found_beside_the_scene_from_any_directory(tmp_path, maps_dir):
 
 
 def test_unknown_option_and_command_are_one_line(tmp_path):
-    _assert_one_line_error(run("query", "x.yaml", "--method", "best"), "--method", "best")
-    _assert_one_line_error(run("frobnicate"), "frobnicate")
+    assert_one_line_error(run("query", "x.yaml", "--method", "best"), "--method", "best")
+    assert_one_line_error(run("frobnicate"), "frobnicate")

@@ -23,6 +23,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from support.plans import strip_timings
 
 from placement.planning.planner import Planner
 from placement.scene import load_scene
@@ -32,15 +33,6 @@ DATA = Path(__file__).parent / "data" / "regression"
 PLANS = {str(DATA.parent / "pr2_round.yaml"): DATA / "plans.json", None: DATA / "plans_footprint.json"}
 METHODS = ("sequential", "single-step", "irm", "fixed", "optimal")
 REL = 1e-7  # joints come from an iterative IK: same code, same machine kind, same seeds
-
-
-def _strip(value):
-    """The plan without its timings (they change from run to run)."""
-    if isinstance(value, dict):
-        return {k: _strip(v) for k, v in value.items() if k not in ("timings_ms", "update")}
-    if isinstance(value, list):
-        return [_strip(v) for v in value]
-    return value
 
 
 def _compare(got, want, where: str) -> None:
@@ -75,7 +67,7 @@ def _plans(maps_dir, preset: str | None, collisions: bool = True) -> dict:
         )
         for method in METHODS:
             planner.set_method(method)
-            out[f"{path.stem}/{method}"] = _strip(planner.plan().to_json())
+            out[f"{path.stem}/{method}"] = strip_timings(planner.plan().to_json())
     return out
 
 

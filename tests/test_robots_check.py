@@ -13,7 +13,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
-from robots_init_data import arm_urdf
+from support.toy_robot import arm_urdf
 
 import placement
 from placement.robots.onboarding.check import check_robot

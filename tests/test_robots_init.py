@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import ARMAR6_URDF
-from robots_init_data import arm_urdf, arm_xacro
+from support.robots import ARMAR6_URDF
+from support.toy_robot import arm_urdf, arm_xacro
 
 import placement
 from placement.robots.chain import ancestors

@@ -10,7 +10,7 @@ from pathlib import Path
 import pinocchio as pin
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from robots_init_data import arm_urdf, arm_xacro
+from support.toy_robot import arm_urdf, arm_xacro
 
 from placement.errors import RobotError
 from placement.robots.onboarding.tree import analyse

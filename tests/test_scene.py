@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 import yaml
-from test_occupancy import EXPECTED, write_map
+from support.occupancy import EXPECTED, write_map
+from support.scenes import FULL_SCENE, base_doc, set_key
 
 from placement.errors import PlacementError
 from placement.planning.config import PLANNER_KEYS
@@ -27,31 +28,6 @@ from placement.scene import (
     save_scene,
     scene_to_dict,
 )
-
-FULL_SCENE = """\
-version: 1
-resolution: 0.1
-bounds: [-3.0, -3.0, 7.0, 5.0]
-robot:
-  preset: pr2
-  start: [0.0, 0.0, 1.5707963]
-maps: maps/pr2
-occupancy_map: floor.yaml
-obstacles:
-  - {name: table_1, box: {center: [2.0, 0.0, 0.375], size: [0.8, 0.6, 0.75], yaw: 0.1}, table: true}
-  - {name: pillar, cylinder: {center: [-1.0, 3.0, 1.0], radius: 0.2, height: 2.0}}
-  - {name: wall, polygon: [[-2.5, -2.5], [6.5, -2.5], [6.5, -2.4], [-2.5, -2.4]]}
-objects:
-  - {name: cup_1, position: [2.1, 0.1, 0.8], yaw: 0.3, size: [0.08, 0.08, 0.1]}
-  - {name: cup_2, position: [1.9, -0.1, 0.81], size: [0.06, 0.1, 0.12]}
-place_locations:
-  - {name: bin_a, position: [5.0, 1.0, 0.9]}
-  - {name: bin_b, position: [5.0, -1.0, 0.9]}
-task:
-  - {pick: cup_1, place: bin_a}
-  - {pick: cup_2, place: bin_b}
-planner: {lambda_n: 0.05, yaw_steps: 60, grasp_yaws: [0.0, 1.5707963]}
-"""
 
 
 @pytest.fixture
@@ -145,24 +121,6 @@ def test_default_bounds_include_the_occupancy_map(tmp_path):
 
 
 # -- validation ------------------------------------------------------------------------------------
-
-
-def base_doc() -> dict:
-    return yaml.safe_load(FULL_SCENE.replace("occupancy_map: floor.yaml\n", ""))
-
-
-def set_key(path, value):
-    """Mutation setting the key at ``path`` (a list of keys/indices); value ``KeyError`` deletes it."""
-
-    def mutate(d):
-        for k in path[:-1]:
-            d = d[k]
-        if value is KeyError:
-            del d[path[-1]]
-        else:
-            d[path[-1]] = value
-
-    return mutate
 
 
 ERRORS = [

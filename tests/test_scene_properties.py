@@ -6,9 +6,8 @@ import math
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from mutations import documents, mutated
-from test_scene import base_doc
-from test_scene_v2 import v2_doc
+from support.mutations import documents, mutated
+from support.scenes import base_doc, v2_doc
 
 from placement.scene import Scene, SceneError, parse_scene, scene_to_dict
 

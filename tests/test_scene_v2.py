@@ -4,56 +4,18 @@ from __future__ import annotations
 
 import copy
 import math
-from pathlib import Path
 
 import coal
 import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
-from test_scene import set_key
+from support.scenes import KITCHEN, ON_SIDE, S, set_key, v2_doc
 
 from placement.planning.updates import parse_update
 from placement.scene import SceneError, TaskStep, load_scene, parse_scene, save_scene, scene_to_dict
 from placement.scene.checks import TOLERANCE, object_penetrates
 from placement.scene.model import Box, SceneObject
-
-KITCHEN = Path(__file__).resolve().parents[1] / "examples" / "kitchen.yaml"
-S = math.sqrt(0.5)
-ON_SIDE = [S, 0.0, 0.0, S]  # 90 degrees about x
-
-
-def v2_doc() -> dict:
-    """A small valid version 2 scene using every version 2 key."""
-    return {
-        "version": 2,
-        "robot": {"start": [0.0, 0.0, 0.0]},
-        "obstacles": [{"name": "table", "box": {"center": [2.0, 0.0, 0.375], "size": [0.8, 0.6, 0.75]}, "table": True}],
-        "objects": [
-            {"name": "can", "position": [2.0, 0.1, 0.785], "orientation": ON_SIDE, "size": [0.07, 0.07, 0.12]},
-            {
-                "name": "cup",
-                "position": [1.9, -0.1, 0.8],
-                "yaw": 0.3,
-                "size": [0.06, 0.06, 0.1],
-                "grasps": [{"name": "rim", "poses": [[0, 0, 0.15, 1, 0, 0, 0], [0, 0, 0.05, 1, 0, 0, 0]]}],
-            },
-        ],
-        "place_locations": [
-            {"name": "spot", "position": [2.2, 0.0, 0.85], "orientations": [[0.5, 0.5, 0.5, 0.5]]},
-            {"name": "bin", "position": [2.2, 0.2, 0.85]},
-        ],
-        "trajectories": [
-            {"name": "door", "poses": [[1.0, 1.0, 1.0, 0, 0, 0, 1]]},
-            {"name": "door2", "poses": [[1.0, 1.5, 1.0, 0, 0, 0, 1], [1.1, 1.5, 1.0, 0, 0, 0, 1]]},
-        ],
-        "task": [
-            {"reach": ["door", "door2"]},
-            {"pick": "can", "place": "spot"},
-            {"pick": "cup", "place": "bin"},
-            {"reach": "door"},
-        ],
-    }
 
 
 def test_v2_scene_parses():

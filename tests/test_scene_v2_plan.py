@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from test_scene_v2 import KITCHEN
+from support.scenes import KITCHEN
 
 from placement.maps.rmap import open_map
 from placement.planning import Planner

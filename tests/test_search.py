@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import yaml
 from ik_oracle import find_placement, find_transfer
-from test_planner import write_scene
+from support.planning import write_scene
 
 from placement.errors import PlacementError
 from placement.planning.planner import Planner

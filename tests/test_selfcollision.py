@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import random_configs
+from support.robots import random_configs
 
 import placement
 from placement.maps.selfcollision import SelfCollision

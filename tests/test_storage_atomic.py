@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_storage import FORMATS, left_map, right_map, set_root, snapshot  # noqa: F401 - fixtures
+from support.storage import FORMATS, set_root, snapshot
 
 import placement
 from placement import MapError

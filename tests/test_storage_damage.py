@@ -16,7 +16,7 @@ import h5py
 import numpy as np
 import pytest
 import zarr
-from test_storage import right_map, zarr_chunk_files  # noqa: F401 - a fixture
+from support.storage import zarr_chunk_files
 
 import placement
 from placement import MapError

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 import yaml
-from test_storage import SMALL, reseal_arm, set_root
+from support.storage import SMALL, reseal_arm, set_root
 
 import placement
 from placement import MapError

@@ -22,7 +22,7 @@ import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
-from test_storage import SMALL, left_map, right_map, set_root, zarr_chunk_files  # noqa: F401 - fixtures
+from support.storage import set_root, zarr_chunk_files
 
 import placement
 from placement import MapError

@@ -8,7 +8,7 @@ import io
 import json
 
 import pytest
-from test_planner import write_scene
+from support.planning import write_scene
 
 from placement.cli.options import MESSAGE_CHARS, bounded, cut
 from placement.cli.query import stream_lines, stream_plans

@@ -151,8 +151,8 @@ def test_polygon_prism_is_closed_and_covers_a_concave_polygon():
 
 
 def test_every_kind_of_obstacle_and_the_occupancy_map_are_drawn(tmp_path):
-    from test_occupancy import write_map
-    from test_scene import FULL_SCENE
+    from support.occupancy import write_map
+    from support.scenes import FULL_SCENE
 
     from placement.scene import load_scene
     from placement.viewer.scene_view import draw_scene

@@ -4,17 +4,15 @@ random and mutated documents (either PlanFileError or steps, never another excep
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
-import time
 import urllib.request
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
-from mutations import documents, mutated
+from support.mutations import documents, mutated
 
 from placement.planning import StepResult
 from placement.viewer.plan_file import PlanFileError, parse_plan
