@@ -92,7 +92,7 @@ def test_objects_rest_on_the_support_under_the_place_upright_as_picked():
         R0 = quaternion_matrix(obj.orientation)
         turns = place_orientations(obj, loc, 8)
         assert len(turns) == 8
-        for label, R in turns:
+        for _label, R in turns:
             assert tilt_between(R, R0) < 1e-6
             T, support = placed_pose(scene, obj, loc, R)
             assert support == "side"

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_planner import write_scene
+from support.planning import write_scene
 
 import placement
 from placement.planning import Planner, SceneError
