@@ -11,16 +11,21 @@ location (a TCP target) may not lie inside one.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
+import numpy.typing as npt
 
-from placement.scene.model import Box, Cylinder, Polygon, SceneObject
+from placement.scene.model import Box, Cylinder, Obstacle, Polygon, SceneObject, Shape
 from placement.scene.poses import BOX_EDGES, box_corners
 
 TOLERANCE = 1e-3  # [m] penetration accepted as touching (rounding in generated or exported scenes)
 
+#: a point or an (xmin, ymin, xmax, ymax) box [m]
+Coords = Sequence[float] | npt.NDArray[np.float64]
 
-def _z_range(shape) -> tuple[float, float]:
+
+def _z_range(shape: Shape) -> tuple[float, float]:
     if isinstance(shape, Box):
         return shape.center[2] - shape.size[2] / 2, shape.center[2] + shape.size[2] / 2
     if isinstance(shape, Cylinder):
@@ -28,7 +33,7 @@ def _z_range(shape) -> tuple[float, float]:
     return 0.0, math.inf
 
 
-def _inside_polygon(p, pts: np.ndarray) -> bool:
+def _inside_polygon(p: Coords, pts: npt.NDArray[np.float64]) -> bool:
     """Even-odd rule for one point against (k, 2) vertices."""
     x, y = p
     inside = False
@@ -38,14 +43,14 @@ def _inside_polygon(p, pts: np.ndarray) -> bool:
     return inside
 
 
-def _segments_cross(a, b, c, d) -> bool:
-    def orient(p, q, r):
+def _segments_cross(a: Coords, b: Coords, c: Coords, d: Coords) -> bool:
+    def orient(p: Coords, q: Coords, r: Coords) -> float:
         return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
 
-    return orient(a, b, c) * orient(a, b, d) < 0 and orient(c, d, a) * orient(c, d, b) < 0
+    return bool(orient(a, b, c) * orient(a, b, d) < 0 and orient(c, d, a) * orient(c, d, b) < 0)
 
 
-def _rect_overlaps(corners: np.ndarray, shape) -> bool:
+def _rect_overlaps(corners: npt.NDArray[np.float64], shape: Shape) -> bool:
     """Whether a (shrunk) convex footprint (k, 2), counter-clockwise, overlaps the shape's footprint."""
     if isinstance(shape, Cylinder):
         c = np.asarray(shape.center[:2])
@@ -64,29 +69,31 @@ def _rect_overlaps(corners: np.ndarray, shape) -> bool:
     return any(_segments_cross(a, b, c, d) for a, b in zip(corners, np.roll(corners, -1, axis=0)) for c, d in edges)
 
 
-def _apart(a, b) -> bool:
+def _apart(a: Coords, b: Coords) -> bool:
     """Whether two (xmin, ymin, xmax, ymax) boxes are separated by more than :data:`TOLERANCE`."""
-    return a[2] < b[0] - TOLERANCE or b[2] < a[0] - TOLERANCE or a[3] < b[1] - TOLERANCE or b[3] < a[1] - TOLERANCE
+    return bool(
+        a[2] < b[0] - TOLERANCE or b[2] < a[0] - TOLERANCE or a[3] < b[1] - TOLERANCE or b[3] < a[1] - TOLERANCE
+    )
 
 
-def obstacles_near(obstacles):
+def obstacles_near(obstacles: Sequence[Obstacle]) -> Callable[[Coords], list[Obstacle]]:
     """A function of (xmin, ymin, xmax, ymax) giving the obstacles whose footprint bounds are not
     :func:`_apart` from it, in file order: one numpy pass over all bounds instead of a Python loop."""
     b = np.array([o.shape.bounds_xy() for o in obstacles], dtype=float).reshape(-1, 4)
 
-    def near(a) -> list:
+    def near(a: Coords) -> list[Obstacle]:
         apart = (
             (a[2] < b[:, 0] - TOLERANCE)
             | (b[:, 2] < a[0] - TOLERANCE)
             | (a[3] < b[:, 1] - TOLERANCE)
             | (b[:, 3] < a[1] - TOLERANCE)
         )
-        return [obstacles[k] for k in np.flatnonzero(~apart)]
+        return [obstacles[int(k)] for k in np.flatnonzero(~apart)]
 
     return near
 
 
-def box_penetrates(box: Box, shape) -> bool:
+def box_penetrates(box: Box, shape: Shape) -> bool:
     """Whether ``box`` enters the solid ``shape`` by more than :data:`TOLERANCE` (touching is fine)."""
     if _apart(box.bounds_xy(), shape.bounds_xy()):
         return False
@@ -97,14 +104,14 @@ def box_penetrates(box: Box, shape) -> bool:
     return _rect_overlaps(shrunk.corners_xy(), shape)
 
 
-def _hull_xy(points: np.ndarray) -> np.ndarray:
+def _hull_xy(points: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """(k, 2) convex hull of the xy of ``points`` (n, >= 2), counter-clockwise (monotone chain)."""
     pts = sorted({(float(x), float(y)) for x, y in np.asarray(points)[:, :2]})
     if len(pts) < 3:
         return np.array(pts)
 
-    def half(seq):
-        out: list = []
+    def half(seq: Iterable[tuple[float, float]]) -> list[tuple[float, float]]:
+        out: list[tuple[float, float]] = []
         for q in seq:
             while (
                 len(out) >= 2
@@ -118,7 +125,7 @@ def _hull_xy(points: np.ndarray) -> np.ndarray:
     return np.array(half(pts) + half(reversed(pts)))
 
 
-def object_penetrates(o: SceneObject, shape) -> bool:
+def object_penetrates(o: SceneObject, shape: Shape) -> bool:
     """Whether the bounding box of ``o`` (any orientation) enters the solid ``shape`` by more than
     :data:`TOLERANCE`; an upright object is checked exactly as :func:`box_penetrates` does."""
     if o.upright:
@@ -140,7 +147,7 @@ def object_penetrates(o: SceneObject, shape) -> bool:
     return len(hull) >= 3 and _rect_overlaps(hull, shape)
 
 
-def point_inside(p, shape) -> bool:
+def point_inside(p: Coords, shape: Shape) -> bool:
     """Whether the point ``p`` (3,) [m] lies inside the solid ``shape``, deeper than :data:`TOLERANCE`."""
     if _apart((p[0], p[1], p[0], p[1]), shape.bounds_xy()):
         return False
@@ -152,7 +159,7 @@ def point_inside(p, shape) -> bool:
     if isinstance(shape, Box):
         c, s = math.cos(shape.yaw), math.sin(shape.yaw)
         dx, dy = p[0] - shape.center[0], p[1] - shape.center[1]
-        return (
+        return bool(
             abs(c * dx + s * dy) < shape.size[0] / 2 - TOLERANCE
             and abs(-s * dx + c * dy) < shape.size[1] / 2 - TOLERANCE
         )
@@ -160,7 +167,9 @@ def point_inside(p, shape) -> bool:
     return _inside_polygon(p[:2], np.asarray(shape.points))
 
 
-def _obb_overlap(pa: np.ndarray, ha: np.ndarray, pb: np.ndarray, hb: np.ndarray) -> bool:
+def _obb_overlap(
+    pa: npt.NDArray[np.float64], ha: npt.NDArray[np.float64], pb: npt.NDArray[np.float64], hb: npt.NDArray[np.float64]
+) -> bool:
     """Whether two oriented boxes (poses (4, 4), half sizes (3,)) overlap: no separating axis among
     the 15 candidates (faces of each, cross products of edges; Gottschalk's test)."""
     A, B = pa[:3, :3], pb[:3, :3]
@@ -184,7 +193,7 @@ def _obb_overlap(pa: np.ndarray, ha: np.ndarray, pb: np.ndarray, hb: np.ndarray)
     return True
 
 
-def overlapping_objects(objects, moved: set[str] | None = None) -> tuple[int, int] | None:
+def overlapping_objects(objects: Sequence[SceneObject], moved: set[str] | None = None) -> tuple[int, int] | None:
     """The first pair (i, j), i < j, of ``objects`` whose bounding boxes overlap by more than
     :data:`TOLERANCE` (each box shrunk by half of it on every side, so touching and stacking are
     fine), or None. ``moved``: only pairs with one of these names (None: all pairs). Boxes whose

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import yaml
 
 from placement.scene.limits import MAX_SCENE_BYTES
@@ -40,11 +41,11 @@ def save_scene(scene: Scene, path: str | Path) -> Path:
     return path
 
 
-def _floats(a) -> list[float]:
+def _floats(a: npt.ArrayLike) -> list[float]:
     return [float(v) for v in np.asarray(a).ravel()]
 
 
-def _plain(value):
+def _plain(value: object) -> object:
     if isinstance(value, dict):
         return {k: _plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
@@ -52,31 +53,33 @@ def _plain(value):
     return value
 
 
-def obstacle_to_dict(o: Obstacle) -> dict:
+def obstacle_to_dict(o: Obstacle) -> dict[str, Any]:
     """One obstacle as a scene-file mapping."""
     s = o.shape
+    shape: dict[str, Any]
     if isinstance(s, Box):
         shape = {"box": {"center": _floats(s.center), "size": _floats(s.size), "yaw": s.yaw}}
     elif isinstance(s, Cylinder):
         shape = {"cylinder": {"center": _floats(s.center), "radius": s.radius, "height": s.height}}
     else:
         shape = {"polygon": [_floats(p) for p in s.points]}
-    out = {"name": o.name, **shape}
+    out: dict[str, Any] = {"name": o.name, **shape}
     if o.table:
         out["table"] = True
     return out
 
 
-def trajectory_to_dict(t: Trajectory) -> dict:
+def trajectory_to_dict(t: Trajectory) -> dict[str, Any]:
     """A named trajectory as a scene-file mapping (poses as [x, y, z, qx, qy, qz, qw] lists)."""
     return {"name": t.name, "poses": [_floats(p) for p in t.poses]}
 
 
-def object_to_dict(o: SceneObject, version: int) -> dict:
+def object_to_dict(o: SceneObject, version: int) -> dict[str, Any]:
     """One object as a scene-file mapping, so that reading it back gives the same numbers: with
     ``yaw`` when that is what its orientation was made from (always in version 1), else with
     ``orientation``; and its own grasps."""
     out: dict[str, Any] = {"name": o.name, "position": _floats(o.position)}
+    assert o.orientation is not None  # set by SceneObject.__post_init__
     if version < 2 or np.array_equal(o.orientation, yaw_quaternion(o.yaw)):
         out["yaw"] = o.yaw
     else:
@@ -87,13 +90,13 @@ def object_to_dict(o: SceneObject, version: int) -> dict:
     return out
 
 
-def scene_to_dict(scene: Scene, relative_to: str | Path | None = None) -> dict:
+def scene_to_dict(scene: Scene, relative_to: str | Path | None = None) -> dict[str, Any]:
     """The scene as a scene-file mapping (plain Python types, bounds always written).
 
     Paths are absolute, or relative to ``relative_to`` (the directory the file will be in) when given.
     """
 
-    def path(p) -> str:
+    def path(p: str | Path) -> str:
         if relative_to is None:
             return str(p)
         return os.path.relpath(p, Path(relative_to).absolute())

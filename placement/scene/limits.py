@@ -6,6 +6,8 @@ cores (docs/planning.md, "What is checked when").
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from placement.scene.model import Scene
 from placement.scene.occupancy import MAX_COORD
 
@@ -42,9 +44,10 @@ MAX_TOTAL_VERTICES = 4_000
 MAX_OBJECTS = 1_000  # objects, and likewise place locations, trajectories and task steps
 
 
-def _extend(box, b) -> tuple[float, float, float, float]:
+def _extend(box: tuple[float, float, float, float] | None, b: Sequence[float]) -> tuple[float, float, float, float]:
     if box is None:
-        return tuple(float(v) for v in b)
+        xmin, ymin, xmax, ymax = (float(v) for v in b)
+        return (xmin, ymin, xmax, ymax)
     return (min(box[0], b[0]), min(box[1], b[1]), max(box[2], b[2]), max(box[3], b[3]))
 
 
@@ -53,8 +56,8 @@ def default_bounds(scene: Scene) -> tuple[float, float, float, float]:
     extent = None
     for o in scene.obstacles:
         extent = _extend(extent, o.shape.bounds_xy())
-    for o in scene.objects:
-        extent = _extend(extent, o.bounds_xy())
+    for obj in scene.objects:
+        extent = _extend(extent, obj.bounds_xy())
     for pl in scene.place_locations:
         extent = _extend(extent, (pl.position[0], pl.position[1]) * 2)
     for t in scene.trajectories:

@@ -8,10 +8,13 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field, fields
+from collections.abc import Sequence
+from dataclasses import Field, dataclass, field, fields
 from pathlib import Path
+from typing import Any, ClassVar, Protocol, TypeVar
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.errors import PlacementError
 from placement.planning.navgrid import NavGrid
@@ -26,7 +29,9 @@ class SceneError(PlacementError):
 class ArrayEq:
     """Value equality for frozen dataclasses that hold numpy arrays (fields with compare=False skipped)."""
 
-    def __eq__(self, other):
+    __dataclass_fields__: ClassVar[dict[str, Field[Any]]]  # set by @dataclass on every subclass
+
+    def __eq__(self, other: object) -> bool:
         if type(other) is not type(self):
             return NotImplemented
         for f in fields(self):
@@ -40,16 +45,19 @@ class ArrayEq:
                 return False
         return True
 
-    __hash__ = None
+    # unhashable, as a dataclass with eq=True is; typeshed declares object.__hash__ a method, not Optional
+    __hash__ = None  # type: ignore[assignment]
 
 
-def frozen_array(values, shape) -> np.ndarray:
+def frozen_array(values: npt.ArrayLike, shape: int | tuple[int, ...]) -> npt.NDArray[np.float64]:
+    """``values`` as a read-only float array of ``shape``."""
     a = np.array(values, dtype=float).reshape(shape)
     a.setflags(write=False)
     return a
 
 
-def rot2(yaw: float) -> np.ndarray:
+def rot2(yaw: float) -> npt.NDArray[np.float64]:
+    """(2, 2) rotation by ``yaw`` [rad]."""
     c, s = math.cos(yaw), math.sin(yaw)
     return np.array([[c, -s], [s, c]])
 
@@ -59,16 +67,16 @@ class Box(ArrayEq):
     """A box: ``center`` (3,) centroid [m], ``size`` (3,) full edge lengths along its own axes [m],
     ``yaw`` about z [rad]."""
 
-    center: np.ndarray
-    size: np.ndarray
+    center: npt.NDArray[np.float64]
+    size: npt.NDArray[np.float64]
     yaw: float = 0.0
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "center", frozen_array(self.center, (3,)))
         object.__setattr__(self, "size", frozen_array(self.size, (3,)))
         object.__setattr__(self, "yaw", float(self.yaw))
 
-    def corners_xy(self) -> np.ndarray:
+    def corners_xy(self) -> npt.NDArray[np.float64]:
         """(4, 2) footprint corners [m], counter-clockwise."""
         hx, hy = self.size[0] / 2, self.size[1] / 2
         local = np.array([[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]])
@@ -84,11 +92,11 @@ class Box(ArrayEq):
 class Cylinder(ArrayEq):
     """A vertical cylinder: ``center`` (3,) centroid [m] (mid-height), ``radius`` and ``height`` [m]."""
 
-    center: np.ndarray
+    center: npt.NDArray[np.float64]
     radius: float
     height: float
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "center", frozen_array(self.center, (3,)))
         object.__setattr__(self, "radius", float(self.radius))
         object.__setattr__(self, "height", float(self.height))
@@ -103,9 +111,9 @@ class Cylinder(ArrayEq):
 class Polygon(ArrayEq):
     """A vertical prism from the floor, unbounded in height: ``points`` (k, 2) [m], k >= 3."""
 
-    points: np.ndarray
+    points: npt.NDArray[np.float64]
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "points", frozen_array(self.points, (-1, 2)))
 
     def bounds_xy(self) -> tuple[float, float, float, float]:
@@ -133,12 +141,12 @@ class Trajectory(ArrayEq):
     or in an object's frame (its ``grasps``)."""
 
     name: str
-    poses: np.ndarray
+    poses: npt.NDArray[np.float64]
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "poses", frozen_array(self.poses, (-1, 7)))
 
-    def matrices(self) -> np.ndarray:
+    def matrices(self) -> npt.NDArray[np.float64]:
         """(P, 4, 4) the poses as homogeneous matrices."""
         return pose_matrices(self.poses)
 
@@ -155,13 +163,13 @@ class SceneObject(ArrayEq):
     """
 
     name: str
-    position: np.ndarray
+    position: npt.NDArray[np.float64]
     yaw: float
-    size: np.ndarray
-    orientation: np.ndarray | None = None
+    size: npt.NDArray[np.float64]
+    orientation: npt.NDArray[np.float64] | None = None  # set from ``yaw`` by __post_init__ when None
     grasps: tuple[Trajectory, ...] = ()
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "position", frozen_array(self.position, (3,)))
         object.__setattr__(self, "size", frozen_array(self.size, (3,)))
         yaw = float(self.yaw)
@@ -179,11 +187,14 @@ class SceneObject(ArrayEq):
     @property
     def upright(self) -> bool:
         """Whether the object turns about z only (its box is a yaw-only :class:`Box`)."""
-        return self.orientation[0] == 0.0 and self.orientation[1] == 0.0
+        q = self.orientation
+        assert q is not None  # set by __post_init__
+        return bool(q[0] == 0.0 and q[1] == 0.0)
 
     @property
-    def pose(self) -> np.ndarray:
+    def pose(self) -> npt.NDArray[np.float64]:
         """(4, 4) the object frame in the world (bounding-box centre, its axes)."""
+        assert self.orientation is not None  # set by __post_init__
         return pose_matrix(self.position, self.orientation)
 
     @property
@@ -191,7 +202,7 @@ class SceneObject(ArrayEq):
         """The object's bounding box about z (exact for an :attr:`upright` object)."""
         return Box(self.position, self.size, self.yaw)
 
-    def corners(self) -> np.ndarray:
+    def corners(self) -> npt.NDArray[np.float64]:
         """(8, 3) corners of the bounding box [m]."""
         return box_corners(self.pose, self.size)
 
@@ -212,10 +223,10 @@ class PlaceLocation(ArrayEq):
     by the planner's ``grasp_yaws``). See :mod:`placement.planning.transfer`."""
 
     name: str
-    position: np.ndarray
-    orientations: np.ndarray | None = None
+    position: npt.NDArray[np.float64]
+    orientations: npt.NDArray[np.float64] | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, "position", frozen_array(self.position, (3,)))
         if self.orientations is not None:
             object.__setattr__(self, "orientations", frozen_array(self.orientations, (-1, 4)))
@@ -263,7 +274,7 @@ class Scene(ArrayEq):
     objects: tuple[SceneObject, ...]
     place_locations: tuple[PlaceLocation, ...]
     task: tuple[TaskStep, ...]
-    planner: dict = field(default_factory=dict)
+    planner: dict[str, Any] = field(default_factory=dict)
     trajectories: tuple[Trajectory, ...] = ()
     source: Path | None = field(default=None, compare=False)
     occupancy: OccupancyMap | None = field(default=None, compare=False, repr=False)
@@ -302,7 +313,16 @@ class Scene(ArrayEq):
         return NavGrid((self.bounds[0], self.bounds[1]), self.resolution, self.grid_shape)
 
 
-def lookup(items, name: str, kind: str):
+class Named(Protocol):
+    @property
+    def name(self) -> str: ...
+
+
+N = TypeVar("N", bound=Named)
+
+
+def lookup(items: Sequence[N], name: str, kind: str) -> N:
+    """The item of ``items`` called ``name``; SceneError naming the alternatives (``kind``: what they are)."""
     for item in items:
         if item.name == name:
             return item
@@ -311,7 +331,8 @@ def lookup(items, name: str, kind: str):
     raise SceneError(f"no {kind} '{name}'; {plural}: {names}")
 
 
-def grid_shape(bounds, resolution: float) -> tuple[int, int]:
+def grid_shape(bounds: Sequence[float], resolution: float) -> tuple[int, int]:
+    """(ny, nx) cells of ``resolution`` [m] covering ``bounds`` (xmin, ymin, xmax, ymax) [m]."""
     xmin, ymin, xmax, ymax = bounds
     nx = max(1, math.ceil((xmax - xmin) / resolution - 1e-9))
     ny = max(1, math.ceil((ymax - ymin) / resolution - 1e-9))
@@ -319,4 +340,5 @@ def grid_shape(bounds, resolution: float) -> tuple[int, int]:
 
 
 def is_path(preset: str) -> bool:
+    """Whether a robot preset is given as a file path (else it is a built-in preset's name)."""
     return preset.endswith((".yaml", ".yml")) or "/" in preset or os.sep in preset

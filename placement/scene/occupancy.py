@@ -27,14 +27,20 @@ from __future__ import annotations
 
 import logging
 import math
-import re
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from placement.errors import PlacementError
-from placement.validation import parse_yaml, read_regular, read_text, show
+from placement.scene.pgm import MAX_IMAGE_PIXELS as MAX_IMAGE_PIXELS
+from placement.scene.pgm import MAX_PLAIN_PIXELS as MAX_PLAIN_PIXELS
+from placement.scene.pgm import OccupancyMapError as OccupancyMapError
+from placement.scene.pgm import parse_pgm as parse_pgm
+from placement.scene.pgm import read_pgm
+from placement.validation import parse_yaml, read_text, show
 
 log = logging.getLogger(__name__)
 
@@ -43,19 +49,11 @@ DEFAULT_OCCUPIED_THRESH = 0.65
 DEFAULT_FREE_THRESH = 0.196
 _MAP_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode")
 _MODES = ("trinary", "scale")
-#: Bounds checked before anything is allocated: the map YAML's size [bytes], the image's pixels (a
-#: binary P5 image; a plain P2 one is text parsed in Python, so it gets fewer), the resolution [m] and
-#: the coordinates of the map's corners [m].
+#: Bounds checked before anything is allocated: the map YAML's size [bytes], the resolution [m] and
+#: the coordinates of the map's corners [m] (the image's: see placement/scene/pgm.py).
 MAX_MAP_YAML_BYTES = 2**20
-MAX_IMAGE_PIXELS = 40_000_000
-MAX_PLAIN_PIXELS = 4_000_000
 RESOLUTION_RANGE = (1e-3, 100.0)
 MAX_COORD = 1e6
-_HEADER_BYTES = 1 << 16
-
-
-class OccupancyMapError(PlacementError):
-    """A ROS occupancy map (YAML or image) that is missing, malformed or not supported."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,7 +69,7 @@ class OccupancyMap:
         source: the map YAML it was loaded from, if any.
     """
 
-    occupied: np.ndarray
+    occupied: npt.NDArray[np.bool_]
     resolution: float
     origin: tuple[float, float, float]
     source: Path | None = None
@@ -79,7 +77,8 @@ class OccupancyMap:
     @property
     def shape(self) -> tuple[int, int]:
         """(rows, cols)."""
-        return self.occupied.shape
+        rows, cols = self.occupied.shape
+        return rows, cols
 
     @property
     def extent(self) -> tuple[float, float, float, float]:
@@ -90,138 +89,17 @@ class OccupancyMap:
 
 
 # ---------------------------------------------------------------------------------------------------
-# PGM
-
-
-_WS = b" \t\n\r\x0b\x0c"
-
-
-def _pgm_header(data: bytes, name: str) -> tuple[bytes, int, int, int, int]:
-    """(magic, width, height, maxval, offset of the byte after maxval) of a PGM, checked against the
-    size bounds; raises :class:`OccupancyMapError` naming ``name``."""
-
-    def bad(msg: str) -> OccupancyMapError:
-        return OccupancyMapError(f"{name}: malformed PGM: {msg}")
-
-    if data[:4] == b"\x89PNG":
-        raise OccupancyMapError(f"{name}: PNG images are not supported; convert the map to an 8-bit PGM (P5 or P2)")
-    magic = data[:2]
-    if magic not in (b"P5", b"P2"):
-        raise OccupancyMapError(
-            f"{name}: not a PGM image (magic {magic!r}, expected b'P5' or b'P2'); only 8-bit PGM maps are supported"
-        )
-    # header: magic, width, height, maxval, separated by whitespace and '#' comments
-    pos, fields = 2, []
-    while len(fields) < 3:
-        if pos >= len(data):
-            raise bad(
-                "header ends early (need width, height and maxval)"
-                if len(data) < _HEADER_BYTES
-                else f"header longer than {_HEADER_BYTES} bytes"
-            )
-        c = data[pos : pos + 1]
-        if c in (b" ", b"\t", b"\n", b"\r", b"\x0b", b"\x0c"):
-            pos += 1
-        elif c == b"#":
-            end = data.find(b"\n", pos)
-            pos = len(data) if end < 0 else end + 1
-        else:
-            m = re.compile(rb"[^\s#]+").match(data, pos)
-            token = m.group(0)
-            if not token.isdigit():
-                raise bad(f"header field {token[:20]!r} is not a positive integer")
-            if len(token) > 9:
-                raise bad(f"header field of {len(token)} digits (at most 9)")
-            if pos == 2:
-                raise bad("no whitespace after the magic number")
-            fields.append(int(token))
-            pos = m.end()
-    width, height, maxval = fields
-    if width < 1 or height < 1:
-        raise bad(f"size {width} x {height}")
-    if not 1 <= maxval <= 255:
-        if maxval > 255:
-            raise OccupancyMapError(
-                f"{name}: {maxval + 1}-level (16-bit) PGM is not supported; only 8-bit (maxval <= 255)"
-            )
-        raise bad(f"maxval {maxval}")
-    limit = MAX_IMAGE_PIXELS if magic == b"P5" else MAX_PLAIN_PIXELS
-    if width * height > limit:
-        raise OccupancyMapError(
-            f"{name}: the image is {width} x {height} = {width * height} pixels, more than the "
-            f"{limit} allowed for a{' plain (P2)' if magic == b'P2' else ''} map; crop it, or "
-            "save it at a coarser resolution"
-        )
-    return magic, width, height, maxval, pos
-
-
-def parse_pgm(data: bytes, name: str = "image") -> tuple[np.ndarray, int]:
-    """Decode an 8-bit PGM (binary ``P5`` or plain ``P2``) of at most :data:`MAX_IMAGE_PIXELS` pixels
-    (:data:`MAX_PLAIN_PIXELS` for ``P2``).
-
-    Returns ``(pixels, maxval)``: pixels (height, width) uint8 in file order (top row first).
-    Raises :class:`OccupancyMapError` naming ``name`` for anything malformed or unsupported.
-    """
-
-    def bad(msg: str) -> OccupancyMapError:
-        return OccupancyMapError(f"{name}: malformed PGM: {msg}")
-
-    magic, width, height, maxval, pos = _pgm_header(data, name)
-    n = width * height
-    if magic == b"P5":
-        if pos >= len(data) or data[pos : pos + 1] not in (b" ", b"\t", b"\n", b"\r", b"\x0b", b"\x0c"):
-            raise bad("no whitespace between maxval and the raster")
-        raster = memoryview(data)[pos + 1 :]
-        if len(raster) < n:
-            raise bad(f"raster truncated: {len(raster)} bytes for {width} x {height} = {n} pixels")
-        if bytes(raster[n:]).strip(_WS):
-            raise bad(f"{len(raster) - n} bytes of trailing data after the raster")
-        pixels = np.frombuffer(raster, dtype=np.uint8, count=n).reshape(height, width).copy()
-    else:
-        text = re.sub(rb"#[^\n]*", b" ", data[pos:])
-        tokens = text.split()
-        if len(tokens) != n:
-            raise bad(f"{len(tokens)} values for {width} x {height} = {n} pixels")
-        if not all(t.isdigit() for t in tokens):
-            raise bad("the raster holds a value that is not a non-negative integer")
-        if any(len(t) > 3 for t in tokens):
-            raise bad(f"a pixel value of more than 3 digits exceeds maxval {maxval}")
-        values = np.array([int(t) for t in tokens], dtype=np.int64)
-        pixels = values.reshape(height, width)
-    if pixels.max(initial=0) > maxval:
-        raise bad(f"pixel value {int(pixels.max())} exceeds maxval {maxval}")
-    return pixels.astype(np.uint8), maxval
-
-
-def read_pgm(path: str | Path) -> tuple[np.ndarray, int]:
-    """Read an 8-bit PGM file: ``(pixels (height, width) uint8, top row first, maxval)``.
-
-    Only a regular file is read, and its header first: an image over the pixel bounds is refused
-    before its raster is read or anything is allocated for it."""
-    path = Path(path)
-    head = read_regular(path, OccupancyMapError, f"image {path}", 2**62, "image", prefix=_HEADER_BYTES)
-    magic, width, height, _, pos = _pgm_header(head, str(path))
-    n = width * height
-    most = pos + 1 + n + _HEADER_BYTES if magic == b"P5" else pos + 8 * n + 2**20
-    try:
-        data = read_regular(path, OccupancyMapError, f"image {path}", most, "image")
-    except OccupancyMapError as exc:
-        raise OccupancyMapError(f"{exc} for {width} x {height} pixels") from None
-    return parse_pgm(data, str(path))
-
-
-# ---------------------------------------------------------------------------------------------------
 # map_server YAML
 
 
 def occupancy_from_pixels(
-    pixels: np.ndarray,
+    pixels: npt.ArrayLike,
     maxval: int = 255,
     *,
     negate: bool = False,
     occupied_thresh: float = DEFAULT_OCCUPIED_THRESH,
     free_thresh: float = DEFAULT_FREE_THRESH,
-) -> np.ndarray:
+) -> npt.NDArray[np.bool_]:
     """map_server semantics on an image (top row first) -> (rows, cols) bool, row 0 = lowest y.
 
     ``p = (maxval - v) / maxval`` (``v / maxval`` if ``negate``); True where ``p >= free_thresh``,
@@ -240,7 +118,7 @@ def occupancy_from_pixels(
     return np.ascontiguousarray(lut[pixels.astype(np.intp, copy=False)][::-1])
 
 
-def _number(doc: dict, key: str, where: str, lo: float | None = None, hi: float | None = None) -> float:
+def _number(doc: dict[str, Any], key: str, where: str, lo: float | None = None, hi: float | None = None) -> float:
     """``doc[key]`` as a finite float within [lo, hi] (any size, spelling or type refused in one line)."""
     v = doc[key]
     try:
@@ -328,7 +206,9 @@ def load_occupancy_map(path: str | Path) -> OccupancyMap:
 # rasterisation
 
 
-def _span(lo: np.ndarray, hi: np.ndarray, origin: float, res: float, n: int):
+def _span(
+    lo: npt.NDArray[np.floating], hi: npt.NDArray[np.floating], origin: float, res: float, n: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.bool_]]:
     """Indices [first, last] of the occupancy cells that overlap the open intervals (lo, hi)."""
     eps = 1e-9
     first = np.floor((lo - origin) / res + eps).astype(np.int64)
@@ -338,8 +218,13 @@ def _span(lo: np.ndarray, hi: np.ndarray, origin: float, res: float, n: int):
 
 
 def rasterize_occupancy(
-    occ: OccupancyMap, origin_xy, resolution: float, shape, conservative: bool = False, outside_occupied: bool = False
-) -> np.ndarray:
+    occ: OccupancyMap,
+    origin_xy: Iterable[float],
+    resolution: float,
+    shape: Iterable[int],
+    conservative: bool = False,
+    outside_occupied: bool = False,
+) -> npt.NDArray[np.bool_]:
     """Occupancy of a target grid: (ny, nx) bool.
 
     The target grid has its lower-left corner at ``origin_xy`` [m], square cells of ``resolution``
@@ -381,11 +266,14 @@ def rasterize_occupancy(
         covered = ((y0 >= my - eps) & (y0 + resolution <= my + rows * mres + eps))[:, None] & (
             (x0 >= mx - eps) & (x0 + resolution <= mx + cols * mres + eps)
         )[None, :]
-        return _conservative(occ, ox, oy, resolution, ny, nx) | ~covered
+        blocked: npt.NDArray[np.bool_] = _conservative(occ, ox, oy, resolution, ny, nx) | ~covered
+        return blocked
     return _conservative(occ, ox, oy, resolution, ny, nx)
 
 
-def _conservative(occ: OccupancyMap, ox: float, oy: float, resolution: float, ny: int, nx: int) -> np.ndarray:
+def _conservative(
+    occ: OccupancyMap, ox: float, oy: float, resolution: float, ny: int, nx: int
+) -> npt.NDArray[np.bool_]:
     """Occupied if any overlapping occupancy cell is occupied; cells outside the map are free."""
     rows, cols = occ.occupied.shape
     mx, my, mres = occ.origin[0], occ.origin[1], occ.resolution

@@ -17,12 +17,13 @@ import numpy as np
 
 from placement.scene.model import Scene
 from placement.scene.poses import quaternion_matrix
+from placement.validation import Checker
 
 #: [deg] largest tilt between an object's picked orientation and an allowed place orientation.
 UPRIGHT_TOLERANCE_DEG = 6.0
 
 
-def check_place_orientations(scene: Scene, P) -> None:
+def check_place_orientations(scene: Scene, P: Checker) -> None:
     """Fail (``P.fail``, key path ``place_locations[i].orientations[k]``) on an orientation that no
     object placed there can take without tilting."""
     index = {p.name: i for i, p in enumerate(scene.place_locations)}
@@ -34,6 +35,7 @@ def check_place_orientations(scene: Scene, P) -> None:
         loc, obj = scene.place_locations[i], objects[t.pick]
         if loc.orientations is None:
             continue
+        assert obj.orientation is not None  # set by SceneObject.__post_init__
         R0 = quaternion_matrix(obj.orientation)
         for k, q in enumerate(loc.orientations):
             tilt = math.degrees(math.acos(float(np.clip((quaternion_matrix(q) @ R0.T)[2, 2], -1.0, 1.0))))

@@ -22,8 +22,11 @@ A pose is ``[x, y, z, qx, qy, qz, qw]`` ([m], quaternion in ROS order); a quater
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.scene.model import Trajectory
 from placement.scene.poses import UNIT_TOLERANCE, normalised
@@ -47,7 +50,7 @@ class PoseParser(Validator):
 
     version = 1
 
-    def gate(self, item, path: str, part: str) -> None:
+    def gate(self, item: Any, path: str, part: str) -> None:
         """A version 2 key in a version 1 scene: one line saying so (before any other check)."""
         if self.version >= V2 or not isinstance(item, dict):
             return
@@ -56,7 +59,7 @@ class PoseParser(Validator):
                 where = f"{path}.{key}" if path else key
                 self.fail(where, f"'{key}' needs version: 2 (this scene has version: {self.version})")
 
-    def quaternion(self, value, path: str) -> np.ndarray:
+    def quaternion(self, value: Any, path: str) -> npt.NDArray[np.float64]:
         """A unit quaternion [x, y, z, w] (norm within the tolerance) -> (4,) normalised."""
         q = np.array(self.vector(value, path, 4))
         n = math.hypot(*q)  # no overflow for huge components
@@ -68,7 +71,7 @@ class PoseParser(Validator):
             )
         return normalised(q)
 
-    def pose(self, value, path: str, maximum: float) -> np.ndarray:
+    def pose(self, value: Any, path: str, maximum: float) -> npt.NDArray[np.float64]:
         """``[x, y, z, qx, qy, qz, qw]`` -> (7,) with the quaternion normalised."""
         if not isinstance(value, list) or len(value) != 7:
             got = f"{len(value)} numbers" if isinstance(value, list) else describe(value)
@@ -76,7 +79,7 @@ class PoseParser(Validator):
         xyz = self.vector(value[:3], path, 3, maximum=maximum)
         return np.concatenate([xyz, self.quaternion(value[3:], f"{path}[3:7]")])
 
-    def trajectory(self, item, path: str, maximum: float) -> Trajectory:
+    def trajectory(self, item: Any, path: str, maximum: float) -> Trajectory:
         """``{name, poses}`` (the name is checked by the caller's rules) -> :class:`Trajectory`."""
         self.mapping(item, path, TRAJECTORY_KEYS, TRAJECTORY_KEYS)
         name = self.string(item["name"], f"{path}.name")
@@ -91,12 +94,13 @@ class PoseParser(Validator):
             self.fail(f"{path}.poses", f"expected at most {MAX_POSES} poses, got {len(poses)}")
         return Trajectory(name, np.stack([self.pose(p, f"{path}.poses[{i}]", maximum) for i, p in enumerate(poses)]))
 
-    def grasps(self, value, path: str, maximum: float) -> tuple[Trajectory, ...]:
+    def grasps(self, value: Any, path: str, maximum: float) -> tuple[Trajectory, ...]:
         """An object's ``grasps``: a non-empty list of trajectories with names unique in the object."""
         if not isinstance(value, list) or not value:
             got = "an empty list (omit 'grasps' to generate them)" if isinstance(value, list) else describe(value)
             self.fail(path, f"expected a list of grasps {{name, poses}}, got {got}")
-        out, seen = [], {}
+        out: list[Trajectory] = []
+        seen: dict[str, str] = {}
         for i, item in enumerate(value):
             g = self.trajectory(item, f"{path}[{i}]", maximum)
             if g.name in seen:
@@ -105,7 +109,7 @@ class PoseParser(Validator):
             out.append(g)
         return tuple(out)
 
-    def orientations(self, value, path: str) -> np.ndarray:
+    def orientations(self, value: Any, path: str) -> npt.NDArray[np.float64]:
         """A place location's ``orientations``: a non-empty list of quaternions -> (k, 4)."""
         if not isinstance(value, list) or not value:
             got = (
@@ -118,7 +122,7 @@ class PoseParser(Validator):
             self.fail(path, f"expected at most {MAX_POSES} orientations, got {len(value)}")
         return np.stack([self.quaternion(q, f"{path}[{i}]") for i, q in enumerate(value)])
 
-    def reach(self, value, path: str, trajectories) -> tuple[str, ...]:
+    def reach(self, value: Any, path: str, trajectories: Iterable[Trajectory]) -> tuple[str, ...]:
         """A step's ``reach``: one trajectory name or a non-empty list of distinct ones."""
         names = [t.name for t in trajectories]
         items = value if isinstance(value, list) else [value]

@@ -6,7 +6,11 @@ the file (or stream line) and the key at once. Numbers must be finite; booleans 
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
+from typing import Any
+
 import numpy as np
+import numpy.typing as npt
 
 from placement.errors import PlacementError
 from placement.validation import Checker, describe, join, show
@@ -25,11 +29,13 @@ class Validator(Checker):
     keys named with their whole path (and a hint for rotation words), upper bounds on numbers,
     null lists read as empty, and point lists."""
 
-    def __init__(self, where: str, error: type[PlacementError] = PlacementError):
+    def __init__(self, where: str, error: type[PlacementError] = PlacementError) -> None:
         super().__init__(where, error)  # a default error class: scene parts are parsed in updates too
 
     # -- structure -----------------------------------------------------
-    def mapping(self, value, path: str, allowed, required=()) -> dict:
+    def mapping(
+        self, value: Any, path: str, allowed: Mapping[str, str] | Iterable[str], required: Iterable[str] = ()
+    ) -> dict[str, Any]:
         """``value`` must be a mapping with string keys among ``allowed`` and every ``required`` key."""
         if not isinstance(value, dict):
             self.fail(path, f"expected a mapping, got {describe(value)}")
@@ -44,7 +50,7 @@ class Validator(Checker):
                 self.fail("", f"missing required key '{join(path, key)}'")
         return value
 
-    def items(self, value, path: str) -> list:
+    def items(self, value: Any, path: str) -> list[Any]:
         """A list (null reads as an empty list)."""
         if value is None:
             return []
@@ -54,7 +60,7 @@ class Validator(Checker):
 
     # -- scalars -------------------------------------------------------
     def number(
-        self, value, path: str, minimum: float | None = None, strict: bool = False, maximum: float | None = None
+        self, value: Any, path: str, minimum: float | None = None, strict: bool = False, maximum: float | None = None
     ) -> float:
         """A finite number, optionally ``>= minimum`` (``>`` with ``strict``) and ``<= maximum``."""
         v = super().number(value, path, minimum, strict)
@@ -62,23 +68,32 @@ class Validator(Checker):
             self.fail(path, f"must be <= {maximum:g}, got {show(value)}")
         return v
 
-    def positive(self, value, path: str, maximum: float | None = None) -> float:
+    def positive(self, value: Any, path: str, maximum: float | None = None) -> float:
         return self.number(value, path, 0.0, strict=True, maximum=maximum)
 
-    def integer(self, value, path: str, minimum: int, maximum: int | None = None) -> int:
-        super().integer(value, path, minimum)
-        if maximum is not None and value > maximum:
+    def integer(self, value: Any, path: str, minimum: int | None = None, maximum: int | None = None) -> int:
+        v = super().integer(value, path, minimum)
+        if maximum is not None and v > maximum:
             self.fail(path, f"must be <= {maximum}, got {show(value)}")
-        return value
+        return v
 
     def vector(
-        self, value, path: str, n: int, positive: bool = False, maximum: float | None = None
+        self,
+        value: Any,
+        path: str,
+        length: int | None = None,
+        what: str = "numbers",
+        *,
+        positive: bool = False,
+        maximum: float | None = None,
     ) -> tuple[float, ...]:
-        """A list of ``n`` finite numbers (each > 0 with ``positive``, each |v| <= ``maximum``)."""
+        """A list of ``length`` (any number if None) finite numbers (each > 0 with ``positive``, each
+        |v| <= ``maximum``)."""
+        count = "" if length is None else f"{length} "
         if not isinstance(value, list):
-            self.fail(path, f"expected a list of {n} numbers, got {describe(value)}")
-        if len(value) != n:
-            self.fail(path, f"expected {n} numbers, got {len(value)}")
+            self.fail(path, f"expected a list of {count}{what}, got {describe(value)}")
+        if length is not None and len(value) != length:
+            self.fail(path, f"expected {count}{what}, got {len(value)}")
         out = []
         for i, v in enumerate(value):
             p = f"{path}[{i}]"
@@ -88,7 +103,7 @@ class Validator(Checker):
             out.append(x)
         return tuple(out)
 
-    def points(self, value, path: str, minimum: int, maximum: float | None = None) -> np.ndarray:
+    def points(self, value: Any, path: str, minimum: int, maximum: float | None = None) -> npt.NDArray[np.float64]:
         """A list of at least ``minimum`` [x, y] points -> (k, 2) array."""
         if not isinstance(value, list):
             self.fail(path, f"expected a list of [x, y] points, got {describe(value)}")
