@@ -11,7 +11,7 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
-from placement.cli.maps import dask_client
+from placement.cli.maps_build import dask_client
 from placement.cli.options import emit, setup_logging, standard_options
 from placement.cli.params import Bounded, OneLineCommand
 from placement.errors import PlacementError

@@ -1,0 +1,202 @@
+"""`placement maps build`: the offline build of every arm's map, locally or on a Dask cluster."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from pathlib import Path
+
+import click
+
+from placement.cli.options import arm_option, emit, robot_option, setup_logging, standard_options
+from placement.cli.params import Checked, OneLineCommand
+from placement.errors import ArmNotFound, PlacementError
+from placement.maps.build import build_grid, build_map
+from placement.maps.buildspec import (
+    FORMATS,
+    INDEXES,
+    MAX_RESOLUTION,
+    MAX_SAMPLES,
+    MAX_SEED,
+    MIN_RESOLUTION,
+    BuildSpec,
+    load_build_spec,
+    parse_bins,
+    parse_count,
+    parse_length,
+)
+from placement.maps.rmap import MapOutput
+from placement.robots import load_robot
+from placement.warmup import BUILD_COMPILE_S, announce_compilation
+
+log = logging.getLogger("placement")
+
+
+def count_type(lo: int, hi: int) -> Checked:
+    return Checked("count", lambda v, w: parse_count(v, w, lo, hi))
+
+
+SEED = count_type(0, MAX_SEED)
+
+
+@click.command(cls=OneLineCommand)
+@robot_option
+@arm_option
+@click.option(
+    "--spec", "spec_path", default=None, metavar="YAML", help="Build spec (maps/pr2.yaml); options override it."
+)
+@click.option(
+    "--samples",
+    type=count_type(1, MAX_SAMPLES),
+    default=None,
+    help=f"Joint samples per arm [count, 1 to {MAX_SAMPLES:.0e}] (default 1e6).",
+)
+@click.option("--seed", type=SEED, default=None, help="Sampling seed (same seed + samples = same map).")
+@click.option(
+    "--resolution",
+    default=None,
+    type=Checked("length", lambda v, w: parse_length(v, w, MIN_RESOLUTION, MAX_RESOLUTION)),
+    help=f"Position cell edge [m, {MIN_RESOLUTION} to {MAX_RESOLUTION}] (default 0.05).",
+)
+@click.option(
+    "--bins",
+    type=Checked("bins", parse_bins),
+    default=None,
+    metavar="YAW,PITCH,ROLL",
+    help="Orientation bins (default 20,9,20).",
+)
+@click.option("--index", type=click.Choice(INDEXES), default=None, help="Manipulability index.")
+@click.option("--format", "fmt", type=click.Choice(FORMATS), default=None, help="Storage backend.")
+@click.option("--out", required=True, type=click.Path(), help="Map directory (zarr) or file (hdf5).")
+@click.option(
+    "--dask",
+    "dask_address",
+    default=None,
+    metavar="ADDRESS",
+    help="Spread sampling over a Dask cluster (scheduler address, e.g. tcp://host:8786).",
+)
+@click.option(
+    "--self-collision/--no-self-collision",
+    default=None,
+    help="Reject samples where the arm hits the robot (URDF collision shapes; much slower).",
+)
+@click.option(
+    "--self-distance/--no-self-distance",
+    default=None,
+    help="Penalise motion towards the robot's own body (implies --self-collision; slow).",
+)
+@click.option(
+    "--completion/--no-completion",
+    default=None,
+    help="After sampling, fill empty cells next to reached ones from their witnesses (a few IK steps).",
+)
+@standard_options
+def build(
+    robot,
+    arm,
+    spec_path,
+    samples,
+    seed,
+    resolution,
+    bins,
+    index,
+    fmt,
+    out,
+    dask_address,
+    self_collision,
+    self_distance,
+    completion,
+    as_json,
+    verbose,
+    quiet,
+):
+    """Sample each arm and write its 6D reachability map atomically.
+
+    Everything (spec, robot, arms, grid, output path) is checked before sampling starts.
+    """
+    setup_logging(verbose, quiet)
+    spec = load_build_spec(spec_path) if spec_path else BuildSpec()
+    options = {
+        "robot": robot,
+        "arms": (arm,) if arm else None,
+        "samples": samples,
+        "seed": seed,
+        "resolution": resolution,
+        "bins": bins,
+        "index": index,
+        "format": fmt,
+        "self_collision": self_collision,
+        "self_distance": self_distance,
+        "completion": completion,
+    }
+    spec = dataclasses.replace(spec, **{k: v for k, v in options.items() if v is not None})
+    robot = load_robot(spec.robot)
+    try:
+        arms = spec.arms_of(robot)
+    except ArmNotFound as exc:
+        if arm or not spec_path:
+            raise
+        raise PlacementError(f"build spec {spec_path}: arms: {exc}") from None
+    for a in arms:
+        build_grid(robot, a, spec.resolution, spec.bins)
+    out_path = Path(out)
+    if spec.format == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
+        out_path = out_path.with_suffix(".h5")
+    with MapOutput(out_path, robot, spec.format, arms, "--out") as output:  # proven writable, arms reserved
+        client = dask_client(dask_address) if dask_address else None
+        announce_compilation(BUILD_COMPILE_S)
+        built = {}
+        for a in arms:
+            built[a] = m = build_map(
+                robot,
+                a,
+                samples=spec.samples,
+                seed=spec.seed,
+                resolution=spec.resolution,
+                bins=spec.bins,
+                index=spec.index,
+                progress=not quiet,
+                client=client,
+                self_collision=spec.self_collision,
+                self_distance=spec.self_distance,
+                completion=spec.completion,
+            )
+            log.info(
+                "%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",
+                robot.name,
+                a,
+                spec.samples,
+                m.meta["build_time_s"],
+                m.meta["samples_per_s"] or 0,
+                m.meta["filled_cells"],
+            )
+        output.save(built)
+    summary = {
+        "path": str(out_path),
+        "format": spec.format,
+        "robot": robot.name,
+        "arms": {
+            a: {k: m.meta[k] for k in ("samples", "seed", "build_time_s", "samples_per_s", "filled_cells", "max_value")}
+            for a, m in built.items()
+        },
+    }
+    emit(
+        summary,
+        as_json,
+        lambda s: "\n".join(
+            f"{s['path']}: {a} {v['samples']} samples, {v['build_time_s']} s, {v['filled_cells']} cells filled"
+            for a, v in s["arms"].items()
+        ),
+    )
+
+
+def dask_client(address: str):
+    """A ``dask.distributed.Client`` of the scheduler at ``address``, or a one-line PlacementError."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise PlacementError("--dask needs dask.distributed: pip install 'placement[dask]'") from None
+    try:
+        return Client(address, timeout="10s")
+    except Exception as exc:  # OSError / TimeoutError from the comm layer
+        raise PlacementError(f"cannot reach Dask scheduler at {address}: {str(exc).splitlines()[0]}") from None

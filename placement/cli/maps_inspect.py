@@ -1,0 +1,244 @@
+"""`placement maps info | check | verify`: what a built map holds, how accurate it is against IK, and
+whether its stored values follow from their witnesses."""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+
+import click
+import numpy as np
+from tqdm import tqdm
+
+from placement.cli.maps_build import SEED, count_type
+from placement.cli.options import arm_option, emit, robot_option, setup_logging, standard_options
+from placement.cli.params import OneLineCommand
+from placement.maps.accuracy import MAX_CHECK_SAMPLES, check_map, pose_metrics
+from placement.maps.rmap import check_root, open_map
+from placement.maps.witness import verify_witnesses
+from placement.progress import EtaBar
+from placement.robots import load_robot
+from placement.storage import open_store
+from placement.storage.digest import DIGEST_KEY
+from placement.storage.format import CRC_KEY, WITNESS_CRC_KEY
+
+log = logging.getLogger("placement")
+
+
+def _size(path: Path) -> int:
+    if path.is_file():
+        return path.stat().st_size
+    return sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
+
+
+@click.command(cls=OneLineCommand)
+@click.argument("path", type=click.Path())
+@robot_option
+@arm_option
+@standard_options
+def info(path, robot, arm, as_json, verbose, quiet):
+    """Metadata, fill ratio and value histogram of a map; reads and checks every chunk of every arm."""
+    setup_logging(verbose, quiet)
+    store = open_store(path)
+    check_root(Path(path), store.root)
+    stored = list(store.root.get("arms") or [])
+    store.close()
+    shown = [arm] if arm else stored
+    root = {k: v for k, v in store.root.items() if k != DIGEST_KEY}
+    out = {"path": str(path), "size_bytes": _size(Path(path)), "root": root, "arms": {}}
+    for a in dict.fromkeys([*shown, *stored]):  # the shown arm first: a wrong --arm fails before the reading
+        rmap = open_map(path, a, robot)
+        with tqdm(
+            total=rmap.grid.shape[2], desc=f"info {a}", unit="layer", disable=_no_bars(quiet), leave=False
+        ) as bar:
+            stats = scan(rmap, progress=bar.update)  # reads and checks every chunk of the values and witnesses
+        if a in shown:
+            meta = {k: v for k, v in rmap.meta.items() if k not in (CRC_KEY, WITNESS_CRC_KEY)}
+            out["arms"][a] = {"meta": meta, **stats}
+    emit(out, as_json, _render_info)
+
+
+HISTOGRAM_EDGES = [0.0, 0.01, 0.0235, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0]
+
+
+def _no_bars(quiet: bool) -> bool:
+    """No progress bars with -q, nor when stderr is not a terminal (a pipe, a log file, a test runner
+    that mixes stderr into stdout): what info and check print stays plain."""
+    return quiet or not sys.stderr.isatty()
+
+
+def scan(rmap, progress=None) -> dict:
+    """Fill and value statistics of a map, reading every chunk of its values and witnesses (each checked
+    against its CRC32) one z layer at a time (memory: two layers, not the whole map); ``progress(1)``
+    after each layer."""
+    store, arm = rmap.store, rmap.arm
+    counts = np.zeros(len(HISTOGRAM_EDGES) - 1, dtype=np.int64)
+    total, high, cells = 0.0, 0.0, 0
+    for iz in range(rmap.grid.shape[2]):
+        values = store.read_slab(arm, iz)
+        store.read_slab(arm, iz, witness=True)
+        reached = values[values > 0]
+        counts += np.histogram(reached, bins=HISTOGRAM_EDGES)[0]
+        cells += reached.size
+        total += float(reached.sum(dtype=np.float64))
+        high = max(high, float(reached.max(initial=0.0)))
+        if progress is not None:
+            progress(1)
+    size = rmap.grid.size
+    return {
+        "chunks_checked": 2 * int(np.prod(np.shape(rmap.meta[CRC_KEY]))),
+        "cells": size,
+        "filled_cells": cells,
+        "fill_ratio": cells / size,
+        "value": {
+            "max": high,
+            "mean": total / cells if cells else 0.0,
+            "histogram": {"edges": HISTOGRAM_EDGES, "counts": counts.tolist()},
+        },
+    }
+
+
+def _render_info(d: dict) -> str:
+    r = d["root"]
+    lines = [f"{d['path']}  ({d['size_bytes'] / 1e6:.1f} MB)  robot {r.get('robot')}  base {r.get('base_frame')}"]
+    for a, v in d["arms"].items():
+        m = v["meta"]
+        g = m["grid"]
+        lines.append(
+            f"  arm {a}: tip {m['tip_frame']}, grid {g['shape']} at {g['resolution']} m, "
+            f"{m['measure']['index']}, {m['samples']} samples (seed {m['seed']}), "
+            f"built in {m['build_time_s']} s"
+        )
+        lines.append(
+            f"    filled {v['filled_cells']} of {v['cells']} cells ({100 * v['fill_ratio']:.2f} %), "
+            f"max {v['value']['max']:.4f}, mean {v['value']['mean']:.4f}"
+        )
+        h = v["value"]["histogram"]
+        lines.append(
+            "    histogram: "
+            + ", ".join(f"[{lo:g}, {hi:g}): {c}" for lo, hi, c in zip(h["edges"], h["edges"][1:], h["counts"]))
+        )
+    return "\n".join(lines)
+
+
+@click.command(cls=OneLineCommand)
+@click.argument("path", type=click.Path())
+@robot_option
+@arm_option
+@click.option(
+    "--samples",
+    type=count_type(1, MAX_CHECK_SAMPLES),
+    default=200,
+    help=f"IK checks per class (reachable / unreachable) [count, 1 to {MAX_CHECK_SAMPLES:,}].",
+)
+@click.option("--seed", type=SEED, default=0, help="Seed of the cell draws and IK restarts.")
+@standard_options
+def check(path, robot, arm, samples, seed, as_json, verbose, quiet):
+    """Accuracy of a map against inverse kinematics on random poses (reads and checks every chunk first)."""
+    setup_logging(verbose, quiet)
+    store = open_store(path)
+    arms = [arm] if arm else list(store.root.get("arms") or [])
+    out = {"path": str(path), "arms": {}}
+    for a in arms:
+        log.info("arm %s: reading and checking every chunk", a)
+        rmap = open_map(path, a, robot).load()
+        out["arms"][a] = _check_arm(
+            load_robot(robot or store.root.get("preset") or store.root["robot"]), rmap, a, samples, seed, quiet
+        )
+    emit(out, as_json, _render_check)
+
+
+def _check_arm(robot, rmap, arm: str, samples: int, seed: int, quiet: bool) -> dict:
+    """:func:`check_map` of one arm with a bar for its cell-level IK solves and one for the pose-level
+    ones (:func:`pose_metrics`, which check_map runs without a progress hook): the same document."""
+
+    def bar(what):
+        return tqdm(total=1, desc=f"check {arm}: {what}", unit="IK", disable=_no_bars(quiet), leave=False)
+
+    def ticker(b):
+        def tick(done, total):
+            b.total = total
+            b.update(done - b.n)
+
+        return tick
+
+    with bar("cells") as b:
+        doc = check_map(robot, rmap, samples=samples, seed=seed, pose_level=False, progress=ticker(b))
+    with bar("poses") as b:
+        doc["pose_level"] = pose_metrics(robot, rmap, samples, seed, doc["threshold"], progress=ticker(b))
+    doc["time_s"] = round(doc["time_s"] + doc["pose_level"]["time_s"], 4)
+    return doc
+
+
+def _render_check(d: dict) -> str:
+    lines = []
+    for a, r in d["arms"].items():
+        p = r["pose_level"]
+
+        def rate(x, ci):
+            return "n/a" if x is None else f"{100 * x:.1f} % (95 % CI {100 * ci[0]:.1f}-{100 * ci[1]:.1f})"
+
+        lines.append(
+            f"{d['path']} arm {a}: pose-level (IK to {p['pos_tol_m']} m, {p['rot_tol_rad']} rad): "
+            f"precision {rate(p['precision'], p['precision_ci95'])} of {p['precision_poses']} poses in "
+            f"reachable cells; recall {rate(p['recall'], p['recall_ci95'])} of {p['recall_cells']} "
+            f"IK-reachable cells ({p['recall_draws']} drawn in reach)"
+        )
+        lines.append(
+            "  cell-level (one-cell tolerance): "
+            + ", ".join(f"{k} {v}" for k, v in r.items() if not isinstance(v, (dict, list)))
+        )
+    return "\n".join(lines)
+
+
+@click.command(cls=OneLineCommand)
+@click.argument("path", type=click.Path())
+@robot_option
+@arm_option
+@click.option(
+    "--sample",
+    type=count_type(1, 10**12),
+    default=None,
+    help="Check this many reached cells drawn at random [count] (default: all; ~2 us per cell).",
+)
+@click.option("--seed", type=SEED, default=0, help="Seed of the --sample draw.")
+@standard_options
+def verify(path, robot, arm, sample, seed, as_json, verbose, quiet):
+    """Recompute stored values from their witnesses, bitwise; exit 1 if any differs (one line per arm)."""
+    setup_logging(verbose, quiet)
+    store = open_store(path)
+    check_root(Path(path), store.root)
+    arms = [arm] if arm else list(store.root.get("arms") or [])
+    store.close()
+    out = {"path": str(path), "arms": {}}
+    for a in arms:
+        rmap = open_map(path, a, robot)
+        with EtaBar(total=1, desc=f"verify {a}", unit="cell", unit_scale=True, disable=quiet, leave=False) as bar:
+
+            def tick(done, total):
+                bar.total = total
+                bar.update(done - bar.n)
+
+            out["arms"][a] = verify_witnesses(rmap.robot, rmap, sample=sample, seed=seed, progress=tick)
+    emit(out, as_json, _render_verify)
+    if any(r["mismatches"] for r in out["arms"].values()):
+        raise SystemExit(1)
+
+
+def _render_verify(d: dict) -> str:
+    lines = []
+    for a, r in d["arms"].items():
+        head = (
+            f"{d['path']} arm {a}: {r['cells_checked']} of {r['cells_reached']} reached cells recomputed "
+            f"from their witnesses in {r['time_s']} s"
+        )
+        if not r["mismatches"]:
+            lines.append(head + ": all equal (bitwise)")
+        else:
+            shown = "; ".join(
+                f"cell {f['cell']} (witness {f['witness']}): stored {f['stored']}, recomputed {f['recomputed']}"
+                for f in r["first"][:3]
+            )
+            lines.append(f"{head}: {r['mismatches']} MISMATCH, first: {shown}")
+    return "\n".join(lines)
