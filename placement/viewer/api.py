@@ -4,13 +4,24 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
+from placement.errors import MapError
 from placement.viewer.server import View, ViewerError, start_server
+
+if TYPE_CHECKING:
+    from placement.scene import Scene
 
 SCENE_SUFFIXES = (".yaml", ".yml")
 
 
-def view_scene(scene, maps=None, method: str = "sequential", plan=None, port: int = 0) -> View:
+def view_scene(
+    scene: Scene | Path | str,
+    maps: Path | str | None = None,
+    method: str = "sequential",
+    plan: Path | str | None = None,
+    port: int = 0,
+) -> View:
     """Serve a 3D view of ``scene`` (a Scene or scene file) and its plan on 127.0.0.1:``port``.
 
     The plan is made with ``method`` over ``maps`` (cost maps shown), or read from the plan file
@@ -57,7 +68,7 @@ def view_scene(scene, maps=None, method: str = "sequential", plan=None, port: in
 
 
 def view_map(
-    path, arm: str | None = None, direction: str = "best", port: int = 0, max_points: int | None = None
+    path: Path | str, arm: str | None = None, direction: str = "best", port: int = 0, max_points: int | None = None
 ) -> View:
     """Serve a 3D view of the reachability map at ``path`` for ``arm`` (default: the first mapped arm)
     on 127.0.0.1:``port``: reached cells as points coloured by value (best over orientations, or for
@@ -77,6 +88,8 @@ def view_map(
         preset, arms = store.root.get("preset") or store.root.get("robot"), list(store.root.get("arms") or [])
     finally:
         store.close()
+    if not isinstance(preset, str):  # load_robot(None) would fail with no word of the map
+        raise MapError(f"{path}: the map names no robot (no 'preset' or 'robot' in its metadata)")
     robot = load_robot(preset)
     arm = arm or next((a for a in robot.arms if a in arms), arms[0] if arms else "?")
     rmap = open_map(path, arm, robot)
@@ -92,7 +105,7 @@ def view_map(
     return View(server, content, timings={"render_s": time.perf_counter() - t0})
 
 
-def view(target, **options) -> View:
+def view(target: Scene | Path | str, **options: Any) -> View:
     """``placement.view(...)``: a scene file or Scene (options of :func:`view_scene`) or a map
     directory or HDF5 file (options of :func:`view_map`). The view keeps serving in a background
     thread; ``view.wait()`` blocks until Ctrl-C, ``view.stop()`` ends it."""

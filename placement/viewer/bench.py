@@ -12,19 +12,24 @@ import argparse
 import json
 import statistics
 import time
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from placement.viewer.api import view_map, view_scene
+from placement.viewer.map_view import MapView
+from placement.viewer.plan_view import PlanView
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "table_clearing.yaml"
 
 
-def bench_scene(scene, maps, shots: Path | None = None) -> dict:
+def bench_scene(scene: Path | str, maps: Path | str | None, shots: Path | None = None) -> dict[str, Any]:
     v = view_scene(scene, maps=maps, port=0)
     try:
         pv = v.content
+        assert isinstance(pv, PlanView)
         n = len(pv.steps)
         times = []
         for i in [j % n for j in range(1, 3 * n + 1)]:
@@ -45,7 +50,8 @@ def bench_scene(scene, maps, shots: Path | None = None) -> dict:
             pv.show(0)
             screenshot(v.url, shots / "viewer_scene.png")
             for key, box in pv.toggles.items():
-                box.value = key == "navigation"
+                # viser's value has a setter of another type than its getter: mypy takes it as read-only
+                box.value = key == "navigation"  # type: ignore[misc]
             pv.show(1)
             screenshot(v.url, shots / "viewer_scene_navigation.png")
     finally:
@@ -53,11 +59,12 @@ def bench_scene(scene, maps, shots: Path | None = None) -> dict:
     return out
 
 
-def bench_map(path, arm=None, shots: Path | None = None) -> dict:
+def bench_map(path: Path | str, arm: str | None = None, shots: Path | None = None) -> dict[str, Any]:
     t = time.perf_counter()
     v = view_map(path, arm=arm, port=0)
     try:
         mv = v.content
+        assert isinstance(mv, MapView)
         total = time.perf_counter() - t
         g = mv.rmap.grid
         out = {
@@ -69,20 +76,20 @@ def bench_map(path, arm=None, shots: Path | None = None) -> dict:
             "render_s": round(total, 2),
         }
         t = time.perf_counter()
-        mv.threshold.value = mv.scale.hi / 2
+        mv.threshold.value = mv.scale.hi / 2  # type: ignore[misc]  # (viser's setter, as in bench_scene)
         out["threshold_update_ms"] = round((time.perf_counter() - t) * 1e3, 1)
-        mv.threshold.value = 0.0
+        mv.threshold.value = 0.0  # type: ignore[misc]
         if shots is not None:
             from placement.viewer.screenshot import screenshot
 
-            mv.section.value = float(np.median(mv.all_points[:, 1]))  # cut open at the middle
+            mv.section.value = float(np.median(mv.all_points[:, 1]))  # type: ignore[misc]  # cut open at the middle
             screenshot(v.url, shots / "viewer_map.png")
     finally:
         v.stop()
     return out
 
 
-def main(argv=None) -> None:
+def main(argv: Sequence[str] | None = None) -> None:
     ap = argparse.ArgumentParser(prog="python -m placement.viewer.bench", description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default=str(EXAMPLE))
     ap.add_argument("--maps", default=None, help="maps for the scene (default: the scene's)")

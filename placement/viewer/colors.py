@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from matplotlib.colors import Colormap
 
 
-def colormap(name: str):
+def colormap(name: str) -> Colormap:
     """A matplotlib colour map by name (matplotlib is a core dependency; no pyplot, no backend)."""
     import matplotlib
 
@@ -24,14 +29,14 @@ class Scale:
     hi: float
     cmap: str = "viridis"
 
-    def normalise(self, values: np.ndarray) -> np.ndarray:
+    def normalise(self, values: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """``values`` -> [0, 1] (a flat scale maps everything to 0.5, so it is still visible)."""
         span = self.hi - self.lo
         if not span > 0:
             return np.full(np.shape(values), 0.5)
         return np.clip((np.asarray(values, dtype=float) - self.lo) / span, 0.0, 1.0)
 
-    def rgb(self, values: np.ndarray) -> np.ndarray:
+    def rgb(self, values: npt.ArrayLike) -> npt.NDArray[np.uint8]:
         """(..., 3) uint8 colours of ``values``."""
         return (np.asarray(colormap(self.cmap)(self.normalise(values)))[..., :3] * 255).astype(np.uint8)
 
@@ -46,7 +51,9 @@ class Scale:
         )
 
 
-def scale_of(values: np.ndarray, label: str, unit: str, cmap: str = "viridis", valid=None) -> Scale:
+def scale_of(
+    values: npt.ArrayLike, label: str, unit: str, cmap: str = "viridis", valid: npt.NDArray[np.bool_] | None = None
+) -> Scale:
     """The scale spanning the finite (and ``valid``) entries of ``values`` (0 .. 1 if there are none)."""
     v = np.asarray(values, dtype=float)
     ok = np.isfinite(v) if valid is None else np.isfinite(v) & valid
@@ -55,7 +62,9 @@ def scale_of(values: np.ndarray, label: str, unit: str, cmap: str = "viridis", v
     return Scale(label, unit, float(v[ok].min()), float(v[ok].max()), cmap)
 
 
-def layer_image(layer: np.ndarray, scale: Scale, valid=None, alpha: int = 230) -> np.ndarray:
+def layer_image(
+    layer: npt.ArrayLike, scale: Scale, valid: npt.NDArray[np.bool_] | None = None, alpha: int = 230
+) -> npt.NDArray[np.uint8]:
     """(ny, nx, 4) uint8 RGBA image of a (ny, nx) layer whose row 0 is the lowest y; transparent where
     the layer is not finite (or not ``valid``). Rows are kept: viser draws an image's row 0 at its
     lowest y (checked in a browser, tests/test_viewer_browser.py)."""

@@ -6,12 +6,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 # polygons are unbounded in height in the scene model; they are drawn this tall [m]
 POLYGON_HEIGHT = 2.0
 
 
-def pose_matrix(x: float, y: float, yaw: float, z: float = 0.0) -> np.ndarray:
+def pose_matrix(x: float, y: float, yaw: float, z: float = 0.0) -> npt.NDArray[np.float64]:
     """(4, 4) pose at (x, y, z) [m] turned by ``yaw`` [rad] about z."""
     c, s = math.cos(yaw), math.sin(yaw)
     return np.array([[c, -s, 0, x], [s, c, 0, y], [0, 0, 1, z], [0, 0, 0, 1]], dtype=float)
@@ -22,12 +23,12 @@ def yaw_wxyz(yaw: float) -> tuple[float, float, float, float]:
     return (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
 
 
-def label_offset(orientation, size, above: float = 0.08) -> tuple[float, float, float]:
+def label_offset(orientation: npt.ArrayLike, size: npt.ArrayLike, above: float = 0.08) -> tuple[float, float, float]:
     """Where a label goes in the frame of a box of ``size`` (3,) [m] turned by ``orientation`` (ROS
     quaternion ``[x, y, z, w]``): ``above`` [m] over the box's top in the world, straight over its centre.
 
     The label is a child of the box's node, so its position is in the box's frame, not the world's."""
-    x, y, z, w = (float(v) for v in orientation)
+    x, y, z, w = (float(v) for v in np.asarray(orientation, dtype=float).reshape(4))
     n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
     x, y, z, w = x / n, y / n, z / n, w / n
     R = np.array(
@@ -38,15 +39,16 @@ def label_offset(orientation, size, above: float = 0.08) -> tuple[float, float, 
         ]
     )
     half_height = float(np.abs(R[2]) @ (np.asarray(size, dtype=float) / 2))  # the box's half extent along world z
-    return tuple(float(v) for v in R.T @ np.array([0.0, 0.0, half_height + above]))
+    ox, oy, oz = (float(v) for v in R.T @ np.array([0.0, 0.0, half_height + above]))
+    return (ox, oy, oz)
 
 
-def ear_clip(points: np.ndarray) -> np.ndarray:
+def ear_clip(points: npt.ArrayLike) -> npt.NDArray[np.int32]:
     """(k - 2, 3) triangles of a simple polygon ``points`` (k, 2), either orientation."""
     pts = np.asarray(points, dtype=float)
     area = 0.5 * float(np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1]))
     idx = list(range(len(pts))) if area >= 0 else list(range(len(pts)))[::-1]
-    tris = []
+    tris: list[tuple[int, int, int]] = []
     guard = 0
     while len(idx) > 3 and guard < 10 * len(pts) ** 2:
         guard += 1
@@ -66,48 +68,51 @@ def ear_clip(points: np.ndarray) -> np.ndarray:
     return np.array(tris, dtype=np.int32).reshape(-1, 3)
 
 
-def _inside(p, a, b, c) -> bool:
-    def side(u, v, w):
-        return (v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])
+def _inside(
+    p: npt.NDArray[np.float64], a: npt.NDArray[np.float64], b: npt.NDArray[np.float64], c: npt.NDArray[np.float64]
+) -> bool:
+    def side(u: npt.NDArray[np.float64], v: npt.NDArray[np.float64], w: npt.NDArray[np.float64]) -> float:
+        return float((v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0]))
 
     return side(a, b, p) >= 0 and side(b, c, p) >= 0 and side(c, a, p) >= 0
 
 
-def prism(points: np.ndarray, z0: float, z1: float) -> tuple[np.ndarray, np.ndarray]:
+def prism(points: npt.ArrayLike, z0: float, z1: float) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]]:
     """The closed prism over polygon ``points`` (k, 2) from height ``z0`` to ``z1`` [m]."""
     pts = np.asarray(points, dtype=float)
     k = len(pts)
     verts = np.vstack([np.c_[pts, np.full(k, z0)], np.c_[pts, np.full(k, z1)]]).astype(np.float32)
     cap = ear_clip(pts)
-    faces = [cap[:, ::-1], cap + k]
+    faces: list[npt.NDArray[np.integer]] = [cap[:, ::-1], cap + k]
     for i in range(k):
         j = (i + 1) % k
         faces.append(np.array([[i, j, k + j], [i, k + j, k + i]]))
     return verts, np.vstack(faces).astype(np.int32)
 
 
-def circle(radius: float, n: int = 48) -> np.ndarray:
+def circle(radius: float, n: int = 48) -> npt.NDArray[np.float64]:
     """(n, 2) points on a circle of ``radius`` [m] around the origin, counter-clockwise."""
     a = np.linspace(0, 2 * math.pi, n, endpoint=False)
     return radius * np.c_[np.cos(a), np.sin(a)]
 
 
-def footprint_segments(radius: float, polygon=None, z: float = 0.0) -> np.ndarray:
+def footprint_segments(radius: float, polygon: npt.ArrayLike | None = None, z: float = 0.0) -> npt.NDArray[np.float32]:
     """(n, 2, 3) line segments of a base footprint at height ``z`` [m] in the base frame: the closed
     ``polygon`` (k, 2) [m] if given, else a circle of ``radius`` [m]."""
     if polygon is None:
         return ring_segments(radius, z)
-    p = np.c_[np.asarray(polygon, dtype=float), np.full(len(polygon), z)]
+    pts = np.asarray(polygon, dtype=float)
+    p = np.c_[pts, np.full(len(pts), z)]
     return np.stack([p, np.roll(p, -1, axis=0)], axis=1).astype(np.float32)
 
 
-def ring_segments(radius: float, z: float = 0.0, n: int = 48) -> np.ndarray:
+def ring_segments(radius: float, z: float = 0.0, n: int = 48) -> npt.NDArray[np.float32]:
     """(n, 2, 3) line segments of a circle of ``radius`` [m] at height ``z`` around the origin."""
     p = np.c_[circle(radius, n), np.full(n, z)]
     return np.stack([p, np.roll(p, -1, axis=0)], axis=1).astype(np.float32)
 
 
-def polyline_segments(points: np.ndarray) -> np.ndarray:
+def polyline_segments(points: npt.ArrayLike) -> npt.NDArray[np.float32]:
     """(m - 1, 2, 3) line segments joining consecutive ``points`` (m, 3)."""
     p = np.asarray(points, dtype=np.float32).reshape(-1, 3)
     return np.stack([p[:-1], p[1:]], axis=1) if len(p) > 1 else np.zeros((0, 2, 3), np.float32)

@@ -5,15 +5,28 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.maps.grid import pose_from_zyx
 from placement.viewer.colors import Scale
 from placement.viewer.robot_view import RobotDrawing, home_config
 
+if TYPE_CHECKING:
+    import viser
+
+    from placement.maps.grid import Grid
+    from placement.maps.rmap import ReachabilityMap
+    from placement.robots import Robot
+
+#: A TCP approach direction (3,) in the base frame, or None for every orientation.
+Direction = tuple[int, int, int] | None
+
 # approach (TCP z) directions in the base frame; "best" takes every orientation
-DIRECTIONS = {
+DIRECTIONS: dict[str, Direction] = {
     "best": None,
     "down": (0, 0, -1),
     "up": (0, 0, 1),
@@ -30,7 +43,7 @@ SIZES = (0.3, 0.45, 0.6, 0.75)  # point sizes [cell edges] of the colour scale's
 TOP_PERCENTILE = 99  # the scale's top: a few outliers do not push every other cell to the dark end
 
 
-def value_scale(values: np.ndarray, label: str) -> Scale:
+def value_scale(values: npt.ArrayLike, label: str) -> Scale:
     """The colour scale of a map cloud's ``values`` (> 0): from the planner's default threshold (cells
     below it are no placement; a raw minimum can be 1e-19, which spent the dark end of the colour map on
     the unusable boundary shell) to the 99th percentile; the smallest value when all are below it."""
@@ -46,7 +59,7 @@ def value_scale(values: np.ndarray, label: str) -> Scale:
     return Scale(label, "dimensionless", lo, max(top, lo))
 
 
-def approach_bins(grid, direction) -> np.ndarray:
+def approach_bins(grid: Grid, direction: Direction) -> npt.NDArray[np.bool_]:
     """(n_yaw, n_pitch, n_roll) bool: orientation bins whose TCP approach axis (z) lies within
     DIRECTION_TOLERANCE of ``direction`` (3,) (the nearest bins if none does); all bins for None."""
     n_yaw, n_pitch, n_roll = grid.shape[3:]
@@ -64,7 +77,7 @@ def approach_bins(grid, direction) -> np.ndarray:
     return angle <= max(DIRECTION_TOLERANCE, float(angle.min()) + 1e-9)
 
 
-def best_values(values: np.ndarray, bins: np.ndarray) -> np.ndarray:
+def best_values(values: npt.NDArray[np.floating], bins: npt.NDArray[np.bool_]) -> npt.NDArray[np.float32]:
     """(nx, ny, nz) best value over the selected orientation ``bins`` of a 6D map array."""
     out = np.zeros(values.shape[:3], dtype=np.float32)
     for iy, ip, ir in zip(*np.nonzero(bins)):
@@ -72,7 +85,9 @@ def best_values(values: np.ndarray, bins: np.ndarray) -> np.ndarray:
     return out
 
 
-def best_per_direction(rmap, directions: dict, workers: int | None = None) -> dict[str, np.ndarray]:
+def best_per_direction(
+    rmap: ReachabilityMap, directions: Mapping[str, Direction], workers: int | None = None
+) -> dict[str, npt.NDArray[np.floating]]:
     """{name: (nx, ny, nz) best value over the orientation bins of that TCP direction} for every
     direction of ``directions`` (name -> (3,) or None for all bins), in one pass over the map.
 
@@ -88,7 +103,7 @@ def best_per_direction(rmap, directions: dict, workers: int | None = None) -> di
     if rmap.in_memory:
         return {name: best_values(rmap.values, b) for name, b in bins.items()}
 
-    def reduce(iz):
+    def reduce(iz: int) -> dict[str, npt.NDArray[np.floating]]:
         slab = rmap.store.read_slab(rmap.arm, iz)  # (nx, ny, n_yaw, n_pitch, n_roll)
         return {name: slab.max(axis=(2, 3, 4)) if b.all() else slab[:, :, b].max(axis=2) for name, b in bins.items()}
 
@@ -97,7 +112,9 @@ def best_per_direction(rmap, directions: dict, workers: int | None = None) -> di
     return {name: np.stack([layer[name] for layer in layers], axis=2) for name in bins}
 
 
-def cloud(grid, best: np.ndarray, max_points: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+def cloud(
+    grid: Grid, best: npt.NDArray[np.floating], max_points: int, seed: int = 0
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.floating], int]:
     """(points (k, 3) cell centres [m], values (k,), reached cell count) of the cells with a value > 0,
     a seeded uniform subsample when more than ``max_points`` are reached."""
     flat = np.flatnonzero(best > 0)
@@ -116,7 +133,14 @@ class MapView:
     with a value for the direction), update_ms (the last redraw [ms]).
     """
 
-    def __init__(self, server, rmap, robot, direction: str = "best", max_points: int = DEFAULT_POINTS):
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        rmap: ReachabilityMap,
+        robot: Robot,
+        direction: str = "best",
+        max_points: int = DEFAULT_POINTS,
+    ) -> None:
         self.server, self.rmap, self.robot, self.max_points = server, rmap, robot, max_points
         self.update_ms = float("nan")
         self.robot_drawing = RobotDrawing(server, robot)
@@ -134,8 +158,8 @@ class MapView:
         self.section = gui.add_slider("hide y < [m]", round(y0, 2), round(y1, 2), g.resolution / 2, round(y0, 2))
         self.info = gui.add_markdown("")
         self.scale_html = gui.add_html("")
-        self.clouds = {}
-        self._best = None
+        self.clouds: dict[str, viser.PointCloudHandle] = {}
+        self._best: dict[str, npt.NDArray[np.floating]] | None = None
         self.select(direction)
         self.direction.on_update(lambda _: self.select(self.direction.value))
         self.threshold.on_update(lambda _: self.draw())

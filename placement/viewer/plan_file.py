@@ -7,13 +7,17 @@ import json
 import math
 import stat
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from placement.planning.results import Cost, StepResult, transfer_problems
 from placement.planning.transfer import UPRIGHT_TOLERANCE
-from placement.robots import pose_to_matrix
+from placement.robots import Robot, pose_to_matrix
 from placement.viewer.server import ViewerError
+
+if TYPE_CHECKING:
+    from placement.scene import Scene
 
 
 class PlanFileError(ViewerError):
@@ -24,7 +28,7 @@ class PlanFileError(ViewerError):
 MAX_PLAN_BYTES = 64 * 2**20
 
 
-def title(s) -> str:
+def title(s: StepResult) -> str:
     """One line naming a :class:`~placement.planning.StepResult`: step, action, target, arm and grasp
     (or why it is infeasible)."""
     what = f"step {s.step}: {s.action} {s.target}"
@@ -36,7 +40,7 @@ def _need(cond: bool, where: str, msg: str) -> None:
         raise PlanFileError(f"{where}: {msg}")
 
 
-def _number(v, where: str) -> float:
+def _number(v: Any, where: str) -> float:  # v: a JSON value
     _need(
         isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v),
         where,
@@ -45,7 +49,7 @@ def _number(v, where: str) -> float:
     return float(v)
 
 
-def _jsonable(v) -> bool:
+def _jsonable(v: object) -> bool:
     try:
         json.dumps(v)
         return True
@@ -53,13 +57,14 @@ def _jsonable(v) -> bool:
         return False
 
 
-def _text(d: dict, key: str, where: str) -> str:
+def _text(d: dict[str, Any], key: str, where: str) -> str:
     v = d.get(key)
-    _need(isinstance(v, str) and v != "", f"{where}.{key}", "must be a non-empty string")
+    if not isinstance(v, str) or v == "":
+        raise PlanFileError(f"{where}.{key}: must be a non-empty string")
     return v
 
 
-def _numbers(v, n: int | None, where: str) -> list[float]:
+def _numbers(v: Any, n: int | None, where: str) -> list[float]:
     _need(
         isinstance(v, list) and (n is None or len(v) == n),
         where,
@@ -68,7 +73,7 @@ def _numbers(v, n: int | None, where: str) -> list[float]:
     return [_number(x, f"{where}[{i}]") for i, x in enumerate(v)]
 
 
-def parse_step(d, where: str, robot) -> StepResult:
+def parse_step(d: Any, where: str, robot: Robot) -> StepResult:
     """One step of a plan document; ``robot`` names the arms and joints it may use."""
     _need(isinstance(d, dict), where, "must be a mapping")
     step = d.get("step")
@@ -84,7 +89,7 @@ def parse_step(d, where: str, robot) -> StepResult:
         return StepResult(step, action, target, "infeasible", reason if isinstance(reason, str) else "no reason given")
     arm = _text(d, "arm", where)
     _need(arm in robot.arms, f"{where}.arm", f"no arm '{arm}' on robot '{robot.name}'; arms: {', '.join(robot.arms)}")
-    base = tuple(_numbers(d.get("base"), 3, f"{where}.base"))
+    bx, by, byaw = _numbers(d.get("base"), 3, f"{where}.base")
     tcp = d.get("tcp")
     _need(
         isinstance(tcp, list) and len(tcp) > 0,
@@ -119,7 +124,7 @@ def parse_step(d, where: str, robot) -> StepResult:
         None,
         arm,
         grasp,
-        base,
+        (bx, by, byaw),
         np.stack(poses),
         q,
         {j: float(v) for j, v in zip(names, q)},
@@ -133,7 +138,7 @@ def parse_step(d, where: str, robot) -> StepResult:
     return out
 
 
-def parse_plan(doc, where: str, robot) -> list[StepResult]:
+def parse_plan(doc: Any, where: str, robot: Robot) -> list[StepResult]:
     """The steps of a plan document ``doc`` (parsed JSON) read from ``where``; PlanFileError if it is
     not one, or uses an arm or joint ``robot`` lacks."""
     _need(isinstance(doc, dict), where, "not a plan document (a JSON object with 'steps')")
@@ -147,13 +152,13 @@ def parse_plan(doc, where: str, robot) -> list[StepResult]:
     _need(
         name in (None, robot.name),
         f"{where}: robot.name",
-        f"the plan is for robot '{name}', the scene's robot is '{robot.name}'",
+        f"the plan is for robot {_cut(name)}, the scene's robot is '{robot.name}'",
     )
     return [parse_step(s, f"{where}: steps[{i}]", robot) for i, s in enumerate(steps)]
 
 
-def _read(path) -> tuple[object, str]:
-    """The parsed JSON of the plan file at ``path`` and the name to give it in messages."""
+def _read(path: Path | str) -> tuple[Any, str]:
+    """The parsed JSON (any JSON value) of the plan file at ``path`` and the name to give it in messages."""
     p = Path(path)
     try:
         st = p.stat()  # a FIFO or a device would block or never end: only a regular file is read
@@ -175,7 +180,7 @@ def _read(path) -> tuple[object, str]:
         raise PlanFileError(f"--plan {p}: not JSON ({type(exc).__name__}: {str(exc)[:80]})") from None
 
 
-def load_plan(path, robot) -> list[StepResult]:
+def load_plan(path: Path | str, robot: Robot) -> list[StepResult]:
     """The steps of the plan file at ``path`` (PlanFileError naming the file if it is unreadable)."""
     doc, where = _read(path)
     return parse_plan(doc, where, robot)
@@ -189,13 +194,16 @@ FK_TOLERANCE_RAD = math.radians(3)
 LIMIT_SLACK = 1e-9
 
 
-def _cut(v) -> str:
-    """A value from the plan file, quoted short (a file may hold megabytes in one string)."""
+def _cut(v: object) -> str:
+    """A value from the plan file, quoted short (a file may hold megabytes in one string) and on one line
+    (a line break or other control character is written as JSON escapes it)."""
     text = v if isinstance(v, str) else json.dumps(v) if _jsonable(v) else type(v).__name__
+    if not text.isprintable():
+        text = json.dumps(text)[1:-1]
     return f"'{text}'" if len(text) <= 60 else f"'{text[:40]}...' ({len(text):,} characters)"
 
 
-def check_plan(doc: dict, steps: list[StepResult], scene, robot, where: str) -> None:
+def check_plan(doc: dict[str, Any], steps: list[StepResult], scene: Scene, robot: Robot, where: str) -> None:
     """PlanFileError (one line naming ``where`` and the key) unless the plan document ``doc`` (whose
     steps :func:`parse_plan` read as ``steps``) was made for ``scene`` and ``robot``: the same scene
     name and robot name, the arms with the robot's joints and tip frames, every step the scene's task
@@ -212,11 +220,8 @@ def check_plan(doc: dict, steps: list[StepResult], scene, robot, where: str) -> 
     )
     _need(name == scene.name, f"{where}: scene", f"the plan is for scene {_cut(name)}, not '{scene.name}'")
     info = doc.get("robot")
-    _need(
-        isinstance(info, dict) and isinstance(info.get("name"), str),
-        f"{where}: robot.name",
-        "the plan does not name its robot",
-    )
+    if not (isinstance(info, dict) and isinstance(info.get("name"), str)):
+        raise PlanFileError(f"{where}: robot.name: the plan does not name its robot")
     arms = info.get("arms", {})
     _need(isinstance(arms, dict), f"{where}: robot.arms", "must be a mapping of arm name to its joints")
     for arm, a in arms.items():
@@ -256,9 +261,10 @@ def check_plan(doc: dict, steps: list[StepResult], scene, robot, where: str) -> 
         _need(not problems, f"{where}: steps[{i}]", problems[0].lstrip(": ") if problems else "")
 
 
-def _check_step(d: dict, s: StepResult, scene, robot, at: str) -> None:
+def _check_step(d: dict[str, Any], s: StepResult, scene: Scene, robot: Robot, at: str) -> None:
     """The planned step ``s`` (read from ``d``): base in bounds, joints of the robot within limits,
     fixed joints as the preset holds them, the TCP where the joints put it."""
+    assert s.base is not None and s.arm is not None and s.tcp is not None and s.q is not None  # parse_step's
     xmin, ymin, xmax, ymax = scene.bounds
     x, y, yaw = s.base
     _need(
@@ -300,11 +306,10 @@ def _check_step(d: dict, s: StepResult, scene, robot, at: str) -> None:
         qs = []
         for k, p in enumerate(poses):
             pj = p.get("joints") if isinstance(p, dict) else None
-            _need(
-                isinstance(pj, dict) and set(pj) == set(arm.joints),
-                f"{at}.poses[{k}].joints",
-                f"must give exactly the joints of arm '{s.arm}': {', '.join(arm.joints)}",
-            )
+            if not (isinstance(pj, dict) and set(pj) == set(arm.joints)):
+                raise PlanFileError(
+                    f"{at}.poses[{k}].joints: must give exactly the joints of arm '{s.arm}': {', '.join(arm.joints)}"
+                )
             qs.append(np.array([_number(pj[j], f"{at}.poses[{k}].joints.{j}") for j in arm.joints]))
     for q, label in [(s.q, "joints"), *((q, f"poses[{k}].joints") for k, q in enumerate(qs) if poses is not None)]:
         bad = np.flatnonzero((q < arm.lower - LIMIT_SLACK) | (q > arm.upper + LIMIT_SLACK))
@@ -328,7 +333,7 @@ def _check_step(d: dict, s: StepResult, scene, robot, at: str) -> None:
     )
 
 
-def load_checked_plan(path, scene) -> list[StepResult]:
+def load_checked_plan(path: Path | str, scene: Scene) -> list[StepResult]:
     """The steps of the plan file at ``path``, checked to belong to ``scene`` (a Scene) and its robot
     (see :func:`check_plan`); PlanFileError naming the file and the key otherwise."""
     from placement.robots import load_robot

@@ -5,13 +5,23 @@ as floor layers (each switchable, with its colour scale)."""
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.viewer.colors import Scale, layer_image, scale_of
 from placement.viewer.geometry import footprint_segments, polyline_segments, ring_segments, yaw_wxyz
 from placement.viewer.plan_file import title
 from placement.viewer.robot_view import RobotDrawing, config_of
+
+if TYPE_CHECKING:
+    import viser
+
+    from placement.planning.results import StepResult
+    from placement.planning.world import World
+    from placement.robots import Robot
 
 PATH = (220, 40, 40)
 TCP = (250, 200, 20)
@@ -34,12 +44,20 @@ class PlanView:
     Attributes: step_ms (the last step switch's drawing time [ms]).
     """
 
-    def __init__(self, server, robot, world, steps, title: str = "plan", start=None):
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        robot: Robot,
+        world: World | None,
+        steps: Iterable[StepResult],
+        title: str = "plan",
+        start: tuple[float, float, float] | None = None,
+    ) -> None:
         self.server, self.robot, self.world, self.start = server, robot, world, start
         self.steps = list(steps)
         self.current = 0
         self.step_ms = float("nan")
-        self.layer_cache: dict[tuple[int, str], tuple[np.ndarray, Scale]] = {}
+        self.layer_cache: dict[tuple[int, str], tuple[npt.NDArray[np.uint8], Scale]] = {}
         self.robot_drawing = RobotDrawing(server, robot)
         gui = server.gui
         gui.add_markdown(f"**{title}**")
@@ -51,12 +69,13 @@ class PlanView:
         self.slider.on_update(lambda _: self.show(int(self.slider.value)))
         for box in self.toggles.values():
             box.on_update(lambda _: self.show(self.current))
-        self.images = {}
+        self.images: dict[str, viser.ImageHandle] = {}
+        self.labels: list[viser.LabelHandle] = []
         self.overview()
         self.show(0)
 
     # -- data ------------------------------------------------------------
-    def layer(self, index: int, key: str) -> tuple[np.ndarray, Scale] | None:
+    def layer(self, index: int, key: str) -> tuple[npt.NDArray[np.uint8], Scale] | None:
         """(RGBA image, scale) of layer ``key`` at step ``index``, or None if the step has no such layer
         or it holds a single value (an empty panel tells nothing)."""
         hit = self.layer_cache.get((index, key))
@@ -70,16 +89,16 @@ class PlanView:
             data = None if maps is None else getattr(maps, key)
         if data is None:
             return None
-        data = np.asarray(data, dtype=float)
-        valid = data > 0 if key == "manipulation" else None
-        scale = scale_of(data, spec[1], spec[2], spec[3], valid)
+        values = np.asarray(data, dtype=float)
+        valid = values > 0 if key == "manipulation" else None
+        scale = scale_of(values, spec[1], spec[2], spec[3], valid)
         if not scale.hi > scale.lo:
             return None
-        hit = self.layer_cache[(index, key)] = (layer_image(data, scale, valid), scale)
+        hit = self.layer_cache[(index, key)] = (layer_image(values, scale, valid), scale)
         return hit
 
     # -- drawing -----------------------------------------------------------
-    def set_steps(self, steps) -> None:
+    def set_steps(self, steps: Iterable[StepResult]) -> None:
         """Replace the plan (a live update) and redraw the current step."""
         self.steps = list(steps)
         self.layer_cache.clear()
@@ -97,17 +116,20 @@ class PlanView:
             self.draw_layers(index)
             self.draw_placements(index)
             if s.ok:
+                assert s.base is not None and s.arm is not None and s.q is not None  # a planned step has them
                 self.robot_drawing.show(s.base, config_of(self.robot, s.arm, s.q))
             else:
                 self.robot_drawing.visible = False
             self.info.content = self.describe(s)
             if int(self.slider.value) != index:
-                self.slider.value = index
+                # viser's value has a setter, but one of another type than its getter: mypy takes it as read-only
+                self.slider.value = index  # type: ignore[misc]
         self.step_ms = (time.perf_counter() - t) * 1e3
 
-    def describe(self, s) -> str:
+    def describe(self, s: StepResult) -> str:
         if not s.ok:
             return f"**{title(s)}**"
+        assert s.base is not None  # a planned step has it
         x, y, yaw = s.base
         lines = [f"**{title(s)}**", f"base x {x:.2f} m, y {y:.2f} m, yaw {np.degrees(yaw):.0f} deg"]
         if s.manipulability is not None:
@@ -129,6 +151,7 @@ class PlanView:
                     node.visible = False
                 continue
             img, scale = hit
+            assert nav is not None  # a layer is drawn only with the world's grid
             html.append(scale.html())
             ny, nx = nav.shape
             w, h = nx * nav.resolution, ny * nav.resolution
@@ -155,6 +178,7 @@ class PlanView:
             for name in ("footprint", "heading", "tcp", "path"):
                 scene.add_frame(f"/plan/{name}", show_axes=False, visible=False)
             return
+        assert s.base is not None and s.tcp is not None  # a planned step has them
         x, y, yaw = s.base
         scene.add_line_segments(
             "/plan/footprint",
@@ -174,8 +198,8 @@ class PlanView:
 
     def overview(self) -> None:
         """Every planned placement as a thin ring with its step number, and the straight tour between them."""
-        ok = [s for s in self.steps if s.ok]
-        rings = [ring_segments(0.12, 0.01, 16) + np.array([*s.base[:2], 0.0], np.float32) for s in ok]
+        ok = [(s.step, s.base) for s in self.steps if s.ok and s.base is not None]  # a planned step has its base
+        rings = [ring_segments(0.12, 0.01, 16) + np.array([*b[:2], 0.0], np.float32) for _, b in ok]
         scene = self.server.scene
         scene.add_line_segments(
             "/plan/all",
@@ -184,8 +208,8 @@ class PlanView:
             thickness=0.015,
             visible=bool(rings),
         )
-        tour = [self.start[:2]] if self.start is not None else []
-        tour = np.array(tour + [s.base[:2] for s in ok]).reshape(-1, 2)
+        corners = [self.start[:2]] if self.start is not None else []
+        tour = np.array(corners + [b[:2] for _, b in ok]).reshape(-1, 2)
         if len(tour) < 2:
             tour = np.zeros((2, 2))
         scene.add_line_segments(
@@ -195,15 +219,16 @@ class PlanView:
             thickness=0.008,
             visible=len(ok) > 0,
         )
-        for label in getattr(self, "labels", []):
+        for label in self.labels:
             label.remove()
         self.labels = [
-            scene.add_label(f"/plan/labels/{s.step}", str(s.step), position=(s.base[0], s.base[1], 0.15)) for s in ok
+            scene.add_label(f"/plan/labels/{step}", str(step), position=(b[0], b[1], 0.15)) for step, b in ok
         ]
 
-    def base_path(self, index: int) -> np.ndarray:
+    def base_path(self, index: int) -> npt.NDArray[np.float64]:
         """(m, 3) points [m] of the base path to step ``index`` (at z = 2 cm, above the layers)."""
         s = self.steps[index]
+        assert s.base is not None  # drawn for planned steps only
         cells = getattr(s.maps, "path", None) if s.maps is not None else None
         if cells is not None and len(cells) and self.world is not None:
             xs, ys = self.world.nav.centres()

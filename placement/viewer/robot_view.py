@@ -5,11 +5,18 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from placement.viewer.geometry import pose_matrix
+
+if TYPE_CHECKING:
+    import viser
+
+    from placement.robots import Robot
 
 log = logging.getLogger("placement")
 
@@ -23,7 +30,7 @@ def package_dirs(urdf: Path) -> list[str]:
     return [str(p) for p in list(urdf.parents)[:6]]
 
 
-def geometry_mesh(obj):
+def geometry_mesh(obj: pin.GeometryObject) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]] | None:
     """(vertices (n, 3), faces (m, 3)) of one pinocchio GeometryObject in its own frame [m], or None
     for a shape the viewer does not draw."""
     import coal
@@ -44,7 +51,7 @@ def geometry_mesh(obj):
     return np.asarray(m.vertices, dtype=np.float32), np.asarray(m.faces, dtype=np.int32)
 
 
-def wxyz(R: np.ndarray) -> np.ndarray:
+def wxyz(R: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Quaternion (w, x, y, z) of a rotation matrix."""
     x, y, z, w = pin.Quaternion(np.asarray(R, dtype=float)).coeffs()
     return np.array([w, x, y, z])
@@ -57,11 +64,13 @@ class RobotDrawing:
     cannot be loaded is drawn as a stick figure of its joints instead (with a warning).
     """
 
-    def __init__(self, server, robot, root: str = "/robot", color=ROBOT):
+    def __init__(
+        self, server: viser.ViserServer, robot: Robot, root: str = "/robot", color: tuple[int, int, int] = ROBOT
+    ) -> None:
         self.server, self.robot, self.root = server, robot, root
         self.data = robot.model.createData()
         self.frame = server.scene.add_frame(root, show_axes=False)
-        self.nodes = []
+        self.nodes: list[tuple[int, viser.MeshHandle]] = []
         self.geom = None
         try:
             self.geom = pin.buildGeomFromUrdf(
@@ -102,7 +111,7 @@ class RobotDrawing:
     def visible(self, value: bool) -> None:
         self.frame.visible = bool(value)
 
-    def show(self, base, q: np.ndarray) -> None:
+    def show(self, base: tuple[float, float, float], q: npt.NDArray[np.float64]) -> None:
         """Draw the robot with its base frame at ``base`` (x [m], y [m], yaw [rad]) on the floor, in the
         pinocchio configuration ``q`` (model.nq,)."""
         model = self.robot.model
@@ -122,11 +131,12 @@ class RobotDrawing:
             else:
                 p = np.array([self.data.oMi[j].translation for j in range(model.njoints)])
                 parents = list(model.parents)
+                assert self.sticks is not None  # drawn when no mesh node is
                 self.sticks.points = np.stack([p[parents[1:]], p[1:]], axis=1).astype(np.float32)
             self.frame.visible = True
 
 
-def config_of(robot, arm: str, q) -> np.ndarray:
+def config_of(robot: Robot, arm: str, q: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Pinocchio configuration with ``q`` on ``arm``, every other arm at its home pose and the
     preset's fixed joints set."""
     ref = None
@@ -136,9 +146,10 @@ def config_of(robot, arm: str, q) -> np.ndarray:
     return robot.full_q(arm, q, reference=ref)
 
 
-def home_config(robot) -> np.ndarray:
+def home_config(robot: Robot) -> npt.NDArray[np.float64]:
     """Pinocchio configuration with every arm at its home pose."""
     q = None
     for arm in robot.arms:
         q = robot.full_q(arm, robot.arm(arm).home, reference=q)
+    assert q is not None  # a robot has an arm
     return q

@@ -3,8 +3,12 @@ objects, place locations and the start pose. Node names start with ``/scene``.""
 
 from __future__ import annotations
 
-import numpy as np
+from typing import TYPE_CHECKING
 
+import numpy as np
+import numpy.typing as npt
+
+from placement.scene import Box, Cylinder, Polygon
 from placement.viewer.colors import Scale, layer_image
 from placement.viewer.geometry import (
     POLYGON_HEIGHT,
@@ -22,10 +26,15 @@ TABLE = (176, 124, 74)
 OBJECT = (235, 140, 30)
 PLACE = (40, 170, 80)
 START = (60, 60, 60)
+if TYPE_CHECKING:
+    import viser
+
+    from placement.scene import OccupancyMap, Scene, Shape
+
 OCCUPIED = Scale("occupied", "", 0.0, 1.0, "Greys")
 
 
-def draw_floor(server, bounds) -> None:
+def draw_floor(server: viser.ViserServer, bounds: tuple[float, float, float, float]) -> None:
     """A floor slab under the scene ``bounds`` (xmin, ymin, xmax, ymax) [m] with a 1 m grid on it."""
     xmin, ymin, xmax, ymax = bounds
     w, h = xmax - xmin, ymax - ymin
@@ -43,10 +52,11 @@ def draw_floor(server, bounds) -> None:
     )
 
 
-def draw_shape(server, name: str, shape, color, opacity: float | None = None):
+def draw_shape(
+    server: viser.ViserServer, name: str, shape: Shape, color: tuple[int, int, int], opacity: float | None = None
+) -> viser.BoxHandle | viser.MeshHandle:
     """One Box, Cylinder or Polygon of the scene model; returns its scene node."""
-    kind = type(shape).__name__
-    if kind == "Box":
+    if isinstance(shape, Box):
         return server.scene.add_box(
             name,
             color=color,
@@ -55,18 +65,18 @@ def draw_shape(server, name: str, shape, color, opacity: float | None = None):
             wxyz=yaw_wxyz(shape.yaw),
             opacity=opacity,
         )
-    elif kind == "Cylinder":
+    elif isinstance(shape, Cylinder):
         # a prism of many sides, so the axis is z whatever a library's cylinder convention is
         z0 = float(shape.center[2] - shape.height / 2)
         v, f = prism(circle(shape.radius) + shape.center[:2], z0, z0 + shape.height)
         return server.scene.add_mesh_simple(name, v, f, color=color, opacity=opacity, flat_shading=False)
-    elif kind == "Polygon":
+    elif isinstance(shape, Polygon):
         v, f = prism(shape.points, 0.0, POLYGON_HEIGHT)
         return server.scene.add_mesh_simple(name, v, f, color=color, opacity=0.85 if opacity is None else opacity)
-    raise TypeError(f"unknown shape {kind}")
+    raise TypeError(f"unknown shape {type(shape).__name__}")
 
 
-def draw_occupancy(server, occupancy):
+def draw_occupancy(server: viser.ViserServer, occupancy: OccupancyMap) -> viser.ImageHandle:
     """The occupancy map's occupied cells as a dark floor layer (free cells transparent); its node."""
     occ = np.asarray(occupancy.occupied)
     rows, cols = occ.shape
@@ -84,7 +94,12 @@ def draw_occupancy(server, occupancy):
     )
 
 
-def draw_start(server, start, footprint_radius: float, polygon=None) -> None:
+def draw_start(
+    server: viser.ViserServer,
+    start: tuple[float, float, float],
+    footprint_radius: float,
+    polygon: npt.ArrayLike | None = None,
+) -> None:
     """The start pose: the footprint (``polygon`` (k, 2) [m] in the base frame, else the circle), a
     heading line and a label."""
     x, y, yaw = start
@@ -103,18 +118,21 @@ def draw_start(server, start, footprint_radius: float, polygon=None) -> None:
     server.scene.add_label("/scene/start/label", "start", position=(x, y, 0.3))
 
 
-def draw_scene(server, scene, footprint_radius: float, polygon=None) -> dict:
+def draw_scene(
+    server: viser.ViserServer, scene: Scene, footprint_radius: float, polygon: npt.ArrayLike | None = None
+) -> dict[str, viser.SceneNodeHandle]:
     """Everything of ``scene`` (a :class:`placement.scene.Scene`) that does not change
     between steps. ``footprint_radius`` [m] of the robot, for the start pose. Returns the nodes of the
     obstacles, objects and occupancy map by node name."""
     draw_floor(server, scene.bounds)
-    nodes = {}
+    nodes: dict[str, viser.SceneNodeHandle] = {}
     for ob in scene.obstacles:
         name = f"/scene/{'tables' if ob.table else 'obstacles'}/{ob.name}"
         nodes[name] = draw_shape(server, name, ob.shape, TABLE if ob.table else OBSTACLE)
     if scene.occupancy is not None:
         nodes["/scene/occupancy"] = draw_occupancy(server, scene.occupancy)
     for o in scene.objects:
+        assert o.orientation is not None  # SceneObject sets it (from the yaw when the file has none)
         x, y, z, w = (float(v) for v in o.orientation)  # ROS order in the scene, wxyz in viser
         nodes[f"/scene/objects/{o.name}"] = server.scene.add_box(
             f"/scene/objects/{o.name}",

@@ -32,7 +32,7 @@ def find_browser() -> str | None:
     return next((p for p in map(shutil.which, BROWSERS) if p), None)
 
 
-def panel_filled(path) -> bool:
+def panel_filled(path: Path | str) -> bool:
     """Whether a screenshot shows a loaded, connected page: a page caught loading has an empty GUI
     panel (top right), one whose connection dropped a red icon and a greyed-out scene."""
     import numpy as np
@@ -46,7 +46,14 @@ def panel_filled(path) -> bool:
     return connected and bool(text)
 
 
-def screenshot(url: str, out, size=(1280, 800), budget_ms: int = 10_000, timeout_s: float = 45, tries: int = 3) -> Path:
+def screenshot(
+    url: str,
+    out: Path | str,
+    size: tuple[int, int] = (1280, 800),
+    budget_ms: int = 10_000,
+    timeout_s: float = 45,
+    tries: int = 3,
+) -> Path:
     """Load ``url`` in headless Chromium, let it run ``budget_ms`` of virtual time, and write a PNG of
     ``size`` (width, height) [px] to ``out``; taken again (up to ``tries`` times) while the page shows
     no GUI yet, which happens when the machine is busy. ViewerError if there is no browser or no picture."""
@@ -60,22 +67,22 @@ def screenshot(url: str, out, size=(1280, 800), budget_ms: int = 10_000, timeout
     return capture(url, out, size, budget_ms, timeout_s)
 
 
-def capture(url: str, out, size, budget_ms: int, timeout_s: float) -> Path:
+def capture(url: str, out: Path | str, size: tuple[int, int], budget_ms: int, timeout_s: float) -> Path:
     """One headless Chromium screenshot of ``url`` (see :func:`screenshot`)."""
     browser = find_browser()
     if browser is None:
         raise ViewerError(
             f"no browser for screenshots: none of {', '.join(BROWSERS)} is on PATH (apt-get install chromium)"
         )
-    out = Path(out).resolve()
-    out.unlink(missing_ok=True)
+    png = Path(out).resolve()
+    png.unlink(missing_ok=True)
     # a profile of its own: a browser already running on the default profile would take the request over
     with tempfile.TemporaryDirectory(prefix="placement-chromium-", ignore_cleanup_errors=True) as profile:
         cmd = [
             browser,
             *FLAGS,
             f"--user-data-dir={profile}",
-            f"--screenshot={out}",
+            f"--screenshot={png}",
             f"--window-size={size[0]},{size[1]}",
             f"--virtual-time-budget={budget_ms}",
             url,
@@ -88,7 +95,7 @@ def capture(url: str, out, size, budget_ms: int, timeout_s: float) -> Path:
             os.killpg(p.pid, signal.SIGKILL)
             p.communicate()
             raise ViewerError(f"{browser} took more than {timeout_s:.0f} s to take a screenshot of {url}") from None
-    if not out.is_file():
+    if not png.is_file():
         tail = " ".join(err.split())[-200:]
         raise ViewerError(f"{browser} wrote no screenshot (exit {p.returncode}): {tail}")
-    return out
+    return png

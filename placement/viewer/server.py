@@ -7,8 +7,17 @@ import io
 import logging
 import threading
 import time
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 from placement.errors import PlacementError
+
+if TYPE_CHECKING:
+    import viser
+
+    from placement.planning import Planner
+    from placement.viewer.map_view import MapView
+    from placement.viewer.plan_view import PlanView
 
 HOST = "127.0.0.1"  # never another interface: the viewer has no authentication
 
@@ -17,7 +26,7 @@ class ViewerError(PlacementError):
     """The viewer cannot start (viser missing, a bad port, a plan file that does not fit)."""
 
 
-def require_viser():
+def require_viser() -> ModuleType:
     """The viser module (ViewerError with the install command if it is missing)."""
     try:
         import viser
@@ -33,7 +42,7 @@ def check_port(port: int) -> int:
     return port
 
 
-def start_server(port: int = 0, label: str = "placement"):
+def start_server(port: int = 0, label: str = "placement") -> viser.ViserServer:
     """A running viser server on 127.0.0.1 (``port`` 0: a free one; a busy port: the next free one)."""
     viser = require_viser()
     check_port(port)
@@ -51,7 +60,13 @@ class View:
     ``planner`` (for a planned scene), ``timings`` [s]; ``stop()``; ``wait()`` serves until Ctrl-C (or
     ``timeout`` [s])."""
 
-    def __init__(self, server, content=None, planner=None, timings: dict | None = None):
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        content: PlanView | MapView | None = None,
+        planner: Planner | None = None,
+        timings: dict[str, float] | None = None,
+    ) -> None:
         self.server = server
         self.content = content
         self.planner = planner
