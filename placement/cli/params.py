@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import IO, Any, NoReturn
+
 import click
 
 from placement.errors import PlacementError
@@ -30,7 +33,9 @@ class OneLineGroup(click.Group):
         except click.UsageError as exc:
             _usage_error(ctx, exc)
 
-    def resolve_command(self, ctx: click.Context, args: list[str]):
+    def resolve_command(
+        self, ctx: click.Context, args: list[str]
+    ) -> tuple[str | None, click.Command | None, list[str]]:
         try:
             return super().resolve_command(ctx, args)
         except click.UsageError as exc:
@@ -40,7 +45,7 @@ class OneLineGroup(click.Group):
 OneLineGroup.group_class = OneLineGroup
 
 
-def _usage_error(ctx: click.Context, exc: click.UsageError):
+def _usage_error(ctx: click.Context, exc: click.UsageError) -> NoReturn:
     click.echo(f"error: {exc.format_message()} (see '{ctx.command_path} --help')", err=True)
     ctx.exit(2)
 
@@ -48,7 +53,7 @@ def _usage_error(ctx: click.Context, exc: click.UsageError):
 class Bounded(click.IntRange):
     """A whole number from ``min`` to ``max``; anything else is rejected naming both bounds."""
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         try:
             return super().convert(value, param, ctx)
         except click.BadParameter:
@@ -60,18 +65,18 @@ class OneLineError(click.ClickException):
 
     exit_code = 2
 
-    def show(self, file=None) -> None:
+    def show(self, file: IO[Any] | None = None) -> None:
         click.echo(f"error: {self.format_message()}", err=True)
 
 
 class Checked(click.ParamType):
     """An option type checked by a :mod:`placement.maps.buildspec` validator (same rules as in spec files)."""
 
-    def __init__(self, name: str, check):
+    def __init__(self, name: str, check: Callable[[Any, str], Any]) -> None:
         self.name = name
         self.check = check
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         try:
             return self.check(value, param.opts[-1] if param else self.name)
         except PlacementError as exc:

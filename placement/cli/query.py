@@ -75,7 +75,7 @@ COLUMNS = (
 def _table(r: dict) -> str:
     """The plan as a text table whose columns fit their longest entry (names of any length line up);
     an infeasible step's reason follows its target."""
-    rows = []
+    rows: list[tuple[list[str], str | None]] = []
     for s in r["steps"]:
         head = [str(s["step"]), str(s["action"]), str(s["target"])]
         if s.get("status") == "infeasible":
