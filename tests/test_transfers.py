@@ -317,7 +317,7 @@ def test_a_place_only_one_arm_reaches_decides_the_arm_of_the_pick(maps_dir, tmp_
     """A PR2 towing a cart (1.235 m long) fits the 0.8 m corridor facing north only; the place in
     the table's north-east corner is then 0.35 m right of the base: the right arm reaches it, the
     left does not. The pick on its own would take the left arm; the transfer takes the right."""
-    from placement.planning.methods.stepwise import plan_step, rank_eq6
+    from placement.planning.methods.stepwise import plan_step
     from placement.robots.preset import PRESET_DIR
 
     preset = yaml.safe_load((PRESET_DIR / "pr2.yaml").read_text())
@@ -327,10 +327,11 @@ def test_a_place_only_one_arm_reaches_decides_the_arm_of_the_pick(maps_dir, tmp_
     planner = Planner(unbudgeted(load_scene(tmp_path / "corridor.yaml")), maps=maps_dir)
     pick, place = planner.problems.steps
     home = {a: planner.robot.arm(a).home.copy() for a in planner.maps}
-    alone, _ = plan_step(planner, pick, planner.start_cell(), home, rank_eq6, False)
+    ctx, method = planner.context, planner.method
+    alone, _ = plan_step(ctx, method, pick, planner.start_cell(), home, False)
     assert alone.ok and alone.arm == "left"
     left, _ = plan_step(
-        planner, place, planner.start_cell(), home, rank_eq6, False, {("left", "top"), ("left", "top-flipped")}
+        ctx, method, place, planner.start_cell(), home, False, {("left", "top"), ("left", "top-flipped")}
     )
     assert not left.ok
     result = planner.plan()

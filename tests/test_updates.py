@@ -276,3 +276,32 @@ def test_chained_obstacle_updates_before_a_plan_equal_a_fresh_planner(tmp_path, 
         for a, b in zip(planner.problems.options(i), fresh.problems.options(i)):
             assert a.window == b.window and np.array_equal(a.value, b.value)
     assert [s.base for s in planner.plan().steps] == [s.base for s in fresh.plan().steps]
+
+
+def test_an_update_of_obstacles_and_start_together_lists_both(pr2, tmp_path):
+    """The report of one update names each kind of change: obstacles drawn into the old grid and a
+    new start pose. (The obstacle diff once reused the name of the update's dict, so "start" was
+    checked in the diff tuple and went missing.) The update returns a new state; the old is kept."""
+    from placement.planning.config import PlannerConfig
+    from placement.planning.context import PlanningContext
+    from placement.planning.footprints import BaseShape
+    from placement.planning.manipulation import base_yaws
+    from placement.planning.problems import StepProblems
+    from placement.planning.updates import apply_update
+    from placement.planning.world import build_world
+    from placement.scene import load_scene
+
+    scene = load_scene(write_scene(tmp_path, tmp_path / "maps"))  # no maps: nothing here reads one
+    cfg = PlannerConfig.from_overrides(scene.planner)
+    yaws = base_yaws(cfg.yaw_steps)
+    world = build_world(scene, BaseShape.of(pr2, cfg.footprint_padding, yaws), cfg)
+    ctx = PlanningContext(scene, pr2, {}, world, StepProblems(scene, world, {}, cfg, yaws), cfg, yaws)
+    crate = {"name": "crate", "box": {"center": [5.5, 0.5, 0.3], "size": [0.2, 0.2, 0.6]}}
+    new, info = apply_update(ctx, {"obstacles": {"add": [crate]}, "start": [1.5, 4.0, 0.0]})
+    assert info["updated"] == ["obstacles", "start"]
+    assert new.scene.start == (1.5, 4.0, 0.0) and "crate" in {o.name for o in new.scene.obstacles}
+    assert new.world is not world and new.world.occupied.sum() > world.occupied.sum()
+    assert ctx.scene is scene and ctx.world is world and scene.start == (1.0, 4.0, 0.0)
+    new, info = apply_update(new, {"obstacles": {"remove": ["crate"]}, "start": [1.5, 4.1, 0.0]})
+    assert info["updated"] == ["obstacles", "start"]
+    assert np.array_equal(new.world.occupied, world.occupied)

@@ -1,6 +1,7 @@
 """Planning: from a scene to verified base placements (see planner.py for the stages)."""
 
-from placement.planning.config import METHODS, PLANNER_KEYS, PlannerConfig
+from placement.planning.config import PLANNER_KEYS, PlannerConfig
+from placement.planning.methods.registry import METHODS
 from placement.planning.planner import Planner, plan
 from placement.planning.results import PlanResult, StepResult
 from placement.scene import Scene, SceneError, load_scene, parse_scene, save_scene

@@ -2,25 +2,30 @@
 
 A scene's ``planner:`` block overrides fields by name; :data:`PLANNER_KEYS` (the keys a scene may
 set, with their help text) is derived from the fields, so the parser, the docs and the defaults
-cannot drift apart. The methods only differ in their weights (:meth:`PlannerConfig.for_method`).
+cannot drift apart. The methods set their own weights from it (see
+:meth:`placement.planning.methods.base.Method.configure`).
+
+The fixed fields (not in scenes) are the tuning constants of the stages (search, optimal, verify,
+fixed); each stage reads them from the configuration it is given.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any, TypeVar
 
-from placement.errors import PlacementError
-
-METHODS = ("sequential", "single-step", "irm", "fixed", "optimal")
+T = TypeVar("T")
 
 #: Largest weight a scene may set [1/m]: far beyond any sensible trade-off, small enough that
 #: ``weight / m`` and ``weight * cost`` stay finite for every map value and grid.
 MAX_WEIGHT = 1e6
 
 
-def _key(default, help: str, **bounds):
+def _key(default: T, help: str, **bounds: Any) -> T:
     """A scene-settable field: its default, help text (with the unit) and bounds."""
-    return field(default=default, metadata={"help": help, **bounds})
+    out: T = field(default=default, metadata={"help": help, **bounds})
+    return out
 
 
 @dataclass(frozen=True)
@@ -40,7 +45,7 @@ class PlannerConfig:
         footprint_padding: clearance a polygon base footprint keeps from obstacles [m] (Nav2's
             footprint_padding; round bases have their margin in footprint_radius).
         ik_budget_ms: time the IK search of one step may spend before the step is infeasible [ms].
-    Fixed (not in scenes):
+    Fixed (not in scenes; the stages' tuning constants):
         ik_tries: placements tried best-first (per option and tier in the ranking) before the search
             spreads over every ranked placement [count] (see placement/planning/search.py).
         ik_cap: most placements the IK search of one step tries [count].
@@ -48,6 +53,26 @@ class PlannerConfig:
             step's feasible area (smaller ones would each cost a full cost map for a negligible weight).
         fixed_margin: clearance of the ``fixed`` baseline's placements beyond the footprint's
             half-depth (the radius of a round base) [m].
+        fixed_steps_out: cells further out along a table side's normal the ``fixed`` baseline tries
+            when a polygon base does not fit on the first [count] (its cell centre can be up to
+            half a cell nearer the table than the standoff).
+        search_shortfall_m: a failure whose TCP stopped this far or more short of its target
+            teaches the search [m].
+        search_shortfall_cos: the fraction of the TCP error that must lie along the horizontal
+            reach direction for a failure to count as "fell short" (a cosine, dimensionless).
+        search_same_direction_rad: base yaws and target bearings this close count as the same
+            direction [rad].
+        search_sectors: bearing and base yaw sectors per turn of the search's round-robin groups [count].
+        search_band_m: width of the distance bands of those groups [m].
+        optimal_candidates: candidate placements per step of ``optimal``, shared by its (arm,
+            grasp) groups [count].
+        optimal_min_per_group: least candidates per (arm, grasp) group of ``optimal`` [count].
+        optimal_lattice: spacing of the lattice of ``optimal``'s candidate cells [cells].
+        optimal_max_repairs: DP reruns of ``optimal`` after an IK or collision failure [count].
+        ik_pos_tol_m: position tolerance of a verified TCP pose [m].
+        ik_rot_tol_rad: rotation tolerance of a verified TCP pose [rad].
+        ik_seeds: start configurations per pose after the witness: the given seed, then random
+            ones [count].
     """
 
     lambda_n: float = _key(
@@ -123,21 +148,22 @@ class PlannerConfig:
     ik_cap: int = 2000
     min_region: float = 0.02
     fixed_margin: float = 0.02
-
-    def for_method(self, method: str) -> PlannerConfig:
-        """The weights of ``method``: ``single-step`` drops the heuristic, ``irm`` and ``fixed`` also
-        the navigation cost; ``sequential`` and ``optimal`` keep all."""
-        if method not in METHODS:
-            raise PlacementError(f"unknown method '{method}'; choose from {', '.join(METHODS)}")
-        out = self
-        if method not in ("sequential", "optimal"):
-            out = replace(out, lambda_nh=0.0)
-        if method in ("irm", "fixed"):
-            out = replace(out, lambda_n=0.0)
-        return out
+    fixed_steps_out: int = 2
+    search_shortfall_m: float = 0.02
+    search_shortfall_cos: float = 0.7
+    search_same_direction_rad: float = 0.35
+    search_sectors: int = 8
+    search_band_m: float = 0.1
+    optimal_candidates: int = 40
+    optimal_min_per_group: int = 8
+    optimal_lattice: int = 3
+    optimal_max_repairs: int = 30
+    ik_pos_tol_m: float = 2e-3
+    ik_rot_tol_rad: float = 2e-2
+    ik_seeds: int = 4
 
     @classmethod
-    def from_overrides(cls, overrides: dict) -> PlannerConfig:
+    def from_overrides(cls, overrides: Mapping[str, Any]) -> PlannerConfig:
         """Defaults with a (validated) scene ``planner:`` block applied."""
         values = dict(overrides)
         if isinstance(values.get("grasp_yaws"), list):
@@ -149,4 +175,4 @@ class PlannerConfig:
 PLANNER_KEYS: dict[str, str] = {f.name: f.metadata["help"] for f in fields(PlannerConfig) if f.metadata}
 
 #: Their bounds, for the scene parser: name -> metadata (minimum, maximum, strict, integer, or_list).
-PLANNER_BOUNDS: dict[str, dict] = {f.name: dict(f.metadata) for f in fields(PlannerConfig) if f.metadata}
+PLANNER_BOUNDS: dict[str, dict[str, Any]] = {f.name: dict(f.metadata) for f in fields(PlannerConfig) if f.metadata}

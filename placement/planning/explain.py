@@ -10,20 +10,25 @@ base cell.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from collections import Counter
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from placement.kernels.grid import pitch_bin, wrap_bin, zyx_angles
 from placement.maps.rmap import ReachabilityMap
+from placement.planning.arrays import FloatArray
+from placement.planning.context import PlanningContext
 from placement.planning.manipulation import pose_reach
+from placement.planning.option import Option
+from placement.planning.search import Failure, Search
+from placement.planning.steps import Step
+from placement.planning.world import World
 from placement.robots import matrix_to_pose
 
-if TYPE_CHECKING:
-    from placement.planning.option import Option
-    from placement.planning.planner import Planner
-    from placement.planning.search import Search
-    from placement.planning.steps import Step
+#: A band of TCP heights (lowest, highest) [m].
+Band = tuple[float, float]
 
 
 def pose_role(action: str, index: int, count: int) -> str:
@@ -36,13 +41,13 @@ def pose_role(action: str, index: int, count: int) -> str:
     return f"trajectory pose {index}"
 
 
-def orientation_words(pose: np.ndarray) -> str:
+def orientation_words(pose: FloatArray) -> str:
     """ "top-down", "horizontal" or "tilted": where the TCP's approach axis (z) points."""
     down = float(pose[2, 2])
     return "top-down" if down < -0.95 else "horizontal" if abs(down) < 0.05 else "tilted"
 
 
-def height_band(rmap: ReachabilityMap, pose: np.ndarray) -> tuple[float, float] | None:
+def height_band(rmap: ReachabilityMap, pose: FloatArray) -> Band | None:
     """Lowest and highest TCP height [m] (above the base frame on the floor) at which ``rmap``
     holds any value for the orientation of ``pose`` (4, 4) (None if it holds none)."""
     g = rmap.grid
@@ -54,9 +59,9 @@ def height_band(rmap: ReachabilityMap, pose: np.ndarray) -> tuple[float, float] 
     return float(g.origin[2] + hit[0] * g.resolution), float(g.origin[2] + (hit[-1] + 1) * g.resolution)
 
 
-def nearest_free_m(planner: Planner, xy) -> float:
-    """Horizontal distance [m] from ``xy`` to the nearest base-feasible cell centre (inf if none)."""
-    w = planner.world
+def nearest_free_m(w: World, xy: FloatArray) -> float:
+    """Horizontal distance [m] from ``xy`` (2,) [m] to the nearest base-feasible cell centre of
+    ``w`` (inf if none)."""
     iy, ix = np.nonzero(w.feasible)
     if iy.size == 0:
         return math.inf
@@ -64,8 +69,11 @@ def nearest_free_m(planner: Planner, xy) -> float:
     return float(np.sqrt((xs[ix] - xy[0]) ** 2 + (ys[iy] - xy[1]) ** 2).min())
 
 
-def _hint(planner: Planner, o: Option, pose_index: int, role: str, band, searched: bool) -> str:
-    """What would help with pose ``pose_index`` of option ``o`` (``searched``: IK tried placements)."""
+def _hint(
+    ctx: PlanningContext, fixed: bool, o: Option, pose_index: int, role: str, band: Band | None, searched: bool
+) -> str:
+    """What would help with pose ``pose_index`` of option ``o`` (``searched``: IK tried placements;
+    ``fixed``: the method ranks the pre-defined placements)."""
     pose = o.candidate.poses[pose_index]
     z, how = float(pose[2, 3]), orientation_words(pose)
     arm = f"arm {o.arm}"
@@ -77,8 +85,8 @@ def _hint(planner: Planner, o: Option, pose_index: int, role: str, band, searche
             f"the {role} pose at {z:.2f} m is {'above' if z > hi else 'below'} the {lo:.2f}-{hi:.2f} m band "
             f"{arm} reaches {how}"
         )
-    reach = pose_reach(planner.maps[o.arm], pose)
-    near = nearest_free_m(planner, pose[:2, 3])
+    reach = pose_reach(ctx.maps[o.arm], pose)
+    near = nearest_free_m(ctx.world, pose[:2, 3])
     if near > reach:
         return (
             f"the {role} pose at {z:.2f} m is within the {lo:.2f}-{hi:.2f} m band {arm} reaches {how}, but "
@@ -91,50 +99,53 @@ def _hint(planner: Planner, o: Option, pose_index: int, role: str, band, searche
     )
     if searched:
         return f"{inside}, but IK confirmed none of the map cells the placements tried fall in"
-    if planner.method == "fixed":
+    if fixed:
         return f"{inside}, but the map marks none of the fixed placements beside the tables reached for it"
     return (
-        f"{inside}, but the map values there stay below the threshold {planner.config.threshold:g} "
+        f"{inside}, but the map values there stay below the threshold {ctx.config.threshold:g} "
         f"(a lower planner.threshold would help)"
     )
 
 
-def _worst_pose(planner: Planner, opts: list[Option]) -> tuple[int, int, tuple | None]:
+def _worst_pose(ctx: PlanningContext, opts: Sequence[Option]) -> tuple[int, int, Band | None]:
     """(option index, pose index, band) of the pose farthest outside its height band (the first
     option's last pose when every pose is inside)."""
-    best = (0, len(opts[0].candidate.poses) - 1, None, -math.inf)
+    best: tuple[int, int, Band | None] = (0, len(opts[0].candidate.poses) - 1, None)
+    worst = -math.inf
     for k, o in enumerate(opts):
         for i, pose in enumerate(o.candidate.poses):
-            band = height_band(planner.maps[o.arm], pose)
+            band = height_band(ctx.maps[o.arm], pose)
             z = float(pose[2, 3])
             out = math.inf if band is None else max(band[0] - z, z - band[1])
-            if out > best[3]:
-                best = (k, i, band, out)
-    return best[:3]
+            if out > worst:
+                best, worst = (k, i, band), out
+    return best
 
 
 def explain(
-    planner: Planner, step: Step, opts: list[Option], search: Search | None, base_reason: str = ""
-) -> tuple[str, dict]:
+    ctx: PlanningContext, fixed: bool, step: Step, opts: Sequence[Option], search: Search | None, base_reason: str = ""
+) -> tuple[str, dict[str, Any]]:
     """(reason, diagnosis) of an infeasible step: ``search`` is the IK search (None when no
-    placement kept the map threshold; ``base_reason`` then says that in words)."""
+    placement kept the map threshold; ``base_reason`` then says that in words); ``fixed``: the
+    method ranks the pre-defined placements beside the tables."""
     if not opts:
         return base_reason or "the step has no candidate trajectory", {}
     ik_fails = [f for f in search.failures if f.kind == "ik"] if search else []
-    collisions = search.culprits() if search else {}
+    collisions: Counter[str] = search.culprits() if search else Counter()
+    f: Failure | None = None
     if ik_fails:
         f = min(ik_fails, key=lambda f: f.residual_m + 0.1 * f.residual_rad)
-        k, i = f.option, f.pose
-        band = height_band(planner.maps[opts[k].arm], opts[k].candidate.poses[i])
+        k, i = f.option, f.pose if f.pose is not None else len(opts[f.option].candidate.poses) - 1
+        band = height_band(ctx.maps[opts[k].arm], opts[k].candidate.poses[i])
     else:
-        k, i, band = _worst_pose(planner, opts)
-        f = None
+        k, i, band = _worst_pose(ctx, opts)
     o = opts[k]
     pose = o.candidate.poses[i]
     role = pose_role(step.action, i, len(o.candidate.poses))
-    hint = _hint(planner, o, i, role, band, search is not None)
+    hint = _hint(ctx, fixed, o, i, role, band, search is not None)
     culprit = collisions.most_common(1)[0][0] if collisions else None
-    d = {
+    ncol = sum(collisions.values()) if search else 0
+    d: dict[str, Any] = {
         "arm": o.arm,
         "trajectory": o.candidate.name,
         "pose_index": i,
@@ -147,7 +158,7 @@ def explain(
         "residual_rad": None if f is None else round(f.residual_rad, 6),
         "tried": search.tried if search else 0,
         "ik_failures": len(ik_fails),
-        "collision_failures": sum(collisions.values()) if search else 0,
+        "collision_failures": ncol,
         "culprit": culprit,
         "stopped": search.stop if search else None,
         "hint": hint,
@@ -155,12 +166,11 @@ def explain(
     if search is None:
         return f"{base_reason}; {hint}", d
     stop = {
-        "budget": f", when the {planner.config.ik_budget_ms:g} ms IK budget ran out",
-        "cap": f", the most the search tries ({planner.config.ik_cap})",
+        "budget": f", when the {ctx.config.ik_budget_ms:g} ms IK budget ran out",
+        "cap": f", the most the search tries ({ctx.config.ik_cap})",
     }.get(search.stop, ", every candidate")
     if search.tried == 0:
         return f"the base cannot get to any of the placements that reach the target from where it is; {hint}", d
-    ncol = d["collision_failures"]
     tried = f"no placement verified after {search.tried} tries{stop} ({len(ik_fails)} failed IK, {ncol} in collision)"
     parts = []
     if ncol and ncol >= len(ik_fails):

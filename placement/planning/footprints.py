@@ -19,8 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from placement.errors import PlacementError
 from placement.kernels.footprint import band_masks, block_table, pose_blocked
+from placement.planning.arrays import BoolArray, FloatArray, IntArray, MaskArray
 from placement.planning.navgrid import NavGrid
+from placement.robots import Robot
 from placement.robots.footprint import inscribed_radius
 
 EPS = 1e-9  # [m] float slack of the band limits, always on the safe side
@@ -34,12 +37,12 @@ class BaseShape:
     [m] kept from obstacles by a polygon, ``yaws`` (K,) the planner's base yaws [rad]."""
 
     radius: float
-    polygon: np.ndarray | None
+    polygon: FloatArray | None
     padding: float
-    yaws: np.ndarray
+    yaws: FloatArray
 
     @classmethod
-    def of(cls, robot, padding: float, yaws: np.ndarray) -> BaseShape:
+    def of(cls, robot: Robot, padding: float, yaws: FloatArray) -> BaseShape:
         poly = None if robot.footprint is None else np.ascontiguousarray(robot.footprint, dtype=float)
         return cls(float(robot.footprint_radius), poly, float(padding), np.asarray(yaws, dtype=float))
 
@@ -48,22 +51,29 @@ class BaseShape:
         """uint64 words per yaw mask."""
         return (len(self.yaws) + 63) // 64
 
-    def full_mask(self) -> np.ndarray:
+    def full_mask(self) -> MaskArray:
         """(W,) uint64 with the bits of every yaw set."""
         out = np.zeros(self.words, np.uint64)
         for k in range(len(self.yaws)):
             out[k >> 6] |= np.uint64(1) << np.uint64(k & 63)
         return out
 
+    def outline(self) -> FloatArray:
+        """(k, 2) the polygon [m] (PlacementError for a round base, which has none)."""
+        if self.polygon is None:
+            raise PlacementError("a round base has no footprint polygon")
+        return self.polygon
+
     def half_depth(self) -> float:
         """How far the footprint reaches ahead of the base origin along its forward axis [m] (the
         radius for a round base)."""
         return self.radius if self.polygon is None else float(self.polygon[:, 0].max())
 
-    def placed(self, x: float, y: float, yaw: float) -> np.ndarray:
-        """(k, 2) polygon in world coordinates [m] for a base at (x, y) [m] with ``yaw`` [rad]."""
+    def placed(self, x: float, y: float, yaw: float) -> FloatArray:
+        """(k, 2) polygon in world coordinates [m] for a base at (x, y) [m] with ``yaw`` [rad]
+        (a polygon base only)."""
         c, s = math.cos(yaw), math.sin(yaw)
-        p = self.polygon
+        p = self.outline()
         return np.ascontiguousarray(np.c_[x + c * p[:, 0] - s * p[:, 1], y + s * p[:, 0] + c * p[:, 1]])
 
 
@@ -72,24 +82,27 @@ class YawMasks:
     """Allowed base yaws of the band cells: ``cells`` (M,) ascending flat indices, ``bits`` (M, W)
     uint64; cells outside the band allow every yaw when feasible, none otherwise."""
 
-    cells: np.ndarray
-    bits: np.ndarray
+    cells: IntArray
+    bits: MaskArray
 
 
-_OFFSETS: dict = {}
+#: (band limits lo, hi [m], offsets dy, dx (L,) [cells], blocked yaws (L, W)) of a footprint on a grid
+Offsets = tuple[float, float, IntArray, IntArray, BoolArray]
+_OFFSETS: dict[tuple[bytes, bytes, float, float], Offsets] = {}
 
 
-def _offsets(base: BaseShape, res: float):
+def _offsets(base: BaseShape, res: float) -> Offsets:
     """The band limits lo, hi [m] and the offsets (L,), (L,) [cells] with the yaws (L, W) an occupied
     cell there blocks, of ``base`` on a grid of ``res`` [m]; computed once per shape and grid (the
     table takes tens of ms, an obstacle update must not pay for it again)."""
-    key = (base.polygon.tobytes(), base.yaws.tobytes(), base.padding, res)
+    polygon = base.outline()
+    key = (polygon.tobytes(), base.yaws.tobytes(), base.padding, res)
     got = _OFFSETS.get(key)
     if got is None:
-        lo = inscribed_radius(base.polygon) + base.padding - EPS
+        lo = inscribed_radius(polygon) + base.padding - EPS
         hi = base.radius + base.padding + PAD_SLACK + res * math.sqrt(0.5) + EPS
         reach = int(math.ceil(hi / res))
-        table = block_table(base.polygon, base.yaws, base.padding + PAD_SLACK, res, reach)
+        table = block_table(polygon, base.yaws, base.padding + PAD_SLACK, res, reach)
         dy, dx = np.mgrid[-reach : reach + 1, -reach : reach + 1]
         # band cells have no touched cell closer than lo: those offsets are never read
         use = table.any(axis=2) & (np.hypot(dy, dx) * res >= lo)
@@ -102,11 +115,11 @@ def _offsets(base: BaseShape, res: float):
 
 def polygon_feasibility(
     base: BaseShape,
-    touched: np.ndarray,
-    touched_distance: np.ndarray,
+    touched: BoolArray,
+    touched_distance: FloatArray,
     res: float,
-    previous: tuple[np.ndarray, YawMasks] | None = None,
-) -> tuple[np.ndarray, YawMasks]:
+    previous: tuple[BoolArray, YawMasks] | None = None,
+) -> tuple[BoolArray, YawMasks]:
     """(ny, nx) bool feasible at some yaw, and the band's yaw masks, of a polygon base over the
     ``touched`` layer (ny, nx) with its ``touched_distance`` [m] (cell centres) on a grid of ``res`` [m].
 
@@ -145,7 +158,7 @@ def polygon_feasibility(
     return feasible, YawMasks(band, bits)
 
 
-def masks_at(base: BaseShape, feasible: np.ndarray, masks: YawMasks | None, cells: np.ndarray) -> np.ndarray:
+def masks_at(base: BaseShape, feasible: BoolArray, masks: YawMasks | None, cells: IntArray) -> MaskArray:
     """(N, W) uint64 allowed-yaw masks of flat ``cells`` (N,): every yaw on feasible cells, none on
     the others, the band's own masks on band cells."""
     cells = np.asarray(cells, dtype=np.int64)
@@ -158,7 +171,7 @@ def masks_at(base: BaseShape, feasible: np.ndarray, masks: YawMasks | None, cell
     return out
 
 
-def pose_clear(base: BaseShape, touched: np.ndarray, nav: NavGrid, x: float, y: float, yaw: float) -> bool:
+def pose_clear(base: BaseShape, touched: BoolArray, nav: NavGrid, x: float, y: float, yaw: float) -> bool:
     """Whether a polygon base at (x, y) [m] with ``yaw`` [rad] keeps its padding from every touched square."""
     return not pose_blocked(
         touched,

@@ -9,7 +9,8 @@ Generated grasps of a box in any orientation (scene version 2, :func:`box_grasps
 along whichever object axis is closest to world up, and side grasps on each face whose normal is
 within 30 degrees of horizontal: the TCP on the face centre, approach horizontal into the face,
 the pre-pose ``approach`` metres back. Every grasp closes across the object through its centre
-where that chord is at most :data:`GRIPPER_OPENING`.
+where that chord is at most the gripper's opening (the robot preset's ``gripper.max_opening``,
+default :data:`GRIPPER_OPENING`).
 
 Why side grasps close :data:`SIDE_TILT` above horizontal: with approach and closing both
 horizontal the TCP x axis is vertical, the ZYX pitch +-90 degrees, where yaw and roll are not
@@ -22,12 +23,22 @@ closing axis tilted 10 degrees (pitch 80 degrees, the centre of the top pitch bi
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypeAlias
 
 import numpy as np
+import numpy.typing as npt
+
+from placement.planning.arrays import FloatArray
+from placement.robots.spec import GripperSpec
+
+#: Something numpy reads as a vector of floats: (3,) positions and sizes [m], (2,) directions.
+Vector: TypeAlias = npt.ArrayLike
 
 APPROACH = 0.10  # [m] pre-grasp / pre-place height above the final TCP pose
-GRIPPER_OPENING = 0.09  # [m] widest chord the gripper closes across (the PR2 opens about 0.09 m)
+#: [m] widest chord the gripper closes across when the robot preset does not say (the PR2's)
+GRIPPER_OPENING = GripperSpec().max_opening
 SIDE_TILT = math.radians(10.0)  # [rad] side grasps' closing axis above horizontal (see the module docstring)
 VERTICAL_FACE = 0.5  # |z| of a face normal up to which the face gets side grasps (30 degrees from vertical)
 AXES = "xyz"
@@ -42,38 +53,44 @@ class Candidate:
     the obstacle it is set on, ``support`` (see :mod:`placement.planning.transfer`)."""
 
     name: str
-    poses: np.ndarray
+    poses: FloatArray
     grasp: str | None = None
-    object_pose: np.ndarray | None = None
+    object_pose: FloatArray | None = None
     support: str | None = None
 
 
-def _down(position, closing_xy, approach: float) -> np.ndarray:
+def _down(position: Vector, closing_xy: Sequence[float], approach: float) -> FloatArray:
     """Two poses (pre, final) with z down, y along ``closing_xy`` (unit 2-vector)."""
     return _frame(position, (0.0, 0.0, -1.0), (closing_xy[0], closing_xy[1], 0.0), approach)
 
 
-def top_grasps(position, yaw: float, size, approach: float = APPROACH) -> list[Candidate]:
+def top_grasps(position: Vector, yaw: float, size: Vector, approach: float = APPROACH) -> list[Candidate]:
     """Top grasps of a box: centre ``position`` (3,) [m], ``yaw`` [rad], ``size`` (3,) [m].
 
     The gripper closes across the narrower horizontal side; both 180-degree
     variants about the vertical are returned.
     """
     c, s = math.cos(yaw), math.sin(yaw)
-    across = (c, s) if size[0] <= size[1] else (-s, c)
-    top = np.asarray(position, dtype=float) + (0.0, 0.0, 0.5 * float(size[2]))
+    sizes = np.asarray(size, dtype=float)
+    across = (c, s) if sizes[0] <= sizes[1] else (-s, c)
+    top = np.asarray(position, dtype=float) + (0.0, 0.0, 0.5 * float(sizes[2]))
     return [
         Candidate("top", _down(top, across, approach)),
         Candidate("top-flipped", _down(top, (-across[0], -across[1]), approach)),
     ]
 
 
-def place_candidates(position, yaws=8, approach: float = APPROACH) -> list[Candidate]:
+def place_candidates(
+    position: Vector, yaws: float | Sequence[float] | FloatArray = 8, approach: float = APPROACH
+) -> list[Candidate]:
     """Place trajectories down onto ``position`` (3,) [m] (the TCP target).
 
     ``yaws``: a count of gripper yaws evenly over 2 pi, or a list of yaws [rad].
     """
-    angles = [2 * math.pi * k / yaws for k in range(int(yaws))] if np.isscalar(yaws) else list(yaws)
+    if isinstance(yaws, (Sequence, np.ndarray)):
+        angles = [float(a) for a in yaws]
+    else:
+        angles = [2 * math.pi * k / yaws for k in range(int(yaws))]
     out = []
     for a in angles:
         out.append(
@@ -82,7 +99,7 @@ def place_candidates(position, yaws=8, approach: float = APPROACH) -> list[Candi
     return out
 
 
-def _frame(position, approach_dir, closing, approach: float) -> np.ndarray:
+def _frame(position: Vector, approach_dir: Vector, closing: Vector, approach: float) -> FloatArray:
     """Two poses (pre, final): z along ``approach_dir``, y along ``closing`` (unit, orthogonal),
     the final TCP at ``position`` (3,) [m], the pre-pose ``approach`` [m] back along z."""
     a, c = np.asarray(approach_dir, dtype=float), np.asarray(closing, dtype=float)
@@ -93,27 +110,31 @@ def _frame(position, approach_dir, closing, approach: float) -> np.ndarray:
     return poses
 
 
-def chord(R: np.ndarray, size, direction) -> float:
+def chord(R: FloatArray, size: Vector, direction: Vector) -> float:
     """Length [m] of the line along ``direction`` (3,) through the centre of a box with axes R
     (3, 3) and edge lengths ``size`` (3,) [m], inside the box."""
     d = np.abs(np.asarray(R).T @ np.asarray(direction, dtype=float))
-    return float(min(size[m] / d[m] for m in range(3) if d[m] > 1e-12))
+    s = np.asarray(size, dtype=float)
+    return float(min(s[m] / d[m] for m in range(3) if d[m] > 1e-12))
 
 
-def box_grasps(pose: np.ndarray, size, opening: float = GRIPPER_OPENING, approach: float = APPROACH) -> list[Candidate]:
+def box_grasps(
+    pose: FloatArray, size: Vector, opening: float = GRIPPER_OPENING, approach: float = APPROACH
+) -> list[Candidate]:
     """Generated grasps of a box centred at ``pose`` (4, 4) with edge lengths ``size`` (3,) [m] along
     its axes (see the module docstring): "top", "top-flipped", then "side-+x", "side--x", ... named
-    by the object axis of the face. Empty when the gripper closes across no side."""
+    by the object axis of the face, for a gripper that closes across chords up to ``opening`` [m].
+    Empty when the gripper closes across no side."""
     R, p = np.asarray(pose)[:3, :3], np.asarray(pose)[:3, 3]
-    size = np.asarray(size, dtype=float)
+    sizes = np.asarray(size, dtype=float)
     up = np.array([0.0, 0.0, 1.0])
     k = int(np.argmax(np.abs(R[2])))
     top_axis = R[:, k] * (1.0 if R[2, k] >= 0 else -1.0)
     i, j = (m for m in range(3) if m != k)
-    across = R[:, i] if size[i] <= size[j] else R[:, j]
+    across = R[:, i] if sizes[i] <= sizes[j] else R[:, j]
     out = []
-    if min(size[i], size[j]) <= opening:
-        top = p + top_axis * size[k] / 2
+    if min(sizes[i], sizes[j]) <= opening:
+        top = p + top_axis * sizes[k] / 2
         out += [
             Candidate("top", _frame(top, -top_axis, across, approach)),
             Candidate("top-flipped", _frame(top, -top_axis, -across, approach)),
@@ -126,12 +147,12 @@ def box_grasps(pose: np.ndarray, size, opening: float = GRIPPER_OPENING, approac
             a = -(n - n[2] * up)
             a /= np.linalg.norm(a)
             c = math.cos(SIDE_TILT) * np.cross(up, a) + math.sin(SIDE_TILT) * up
-            if chord(R, size, c) <= opening:
+            if chord(R, sizes, c) <= opening:
                 name = f"side-{'+' if sign > 0 else '-'}{AXES[m]}"
-                out.append(Candidate(name, _frame(p + n * size[m] / 2, a, c, approach)))
+                out.append(Candidate(name, _frame(p + n * sizes[m] / 2, a, c, approach)))
     return out
 
 
-def in_world(name: str, pose: np.ndarray, poses: np.ndarray) -> Candidate:
+def in_world(name: str, pose: FloatArray, poses: FloatArray) -> Candidate:
     """A trajectory ``poses`` (P, 4, 4) given in the frame ``pose`` (4, 4) as a world-frame candidate."""
     return Candidate(name, np.asarray(pose) @ np.asarray(poses))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -11,27 +12,34 @@ from placement.kernels.grid import pitch_bin, wrap_bin, zyx_angles
 from placement.kernels.irm import trajectory_maps
 from placement.maps.grid import Grid
 from placement.maps.rmap import ReachabilityMap
+from placement.planning.arrays import Float32Array, FloatArray, IntArray, MaskArray
 from placement.planning.navgrid import NavGrid, Window
 
+#: A pose's map lookup: (x [m], y [m], z bin, pitch bin, roll bin).
+PoseKey = tuple[float, float, int, int, int]
+#: An inverse reachability map over a window: value (h, w) float32, best yaw's index (h, w) int64.
+IRM = tuple[Float32Array, IntArray]
 
-def base_yaws(count: int) -> np.ndarray:
+
+def base_yaws(count: int) -> FloatArray:
     """``count`` base yaws [rad] evenly over [-pi, pi), starting at 0 (aligned with the yaw bins
     whenever ``count`` is a multiple of the map's yaw bin count)."""
     if count < 1:
         raise PlacementError(f"yaw count must be positive, got {count}")
     a = np.arange(count) * (2 * math.pi / count)
-    return np.where(a >= math.pi, a - 2 * math.pi, a)
+    out: FloatArray = np.where(a >= math.pi, a - 2 * math.pi, a)
+    return out
 
 
 def manipulation_map(
     rmap: ReachabilityMap,
-    tcp_world: np.ndarray,
+    tcp_world: FloatArray,
     nav: NavGrid,
-    yaws: np.ndarray,
-    cells: np.ndarray | None = None,
+    yaws: FloatArray,
+    cells: IntArray | None = None,
     window: Window | None = None,
-    masks: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
+    masks: MaskArray | None = None,
+) -> IRM:
     """IRM of a TCP trajectory: per base cell, the best yaw's worst map value along the trajectory.
 
     Args:
@@ -55,11 +63,12 @@ def manipulation_map(
     return manipulation_maps(rmap, [T], nav, yaws, cells, window, masks)[0]
 
 
-def _pose_keys(rmap: ReachabilityMap, T: np.ndarray) -> tuple | None:
+def _pose_keys(rmap: ReachabilityMap, T: FloatArray) -> tuple[tuple[PoseKey, ...], list[float]] | None:
     """Per pose: (x, y, z bin, pitch bin, roll bin), and the yaws; None if a pose is outside the
     map's height range."""
     g: Grid = rmap.grid
-    keys, yaws = [], []
+    keys: list[PoseKey] = []
+    yaws: list[float] = []
     for pose in T:
         yaw, pitch, roll = zyx_angles(pose)
         iz = int(math.floor((pose[2, 3] - g.origin[2]) / g.resolution))
@@ -68,11 +77,11 @@ def _pose_keys(rmap: ReachabilityMap, T: np.ndarray) -> tuple | None:
         keys.append(
             (float(pose[0, 3]), float(pose[1, 3]), iz, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5]))
         )
-        yaws.append(yaw)
+        yaws.append(float(yaw))
     return tuple(keys), yaws
 
 
-def pose_slices(rmap: ReachabilityMap, T: np.ndarray) -> list[tuple[int, int, int]]:
+def pose_slices(rmap: ReachabilityMap, T: FloatArray) -> list[tuple[int, int, int]]:
     """The (z, pitch, roll) bins of the map slices the poses T (P, 4, 4) read (those in range)."""
     keyed = _pose_keys(rmap, np.asarray(T, dtype=float).reshape(-1, 4, 4))
     return [] if keyed is None else [k[2:] for k in keyed[0]]
@@ -80,13 +89,13 @@ def pose_slices(rmap: ReachabilityMap, T: np.ndarray) -> list[tuple[int, int, in
 
 def manipulation_maps(
     rmap: ReachabilityMap,
-    trajectories: list[np.ndarray],
+    trajectories: Sequence[FloatArray],
     nav: NavGrid,
-    yaws: np.ndarray,
-    cells: np.ndarray,
+    yaws: FloatArray,
+    cells: IntArray,
     window: Window | None = None,
-    masks: np.ndarray | None = None,
-) -> list[tuple[np.ndarray, np.ndarray]]:
+    masks: MaskArray | None = None,
+) -> list[IRM]:
     """:func:`manipulation_map` of several trajectories over the same ``cells``, ``window`` and ``masks``.
 
     Trajectories whose poses share positions and map slices (they differ only in the gripper's
@@ -106,8 +115,8 @@ def manipulation_maps(
         raise PlacementError(
             f"manipulation_map: yaw masks {masks.shape} do not fit {len(cells)} cells and {len(yaws)} yaws"
         )
-    out: list = [None] * len(trajectories)
-    groups: dict[tuple, list[tuple[int, list[float]]]] = {}
+    out: list[IRM | None] = [None] * len(trajectories)
+    groups: dict[tuple[PoseKey, ...], list[tuple[int, list[float]]]] = {}
     for i, T in enumerate(trajectories):
         keyed = _pose_keys(rmap, np.asarray(T, dtype=float).reshape(-1, 4, 4))
         if keyed is None:
@@ -139,10 +148,10 @@ def manipulation_maps(
         )
         for j, (i, _) in enumerate(members):
             out[i] = (vals[j], args[j])
-    return out
+    return [m for m in out if m is not None]  # every trajectory has its map by now
 
 
-def pose_reach(rmap: ReachabilityMap, pose: np.ndarray) -> float:
+def pose_reach(rmap: ReachabilityMap, pose: FloatArray) -> float:
     """Largest distance [m] between a base position and the TCP ``pose`` (4, 4, world frame) at which
     the map holds any value for the pose's slice (see ``ReachabilityMap.slice_reach``); -1 if none
     (the slice is empty, or the pose is outside the map's height range)."""
@@ -162,7 +171,7 @@ def reach_xy(g: Grid) -> float:
     return max(math.hypot(x, y) for x in (x0, x1) for y in (y0, y1))
 
 
-def cells_within(nav: NavGrid, x: float, y: float, radius: float) -> np.ndarray:
+def cells_within(nav: NavGrid, x: float, y: float, radius: float) -> IntArray:
     """Flat indices (ascending) of navigation cells whose centre is within ``radius`` [m] of (x, y)
     (none for a negative radius)."""
     if radius < 0:

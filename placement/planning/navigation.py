@@ -7,12 +7,14 @@ Distances and costs are in metres; ``cost / v_max`` is travel time in seconds.
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.errors import PlacementError
 from placement.kernels.navigation import distance_transform, shortest_costs
+from placement.planning.arrays import BoolArray, FloatArray, IntArray
 
 
-def distance_map(occupied: np.ndarray, resolution: float) -> np.ndarray:
+def distance_map(occupied: BoolArray, resolution: float) -> FloatArray:
     """Exact Euclidean distance [m] from each cell centre to the nearest occupied cell centre.
 
     occupied: (ny, nx) bool. Returns (ny, nx) float64 (inf if nothing is occupied).
@@ -20,28 +22,30 @@ def distance_map(occupied: np.ndarray, resolution: float) -> np.ndarray:
     occ = np.ascontiguousarray(occupied, dtype=np.bool_)
     if occ.ndim != 2:
         raise PlacementError(f"occupancy must be a 2D grid, got shape {occ.shape}")
-    return distance_transform(occ, float(resolution))
+    out: FloatArray = distance_transform(occ, float(resolution))
+    return out
 
 
-def speed_factor(d_o: np.ndarray, lam: float, k: float, d_max: float) -> np.ndarray:
+def speed_factor(d_o: FloatArray, lam: float, k: float, d_max: float) -> FloatArray:
     """The slowdown ``1 + lam * d_s`` of Eq. 4: ``v = v_max / factor``.
 
     ``d_s = (1 - d_o / d_max) ** k`` where ``d_o < d_max`` [m], else 0 (defaults in
     :class:`~placement.planning.config.PlannerConfig`).
     """
-    d_o = np.asarray(d_o, dtype=float)
+    d_o = np.asarray(d_o, dtype=np.float64)
     d_s = np.where(d_o < d_max, np.clip(1.0 - d_o / d_max, 0.0, 1.0) ** k, 0.0)
-    return 1.0 + lam * d_s
+    out: FloatArray = 1.0 + lam * d_s
+    return out
 
 
 def navigation_cost(
-    factor: np.ndarray,
-    feasible: np.ndarray,
-    starts,
+    factor: FloatArray,
+    feasible: BoolArray,
+    starts: npt.ArrayLike,
     resolution: float,
-    start_costs=None,
-    targets: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
+    start_costs: npt.ArrayLike | None = None,
+    targets: BoolArray | None = None,
+) -> tuple[FloatArray, IntArray]:
     """Minimal travel cost [m] from the start cells to every cell (Eq. 5, exact, Dijkstra).
 
     Args:
@@ -56,26 +60,27 @@ def navigation_cost(
     Returns:
         cost (ny, nx) [m] (inf where unreachable), pred (ny, nx) flat predecessor index.
     """
-    starts = np.ascontiguousarray(np.atleast_2d(np.asarray(starts, dtype=np.int64)))
+    cells = np.ascontiguousarray(np.atleast_2d(np.asarray(starts, dtype=np.int64)))
     feas = np.ascontiguousarray(feasible, dtype=np.bool_)
     fac = np.ascontiguousarray(factor, dtype=np.float64)
     if fac.shape != feas.shape:
         raise PlacementError(f"factor {fac.shape} and feasible {feas.shape} grids differ")
     ny, nx = feas.shape
-    for iy, ix in starts:
+    for iy, ix in cells:
         if not (0 <= iy < ny and 0 <= ix < nx):
             raise PlacementError(f"start cell ({iy}, {ix}) is outside the {ny} x {nx} grid")
-    if not feas[starts[:, 0], starts[:, 1]].any():
-        iy, ix = starts[0]
+    if not feas[cells[:, 0], cells[:, 1]].any():
+        iy, ix = cells[0]
         raise PlacementError(f"start cell ({iy}, {ix}) is inside an obstacle or too close to one for the base")
-    costs = np.zeros(len(starts)) if start_costs is None else np.asarray(start_costs, dtype=float)
+    costs = np.zeros(len(cells)) if start_costs is None else np.asarray(start_costs, dtype=float)
     tgt = np.zeros(feas.shape, dtype=np.bool_) if targets is None else np.ascontiguousarray(targets, dtype=np.bool_)
     if tgt.shape != feas.shape:
         raise PlacementError(f"targets {tgt.shape} and feasible {feas.shape} grids differ")
-    return shortest_costs(fac, feas, starts, costs, float(resolution), tgt)
+    cost, pred = shortest_costs(fac, feas, cells, costs, float(resolution), tgt)
+    return np.asarray(cost, dtype=np.float64), np.asarray(pred, dtype=np.int64)
 
 
-def extract_path(pred: np.ndarray, goal) -> np.ndarray:
+def extract_path(pred: IntArray, goal: tuple[int, int] | IntArray) -> IntArray:
     """Cells (m, 2) (iy, ix) from the source to ``goal`` (iy, ix) along the predecessor map."""
     ny, nx = pred.shape
     u = int(goal[0]) * nx + int(goal[1])

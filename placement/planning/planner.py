@@ -4,26 +4,33 @@ The stages, in the order a query runs them (one module each)::
 
     scene/ (parse) -> world.py (rasterise) -> problems.py (candidates, IRMs, cache)
       -> navigation.py / heuristic.py (cost maps) -> ranking.py (Eq. 6)
-      -> verify.py (IK) -> results.py (typed results, JSON)
+      -> search.py / verify.py (IK) -> results.py (typed results, JSON)
 
-``methods/`` holds the methods as functions over these stages; ``updates.py`` applies scene
-changes to a live planner.
+The planner owns the state the stages read, one frozen
+:class:`~placement.planning.context.PlanningContext`, and passes it to them; no stage sees the
+planner. ``methods/`` holds the methods as strategy objects over the stages (by name in
+:data:`~placement.planning.methods.registry.METHODS`); ``updates.py`` computes the state after a
+scene change, which the planner swaps in.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from placement.collision import SceneCollision
 from placement.errors import MapError, PlacementError
 from placement.maps.rmap import ReachabilityMap, open_map
-from placement.planning.config import METHODS, PlannerConfig
+from placement.planning.arrays import Cell, FloatArray
+from placement.planning.config import PlannerConfig
+from placement.planning.context import PlanningContext
 from placement.planning.footprints import BaseShape
 from placement.planning.manipulation import base_yaws
-from placement.planning.methods.fixed import rank_fixed
-from placement.planning.methods.optimal import plan_optimal
-from placement.planning.methods.stepwise import plan_stepwise, rank_eq6
+from placement.planning.methods.base import Method
+from placement.planning.methods.registry import METHODS, method_named
 from placement.planning.prepare import prefetch_slices, warm_checks, warm_kernels
 from placement.planning.problems import StepProblems
 from placement.planning.results import PlanResult, robot_info
@@ -38,7 +45,7 @@ def default_maps_path(scene: Scene, robot: Robot) -> Path:
     """Where a scene without ``maps:`` finds its maps: ``maps/<robot name>`` in the scene file's
     directory or the nearest parent that has one, else in the working directory (MapError listing
     the places looked at when none has it)."""
-    looked = []
+    looked: list[Path] = []
     if scene.source is not None:
         d = Path(os.path.abspath(scene.source)).parent
         for folder in (d, *d.parents):
@@ -73,15 +80,18 @@ class Planner:
 
     Args:
         scene: a :class:`Scene` or the path of a scene file.
-        method: one of :data:`METHODS` (see :meth:`PlannerConfig.for_method`).
+        method: one of :data:`METHODS` (see :mod:`placement.planning.methods`).
         maps: reachability map path (default: the scene's ``maps``, else :func:`default_maps_path`).
         collisions: check every IK solution against the scene and the robot itself (URDF collision
             shapes, see :mod:`placement.collision`); False plans as the paper does, without.
 
     Attributes (read them; change them through :meth:`set_method` and :meth:`update`):
-        scene, robot, maps (arm -> map), base_config (the scene's configuration), config (the
-        method's), method, world, yaws ((K,) base yaws [rad]), problems (the per-step cache),
-        collisions (the :class:`~placement.collision.SceneCollision` checker, or None).
+        context: the :class:`~placement.planning.context.PlanningContext` the stages read; its
+        fields are also attributes of the planner: scene, robot, maps (arm -> map), world, problems
+        (the per-step cache), config (the method's), yaws ((K,) base yaws [rad]), collisions (the
+        :class:`~placement.collision.SceneCollision` checker, or None). base_config: the scene's
+        configuration. method: the :class:`~placement.planning.methods.base.Method` strategy
+        (``method.name`` its name).
     """
 
     def __init__(
@@ -91,46 +101,78 @@ class Planner:
         maps: str | Path | None = None,
         collisions: bool = True,
     ):
-        self.scene: Scene = scene if isinstance(scene, Scene) else load_scene(scene)
-        self.base_config = PlannerConfig.from_overrides(self.scene.planner)
-        self.set_method(method)
-        self.robot: Robot = load_robot(self.scene.robot_preset)
-        map_path = Path(maps or self.scene.maps or default_maps_path(self.scene, self.robot))
-        self.maps: dict[str, ReachabilityMap] = {
-            arm: open_map(map_path, arm, self.robot) for arm in mapped_arms(map_path, self.robot)
-        }
-        self.collisions = (
-            SceneCollision(self.robot, self.scene, padding=self.base_config.collision_padding) if collisions else None
-        )
-        self.yaws = base_yaws(self.base_config.yaw_steps)
-        base = BaseShape.of(self.robot, self.base_config.footprint_padding, self.yaws)
-        self.world: World = build_world(self.scene, base, self.base_config)
-        self.problems = StepProblems(self.scene, self.world, self.maps, self.base_config, self.yaws)
+        scene = scene if isinstance(scene, Scene) else load_scene(scene)
+        self.base_config = PlannerConfig.from_overrides(scene.planner)
+        self.method: Method = method_named(method)
+        robot = load_robot(scene.robot_preset)
+        map_path = Path(maps or scene.maps or default_maps_path(scene, robot))
+        rmaps = {arm: open_map(map_path, arm, robot) for arm in mapped_arms(map_path, robot)}
+        cfg = self.base_config
+        checker = SceneCollision(robot, scene, padding=cfg.collision_padding) if collisions else None
+        yaws = base_yaws(cfg.yaw_steps)
+        base = BaseShape.of(robot, cfg.footprint_padding, yaws)
+        world = build_world(scene, base, cfg)
+        problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening)
+        self.context = PlanningContext(scene, robot, rmaps, world, problems, self.method.configure(cfg), yaws, checker)
         # once per planner: kernels loaded and slices read here, not in the first step
-        warm_kernels(self.problems, self.robot)
-        prefetch_slices(self.problems)
-        warm_checks(self)
+        warm_kernels(problems, robot)
+        prefetch_slices(problems)
+        warm_checks(self.context)
+
+    # the context's fields, read-only
+    @property
+    def scene(self) -> Scene:
+        return self.context.scene
+
+    @property
+    def robot(self) -> Robot:
+        return self.context.robot
+
+    @property
+    def maps(self) -> Mapping[str, ReachabilityMap]:
+        return self.context.maps
+
+    @property
+    def world(self) -> World:
+        return self.context.world
+
+    @property
+    def problems(self) -> StepProblems:
+        return self.context.problems
+
+    @property
+    def config(self) -> PlannerConfig:
+        return self.context.config
+
+    @property
+    def yaws(self) -> FloatArray:
+        return self.context.yaws
+
+    @property
+    def collisions(self) -> SceneCollision | None:
+        return self.context.collisions
+
+    @collisions.setter
+    def collisions(self, checker: SceneCollision | None) -> None:
+        """Plan with another collision check (anything with ``check`` as the scene checker's; None: none)."""
+        self.context = replace(self.context, collisions=checker)
 
     def set_method(self, method: str) -> None:
         """Switch the method (its weights); maps, world and caches are kept."""
-        self.config = self.base_config.for_method(method)
-        self.method = method
+        strategy = method_named(method)
+        self.context = replace(self.context, config=strategy.configure(self.base_config))
+        self.method = strategy
 
-    def update(self, change: dict) -> dict:
+    def update(self, change: Any) -> dict[str, Any]:
         """Apply a scene change, redoing only what it invalidates; on error nothing changes.
 
         See :mod:`placement.planning.updates` for the vocabulary. Returns
         ``{"updated": [...], "timings_ms": {...}}``.
         """
-        return apply_update(self, change)
+        self.context, report = apply_update(self.context, change)
+        return report
 
-    def replace_state(self, scene: Scene, world: World, problems: StepProblems) -> None:
-        """Swap in a changed scene with its world and cache (all checked by the caller)."""
-        self.scene, self.world, self.problems = scene, world, problems
-        if self.collisions is not None:
-            self.collisions.update(scene)
-
-    def start_cell(self) -> tuple[int, int]:
+    def start_cell(self) -> Cell:
         """The grid cell of the scene's start pose (PlacementError if it is outside or blocked)."""
         x, y, yaw = self.scene.start
         try:
@@ -160,14 +202,11 @@ class Planner:
         """Plan every step from the scene's start pose; with ``keep_maps`` each step's layers are
         kept in ``StepResult.maps`` (for plots)."""
         start = self.start_cell()
-        if self.method == "optimal":
-            steps = plan_optimal(self, start, keep_maps)
-        else:
-            steps = plan_stepwise(self, start, rank_fixed if self.method == "fixed" else rank_eq6, keep_maps)
-        return PlanResult(self.scene.name, self.method, robot_info(self.robot, self.maps), steps)
+        steps = self.method.plan(self.context, start, keep_maps)
+        return PlanResult(self.scene.name, self.method.name, robot_info(self.robot, self.maps), steps)
 
 
-def plan(scene: Scene | str | Path, method: str = "sequential", maps: str | Path | None = None) -> dict:
+def plan(scene: Scene | str | Path, method: str = "sequential", maps: str | Path | None = None) -> dict[str, Any]:
     """Plan a scene's whole task (SPEC section 9): the JSON document of SPEC section 7 as a dict."""
     return Planner(scene, method, maps).plan().to_json()
 

@@ -11,17 +11,20 @@ import numpy as np
 
 from placement.kinematics.ik import solve_ik
 from placement.planning.config import PlannerConfig
+from placement.planning.context import PlanningContext
 from placement.planning.manipulation import manipulation_maps, pose_slices
 from placement.planning.navgrid import NavGrid, Window
 from placement.planning.navigation import navigation_cost
 from placement.planning.option import Option
+from placement.planning.problems import StepProblems
 from placement.planning.ranking import rank_by_cost
 from placement.planning.steps import step_candidates
+from placement.robots import Robot
 
 _warm = False
 
 
-def warm_kernels(problems, robot) -> None:
+def warm_kernels(problems: StepProblems, robot: Robot) -> None:
     """Run each planning kernel once on a tiny problem of the real types (once per process)."""
     global _warm
     if _warm:
@@ -30,10 +33,12 @@ def warm_kernels(problems, robot) -> None:
     ones = np.ones(nav.shape)
     cost, _ = navigation_cost(ones, np.ones(nav.shape, bool), (1, 1), nav.resolution, targets=np.eye(3, dtype=bool))
     step = problems.steps[0]
-    cand = step_candidates(problems.scene, step, problems.config)[0]
+    cand = step_candidates(problems.scene, step, problems.config, problems.opening_m)[0]
     for arm, rmap in problems.maps.items():
         window = Window(0, 3, 0, 3)
-        value, yaw = manipulation_maps(rmap, [cand.poses], nav, problems.yaws[:1], np.array([4]), window)[0]
+        value, yaw = manipulation_maps(
+            rmap, [cand.poses], nav, problems.yaws[:1], np.array([4], dtype=np.int64), window
+        )[0]
         option = Option(arm, cand, window, value, yaw)
         rank_by_cost([option], cost, np.zeros(nav.shape), PlannerConfig(), problems.yaws[:1])
         a = robot.arm(arm)
@@ -41,23 +46,23 @@ def warm_kernels(problems, robot) -> None:
     _warm = True
 
 
-def prefetch_slices(problems) -> None:
+def prefetch_slices(problems: StepProblems) -> None:
     """Read (and check) every map slice the task's candidates will use, and the witnesses of those
     slices (the IK starts there)."""
     for step in problems.steps:
-        for cand in step_candidates(problems.scene, step, problems.config):
+        for cand in step_candidates(problems.scene, step, problems.config, problems.opening_m):
             for rmap in problems.maps.values():
                 for key in pose_slices(rmap, cand.poses):
                     rmap.slice(*key)
                     rmap.witness_slice(*key)
 
 
-def warm_checks(planner) -> None:
+def warm_checks(ctx: PlanningContext) -> None:
     """One witness lookup and one collision check per arm (results unused): the first of each in a
     process loads kernels and builds caches (about 10 ms each), which the first step should not pay."""
-    robot = planner.robot
-    for arm, rmap in planner.maps.items():
+    robot = ctx.robot
+    for arm, rmap in ctx.maps.items():
         a = robot.arm(arm)
         rmap.witness_q(robot.tcp_pose(arm, a.home))
-        if planner.collisions is not None:
-            planner.collisions.check(arm, np.asarray(a.home, dtype=float)[None], planner.scene.start)
+        if ctx.collisions is not None:
+            ctx.collisions.check(arm, np.asarray(a.home, dtype=float)[None], ctx.scene.start)

@@ -12,10 +12,14 @@ methods of a scene (evaluation plans each scene with every method).
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+
 import numpy as np
 
 from placement.maps.rmap import ReachabilityMap
+from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray, MaskArray
 from placement.planning.config import PlannerConfig
+from placement.planning.grasps import GRIPPER_OPENING, Candidate
 from placement.planning.heuristic import region_heuristic
 from placement.planning.manipulation import cells_within, manipulation_maps, pose_reach
 from placement.planning.navgrid import Window
@@ -25,6 +29,9 @@ from placement.planning.steps import Step, step_candidates, task_steps
 from placement.planning.world import World
 from placement.scene import Scene
 
+#: Where a candidate's target is and how far the map reaches it: (x [m], y [m], reach [m]).
+Reach = tuple[float, float, float]
+
 
 class StepProblems:
     """The cache of a scene's per-step IRMs and heuristics (see the module docstring).
@@ -33,17 +40,25 @@ class StepProblems:
         scene, world: the scene and its rasterised layers.
         maps: arm -> reachability map. config: the planner configuration (threshold, grasp yaws).
         yaws: (K,) base yaws tried per cell [rad].
+        opening_m: the gripper's widest opening [m] (generated grasps close across chords up to it).
     """
 
     def __init__(
-        self, scene: Scene, world: World, maps: dict[str, ReachabilityMap], config: PlannerConfig, yaws: np.ndarray
+        self,
+        scene: Scene,
+        world: World,
+        maps: Mapping[str, ReachabilityMap],
+        config: PlannerConfig,
+        yaws: FloatArray,
+        opening_m: float = GRIPPER_OPENING,
     ):
         self.scene, self.world, self.maps, self.config, self.yaws = scene, world, maps, config, yaws
+        self.opening_m = opening_m
         self.steps: list[Step] = task_steps(scene)
         self._options: dict[int, list[Option]] = {}
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
-        self._heuristic: dict[tuple[int, bool], np.ndarray] = {}
+        self._heuristic: dict[tuple[int, bool], FloatArray] = {}
 
     def options(self, i: int) -> list[Option]:
         """Manipulation maps of step i for every arm and candidate (cached)."""
@@ -58,21 +73,21 @@ class StepProblems:
     def _compute_options(self, step: Step) -> list[Option]:
         nav = self.world.nav
         opts = []
-        near: dict[tuple, np.ndarray] = {}  # candidates of a step share their target position
-        candidates = step_candidates(self.scene, step, self.config)
+        near: dict[Reach, tuple[IntArray, MaskArray]] = {}  # candidates of a step share their target position
+        candidates = step_candidates(self.scene, step, self.config, self.opening_m)
         for arm, rmap in self.maps.items():
             lo, hi = height_range(rmap)
-            by_cells: dict[tuple, list] = {}  # candidates of a step share their target position
+            by_cells: dict[Reach, list[Candidate]] = {}  # candidates of a step share their target position
             for cand in candidates:
                 # base cells farther from the target than the target slice's reach get 0 from
                 # the kernel anyway: they are not evaluated (the results are the same)
-                key = (cand.poses[-1, 0, 3], cand.poses[-1, 1, 3], pose_reach(rmap, cand.poses[-1]))
+                key = (float(cand.poses[-1, 0, 3]), float(cand.poses[-1, 1, 3]), pose_reach(rmap, cand.poses[-1]))
                 if key not in near:
                     cells = cells_within(nav, *key)
                     cells = cells[self.world.feasible.flat[cells]]
                     near[key] = (cells, self.world.yaw_masks(cells))
                 by_cells.setdefault(key, []).append(cand)
-            results = {}
+            results: dict[bytes, tuple[Window, Float32Array, IntArray]] = {}
             for key, cands in by_cells.items():
                 cells, masks = near[key]
                 window = Window.around(cells, nav.shape)
@@ -94,7 +109,7 @@ class StepProblems:
             if o.value.size and float(o.value.max()) >= self.config.threshold
         }
 
-    def feasible_region(self, i: int, options: list[Option] | None = None) -> np.ndarray:
+    def feasible_region(self, i: int, options: Sequence[Option] | None = None) -> BoolArray:
         """(ny, nx) bool: base cells from which some arm and candidate of step i (of ``options``,
         default all of the step's) reach the threshold."""
         mask = np.zeros(self.world.nav.shape, dtype=bool)
@@ -102,7 +117,7 @@ class StepProblems:
             mask[o.window.slices] |= o.value >= self.config.threshold
         return mask
 
-    def heuristic(self, i: int, at: np.ndarray | None = None) -> np.ndarray:
+    def heuristic(self, i: int, at: BoolArray | None = None) -> FloatArray:
         """Navigation cost [m] towards step i's feasible regions (cached); ``at``: optional (ny, nx)
         bool of the cells that will be read (see :func:`region_heuristic`)."""
         key = (i, at is None)
@@ -117,7 +132,7 @@ class StepProblems:
         changed) they are refreshed on the cells whose allowed yaws changed (see refresh.py) when a
         step first needs them, and the heuristics are dropped. ``self`` is not modified.
         """
-        new = StepProblems(scene, world, self.maps, self.config, self.yaws)
+        new = StepProblems(scene, world, self.maps, self.config, self.yaws, self.opening_m)
         # a moved object's place poses follow its orientation when picked: its place too
         moved = {i for i, s in enumerate(self.steps) if s.carries is not None and s.carries in moved_objects}
         if world is not self.world:  # a place rests on the obstacles: one added or removed may move it
@@ -126,7 +141,7 @@ class StepProblems:
                 for i, s in enumerate(self.steps)
                 if s.action == "place"
                 and i in self._options | self._stale
-                and not _same_places(self._candidates_of(i), step_candidates(scene, s, self.config))
+                and not _same_places(self._candidates_of(i), step_candidates(scene, s, self.config, self.opening_m))
             }
         kept = {i: o for i, o in self._options.items() if i not in moved}
         new._stale = {i: v for i, v in self._stale.items() if i not in moved}
@@ -139,11 +154,11 @@ class StepProblems:
             new._heuristic = {k: h for k, h in self._heuristic.items() if k[0] not in stale}
         return new
 
-    def _candidates_of(self, i: int) -> list:
+    def _candidates_of(self, i: int) -> list[Candidate]:
         """The candidates step i's cached options were computed for (one per option of the first arm)."""
         opts = self._options[i] if i in self._options else self._stale[i][0]
         return [o.candidate for o in opts[: len(opts) // max(len(self.maps), 1)]]
 
 
-def _same_places(a: list, b: list) -> bool:
+def _same_places(a: Sequence[Candidate], b: Sequence[Candidate]) -> bool:
     return len(a) == len(b) and all(np.array_equal(x.poses, y.poses) for x, y in zip(a, b))

@@ -2,13 +2,19 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Sequence
+from typing import Any, NamedTuple, TypeAlias
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.kernels.ranking import rank_window
+from placement.planning.arrays import FloatArray
 from placement.planning.config import PlannerConfig
 from placement.planning.option import Option
+
+#: Eq. 6 terms and costs: float arrays (map values float32, costs float64) of one shape.
+Costs: TypeAlias = npt.NDArray[np.floating[Any]]
 
 
 class Ranked(NamedTuple):
@@ -21,15 +27,16 @@ class Ranked(NamedTuple):
     yaw: float
 
 
-def combined_cost(config: PlannerConfig, nav_cost, value, heuristic):
-    """Eq. 6: ``lambda_n nav + lambda_m / m + lambda_nh heuristic`` (arrays or scalars; nav and
+def combined_cost(config: PlannerConfig, nav_cost: Costs, value: Costs, heuristic: Costs) -> Costs:
+    """Eq. 6: ``lambda_n nav + lambda_m / m + lambda_nh heuristic`` (arrays of one shape; nav and
     heuristic in metres, m dimensionless)."""
-    return config.lambda_n * nav_cost + config.lambda_m / value + config.lambda_nh * heuristic
+    out: Costs = config.lambda_n * nav_cost + config.lambda_m / value + config.lambda_nh * heuristic
+    return out
 
 
 def combined_map(
-    options: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray, config: PlannerConfig
-) -> np.ndarray:
+    options: Sequence[Option], nav_cost: FloatArray, heuristic: FloatArray, config: PlannerConfig
+) -> FloatArray:
     """(ny, nx) Eq. 6 cost of the best option per cell (inf where none keeps the threshold), for plots."""
     best = np.full(nav_cost.shape, np.inf)
     for o in options:
@@ -42,7 +49,7 @@ def combined_map(
 
 
 def rank_by_cost(
-    options: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray, config: PlannerConfig, yaws: np.ndarray
+    options: Sequence[Option], nav_cost: FloatArray, heuristic: FloatArray, config: PlannerConfig, yaws: FloatArray
 ) -> list[Ranked]:
     """Placements of every option in the order IK should try them.
 

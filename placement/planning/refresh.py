@@ -9,16 +9,19 @@ against one).
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+
 import numpy as np
 
 from placement.maps.rmap import ReachabilityMap
+from placement.planning.arrays import Float32Array, FloatArray, IntArray
 from placement.planning.manipulation import cells_within, manipulation_maps, pose_reach
 from placement.planning.navgrid import Window
 from placement.planning.option import Option
 from placement.planning.world import World
 
 
-def _moved(src: Option, dst_window: Window, cells: np.ndarray, nx: int, value: np.ndarray, yaw: np.ndarray) -> None:
+def _moved(src: Option, dst_window: Window, cells: IntArray, nx: int, value: Float32Array, yaw: IntArray) -> None:
     """Copy ``src``'s values at flat ``cells`` into ``value``/``yaw`` over ``dst_window``."""
     iy, ix = np.divmod(cells, nx)
     value[iy - dst_window.y0, ix - dst_window.x0] = src.value[iy - src.window.y0, ix - src.window.x0]
@@ -26,7 +29,7 @@ def _moved(src: Option, dst_window: Window, cells: np.ndarray, nx: int, value: n
 
 
 def refreshed_options(
-    options: list[Option], maps: dict[str, ReachabilityMap], yaws: np.ndarray, was: World, now: World
+    options: Sequence[Option], maps: Mapping[str, ReachabilityMap], yaws: FloatArray, was: World, now: World
 ) -> list[Option]:
     """``options`` of one step for the world ``now``, computed for the world ``was``.
 
@@ -34,10 +37,11 @@ def refreshed_options(
     """
     nav = now.nav
     out = list(options)
-    groups: dict[tuple, list[int]] = {}  # candidates with the same arm and target share cells
+    groups: dict[tuple[str, float, float, float], list[int]] = {}  # same arm and target: same cells
     for j, o in enumerate(options):
         target = o.candidate.poses[-1]
-        groups.setdefault((o.arm, target[0, 3], target[1, 3], pose_reach(maps[o.arm], target)), []).append(j)
+        key = (o.arm, float(target[0, 3]), float(target[1, 3]), pose_reach(maps[o.arm], target))
+        groups.setdefault(key, []).append(j)
     nx = nav.shape[1]
     for (arm, x, y, r), members in groups.items():
         disc = cells_within(nav, x, y, r)

@@ -8,13 +8,19 @@ planner's own kernels.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Any, TypeVar
 
 import numpy as np
 
+from placement.errors import PlacementError
+from placement.planning.arrays import FloatArray
 from placement.planning.transfer import UPRIGHT_TOLERANCE, tilt_between
 from placement.planning.verify import base_matrix
 from placement.robots import Robot, matrix_to_pose
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -88,7 +94,7 @@ class StepResult:
     # after the fields of the first release: callers that pass fields by position keep working
     qs: np.ndarray | None = None
     clearance_m: float | None = None
-    diagnosis: dict | None = None
+    diagnosis: dict[str, Any] | None = None
     tried: int = 0
     trajectory: str | None = None
     object: str | None = None
@@ -99,7 +105,14 @@ class StepResult:
     def ok(self) -> bool:
         return self.status == "ok"
 
-    def to_json(self) -> dict:
+    def need(self, value: T | None, what: str) -> T:
+        """``value``, a field of this step named ``what`` (PlacementError when it is None: the
+        step has no planned placement)."""
+        if value is None:
+            raise PlacementError(f"step {self.step} ({self.action} {self.target}) has no {what}: it is not planned")
+        return value
+
+    def to_json(self) -> dict[str, Any]:
         timings = {k: round(v, 3) for k, v in self.timings_ms.items()}
         if not self.ok:
             return {
@@ -112,6 +125,7 @@ class StepResult:
                 "timings_ms": timings,
             }
         names = self.joints_of_arm()
+        tcp, cost = self.need(self.tcp, "tcp"), self.need(self.cost, "cost")
         return {
             "step": self.step,
             "action": self.action,
@@ -119,30 +133,30 @@ class StepResult:
             "arm": self.arm,
             "grasp": self.grasp,
             "trajectory": self.trajectory or self.grasp,
-            "base": [round(float(v), 6) for v in self.base],
-            "tcp": [matrix_to_pose(T) for T in self.tcp],
+            "base": [round(float(v), 6) for v in self.need(self.base, "base")],
+            "tcp": [matrix_to_pose(T) for T in tcp],
             "poses": [
                 {"pose": matrix_to_pose(T), "joints": {n: float(v) for n, v in zip(names, q)}}
-                for T, q in zip(self.tcp, self.pose_qs())
+                for T, q in zip(tcp, self.pose_qs())
             ],
             "joints": dict(self.joints),
             "clearance_m": None if self.clearance_m is None else float(self.clearance_m),
-            "manipulability": float(self.manipulability),
+            "manipulability": float(self.need(self.manipulability, "manipulability")),
             "cost": {
-                "total": self.cost.total,
-                "navigation": self.cost.navigation,
-                "manipulation": self.cost.manipulation,
-                "heuristic": self.cost.heuristic,
+                "total": cost.total,
+                "navigation": cost.navigation,
+                "manipulation": cost.manipulation,
+                "heuristic": cost.heuristic,
             },
-            "travel_time_s": float(self.travel_time_s),
+            "travel_time_s": float(self.need(self.travel_time_s, "travel time")),
             "timings_ms": timings,
         } | self._transfer_json()
 
-    def _transfer_json(self) -> dict:
+    def _transfer_json(self) -> dict[str, Any]:
         """The object of a pick or place; a place's final object pose and support."""
         if self.object is None:
             return {}
-        out: dict = {"object": self.object}
+        out: dict[str, Any] = {"object": self.object}
         if self.placed_pose is not None:
             out["placed_pose"] = matrix_to_pose(self.placed_pose)
             out["support"] = self.support
@@ -150,15 +164,19 @@ class StepResult:
 
     def joints_of_arm(self) -> list[str]:
         """The arm's joint names, in ``q`` order (the first entries of ``joints``)."""
-        return list(self.joints)[: len(self.q)]
+        return list(self.joints)[: len(self.need(self.q, "q"))]
 
-    def pose_qs(self) -> np.ndarray:
+    def pose_qs(self) -> FloatArray:
         """(P, n) the arm's configuration at every TCP pose (the last one only, repeated, for
         results made without them)."""
-        return self.qs if self.qs is not None else np.repeat(np.asarray(self.q)[None], len(self.tcp), axis=0)
+        if self.qs is not None:
+            return self.qs
+        q, tcp = self.need(self.q, "q"), self.need(self.tcp, "tcp")
+        out: FloatArray = np.repeat(np.asarray(q)[None], len(tcp), axis=0)
+        return out
 
 
-def robot_info(robot: Robot, arms) -> dict:
+def robot_info(robot: Robot, arms: Iterable[str]) -> dict[str, Any]:
     """The ``robot`` block of the plan document for the mapped ``arms``."""
     return {
         "name": robot.name,
@@ -181,9 +199,9 @@ class PlanResult:
 
     scene: str
     method: str
-    robot: dict
+    robot: dict[str, Any]
     steps: list[StepResult]
-    update: dict | None = None
+    update: dict[str, Any] | None = None
 
     @property
     def status(self) -> str:
@@ -198,8 +216,8 @@ class PlanResult:
         """The first infeasible step, if any."""
         return next((s for s in self.steps if not s.ok), None)
 
-    def to_json(self) -> dict:
-        out = {
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
             "scene": self.scene,
             "method": self.method,
             "robot": self.robot,
@@ -221,7 +239,8 @@ class PlanResult:
         for s in self.steps:
             if not s.ok:
                 continue
-            arm = robot.arm(s.arm)
+            arm_name = s.need(s.arm, "arm")
+            arm = robot.arm(arm_name)
             q = np.array([s.joints[j] for j in arm.joints])
             where = f"step {s.step} ({s.action} {s.target})"
             if np.any(q < arm.lower - 1e-9) or np.any(q > arm.upper + 1e-9):
@@ -233,12 +252,12 @@ class PlanResult:
             if s.qs is not None and not np.array_equal(qs[-1], q):
                 problems.append(f"{where}: the last pose's joints differ from the step's joints")
             qs[-1] = q
-            B = base_matrix(*s.base)
+            B = base_matrix(*s.need(s.base, "base"))
             problems += transfer_problems(s, self.steps, where, rot_tol=UPRIGHT_TOLERANCE)
             for i, (want, qi) in enumerate(zip(np.asarray(s.tcp), qs)):
                 if np.any(qi < arm.lower - 1e-9) or np.any(qi > arm.upper + 1e-9):
                     problems.append(f"{where}: pose {i}: joints outside their limits")
-                T = B @ robot.tcp_pose(s.arm, qi)
+                T = B @ robot.tcp_pose(arm_name, qi)
                 err = float(np.linalg.norm(T[:3, 3] - want[:3, 3]))
                 ang = math.acos(float(np.clip((np.trace(T[:3, :3].T @ want[:3, :3]) - 1) / 2, -1, 1)))
                 if err > pos_tol or ang > rot_tol:

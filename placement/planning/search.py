@@ -10,7 +10,8 @@ It learns from failures: a placement next to a failed one of the same option and
 deferred to the end, and one whose target lies in the same direction but farther than a failure whose
 TCP fell short along its reach is dropped (reaching farther cannot help). It stops at the first
 verified placement, when the ``ik_budget_ms`` time budget or the ``ik_cap`` tries are used up, or
-when every candidate was tried.
+when every candidate was tried. The constants (``search_*``, ``ik_*``) come from the
+:class:`~placement.planning.config.PlannerConfig` of the context.
 """
 
 from __future__ import annotations
@@ -18,29 +19,24 @@ from __future__ import annotations
 import math
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
 from placement.kernels.grid import zyx_angles
+from placement.maps.rmap import ReachabilityMap
+from placement.planning.arrays import BasePose, Cell, Float32Array, FloatArray
+from placement.planning.config import PlannerConfig
+from placement.planning.context import PlanningContext
 from placement.planning.manipulation import pose_slices
+from placement.planning.option import Option
 from placement.planning.ranking import Ranked, combined_cost
+from placement.planning.steps import Step
 from placement.planning.transfer import held_object
 from placement.planning.verify import TrajectoryIK, base_matrix, trajectory_ik
-
-if TYPE_CHECKING:
-    from placement.planning.option import Option
-    from placement.planning.planner import Planner
-    from placement.planning.steps import Step
-
-#: A failure whose TCP stopped this far [m] or more short of its target teaches the search.
-SHORTFALL_M = 0.02
-#: Base yaws and target bearings this close [rad] count as "the same direction".
-SAME_DIRECTION = 0.35
-#: Round-robin groups: bearing and yaw sectors per turn [count], distance band [m].
-SECTORS, BAND_M = 8, 0.1
+from placement.robots import Robot
 
 
 @dataclass
@@ -49,7 +45,7 @@ class Failure:
     index and residual (position [m], rotation [rad]); for a collision the culprit pair."""
 
     option: int
-    cell: tuple[int, int]
+    cell: Cell
     yaw: float
     kind: str
     pose: int | None = None
@@ -63,7 +59,7 @@ class Found:
     """The verified placement: its ranked entry, base (x [m], y [m], yaw [rad]), IK and clearance [m]."""
 
     ranked: Ranked
-    base: tuple[float, float, float]
+    base: BasePose
     ik: TrajectoryIK
     clearance_m: float | None
     value: float | None = None  # its map value when it is not the cell's best yaw
@@ -84,38 +80,40 @@ class Search:
     def tried(self) -> int:
         return len(self.failures) + (self.found is not None)
 
-    def culprits(self) -> Counter:
+    def culprits(self) -> Counter[str]:
         return Counter(f.culprit for f in self.failures if f.kind == "collision" and f.culprit)
 
 
-def collision_args(planner: Planner, step: Step, o: Option) -> dict:
+def collision_args(ctx: PlanningContext, step: Step, o: Option) -> dict[str, Any]:
     """Keyword arguments of the collision check of option ``o`` of ``step``: a pick's gripper may
     touch the object it grasps; a place carries its object (``held``: it moves with the gripper and
     is no longer where the scene has it); objects picked before are ``gone`` (where earlier places
     set them down is not modelled as an obstacle)."""
-    gone = [s.target for s in planner.problems.steps[: step.index] if s.action == "pick"]
+    gone = [s.target for s in ctx.problems.steps[: step.index] if s.action == "pick"]
     if step.action == "pick":
         return {"grasped": step.target, "gone": [g for g in gone if g != step.target]}
     if step.action == "place" and step.carries is not None and o.candidate.object_pose is not None:
-        return {"grasped": None, "gone": gone, "held": held_object(planner.scene.object(step.carries), o.candidate)}
+        return {"grasped": None, "gone": gone, "held": held_object(ctx.scene.object(step.carries), o.candidate)}
     return {"grasped": None, "gone": gone}
 
 
-def _wrap(a: float) -> float:
+def wrap_angle(a: float) -> float:
+    """``a`` [rad] wrapped into [-pi, pi)."""
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
-class _Learner:
-    """The failures' lessons: neighbours to defer, directions to drop."""
+class Learner:
+    """The failures' lessons: neighbours to defer, directions to drop (``yaw_step`` [rad] between
+    base yaws)."""
 
-    def __init__(self, yaw_step: float, robot):
-        self.yaw_step, self.robot = yaw_step, robot
+    def __init__(self, yaw_step: float, robot: Robot, config: PlannerConfig):
+        self.yaw_step, self.robot, self.config = yaw_step, robot, config
         self.failed: list[tuple[int, int, int, float]] = []  # option, iy, ix, yaw
         self.short: list[tuple[int, int, float, float, float]] = []  # option, pose, yaw, bearing, distance
 
-    def add(self, f: Failure, o: Option, base, ik: TrajectoryIK | None) -> None:
+    def add(self, f: Failure, o: Option, base: BasePose, ik: TrajectoryIK | None) -> None:
         self.failed.append((f.option, *f.cell, f.yaw))
-        if ik is None or f.residual_m < SHORTFALL_M:
+        if ik is None or f.pose is None or ik.best_q is None or f.residual_m < self.config.search_shortfall_m:
             return
         target = o.candidate.poses[f.pose, :3, 3]
         h = target[:2] - np.asarray(base[:2])
@@ -124,7 +122,7 @@ class _Learner:
         e = target - reached
         d = float(np.hypot(*h))
         # the TCP fell short along the horizontal reach direction: farther is hopeless
-        if d > 0 and float(e[:2] @ h) / d >= 0.7 * float(np.linalg.norm(e)):
+        if d > 0 and float(e[:2] @ h) / d >= self.config.search_shortfall_cos * float(np.linalg.norm(e)):
             self.short.append((f.option, f.pose, base[2], math.atan2(h[1], h[0]) - base[2], d))
 
     def near_failure(self, k: int, iy: int, ix: int, yaw: float, any_yaw: bool) -> bool:
@@ -132,21 +130,24 @@ class _Learner:
             fk == k
             and abs(fy - iy) <= 1
             and abs(fx - ix) <= 1
-            and (any_yaw or abs(_wrap(yaw - fyaw)) <= 2 * self.yaw_step + 1e-9)
+            and (any_yaw or abs(wrap_angle(yaw - fyaw)) <= 2 * self.yaw_step + 1e-9)
             for fk, fy, fx, fyaw in self.failed
         )
 
-    def hopeless(self, k: int, o: Option, base) -> bool:
+    def hopeless(self, k: int, o: Option, base: BasePose) -> bool:
+        same = self.config.search_same_direction_rad
         for fk, pose, fyaw, bearing, d in self.short:
-            if fk != k or abs(_wrap(base[2] - fyaw)) > SAME_DIRECTION:
+            if fk != k or abs(wrap_angle(base[2] - fyaw)) > same:
                 continue
             h = o.candidate.poses[pose, :2, 3] - np.asarray(base[:2])
-            if np.hypot(*h) >= d and abs(_wrap(math.atan2(h[1], h[0]) - base[2] - bearing)) <= SAME_DIRECTION:
+            if np.hypot(*h) >= d and abs(wrap_angle(math.atan2(h[1], h[0]) - base[2] - bearing)) <= same:
                 return True
         return False
 
 
-def yaw_values(rmap, poses: np.ndarray, bx: np.ndarray, by: np.ndarray, yaws: np.ndarray) -> np.ndarray:
+def yaw_values(
+    rmap: ReachabilityMap, poses: FloatArray, bx: FloatArray, by: FloatArray, yaws: FloatArray
+) -> Float32Array:
     """(N, K) map value of the trajectory ``poses`` (P, 4, 4) (its minimum over the poses) for base
     positions (bx, by) (N,) [m] at each of the base ``yaws`` (K,) [rad]: the arithmetic of the IRM
     kernel, for every yaw instead of the best one (0 where a pose is off the map)."""
@@ -172,14 +173,15 @@ def yaw_values(rmap, poses: np.ndarray, bx: np.ndarray, by: np.ndarray, yaws: np
 
 
 def other_yaws(
-    planner: Planner, opts: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray
-) -> tuple[list[Ranked], dict]:
+    ctx: PlanningContext, opts: Sequence[Option], nav_cost: FloatArray, heuristic: FloatArray
+) -> tuple[list[Ranked], dict[tuple[int, int, float], float]]:
     """Every (cell, base yaw) of every option that keeps the map threshold other than each cell's
     best yaw, ranked by Eq. 6 with its own map value; and {(option, cell, yaw): value}."""
-    cfg, nav = planner.config, planner.world.nav
+    cfg, nav = ctx.config, ctx.world.nav
     nx = nav.shape[1]
     xs, ys = nav.centres()
-    out, values = [], {}
+    out: list[Ranked] = []
+    values: dict[tuple[int, int, float], float] = {}
     for k, o in enumerate(opts):
         local = np.flatnonzero(o.value.ravel() >= cfg.threshold)
         cells = o.window.to_global(local, nx)
@@ -188,11 +190,11 @@ def other_yaws(
         cells, iy, ix, best = cells[ok], iy[ok], ix[ok], o.yaw_index.ravel()[local][ok]
         if cells.size == 0:
             continue
-        v = yaw_values(planner.maps[o.arm], o.candidate.poses, xs[ix], ys[iy], planner.yaws)
+        v = yaw_values(ctx.maps[o.arm], o.candidate.poses, xs[ix], ys[iy], ctx.yaws)
         v[np.arange(cells.size), best] = 0.0
         n, j = np.nonzero(v >= np.float32(cfg.threshold))
         cost = combined_cost(cfg, nav_cost[iy[n], ix[n]], v[n, j].astype(float), heuristic[iy[n], ix[n]])
-        for c, cell, yaw, val in zip(cost, cells[n], planner.yaws[j], v[n, j]):
+        for c, cell, yaw, val in zip(cost, cells[n], ctx.yaws[j], v[n, j]):
             out.append(Ranked(float(c), k, int(cell), float(yaw)))
             values[(k, int(cell), float(yaw))] = float(val)
     out.sort(key=lambda r: (r.cost, r.option, r.cell, r.yaw))
@@ -200,32 +202,32 @@ def other_yaws(
 
 
 def search_placement(
-    planner: Planner,
+    ctx: PlanningContext,
     step: Step,
-    opts: list[Option],
-    ranked: list[Ranked],
+    opts: Sequence[Option],
+    ranked: Sequence[Ranked],
     more: Callable[[], list[Ranked]] | None,
-    nav_cost: np.ndarray,
-    heuristic: np.ndarray,
-    prev_q: dict,
+    nav_cost: FloatArray,
+    heuristic: FloatArray,
+    prev_q: Mapping[str, FloatArray],
 ) -> Search:
     """Try ``ranked`` placements of ``step`` (then ``more()``, every ranked placement, and when
     ``more`` is given every other base yaw that keeps the threshold) until one verifies by IK
-    (and the collision hook, when the planner has one); see the module docstring."""
-    cfg, nav = planner.config, planner.world.nav
+    (and the collision check, when the context has one); see the module docstring."""
+    cfg, nav = ctx.config, ctx.world.nav
     xs, ys = nav.centres()
-    collisions = getattr(planner, "collisions", None)
+    collisions = ctx.collisions
     out = Search()
-    learn = _Learner(2 * math.pi / max(len(planner.yaws), 1), planner.robot)
+    learn = Learner(2 * math.pi / max(len(ctx.yaws), 1), ctx.robot, cfg)
     tried: set[tuple[int, int, float]] = set()
     deadline = time.perf_counter() + cfg.ik_budget_ms * 1e-3
 
     def attempt(r: Ranked, o: Option, iy: int, ix: int) -> bool:
         tried.add((r.option, r.cell, r.yaw))
         base = (float(xs[ix]), float(ys[iy]), r.yaw)
-        witness = getattr(planner.maps[o.arm], "witness_q", None)
+        witness = getattr(ctx.maps[o.arm], "witness_q", None)
         t = time.perf_counter()
-        ik = trajectory_ik(planner.robot, o.arm, o.candidate.poses, base, prev_q[o.arm], witness)
+        ik = trajectory_ik(ctx.robot, o.arm, o.candidate.poses, base, prev_q[o.arm], witness, cfg)
         out.ik_ms += (time.perf_counter() - t) * 1e3
         if not ik.ok:
             f = Failure(r.option, (iy, ix), r.yaw, "ik", ik.failed_pose, ik.residual_m, ik.residual_rad)
@@ -235,7 +237,7 @@ def search_placement(
         clearance = None
         if collisions is not None:
             t = time.perf_counter()
-            check = collisions.check(o.arm, ik.qs, base, **collision_args(planner, step, o))
+            check = collisions.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
             out.collision_ms += (time.perf_counter() - t) * 1e3
             clearance = float(check.clearance_m)
             if not check.free:
@@ -256,26 +258,26 @@ def search_placement(
             return False
         return True
 
-    def usable(r: Ranked):
+    def usable(r: Ranked) -> Cell | None:
         iy, ix = divmod(r.cell, nav.shape[1])
         # a fixed placement the base cannot get to from here, or one tried already
         return None if (not np.isfinite(nav_cost[iy, ix]) or (r.option, r.cell, r.yaw) in tried) else (iy, ix)
 
-    def spread(candidates: list[Ranked]) -> bool:
+    def spread(candidates: Sequence[Ranked]) -> bool:
         """Round-robin over the groups of ``candidates`` (see the module docstring); True when
         the search is over (found, or out of time or tries)."""
-        groups: dict[tuple, list] = {}
+        groups: dict[tuple[int, int, int, int], list[tuple[Ranked, Cell]]] = {}
         for r in candidates:
             cell = usable(r)
             if cell is not None:
-                groups.setdefault(_group(opts[r.option], r, cell, xs, ys), []).append((r, cell))
+                groups.setdefault(round_robin_group(cfg, opts[r.option], r, cell, xs, ys), []).append((r, cell))
         queues = list(groups.values())  # each in rank order; groups by their best placement's rank
         deferred = []
         while queues:
             for q in queues:
                 r, cell = q.pop(0)
                 o = opts[r.option]
-                if learn.hopeless(r.option, o, (xs[cell[1]], ys[cell[0]], r.yaw)):
+                if learn.hopeless(r.option, o, (float(xs[cell[1]]), float(ys[cell[0]]), r.yaw)):
                     continue
                 if learn.near_failure(r.option, *cell, r.yaw, any_yaw=False):
                     deferred.append((r, cell))
@@ -285,7 +287,8 @@ def search_placement(
             queues = [q for q in queues if q]
         for r, cell in sorted(deferred, key=lambda rc: (rc[0].cost, rc[0].option, rc[0].cell)):
             o = opts[r.option]
-            if not learn.hopeless(r.option, o, (xs[cell[1]], ys[cell[0]], r.yaw)) and (spent() or attempt(r, o, *cell)):
+            base = (float(xs[cell[1]]), float(ys[cell[0]]), r.yaw)
+            if not learn.hopeless(r.option, o, base) and (spent() or attempt(r, o, *cell)):
                 return True
         return False
 
@@ -303,7 +306,7 @@ def search_placement(
     out.stop = "all"
     if spread(more() if more is not None else ranked) or more is None:
         return out
-    extra, values = other_yaws(planner, opts, nav_cost, heuristic)
+    extra, values = other_yaws(ctx, opts, nav_cost, heuristic)
     if not spread(extra) and time.perf_counter() > deadline:
         out.stop = "budget"
     if out.found is not None:
@@ -312,11 +315,14 @@ def search_placement(
     return out
 
 
-def _group(o: Option, r: Ranked, cell, xs, ys) -> tuple:
+def round_robin_group(
+    cfg: PlannerConfig, o: Option, r: Ranked, cell: Cell, xs: FloatArray, ys: FloatArray
+) -> tuple[int, int, int, int]:
     """Round-robin group of a placement: option, bearing sector and distance band around the target,
-    base yaw sector."""
+    base yaw sector (``search_sectors`` per turn, bands ``search_band_m`` wide)."""
+    sectors = cfg.search_sectors
     t = o.candidate.poses[-1, :3, 3]
     dx, dy = float(xs[cell[1]] - t[0]), float(ys[cell[0]] - t[1])
-    sector = int((math.atan2(dy, dx) + math.pi) / (2 * math.pi) * SECTORS) % SECTORS
-    yaw_sector = int((r.yaw + math.pi) / (2 * math.pi) * SECTORS) % SECTORS
-    return r.option, sector, int(math.hypot(dx, dy) / BAND_M), yaw_sector
+    sector = int((math.atan2(dy, dx) + math.pi) / (2 * math.pi) * sectors) % sectors
+    yaw_sector = int((r.yaw + math.pi) / (2 * math.pi) * sectors) % sectors
+    return r.option, sector, int(math.hypot(dx, dy) / cfg.search_band_m), yaw_sector

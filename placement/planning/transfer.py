@@ -23,14 +23,17 @@ the place and its support.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
+from placement.planning.arrays import FloatArray
 from placement.planning.grasps import Candidate
-from placement.scene import PlaceLocation, Scene, SceneObject
+from placement.scene import Box, PlaceLocation, Polygon, Scene, SceneObject
 from placement.scene.places import UPRIGHT_TOLERANCE_DEG
-from placement.scene.poses import quaternion_matrix
+from placement.scene.poses import quaternion_matrix, yaw_quaternion
 
 #: [m] how far below a place location's z a support surface is looked for.
 SUPPORT_SEARCH = 0.25
@@ -44,30 +47,36 @@ class Held:
     (4, 4) its pose in the TCP frame, and the obstacle it is set on (``support``, None for none)."""
 
     name: str
-    size: np.ndarray
-    tcp_to_object: np.ndarray
+    size: FloatArray
+    tcp_to_object: FloatArray
     support: str | None = None
 
 
-def rot_z(a: float) -> np.ndarray:
+def rot_z(a: float) -> FloatArray:
     """(3, 3) rotation by ``a`` [rad] about z."""
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def tilt_between(Ra: np.ndarray, Rb: np.ndarray) -> float:
+def tilt_between(Ra: FloatArray, Rb: FloatArray) -> float:
     """Angle [rad] between the world z axis and its image under ``Ra Rb^T``: 0 when the two
     orientations (3, 3) differ by a turn about the vertical only."""
     return math.acos(float(np.clip((Ra @ Rb.T)[2, 2], -1.0, 1.0)))
 
 
-def turn_about_z(Ra: np.ndarray, Rb: np.ndarray) -> float:
+def turn_about_z(Ra: FloatArray, Rb: FloatArray) -> float:
     """The yaw [rad] of the turn about z closest to ``Ra Rb^T`` (3, 3)."""
     D = Ra @ Rb.T
     return math.atan2(D[1, 0] - D[0, 1], D[0, 0] + D[1, 1])
 
 
-def half_height(R: np.ndarray, size) -> float:
+def obj_rotation(obj: SceneObject) -> FloatArray:
+    """(3, 3) the orientation of ``obj`` (set from its yaw when the scene gives none)."""
+    q = obj.orientation
+    return quaternion_matrix(q if q is not None else yaw_quaternion(obj.yaw))
+
+
+def half_height(R: FloatArray, size: npt.ArrayLike) -> float:
     """Half the vertical extent [m] of a box of edge lengths ``size`` (3,) with axes ``R`` (3, 3)."""
     return float(np.abs(R[2]) @ (np.asarray(size, dtype=float) / 2))
 
@@ -78,13 +87,13 @@ def support_surface(scene: Scene, x: float, y: float, z: float) -> tuple[float, 
     best: tuple[float, str | None] = (-math.inf, None)
     for ob in scene.obstacles:
         sh = ob.shape
-        if hasattr(sh, "points"):
+        if isinstance(sh, Polygon):
             continue  # a polygon prism has no top
-        top = float(sh.center[2] + (sh.size[2] if hasattr(sh, "size") else sh.height) / 2)
+        top = float(sh.center[2] + (sh.size[2] if isinstance(sh, Box) else sh.height) / 2)
         if not z - SUPPORT_SEARCH <= top <= z + 1e-9 or top <= best[0]:
             continue
         dx, dy = x - float(sh.center[0]), y - float(sh.center[1])
-        if hasattr(sh, "size"):
+        if isinstance(sh, Box):
             c, s = math.cos(sh.yaw), math.sin(sh.yaw)
             inside = abs(c * dx + s * dy) <= sh.size[0] / 2 and abs(-s * dx + c * dy) <= sh.size[1] / 2
         else:
@@ -94,24 +103,26 @@ def support_surface(scene: Scene, x: float, y: float, z: float) -> tuple[float, 
     return (z, None) if best[1] is None else best
 
 
-def place_orientations(obj: SceneObject, loc: PlaceLocation, grasp_yaws) -> list[tuple[str, np.ndarray]]:
+def place_orientations(
+    obj: SceneObject, loc: PlaceLocation, grasp_yaws: int | Sequence[float]
+) -> list[tuple[str, FloatArray]]:
     """(label, (3, 3) world orientation) of every allowed orientation of ``obj`` at ``loc``: its
     picked orientation turned about z by the listed orientations' turns, else by ``grasp_yaws`` (a
     count evenly over a turn, or a list of turns [rad])."""
-    R0 = quaternion_matrix(obj.orientation)
+    R0 = obj_rotation(obj)
     if loc.orientations is not None:
         return [
             (f"orientation{k}", rot_z(turn_about_z(quaternion_matrix(q), R0)) @ R0)
             for k, q in enumerate(loc.orientations)
         ]
-    if np.isscalar(grasp_yaws):
+    if isinstance(grasp_yaws, (int, np.integer)):
         turns = [2 * math.pi * k / int(grasp_yaws) for k in range(int(grasp_yaws))]
     else:
         turns = [float(a) for a in grasp_yaws]
     return [(f"yaw{round(math.degrees(a))}", rot_z(a) @ R0) for a in turns]
 
 
-def placed_pose(scene: Scene, obj: SceneObject, loc: PlaceLocation, R: np.ndarray) -> tuple[np.ndarray, str | None]:
+def placed_pose(scene: Scene, obj: SceneObject, loc: PlaceLocation, R: FloatArray) -> tuple[FloatArray, str | None]:
     """((4, 4) world pose of ``obj`` set down at ``loc`` with orientation ``R`` (3, 3), support name)."""
     x, y, z = (float(v) for v in loc.position)
     top, support = support_surface(scene, x, y, z)
@@ -122,7 +133,7 @@ def placed_pose(scene: Scene, obj: SceneObject, loc: PlaceLocation, R: np.ndarra
 
 
 def transfer_places(
-    scene: Scene, obj: SceneObject, loc: PlaceLocation, grasps: list[Candidate], grasp_yaws
+    scene: Scene, obj: SceneObject, loc: PlaceLocation, grasps: Sequence[Candidate], grasp_yaws: int | Sequence[float]
 ) -> list[Candidate]:
     """The place candidates of ``obj`` at ``loc`` for each of its ``grasps`` (world-frame pick
     trajectories): per grasp and allowed orientation, the grasp carried to the object's place pose."""
@@ -140,7 +151,7 @@ def transfer_places(
     return out
 
 
-def settled(poses: np.ndarray) -> np.ndarray:
+def settled(poses: FloatArray) -> FloatArray:
     """``poses`` (P, 4, 4) with the rounding noise of the composition removed (positions to 1 nm,
     rotations to 1e-12): turns of one place that put the TCP at the same point then share their map
     slices and IRM pass bit for bit, and equal trajectories of two grasps (``top@yaw180`` and

@@ -9,23 +9,24 @@ Changes use the scene-file vocabulary and are validated by the same parser, with
   feasibility and every cost map are recomputed (the reachability slices stay cached);
 * ``{"start": [x, y, yaw]}``: a new start pose (nothing cached changes).
 
-An update is all or nothing: the new scene, world and cache are built first and swapped in only
-when everything succeeded, so a failed update leaves the planner exactly as it was.
+An update is all or nothing: :func:`apply_update` builds the new state (scene, world and cache in
+a new :class:`~placement.planning.context.PlanningContext`) and the planner swaps it in only when
+everything succeeded, so a failed update leaves the planner exactly as it was.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from typing import Any, NamedTuple
 
+import numpy as np
+
+from placement.planning.context import PlanningContext
 from placement.planning.world import add_touched, build_world, changed_occupancy, world_from_occupancy
-from placement.scene import Scene, SceneParser, check_scene
+from placement.scene import Obstacle, Scene, SceneObject, SceneParser, check_scene
 from placement.scene.parse import OBJECT_KEYS_V1
 from placement.validation import describe
-
-if TYPE_CHECKING:
-    from placement.planning.planner import Planner
 
 UPDATE_KEYS = ("objects", "obstacles", "start")
 WHERE = "update"
@@ -39,9 +40,18 @@ def _quoted(name: str) -> str:
     return f"'{name}'" if len(name) <= NAME_CHARS else f"'{name[: NAME_CHARS - 20]}...' ({len(name):,} characters)"
 
 
-def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
-    """The scene after ``change``, the names of moved objects, whether obstacles changed, and
-    whether some were removed (additions alone only add occupied cells).
+class ParsedUpdate(NamedTuple):
+    """A checked update: the scene after it, the names of the moved objects, whether obstacles
+    changed, and whether some were removed (additions alone only add occupied cells)."""
+
+    scene: Scene
+    moved: set[str]
+    obstacles_changed: bool
+    obstacles_removed: bool
+
+
+def parse_update(change: Any, scene: Scene) -> ParsedUpdate:
+    """The scene after ``change`` and what changed (see :class:`ParsedUpdate`).
 
     Raises :class:`~placement.scene.SceneError` (one line, ``update: KEY.PATH: problem``).
     """
@@ -50,12 +60,12 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
         P.fail("", "an update must be a non-empty mapping with keys " + ", ".join(UPDATE_KEYS))
     P.mapping(change, "", UPDATE_KEYS)
 
-    def items(value, path: str) -> list:
+    def items(value: Any, path: str) -> list[Any]:
         if not isinstance(value, list):
             P.fail(path, f"expected a list, got {describe(value)}")
         return value
 
-    objects = {o.name: o for o in scene.objects}
+    objects: dict[str, SceneObject] = {o.name: o for o in scene.objects}
     moved: set[str] = set()
     for i, item in enumerate(items(change.get("objects", []), "objects")):
         p = f"objects[{i}]"
@@ -77,18 +87,20 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
             yaw, q = 0.0, P.quaternion(item["orientation"], f"{p}.orientation")
         objects[name] = replace(
             o,
-            position=P.coords(item["position"], f"{p}.position", 3) if "position" in item else o.position,
+            position=np.asarray(P.coords(item["position"], f"{p}.position", 3), dtype=np.float64)
+            if "position" in item
+            else o.position,
             yaw=yaw,
             orientation=q,
-            size=P.sizes(item["size"], f"{p}.size", 3) if "size" in item else o.size,
+            size=np.asarray(P.sizes(item["size"], f"{p}.size", 3), dtype=np.float64) if "size" in item else o.size,
         )
         moved.add(name)
     obstacles = list(scene.obstacles)
-    added = []
+    added: list[Obstacle] = []
     changed = "obstacles" in change
     if changed:
         ch = P.mapping(change["obstacles"], "obstacles", ("add", "remove"))
-        removed = set()
+        removed: set[str] = set()
         for i, name in enumerate(items(ch.get("remove", []), "obstacles.remove")):
             p = f"obstacles.remove[{i}]"
             P.string(name, p)
@@ -105,30 +117,37 @@ def parse_update(change, scene: Scene) -> tuple[Scene, set[str], bool, bool]:
             P.obstacle(item, f"obstacles.add[{i}]") for i, item in enumerate(items(ch.get("add", []), "obstacles.add"))
         ]
         obstacles += added
-    start = P.coords(change["start"], "start", 3) if "start" in change else scene.start
-    new = replace(
-        scene, objects=tuple(objects[o.name] for o in scene.objects), obstacles=tuple(obstacles), start=tuple(start)
-    )
+    if "start" in change:
+        x, y, yaw = P.coords(change["start"], "start", 3)
+        start = (float(x), float(y), float(yaw))
+    else:
+        start = scene.start
+    new = replace(scene, objects=tuple(objects[o.name] for o in scene.objects), obstacles=tuple(obstacles), start=start)
     removed_any = changed and len(obstacles) - len(added) < len(scene.obstacles)
-    return check_scene(new, WHERE, moved, {o.name for o in added}), moved, changed, removed_any
+    return ParsedUpdate(check_scene(new, WHERE, moved, {o.name for o in added}), moved, changed, removed_any)
 
 
-def apply_update(planner: Planner, change) -> dict:
-    """Apply ``change`` to ``planner`` (all or nothing); returns {"updated": [...], "timings_ms": {...}}."""
+def apply_update(ctx: PlanningContext, change: Any) -> tuple[PlanningContext, dict[str, Any]]:
+    """``ctx`` after ``change`` (all or nothing: ``ctx`` is not modified, and on error the collision
+    checker is back on ``ctx.scene``), and the report ``{"updated": [...], "timings_ms": {...}}``:
+    the moved objects' names, then "obstacles" and "start" when those changed."""
     t0 = time.perf_counter()
-    scene, moved, obstacles_changed, removed = parse_update(change, planner.scene)
-    timings = {}
-    world = planner.world
-    if obstacles_changed:
+    parsed = parse_update(change, ctx.scene)
+    scene = parsed.scene
+    timings: dict[str, float] = {}
+    world = ctx.world
+    if parsed.obstacles_changed:
         t = time.perf_counter()
-        if removed and scene.occupancy is not None:  # cleared cells would need the map raster again
-            world = build_world(scene, world.base, planner.base_config)
+        # ctx.config differs from the scene's configuration in the methods' weights only, which
+        # the world does not read
+        if parsed.obstacles_removed and scene.occupancy is not None:  # cleared cells need the map raster again
+            world = build_world(scene, world.base, ctx.config)
         else:
             # by identity: a name removed and added again in one change is a different obstacle
-            old = {id(o) for o in planner.scene.obstacles}
+            old = {id(o) for o in ctx.scene.obstacles}
             new = {id(o) for o in scene.obstacles}
             diff = (
-                [o for o in planner.scene.obstacles if id(o) not in new],
+                [o for o in ctx.scene.obstacles if id(o) not in new],
                 [o for o in scene.obstacles if id(o) in old],
                 [o for o in scene.obstacles if id(o) not in old],
             )
@@ -136,19 +155,19 @@ def apply_update(planner: Planner, change) -> dict:
             touched = (
                 None if world.touched is None else changed_occupancy(world.touched, world.nav, *diff, draw=add_touched)
             )
-            world = world_from_occupancy(world.nav, occupied, world.base, planner.base_config, touched, world)
+            world = world_from_occupancy(world.nav, occupied, world.base, ctx.config, touched, world)
         timings["distance"] = (time.perf_counter() - t) * 1e3
-    problems = planner.problems.changed(scene, world, moved)
-    before = planner.scene, planner.world, planner.problems
-    try:
-        planner.replace_state(scene, world, problems)
-    except BaseException:  # e.g. the collision checker refused the new scene: back to the old state
-        planner.replace_state(*before)
-        raise
+    problems = ctx.problems.changed(scene, world, parsed.moved)
+    if ctx.collisions is not None:
+        try:
+            ctx.collisions.update(scene)
+        except BaseException:  # e.g. the collision checker refused the new scene: back to the old one
+            ctx.collisions.update(ctx.scene)
+            raise
     timings["update"] = (time.perf_counter() - t0) * 1e3
-    return {
-        "updated": sorted(moved)
-        + (["obstacles"] if obstacles_changed else [])
-        + (["start"] if "start" in change else []),
-        "timings_ms": timings,
-    }
+    updated = sorted(parsed.moved)
+    if parsed.obstacles_changed:
+        updated.append("obstacles")
+    if "start" in change:  # the update dict itself (never rebound: see tests/test_updates.py)
+        updated.append("start")
+    return replace(ctx, scene=scene, world=world, problems=problems), {"updated": updated, "timings_ms": timings}

@@ -2,24 +2,31 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from placement.errors import PlacementError
+from placement.planning.arrays import BoolArray, FloatArray, IntArray, MaskArray
 from placement.planning.config import PlannerConfig
 from placement.planning.footprints import BaseShape, YawMasks, masks_at, polygon_feasibility, pose_clear
 from placement.planning.navgrid import NavGrid
 from placement.planning.navigation import distance_map, speed_factor
-from placement.scene import Box, Cylinder, Polygon, Scene
+from placement.scene import Box, Cylinder, Obstacle, Polygon, Scene
 from placement.scene.occupancy import rasterize_occupancy
+
+#: An obstacle's footprint shape.
+Shape = Box | Cylinder | Polygon
+#: How a shape is drawn into a layer: :func:`add_shape` or :func:`add_touched`.
+Draw = Callable[[BoolArray, Shape, NavGrid], None]
 
 #: [m] the squares are shrunk by this so that float rounding on a shared edge marks nothing; the
 #: footprint test pads by far more (footprints.PAD_SLACK)
 SHRINK = 1e-9
 
 
-def _inside_polygon(px: np.ndarray, py: np.ndarray, pts: np.ndarray) -> np.ndarray:
+def _inside_polygon(px: FloatArray, py: FloatArray, pts: FloatArray) -> BoolArray:
     """Even-odd rule for points (px, py) against polygon ``pts`` (k, 2)."""
     inside = np.zeros(px.shape, dtype=bool)
     k = len(pts)
@@ -33,14 +40,14 @@ def _inside_polygon(px: np.ndarray, py: np.ndarray, pts: np.ndarray) -> np.ndarr
     return inside
 
 
-def shape_mask(shape, nav: NavGrid) -> np.ndarray:
+def shape_mask(shape: Shape, nav: NavGrid) -> BoolArray:
     """(ny, nx) bool: cells whose centre lies inside the shape's footprint."""
     out = np.zeros(nav.shape, dtype=bool)
     add_shape(out, shape, nav)
     return out
 
 
-def shape_window(shape, nav: NavGrid) -> tuple[int, int, int, int]:
+def shape_window(shape: Shape, nav: NavGrid) -> tuple[int, int, int, int]:
     """Rows j0..j1-1 and columns i0..i1-1 (j0, j1, i0, i1) holding every cell whose centre can lie in
     the shape's footprint: its bounding box plus one cell, clipped to the grid."""
     x0, y0, x1, y1 = shape.bounds_xy()
@@ -53,8 +60,13 @@ def shape_window(shape, nav: NavGrid) -> tuple[int, int, int, int]:
 
 
 def changed_occupancy(
-    occupied: np.ndarray, nav: NavGrid, removed: list, kept: list, added: list, draw=None
-) -> np.ndarray:
+    occupied: BoolArray,
+    nav: NavGrid,
+    removed: Sequence[Obstacle],
+    kept: Sequence[Obstacle],
+    added: Sequence[Obstacle],
+    draw: Draw | None = None,
+) -> BoolArray:
     """The occupancy after obstacles changed, from the old one (no occupancy map involved): the cells
     of removed shapes are cleared and every kept shape that reaches them is drawn again, then the
     added shapes are drawn; the same grid as rasterising everything anew. ``draw``: how a shape is
@@ -73,7 +85,7 @@ def changed_occupancy(
     return out
 
 
-def add_shape(occupied: np.ndarray, shape, nav: NavGrid) -> None:
+def add_shape(occupied: BoolArray, shape: Shape, nav: NavGrid) -> None:
     """Mark in ``occupied`` (ny, nx) the cells whose centre lies inside the shape's footprint.
 
     Only the cells of the footprint's bounding box (plus one) are tested: the same decisions as
@@ -98,7 +110,7 @@ def add_shape(occupied: np.ndarray, shape, nav: NavGrid) -> None:
     occupied[j0:j1, i0:i1] |= inside
 
 
-def add_touched(touched: np.ndarray, shape, nav: NavGrid) -> None:
+def add_touched(touched: BoolArray, shape: Shape, nav: NavGrid) -> None:
     """Mark in ``touched`` (ny, nx) every cell whose open square meets the shape's footprint.
 
     Cells an obstacle only touches along an edge stay free: the marked squares still cover the
@@ -125,7 +137,7 @@ def add_touched(touched: np.ndarray, shape, nav: NavGrid) -> None:
     touched[j0:j1, i0:i1] |= hit
 
 
-def _segment_meets_square(a, b, X, Y, h: float) -> np.ndarray:
+def _segment_meets_square(a: FloatArray, b: FloatArray, X: FloatArray, Y: FloatArray, h: float) -> BoolArray:
     """Whether segment a-b meets the squares of centres (X, Y) and half-size ``h`` (Liang-Barsky)."""
     d = b - a
     t0, t1 = np.zeros(X.shape), np.ones(X.shape)
@@ -156,22 +168,22 @@ class World:
     """
 
     nav: NavGrid
-    occupied: np.ndarray
-    distance: np.ndarray
-    feasible: np.ndarray
-    factor: np.ndarray
-    base: BaseShape | None = None
-    touched: np.ndarray | None = None
+    occupied: BoolArray
+    distance: FloatArray
+    feasible: BoolArray
+    factor: FloatArray
+    base: BaseShape
+    touched: BoolArray | None = None
     masks: YawMasks | None = None
 
-    def yaw_masks(self, cells: np.ndarray) -> np.ndarray:
+    def yaw_masks(self, cells: IntArray) -> MaskArray:
         """(N, W) uint64 packed masks of the base yaws allowed on flat ``cells`` (N,) (bit k of word
         k >> 6 is yaw k; a round base allows every yaw on feasible cells)."""
         return masks_at(self.base, self.feasible, self.masks, cells)
 
     def pose_clear(self, x: float, y: float, yaw: float) -> bool:
         """Whether the base fits at (x, y) [m] with ``yaw`` [rad] (a round base: on a feasible cell)."""
-        if self.base is None or self.base.polygon is None:
+        if self.base.polygon is None or self.touched is None:
             try:
                 return bool(self.feasible[self.nav.cell(x, y)])
             except PlacementError:
@@ -205,10 +217,10 @@ def build_world(scene: Scene, base: BaseShape, config: PlannerConfig) -> World:
 
 def world_from_occupancy(
     nav: NavGrid,
-    occ: np.ndarray,
+    occ: BoolArray,
     base: BaseShape,
     config: PlannerConfig,
-    touched: np.ndarray | None = None,
+    touched: BoolArray | None = None,
     previous: World | None = None,
 ) -> World:
     """Distance, feasibility and speed from an occupancy grid (ny, nx) bool (and, for a polygon
@@ -218,6 +230,8 @@ def world_from_occupancy(
     factor = speed_factor(dist, config.velocity_lambda, config.velocity_k, config.d_max)
     if base.polygon is None:
         return World(nav, occ, dist, dist >= base.radius, factor, base)
+    if touched is None:
+        raise PlacementError("world_from_occupancy: a polygon base needs the touched layer")
     before = None
     if previous is not None and previous.touched is not None and previous.masks is not None and previous.base is base:
         before = (previous.touched, previous.masks)

@@ -29,7 +29,7 @@ import pinocchio as pin
 from placement.errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
 from placement.robots.chain import Chain, ancestors, extract_chain
 from placement.robots.onboarding.urdf import MAX_URDF_BYTES, expand_xacro, is_xacro
-from placement.robots.spec import MAX_PRESET_BYTES, QUATERNION_TOLERANCE, ArmSpec, PresetSpec, parse_preset
+from placement.robots.spec import MAX_PRESET_BYTES, QUATERNION_TOLERANCE, ArmSpec, GripperSpec, PresetSpec, parse_preset
 from placement.validation import Checker, one_line, read_regular, read_yaml
 
 PRESET_DIR = Path(__file__).parent / "presets"
@@ -162,7 +162,8 @@ class Robot:
     Base attributes: ``footprint_radius`` [m] (a round base's radius, or the circumscribed radius
     of the polygon), ``footprint`` (k, 2) [m] counter-clockwise polygon in the base frame or None
     (round base), ``v_max`` [m/s], ``omega_max`` [rad/s]. ``ignore_collisions``: frozenset of
-    frozenset({link_a, link_b}) pairs of URDF links that collision checks skip.
+    frozenset({link_a, link_b}) pairs of URDF links that collision checks skip. ``gripper``: the
+    gripper's geometry (:class:`~placement.robots.spec.GripperSpec`, ``max_opening`` [m]).
     """
 
     def __init__(self, spec: PresetSpec):
@@ -185,6 +186,7 @@ class Robot:
         self.footprint = None if spec.footprint is None else np.array(spec.footprint, dtype=float)
         self.v_max = spec.v_max
         self.omega_max = spec.omega_max
+        self.gripper: GripperSpec = spec.gripper
         data = self.model.createData()
         self._arms = {name: self._make_arm(a, data) for name, a in spec.arms.items()}
         self.ignore_collisions = frozenset(

@@ -33,6 +33,7 @@ TOP_KEYS = {
     "omega_max": "[rad/s] base rotation speed",
     "arms": "{arm name: {joints, tip_frame, tcp_offset, home}}",
     "ignore_collisions": "[[link, link], ...] link pairs never checked against each other, optional",
+    "gripper": "{max_opening: [m]} the gripper's geometry, optional (default the PR2's)",
 }
 REQUIRED = ("name", "urdf", "base_frame", "v_max", "omega_max", "arms")
 ARM_KEYS = {
@@ -43,6 +44,9 @@ ARM_KEYS = {
     "idle": "[rad or m] one value per joint: where the arm waits while another arm works (default home)",
 }
 ARM_REQUIRED = ("joints", "tip_frame")
+GRIPPER_KEYS = {"max_opening": "[m] widest chord the gripper closes across (default 0.09, the PR2's)"}
+#: Largest ``gripper.max_opening`` accepted [m]: a wider one is a units mistake.
+MAX_GRIPPER_OPENING = 2.0
 #: The extended manipulability is defined on the 6 x n Jacobian.
 MIN_ARM_JOINTS = 6
 #: A ``tcp_offset`` quaternion whose norm is within this of 1 is accepted and normalised;
@@ -81,6 +85,18 @@ class ArmSpec:
 
 
 @dataclass(frozen=True)
+class GripperSpec:
+    """The gripper's geometry as the planner uses it (the same for every arm).
+
+    Attributes:
+        max_opening: widest chord [m] across an object the gripper closes on (generated grasps
+            close across chords up to it); default the PR2's, about 0.09 m.
+    """
+
+    max_opening: float = 0.09
+
+
+@dataclass(frozen=True)
 class PresetSpec:
     """A preset whose mapping is valid; ``where`` names its file in every later error.
 
@@ -98,6 +114,7 @@ class PresetSpec:
         arms: {arm name: ArmSpec}, in file order, at least one.
         ignore_collisions: ((link, link), ...) pairs of two different link names (not yet checked
             against the URDF) that collision checks skip, like an SRDF's disabled pairs.
+        gripper: the gripper's geometry (:class:`GripperSpec`; its defaults when the preset has none).
     """
 
     where: str
@@ -112,6 +129,7 @@ class PresetSpec:
     omega_max: float
     arms: dict[str, ArmSpec]
     ignore_collisions: tuple[tuple[str, str], ...] = ()
+    gripper: GripperSpec = GripperSpec()
 
 
 def share_dir() -> Path:
@@ -195,6 +213,19 @@ def _link_pairs(c: Checker, value: Any, key: str) -> tuple[tuple[str, str], ...]
     return tuple(pairs)
 
 
+def _gripper(c: Checker, value: Any) -> GripperSpec:
+    """``gripper: {max_opening: [m]}`` (null or absent: the defaults)."""
+    if value is None:
+        return GripperSpec()
+    g = c.mapping(value, "gripper", GRIPPER_KEYS)
+    if "max_opening" not in g:
+        return GripperSpec()
+    opening = c.positive(g["max_opening"], "gripper.max_opening")
+    if opening > MAX_GRIPPER_OPENING:
+        c.fail("gripper.max_opening", f"must be <= {MAX_GRIPPER_OPENING:g} m, got {opening:g}; it is in metres")
+    return GripperSpec(opening)
+
+
 def _base_shape(c: Checker, d: dict) -> tuple[float, tuple | None]:
     """(radius [m], polygon or None) from exactly one of ``footprint_radius`` and ``footprint``."""
     if ("footprint" in d) == ("footprint_radius" in d):
@@ -239,9 +270,10 @@ def parse_preset(data: Any, origin: Path, where: str) -> PresetSpec:
             c.fail(key, f"must be <= {top:g} {unit}, got {v:g}")
     arms = {n: _arm(c, n, a, fixed) for n, a in c.keyed(d["arms"], "arms", minimum=1).items()}
     ignore = _link_pairs(c, d.get("ignore_collisions"), "ignore_collisions")
+    gripper = _gripper(c, d.get("gripper"))
     # the files last: a typo in the mapping is reported without touching the file system
     urdf = _existing_file(c, d["urdf"], "urdf", origin)
     srdf = _existing_file(c, d["srdf"], "srdf", origin) if d.get("srdf") is not None else None
     return PresetSpec(
-        where, name, urdf, srdf, base_frame, fixed, footprint_radius, footprint, v_max, omega_max, arms, ignore
+        where, name, urdf, srdf, base_frame, fixed, footprint_radius, footprint, v_max, omega_max, arms, ignore, gripper
     )

@@ -3,66 +3,61 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
 
 import numpy as np
 
 from placement.errors import PlacementError
+from placement.planning.arrays import FloatArray
+from placement.planning.context import PlanningContext
 from placement.planning.manipulation import manipulation_map
+from placement.planning.methods.stepwise import StepwiseMethod
 from placement.planning.navgrid import Window
 from placement.planning.option import Option
 from placement.planning.ranking import Ranked
-
-if TYPE_CHECKING:
-    from placement.planning.planner import Planner
+from placement.scene import Box, Cylinder
 
 
-#: cells further out along a side's normal tried when a polygon base does not fit on the first
-#: (its cell centre can be up to half a cell nearer the table than the standoff)
-STEPS_OUT = 2
-
-
-def fixed_placements(planner: Planner) -> list[tuple[int, float]]:
+def fixed_placements(ctx: PlanningContext) -> list[tuple[int, float]]:
     """(flat cell, yaw [rad]) centred on each side of each ``table: true`` obstacle, facing it, the base
     centre the footprint's half-depth (a round base's radius) plus ``fixed_margin`` [m] from the side.
 
     A round base takes the cell there if it is feasible. A polygon base takes the first cell, from
-    there outwards along the side's normal (up to :data:`STEPS_OUT` cells further), whose centre it
-    fits on at the facing yaw. Sides without such a cell are left out."""
+    there outwards along the side's normal (up to ``fixed_steps_out`` cells further), whose centre
+    it fits on at the facing yaw. Sides without such a cell are left out."""
     out = []
-    world = planner.world
+    world = ctx.world
     nav = world.nav
-    polygon = planner.robot.footprint is not None
-    standoff = world.base.half_depth() + planner.config.fixed_margin
+    polygon = ctx.robot.footprint is not None
+    standoff = world.base.half_depth() + ctx.config.fixed_margin
     xs, ys = nav.centres()
-    for ob in planner.scene.tables:
+    for ob in ctx.scene.tables:
         sh = ob.shape
-        if hasattr(sh, "size"):
+        sides: list[tuple[tuple[float, float], float]]
+        if isinstance(sh, Box):
             c, s_ = math.cos(sh.yaw), math.sin(sh.yaw)
-            half = (sh.size[0] / 2, sh.size[1] / 2)
+            half = (float(sh.size[0]) / 2, float(sh.size[1]) / 2)
             sides = [((c, s_), half[0]), ((-c, -s_), half[0]), ((-s_, c), half[1]), ((s_, -c), half[1])]
-        else:  # cylinder: four sides along the world axes
-            sides = [
-                ((1.0, 0.0), sh.radius),
-                ((-1.0, 0.0), sh.radius),
-                ((0.0, 1.0), sh.radius),
-                ((0.0, -1.0), sh.radius),
-            ]
+        elif isinstance(sh, Cylinder):  # four sides along the world axes
+            r = float(sh.radius)
+            sides = [((1.0, 0.0), r), ((-1.0, 0.0), r), ((0.0, 1.0), r), ((0.0, -1.0), r)]
+        else:  # the scene parser allows tables of boxes and cylinders only
+            continue
         for (nx_, ny_), h in sides:
             yaw = math.atan2(-ny_, -nx_)
-            for step in range(STEPS_OUT + 1 if polygon else 1):
+            for step in range(ctx.config.fixed_steps_out + 1 if polygon else 1):
                 d = h + standoff + step * nav.resolution
                 try:
-                    iy, ix = nav.cell(sh.center[0] + nx_ * d, sh.center[1] + ny_ * d)
+                    iy, ix = nav.cell(float(sh.center[0]) + nx_ * d, float(sh.center[1]) + ny_ * d)
                 except PlacementError:
                     break
-                if world.feasible[iy, ix] and (not polygon or world.pose_clear(xs[ix], ys[iy], yaw)):
+                if world.feasible[iy, ix] and (not polygon or world.pose_clear(float(xs[ix]), float(ys[iy]), yaw)):
                     out.append((iy * nav.shape[1] + ix, yaw))
                     break
     return out
 
 
-def rank_fixed(planner: Planner, options: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray) -> list[Ranked]:
+def rank_fixed(ctx: PlanningContext, options: Sequence[Option]) -> list[Ranked]:
     """Fixed placements by decreasing manipulability of each (arm, candidate) at the placement's yaw
     (``cost`` = minus that value).
 
@@ -72,21 +67,33 @@ def rank_fixed(planner: Planner, options: list[Option], nav_cost: np.ndarray, he
     table's side is often at the edge of reach, where the manipulability is low (at 5 cm cells the
     PR2's placements 0.75 m from a 0.69 m table's centre score 0.014-0.016 against the threshold's
     0.0235, and IK reaches them)."""
-    nav = planner.world.nav
+    nav = ctx.world.nav
     ranked = []
-    for flat, yaw in fixed_placements(planner):
+    for flat, yaw in fixed_placements(ctx):
         for k, o in enumerate(options):
-            cell = np.array([flat])
+            cell = np.array([flat], dtype=np.int64)
             v, _ = manipulation_map(
-                planner.maps[o.arm],
-                o.candidate.poses,
-                nav,
-                np.array([yaw]),
-                cell,
-                Window.around(cell, nav.shape, margin=0),
+                ctx.maps[o.arm], o.candidate.poses, nav, np.array([yaw]), cell, Window.around(cell, nav.shape, margin=0)
             )
             value = float(v[0, 0])
             if value > 0.0:
                 ranked.append((-value, k, flat, yaw))
     ranked.sort(key=lambda r: (r[0], r[1], r[2]))
     return [Ranked(*r) for r in ranked]
+
+
+class Fixed(StepwiseMethod):
+    """The baseline: the pre-defined placements beside the tables, by manipulability (no weights)."""
+
+    name = "fixed"
+    uses_heuristic = False
+    uses_navigation = False
+    ranks_fixed_placements = True
+
+    def rank(
+        self, ctx: PlanningContext, options: Sequence[Option], nav_cost: FloatArray, heuristic: FloatArray
+    ) -> list[Ranked]:
+        return rank_fixed(ctx, options)
+
+
+__all__ = ["Fixed", "fixed_placements", "rank_fixed"]

@@ -1,73 +1,92 @@
 """Step-by-step planning (paper section IV): each step's best verified placement, in task order.
 
-Used by ``sequential``, ``single-step`` and ``irm`` (ranked by Eq. 6 with their weights) and by
-``fixed`` (ranked by manipulability at the pre-defined placements).
+The methods that plan this way (:class:`StepwiseMethod`: ``sequential``, ``single-step`` and
+``irm`` ranked by Eq. 6 with their weights, ``fixed`` by manipulability at the pre-defined
+placements) differ only in how they rank a step's placements.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
-from dataclasses import replace
-from typing import TYPE_CHECKING
+from abc import abstractmethod
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
+from placement.planning.arrays import Cell, FloatArray
+from placement.planning.context import PlanningContext
 from placement.planning.explain import explain
+from placement.planning.methods.base import Method
+from placement.planning.methods.outcomes import placed, unreachable_reason
 from placement.planning.navigation import extract_path, navigation_cost
-from placement.planning.option import Option, height_range
-from placement.planning.ranking import Ranked, combined_map, rank_by_cost
-from placement.planning.results import Cost, StepMaps, StepResult
+from placement.planning.option import Option
+from placement.planning.ranking import Ranked, combined_map
+from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import search_placement
 from placement.planning.steps import Step
 
-if TYPE_CHECKING:
-    from placement.planning.planner import Planner
-
-#: ranker(planner, options, navigation cost, heuristic) -> ranked placements
-Ranker = Callable[["Planner", list, np.ndarray, np.ndarray], list[Ranked]]
+#: An (arm, grasp) pair a transfer commits to.
+Pair = tuple[str, str | None]
 
 
-def rank_eq6(
-    planner: Planner, options: list[Option], nav_cost: np.ndarray, heuristic: np.ndarray, per_option: int | None = None
-) -> list[Ranked]:
-    """Eq. 6 with the method's weights (see :func:`~placement.planning.ranking.rank_by_cost`): the
-    ``per_option`` cheapest cells of each option and tier (default ``ik_tries``)."""
-    cfg = planner.config if per_option is None else replace(planner.config, ik_tries=per_option)
-    return rank_by_cost(options, nav_cost, heuristic, cfg, planner.yaws)
+class StepwiseMethod(Method):
+    """A method that plans the steps in order, each from the previous placement."""
+
+    @abstractmethod
+    def rank(
+        self, ctx: PlanningContext, options: Sequence[Option], nav_cost: FloatArray, heuristic: FloatArray
+    ) -> list[Ranked]:
+        """The placements of a step's ``options`` in the order IK tries them (``nav_cost`` and
+        ``heuristic``: (ny, nx) [m])."""
+
+    def more(
+        self, ctx: PlanningContext, options: Sequence[Option], nav_cost: FloatArray, heuristic: FloatArray
+    ) -> Callable[[], list[Ranked]] | None:
+        """Every ranked placement, for the search's spread phase (None: the ranking is all there is)."""
+        return None
+
+    def plan(self, ctx: PlanningContext, start: Cell, keep_maps: bool) -> list[StepResult]:
+        return plan_stepwise(ctx, self, start, keep_maps)
 
 
-def plan_stepwise(planner: Planner, start_cell: tuple[int, int], rank: Ranker, keep_maps: bool) -> list[StepResult]:
+def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell, keep_maps: bool) -> list[StepResult]:
     """Plan the steps in order from ``start_cell``, each from the previous placement; a pick and its
     place as one transfer (:func:`plan_transfer`); stops at the first infeasible step (it is the
     last result)."""
     prev_cell = start_cell
-    prev_q = {arm: planner.robot.arm(arm).home.copy() for arm in planner.maps}
-    steps = planner.problems.steps
+    prev_q = {arm: ctx.robot.arm(arm).home.copy() for arm in ctx.maps}
+    steps = ctx.problems.steps
     out: list[StepResult] = []
     i = 0
     while i < len(steps):
         step = steps[i]
         if step.action == "pick" and i + 1 < len(steps) and steps[i + 1].pick == i:
-            results, cell = plan_transfer(planner, step, steps[i + 1], prev_cell, prev_q, rank, keep_maps)
+            results, cell = plan_transfer(ctx, method, step, steps[i + 1], prev_cell, prev_q, keep_maps)
         else:
             t0 = time.perf_counter()
-            result, cell = plan_step(planner, step, prev_cell, prev_q, rank, keep_maps)
+            result, cell = plan_step(ctx, method, step, prev_cell, prev_q, keep_maps)
             result.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
             results = [result]
         out += results
-        if not results[-1].ok:
+        if not results[-1].ok or cell is None:
             break
         prev_cell = cell
         for r in results:
-            prev_q[r.arm] = r.q
+            if r.arm is not None and r.q is not None:
+                prev_q[r.arm] = r.q
         i += len(results)
     return out
 
 
 def plan_transfer(
-    planner: Planner, pick: Step, place: Step, prev_cell, prev_q: dict, rank: Ranker, keep_maps: bool
-) -> tuple[list[StepResult], tuple[int, int] | None]:
+    ctx: PlanningContext,
+    method: StepwiseMethod,
+    pick: Step,
+    place: Step,
+    prev_cell: Cell,
+    prev_q: Mapping[str, FloatArray],
+    keep_maps: bool,
+) -> tuple[list[StepResult], Cell | None]:
     """A pick and its place with the same arm and grasp.
 
     The pick may use only the (arm, grasp) pairs with which the maps reach a place pose of the
@@ -76,12 +95,12 @@ def plan_transfer(
     none is left: the pick step is then infeasible, and its reason says, per arm and grasp, what
     failed at which place. Returns the pick's and the place's results (the pick's alone when
     infeasible) and the place's cell."""
-    problems = planner.problems
+    problems = ctx.problems
     t0 = time.perf_counter()
     picks = {(o.arm, o.candidate.grasp) for o in problems.options(pick.index)}
     viable = problems.pairs(place.index)
     irms_ms = (time.perf_counter() - t0) * 1e3  # the pick's and the place's IRMs: manipulation work
-    failed: dict[tuple, str] = {p: "" for p in picks - viable}  # pair -> its place's failure ("": by the maps)
+    failed: dict[Pair, str] = {p: "" for p in picks - viable}  # pair -> its place's failure ("": by the maps)
     while True:
         allowed = picks - failed.keys()
         if not allowed:
@@ -90,22 +109,22 @@ def plan_transfer(
                 pick.action,
                 pick.target,
                 status="infeasible",
-                reason=transfer_reason(planner, pick, place, failed),
+                reason=transfer_reason(ctx, pick, place, failed),
                 diagnosis={"place": place.target, "transfers": transfer_diagnosis(failed)},
                 timings_ms={"total": (time.perf_counter() - t0) * 1e3},
             )
             return [result], None
-        first, cell = plan_step(planner, pick, prev_cell, prev_q, rank, keep_maps, allowed)
-        if not first.ok:
+        first, cell = plan_step(ctx, method, pick, prev_cell, prev_q, keep_maps, allowed)
+        if not first.ok or cell is None or first.arm is None or first.q is None:
             if failed:
-                first.reason += (
+                first.reason = (first.reason or "") + (
                     f" (not tried: {excluded_words(failed)}, which cannot set '{pick.target}' down at '{place.target}')"
                 )
             first.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
             return [first], None
         t1 = time.perf_counter()
         pair = (first.arm, first.grasp)
-        second, cell = plan_step(planner, place, cell, {**prev_q, first.arm: first.q}, rank, keep_maps, {pair})
+        second, cell = plan_step(ctx, method, place, cell, {**prev_q, first.arm: first.q}, keep_maps, {pair})
         second.timings_ms["total"] = (time.perf_counter() - t1) * 1e3
         if second.ok:
             first.timings_ms["total"] = (t1 - t0) * 1e3
@@ -114,15 +133,15 @@ def plan_transfer(
         failed[pair] = second.reason or "infeasible"
 
 
-def excluded_words(failed: dict) -> str:
+def excluded_words(failed: Mapping[Pair, str]) -> str:
     """ "arm left: top, top-flipped; arm right: top" for the (arm, grasp) pairs of ``failed``."""
-    arms: dict[str, list] = {}
+    arms: dict[str, list[str]] = {}
     for arm, grasp in sorted(failed, key=lambda p: (p[0], str(p[1]))):
         arms.setdefault(arm, []).append(str(grasp))
     return "; ".join(f"arm {a}: {', '.join(g)}" for a, g in arms.items())
 
 
-def transfer_reason(planner: Planner, pick: Step, place: Step, failed: dict) -> str:
+def transfer_reason(ctx: PlanningContext, pick: Step, place: Step, failed: Mapping[Pair, str]) -> str:
     """Why no (arm, grasp) of ``pick`` sets its object down at ``place``, in one line."""
     unreached = {p: r for p, r in failed.items() if not r}
     tried = {p: r for p, r in failed.items() if r}
@@ -130,7 +149,7 @@ def transfer_reason(planner: Planner, pick: Step, place: Step, failed: dict) -> 
     if unreached:
         parts.append(
             f"{excluded_words(unreached)}: no base placement reaches a place pose with the map threshold "
-            f"{planner.config.threshold:g}"
+            f"{ctx.config.threshold:g}"
         )
     for p, r in tried.items():
         parts.append(f"arm {p[0]}, grasp {p[1]}: picked, but the place failed: {r}")
@@ -140,7 +159,7 @@ def transfer_reason(planner: Planner, pick: Step, place: Step, failed: dict) -> 
     )
 
 
-def transfer_diagnosis(failed: dict) -> list[dict]:
+def transfer_diagnosis(failed: Mapping[Pair, str]) -> list[dict[str, str | None]]:
     """Per (arm, grasp) pair: why its place failed (JSON)."""
     return [
         {"arm": a, "grasp": g, "failed": r or "no place pose keeps the map threshold"}
@@ -149,11 +168,17 @@ def transfer_diagnosis(failed: dict) -> list[dict]:
 
 
 def plan_step(
-    planner: Planner, step: Step, prev_cell, prev_q: dict, rank: Ranker, keep_maps: bool, pairs: set | None = None
-) -> tuple[StepResult, tuple[int, int] | None]:
+    ctx: PlanningContext,
+    method: StepwiseMethod,
+    step: Step,
+    prev_cell: Cell,
+    prev_q: Mapping[str, FloatArray],
+    keep_maps: bool,
+    pairs: set[Pair] | None = None,
+) -> tuple[StepResult, Cell | None]:
     """The best verified placement of one step (or an infeasible result) and its cell; ``pairs``:
     the (arm, grasp) pairs the step may use (default all)."""
-    cfg, problems, world = planner.config, planner.problems, planner.world
+    cfg, problems, world = ctx.config, ctx.problems, ctx.world
     nav = world.nav
     timings: dict[str, float] = {}
     t = time.perf_counter()
@@ -164,8 +189,10 @@ def plan_step(
     if steer:
         problems.options(step.index + 1)  # the next step's IRMs: manipulation work, cached for that step
     timings["manipulation"] = (time.perf_counter() - t) * 1e3
-    # only this step's candidate cells are read from the cost maps (all cells for plots)
-    needed = None if keep_maps or planner.method == "fixed" else problems.feasible_region(step.index, opts)
+    # only this step's candidate cells are read from the cost maps (all cells for plots, and for
+    # pre-defined placements, which need not lie in the maps' feasible region)
+    fixed = method.ranks_fixed_placements
+    needed = None if keep_maps or fixed else problems.feasible_region(step.index, opts)
     t = time.perf_counter()
     nav_cost, pred = navigation_cost(world.factor, world.feasible, prev_cell, nav.resolution, targets=needed)
     timings["navigation"] = (time.perf_counter() - t) * 1e3
@@ -173,37 +200,30 @@ def plan_step(
     heur = problems.heuristic(step.index + 1, needed) if steer else np.zeros(nav.shape)
     timings["heuristic"] = (time.perf_counter() - t) * 1e3
     t = time.perf_counter()
-    ranked = rank(planner, opts, nav_cost, heur)
+    ranked = method.rank(ctx, opts, nav_cost, heur)
     timings["combine"] = (time.perf_counter() - t) * 1e3
     maps = None
     if keep_maps:
         manip = np.max([o.full_value(nav.shape) for o in opts], axis=0) if opts else None
-        combined = combined_map(opts, nav_cost, heur, cfg) if planner.method != "fixed" else None
+        combined = combined_map(opts, nav_cost, heur, cfg) if not fixed else None
         maps = StepMaps(nav_cost, heur, manip, combined)
     t = time.perf_counter()
-    more = None
-    if rank is rank_eq6:  # every ranked placement, for the spread phase of the search
-
-        def more():
-            return rank_eq6(planner, opts, nav_cost, heur, per_option=cfg.ik_cap)
-
-    found = search = None
-    if ranked:
-        search = search_placement(planner, step, opts, ranked, more, nav_cost, heur, prev_q)
-        found = search.found
+    more = method.more(ctx, opts, nav_cost, heur)
+    search = search_placement(ctx, step, opts, ranked, more, nav_cost, heur, prev_q) if ranked else None
+    found = search.found if search is not None else None
     # the whole search, and within it the IK solves and the collision checks
     timings["search"] = (time.perf_counter() - t) * 1e3
     timings["ik"] = search.ik_ms if search else 0.0
     timings["collision"] = search.collision_ms if search else 0.0
-    if found is not None:
+    if search is not None and found is not None:
         r = found.ranked
         o = opts[r.option]
         iy, ix = divmod(r.cell, nav.shape[1])
         if maps is not None:
             maps.path = extract_path(pred, (iy, ix))
-        value = found.value or (o.value_at(iy, ix) if planner.method != "fixed" else -r.cost)
+        value = found.value or (-r.cost if fixed else o.value_at(iy, ix))
         result = placed(
-            planner,
+            ctx,
             step,
             o,
             found.base,
@@ -217,7 +237,7 @@ def plan_step(
         result.maps = maps
         result.tried = search.tried
         return result, (iy, ix)
-    reason, diagnosis = explain(planner, step, opts, search, "" if ranked else unreachable_reason(planner, opts))
+    reason, diagnosis = explain(ctx, fixed, step, opts, search, "" if ranked else unreachable_reason(ctx, opts))
     result = StepResult(
         step.index,
         step.action,
@@ -232,59 +252,4 @@ def plan_step(
     return result, None
 
 
-def unreachable_reason(planner: Planner, opts: list[Option]) -> str:
-    """Why no placement of a step keeps the threshold, in words."""
-    if opts and all(o.out_of_range for o in opts):
-        ranges = ", ".join(
-            f"{arm} {lo:.2f}..{hi:.2f} m" for arm, (lo, hi) in ((a, height_range(m)) for a, m in planner.maps.items())
-        )
-        z = sorted({round(float(v), 3) for o in opts for v in o.candidate.poses[:, 2, 3]})
-        return (
-            f"the TCP poses (heights {', '.join(f'{v:g}' for v in z)} m) are outside the height range of "
-            f"the maps ({ranges} above the base frame)"
-        )
-    return f"no base placement reaches the target with the map threshold {planner.config.threshold}"
-
-
-def placed(
-    planner: Planner,
-    step: Step,
-    o: Option,
-    base,
-    qs: np.ndarray,
-    nav_c: float,
-    heur_c: float,
-    value: float,
-    timings: dict,
-    clearance_m: float | None = None,
-) -> StepResult:
-    """The result of a verified placement: weighted Eq. 6 terms, joints by name (``qs`` (P, n): the
-    arm at every pose of the trajectory), travel time, clearance [m] (None without a collision check)."""
-    cfg = planner.config
-    arm = planner.robot.arm(o.arm)
-    q = qs[-1]
-    joints = {name: float(v) for name, v in zip(arm.joints, q)}
-    joints.update(planner.robot.fixed_joints)
-    cost = Cost(cfg.lambda_n * nav_c, cfg.lambda_m / value, cfg.lambda_nh * heur_c)
-    c = o.candidate
-    return StepResult(
-        step.index,
-        step.action,
-        step.target,
-        arm=o.arm,
-        grasp=c.grasp or c.name,
-        base=(base[0], base[1], base[2]),
-        tcp=c.poses,
-        q=q,
-        qs=qs,
-        joints=joints,
-        clearance_m=clearance_m,
-        manipulability=value,
-        cost=cost,
-        travel_time_s=nav_c / planner.robot.v_max,
-        timings_ms=timings,
-        trajectory=c.name,
-        object=step.carries,
-        placed_pose=c.object_pose,
-        support=c.support,
-    )
+__all__ = ["StepwiseMethod", "excluded_words", "plan_step", "plan_stepwise", "plan_transfer"]

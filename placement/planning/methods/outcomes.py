@@ -1,0 +1,78 @@
+"""Step results shared by the methods: a verified placement, an infeasible step and why."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from placement.planning.arrays import BasePose, FloatArray
+from placement.planning.context import PlanningContext
+from placement.planning.option import Option, height_range
+from placement.planning.results import Cost, StepResult
+from placement.planning.steps import Step
+
+
+def infeasible(step: Step, reason: str, diagnosis: dict[str, Any] | None = None) -> StepResult:
+    """The result of a step that could not be planned, with its ``reason`` (one line)."""
+    return StepResult(step.index, step.action, step.target, status="infeasible", reason=reason, diagnosis=diagnosis)
+
+
+def unreachable_reason(ctx: PlanningContext, opts: Sequence[Option]) -> str:
+    """Why no placement of a step keeps the threshold, in words."""
+    if opts and all(o.out_of_range for o in opts):
+        ranges = ", ".join(
+            f"{arm} {lo:.2f}..{hi:.2f} m" for arm, (lo, hi) in ((a, height_range(m)) for a, m in ctx.maps.items())
+        )
+        z = sorted({round(float(v), 3) for o in opts for v in o.candidate.poses[:, 2, 3]})
+        return (
+            f"the TCP poses (heights {', '.join(f'{v:g}' for v in z)} m) are outside the height range of "
+            f"the maps ({ranges} above the base frame)"
+        )
+    return f"no base placement reaches the target with the map threshold {ctx.config.threshold}"
+
+
+def placed(
+    ctx: PlanningContext,
+    step: Step,
+    o: Option,
+    base: BasePose,
+    qs: FloatArray,
+    nav_c: float,
+    heur_c: float,
+    value: float,
+    timings: dict[str, float],
+    clearance_m: float | None = None,
+) -> StepResult:
+    """The result of a verified placement: weighted Eq. 6 terms, joints by name (``qs`` (P, n): the
+    arm at every pose of the trajectory), travel time [s], clearance [m] (None without a collision check)."""
+    cfg = ctx.config
+    arm = ctx.robot.arm(o.arm)
+    q = qs[-1]
+    joints = {name: float(v) for name, v in zip(arm.joints, q)}
+    joints.update(ctx.robot.fixed_joints)
+    cost = Cost(cfg.lambda_n * nav_c, cfg.lambda_m / value, cfg.lambda_nh * heur_c)
+    c = o.candidate
+    return StepResult(
+        step.index,
+        step.action,
+        step.target,
+        arm=o.arm,
+        grasp=c.grasp or c.name,
+        base=(base[0], base[1], base[2]),
+        tcp=c.poses,
+        q=q,
+        qs=qs,
+        joints=joints,
+        clearance_m=clearance_m,
+        manipulability=value,
+        cost=cost,
+        travel_time_s=nav_c / ctx.robot.v_max,
+        timings_ms=timings,
+        trajectory=c.name,
+        object=step.carries,
+        placed_pose=c.object_pose,
+        support=c.support,
+    )
+
+
+__all__ = ["infeasible", "placed", "unreachable_reason"]
