@@ -64,3 +64,7 @@ class MapError(PlacementError):
 
 class GridError(PlacementError):
     """Grid parameters (bounds, resolution, bins) that make no sense."""
+
+
+class ViewerError(PlacementError):
+    """The viewer cannot start (viser missing, a bad port, a plan file that does not fit)."""

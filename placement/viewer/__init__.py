@@ -6,7 +6,8 @@ reachability map as a point cloud. Served on 127.0.0.1 only. Never imported by t
 view`` are the commands.
 """
 
+from placement.errors import ViewerError
 from placement.viewer.api import view, view_map, view_scene
-from placement.viewer.server import View, ViewerError
+from placement.viewer.server import View
 
 __all__ = ["View", "ViewerError", "view", "view_map", "view_scene"]

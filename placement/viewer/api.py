@@ -6,8 +6,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from placement.errors import MapError
-from placement.viewer.server import View, ViewerError, start_server
+from placement.errors import MapError, ViewerError
+from placement.viewer.server import View, start_server
 
 if TYPE_CHECKING:
     from placement.scene import Scene

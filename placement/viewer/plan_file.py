@@ -11,10 +11,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from placement.errors import ViewerError
 from placement.planning.results import Cost, StepResult, transfer_problems
 from placement.planning.transfer import UPRIGHT_TOLERANCE
 from placement.robots import Robot, pose_to_matrix
-from placement.viewer.server import ViewerError
 
 if TYPE_CHECKING:
     from placement.scene import Scene

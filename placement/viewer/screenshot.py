@@ -10,7 +10,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from placement.viewer.server import ViewerError
+from placement.errors import ViewerError
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
 # software WebGL: the machines have no GPU; ANGLE over SwiftShader is what draws it headless

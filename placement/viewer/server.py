@@ -10,7 +10,7 @@ import time
 from types import ModuleType
 from typing import TYPE_CHECKING
 
-from placement.errors import PlacementError
+from placement.errors import ViewerError
 
 if TYPE_CHECKING:
     import viser
@@ -20,10 +20,6 @@ if TYPE_CHECKING:
     from placement.viewer.plan_view import PlanView
 
 HOST = "127.0.0.1"  # never another interface: the viewer has no authentication
-
-
-class ViewerError(PlacementError):
-    """The viewer cannot start (viser missing, a bad port, a plan file that does not fit)."""
 
 
 def require_viser() -> ModuleType:
