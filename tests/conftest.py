@@ -11,11 +11,21 @@ from pathlib import Path
 os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(__file__).resolve().parents[1] / ".venv" / "numba-cache"))
 
 import pytest
+from hypothesis import settings
 from skip_summary import pytest_terminal_summary  # noqa: F401  (the run's closing skip summary)
 from support.robots import ARMAR6_SOURCE, ARMAR6_URDF, write_armar6_preset
 from support.storage import SMALL
 
 import placement
+
+# Property tests: "ci" (the default) tries a moderate number of examples per property, enough to catch a
+# broken invariant on the shapes the strategies favour while the suite stays within CI's time; "deep"
+# (HYPOTHESIS_PROFILE=deep) tries 2000, the counts these tests were written with, for a thorough run.
+# Each test's @example corner cases run under both. Loaded here, before any test module is imported, so
+# that every @settings without max_examples inherits the profile's.
+settings.register_profile("ci", max_examples=100, deadline=None)
+settings.register_profile("deep", max_examples=2000, deadline=None)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 # Tests of structure only the pycram model in ../shared has; skipped with the armar package's model.
 NEEDS_PYCRAM_ARMAR6 = {

@@ -199,13 +199,13 @@ def check(parse, arg):
     assert spec.arms is None or all(isinstance(a, str) and a for a in spec.arms)
 
 
-@settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.one_of(st.dictionaries(keys, values, max_size=6), values))
 def test_random_specs(data):
     check(parse_build_spec, data)
 
 
-@settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.sampled_from(sorted(PR2_DATA)), values, st.booleans())
 def test_mutated_pr2_spec(key, value, drop):
     data = dict(PR2_DATA)
@@ -216,7 +216,7 @@ def test_mutated_pr2_spec(key, value, drop):
     check(parse_build_spec, data)
 
 
-@settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.integers(0, len(PR2_SPEC)), st.integers(0, 20), st.text(max_size=8))
 def test_mutated_pr2_spec_text(at, cut, insert):
     check(parse_build_spec_text, PR2_SPEC[:at] + insert + PR2_SPEC[at + cut :])

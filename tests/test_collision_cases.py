@@ -209,7 +209,7 @@ def test_non_convex_polygon_prism_keeps_its_notch():
     assert not hits(1.5, 1.5) and not hits(0.5, 0.5, 3.1)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(deadline=None)
 @given(st.lists(st.floats(0.2, 2.0), min_size=3, max_size=12), st.floats(0, 6.28))
 def test_triangulation_covers_star_polygons(radii, turn):
     """Star-shaped polygons (simple by construction): triangles with the polygon's area, none flipped."""

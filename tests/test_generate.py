@@ -240,7 +240,7 @@ def test_cli_records_default_maps_and_plans_from_another_cwd(tmp_path, maps_dir)
     assert json.loads(q.stdout)["status"] == "ok"
 
 
-@settings(max_examples=250, deadline=None)
+@settings(deadline=None)
 @given(
     seed=st.integers(0, 2**63 - 1),
     index=st.integers(0, MAX_SCENES - 1),
@@ -262,7 +262,7 @@ def test_property_generated_scenes_load_and_keep_invariants(seed, index, objects
     assert_layout(scene)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(deadline=None)
 @given(
     length=st.one_of(st.floats(0.1, 2.2), st.floats(allow_nan=True), st.integers(), st.text(max_size=2)),
     depth=st.one_of(st.floats(0.1, 2.2), st.floats(allow_nan=True), st.none()),

@@ -181,7 +181,7 @@ def _coal_distance(a: SceneObject, b: SceneObject) -> float:
     )
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1))
 def test_object_overlap_agrees_with_coal(seed):
     """Away from the tolerance band, two boxes overlap exactly when coal's signed distance is negative."""

@@ -28,8 +28,7 @@ from placement.kernels.kinematics import fk_jacobian_batch
 from placement.robots.preset import PRESET_DIR
 from placement.robots.spec import ARM_KEYS, TOP_KEYS
 
-EXAMPLES = 2000
-SETTINGS = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+SETTINGS = settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 WORKDIR = Path(tempfile.mkdtemp(prefix="preset-properties-"))
 IGNORING = {
     **pr2_mapping(),

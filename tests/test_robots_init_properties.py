@@ -79,19 +79,19 @@ def check(name: str, data: bytes) -> None:
     analyse(d.model, d.mimic, pin.neutral(d.model))
 
 
-@settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated(VALID))
 def test_mutated_urdf(text):
     check("m.urdf", text.encode("utf-8", "surrogatepass"))
 
 
-@settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated(VALID_XACRO))
 def test_mutated_xacro(text):
     check("m.urdf.xacro", text.encode("utf-8", "surrogatepass"))
 
 
-@settings(max_examples=2000, deadline=None)
+@settings(deadline=None)
 @given(st.binary(max_size=200) | st.text(max_size=200).map(lambda t: t.encode("utf-8", "surrogatepass")))
 def test_random_bytes(data):
     check("r.urdf", data)

@@ -66,13 +66,13 @@ def _check(doc, round_trip: bool = False) -> None:
         assert parse_scene(scene_to_dict(scene), "/nonexistent-dir", "prop") == scene
 
 
-@settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(doc=mutated(BASE, KEYS))
 def test_mutated_scenes(doc):
     _check(doc)
 
 
-@settings(max_examples=1000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     doc=documents(KEYS)
     | st.fixed_dictionaries({"version": st.just(1), "robot": documents(KEYS), "task": documents(KEYS)})
@@ -81,13 +81,13 @@ def test_random_documents(doc):
     _check(doc)
 
 
-@settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(doc=mutated(BASE_V2, KEYS))
 def test_mutated_v2_scenes(doc):
     _check(doc, round_trip=True)
 
 
-@settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     doc=st.fixed_dictionaries(
         {

@@ -42,19 +42,19 @@ float_polygons = st.lists(
 ).filter(_no_repeats)
 
 
-@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@settings(deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
 @given(points=grid_polygons)
 def test_sweep_agrees_with_the_naive_test_on_degenerate_grids(points):
     _agree(points)
 
 
-@settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@settings(deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
 @given(points=float_polygons)
 def test_sweep_agrees_with_the_naive_test_on_random_polygons(points):
     _agree(points)
 
 
-@settings(max_examples=100, deadline=None)
+@settings(deadline=None)
 @given(
     n=st.integers(3, 60),
     seed=st.integers(0, 2**32 - 1),

@@ -244,7 +244,7 @@ def hdf5_truth(sources):
     return src.read_bytes(), doc, {a: (m.values, m.witness) for a, m in rmaps.items()}
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(where=st.floats(0.0, 0.9999), flip=st.integers(1, 255))
 @example(where=0.3, flip=0x10).via("30-40 %")
 @example(where=0.37, flip=0x01).via("30-40 %")

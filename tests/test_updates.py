@@ -159,9 +159,7 @@ _plausible = st.fixed_dictionaries(
 )
 
 
-@settings(
-    max_examples=2500, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow]
-)
+@settings(deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(change=_json | _plausible)
 def test_any_update_is_a_clean_error_or_a_valid_scene(planner, change):
     """Random and plausible-but-mutated update documents: SceneError or a valid scene, nothing else."""

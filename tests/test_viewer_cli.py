@@ -181,7 +181,7 @@ def check(doc, robot) -> None:
         assert not s.ok or (len(s.base) == 3 and s.tcp.shape[1:] == (4, 4) and s.q.shape == (7,))
 
 
-@settings(max_examples=2000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))
 @given(doc=documents(PLAN_KEYS))
 def test_random_plan_documents(pr2, doc):
     check(doc, pr2)
@@ -223,7 +223,7 @@ VALID = {
 }
 
 
-@settings(max_examples=2000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))
 @given(doc=mutated(VALID, PLAN_KEYS))
 def test_mutated_plan_documents(pr2, doc):
     check(doc, pr2)
