@@ -1,7 +1,10 @@
-"""The codebase's own rules (developers' guide, issue 11), checked on the source so they cannot drift.
+"""The codebase's own rules (developers' guide), checked on the source so they cannot drift.
 
-* the direction of dependencies: kernels <- storage <- planning <- CLI; nothing imports the CLI;
-  plotting and viewers are never imported by the algorithms; opening a map does not import the builder;
+* the direction of dependencies: one package per half and shared concept, each importing only the packages
+  of its row in :data:`ALLOWED` (every import counts: top level, function-local and ``TYPE_CHECKING``);
+* no import cycle between modules, nor between packages;
+* nothing imports the CLI; plotting and viewers are never imported by the algorithms; opening a map does not
+  import the builder;
 * no module over 400 lines (generated ones included);
 * no private name (leading underscore) of one module used from another.
 """
@@ -48,50 +51,207 @@ def _imports(path: Path) -> list[tuple[str, list[str]]]:
     return out
 
 
-# (importer prefix, forbidden import prefixes)
-LAYERS = [
-    (
-        "placement.kernels",
-        (
-            "placement.storage",
-            "placement.planning",
-            "placement.cli",
-            "placement.robots",
-            "placement.evaluation",
-            "placement.plotting",
-            "placement.maps.build",
-            "placement.maps.rmap",
-        ),
-    ),
-    (
-        "placement.storage",
-        ("placement.planning", "placement.cli", "placement.evaluation", "placement.maps.build", "placement.plotting"),
-    ),
-    (
-        "placement.maps.rmap",
-        ("placement.maps.build", "placement.planning", "placement.cli", "tqdm", "placement.maps.selfcollision"),
-    ),
-    (
-        "placement.planning",
-        ("placement.cli", "placement.evaluation", "placement.plotting", "placement.viewer", "matplotlib", "viser"),
-    ),
-    ("placement.evaluation", ("placement.cli",)),
-    ("placement.robots", ("placement.planning", "placement.cli", "placement.storage")),
-]
+MODULES = {_module_name(p): p for p in _modules("placement")}
+
+
+def _targets(path: Path) -> set[str]:
+    """The modules of placement that ``path`` imports: ``from a.b import c`` is a.b.c when that is a module,
+    else a.b; a name that is no module is cut back to the nearest module above it."""
+    out = set()
+    for module, names in _imports(path):
+        if not module.startswith("placement"):
+            continue
+        for name in [f"{module}.{n}" for n in names] or [module]:
+            while name not in MODULES and "." in name:
+                name = name.rsplit(".", 1)[0]
+            if name in MODULES:
+                out.add(name)
+    return out - {_module_name(path)}
+
+
+# -- the layers --------------------------------------------------------------------------------------------
+# kernels (numba) <- robots (presets), storage <- kinematics <- collision <- scene <- maps (offline) and
+# planning (online; it opens maps) <- evaluation, viewer, robots.onboarding <- cli. "placement" is the package's
+# own facade (placement/__init__.py). The shared helpers at the top have their own rows.
+
+NOTHING: frozenset[str] = frozenset()
+HELPERS = {
+    "placement.errors",
+    "placement.progress",
+    "placement.validation",
+    "placement.simplicity",
+    "placement.version",
+}
+BELOW_ROBOTS = {"placement.kernels", *HELPERS}
+BELOW_KINEMATICS = {"placement.robots", "placement.storage", *BELOW_ROBOTS}
+BELOW_COLLISION = {"placement.kinematics", *BELOW_KINEMATICS}
+BELOW_SCENE = {"placement.collision", *BELOW_COLLISION}
+BELOW_MAPS = {"placement.scene", *BELOW_SCENE}
+BELOW_APPS = {"placement", "placement.planning", "placement.maps", "placement.plotting", *BELOW_MAPS}
+
+#: package -> the packages it may import (its own always)
+ALLOWED: dict[str, set[str] | frozenset[str]] = {
+    "placement.errors": NOTHING,
+    "placement.version": NOTHING,
+    "placement.validation": NOTHING,
+    "placement.simplicity": NOTHING,
+    "placement.progress": {"placement.errors"},
+    "placement.kernels": {"placement.errors"},
+    "placement.robots": BELOW_ROBOTS,
+    "placement.storage": {"placement.robots", *BELOW_ROBOTS},
+    "placement.kinematics": BELOW_KINEMATICS,
+    "placement.collision": BELOW_COLLISION,
+    "placement.scene": BELOW_SCENE,
+    "placement.maps": BELOW_MAPS,
+    "placement.planning": {"placement.maps", *BELOW_MAPS},
+    "placement": {"placement.maps", "placement.planning", *BELOW_MAPS},
+    "placement.plotting": {"placement.maps", "placement.planning", *BELOW_MAPS},
+    "placement.evaluation": BELOW_APPS,
+    "placement.viewer": BELOW_APPS,
+    "placement.robots.onboarding": BELOW_APPS,
+    "placement.warmup": {*BELOW_APPS, "placement.evaluation", "placement.viewer", "placement.robots.onboarding"},
+    "placement.cli": {*BELOW_APPS, "placement.evaluation", "placement.viewer", "placement.robots.onboarding"}
+    | {"placement.warmup"},
+}
+#: the only packages that may import plotting, and warmup
+PLOTTING_USERS = {"placement.cli", "placement.evaluation", "placement.viewer", "placement.robots.onboarding"}
+PLOTTING_USERS |= {"placement.warmup"}
+WARMUP_USERS = {"placement.cli"}
+
+#: Imports that still go the wrong way, each waiting for a move (importer module, imported module). The planner's
+#: package is being restructured by another change; these edges go when their code moves out of the planner.
+PENDING: set[tuple[str, str]] = {
+    # the scene's planner: block reads the planner's settings table (PLANNER_KEYS, PLANNER_BOUNDS): the table
+    # belongs below the scene (e.g. placement/scene/planner_keys.py, read by planning.config)
+    ("placement.scene.planner_block", "placement.planning.config"),
+    # a version-2 scene refuses an object no gripper can hold: the box grasps belong in the scene
+    ("placement.scene.consistency", "placement.planning.grasps"),
+    # Scene.navgrid() builds the planner's navigation grid: the grid belongs below the scene, or the method
+    # in the planner
+    ("placement.scene.model", "placement.planning.navgrid"),
+    # the collision checker types the held object with the planner's Held (TYPE_CHECKING): Held belongs in
+    # collision (collision.held)
+    ("placement.collision.checker", "placement.planning.transfer"),
+    ("placement.collision.held", "placement.planning.transfer"),
+    # the collision world of a scene types its input with the scene model (TYPE_CHECKING): collision/scene.py
+    # belongs in the scene package (it is the scene's collision world), or the two rows swap
+    ("placement.collision.checker", "placement.scene"),
+    ("placement.collision.scene", "placement.scene"),
+    # presets expand xacro with the onboarding's reader: the URDF/xacro reading belongs in robots
+    ("placement.robots.preset", "placement.robots.onboarding.urdf"),
+    # BuiltMap.grid builds the maps' Grid: Grid belongs below storage, or BuiltMap in maps
+    ("placement.storage.format", "placement.maps.grid"),
+}
+
+
+def _package(module: str) -> str:
+    """The row of :data:`ALLOWED` that ``module`` belongs to (the longest matching package)."""
+    rows = [p for p in ALLOWED if module == p or module.startswith(p + ".")]
+    assert rows, f"{module} belongs to no row of ALLOWED: give its package a row"
+    return max(rows, key=len)
 
 
 @pytest.mark.parametrize("path", _modules("placement"), ids=lambda p: str(p.relative_to(ROOT)))
-def test_dependencies_point_one_way(path):
+def test_dependencies_follow_the_layers(path):
+    name = _module_name(path)
+    own = _package(name)
+    for target in sorted(_targets(path)):
+        other = _package(target)
+        if other == own or (name, target) in PENDING:
+            continue
+        assert other in ALLOWED[own], f"{name} imports {target}: {own} may import only {sorted(ALLOWED[own])}"
+        if other == "placement.plotting":
+            assert own in PLOTTING_USERS, f"{name} imports plotting ({target})"
+        if other == "placement.warmup":
+            assert own in WARMUP_USERS, f"{name} imports warmup ({target})"
+
+
+def test_pending_exceptions_are_still_needed():
+    """An exception whose import is gone is taken out of PENDING, so the list only shrinks."""
+    edges = {(name, t) for name, path in MODULES.items() for t in _targets(path)}
+    assert PENDING <= edges, f"imports no longer there: {sorted(PENDING - edges)}"
+
+
+@pytest.mark.parametrize("path", _modules("placement"), ids=lambda p: str(p.relative_to(ROOT)))
+def test_nothing_imports_the_cli_and_algorithms_no_viewer(path):
     name = _module_name(path)
     for module, _ in _imports(path):
         if not name.startswith("placement.cli"):
             assert not module.startswith("placement.cli"), f"{name} imports the CLI ({module})"
         if not name.startswith(("placement.cli", "placement.plotting", "placement.viewer")):
             assert not module.startswith("viser"), f"{name} imports a viewer ({module})"
-        for prefix, forbidden in LAYERS:
-            if name == prefix or name.startswith(prefix + "."):
-                bad = [f for f in forbidden if module == f or module.startswith(f + ".")]
-                assert not bad, f"{name} imports {module}, against the layering"
+        if name.startswith(("placement.planning", "placement.maps", "placement.kernels", "placement.storage")):
+            assert not module.startswith(("matplotlib", "viser")), f"{name} imports {module}"
+        if name == "placement.maps.rmap":  # opening a map needs none of the builder
+            heavy = ("placement.maps.build", "placement.maps.selfcollision", "tqdm")
+            assert not module.startswith(heavy), f"{name} imports {module}"
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one node (Tarjan, iterative)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found = []
+    for start in sorted(graph):
+        if start in index:
+            continue
+        work = [(start, iter(sorted(graph[start])))]
+        index[start] = low[start] = len(index)
+        stack.append(start)
+        on_stack.add(start)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = len(index)
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(graph.get(child, ())))))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    top = stack.pop()
+                    on_stack.discard(top)
+                    component.append(top)
+                    if top == node:
+                        break
+                if len(component) > 1:
+                    found.append(sorted(component))
+    return found
+
+
+def _planning_internal(a: str, b: str) -> bool:
+    # placement.planning is being untangled by another change: its internal edges are left out until that
+    # lands (the coordinator removes this exception then)
+    return a.startswith("placement.planning") and b.startswith("placement.planning")
+
+
+def test_no_import_cycle_between_modules():
+    graph = {
+        name: {t for t in _targets(path) if not _planning_internal(name, t) and (name, t) not in PENDING}
+        for name, path in MODULES.items()
+    }
+    assert _cycles(graph) == []
+
+
+def test_no_import_cycle_between_packages():
+    graph: dict[str, set[str]] = {}
+    for name, path in MODULES.items():
+        own = _package(name)
+        graph.setdefault(own, set())
+        for t in _targets(path):
+            if (name, t) not in PENDING and _package(t) != own:
+                graph[own].add(_package(t))
+    assert _cycles(graph) == []
 
 
 def test_opening_a_map_does_not_import_the_builder():
