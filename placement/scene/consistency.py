@@ -3,7 +3,14 @@ inside an obstacle's volume, objects apart, a grasp for every picked object, the
 
 from __future__ import annotations
 
-from placement.scene.checks import TOLERANCE, object_penetrates, obstacles_near, overlapping_objects, point_inside
+from placement.scene.checks import (
+    TOLERANCE,
+    Coords,
+    object_penetrates,
+    obstacles_near,
+    overlapping_objects,
+    point_inside,
+)
 from placement.scene.limits import MAX_GRID_CELLS, MAX_OBSTACLES, MAX_TOTAL_VERTICES
 from placement.scene.model import Polygon, Scene, SceneError, grid_shape
 from placement.scene.places import check_place_orientations
@@ -42,7 +49,7 @@ def check_scene(
             "set smaller bounds",
         )
 
-    def inside(xy, path: str, what: str):
+    def inside(xy: Coords, path: str, what: str) -> None:
         x, y = float(xy[0]), float(xy[1])
         if not (bounds[0] <= x <= bounds[2] and bounds[1] <= y <= bounds[3]):
             P.fail(path, f"{what} at ({fmt(x)}, {fmt(y)}) is outside bounds [{', '.join(fmt(b) for b in bounds)}]")

@@ -137,7 +137,7 @@ def parse_scene(
             "robot.preset",
             f"unknown robot '{preset}'; built-in presets: {', '.join(builtin_presets())} (or a path to a robot YAML)",
         )
-    start = P.coords(robot["start"], "robot.start", 3)
+    start_x, start_y, start_yaw = P.coords(robot["start"], "robot.start", 3)
 
     maps = None
     if doc.get("maps") is not None:
@@ -177,7 +177,7 @@ def parse_scene(
         resolution=resolution,
         bounds=(0.0, 0.0, 1.0, 1.0),
         robot_preset=preset,
-        start=tuple(start),
+        start=(start_x, start_y, start_yaw),
         maps=maps,
         occupancy_map=occ_path,
         obstacles=tuple(obstacles),
@@ -195,4 +195,5 @@ def parse_scene(
             P.fail("bounds", f"expected [xmin, ymin, xmax, ymax] with xmin < xmax and ymin < ymax, got {list(bounds)}")
     else:
         bounds = default_bounds(scene)
-    return check_scene(replace(scene, bounds=tuple(float(b) for b in bounds)), where)
+    xmin, ymin, xmax, ymax = (float(b) for b in bounds)
+    return check_scene(replace(scene, bounds=(xmin, ymin, xmax, ymax)), where)

@@ -3,6 +3,9 @@ checked strictly as it is read; :func:`placement.scene.parse.parse_scene` reads 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 
 from placement.scene.limits import MAX_COORD, MAX_POLYGON_VERTICES, MAX_TOTAL_VERTICES
@@ -39,26 +42,26 @@ class SceneParser(PoseParser):
     """The parts of a scene file; ``names`` collects the names used so far (they are unique).
     ``version``: the scene's format version (version 2 keys are refused below 2)."""
 
-    def __init__(self, where: str, version: int = SCENE_VERSION):
+    def __init__(self, where: str, version: int = SCENE_VERSION) -> None:
         super().__init__(where, SceneError)
         self.names: dict[str, str] = {}
         self.version = version
         self.vertices = 0  # polygon points so far
 
-    def coords(self, value, path: str, n: int) -> tuple[float, ...]:
+    def coords(self, value: Any, path: str, n: int) -> tuple[float, ...]:
         return self.vector(value, path, n, maximum=MAX_COORD)
 
-    def sizes(self, value, path: str, n: int) -> tuple[float, ...]:
+    def sizes(self, value: Any, path: str, n: int) -> tuple[float, ...]:
         return self.vector(value, path, n, positive=True, maximum=MAX_COORD)
 
-    def unique(self, value, path: str) -> str:
+    def unique(self, value: Any, path: str) -> str:
         n = self.string(value, path)
         if n in self.names:
             self.fail(path, f"duplicate name '{n}' (already used by {self.names[n]})")
         self.names[n] = path.rsplit(".", 1)[0]
         return n
 
-    def shape(self, d: dict, path: str) -> Shape:
+    def shape(self, d: dict[str, Any], path: str) -> Shape:
         kinds = [k for k in SHAPES if k in d]
         if len(kinds) != 1:
             got = "none" if not kinds else " and ".join(kinds)
@@ -69,14 +72,14 @@ class SceneParser(PoseParser):
         if kind == "box":
             self.mapping(v, p, BOX_KEYS, ("center", "size"))
             return Box(
-                self.coords(v["center"], f"{p}.center", 3),
-                self.sizes(v["size"], f"{p}.size", 3),
+                np.array(self.coords(v["center"], f"{p}.center", 3)),
+                np.array(self.sizes(v["size"], f"{p}.size", 3)),
                 self.number(v.get("yaw", 0.0), f"{p}.yaw"),
             )
         if kind == "cylinder":
             self.mapping(v, p, CYLINDER_KEYS, CYLINDER_KEYS)
             return Cylinder(
-                self.coords(v["center"], f"{p}.center", 3),
+                np.array(self.coords(v["center"], f"{p}.center", 3)),
                 self.positive(v["radius"], f"{p}.radius", MAX_COORD),
                 self.positive(v["height"], f"{p}.height", MAX_COORD),
             )
@@ -108,7 +111,7 @@ class SceneParser(PoseParser):
             )
         return Polygon(pts)
 
-    def obstacle(self, item, p: str) -> Obstacle:
+    def obstacle(self, item: Any, p: str) -> Obstacle:
         self.mapping(item, p, OBSTACLE_KEYS, ("name",))
         nm = self.unique(item["name"], f"{p}.name")
         shape = self.shape(item, p)
@@ -117,36 +120,41 @@ class SceneParser(PoseParser):
             self.fail(f"{p}.table", "a polygon has no height: a table must be a box or a cylinder")
         return Obstacle(nm, shape, table)
 
-    def scene_object(self, item, p: str) -> SceneObject:
+    def scene_object(self, item: Any, p: str) -> SceneObject:
         self.gate(item, p, "objects")
         self.mapping(item, p, OBJECT_KEYS if self.version >= V2 else OBJECT_KEYS_V1, ("name", "position", "size"))
         nm = self.unique(item["name"], f"{p}.name")
-        position = self.coords(item["position"], f"{p}.position", 3)
+        position = np.array(self.coords(item["position"], f"{p}.position", 3))
         if "orientation" in item and "yaw" in item:
             self.fail(p, "give 'orientation' [x, y, z, w] or 'yaw' [rad], not both")
         yaw = self.number(item.get("yaw", 0.0), f"{p}.yaw")
         q = self.quaternion(item["orientation"], f"{p}.orientation") if "orientation" in item else None
-        size = self.sizes(item["size"], f"{p}.size", 3)
+        size = np.array(self.sizes(item["size"], f"{p}.size", 3))
         grasps = self.grasps(item["grasps"], f"{p}.grasps", MAX_COORD) if "grasps" in item else ()
         return SceneObject(nm, position, yaw, size, q, grasps)
 
-    def place(self, item, p: str) -> PlaceLocation:
+    def place(self, item: Any, p: str) -> PlaceLocation:
         self.gate(item, p, "place_locations")
         self.mapping(item, p, PLACE_KEYS if self.version >= V2 else PLACE_KEYS_V1, PLACE_KEYS_V1)
         orientations = self.orientations(item["orientations"], f"{p}.orientations") if "orientations" in item else None
-        return PlaceLocation(
-            self.unique(item["name"], f"{p}.name"), self.coords(item["position"], f"{p}.position", 3), orientations
-        )
+        name = self.unique(item["name"], f"{p}.name")
+        return PlaceLocation(name, np.array(self.coords(item["position"], f"{p}.position", 3)), orientations)
 
-    def trajectories(self, items) -> list[Trajectory]:
-        out = []
+    def trajectories(self, items: Any) -> list[Trajectory]:
+        out: list[Trajectory] = []
         for i, item in enumerate(self.items(items, "trajectories")):
             t = self.trajectory(item, f"trajectories[{i}]", MAX_COORD)
             self.unique(t.name, f"trajectories[{i}].name")
             out.append(t)
         return out
 
-    def task(self, items, objects, places, trajectories=()) -> list[TaskStep]:
+    def task(
+        self,
+        items: Any,
+        objects: Sequence[SceneObject],
+        places: Sequence[PlaceLocation],
+        trajectories: Sequence[Trajectory] = (),
+    ) -> list[TaskStep]:
         kind = "{pick, place} or {reach} step" if self.version >= V2 else "{pick, place} step"
         if not isinstance(items, list):
             self.fail("task", f"expected a list of {kind}s, got {describe(items)}")
@@ -155,7 +163,7 @@ class SceneParser(PoseParser):
         object_names = [o.name for o in objects]
         place_names = [p.name for p in places]
         picked: dict[str, str] = {}
-        task = []
+        task: list[TaskStep] = []
         for i, item in enumerate(items):
             p = f"task[{i}]"
             self.gate(item, p, "task")
