@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -49,6 +50,10 @@ from placement.maps.pose_accuracy import (
     wilson,
 )
 from placement.robots import Robot
+
+if TYPE_CHECKING:
+    from placement.maps.rmap import ReachabilityMap
+    from placement.storage.format import BuiltMap
 
 # the pose level's names keep their import path here (the CLI, tools and tests read them from this module)
 __all__ = [
@@ -68,7 +73,7 @@ MAX_CHECK_SAMPLES = 100_000  # IK checks per class; ~10 ms each
 
 def check_map(
     robot: Robot,
-    rmap,
+    rmap: ReachabilityMap | BuiltMap,
     samples: int = 200,
     seed: int = 0,
     threshold: float = 0.0,
@@ -77,7 +82,7 @@ def check_map(
     max_iter: int = 200,
     pose_level: bool = True,
     progress: Callable[[int, int], None] | None = None,
-) -> dict:
+) -> dict[str, Any]:
     """Accuracy of ``rmap`` against IK on random cells it calls reachable and unreachable.
 
     Args:
@@ -132,16 +137,16 @@ def check_map(
     centre, reach, in_reach = reach_sphere(robot, arm, grid)
 
     # One pass: positive cells (flat indices) and positives per position cell.
-    pos_cells = []
+    pos_blocks = []
     pos_per_position = np.zeros(n_pos_cells, dtype=np.int64)
     step = max(1, _CHUNK // n_orient) * n_orient
     for lo in range(0, flat.size, step):
         block = flat[lo : lo + step] > threshold
-        pos_cells.append(np.flatnonzero(block) + lo)
+        pos_blocks.append(np.flatnonzero(block) + lo)
         pos_per_position[lo // n_orient : lo // n_orient + block.size // n_orient] = block.reshape(-1, n_orient).sum(
             axis=1
         )
-    pos_cells = np.concatenate(pos_cells) if pos_cells else np.zeros(0, dtype=np.int64)
+    pos_cells = np.concatenate(pos_blocks) if pos_blocks else np.zeros(0, dtype=np.int64)
     n_pos = int(pos_cells.size)
     reach_positions = np.flatnonzero(in_reach)
     n_neg = int(len(reach_positions) * n_orient - pos_per_position[reach_positions].sum())

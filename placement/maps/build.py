@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import datetime as _dt
 import time
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,6 +32,9 @@ from placement.robots import Robot
 from placement.storage.format import FORMAT_VERSION, BuiltMap
 from placement.version import __version__
 
+if TYPE_CHECKING:
+    from dask.distributed import Client
+
 __all__ = ["DEFAULT_BINS", "BuiltMap", "arm_reach", "build_grid", "build_map", "default_grid"]
 
 
@@ -49,13 +54,17 @@ def arm_reach(robot: Robot, arm: str) -> tuple[np.ndarray, float]:
     return centre, reach
 
 
-def default_grid(robot: Robot, arm: str, resolution: float = DEFAULT_RESOLUTION, bins=DEFAULT_BINS) -> Grid:
+def default_grid(
+    robot: Robot, arm: str, resolution: float = DEFAULT_RESOLUTION, bins: Sequence[int] = DEFAULT_BINS
+) -> Grid:
     """The grid that covers every pose the arm can reach, at ``resolution`` [m]."""
     centre, reach = arm_reach(robot, arm)
     return Grid.around(centre, reach + resolution, resolution, tuple(bins))
 
 
-def build_grid(robot: Robot, arm: str, resolution: float = DEFAULT_RESOLUTION, bins=DEFAULT_BINS) -> Grid:
+def build_grid(
+    robot: Robot, arm: str, resolution: float = DEFAULT_RESOLUTION, bins: Sequence[int] = DEFAULT_BINS
+) -> Grid:
     """The grid :func:`build_map` fills for ``arm``, after the checks it makes before sampling (cheap)."""
     a = robot.arm(arm)
     if a.dof < 6:
@@ -133,12 +142,12 @@ def build_map(
     samples: int,
     seed: int = 0,
     resolution: float = DEFAULT_RESOLUTION,
-    bins=DEFAULT_BINS,
+    bins: Sequence[int] = DEFAULT_BINS,
     index: str = "isotropy",
     block: int = 1 << 19,
     progress: bool = True,
-    on_block=None,
-    client=None,
+    on_block: Callable[[int, np.ndarray], object] | None = None,
+    client: Client | None = None,
     tasks: int | None = None,
     self_collision: bool = False,
     self_distance: bool = False,
@@ -198,7 +207,7 @@ def build_map(
         if client is None:
             last = [0]
 
-            def tick(done, vals):
+            def tick(done: int, vals: np.ndarray) -> None:
                 bar.update(done - last[0])
                 last[0] = done
                 if on_block is not None:
@@ -253,7 +262,7 @@ def build_map(
             leave=False,
         ) as bar:
 
-            def step(done, total):
+            def step(done: int, total: int) -> None:
                 bar.total = total
                 bar.update(done - bar.n)
 

@@ -10,8 +10,10 @@ by :func:`placement.build_map`.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -19,6 +21,9 @@ from placement.errors import PlacementError
 from placement.kinematics.manipulability import INDEX_NAMES
 from placement.storage import BACKENDS
 from placement.storage.files import FileRefused, read_bounded
+
+if TYPE_CHECKING:
+    from placement.robots.preset import Robot
 
 MAX_SAMPLES = 10**11  # ~1 day of sampling at 1.2 M samples/s [count per arm]
 MAX_SEED = 2**64 - 1  # seeds are uint64
@@ -73,7 +78,7 @@ class BuildSpec:
     self_distance: bool = False
     completion: bool = False
 
-    def arms_of(self, robot) -> list[str]:
+    def arms_of(self, robot: Robot) -> list[str]:
         """The arms to build on ``robot`` (ArmNotFound, naming the robot's arms, for an unknown one)."""
         arms = list(self.arms) if self.arms else list(robot.arms)
         for arm in arms:
@@ -81,13 +86,13 @@ class BuildSpec:
         return arms
 
 
-def show(value) -> str:
+def show(value: object) -> str:
     """A short one-line rendering of a bad value for an error message."""
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def whole_number(value) -> int | None:
+def whole_number(value: object) -> int | None:
     """``value`` as an int if it is a whole number (int, integral float, or such a string), else None."""
     if isinstance(value, bool):
         return None
@@ -107,7 +112,7 @@ def whole_number(value) -> int | None:
     return None
 
 
-def parse_count(value, where: str, lo: int, hi: int) -> int:
+def parse_count(value: object, where: str, lo: int, hi: int) -> int:
     """A whole number in [lo, hi] (``1e6`` is accepted as 1000000, 1.5 is not)."""
     n = whole_number(value)
     if n is None or not lo <= n <= hi:
@@ -115,7 +120,7 @@ def parse_count(value, where: str, lo: int, hi: int) -> int:
     return n
 
 
-def parse_length(value, where: str, lo: float, hi: float) -> float:
+def parse_length(value: object, where: str, lo: float, hi: float) -> float:
     """A finite length [m] in [lo, hi] (a number or a numeric string)."""
     x = None
     if not isinstance(value, bool) and isinstance(value, (int, float, str)):
@@ -128,13 +133,14 @@ def parse_length(value, where: str, lo: float, hi: float) -> float:
     return x
 
 
-def parse_bins(value, where: str) -> tuple[int, int, int]:
+def parse_bins(value: object, where: str) -> tuple[int, int, int]:
     """Three orientation bin counts YAW,PITCH,ROLL (a list, or a comma-separated string)."""
     items = value.split(",") if isinstance(value, str) else value
     counts = [whole_number(b) for b in items] if isinstance(items, (list, tuple)) else []
-    if len(counts) != 3 or any(c is None or not 1 <= c <= MAX_BINS for c in counts):
+    valid = [c for c in counts if c is not None and 1 <= c <= MAX_BINS]
+    if len(counts) != 3 or len(valid) != 3:
         raise PlacementError(f"{where} must be three bin counts YAW,PITCH,ROLL from 1 to {MAX_BINS}, got {show(value)}")
-    yaw, pitch, roll = counts
+    yaw, pitch, roll = valid
     if yaw % 2 or roll % 2:
         raise PlacementError(
             f"{where}: yaw and roll bin counts must be even (roll +-pi is a bin centre), got {yaw} and {roll}"
@@ -144,25 +150,25 @@ def parse_bins(value, where: str) -> tuple[int, int, int]:
     return yaw, pitch, roll
 
 
-def parse_choice(value, where: str, choices) -> str:
+def parse_choice(value: object, where: str, choices: Collection[str]) -> str:
     if not isinstance(value, str) or value not in choices:
         raise PlacementError(f"{where} must be one of {', '.join(choices)}, got {show(value)}")
     return value
 
 
-def parse_flag(value, where: str) -> bool:
+def parse_flag(value: object, where: str) -> bool:
     if not isinstance(value, bool):
         raise PlacementError(f"{where} must be true or false, got {show(value)}")
     return value
 
 
-def parse_name(value, where: str) -> str:
+def parse_name(value: object, where: str) -> str:
     if not isinstance(value, str) or not value.strip():
         raise PlacementError(f"{where} must be a name (a non-empty string), got {show(value)}")
     return value
 
 
-def parse_arms(value, where: str) -> tuple[str, ...]:
+def parse_arms(value: object, where: str) -> tuple[str, ...]:
     """A list of distinct arm names, or one name as a string."""
     names = [value] if isinstance(value, str) else value
     if not isinstance(names, (list, tuple)) or not names:
@@ -173,14 +179,14 @@ def parse_arms(value, where: str) -> tuple[str, ...]:
     return arms
 
 
-def parse_build_spec(data, source: str = "build spec") -> BuildSpec:
+def parse_build_spec(data: object, source: str = "build spec") -> BuildSpec:
     """Check a build spec mapping (from YAML) and return it as a :class:`BuildSpec`."""
     if not isinstance(data, dict) or not data:
         raise PlacementError(f"{source} must be a non-empty mapping of {', '.join(SPEC_KEYS)}, got {show(data)}")
     unknown = [k for k in data if k not in SPEC_KEYS]
     if unknown:
         raise PlacementError(f"{source}: unknown key {show(unknown[0])}; allowed: {', '.join(SPEC_KEYS)}")
-    parsers = {
+    parsers: dict[str, Callable[[Any, str], Any]] = {
         "robot": lambda v, w: parse_name(v, w),
         "arms": parse_arms,
         "samples": lambda v, w: parse_count(v, w, 1, MAX_SAMPLES),

@@ -3,6 +3,8 @@ from its neighbour's witness towards the cell's centre pose."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from placement.kernels.sampling import completion_sources, refined_configs
@@ -26,7 +28,7 @@ def complete(
     block: int = 1 << 18,
     self_collision: SelfCollision | None = None,
     self_distance: bool = False,
-    on_block=None,
+    on_block: Callable[[int, int], object] | None = None,
 ) -> int:
     """Map completion: every empty cell next to a reached one gets one more sample, a few DLS steps
     from the witness of its first reached face neighbour (with a plain-sample witness) towards its

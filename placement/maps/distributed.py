@@ -3,19 +3,42 @@ private grid on a worker, the reached cells merged here (bitwise equal to the lo
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+import numpy.typing as npt
 
 from placement.kernels.sampling import reduce_max
 from placement.maps.grid import Grid
 from placement.maps.sampling import sample_range
 from placement.maps.selfcollision import SelfCollision
 from placement.maps.witness import empty_witnesses
-from placement.robots import load_robot
+from placement.robots import Robot, load_robot
+
+if TYPE_CHECKING:
+    from dask.distributed import Client
+
+    from placement.progress import EtaBar
 
 
 def sample_distributed(
-    client, robot, arm, grid, values, witness, seed, samples, index, tasks, bar, self_collision, self_distance
+    client: Client,
+    robot: Robot,
+    arm: str,
+    grid: Grid,
+    values: npt.NDArray[np.float32],
+    witness: np.ndarray,
+    seed: int,
+    samples: int,
+    index: str,
+    tasks: int | None,
+    bar: EtaBar,
+    self_collision: bool,
+    self_distance: bool,
 ) -> int:
+    """Sample ``samples`` samples of ``seed`` on the cluster into ``values`` and ``witness`` (flat, see
+    :func:`placement.maps.sampling.sample_range`) in ``tasks`` tasks (default 4 per worker thread),
+    advancing ``bar`` as each finishes; returns how many fell outside the grid."""
     from dask.distributed import as_completed
 
     if tasks is None:
@@ -55,7 +78,7 @@ def sample_distributed(
 def _remote_range(
     preset: str,
     arm: str,
-    grid_dict: dict,
+    grid_dict: dict[str, Any],
     seed: int,
     start: int,
     count: int,
@@ -63,7 +86,7 @@ def _remote_range(
     self_collision: bool = False,
     self_distance: bool = False,
     total: int = 0,
-):
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float32], np.ndarray, int]:
     """Dask task: a sub-range into a private grid, returned sparse (flat indices int64, values float32,
     witnesses)."""
     robot = load_robot(preset)

@@ -8,12 +8,18 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from placement.kinematics.ik import solve_ik
 from placement.maps.build import arm_reach
+from placement.maps.grid import Grid
 from placement.robots import Robot
+
+if TYPE_CHECKING:
+    from placement.maps.rmap import ReachabilityMap
+    from placement.storage.format import BuiltMap
 
 
 def ratio(num: float, den: float) -> float | None:
@@ -21,7 +27,7 @@ def ratio(num: float, den: float) -> float | None:
     return float(num / den) if den > 0 else None
 
 
-def reach_sphere(robot: Robot, arm: str, grid) -> tuple[np.ndarray, float, np.ndarray]:
+def reach_sphere(robot: Robot, arm: str, grid: Grid) -> tuple[np.ndarray, float, np.ndarray]:
     """(centre (3,) [m], reach bound [m], in_reach (nx*ny*nz,) bool): position cells whose centre lies
     in the arm's reach sphere (:func:`placement.maps.build.arm_reach`)."""
     centre, reach = arm_reach(robot, arm)
@@ -47,7 +53,7 @@ def wilson(k: int, n: int) -> list[float] | None:
     return [float(max(0.0, mid - half)), float(min(1.0, mid + half))]
 
 
-def poses_in_cells(grid, cells: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def poses_in_cells(grid: Grid, cells: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """Poses (N, 4, 4) drawn uniformly inside the cells ``cells`` (N,): position uniform in the cube,
     yaw / pitch / roll uniform within their bins [rad]."""
     from placement.maps.grid import pose_from_zyx
@@ -66,7 +72,7 @@ def poses_in_cells(grid, cells: np.ndarray, rng: np.random.Generator) -> np.ndar
 
 def pose_metrics(
     robot: Robot,
-    rmap,
+    rmap: ReachabilityMap | BuiltMap,
     samples: int = 200,
     seed: int = 0,
     threshold: float = 0.0,
@@ -75,7 +81,7 @@ def pose_metrics(
     max_iter: int = 200,
     max_draws: int | None = None,
     progress: Callable[[int, int], None] | None = None,
-) -> dict:
+) -> dict[str, Any]:
     """Pose-level precision and recall of a map against IK (1 cm, 0.05 rad).
 
     * precision: ``samples`` cells drawn uniformly among those the map calls reachable

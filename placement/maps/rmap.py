@@ -5,13 +5,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.errors import GridError, MapError, PlacementError
 from placement.kernels.grid import cell_indices
 from placement.maps.grid import Grid
 from placement.maps.witness import empty_value, plain_samples, witness_configs
 from placement.robots import Robot, load_robot
-from placement.storage import open_store
+from placement.storage import StoredMap, open_store
 from placement.storage.format import witness_name
 from placement.storage.output import MapOutput, check_target, save_maps
 from placement.storage.validate import TCP_TOLERANCE, check_root, validate_arm, validate_robot
@@ -38,7 +39,7 @@ class ReachabilityMap:
         against (None if opened without :func:`open_map`).
     """
 
-    def __init__(self, store, arm: str, robot: Robot | None = None):
+    def __init__(self, store: StoredMap, arm: str, robot: Robot | None = None) -> None:
         self.store = store
         self.path = store.path
         self.arm = arm
@@ -69,9 +70,10 @@ class ReachabilityMap:
         return self
 
     @property
-    def values(self) -> np.ndarray:
+    def values(self) -> npt.NDArray[np.float32]:
         """The whole 6D float32 array (x, y, z, yaw, pitch, roll), read on first use."""
-        self.load()
+        if self._full is None:
+            self._full = self.store.read_all(self.arm)
         return self._full
 
     @property
@@ -85,7 +87,13 @@ class ReachabilityMap:
         """Witnesses (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""
         return self._chunk(self._full_witness, self._witness_slices, (iz, ip, ir), True)
 
-    def _chunk(self, full: np.ndarray | None, cache: dict, key: tuple, witness: bool) -> np.ndarray:
+    def _chunk(
+        self,
+        full: np.ndarray | None,
+        cache: dict[tuple[int, int, int], np.ndarray],
+        key: tuple[int, int, int],
+        witness: bool,
+    ) -> np.ndarray:
         """Chunk ``key`` = (iz, ip, ir) of the values or witnesses: from the whole array if read, else
         read once and cached."""
         if full is not None:
@@ -96,7 +104,7 @@ class ReachabilityMap:
             s = cache[key] = self.store.read_chunk(self.arm, *key, witness=witness)
         return s
 
-    def witness_q(self, pose_base) -> np.ndarray | None:
+    def witness_q(self, pose_base: npt.ArrayLike) -> npt.NDArray[np.float64] | None:
         """The witness configuration of the cell holding a TCP pose, or None if that cell is empty or outside.
 
         Args:
@@ -150,7 +158,7 @@ class ReachabilityMap:
             self._reach[key] = r
         return r
 
-    def value(self, T) -> np.ndarray:
+    def value(self, T: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """Map values of TCP poses T (4, 4) or (N, 4, 4) in the base frame -> (N,); 0 = unreachable."""
         T = np.ascontiguousarray(T, dtype=float)
         if T.shape[-2:] != (4, 4):
@@ -194,10 +202,8 @@ def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> Re
     store = open_store(path)
     root = store.root
     check_root(path, root)
-    if robot is None:
-        robot = root.get("preset") or root.get("robot")
     if not isinstance(robot, Robot):
-        robot = load_robot(robot)
+        robot = load_robot(robot if robot is not None else str(root.get("preset") or root.get("robot")))
     validate_robot(path, root, robot)
     arms = list(root.get("arms") or [])
     if arm not in arms:

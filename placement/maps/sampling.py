@@ -3,6 +3,8 @@ the per-cell maximum with their witnesses (one loop for the local and the distri
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from placement.errors import PlacementError
@@ -11,6 +13,8 @@ from placement.kinematics.manipulability import INDEX_NAMES, ROTATION_SCALE
 from placement.maps.grid import Grid
 from placement.maps.selfcollision import SelfCollision
 from placement.robots import Robot
+
+NEEDS_CHECKER = "the self-distance penalty needs a SelfCollision checker (self_collision=...)"
 
 
 def sample_range(
@@ -25,7 +29,7 @@ def sample_range(
     count: int,
     index: str,
     block: int = 1 << 19,
-    on_block=None,
+    on_block: Callable[[int, np.ndarray], object] | None = None,
     self_collision: SelfCollision | None = None,
     self_distance: bool = False,
 ) -> int:
@@ -42,7 +46,7 @@ def sample_range(
     sample gets its self-distance row penalties before it is evaluated.
     """
     if self_distance and self_collision is None:
-        raise PlacementError("the self-distance penalty needs a SelfCollision checker (self_collision=...)")
+        raise PlacementError(NEEDS_CHECKER)
     if self_distance:
         # ~1.6 ms of distance queries per sample: small blocks keep the progress bar moving
         # (the block size never changes the map)
@@ -84,6 +88,8 @@ def fold(
     vals = np.empty(n, dtype=np.float64)
     rowfac = np.ones((0, 6, 2))
     if self_distance:
+        if self_collision is None:
+            raise PlacementError(NEEDS_CHECKER)
         q = configs_at(np.uint64(seed), ids, a.lower, a.upper) if configs is None else given
         rowfac = self_collision.row_factors(q)
     sample_block(

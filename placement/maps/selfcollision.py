@@ -21,7 +21,10 @@ proportion to how directly it approaches. d <= 0 is a collision (rejected).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from placement.collision.robot import adjacent, load_geometry, moved_joints
@@ -93,11 +96,11 @@ class SelfCollision:
         self._q = robot.reference_q()
 
     @staticmethod
-    def _moved_joints(model, joint_ids) -> set[int]:
+    def _moved_joints(model: pin.Model, joint_ids: list[int]) -> set[int]:
         """The arm's joints and every joint below them in the kinematic tree."""
         return moved_joints(model, joint_ids)
 
-    def collides(self, Q) -> np.ndarray:
+    def collides(self, Q: npt.ArrayLike) -> npt.NDArray[np.bool_]:
         """(N,) bool: True where configuration Q[i] (n,) [rad/m] of the arm collides with the robot."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
         out = np.zeros(len(Q), dtype=bool)
@@ -106,7 +109,7 @@ class SelfCollision:
             out[i] = pin.computeCollisions(self.robot.model, self._data, self.geom, self._gdata, qf, True)
         return out
 
-    def row_factors(self, Q) -> np.ndarray:
+    def row_factors(self, Q: npt.ArrayLike) -> npt.NDArray[np.float64]:
         """(N, 6, 2) self-distance row penalties of configurations Q (N, n) (see the module doc).
 
         Row factors are 1 for rotation rows; [i, 0, 0] is -1 where Q[i] collides.
@@ -147,7 +150,9 @@ class SelfCollision:
                 out[i, r, 1] = 1.0 / np.sqrt(1.0 + pen * max(0.0, -n[r]))
         return out
 
-    def _nearest_pair(self, qf, centre, first, second):
+    def _nearest_pair(
+        self, qf: np.ndarray, centre: npt.NDArray[np.float64], first: npt.NDArray[np.intp], second: npt.NDArray[np.intp]
+    ) -> tuple[int, Any]:  # Any: a coal DistanceResult (coal has no types)
         """(pair index, coal DistanceResult) of the pair at the smallest distance, exactly.
 
         Pairs are measured in order of a lower bound (distance of their bounding

@@ -25,38 +25,60 @@ Compressed, the empty cells (most of the grid) cost almost nothing on disk.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.errors import MapError
 from placement.kernels.sampling import NEIGHBOURS, configs_at, refined_config, refined_configs
 
+if TYPE_CHECKING:
+    from placement.maps.grid import Grid
+    from placement.robots.preset import Arm, Robot
+
 K = int(NEIGHBOURS.shape[0])
+
+
+class WitnessedMap(Protocol):
+    """What :func:`verify_witnesses` reads of a map: a ReachabilityMap or a BuiltMap."""
+
+    @property
+    def meta(self) -> dict[str, Any]: ...
+    @property
+    def grid(self) -> Grid: ...
+    @property
+    def values(self) -> np.ndarray: ...
+    @property
+    def witness(self) -> np.ndarray | None: ...
+
+
 UINT32_LIMIT = 2**32 - 1
 
 
-def witness_dtype(plain: int) -> np.dtype:
+def witness_dtype(plain: int) -> np.dtype[np.uint32 | np.int64]:
     """The smallest witness dtype for a build of ``plain`` samples (uint32 or int64)."""
     return np.dtype(np.uint32) if plain * (1 + K) < UINT32_LIMIT else np.dtype(np.int64)
 
 
-def empty_value(dtype) -> int:
+def empty_value(dtype: npt.DTypeLike) -> int:
     """The witness of a never-reached cell: the largest value of ``dtype`` (loses every tie)."""
     return int(np.iinfo(np.dtype(dtype)).max)
 
 
-def empty_witnesses(size: int, plain: int) -> np.ndarray:
+def empty_witnesses(size: int, plain: int) -> npt.NDArray[np.uint32 | np.int64]:
     """A flat witness array (size,) of never-reached cells for a build of ``plain`` samples."""
     dt = witness_dtype(plain)
     return np.full(size, empty_value(dt), dtype=dt)
 
 
-def completion_id(plain: int, source: np.ndarray, direction: np.ndarray) -> np.ndarray:
+def completion_id(plain: int, source: npt.ArrayLike, direction: npt.ArrayLike) -> npt.NDArray[np.int64]:
     """Witness numbers (m,) int64 of completion samples from sample ``source`` along neighbour ``direction``."""
     return plain + np.asarray(source, dtype=np.int64) * K + np.asarray(direction, dtype=np.int64)
 
 
-def witness_info(plain: int, completion: bool) -> dict:
+def witness_info(plain: int, completion: bool) -> dict[str, Any]:
     """The ``witness`` entry of an arm's metadata (how to read the witness array)."""
     dt = witness_dtype(plain)
     return {
@@ -70,7 +92,7 @@ def witness_info(plain: int, completion: bool) -> dict:
     }
 
 
-def plain_samples(meta: dict) -> int:
+def plain_samples(meta: dict[str, Any]) -> int:
     """The build's sample count from an arm's metadata (MapError if the witness entry is malformed)."""
     try:
         return int(meta["witness"]["plain_samples"])
@@ -78,7 +100,7 @@ def plain_samples(meta: dict) -> int:
         raise MapError(f"map of arm '{meta.get('arm')}' has no readable witness metadata; rebuild it") from None
 
 
-def witness_configs(arm, grid, seed: int, plain: int, witnesses: np.ndarray) -> np.ndarray:
+def witness_configs(arm: Arm, grid: Grid, seed: int, plain: int, witnesses: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Joint configurations (m, n) [rad or m] of witnesses (m,) of a map of ``arm`` (a robot's Arm).
 
     Raises MapError for a witness that is empty or out of the numbering.
@@ -94,13 +116,13 @@ def witness_configs(arm, grid, seed: int, plain: int, witnesses: np.ndarray) -> 
     ch = arm.chain
     out = np.empty((w.size, arm.dof))
     is_plain = w < plain
-    seed = np.uint64(seed)
+    seed64 = np.uint64(seed)
     if is_plain.any():
-        out[is_plain] = configs_at(seed, np.ascontiguousarray(w[is_plain]), arm.lower, arm.upper)
+        out[is_plain] = configs_at(seed64, np.ascontiguousarray(w[is_plain]), arm.lower, arm.upper)
     if not is_plain.all():
         c = w[~is_plain] - plain
         q, _ = refined_configs(
-            seed,
+            seed64,
             c // K,
             c % K,
             arm.lower,
@@ -118,7 +140,7 @@ def witness_configs(arm, grid, seed: int, plain: int, witnesses: np.ndarray) -> 
     return out
 
 
-def one_witness_config(arm, grid, seed: int, plain: int, w: int) -> np.ndarray:
+def one_witness_config(arm: Arm, grid: Grid, seed: int, plain: int, w: int) -> npt.NDArray[np.float64]:
     """The configuration (n,) [rad or m] of one valid witness ``w`` (no checks, serial: microseconds)."""
     lo, hi = arm.lower, arm.upper
     if w < plain:
@@ -146,8 +168,13 @@ def one_witness_config(arm, grid, seed: int, plain: int, w: int) -> np.ndarray:
 
 
 def verify_witnesses(
-    robot, rmap, sample: int | None = None, seed: int = 0, block: int = 1 << 16, progress=None
-) -> dict:
+    robot: Robot,
+    rmap: WitnessedMap,
+    sample: int | None = None,
+    seed: int = 0,
+    block: int = 1 << 16,
+    progress: Callable[[int, int], object] | None = None,
+) -> dict[str, Any]:
     """Recompute stored values from their witnesses and compare them bitwise.
 
     Args:
@@ -172,8 +199,10 @@ def verify_witnesses(
     plain = plain_samples(meta)
     empty = empty_value(meta["witness"]["dtype"])
     values = rmap.values.reshape(-1)
+    if rmap.witness is None:
+        raise MapError(f"the map of arm '{arm_name}' has no witnesses to verify (a convergence snapshot)")
     wit = rmap.witness.reshape(-1)
-    first: list[dict] = []
+    first: list[dict[str, Any]] = []
     reached = np.flatnonzero(values > 0)
     # a reached cell without a witness, or a witness on an empty cell
     odd = np.flatnonzero((values > 0) == (wit == empty))
