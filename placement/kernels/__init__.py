@@ -21,4 +21,4 @@ def _cache_dir() -> str:
     return str(Path(base) / f"kernels-{digest.hexdigest()[:12]}-numba{numba.__version__}")
 
 
-numba.config.CACHE_DIR = _cache_dir()
+numba.config.CACHE_DIR = _cache_dir()  # type: ignore[attr-defined]  # numba.config sets its names at run time

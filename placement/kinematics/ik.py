@@ -33,6 +33,7 @@ import weakref
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from placement.errors import PlacementError, RobotError
@@ -89,9 +90,9 @@ class _ArmIK:
         placement = tip.placement * pin.SE3(np.asarray(a.tcp_offset, dtype=float))
         self.frame_id = model.addFrame(pin.Frame(name, tip.parentJoint, tip_id, placement, pin.FrameType.OP_FRAME))
         self.model = model
-        self.cols = []
-        self.idx_q = []
-        self.nq2 = []
+        cols: list[int] = []
+        idx_q: list[int] = []
+        nq2: list[bool] = []
         for jname, jid in zip(a.joints, a.joint_ids):
             jm = model.joints[jid]
             if jm.nv != 1:
@@ -99,12 +100,12 @@ class _ArmIK:
                     f"robot '{robot.name}': joint '{jname}' of arm '{arm}' has {jm.nv} "
                     "degrees of freedom; IK supports 1-DoF joints only"
                 )
-            self.cols.append(jm.idx_v)
-            self.idx_q.append(jm.idx_q)
-            self.nq2.append(jm.nq == 2)
-        self.cols = np.asarray(self.cols, dtype=np.int64)
-        self.idx_q = np.asarray(self.idx_q, dtype=np.int64)
-        self.nq2 = np.asarray(self.nq2, dtype=bool)
+            cols.append(jm.idx_v)
+            idx_q.append(jm.idx_q)
+            nq2.append(jm.nq == 2)
+        self.cols = np.asarray(cols, dtype=np.int64)
+        self.idx_q = np.asarray(idx_q, dtype=np.int64)
+        self.nq2 = np.asarray(nq2, dtype=bool)
         self.q_ref = robot.reference_q()
         data = model.createData()
         pin.framesForwardKinematics(model, data, robot.full_q(arm, a.home))
@@ -141,7 +142,7 @@ class _ArmIK:
         q[lim] = np.minimum(np.maximum(q[lim], a.lower[lim]), a.upper[lim])
         return q
 
-    def check(self, q: np.ndarray, oMt: pin.SE3, pos_tol: float, rot_tol: float):
+    def check(self, q: np.ndarray, oMt: pin.SE3, pos_tol: float, rot_tol: float) -> tuple[bool, float, float]:
         """(within tolerances, pos_err [m], rot_err [rad]) of q by pinocchio's FK."""
         pin.framesForwardKinematics(self.model, self.data, self.full(q))
         oMf = self.data.oMf[self.frame_id]
@@ -166,8 +167,8 @@ def _solver(robot: Robot, arm: str) -> _ArmIK:
 def solve_ik(
     robot: Robot,
     arm: str,
-    T_target,
-    q_seed=None,
+    T_target: npt.ArrayLike,
+    q_seed: npt.ArrayLike | None = None,
     *,
     seeds: int = 8,
     rng_seed: int = 0,
@@ -205,13 +206,13 @@ def solve_ik(
             raise PlacementError(f"{name} must be a positive integer, got {value!r}")
     if isinstance(rng_seed, bool) or not isinstance(rng_seed, (int, np.integer)) or rng_seed < 0:
         raise PlacementError(f"rng_seed must be a non-negative integer, got {rng_seed!r}")
-    for name, value in (("pos_tol", pos_tol), ("rot_tol", rot_tol)):
+    for name, tol in (("pos_tol", pos_tol), ("rot_tol", rot_tol)):
         if (
-            isinstance(value, bool)
-            or not isinstance(value, (int, float, np.floating, np.integer))
-            or not (math.isfinite(value) and value > 0)
+            isinstance(tol, bool)
+            or not isinstance(tol, (int, float, np.floating, np.integer))
+            or not (math.isfinite(tol) and tol > 0)
         ):
-            raise PlacementError(f"{name} must be a positive finite number, got {value!r}")
+            raise PlacementError(f"{name} must be a positive finite number, got {tol!r}")
     s = _solver(robot, arm)
     a = s.arm
     R = T[:3, :3]
@@ -266,6 +267,7 @@ def solve_ik(
             return res
         if best is None or pe + 0.1 * re < best.pos_err + 0.1 * best.rot_err:
             best = res
+    assert best is not None  # seeds >= 1 attempts, checked above
     best.iterations = total
     best.attempts = seeds
     return best

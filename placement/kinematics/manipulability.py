@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.errors import PlacementError
 from placement.kernels.kinematics import fk_jacobian
@@ -15,7 +16,9 @@ INDEX_NAMES = ("isotropy", "volume")
 ROTATION_SCALE = 0.15  # Simox: rotational Jacobian rows are weighted against metres
 
 
-def extended_manipulability(robot: Robot, arm: str, q, index: str = "isotropy", row_factors=None) -> np.ndarray | float:
+def extended_manipulability(
+    robot: Robot, arm: str, q: npt.ArrayLike, index: str = "isotropy", row_factors: npt.ArrayLike | None = None
+) -> np.ndarray | float:
     """Simox's extended manipulability of ``arm`` at joint angles ``q``.
 
     Args:
