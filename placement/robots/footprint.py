@@ -13,6 +13,7 @@ import math
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.simplicity import self_crossing
 from placement.validation import Checker
@@ -89,13 +90,13 @@ def parse_footprint(c: Checker, value: Any, key: str) -> tuple[tuple[float, floa
     return tuple((float(x), float(y)) for x, y in pts)
 
 
-def circumradius(points) -> float:
+def circumradius(points: npt.ArrayLike) -> float:
     """Largest distance [m] from the base origin to a footprint point (k, 2)."""
     p = np.asarray(points, dtype=float)
     return float(np.max(np.hypot(p[:, 0], p[:, 1])))
 
 
-def inscribed_radius(points) -> float:
+def inscribed_radius(points: npt.ArrayLike) -> float:
     """Smallest distance [m] from the base origin to the footprint's boundary (k, 2)."""
     p = np.asarray(points, dtype=float)
     best = math.inf

@@ -8,11 +8,17 @@ beyond the edge of a band.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 import pinocchio as pin
 
 from placement.robots.chain import PRISMATIC
 from placement.robots.onboarding.reach import APPROACHES, SAMPLES, Band, reach_band
+
+if TYPE_CHECKING:
+    from placement.robots.preset import Robot
+
 
 #: Typical table top [m] and the pre-grasp height above a grasp [m] the warnings refer to.
 TABLE_HEIGHT = 0.75
@@ -21,7 +27,7 @@ PRE_GRASP = 0.10
 EDGE = 0.05
 
 
-def held_words(robot) -> str:
+def held_words(robot: Robot) -> str:
     """'with torso_lift_joint at 0.20 m' (every fixed joint), or 'with no joint held'."""
     if not robot.fixed_joints:
         return "with no joint held"
@@ -33,7 +39,7 @@ def held_words(robot) -> str:
     return "with " + ", ".join(parts)
 
 
-def band_warnings(robot, band: Band) -> list[str]:
+def band_warnings(robot: Robot, band: Band) -> list[str]:
     """Plain-words warnings about ``band`` for a table at :data:`TABLE_HEIGHT`."""
     what = {"down": "a top-down grasp", "horizontal": "a horizontal (side) grasp"}[band.approach]
     who = f"arm '{band.arm}' {held_words(robot)}"
@@ -52,7 +58,7 @@ def band_warnings(robot, band: Band) -> list[str]:
     return []
 
 
-def tcp_axis_check(robot, arm: str) -> dict:
+def tcp_axis_check(robot: Robot, arm: str) -> dict[str, Any]:
     """Where the TCP's approach axis points at the home configuration: {"cos": cosine between TCP z and
     the wrist -> TCP direction, "wrist": [m], "tcp": (4, 4) as lists, "ok": bool}. A negative cosine
     means the approach axis points back into the arm."""
@@ -74,9 +80,9 @@ def tcp_axis_check(robot, arm: str) -> dict:
     }
 
 
-def check_robot(robot, samples: int = SAMPLES, seed: int = 0) -> dict:
+def check_robot(robot: Robot, samples: int = SAMPLES, seed: int = 0) -> dict[str, Any]:
     """Reach bands, TCP axis checks and warnings of every arm of ``robot`` (JSON-ready)."""
-    out = {
+    out: dict[str, Any] = {
         "robot": robot.name,
         "preset": str(robot.source),
         "base_frame": robot.base_frame,

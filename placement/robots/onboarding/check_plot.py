@@ -5,18 +5,25 @@ approach axis is seen at once."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
 
 from placement.robots.chain import ancestors
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from placement.robots.preset import Robot
+
+
 #: Length of the drawn TCP axes [m].
 AXIS = 0.08
 COLORS = {"down": "tab:blue", "horizontal": "tab:orange"}
 
 
-def home_q(robot) -> np.ndarray:
+def home_q(robot: Robot) -> np.ndarray:
     """Pinocchio configuration with every arm at its home and the fixed joints held."""
     q = robot.reference_q()
     for arm in robot.arms:
@@ -24,7 +31,7 @@ def home_q(robot) -> np.ndarray:
     return q
 
 
-def joint_points(robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def joint_points(robot: Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """((njoints, 3) joint origins and (m, 3) body frame origins [m] in the base frame at ``q``;
     index 0 is the universe)."""
     data = robot.model.createData()
@@ -37,7 +44,7 @@ def joint_points(robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return joints, bodies
 
 
-def draw_links(ax, robot, joints: np.ndarray, dims=(0, 2), **kw) -> None:
+def draw_links(ax: Axes, robot: Robot, joints: np.ndarray, dims: tuple[int, int] = (0, 2), **kw: Any) -> None:
     """Segments parent joint -> joint (the kinematic skeleton) projected on ``dims``."""
     for j in range(1, robot.model.njoints):
         p = robot.model.parents[j]
@@ -45,7 +52,7 @@ def draw_links(ax, robot, joints: np.ndarray, dims=(0, 2), **kw) -> None:
         ax.plot([a[dims[0]], b[dims[0]]], [a[dims[1]], b[dims[1]]], color=kw.get("color", "0.3"), lw=kw.get("lw", 1.5))
 
 
-def plot_side(robot, doc: dict, path: Path) -> Path:
+def plot_side(robot: Robot, doc: dict[str, Any], path: Path) -> Path:
     """Side view (x forward, z up, base frame) with the robot at home and each arm's reach profiles."""
     import matplotlib
 
@@ -88,7 +95,7 @@ def plot_side(robot, doc: dict, path: Path) -> Path:
     return path
 
 
-def plot_tcp(robot, arm: str, path: Path) -> Path:
+def plot_tcp(robot: Robot, arm: str, path: Path) -> Path:
     """3D close-up of ``arm``'s hand at home: the hand's skeleton, its link frames and the TCP axes."""
     import matplotlib
 
@@ -122,7 +129,7 @@ def plot_tcp(robot, arm: str, path: Path) -> Path:
     return path
 
 
-def plot_check(robot, doc: dict, out_dir: Path) -> list[str]:
+def plot_check(robot: Robot, doc: dict[str, Any], out_dir: Path) -> list[str]:
     """Write ``<robot>_reach.png`` and ``<robot>_tcp_<arm>.png`` into ``out_dir``; their paths."""
     out_dir = Path(out_dir)
     paths = [plot_side(robot, doc, out_dir / f"{robot.name}_reach.png")]

@@ -91,7 +91,7 @@ class Proposal:
         }
 
 
-def urdf_reference(path: Path, out: Path | None) -> str:
+def urdf_reference(path: Path, out: str | Path | None) -> str:
     """How the preset names its URDF: ``package://example-robot-data/...`` inside that package, else a
     path relative to the preset file ``out``, else absolute."""
     path = path.resolve()
@@ -148,9 +148,9 @@ def tune_torso(model, q, torso, arms, tcps, base_id) -> tuple[dict[str, float], 
             ch = extract_chain(
                 model, qc, base_id, chain, model.getFrameId(tcp.tip_frame), tcp.offset, ("init", str(k)), data
             )
-            lo = np.array([limits(model, j)[0] for j in chain])
-            hi = np.array([limits(model, j)[1] for j in chain])
-            score += table_cells(chain_fk(ch, sample_configs(lo, hi, TUNE_SAMPLES, k)), *TABLE_BAND)
+            lower = np.array([limits(model, j)[0] for j in chain])
+            upper = np.array([limits(model, j)[1] for j in chain])
+            score += table_cells(chain_fk(ch, sample_configs(lower, upper, TUNE_SAMPLES, k)), *TABLE_BAND)
         scores.append((values, score))
     best = max(s for _, s in scores)
     mids = [(lo + hi) / 2 for _, (lo, hi) in ((j, (v[0], v[-1])) for j, v in lifts)]
@@ -242,7 +242,7 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
     return p
 
 
-def check_loads(text: str, source: Path, out) -> Robot:
+def check_loads(text: str, source: Path, out: str | Path | None) -> Robot:
     """Load the rendered preset as :func:`~placement.robots.load_robot` would; a proposal that does not
     load is refused (one :class:`RobotError` line saying what in the URDF it stumbled on), never written."""
     where = str(out) if out else f"preset proposed for {source}"

@@ -19,11 +19,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from placement.robots.chain import PRISMATIC, Chain
 from placement.robots.footprint import inscribed_radius
+
+if TYPE_CHECKING:
+    from placement.robots.preset import Robot
+
 
 #: Largest angle between the TCP's approach axis and the wanted direction [rad].
 APPROACH_TOLERANCE = math.radians(15)
@@ -170,20 +175,20 @@ def band_of(T: np.ndarray, approach: str, arm: str = "", held: dict | None = Non
     )
 
 
-def arm_poses(robot, arm: str, samples: int = SAMPLES, seed: int = 0) -> np.ndarray:
+def arm_poses(robot: Robot, arm: str, samples: int = SAMPLES, seed: int = 0) -> np.ndarray:
     """(samples, 4, 4) TCP poses [m] of uniformly sampled configurations of ``arm``; continuous joints
     over [-pi, pi)."""
     a = robot.arm(arm)
     return chain_fk(a.chain, sample_configs(a.lower, a.upper, samples, seed))
 
 
-def base_clearance(robot) -> float:
+def base_clearance(robot: Robot) -> float:
     """[m] the inscribed radius of the robot's footprint (its radius for a round base): a TCP nearer the
     base's vertical axis is above the base itself, not above anything beside it."""
     return robot.footprint_radius if robot.footprint is None else inscribed_radius(robot.footprint)
 
 
-def reach_band(robot, arm: str, approach: str = "down", samples: int = SAMPLES, seed: int = 0) -> Band:
+def reach_band(robot: Robot, arm: str, approach: str = "down", samples: int = SAMPLES, seed: int = 0) -> Band:
     """The band of heights and distances ``arm`` of ``robot`` reaches with ``approach`` ("down" or
     "horizontal") beyond the base (:func:`base_clearance`), with the robot's fixed joints as the preset
     holds them."""

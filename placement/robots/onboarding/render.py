@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import textwrap
+from collections.abc import Iterable
 
 from placement.robots.onboarding.selfpairs import SAMPLES, THRESHOLD
 from placement.robots.preset import matrix_to_pose
@@ -15,11 +16,11 @@ def _comment(text: str, indent: str = "") -> list[str]:
     return [f"{indent}# {line}" for line in textwrap.wrap(text, WIDTH - len(indent) - 2, break_on_hyphens=False)]
 
 
-def _list(values, digits: int = 4) -> str:
+def _list(values: Iterable[float], digits: int = 4) -> str:
     return json.dumps([round(float(v), digits) for v in values])
 
 
-def render(p, command: str | None = None) -> str:
+def render(p, command: str | None = None) -> str:  # p: a Proposal (propose.py imports this module)
     """YAML of the proposal ``p`` with comments saying how each value was found and what was guessed;
     ``command``: the command line that made it (first comment line)."""
     lines = []

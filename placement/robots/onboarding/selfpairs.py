@@ -44,7 +44,9 @@ class ArtefactPair:
     arm: str
 
 
-def candidate_pairs(robot: Robot, geom: pin.GeometryModel, moved: set[int], home) -> list[tuple[int, int]]:
+def candidate_pairs(
+    robot: Robot, geom: pin.GeometryModel, moved: set[int], home: list[pin.SE3]
+) -> list[tuple[int, int]]:
     """Shape pairs (i, j) with a shape in ``moved`` that the collision checker would test: not on the same
     or adjacent links, not disabled by the SRDF, not in contact at the placements ``home``."""
     model = robot.model

@@ -158,7 +158,7 @@ def side_of(model: pin.Model, chain: list[int], tip_y: float) -> tuple[str | Non
         votes["left"] += any(x in LEFT for x in w)
         votes["right"] += any(x in RIGHT for x in w)
     if votes["left"] != votes["right"]:
-        return max(votes, key=votes.get), "from its joint and link names"
+        return max(votes, key=lambda side: votes[side]), "from its joint and link names"
     if abs(tip_y) > 0.02:
         return ("left" if tip_y > 0 else "right"), "from the side of the base its hand is on (names do not say)"
     return None, "names and position do not say which side"
@@ -169,7 +169,7 @@ def arm_names(model: pin.Model, arms: list[list[int]], tip_ys: list[float]) -> t
     ``arm_0``, ``arm_1``, ..."""
     sides = [side_of(model, c, y) for c, y in zip(arms, tip_ys)]
     if len(arms) == 2 and {s for s, _ in sides} == {"left", "right"}:
-        return [s for s, _ in sides], [f"{s} arm: {how}" for s, how in sides]
+        return [s for s, _ in sides if s is not None], [f"{s} arm: {how}" for s, how in sides]
     if len(arms) == 1:
         return ["arm"], []
     return [f"arm_{i}" for i in range(len(arms))], ["arms named by order: their names do not say left/right"]

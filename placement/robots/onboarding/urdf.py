@@ -121,7 +121,12 @@ def mimic_joints(xml: bytes | str) -> dict[str, str]:
         root = ET.fromstring(xml)
     except ET.ParseError:
         return {}
-    return {j.get("name"): j.find("mimic").get("joint", "?") for j in root.iter("joint") if j.find("mimic") is not None}
+    out: dict[str, str] = {}
+    for j in root.iter("joint"):
+        mimic, name = j.find("mimic"), j.get("name")
+        if mimic is not None and name is not None:
+            out[name] = mimic.get("joint", "?")
+    return out
 
 
 @dataclass
