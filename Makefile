@@ -4,7 +4,7 @@ PY ?= .venv/bin/python
 # (placement/__init__.py), so .venv/bin/placement finds what `make install` compiled; same place here.
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 
-.PHONY: install constraints lint test maps maps-armar6 demo bench bench-eval eval robots clean docs
+.PHONY: install constraints lint test coverage maps maps-armar6 demo bench bench-eval eval robots clean docs
 
 install: .venv/installed $(NUMBA_CACHE_DIR)/warm
 
@@ -36,6 +36,18 @@ lint: install
 # Two pytest workers (pytest-xdist): the 2-core machine runs the suite in about 6.5 minutes instead of 11.6.
 test: install
 	$(PY) -m pytest -q -n 2
+
+# Line coverage of placement/ (pytest-cov, .coveragerc): the suite, then the kernel reference tests again
+# with the numba JIT off (compiled kernels run as machine code coverage cannot see; these tests are fast
+# enough in pure Python), the runs combined into one report with its total. Data in build/coverage.
+KERNEL_TESTS = tests/test_linalg6.py tests/test_grid.py tests/test_kinematics.py tests/test_ranking.py \
+	tests/test_navigation.py tests/test_isotropy_kernels.py tests/test_ik.py
+coverage: install
+	rm -rf build/coverage && mkdir -p build/coverage
+	$(PY) -m pytest -q -n 2 --cov=placement --cov-config=.coveragerc --cov-report=
+	NUMBA_DISABLE_JIT=1 $(PY) -m pytest -q -n 2 --cov=placement --cov-config=.coveragerc --cov-append --cov-report= \
+		$(KERNEL_TESTS) -k "not batched_kernel_proves and not row_penalties"
+	$(PY) -m coverage report --rcfile=.coveragerc
 
 # The documentation site into site/; --strict: any warning (a broken link, a page missing from the nav,
 # a docstring that does not match its signature) fails the build. The benchmark tables it includes are
