@@ -137,8 +137,6 @@ PENDING: set[tuple[str, str]] = {
     # belongs in the scene package (it is the scene's collision world), or the two rows swap
     ("placement.collision.checker", "placement.scene"),
     ("placement.collision.scene", "placement.scene"),
-    # presets expand xacro with the onboarding's reader: the URDF/xacro reading belongs in robots
-    ("placement.robots.preset", "placement.robots.onboarding.urdf"),
     # BuiltMap.grid builds the maps' Grid: Grid belongs below storage, or BuiltMap in maps
     ("placement.storage.format", "placement.maps.grid"),
 }

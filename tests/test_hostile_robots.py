@@ -17,6 +17,7 @@ from support.hostile import HUGE_HEX, one_line
 from support.toy_robot import arm_urdf
 
 from placement.errors import PlacementError, PresetError, RobotError
+from placement.robots import description
 from placement.robots.footprint import MAX_FOOTPRINT_VERTICES
 from placement.robots.onboarding import base as init_base
 from placement.robots.onboarding import urdf as init_urdf
@@ -132,8 +133,8 @@ XACRO_HEAD = '<?xml version="1.0"?>\n<robot xmlns:xacro="http://www.ros.org/wiki
 
 
 def test_xacro_expansions_are_bounded(tmp_path, monkeypatch):
-    monkeypatch.setattr(init_urdf, "XACRO_TIMEOUT", 3.0)
-    monkeypatch.setattr(init_urdf, "XACRO_MEMORY", 512 * 2**20)
+    monkeypatch.setattr(description, "XACRO_TIMEOUT", 3.0)
+    monkeypatch.setattr(description, "XACRO_MEMORY", 512 * 2**20)
     slow = tmp_path / "slow.xacro"
     slow.write_text(XACRO_HEAD + '<xacro:property name="x" value="${9**9**9}"/><link name="${x}"/></robot>')
     lines = [XACRO_HEAD, '<xacro:property name="p0" value="xxxxxxxxxxxxxxxx"/>']

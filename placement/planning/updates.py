@@ -112,7 +112,7 @@ def parse_update(change: Any, scene: Scene) -> ParsedUpdate:
             removed.add(name)
         obstacles = [o for o in obstacles if o.name not in removed]
         for n in [*(o.name for o in obstacles), *objects, *(p.name for p in scene.place_locations)]:
-            P.names[n] = "the scene"
+            P.used_names[n] = "the scene"
         added = [
             P.obstacle(item, f"obstacles.add[{i}]") for i, item in enumerate(items(ch.get("add", []), "obstacles.add"))
         ]

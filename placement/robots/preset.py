@@ -28,7 +28,7 @@ import pinocchio as pin
 
 from placement.errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
 from placement.robots.chain import Chain, ancestors, extract_chain
-from placement.robots.onboarding.urdf import MAX_URDF_BYTES, expand_xacro, is_xacro
+from placement.robots.description import MAX_URDF_BYTES, expand_xacro, is_xacro
 from placement.robots.spec import MAX_PRESET_BYTES, QUATERNION_TOLERANCE, ArmSpec, GripperSpec, PresetSpec, parse_preset
 from placement.validation import Checker, one_line, read_regular, read_yaml
 
@@ -64,13 +64,19 @@ _MODELS: OrderedDict[tuple[str, str], tuple[pin.Model, dict[str, str]]] = Ordere
 _MODELS_LOCK = threading.Lock()
 
 
-def _mimic_joints(xml: bytes) -> dict[str, str]:
-    """{mimic joint: the joint it follows} of a URDF document."""
+def mimic_joints(xml: bytes | str) -> dict[str, str]:
+    """{mimic joint: the joint it follows} of a URDF document ({} if it is not parseable XML: pinocchio
+    parsed it, so only an exotic encoding gets here)."""
     try:
         root = ET.fromstring(xml)
-    except ET.ParseError:  # pinocchio parsed it, so only an exotic encoding gets here: no mimic info
+    except ET.ParseError:
         return {}
-    return {j.get("name"): j.find("mimic").get("joint", "?") for j in root.iter("joint") if j.find("mimic") is not None}
+    out: dict[str, str] = {}
+    for j in root.iter("joint"):
+        mimic, name = j.find("mimic"), j.get("name")
+        if mimic is not None and name is not None:
+            out[name] = mimic.get("joint", "?")
+    return out
 
 
 def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
@@ -98,7 +104,7 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
         except Exception as exc:  # pinocchio raises plain RuntimeError/ValueError
             msg = " ".join(str(exc).split()) or type(exc).__name__
             raise RobotError(one_line(f"{where}: urdf: URDF {path} does not load: {msg}")) from None
-        hit = (model, _mimic_joints(data))
+        hit = (model, mimic_joints(data))
         with _MODELS_LOCK:
             _MODELS[key] = hit
             while len(_MODELS) > MODEL_CACHE_SIZE:
@@ -301,10 +307,10 @@ class Robot:
         home = (lower + upper) / 2 * ~cont if a.home is None else np.array(a.home, dtype=float)
         idle = home if a.idle is None else np.array(a.idle, dtype=float)
         for key, values in (("home", home), ("idle", idle)):
-            for i in np.flatnonzero(~cont & ((values < lower) | (values > upper))):
+            for k in np.flatnonzero(~cont & ((values < lower) | (values > upper))):
                 self._check.fail(
-                    f"{path}.{key}[{i}]",
-                    f"{values[i]:g} is outside the limits [{lower[i]:g}, {upper[i]:g}] of joint '{a.joints[i]}'",
+                    f"{path}.{key}[{k}]",
+                    f"{values[k]:g} is outside the limits [{lower[k]:g}, {upper[k]:g}] of joint '{a.joints[k]}'",
                 )
         tcp = pose_to_matrix(a.tcp_offset)
         q0 = self.reference_q()

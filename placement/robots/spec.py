@@ -135,7 +135,7 @@ class PresetSpec:
 def share_dir() -> Path:
     """The ``share`` folder of the installed example-robot-data package (for ``package://`` paths)."""
     dist = importlib.metadata.distribution("example-robot-data")
-    return Path(dist.locate_file("cmeel.prefix/share"))
+    return Path(str(dist.locate_file("cmeel.prefix/share")))
 
 
 def resolve_path(path: str, origin: Path) -> Path:

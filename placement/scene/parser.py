@@ -39,12 +39,12 @@ TASK_KEYS = ("pick", "place")
 
 
 class SceneParser(PoseParser):
-    """The parts of a scene file; ``names`` collects the names used so far (they are unique).
+    """The parts of a scene file; ``used_names`` collects the names used so far (they are unique).
     ``version``: the scene's format version (version 2 keys are refused below 2)."""
 
     def __init__(self, where: str, version: int = SCENE_VERSION) -> None:
         super().__init__(where, SceneError)
-        self.names: dict[str, str] = {}
+        self.used_names: dict[str, str] = {}
         self.version = version
         self.vertices = 0  # polygon points so far
 
@@ -56,9 +56,9 @@ class SceneParser(PoseParser):
 
     def unique(self, value: Any, path: str) -> str:
         n = self.string(value, path)
-        if n in self.names:
-            self.fail(path, f"duplicate name '{n}' (already used by {self.names[n]})")
-        self.names[n] = path.rsplit(".", 1)[0]
+        if n in self.used_names:
+            self.fail(path, f"duplicate name '{n}' (already used by {self.used_names[n]})")
+        self.used_names[n] = path.rsplit(".", 1)[0]
         return n
 
     def shape(self, d: dict[str, Any], path: str) -> Shape:

@@ -1,0 +1,111 @@
+"""Reading a robot description: a URDF file, or a ``.xacro`` expanded with the ``xacro`` package in a
+bounded child process (a preset may name either in ``urdf:``; ``placement robots init`` reads them too).
+
+Every failure is one :class:`RobotError` line naming the file: a missing file, a file that is not
+URDF XML, a xacro error (undefined macro or property, ``$(find ...)`` without ROS).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from placement.errors import RobotError
+from placement.validation import one_line, read_regular
+
+#: Suffixes expanded with xacro.
+XACRO_SUFFIXES = (".xacro",)
+
+
+def is_xacro(path: Path) -> bool:
+    """Whether ``path`` names a xacro file (``robot.urdf.xacro``, ``robot.xacro``)."""
+    return Path(path).suffix.lower() in XACRO_SUFFIXES
+
+
+#: Bounds of a xacro expansion, which runs arbitrary expressions (``${9**9**9}``) and can double a
+#: property until memory runs out: it runs in a child process with this much time [s] and address
+#: space [bytes], and its URDF may be at most :data:`MAX_URDF_BYTES`.
+XACRO_TIMEOUT = 30.0
+XACRO_MEMORY = 2**30
+#: Largest URDF read or produced by xacro [bytes].
+MAX_URDF_BYTES = 64 * 2**20
+#: Largest xacro file read [bytes] (its includes are bounded by the child's time and memory).
+MAX_XACRO_BYTES = 16 * 2**20
+
+_XACRO_CHILD = r"""
+import contextlib, io, sys
+path, limit = sys.argv[1], int(sys.argv[2])
+try:
+    import xacro
+except ImportError:
+    sys.exit(4)
+sink = io.StringIO()
+try:
+    with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+        text = xacro.process_file(path).toxml()
+except MemoryError:
+    sys.stderr.write("out of memory")
+    sys.exit(3)
+except (Exception, SystemExit) as exc:
+    msg = " ".join(str(exc).split()) or " ".join(sink.getvalue().split())[:200] or type(exc).__name__
+    sys.stderr.write(msg[:1000])
+    sys.exit(3)
+data = text.encode("utf-8")
+if len(data) > limit:
+    sys.stderr.write(f"the URDF it gives is {len(data)} bytes, more than the {limit} allowed")
+    sys.exit(3)
+sys.stdout.buffer.write(data)
+"""
+
+
+def _limit_child() -> None:  # runs in the child before exec
+    import resource
+
+    resource.setrlimit(resource.RLIMIT_AS, (XACRO_MEMORY, XACRO_MEMORY))
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+
+
+def expand_xacro(path: Path, where: str) -> bytes:
+    """The URDF text [UTF-8 bytes] of the xacro file ``path``; ``where`` starts every error line.
+
+    xacro runs in a child process bounded by :data:`XACRO_TIMEOUT` and :data:`XACRO_MEMORY`."""
+    if importlib.util.find_spec("xacro") is None:
+        raise RobotError(f"{where}: {path} is a xacro file; expanding it needs the xacro package (pip install xacro)")
+    if not Path(path).is_file():
+        raise RobotError(f"{where}: xacro file not found: {path}")
+    read_regular(path, RobotError, f"{where}: {path}", MAX_XACRO_BYTES, "xacro file")  # no FIFO, no device
+    try:
+        run = subprocess.run(
+            [sys.executable, "-c", _XACRO_CHILD, os.fspath(path), str(MAX_URDF_BYTES)],
+            stdin=subprocess.DEVNULL,
+            capture_output=True,
+            timeout=XACRO_TIMEOUT,
+            preexec_fn=_limit_child if os.name == "posix" else None,
+            cwd=Path(path).parent,
+        )
+    except subprocess.TimeoutExpired:
+        raise RobotError(
+            f"{where}: xacro {path} does not expand within {XACRO_TIMEOUT:g} s (an endless or huge expansion?)"
+        ) from None
+    if run.returncode != 0:
+        msg = " ".join(run.stderr.decode("utf-8", "replace").split())
+        msg = msg if len(msg) <= 300 else msg[:150] + " ... " + msg[-140:]
+        if run.returncode == 3 and msg == "out of memory" or not msg:
+            msg = (
+                f"it needs more than {XACRO_MEMORY / 2**30:g} GiB of memory"
+                if run.returncode in (3, 1)
+                else f"xacro stopped with exit code {run.returncode}"
+            )
+        raise RobotError(one_line(f"{where}: xacro {path} does not expand: {msg}"))
+    return run.stdout
+
+
+def read_description(path: Path, where: str) -> bytes:
+    """The URDF bytes of ``path``: the file itself, or the expansion of a ``.xacro``."""
+    path = Path(path)
+    if is_xacro(path):
+        return expand_xacro(path, where)
+    return read_regular(path, RobotError, where, MAX_URDF_BYTES, "URDF")
