@@ -107,9 +107,10 @@ def test_constraints_pin_every_declared_dependency_within_its_bounds():
 
 def test_make_install_and_ci_use_the_constraints():
     makefile = (ROOT / "Makefile").read_text()
-    assert re.search(r"pip install .*-c constraints\.txt -e '\.\[test\]'", makefile)
+    assert re.search(r"pip install .*-c constraints\.txt -e '\.\[test,dev,docs\]'", makefile)
     assert re.search(r"\.venv/installed:.*constraints\.txt", makefile)
-    assert "make test" in (ROOT / ".ci/run").read_text()
+    ci = (ROOT / ".ci/run").read_text()
+    assert "make lint" in ci and "make test" in ci and ci.index("make lint") < ci.index("make test")
 
 
 def test_numba_cache_defaults_to_the_environment_make_install_warms():
