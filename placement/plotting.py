@@ -14,9 +14,9 @@ if TYPE_CHECKING:
     from matplotlib.artist import Artist
     from matplotlib.axes import Axes
 
-    from placement.planning.navgrid import NavGrid
     from placement.planning.results import PlanResult, StepMaps, StepResult
     from placement.planning.world import World
+    from placement.scene.navgrid import NavGrid
 
 DPI = 150
 DISTANCE_CAP = 2.0  # [m] the distance panel saturates here: farther is all open floor

@@ -70,7 +70,7 @@ def _targets(path: Path) -> set[str]:
 
 
 # -- the layers --------------------------------------------------------------------------------------------
-# kernels (numba) <- robots (presets), storage <- kinematics <- collision <- scene <- maps (offline) and
+# kernels (numba) <- robots (presets), storage <- kinematics <- scene <- collision <- maps (offline) and
 # planning (online; it opens maps) <- evaluation, viewer, robots.onboarding <- cli. "placement" is the package's
 # own facade (placement/__init__.py). The shared helpers at the top have their own rows.
 
@@ -84,9 +84,9 @@ HELPERS = {
 }
 BELOW_ROBOTS = {"placement.kernels", *HELPERS}
 BELOW_KINEMATICS = {"placement.robots", "placement.storage", *BELOW_ROBOTS}
-BELOW_COLLISION = {"placement.kinematics", *BELOW_KINEMATICS}
-BELOW_SCENE = {"placement.collision", *BELOW_COLLISION}
-BELOW_MAPS = {"placement.scene", *BELOW_SCENE}
+BELOW_SCENE = {"placement.kinematics", *BELOW_KINEMATICS}
+BELOW_COLLISION = {"placement.scene", *BELOW_SCENE}
+BELOW_MAPS = {"placement.collision", *BELOW_COLLISION}
 BELOW_APPS = {"placement", "placement.planning", "placement.maps", "placement.plotting", *BELOW_MAPS}
 
 #: package -> the packages it may import (its own always)
@@ -126,17 +126,6 @@ PENDING: set[tuple[str, str]] = {
     ("placement.scene.planner_block", "placement.planning.config"),
     # a version-2 scene refuses an object no gripper can hold: the box grasps belong in the scene
     ("placement.scene.consistency", "placement.planning.grasps"),
-    # Scene.navgrid() builds the planner's navigation grid: the grid belongs below the scene, or the method
-    # in the planner
-    ("placement.scene.model", "placement.planning.navgrid"),
-    # the collision checker types the held object with the planner's Held (TYPE_CHECKING): Held belongs in
-    # collision (collision.held)
-    ("placement.collision.checker", "placement.planning.transfer"),
-    ("placement.collision.held", "placement.planning.transfer"),
-    # the collision world of a scene types its input with the scene model (TYPE_CHECKING): collision/scene.py
-    # belongs in the scene package (it is the scene's collision world), or the two rows swap
-    ("placement.collision.checker", "placement.scene"),
-    ("placement.collision.scene", "placement.scene"),
     # BuiltMap.grid builds the maps' Grid: Grid belongs below storage, or BuiltMap in maps
     ("placement.storage.format", "placement.maps.grid"),
 }

@@ -11,10 +11,10 @@ import pytest
 from placement.planning.config import PlannerConfig
 from placement.planning.footprints import BaseShape
 from placement.planning.manipulation import base_yaws
-from placement.planning.navgrid import NavGrid
 from placement.planning.navigation import distance_map
 from placement.planning.world import add_shape, add_touched, world_from_occupancy
 from placement.scene import Box, Cylinder, Polygon
+from placement.scene.navgrid import NavGrid
 
 SQUARE = np.array([[0.335, 0.335], [-0.335, 0.335], [-0.335, -0.335], [0.335, -0.335]])
 

@@ -10,7 +10,7 @@ import pytest
 import placement
 from placement.maps.grid import pose_from_zyx
 from placement.planning.manipulation import base_yaws, manipulation_map
-from placement.planning.navgrid import NavGrid
+from placement.scene.navgrid import NavGrid
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +62,7 @@ def test_candidates_evaluated_together_equal_each_alone(coarse_map):
     each result is bitwise the one-trajectory result (which the test above checks against 6D lookups)."""
     from placement.planning.grasps import place_candidates, top_grasps
     from placement.planning.manipulation import manipulation_maps
-    from placement.planning.navgrid import Window
+    from placement.scene.navgrid import Window
 
     nav = NavGrid((-1.5, -1.5), 0.1, (30, 30))
     yaws = base_yaws(40)

@@ -12,9 +12,9 @@ from placement.maps.rmap import open_map
 from placement.planning import Planner
 from placement.planning.grasps import box_grasps
 from placement.planning.manipulation import base_yaws, manipulation_map
-from placement.planning.navgrid import NavGrid
 from placement.planning.verify import base_matrix, trajectory_ik
 from placement.scene import SceneObject, load_scene
+from placement.scene.navgrid import NavGrid
 
 
 def test_kitchen_plans_with_reach_side_grasps_and_orientations(maps_dir, pr2):

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from placement.planning.navgrid import NavGrid
 from placement.planning.world import add_shape
 from placement.scene import Box, Cylinder, Polygon
+from placement.scene.navgrid import NavGrid
 
 
 def _every_cell(shape, nav: NavGrid) -> np.ndarray:

@@ -41,7 +41,7 @@ from placement.errors import PlacementError
 from placement.robots import Robot
 
 if TYPE_CHECKING:
-    from placement.planning.transfer import Held
+    from placement.collision.held import Held
     from placement.scene import Scene
 
 #: Distances are measured up to this [m]; a free trajectory farther from everything reports it.
@@ -137,7 +137,7 @@ class SceneCollision:
         """Check the configurations ``qs`` (P, n) [rad/m] of ``arm`` with the base at ``base``
         (x [m], y [m], yaw [rad]); the gripper may touch the object named ``grasped``; the objects
         named in ``gone`` are not where the scene has them (already carried away) and are skipped;
-        ``held`` (a :class:`~placement.planning.transfer.Held`): the object the gripper carries,
+        ``held`` (a :class:`~placement.collision.held.Held`): the object the gripper carries,
         checked along with the arm (see :mod:`placement.collision.held`)."""
         shapes = self.geometry.arm_shapes(arm)
         Q = np.atleast_2d(np.asarray(qs, dtype=float))

@@ -1,7 +1,7 @@
 """The object in the gripper, carried along a place trajectory, as a collision body.
 
 The held object is its bounding box, rigidly attached to the TCP (``tcp_to_object``, see
-:class:`placement.planning.transfer.Held`). At every pose of the trajectory it is checked against
+:class:`Held`). At every pose of the trajectory it is checked against
 
 * every scene piece (obstacles, tables, objects still where the scene has them, occupancy cells)
   with the checker's ``padding``, except its support (the obstacle it is set on): the object
@@ -16,7 +16,7 @@ object's distance to the scene pieces other than its support (the clearance of t
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import coal
 import numpy as np
@@ -25,12 +25,20 @@ import numpy.typing as npt
 from placement.collision.scene import SceneShape, box_aabb
 from placement.collision.tables import Instances, Operand
 
-if TYPE_CHECKING:
-    from placement.planning.transfer import Held
-
 #: [m] how far the held object may sink into the surface it is set on (its lowest face is raised
 #: by this much against the support): the place puts it exactly on the surface.
 SUPPORT_TOLERANCE = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class Held:
+    """The object in the gripper during a place: ``name``, box ``size`` (3,) [m], ``tcp_to_object``
+    (4, 4) its pose in the TCP frame, and the obstacle it is set on (``support``, None for none)."""
+
+    name: str
+    size: npt.NDArray[np.float64]
+    tcp_to_object: npt.NDArray[np.float64]
+    support: str | None = None
 
 
 def support_box(
@@ -55,7 +63,7 @@ class HeldCheck:
     """One check of a held object along a trajectory (see the module docstring).
 
     Args:
-        held: the :class:`~placement.planning.transfer.Held` object.
+        held: the :class:`Held` object.
         world: (P, 4, 4) the object's world pose at every trajectory pose.
         padding: robot/object-scene distance below which they collide [m]; cap: distances measured up to [m].
     """

@@ -22,9 +22,9 @@ import numpy as np
 from placement.errors import PlacementError
 from placement.kernels.footprint import band_masks, block_table, pose_blocked
 from placement.planning.arrays import BoolArray, FloatArray, IntArray, MaskArray
-from placement.planning.navgrid import NavGrid
 from placement.robots import Robot
 from placement.robots.footprint import inscribed_radius
+from placement.scene.navgrid import NavGrid
 
 EPS = 1e-9  # [m] float slack of the band limits, always on the safe side
 PAD_SLACK = 1e-6  # [m] added to the padding: covers the squares' float shrink (world.SHRINK)

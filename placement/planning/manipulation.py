@@ -13,7 +13,7 @@ from placement.kernels.irm import trajectory_maps
 from placement.maps.grid import Grid
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import Float32Array, FloatArray, IntArray, MaskArray
-from placement.planning.navgrid import NavGrid, Window
+from placement.scene.navgrid import NavGrid, Window
 
 #: A pose's map lookup: (x [m], y [m], z bin, pitch bin, roll bin).
 PoseKey = tuple[float, float, int, int, int]

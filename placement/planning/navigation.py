@@ -1,6 +1,6 @@
 """Navigation cost maps (paper section IV-A): distance to obstacles, velocity model, shortest paths.
 
-All maps are (ny, nx) arrays over a :class:`~placement.planning.navgrid.NavGrid`; row index = y, column = x.
+All maps are (ny, nx) arrays over a :class:`~placement.scene.navgrid.NavGrid`; row index = y, column = x.
 Distances and costs are in metres; ``cost / v_max`` is travel time in seconds.
 """
 

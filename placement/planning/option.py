@@ -8,7 +8,7 @@ import numpy as np
 
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.grasps import Candidate
-from placement.planning.navgrid import Window
+from placement.scene.navgrid import Window
 
 
 @dataclass(frozen=True)

@@ -13,13 +13,13 @@ from placement.kinematics.ik import solve_ik
 from placement.planning.config import PlannerConfig
 from placement.planning.context import PlanningContext
 from placement.planning.manipulation import manipulation_maps, pose_slices
-from placement.planning.navgrid import NavGrid, Window
 from placement.planning.navigation import navigation_cost
 from placement.planning.option import Option
 from placement.planning.problems import StepProblems
 from placement.planning.ranking import rank_by_cost
 from placement.planning.steps import step_candidates
 from placement.robots import Robot
+from placement.scene.navgrid import NavGrid, Window
 
 _warm = False
 

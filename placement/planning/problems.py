@@ -22,12 +22,12 @@ from placement.planning.config import PlannerConfig
 from placement.planning.grasps import GRIPPER_OPENING, Candidate
 from placement.planning.heuristic import region_heuristic
 from placement.planning.manipulation import cells_within, manipulation_maps, pose_reach
-from placement.planning.navgrid import Window
 from placement.planning.option import Option, height_range
 from placement.planning.refresh import refreshed_options
 from placement.planning.steps import Step, step_candidates, task_steps
 from placement.planning.world import World
 from placement.scene import Scene
+from placement.scene.navgrid import Window
 
 #: Where a candidate's target is and how far the map reaches it: (x [m], y [m], reach [m]).
 Reach = tuple[float, float, float]

@@ -16,9 +16,9 @@ import numpy as np
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import Float32Array, FloatArray, IntArray
 from placement.planning.manipulation import cells_within, manipulation_maps, pose_reach
-from placement.planning.navgrid import Window
 from placement.planning.option import Option
 from placement.planning.world import World
+from placement.scene.navgrid import Window
 
 
 def _moved(src: Option, dst_window: Window, cells: IntArray, nx: int, value: Float32Array, yaw: IntArray) -> None:

@@ -24,11 +24,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
+from placement.collision.held import Held
 from placement.planning.arrays import FloatArray
 from placement.planning.grasps import Candidate
 from placement.scene import Box, PlaceLocation, Polygon, Scene, SceneObject
@@ -39,17 +39,6 @@ from placement.scene.poses import quaternion_matrix, yaw_quaternion
 SUPPORT_SEARCH = 0.25
 #: [rad] how far an object may tilt between its pick and its place.
 UPRIGHT_TOLERANCE = math.radians(UPRIGHT_TOLERANCE_DEG)
-
-
-@dataclass(frozen=True, eq=False)
-class Held:
-    """The object in the gripper during a place: ``name``, box ``size`` (3,) [m], ``tcp_to_object``
-    (4, 4) its pose in the TCP frame, and the obstacle it is set on (``support``, None for none)."""
-
-    name: str
-    size: FloatArray
-    tcp_to_object: FloatArray
-    support: str | None = None
 
 
 def rot_z(a: float) -> FloatArray:

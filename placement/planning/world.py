@@ -11,9 +11,9 @@ from placement.errors import PlacementError
 from placement.planning.arrays import BoolArray, FloatArray, IntArray, MaskArray
 from placement.planning.config import PlannerConfig
 from placement.planning.footprints import BaseShape, YawMasks, masks_at, polygon_feasibility, pose_clear
-from placement.planning.navgrid import NavGrid
 from placement.planning.navigation import distance_map, speed_factor
 from placement.scene import Box, Cylinder, Obstacle, Polygon, Scene
+from placement.scene.navgrid import NavGrid
 from placement.scene.occupancy import rasterize_occupancy
 
 #: An obstacle's footprint shape.

@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from placement.errors import PlacementError
-from placement.planning.navgrid import NavGrid
+from placement.scene.navgrid import NavGrid
 from placement.scene.occupancy import OccupancyMap
 from placement.scene.poses import box_corners, matrix_yaw, pose_matrices, pose_matrix, quaternion_matrix, yaw_quaternion
 
@@ -309,7 +309,7 @@ class Scene(ArrayEq):
         return grid_shape(self.bounds, self.resolution)
 
     def nav_grid(self) -> NavGrid:
-        """The :class:`~placement.planning.navgrid.NavGrid` over ``bounds``."""
+        """The :class:`~placement.scene.navgrid.NavGrid` over ``bounds``."""
         return NavGrid((self.bounds[0], self.bounds[1]), self.resolution, self.grid_shape)
 
 

@@ -12,10 +12,10 @@ from placement.planning.arrays import FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.manipulation import manipulation_map
 from placement.planning.methods.stepwise import StepwiseMethod
-from placement.planning.navgrid import Window
 from placement.planning.option import Option
 from placement.planning.ranking import Ranked
 from placement.scene import Box, Cylinder
+from placement.scene.navgrid import Window
 
 
 def fixed_placements(ctx: PlanningContext) -> list[tuple[int, float]]:
