@@ -23,7 +23,7 @@ import placement
 # (HYPOTHESIS_PROFILE=deep) tries 2000, the counts these tests were written with, for a thorough run.
 # Each test's @example corner cases run under both. Loaded here, before any test module is imported, so
 # that every @settings without max_examples inherits the profile's.
-settings.register_profile("ci", max_examples=100, deadline=None)
+settings.register_profile("ci", max_examples=50, deadline=None)
 settings.register_profile("deep", max_examples=2000, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -321,7 +322,14 @@ def test_the_held_out_scenes_have_infeasible_steps(held_out_plans):
     assert len(failed) >= 3 and FEASIBLE not in failed, sorted(failed)
 
 
-@pytest.mark.parametrize("name", HELD_OUT)
+#: the scenes whose failures the oracle re-checks in a plain run (each infeasible proof costs about 40 s of one
+#: core); HYPOTHESIS_PROFILE=deep (the long run) checks every held-out scene
+ORACLE_CASES = (
+    HELD_OUT if os.environ.get("HYPOTHESIS_PROFILE") == "deep" else [FEASIBLE, "edge1", "edge7", "gen3", "gen5"]
+)
+
+
+@pytest.mark.parametrize("name", ORACLE_CASES)
 def test_no_false_infeasible_with_the_test_maps(held_out_plans, name):
     _no_false_infeasible(*held_out_plans(name), name)
 
