@@ -1,8 +1,8 @@
 """The planner's configuration: one frozen object, the single source of every default, with units.
 
-A scene's ``planner:`` block overrides fields by name; :data:`PLANNER_KEYS` (the keys a scene may
-set, with their help text) is derived from the fields, so the parser, the docs and the defaults
-cannot drift apart. The methods set their own weights from it (see
+A scene's ``planner:`` block overrides fields by name; the scene-settable fields are built from
+:data:`placement.scene.planner_keys.PLANNER_SETTINGS` (default, help text and bounds of each), so the
+parser, the docs and the defaults cannot drift apart. The methods set their own weights from it (see
 :meth:`placement.planning.methods.base.Method.configure`).
 
 The fixed fields (not in scenes) are the tuning constants of the stages (search, optimal, verify,
@@ -12,20 +12,16 @@ fixed); each stage reads them from the configuration it is given.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
-from typing import Any, TypeVar
+from dataclasses import dataclass, field
+from typing import Any
 
-T = TypeVar("T")
-
-#: Largest weight a scene may set [1/m]: far beyond any sensible trade-off, small enough that
-#: ``weight / m`` and ``weight * cost`` stay finite for every map value and grid.
-MAX_WEIGHT = 1e6
+from placement.scene.planner_keys import MAX_WEIGHT, PLANNER_BOUNDS, PLANNER_KEYS, PLANNER_SETTINGS
 
 
-def _key(default: T, help: str, **bounds: Any) -> T:
-    """A scene-settable field: its default, help text (with the unit) and bounds."""
-    out: T = field(default=default, metadata={"help": help, **bounds})
-    return out
+def _key(name: str) -> Any:
+    """A scene-settable field: its default, help text (with the unit) and bounds, from the scene's table."""
+    setting = dict(PLANNER_SETTINGS[name])
+    return field(default=setting.pop("default"), metadata=setting)
 
 
 @dataclass(frozen=True)
@@ -75,75 +71,18 @@ class PlannerConfig:
             ones [count].
     """
 
-    lambda_n: float = _key(
-        1 / 20, "weight of the navigation cost [1/m], 0 .. 1e6 (default 1/20)", minimum=0.0, maximum=MAX_WEIGHT
-    )
-    lambda_m: float = _key(
-        0.002353, "weight of the manipulation cost 1/m, 0 .. 1e6 (default 0.002353)", minimum=0.0, maximum=MAX_WEIGHT
-    )
-    lambda_nh: float = _key(
-        1 / 20,
-        "weight of the heuristic cost towards the next step [1/m], 0 .. 1e6 (default 1/20)",
-        minimum=0.0,
-        maximum=MAX_WEIGHT,
-    )
-    yaw_steps: int = _key(
-        100,
-        "number of base yaws tried per cell, integer 1 .. 3600 (default 100)",
-        integer=True,
-        minimum=1,
-        maximum=3600,
-    )
-    threshold: float = _key(
-        0.0235,
-        "manipulability below which a placement is infeasible, > 0 and <= 1 (default 0.0235)",
-        minimum=0.0,
-        strict=True,
-        maximum=1.0,
-    )
-    velocity_lambda: float = _key(
-        1.3, "lambda of the velocity model (Eq. 4), 0 .. 1e6 (default 1.3)", minimum=0.0, maximum=MAX_WEIGHT
-    )
-    velocity_k: float = _key(
-        4.0,
-        "exponent k of the velocity model (Eq. 4), > 0 and <= 100 (default 4)",
-        minimum=0.0,
-        strict=True,
-        maximum=100.0,
-    )
-    d_max: float = _key(
-        1.0,
-        "distance [m] beyond which obstacles do not slow the base, > 0 and <= 1000 (default 1)",
-        minimum=0.0,
-        strict=True,
-        maximum=1000.0,
-    )
-    grasp_yaws: int | tuple[float, ...] = _key(
-        8,
-        "gripper yaws of place steps: a count (integer 1 .. 360, evenly spaced) or a list of yaws [rad] (default 8)",
-        integer=True,
-        minimum=1,
-        maximum=360,
-        or_list=True,
-    )
-    collision_padding: float = _key(
-        0.005,
-        "distance [m] below which the robot's collision shapes touch the scene's, 0 .. 0.5 (default 0.005)",
-        minimum=0.0,
-        maximum=0.5,
-    )
-    footprint_padding: float = _key(
-        0.02,
-        "clearance [m] a polygon base footprint keeps from obstacles, 0 .. 1 (default 0.02; round bases ignore it)",
-        minimum=0.0,
-        maximum=1.0,
-    )
-    ik_budget_ms: float = _key(
-        300.0,
-        "time the IK search of one step may spend [ms], >= 1 and <= 60000 (default 300)",
-        minimum=1.0,
-        maximum=60000.0,
-    )
+    lambda_n: float = _key("lambda_n")
+    lambda_m: float = _key("lambda_m")
+    lambda_nh: float = _key("lambda_nh")
+    yaw_steps: int = _key("yaw_steps")
+    threshold: float = _key("threshold")
+    velocity_lambda: float = _key("velocity_lambda")
+    velocity_k: float = _key("velocity_k")
+    d_max: float = _key("d_max")
+    grasp_yaws: int | tuple[float, ...] = _key("grasp_yaws")
+    collision_padding: float = _key("collision_padding")
+    footprint_padding: float = _key("footprint_padding")
+    ik_budget_ms: float = _key("ik_budget_ms")
     ik_tries: int = 25
     ik_cap: int = 2000
     min_region: float = 0.02
@@ -171,8 +110,5 @@ class PlannerConfig:
         return cls(**values)
 
 
-#: Keys allowed in a scene's ``planner:`` block: name -> help text with unit and default.
-PLANNER_KEYS: dict[str, str] = {f.name: f.metadata["help"] for f in fields(PlannerConfig) if f.metadata}
-
-#: Their bounds, for the scene parser: name -> metadata (minimum, maximum, strict, integer, or_list).
-PLANNER_BOUNDS: dict[str, dict[str, Any]] = {f.name: dict(f.metadata) for f in fields(PlannerConfig) if f.metadata}
+#: Re-exported: the table lives with the scene, which checks a block against it.
+__all__ = ["MAX_WEIGHT", "PLANNER_BOUNDS", "PLANNER_KEYS", "PlannerConfig"]

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from placement.planning.config import PLANNER_BOUNDS, PLANNER_KEYS
 from placement.scene.parser import SceneParser
+from placement.scene.planner_keys import PLANNER_BOUNDS, PLANNER_KEYS
 
 
 def parse_planner(P: SceneParser, raw: Any) -> dict[str, Any]:

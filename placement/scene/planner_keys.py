@@ -1,0 +1,107 @@
+"""The planner settings a scene's ``planner:`` block may set: each one's default, help text (with its unit) and
+bounds.
+
+This table is the single source of those settings: the scene parser checks a block against it (it sits below
+the planner, so the scene need not import the planner), and :class:`placement.planning.config.PlannerConfig`
+builds its scene-settable fields from it, so the parser, the docs and the defaults cannot drift apart.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+#: Largest weight a scene may set [1/m]: far beyond any sensible trade-off, small enough that
+#: ``weight / m`` and ``weight * cost`` stay finite for every map value and grid.
+MAX_WEIGHT = 1e6
+
+#: name -> default, help (with unit and default) and bounds (minimum, maximum, strict, integer, or_list).
+PLANNER_SETTINGS: dict[str, dict[str, Any]] = {
+    "lambda_n": dict(
+        default=1 / 20,
+        help="weight of the navigation cost [1/m], 0 .. 1e6 (default 1/20)",
+        minimum=0.0,
+        maximum=MAX_WEIGHT,
+    ),
+    "lambda_m": dict(
+        default=0.002353,
+        help="weight of the manipulation cost 1/m, 0 .. 1e6 (default 0.002353)",
+        minimum=0.0,
+        maximum=MAX_WEIGHT,
+    ),
+    "lambda_nh": dict(
+        default=1 / 20,
+        help="weight of the heuristic cost towards the next step [1/m], 0 .. 1e6 (default 1/20)",
+        minimum=0.0,
+        maximum=MAX_WEIGHT,
+    ),
+    "yaw_steps": dict(
+        default=100,
+        help="number of base yaws tried per cell, integer 1 .. 3600 (default 100)",
+        integer=True,
+        minimum=1,
+        maximum=3600,
+    ),
+    "threshold": dict(
+        default=0.0235,
+        help="manipulability below which a placement is infeasible, > 0 and <= 1 (default 0.0235)",
+        minimum=0.0,
+        strict=True,
+        maximum=1.0,
+    ),
+    "velocity_lambda": dict(
+        default=1.3,
+        help="lambda of the velocity model (Eq. 4), 0 .. 1e6 (default 1.3)",
+        minimum=0.0,
+        maximum=MAX_WEIGHT,
+    ),
+    "velocity_k": dict(
+        default=4.0,
+        help="exponent k of the velocity model (Eq. 4), > 0 and <= 100 (default 4)",
+        minimum=0.0,
+        strict=True,
+        maximum=100.0,
+    ),
+    "d_max": dict(
+        default=1.0,
+        help="distance [m] beyond which obstacles do not slow the base, > 0 and <= 1000 (default 1)",
+        minimum=0.0,
+        strict=True,
+        maximum=1000.0,
+    ),
+    "grasp_yaws": dict(
+        default=8,
+        help="gripper yaws of place steps: a count (integer 1 .. 360, evenly spaced) or a list of yaws [rad] "
+        "(default 8)",
+        integer=True,
+        minimum=1,
+        maximum=360,
+        or_list=True,
+    ),
+    "collision_padding": dict(
+        default=0.005,
+        help="distance [m] below which the robot's collision shapes touch the scene's, 0 .. 0.5 (default 0.005)",
+        minimum=0.0,
+        maximum=0.5,
+    ),
+    "footprint_padding": dict(
+        default=0.02,
+        help="clearance [m] a polygon base footprint keeps from obstacles, 0 .. 1 (default 0.02; round bases "
+        "ignore it)",
+        minimum=0.0,
+        maximum=1.0,
+    ),
+    "ik_budget_ms": dict(
+        default=300.0,
+        help="time the IK search of one step may spend [ms], >= 1 and <= 60000 (default 300)",
+        minimum=1.0,
+        maximum=60000.0,
+    ),
+}
+
+#: Keys allowed in a scene's ``planner:`` block: name -> help text with unit and default.
+PLANNER_KEYS: dict[str, str] = {name: s["help"] for name, s in PLANNER_SETTINGS.items()}
+
+#: Their bounds, for the scene parser: name -> help and bounds (minimum, maximum, strict, integer, or_list).
+PLANNER_BOUNDS: dict[str, dict[str, Any]] = {
+    name: {k: v for k, v in s.items() if k != "default"} for name, s in PLANNER_SETTINGS.items()
+}
