@@ -1,0 +1,222 @@
+"""The whole task's travel as a forward dynamic program over the base grid: the lower bound and the optimum.
+
+A plan stands, at step i, on a cell of step i's *region*: the cells from which some (arm, grasp) of
+the step reaches the map threshold (:func:`map_regions`; the ``fixed`` baseline: its pre-defined
+placements). Its travel is the sum of the Eq. 5 shortest-path costs [m] between consecutive cells,
+from the start cell. The cheapest such sequence is found exactly by a forward dynamic program, one
+multi-source Dijkstra per step seeded with the previous step's labels::
+
+    L_0 = 0 at the start cell
+    L_i(c) = min_c' L_{i-1}(c') + nav(c', c) + node_i(c)     for c in region_i, else inf
+
+A place keeps its pick's arm and grasp (one motion holds the object): labels are kept per (arm,
+grasp) *group*, and a place's group g is seeded by its pick's labels of group g only (one Dijkstra
+per group with labels; other steps seed one Dijkstra with the minimum over groups). ``min L_N`` is
+the optimum; with ``node = 0`` and the regions of the maps it is a lower bound on the travel of
+every plan whose cells lie in them, whichever IK or collision check rejects some of them.
+
+Regions and node costs are (G, ny, nx) stacks; every label is in metres of free-space travel (divide
+by the robot's ``v_max`` for seconds).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from placement.planning.arrays import BoolArray, Cell, FloatArray, IntArray
+from placement.planning.context import PlanningContext
+from placement.planning.navigation import navigation_cost
+
+#: An (arm, grasp) pair: what a pick commits its place to.
+Group = tuple[str, str | None]
+
+
+@dataclass(frozen=True)
+class Regions:
+    """Where the base may stand for one step, per (arm, grasp) group.
+
+    Attributes:
+        groups: (G,) the groups, in a fixed order.
+        masks: (G, ny, nx) bool, the cells of each group.
+        node: (G, ny, nx) float [m] cost of standing there (added to the label), or None (all 0).
+    """
+
+    groups: tuple[Group, ...]
+    masks: BoolArray
+    node: FloatArray | None = None
+
+    def union(self) -> BoolArray:
+        """(ny, nx) bool: the cells of any group."""
+        out: BoolArray = self.masks.any(axis=0) if len(self.groups) else np.zeros(self.masks.shape[1:], bool)
+        return out
+
+
+@dataclass
+class Layer:
+    """One step's labels: ``labels`` (G, ny, nx) [m] (inf off the region); ``pred[k]`` the
+    predecessor map of the k-th Dijkstra of the step and ``dijkstra[g]`` which one labelled group g
+    (-1: none); ``seed_group`` (ny, nx) int, for a step seeded by the minimum over the previous
+    step's groups, the group that gave each seed (None for a place or the first step)."""
+
+    labels: FloatArray
+    pred: list[IntArray]
+    dijkstra: IntArray
+    seed_group: IntArray | None
+
+
+@dataclass(frozen=True)
+class Chain:
+    """The cheapest sequence: per step its (flat cell, group index) and the label there [m]."""
+
+    cells: list[int]
+    groups: list[int]
+    labels: list[float]
+
+    @property
+    def total(self) -> float:
+        return self.labels[-1] if self.labels else 0.0
+
+
+def map_regions(ctx: PlanningContext, i: int) -> Regions:
+    """Step i's region by the maps: per (arm, grasp) group the cells where one of its options keeps
+    the threshold (the cells the map-based methods may stand on)."""
+    nav = ctx.world.nav
+    opts = ctx.problems.options(i)
+    groups = sorted({(o.arm, o.candidate.grasp) for o in opts}, key=lambda g: (g[0], str(g[1])))
+    index = {g: k for k, g in enumerate(groups)}
+    masks = np.zeros((len(groups), *nav.shape), dtype=bool)
+    thr = ctx.config.threshold
+    for o in opts:
+        masks[index[(o.arm, o.candidate.grasp)]][o.window.slices] |= o.value >= thr
+    masks &= ctx.world.feasible
+    return Regions(tuple(groups), masks)
+
+
+def _seeds(labels: FloatArray) -> tuple[IntArray, FloatArray]:
+    """(k, 2) cells and (k,) costs of the finite entries of a (ny, nx) label map."""
+    cells = np.argwhere(np.isfinite(labels))
+    return cells.astype(np.int64), labels[cells[:, 0], cells[:, 1]]
+
+
+def forward(
+    factor: FloatArray,
+    feasible: BoolArray,
+    resolution: float,
+    start: Cell,
+    regions: Sequence[Regions],
+    linked: Sequence[bool],
+    layers: list[Layer] | None = None,
+    first: int = 0,
+) -> list[Layer]:
+    """The labels of every step (see the module docstring).
+
+    Args:
+        factor: (ny, nx) the Eq. 4 slowdown (>= 1); feasible: (ny, nx) bool, the cells the base may
+            occupy; resolution: the cell size [m] (see :func:`~placement.planning.navigation.navigation_cost`).
+        start: (iy, ix) the start cell.
+        regions: per step, where the base may stand.
+        linked: per step, True for a place that keeps the previous step's group (its pick's).
+        layers, first: recompute from step ``first`` on, keeping ``layers[:first]`` (after a
+            change of the regions of step ``first`` or later).
+    Returns:
+        one :class:`Layer` per step; a step no cell reaches has all labels inf, and so do the
+        steps after it.
+    """
+    out = list(layers[:first]) if layers is not None else []
+    shape = feasible.shape
+    for i in range(len(out), len(regions)):
+        reg = regions[i]
+        G = len(reg.groups)
+        labels = np.full((G, *shape), math.inf)
+        dijkstra = np.full(G, -1, dtype=np.int64)
+        preds: list[IntArray] = []
+        seed_group: IntArray | None = None
+        if i == 0:
+            seedings = [((np.array([start], dtype=np.int64), np.zeros(1)), list(range(G)))]
+        elif linked[i]:
+            prev = out[i - 1].labels
+            same = {g: k for k, g in enumerate(regions[i - 1].groups)}
+            seedings = [(_seeds(prev[same[g]]), [k]) for k, g in enumerate(reg.groups) if g in same]
+        else:
+            prev = out[i - 1].labels
+            low = prev.min(axis=0) if prev.shape[0] else np.full(shape, math.inf)
+            seed_group = prev.argmin(axis=0) if prev.shape[0] else None
+            seedings = [(_seeds(low), list(range(G)))]
+        for (cells, costs), members in seedings:
+            targets = reg.masks[members].any(axis=0)
+            if cells.shape[0] == 0 or not targets.any():
+                continue
+            cost, pred = navigation_cost(factor, feasible, cells, resolution, costs, targets)
+            preds.append(pred)
+            for k in members:
+                node = 0.0 if reg.node is None else reg.node[k]
+                labels[k] = np.where(reg.masks[k], cost + node, math.inf)
+                dijkstra[k] = len(preds) - 1
+        out.append(Layer(labels, preds, dijkstra, seed_group))
+    return out
+
+
+def _root(pred: IntArray, flat: int) -> int:
+    """The source cell (flat) of the shortest path that ends at ``flat``."""
+    steps = 0
+    while pred.flat[flat] >= 0:
+        flat = int(pred.flat[flat])
+        steps += 1
+        if steps > pred.size:
+            raise RuntimeError("predecessor map has a cycle")
+    return flat
+
+
+def backtrack(layers: Sequence[Layer], regions: Sequence[Regions], linked: Sequence[bool]) -> Chain | None:
+    """The cheapest chain through ``layers`` (None when the last step has no finite label)."""
+    if not layers:
+        return Chain([], [], [])
+    last = layers[-1].labels
+    if last.size == 0 or not np.isfinite(last).any():
+        return None
+    k = int(np.argmin(last.reshape(-1)))
+    g, flat = divmod(k, last.shape[1] * last.shape[2])
+    cells, groups, labels = [flat], [g], [float(last.reshape(last.shape[0], -1)[g, flat])]
+    for i in range(len(layers) - 1, 0, -1):
+        layer = layers[i]
+        root = _root(layer.pred[int(layer.dijkstra[g])], flat)
+        if linked[i]:
+            g = regions[i - 1].groups.index(regions[i].groups[g])
+        else:
+            assert layer.seed_group is not None
+            g = int(layer.seed_group.flat[root])
+        flat = root
+        prev = layers[i - 1].labels
+        cells.append(flat)
+        groups.append(g)
+        labels.append(float(prev.reshape(prev.shape[0], -1)[g, flat]))
+    cells.reverse()
+    groups.reverse()
+    labels.reverse()
+    return Chain(cells, groups, labels)
+
+
+def linked_steps(ctx: PlanningContext) -> list[bool]:
+    """Per step: True for a place right after its pick (it keeps the pick's group)."""
+    return [s.pick is not None and s.pick == s.index - 1 for s in ctx.problems.steps]
+
+
+def travel_bound(ctx: PlanningContext, start: Cell, regions: Sequence[Regions] | None = None) -> float:
+    """The least travel [m] of any plan standing, at every step, on a cell of its region (default
+    :func:`map_regions`), keeping each object's arm and grasp from its pick to its place; inf when
+    no such plan exists."""
+    steps = ctx.problems.steps
+    regs = list(regions) if regions is not None else [map_regions(ctx, i) for i in range(len(steps))]
+    if not regs:
+        return 0.0
+    w = ctx.world
+    layers = forward(w.factor, w.feasible, w.nav.resolution, start, regs, linked_steps(ctx))
+    last = layers[-1].labels
+    return float(last.min()) if last.size else math.inf
+
+
+__all__ = ["Chain", "Group", "Layer", "Regions", "backtrack", "forward", "linked_steps", "map_regions", "travel_bound"]
