@@ -121,10 +121,8 @@ WARMUP_USERS = {"placement.cli"}
 #: Imports that still go the wrong way, each waiting for a move (importer module, imported module). The planner's
 #: package is being restructured by another change; these edges go when their code moves out of the planner.
 PENDING: set[tuple[str, str]] = {
-    # a version-2 scene refuses an object no gripper can hold: the box grasps belong in the scene
-    ("placement.scene.consistency", "placement.planning.grasps"),
     # BuiltMap.grid builds the maps' Grid: Grid belongs below storage, or BuiltMap in maps
-    ("placement.storage.format", "placement.maps.grid"),
+    ("placement.storage.format", "placement.maps.grid")
 }
 
 

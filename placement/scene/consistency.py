@@ -11,6 +11,7 @@ from placement.scene.checks import (
     overlapping_objects,
     point_inside,
 )
+from placement.scene.graspable import GRIPPER_OPENING, box_grasps
 from placement.scene.limits import MAX_GRID_CELLS, MAX_OBSTACLES, MAX_TOTAL_VERTICES
 from placement.scene.model import Polygon, Scene, SceneError, grid_shape
 from placement.scene.places import check_place_orientations
@@ -76,11 +77,6 @@ def check_scene(
     for i, t in enumerate(scene.trajectories):
         inside(t.poses[-1], f"trajectories[{i}].poses[{len(t.poses) - 1}]", f"the end of trajectory '{t.name}'")
     if scene.version >= V2:
-        from placement.planning.grasps import (  # grasps imports scene.poses: circular at the top
-            GRIPPER_OPENING,
-            box_grasps,
-        )
-
         picked = {t.pick for t in scene.task if t.pick is not None}
         for i, o in enumerate(scene.objects):
             if (
