@@ -15,7 +15,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = sorted((ROOT / "docs").glob("*.md"))
 #: pages that report measurements: every table on them is an included file
-BENCHMARK_PAGES = ("benchmarks.md", "dask.md", "evaluation.md")
+BENCHMARK_PAGES = ("benchmarks.md", "dask.md", "evaluation.md", "robots.md")
 INCLUDE = re.compile(r'^--8<-- "([^"]+)"\s*$', re.MULTILINE)
 
 
@@ -38,10 +38,19 @@ def writers_of(path: str) -> list[str]:
     return []
 
 
-@pytest.mark.skipif(importlib.util.find_spec("mkdocs") is None, reason="mkdocs is not installed (the docs extra)")
-def test_the_site_builds_with_warnings_as_errors(tmp_path):
+#: a Sphinx cross-reference role as it would be left in a page: ":func:" before a code span (rendered or not)
+ROLE_TEXT = re.compile(r":(?:py:)?(?:func|class|mod|data|attr|meth|exc|obj|const):(?:`|<code>)")
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    """The site, built once for the tests of this module (--strict; the build's stderr is checked by
+    :func:`test_the_site_builds_with_warnings_as_errors`)."""
+    if importlib.util.find_spec("mkdocs") is None:
+        pytest.skip("mkdocs is not installed (the docs extra)")
+    out_dir = tmp_path_factory.mktemp("site")
     out = subprocess.run(
-        [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(out_dir)],
         cwd=ROOT,
         capture_output=True,
         text=True,
@@ -50,7 +59,27 @@ def test_the_site_builds_with_warnings_as_errors(tmp_path):
     )
     assert out.returncode == 0, out.stderr[-3000:]
     assert "WARNING" not in out.stderr, out.stderr[-3000:]
-    assert (tmp_path / "site/api/planning/index.html").is_file()
+    return out_dir
+
+
+def test_the_site_builds_with_warnings_as_errors(site):
+    assert (site / "api/planning/index.html").is_file()
+
+
+def test_api_pages_render_sphinx_roles_as_code_and_links(site):
+    """docs/griffe_roles.py: no ":func:`x`" is left in the API reference, and roles naming a documented
+    object link to its anchor."""
+    pages = sorted((site / "api").glob("*/index.html"))
+    assert len(pages) == len(list((ROOT / "docs/api").glob("*.md")))
+    left = {p.parent.name: ROLE_TEXT.findall(p.read_text()) for p in pages}
+    assert not any(left.values()), f"role text left in the API pages: { {k: v for k, v in left.items() if v} }"
+    planning = (site / "api/planning/index.html").read_text()
+    # Planner's docstring: "change them through :meth:`set_method` and :meth:`update`"
+    assert 'href="#placement.planning.Planner.set_method"><code>set_method</code></a>' in planning
+    # "~" shows the last component only, linked to the documented object on another page
+    assert 'href="../collision/#placement.collision.SceneCollision"><code>SceneCollision</code></a>' in planning
+    # a role naming an object no page documents is plain code, not a broken link
+    assert "<code>PlanningContext</code>" in planning and "[PlanningContext]" not in planning
 
 
 def test_every_included_table_exists_and_a_command_writes_it():
@@ -71,4 +100,5 @@ def test_benchmark_pages_type_no_tables(page):
 def test_no_dates_or_issue_numbers_in_the_user_docs(path):
     text = path.read_text()
     assert not re.findall(r"20\d\d-\d\d-\d\d", text), f"{path.name} holds a date"
-    assert not re.findall(r"issue #", text, re.IGNORECASE), f"{path.name} names an issue number"
+    assert not re.findall(r"issue #|\bissues? \d", text, re.IGNORECASE), f"{path.name} names an issue number"
+    assert not re.findall(r"(?<![\w&])#\d+\b", text), f"{path.name} names an issue number"

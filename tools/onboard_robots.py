@@ -1,4 +1,4 @@
-"""Onboard robots from their URDFs end to end and print a markdown table (issue 9, generality).
+"""Onboard robots from their URDFs end to end and write the Markdown tables docs/robots.md includes.
 
 For each robot: ``placement robots init`` -> ``examples/robots/<robot>.yaml`` (unedited), a build spec
 ``maps/<robot>.yaml`` (written when missing), ``placement maps build`` -> ``maps/<robot>`` (skipped when
@@ -7,9 +7,13 @@ band -> ``examples/table_clearing_<robot>.yaml``, planned with ``Planner`` and e
 ``PlanResult.verify`` (independent pinocchio FK); a step the planner calls infeasible is tried by an
 independent randomized IK search over base poses (:func:`independent_search`).
 
-    python tools/onboard_robots.py [ROBOT ...] [--samples N] [--rebuild] [--objects K]
+    python tools/onboard_robots.py [ROBOT ...] [--samples N] [--rebuild] [--objects K] [--reach-only]
 
-ROBOT is a key of :data:`ROBOTS` or a path to a URDF/xacro file. Run from the repository root.
+ROBOT is a key of :data:`ROBOTS` or a path to a URDF/xacro file. Run from the repository root. Writes
+(atomically, see bench_output.py) the table of the run to docs/bench/onboarding.md and the reach bands
+of the presets (``placement robots check``: heights and distances per arm and approach, and its
+warnings) to docs/bench/reach.md; ``--reach-only`` writes only the reach bands, from the presets as they
+are (no init, build or planning: seconds).
 """
 
 from __future__ import annotations
@@ -23,13 +27,15 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from bench_output import write_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from placement.robots import load_robot  # noqa: E402
+from placement.robots.onboarding.check import band_warnings, held_words  # noqa: E402
 from placement.robots.onboarding.propose import propose  # noqa: E402
-from placement.robots.onboarding.reach import reach_band  # noqa: E402
+from placement.robots.onboarding.reach import APPROACHES, reach_band  # noqa: E402
 from placement.robots.onboarding.render import render  # noqa: E402
 from placement.robots.spec import share_dir  # noqa: E402
 
@@ -39,6 +45,10 @@ ROBOTS = {
     "talos_reduced": ERD + "talos_data/robots/talos_reduced.urdf",
     "romeo": ERD + "romeo_description/urdf/romeo.urdf",
 }
+ONBOARDING_MD = ROOT / "docs/bench/onboarding.md"
+REACH_MD = ROOT / "docs/bench/reach.md"
+#: Columns of the onboarding table (keys of :func:`onboard`'s rows).
+KEYS = ["robot", "arms", "dof", "init s", "build s", "steps planned / verified", "result"]
 #: Gap between the base's edge and the table edge [m], and the largest table depth used [m].
 GAP, MAX_DEPTH = 0.05, 0.8
 #: Height above the table top [m] a top-down pre-grasp needs (object centre ~5 cm up, 10-15 cm above it).
@@ -150,7 +160,7 @@ def independent_search(robot, scene: Path, step, tries: int = 3000, seed: int = 
 
 
 def onboard(name: str, urdf: Path, samples: int, rebuild: bool, objects: int) -> dict:
-    row = {"robot": name}
+    row: dict[str, object] = {"robot": name}
     preset = ROOT / "examples" / "robots" / f"{name}.yaml"
     t = time.perf_counter()
     p = propose(urdf, preset)
@@ -209,13 +219,47 @@ def onboard(name: str, urdf: Path, samples: int, rebuild: bool, objects: int) ->
     return row
 
 
+def markdown_table(keys: list[str], rows: list[list]) -> str:
+    """A Markdown table (header, separator, one line per row)."""
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    return "\n".join(lines + ["| " + " | ".join(str(v) for v in r) + " |" for r in rows]) + "\n"
+
+
+def reach_table(names: list[str]) -> str:
+    """The reach bands of ``examples/robots/<name>.yaml`` (as ``placement robots check`` computes them,
+    seeded): per arm the 1 %-99 % TCP heights and distances from the base's axis [m] with a top-down and
+    a horizontal approach, then the band warnings for a 0.75 m table."""
+    rows, warnings = [], []
+    span = lambda lo, hi: "-" if not math.isfinite(lo) else f"{lo:.2f} - {hi:.2f}"  # noqa: E731
+    for name in names:
+        robot = load_robot(ROOT / "examples" / "robots" / f"{name}.yaml")
+        held = held_words(robot).removeprefix("with ")
+        for arm in robot.arms:
+            bands = {ap: reach_band(robot, arm, ap) for ap in APPROACHES}
+            down, side = bands["down"], bands["horizontal"]
+            rows.append(
+                [name, held, arm, span(down.z_min, down.z_max), span(down.r_min, down.r_max)]
+                + [span(side.z_min, side.z_max), span(side.r_min, side.r_max)]
+            )
+            warnings += [f"{name}: {w}" for b in bands.values() for w in band_warnings(robot, b)]
+    keys = ["robot", "held", "arm", "top-down heights [m]", "top-down distances [m]"]
+    table = markdown_table(keys + ["horizontal heights [m]", "horizontal distances [m]"], rows)
+    return table + "".join(f"\n* warning: {w}" for w in warnings) + ("\n" if warnings else "")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("robots", nargs="*", default=list(ROBOTS))
     ap.add_argument("--samples", type=int, default=10_000_000, help="samples per arm for a new build spec")
     ap.add_argument("--rebuild", action="store_true", help="build the maps even when they exist")
     ap.add_argument("--objects", type=int, default=4, help="objects per scene")
+    ap.add_argument("--reach-only", action="store_true", help="write only the reach bands of the presets as they are")
     args = ap.parse_args(argv)
+    if args.reach_only:
+        names = [n if n in ROBOTS else Path(n).stem.split(".")[0] for n in args.robots]
+        write_atomic(REACH_MD, reach_table(names))
+        print(REACH_MD.read_text())
+        return 0
     rows = []
     for name in args.robots:
         urdf = share_dir() / ROBOTS[name] if name in ROBOTS else Path(name)
@@ -223,10 +267,10 @@ def main(argv=None) -> int:
             onboard(name if name in ROBOTS else urdf.stem.split(".")[0], urdf, args.samples, args.rebuild, args.objects)
         )
         print(rows[-1], file=sys.stderr)
-    keys = ["robot", "arms", "dof", "init s", "build s", "steps planned / verified", "result"]
-    print("| " + " | ".join(keys) + " |\n|" + "---|" * len(keys))
-    for r in rows:
-        print("| " + " | ".join(str(r.get(k, "-")) for k in keys) + " |")
+    table = markdown_table(KEYS, [[r.get(k, "-") for k in KEYS] for r in rows])
+    write_atomic(ONBOARDING_MD, table)
+    write_atomic(REACH_MD, reach_table([str(r["robot"]) for r in rows]))
+    print(table)
     return 0 if all(r.get("result") == "ok" for r in rows) else 1
 
 
