@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from placement.maps.grid import Grid
+from placement.storage.grid import Grid
 
 # 2: per-chunk CRC32 of the decoded data, crc32c (zarr) / fletcher32 (HDF5) on the stored bytes
 # 3: a witness array per arm (the sample behind every cell's value), chunked and CRC-checked alike
