@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import io
 import json
 import logging
 from pathlib import Path
@@ -17,7 +18,7 @@ from placement.cli.params import Bounded, OneLineCommand
 from placement.errors import PlacementError
 from placement.evaluation.evaluate import MAX_WORKERS, check_methods, check_scenes, summary_rows
 from placement.evaluation.evaluate import evaluate as run_evaluation
-from placement.evaluation.outdir import output_dir
+from placement.evaluation.outdir import atomic_path, output_dir, write_text_atomic
 from placement.planning.planner import METHODS
 from placement.progress import Ticking
 
@@ -126,10 +127,13 @@ def write_report(doc: dict, out: Path) -> None:
     from placement.evaluation.plots import plot_task_times
 
     rows = summary_rows(doc)
-    (out / "results.json").write_text(json.dumps(doc, indent=1))
-    (out / "summary.md").write_text(markdown_table(rows) + "\n")
-    with open(out / "summary.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
-        w.writeheader()
-        w.writerows(rows)
-    plot_task_times(doc, out / "task_times.png")
+    # each file whole or not at all: a run stopped while writing leaves no half table for a reader
+    write_text_atomic(out / "results.json", json.dumps(doc, indent=1))
+    write_text_atomic(out / "summary.md", markdown_table(rows) + "\n")
+    table = io.StringIO()
+    w = csv.DictWriter(table, fieldnames=list(dict.fromkeys(k for r in rows for k in r)))
+    w.writeheader()
+    w.writerows(rows)
+    write_text_atomic(out / "summary.csv", table.getvalue(), newline="")
+    with atomic_path(out / "task_times.png") as tmp:
+        plot_task_times(doc, tmp)

@@ -1,9 +1,11 @@
-"""Output directories checked before the work that fills them starts."""
+"""Output directories checked before the work that fills them starts, and files written into them whole
+(:func:`atomic_path`, :func:`write_text_atomic`)."""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import secrets
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -66,3 +68,33 @@ def output_dir(path: Path | str, what: str) -> Iterator[Path]:
     except BaseException:
         _remove_empty(created)
         raise
+
+
+@contextlib.contextmanager
+def atomic_path(path: Path | str) -> Iterator[Path]:
+    """A fresh temporary file beside ``path`` for the block to write; moved onto ``path`` (``os.replace``) when
+    the block succeeds, removed when it fails.
+
+    So a reader never sees half a file, and a write that fails (an error, a full disk, an interrupt) leaves
+    the previous ``path``, if any, as it was. The temporary file is in the same directory (``os.replace`` is
+    atomic only within one file system) and ends in ``path``'s suffix, for writers that choose the format
+    by the suffix (matplotlib's ``savefig``); it is created with the default permissions (the umask's), as
+    ``open(path, "w")`` would.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp{path.suffix}")
+    os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def write_text_atomic(path: Path | str, text: str, newline: str | None = None) -> None:
+    """Write ``text`` to ``path`` whole or not at all (see :func:`atomic_path`); ``newline`` as for
+    :func:`open` ("" writes line ends untranslated, as the csv module wants)."""
+    with atomic_path(path) as tmp, open(tmp, "w", newline=newline) as fh:
+        fh.write(text)
