@@ -8,8 +8,10 @@ import io
 import json
 import logging
 from pathlib import Path
+from typing import Any, NoReturn
 
 import click
+from click.core import ParameterSource
 from tqdm import tqdm
 
 from placement.cli.maps_build import dask_client
@@ -25,12 +27,12 @@ from placement.progress import Ticking
 log = logging.getLogger("placement")
 
 
-class MethodList(click.ParamType):
+class MethodList(click.ParamType[list[str], Any]):
     """Comma-separated method names: none empty, none repeated, each one of METHODS."""
 
     name = "methods"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> list[str]:
         if isinstance(value, list):
             return value
         try:
@@ -72,15 +74,25 @@ class MethodList(click.ParamType):
     "local processes; its workers must see the scene and map files at the same paths.",
 )
 @standard_options
-def evaluate(scenes, methods, maps_path, out_dir, workers, dask_address, as_json, verbose, quiet):
+def evaluate(
+    scenes: tuple[str, ...],
+    methods: list[str],
+    maps_path: str | None,
+    out_dir: str | None,
+    workers: int,
+    dask_address: str | None,
+    as_json: bool,
+    verbose: int,
+    quiet: bool,
+) -> None:
     """Plan every scene with each method and compare task times (SPEC section 8)."""
     setup_logging(verbose, quiet)
-    if dask_address and click.get_current_context().get_parameter_source("workers").name != "DEFAULT":
+    if dask_address and click.get_current_context().get_parameter_source("workers") != ParameterSource.DEFAULT:
         raise PlacementError("--workers and --dask exclude each other: the cluster's workers run the scenes")
     files = check_scenes(scenes)
-    bars = []
+    bars: list[tqdm[NoReturn]] = []
 
-    def progress(done, total):
+    def progress(done: int, total: int) -> None:
         if not bars:  # created once the scenes are checked, so that an early error stays one line
             bars.append(tqdm(total=total, desc="scenes", unit="scene", disable=quiet, leave=False))
             ticking.enter_context(Ticking(bars[0]))  # the elapsed time moves during a long first scene
@@ -114,7 +126,7 @@ def evaluate(scenes, methods, maps_path, out_dir, workers, dask_address, as_json
     emit(doc, as_json, lambda d: markdown_table(summary_rows(d)))
 
 
-def markdown_table(rows: list[dict]) -> str:
+def markdown_table(rows: list[dict[str, Any]]) -> str:
     keys = list(dict.fromkeys(k for r in rows for k in r))
     fmt = lambda v: "-" if v is None else (f"{v:.3g}" if isinstance(v, float) else str(v))  # noqa: E731
     lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
@@ -122,7 +134,7 @@ def markdown_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def write_report(doc: dict, out: Path) -> None:
+def write_report(doc: dict[str, Any], out: Path) -> None:
     """``results.json``, ``summary.md``, ``summary.csv`` and ``task_times.png`` in ``out``."""
     from placement.evaluation.plots import plot_task_times
 

@@ -16,7 +16,7 @@ from placement.cli.view import view
 
 @click.group(cls=OneLineGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="placement")
-def cli():
+def cli() -> None:
     """Robot base placement for mobile manipulation."""
 
 
@@ -28,7 +28,7 @@ cli.add_command(view)
 cli.add_command(robots)
 
 
-def main():
+def main() -> None:
     cli(prog_name="placement")
 
 

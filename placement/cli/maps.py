@@ -11,7 +11,7 @@ from placement.cli.view import maps_view
 
 
 @click.group(cls=OneLineGroup)
-def maps():
+def maps() -> None:
     """Build and inspect reachability maps (offline)."""
 
 

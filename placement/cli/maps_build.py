@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -28,6 +29,9 @@ from placement.maps.buildspec import (
 from placement.maps.rmap import MapOutput
 from placement.robots import load_robot
 from placement.warmup import BUILD_COMPILE_S, announce_compilation
+
+if TYPE_CHECKING:
+    from dask.distributed import Client
 
 log = logging.getLogger("placement")
 
@@ -92,31 +96,31 @@ SEED = count_type(0, MAX_SEED)
 )
 @standard_options
 def build(
-    robot,
-    arm,
-    spec_path,
-    samples,
-    seed,
-    resolution,
-    bins,
-    index,
-    fmt,
-    out,
-    dask_address,
-    self_collision,
-    self_distance,
-    completion,
-    as_json,
-    verbose,
-    quiet,
-):
+    robot: str | None,
+    arm: str | None,
+    spec_path: str | None,
+    samples: int | None,
+    seed: int | None,
+    resolution: float | None,
+    bins: tuple[int, int, int] | None,
+    index: str | None,
+    fmt: str | None,
+    out: str,
+    dask_address: str | None,
+    self_collision: bool | None,
+    self_distance: bool | None,
+    completion: bool | None,
+    as_json: bool,
+    verbose: int,
+    quiet: bool,
+) -> None:
     """Sample each arm and write its 6D reachability map atomically.
 
     Everything (spec, robot, arms, grid, output path) is checked before sampling starts.
     """
     setup_logging(verbose, quiet)
     spec = load_build_spec(spec_path) if spec_path else BuildSpec()
-    options = {
+    options: dict[str, Any] = {
         "robot": robot,
         "arms": (arm,) if arm else None,
         "samples": samples,
@@ -130,25 +134,25 @@ def build(
         "completion": completion,
     }
     spec = dataclasses.replace(spec, **{k: v for k, v in options.items() if v is not None})
-    robot = load_robot(spec.robot)
+    loaded = load_robot(spec.robot)
     try:
-        arms = spec.arms_of(robot)
+        arms = spec.arms_of(loaded)
     except ArmNotFound as exc:
         if arm or not spec_path:
             raise
         raise PlacementError(f"build spec {spec_path}: arms: {exc}") from None
     for a in arms:
-        build_grid(robot, a, spec.resolution, spec.bins)
+        build_grid(loaded, a, spec.resolution, spec.bins)
     out_path = Path(out)
     if spec.format == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
         out_path = out_path.with_suffix(".h5")
-    with MapOutput(out_path, robot, spec.format, arms, "--out") as output:  # proven writable, arms reserved
+    with MapOutput(out_path, loaded, spec.format, arms, "--out") as output:  # proven writable, arms reserved
         client = dask_client(dask_address) if dask_address else None
         announce_compilation(BUILD_COMPILE_S)
         built = {}
         for a in arms:
             built[a] = m = build_map(
-                robot,
+                loaded,
                 a,
                 samples=spec.samples,
                 seed=spec.seed,
@@ -163,7 +167,7 @@ def build(
             )
             log.info(
                 "%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",
-                robot.name,
+                loaded.name,
                 a,
                 spec.samples,
                 m.meta["build_time_s"],
@@ -174,7 +178,7 @@ def build(
     summary = {
         "path": str(out_path),
         "format": spec.format,
-        "robot": robot.name,
+        "robot": loaded.name,
         "arms": {
             a: {k: m.meta[k] for k in ("samples", "seed", "build_time_s", "samples_per_s", "filled_cells", "max_value")}
             for a, m in built.items()
@@ -190,7 +194,7 @@ def build(
     )
 
 
-def dask_client(address: str):
+def dask_client(address: str) -> Client:
     """A ``dask.distributed.Client`` of the scheduler at ``address``, or a one-line PlacementError."""
     try:
         from dask.distributed import Client

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import logging
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import click
 import numpy as np
@@ -15,10 +17,10 @@ from placement.cli.maps_build import SEED, count_type
 from placement.cli.options import arm_option, emit, robot_option, setup_logging, standard_options
 from placement.cli.params import OneLineCommand
 from placement.maps.accuracy import MAX_CHECK_SAMPLES, check_map, pose_metrics
-from placement.maps.rmap import check_root, open_map
+from placement.maps.rmap import ReachabilityMap, check_root, open_map
 from placement.maps.witness import verify_witnesses
 from placement.progress import EtaBar
-from placement.robots import load_robot
+from placement.robots import Robot, load_robot
 from placement.storage import open_store
 from placement.storage.digest import DIGEST_KEY
 from placement.storage.format import CRC_KEY, WITNESS_CRC_KEY
@@ -37,7 +39,7 @@ def _size(path: Path) -> int:
 @robot_option
 @arm_option
 @standard_options
-def info(path, robot, arm, as_json, verbose, quiet):
+def info(path: str, robot: str | None, arm: str | None, as_json: bool, verbose: int, quiet: bool) -> None:
     """Metadata, fill ratio and value histogram of a map; reads and checks every chunk of every arm."""
     setup_logging(verbose, quiet)
     store = open_store(path)
@@ -46,7 +48,7 @@ def info(path, robot, arm, as_json, verbose, quiet):
     store.close()
     shown = [arm] if arm else stored
     root = {k: v for k, v in store.root.items() if k != DIGEST_KEY}
-    out = {"path": str(path), "size_bytes": _size(Path(path)), "root": root, "arms": {}}
+    out: dict[str, Any] = {"path": str(path), "size_bytes": _size(Path(path)), "root": root, "arms": {}}
     for a in dict.fromkeys([*shown, *stored]):  # the shown arm first: a wrong --arm fails before the reading
         rmap = open_map(path, a, robot)
         with tqdm(
@@ -68,7 +70,7 @@ def _no_bars(quiet: bool) -> bool:
     return quiet or not sys.stderr.isatty()
 
 
-def scan(rmap, progress=None) -> dict:
+def scan(rmap: ReachabilityMap, progress: Callable[[int], object] | None = None) -> dict[str, Any]:
     """Fill and value statistics of a map, reading every chunk of its values and witnesses (each checked
     against its CRC32) one z layer at a time (memory: two layers, not the whole map); ``progress(1)``
     after each layer."""
@@ -99,7 +101,7 @@ def scan(rmap, progress=None) -> dict:
     }
 
 
-def _render_info(d: dict) -> str:
+def _render_info(d: dict[str, Any]) -> str:
     r = d["root"]
     lines = [f"{d['path']}  ({d['size_bytes'] / 1e6:.1f} MB)  robot {r.get('robot')}  base {r.get('base_frame')}"]
     for a, v in d["arms"].items():
@@ -134,12 +136,14 @@ def _render_info(d: dict) -> str:
 )
 @click.option("--seed", type=SEED, default=0, help="Seed of the cell draws and IK restarts.")
 @standard_options
-def check(path, robot, arm, samples, seed, as_json, verbose, quiet):
+def check(
+    path: str, robot: str | None, arm: str | None, samples: int, seed: int, as_json: bool, verbose: int, quiet: bool
+) -> None:
     """Accuracy of a map against inverse kinematics on random poses (reads and checks every chunk first)."""
     setup_logging(verbose, quiet)
     store = open_store(path)
     arms = [arm] if arm else list(store.root.get("arms") or [])
-    out = {"path": str(path), "arms": {}}
+    out: dict[str, Any] = {"path": str(path), "arms": {}}
     for a in arms:
         log.info("arm %s: reading and checking every chunk", a)
         rmap = open_map(path, a, robot).load()
@@ -149,15 +153,15 @@ def check(path, robot, arm, samples, seed, as_json, verbose, quiet):
     emit(out, as_json, _render_check)
 
 
-def _check_arm(robot, rmap, arm: str, samples: int, seed: int, quiet: bool) -> dict:
+def _check_arm(robot: Robot, rmap: ReachabilityMap, arm: str, samples: int, seed: int, quiet: bool) -> dict[str, Any]:
     """:func:`check_map` of one arm with a bar for its cell-level IK solves and one for the pose-level
     ones (:func:`pose_metrics`, which check_map runs without a progress hook): the same document."""
 
-    def bar(what):
+    def bar(what: str) -> tqdm[Any]:
         return tqdm(total=1, desc=f"check {arm}: {what}", unit="IK", disable=_no_bars(quiet), leave=False)
 
-    def ticker(b):
-        def tick(done, total):
+    def ticker(b: tqdm[Any]) -> Callable[[int, int], None]:
+        def tick(done: int, total: int) -> None:
             b.total = total
             b.update(done - b.n)
 
@@ -171,12 +175,12 @@ def _check_arm(robot, rmap, arm: str, samples: int, seed: int, quiet: bool) -> d
     return doc
 
 
-def _render_check(d: dict) -> str:
+def _render_check(d: dict[str, Any]) -> str:
     lines = []
     for a, r in d["arms"].items():
         p = r["pose_level"]
 
-        def rate(x, ci):
+        def rate(x: float | None, ci: Sequence[float]) -> str:
             return "n/a" if x is None else f"{100 * x:.1f} % (95 % CI {100 * ci[0]:.1f}-{100 * ci[1]:.1f})"
 
         lines.append(
@@ -204,19 +208,29 @@ def _render_check(d: dict) -> str:
 )
 @click.option("--seed", type=SEED, default=0, help="Seed of the --sample draw.")
 @standard_options
-def verify(path, robot, arm, sample, seed, as_json, verbose, quiet):
+def verify(
+    path: str,
+    robot: str | None,
+    arm: str | None,
+    sample: int | None,
+    seed: int,
+    as_json: bool,
+    verbose: int,
+    quiet: bool,
+) -> None:
     """Recompute stored values from their witnesses, bitwise; exit 1 if any differs (one line per arm)."""
     setup_logging(verbose, quiet)
     store = open_store(path)
     check_root(Path(path), store.root)
     arms = [arm] if arm else list(store.root.get("arms") or [])
     store.close()
-    out = {"path": str(path), "arms": {}}
+    out: dict[str, Any] = {"path": str(path), "arms": {}}
     for a in arms:
         rmap = open_map(path, a, robot)
+        assert rmap.robot is not None  # open_map loads the robot the map names when none is given
         with EtaBar(total=1, desc=f"verify {a}", unit="cell", unit_scale=True, disable=quiet, leave=False) as bar:
 
-            def tick(done, total):
+            def tick(done: int, total: int) -> None:
                 bar.total = total
                 bar.update(done - bar.n)
 
@@ -226,7 +240,7 @@ def verify(path, robot, arm, sample, seed, as_json, verbose, quiet):
         raise SystemExit(1)
 
 
-def _render_verify(d: dict) -> str:
+def _render_verify(d: dict[str, Any]) -> str:
     lines = []
     for a, r in d["arms"].items():
         head = (

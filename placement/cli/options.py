@@ -9,7 +9,9 @@ import re
 import sys
 import tempfile
 import warnings
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TextIO, TypeVar
 
 import click
 
@@ -18,22 +20,25 @@ from placement.validation import one_line
 
 log = logging.getLogger("placement")
 
+#: a command function (or one already decorated)
+F = TypeVar("F", bound=Callable[..., Any])
 
-def robot_option(f):
+
+def robot_option(f: F) -> F:
     return click.option(
         "--robot", default=None, metavar="PRESET", help="Built-in preset name (pr2) or path to a robot YAML."
     )(f)
 
 
-def arm_option(f):
+def arm_option(f: F) -> F:
     return click.option("--arm", default=None, metavar="ARM", help="One arm only (default: all arms).")(f)
 
 
-def json_option(f):
+def json_option(f: F) -> F:
     return click.option("--json", "as_json", is_flag=True, help="Print one JSON document on stdout.")(f)
 
 
-def verbosity(f):
+def verbosity(f: F) -> F:
     f = click.option("-v", "--verbose", count=True, help="More logging on stderr (-vv: tracebacks).")(f)
     f = click.option("-q", "--quiet", is_flag=True, help="No progress bars or logs.")(f)
     return f
@@ -45,13 +50,20 @@ def setup_logging(verbose: int, quiet: bool) -> None:
     warnings.showwarning = _one_line_warning
 
 
-def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+def _one_line_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: TextIO | None = None,
+    line: str | None = None,
+) -> None:
     """Python warnings (a robot without collision meshes, ...) as one ``warning:`` line on stderr,
     without the source line a user cannot act on."""
     print(one_line(f"warning: {message}"), file=sys.stderr)
 
 
-def _json(data, indent) -> str:
+def _json(data: Any, indent: int | None) -> str:
     try:
         return json.dumps(data, indent=indent, sort_keys=False, allow_nan=False)
     except ValueError:  # NaN or inf: JSON has no such numbers, and they would mean a silent wrong answer
@@ -60,17 +72,17 @@ def _json(data, indent) -> str:
         ) from None
 
 
-def to_json_line(data) -> str:
+def to_json_line(data: Any) -> str:
     """``data`` as one line of strict JSON (PlacementError if it holds NaN or inf)."""
     return _json(data, None)
 
 
-def emit(data, as_json: bool, render) -> None:
+def emit(data: Any, as_json: bool, render: Callable[[Any], str]) -> None:
     """Strict JSON on stdout, or a human-readable rendering."""
     click.echo(_json(data, 2) if as_json else render(data))
 
 
-def writable_dir(path, option: str) -> Path:
+def writable_dir(path: str | Path, option: str) -> Path:
     """Create directory ``path`` (and parents) and prove it writable before any long work starts.
 
     PlacementError naming ``option`` if it is below a file, read-only or otherwise unusable.
@@ -103,10 +115,11 @@ def cut(text: str) -> str:
     return f"{text[: ECHO_CHARS - 20]}... ({len(text):,} characters)"
 
 
-def long_strings(data, limit: int = ECHO_CHARS) -> list[str]:
+def long_strings(data: Any, limit: int = ECHO_CHARS) -> list[str]:
     """The distinct strings (mapping keys included) longer than ``limit`` anywhere in the parsed JSON or
     YAML ``data``, longest first (walked without recursion: any depth)."""
-    found, todo = set(), [data]
+    found: set[str] = set()
+    todo = [data]
     while todo:
         v = todo.pop()
         if isinstance(v, str):
@@ -120,7 +133,7 @@ def long_strings(data, limit: int = ECHO_CHARS) -> list[str]:
     return sorted(found, key=len, reverse=True)
 
 
-def bounded(message: str, data=None) -> str:
+def bounded(message: str, data: Any = None) -> str:
     """``message`` with what it echoes bounded: every long string of ``data`` (the input it is about:
     a key or value of 100 MB) quoted in it is cut to its start and its length (see :func:`cut`); then a
     message still over :data:`MESSAGE_CHARS` has its long runs without spaces cut, and is cut itself."""
@@ -135,20 +148,21 @@ def bounded(message: str, data=None) -> str:
     return message
 
 
-def one_line_errors(f):
+def one_line_errors(f: Callable[..., Any]) -> Callable[..., Any]:
     """Turn package errors into `error: ...` on stderr and exit code 2, never a traceback."""
 
     @functools.wraps(f)
-    def wrapper(*args, **kwargs):
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
         verbose = kwargs.get("verbose", 0)
         try:
             return f(*args, **kwargs)
         except (PlacementError, OSError) as exc:  # OSError: a file system error after the up-front checks
             if verbose > 1:
                 raise
+            text = str(exc)
             if isinstance(exc, OSError):
-                exc = f"{exc.filename}: {exc.strerror or exc}" if exc.filename else (exc.strerror or str(exc))
-            click.echo(f"error: {bounded(one_line(str(exc)))}", err=True)
+                text = f"{exc.filename}: {exc.strerror or exc}" if exc.filename else (exc.strerror or str(exc))
+            click.echo(f"error: {bounded(one_line(text))}", err=True)
             sys.exit(2)
         except KeyboardInterrupt:
             click.echo("interrupted; nothing was written", err=True)
@@ -160,6 +174,6 @@ def one_line_errors(f):
     return wrapper
 
 
-def standard_options(f):
+def standard_options(f: Callable[..., Any]) -> Callable[..., Any]:
     """``--json``, ``-v``/``-q`` and the one-line error contract: what every command takes."""
     return json_option(verbosity(one_line_errors(f)))

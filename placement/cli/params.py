@@ -69,7 +69,7 @@ class OneLineError(click.ClickException):
         click.echo(f"error: {self.format_message()}", err=True)
 
 
-class Checked(click.ParamType):
+class Checked(click.ParamType[Any, Any]):
     """An option type checked by a :mod:`placement.maps.buildspec` validator (same rules as in spec files)."""
 
     def __init__(self, name: str, check: Callable[[Any, str], Any]) -> None:

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable, Iterator
+from typing import Any, BinaryIO
 
 import click
 
 from placement.cli.options import bounded, emit, setup_logging, standard_options, to_json_line, writable_dir
 from placement.cli.params import OneLineCommand
-from placement.planning import METHODS, Planner
+from placement.planning import METHODS, Planner, PlanResult
 from placement.warmup import QUERY_COMPILE_S, announce_compilation
 
 
@@ -26,7 +28,16 @@ from placement.warmup import QUERY_COMPILE_S, announce_compilation
     "(one JSON line) after each.",
 )
 @standard_options
-def query(scene, maps_path, method, plot_dir, stream, as_json, verbose, quiet):
+def query(
+    scene: str,
+    maps_path: str | None,
+    method: str,
+    plot_dir: str | None,
+    stream: bool,
+    as_json: bool,
+    verbose: int,
+    quiet: bool,
+) -> None:
     """Plan the base placement, arm, grasp and IK solution of every step."""
     setup_logging(verbose, quiet)
     if plot_dir:
@@ -72,7 +83,7 @@ COLUMNS = (
 )
 
 
-def _table(r: dict) -> str:
+def _table(r: dict[str, Any]) -> str:
     """The plan as a text table whose columns fit their longest entry (names of any length line up);
     an infeasible step's reason follows its target."""
     rows: list[tuple[list[str], str | None]] = []
@@ -103,7 +114,7 @@ def _table(r: dict) -> str:
         max([len(name)] + [len(cells[i]) for cells, _ in rows if i < len(cells)]) for i, (name, _) in enumerate(COLUMNS)
     ]
 
-    def line(cells, reason=None) -> str:
+    def line(cells: list[str], reason: str | None = None) -> str:
         text = " ".join(f"{c:{a}{w}}" for c, (_, a), w in zip(cells, COLUMNS, widths))
         return (f"{text} {reason}" if reason else text).rstrip()
 
@@ -117,7 +128,7 @@ def _table(r: dict) -> str:
 MAX_LINE_BYTES = 16 * 2**20
 
 
-def stream_lines(stream, max_bytes: int = MAX_LINE_BYTES):
+def stream_lines(stream: BinaryIO, max_bytes: int = MAX_LINE_BYTES) -> Iterator[tuple[int, str | None, str | None]]:
     """(number, text or None, reason) of every non-blank line of the binary ``stream``: text None and
     a one-line reason for a line that is longer than ``max_bytes`` (skipped without keeping it) or is
     not UTF-8."""
@@ -147,7 +158,12 @@ def stream_lines(stream, max_bytes: int = MAX_LINE_BYTES):
             yield number, text, None
 
 
-def stream_plans(planner, keep_maps: bool = False, on_result=None, stream=None) -> None:
+def stream_plans(
+    planner: Planner,
+    keep_maps: bool = False,
+    on_result: Callable[[PlanResult], object] | None = None,
+    stream: BinaryIO | None = None,
+) -> None:
     """JSON lines: the first plan, then one answer per update line read from ``stream`` (default
     stdin, binary), each with ``update.status`` "refused" (nothing changed; ``error``: why) or
     "applied" (``update.updated``, ``update.timings_ms``; the new plan's keys, or none and
@@ -159,11 +175,11 @@ def stream_plans(planner, keep_maps: bool = False, on_result=None, stream=None) 
     from placement.errors import PlacementError
     from placement.validation import one_line
 
-    def say(answer: dict) -> None:
+    def say(answer: dict[str, Any]) -> None:
         click.echo(to_json_line(answer))
         sys.stdout.flush()
 
-    def first_line(exc: BaseException, data=None) -> str:
+    def first_line(exc: BaseException, data: Any = None) -> str:
         return bounded(one_line((str(exc).splitlines() or [type(exc).__name__])[0]), data)
 
     say(planner.plan().to_json())
@@ -173,6 +189,7 @@ def stream_plans(planner, keep_maps: bool = False, on_result=None, stream=None) 
             if reason is not None:
                 raise PlacementError(reason)
             try:
+                assert line is not None  # a line without a reason was read whole
                 change = json.loads(line)
             except (ValueError, RecursionError) as exc:  # RecursionError: absurdly deep nesting
                 raise PlacementError(

@@ -15,7 +15,7 @@ from placement.errors import PlacementError
 
 
 @click.group(cls=OneLineGroup)
-def robots():
+def robots() -> None:
     """Robot presets: propose one from a URDF, check one."""
 
 
@@ -45,7 +45,7 @@ def write_atomic(path: Path, text: str) -> None:
 @click.option("--out", default=None, type=click.Path(), help="Write the preset YAML here (default: stdout).")
 @click.option("--force", is_flag=True, help="Overwrite --out if it exists.")
 @standard_options
-def init(urdf, out, force, as_json, verbose, quiet):
+def init(urdf: str, out: str | None, force: bool, as_json: bool, verbose: int, quiet: bool) -> None:
     """Propose a commented preset for the robot in URDF (a .urdf or .xacro file)."""
     setup_logging(verbose, quiet)
     from placement.robots.onboarding.propose import propose
@@ -82,7 +82,7 @@ def init(urdf, out, force, as_json, verbose, quiet):
     help="Write a side view with the reach bands and a TCP close-up per arm (PNG) here.",
 )
 @standard_options
-def check(preset, plot_dir, as_json, verbose, quiet):
+def check(preset: str, plot_dir: str | None, as_json: bool, verbose: int, quiet: bool) -> None:
     """Load PRESET and show the heights and distances each arm reaches top-down and horizontally."""
     setup_logging(verbose, quiet)
     from placement.robots import load_robot

@@ -14,7 +14,7 @@ from placement.robots import load_robot
 
 
 @click.group(cls=OneLineGroup)
-def scenes():
+def scenes() -> None:
     """Benchmark scenes."""
 
 
@@ -51,7 +51,19 @@ def scenes():
 )
 @click.argument("out_dir", type=click.Path())
 @standard_options
-def generate(seed, count, objects, obstacles, preset, maps, table_depth, out_dir, as_json, verbose, quiet):
+def generate(
+    seed: int,
+    count: int,
+    objects: int,
+    obstacles: bool,
+    preset: str,
+    maps: str | None,
+    table_depth: float | None,
+    out_dir: str,
+    as_json: bool,
+    verbose: int,
+    quiet: bool,
+) -> None:
     """Write COUNT table-clearing scenes of SEED to OUT_DIR (created; checked before generating)."""
     setup_logging(verbose, quiet)
     with output_dir(out_dir, "OUT_DIR"):

@@ -3,18 +3,24 @@
 from __future__ import annotations
 
 import sys
+from typing import TYPE_CHECKING, cast
 
 import click
 
-from placement.cli.options import setup_logging, standard_options, to_json_line
+from placement.cli.options import F, setup_logging, standard_options, to_json_line
 from placement.cli.params import Bounded, OneLineCommand, OneLineError
 from placement.cli.query import stream_plans
 from placement.planning import METHODS
 
+if TYPE_CHECKING:
+    from placement.scene import Scene
+    from placement.viewer.plan_view import PlanView
+    from placement.viewer.server import View
+
 PORT = Bounded(0, 65535)
 
 
-def port_option(f):
+def port_option(f: F) -> F:
     return click.option(
         "--port",
         type=PORT,
@@ -24,7 +30,7 @@ def port_option(f):
     )(f)
 
 
-def serve(view, as_json: bool, what: str, timeout: float | None = None) -> None:
+def serve(view: View, as_json: bool, what: str, timeout: float | None = None) -> None:
     """Print where the view is, then serve it until Ctrl-C (or ``timeout`` [s])."""
     info = {"url": view.url, "timings_s": {k: round(v, 3) for k, v in view.timings.items()}}
     click.echo(to_json_line(info) if as_json else f"{what} at {view.url} (Ctrl-C to stop)", err=not as_json)
@@ -57,7 +63,18 @@ def serve(view, as_json: bool, what: str, timeout: float | None = None) -> None:
 @port_option
 @click.option("--timeout", type=float, default=None, hidden=True, help="Stop after this many seconds (tests).")
 @standard_options
-def view(scene, maps_path, method, plan_path, stream, port, timeout, as_json, verbose, quiet):
+def view(
+    scene: str,
+    maps_path: str | None,
+    method: str | None,
+    plan_path: str | None,
+    stream: bool,
+    port: int,
+    timeout: float | None,
+    as_json: bool,
+    verbose: int,
+    quiet: bool,
+) -> None:
     """Serve a 3D view of a scene and its plan: robot, TCP paths, base paths, cost maps per step."""
     setup_logging(verbose, quiet)
     if plan_path and (method or stream or maps_path):
@@ -65,18 +82,21 @@ def view(scene, maps_path, method, plan_path, stream, port, timeout, as_json, ve
         raise OneLineError(f"--plan shows a plan file; it cannot be combined with {', '.join(given)}")
     from placement.viewer import view_scene
 
+    target: Scene | str = scene
     if plan_path:  # a plan made for another scene or robot is refused before anything is served
         from placement.scene import load_scene
         from placement.viewer.plan_file import load_checked_plan
 
-        scene = load_scene(scene)
-        load_checked_plan(plan_path, scene)
-    v = view_scene(scene, maps=maps_path, method=method or "sequential", plan=plan_path, port=port)
+        shown = target = load_scene(scene)
+        load_checked_plan(plan_path, shown)
+    v = view_scene(target, maps=maps_path, method=method or "sequential", plan=plan_path, port=port)
     if stream:
         click.echo(f"viewer at {v.url}; reading updates from stdin", err=True)
         try:
             # as `placement query --stream`, and each new plan is shown
-            stream_plans(v.planner, keep_maps=True, on_result=lambda result: v.content.set_steps(result.steps))
+            planner, content = v.planner, cast("PlanView", v.content)
+            assert planner is not None  # a scene view without --plan plans
+            stream_plans(planner, keep_maps=True, on_result=lambda result: content.set_steps(result.steps))
         except BaseException:
             v.stop()
             raise
@@ -103,7 +123,17 @@ def view(scene, maps_path, method, plan_path, stream, port, timeout, as_json, ve
 @port_option
 @click.option("--timeout", type=float, default=None, hidden=True, help="Stop after this many seconds (tests).")
 @standard_options
-def maps_view(path, arm, direction, max_points, port, timeout, as_json, verbose, quiet):
+def maps_view(
+    path: str,
+    arm: str | None,
+    direction: str,
+    max_points: int,
+    port: int,
+    timeout: float | None,
+    as_json: bool,
+    verbose: int,
+    quiet: bool,
+) -> None:
     """Serve a 3D view of a reachability map: reached cells coloured by value, the robot at home."""
     setup_logging(verbose, quiet)
     from placement.viewer import view_map
