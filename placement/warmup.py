@@ -140,7 +140,7 @@ def warm(work: Path, say: Callable[[str], object] = print) -> dict[str, float]:
         scenes.append(work / f"scene{k}.yaml")
         scenes[-1].write_text(yaml.safe_dump(doc))
         evaluate_scene(str(scenes[-1]), list(METHODS))
-    Planner(scenes[0], "sequential", paths["hdf5"]).plan()
+    Planner(scenes[0], "global", paths["hdf5"]).plan()
     rmap = open_map(paths["zarr"], "right", robot).load()
     check_map(robot, rmap, samples=3)
     for index in ("isotropy", "volume"):

@@ -10,7 +10,7 @@ import click
 
 from placement.cli.options import bounded, emit, setup_logging, standard_options, to_json_line, writable_dir
 from placement.cli.params import OneLineCommand
-from placement.planning import METHODS, Planner, PlanResult
+from placement.planning import DEFAULT_METHOD, METHODS, Planner, PlanResult
 from placement.warmup import QUERY_COMPILE_S, announce_compilation
 
 
@@ -19,7 +19,7 @@ from placement.warmup import QUERY_COMPILE_S, announce_compilation
 @click.option(
     "--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`)."
 )
-@click.option("--method", type=click.Choice(METHODS), default="sequential", show_default=True)
+@click.option("--method", type=click.Choice(METHODS), default=DEFAULT_METHOD, show_default=True)
 @click.option("--plot", "plot_dir", default=None, type=click.Path(), help="Write PNG cost maps of each step here.")
 @click.option(
     "--stream",
@@ -118,9 +118,26 @@ def _table(r: dict[str, Any]) -> str:
         text = " ".join(f"{c:{a}{w}}" for c, (_, a), w in zip(cells, COLUMNS, widths))
         return (f"{text} {reason}" if reason else text).rstrip()
 
-    lines = [f"scene {r['scene']}  method {r['method']}  robot {r['robot']['name']}", line([n for n, _ in COLUMNS])]
+    lines = [
+        f"scene {r['scene']}  method {r['method']}  robot {r['robot']['name']}{certificate_words(r.get('certificate'))}",
+        line([n for n, _ in COLUMNS]),
+    ]
     lines += [line(cells, reason) for cells, reason in rows]
     return "\n".join(lines)
+
+
+def certificate_words(cert: dict[str, Any] | None) -> str:
+    """``  travel 46.8 s, bound 38.5 s (+21.6 %)`` for the summary line ('' without a certificate)."""
+    if not cert:
+        return ""
+    bound = cert.get("lower_bound_s")
+    if bound is None:
+        return f"  bound: no sequence of {cert['regions']} cells reaches every step"
+    travel, gap = cert.get("travel_s"), cert.get("gap")
+    words = f"  bound {bound:.1f} s"
+    if travel is not None:
+        words = f"  travel {travel:.1f} s, bound {bound:.1f} s" + (f" (+{100 * gap:.1f} %)" if gap is not None else "")
+    return words
 
 
 #: Longest stream line read [bytes]; a longer one is refused unread (an update adding 10,000 obstacles

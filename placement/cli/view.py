@@ -10,7 +10,7 @@ import click
 from placement.cli.options import F, setup_logging, standard_options, to_json_line
 from placement.cli.params import Bounded, OneLineCommand, OneLineError
 from placement.cli.query import stream_plans
-from placement.planning import METHODS
+from placement.planning import DEFAULT_METHOD, METHODS
 
 if TYPE_CHECKING:
     from placement.scene import Scene
@@ -46,7 +46,7 @@ def serve(view: View, as_json: bool, what: str, timeout: float | None = None) ->
 @click.option(
     "--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`)."
 )
-@click.option("--method", type=click.Choice(METHODS), default=None, help="Planning method (default sequential).")
+@click.option("--method", type=click.Choice(METHODS), default=None, help=f"Planning method (default {DEFAULT_METHOD}).")
 @click.option(
     "--plan",
     "plan_path",
@@ -89,7 +89,7 @@ def view(
 
         shown = target = load_scene(scene)
         load_checked_plan(plan_path, shown)
-    v = view_scene(target, maps=maps_path, method=method or "sequential", plan=plan_path, port=port)
+    v = view_scene(target, maps=maps_path, method=method or DEFAULT_METHOD, plan=plan_path, port=port)
     if stream:
         click.echo(f"viewer at {v.url}; reading updates from stdin", err=True)
         try:

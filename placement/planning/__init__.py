@@ -1,13 +1,16 @@
 """Planning: from a scene to verified base placements (see planner.py for the stages)."""
 
+from placement.planning.certificate import Certificate
 from placement.planning.config import PLANNER_KEYS, PlannerConfig
-from placement.planning.methods.registry import METHODS
+from placement.planning.methods.registry import DEFAULT_METHOD, METHODS
 from placement.planning.planner import Planner, plan
 from placement.planning.results import PlanResult, StepResult
 from placement.scene import Scene, SceneError, load_scene, parse_scene, save_scene
 
 __all__ = [
+    "DEFAULT_METHOD",
     "METHODS",
+    "Certificate",
     "PLANNER_KEYS",
     "PlanResult",
     "Planner",

@@ -51,7 +51,9 @@ class Regions:
 
     def union(self) -> BoolArray:
         """(ny, nx) bool: the cells of any group."""
-        out: BoolArray = self.masks.any(axis=0) if len(self.groups) else np.zeros(self.masks.shape[1:], bool)
+        out: BoolArray = np.zeros(self.masks.shape[1:], bool)
+        if len(self.groups):
+            np.any(self.masks, axis=0, out=out)
         return out
 
 
@@ -147,7 +149,8 @@ def forward(
             seed_group = prev.argmin(axis=0) if prev.shape[0] else None
             seedings = [(_seeds(low), list(range(G)))]
         for (cells, costs), members in seedings:
-            targets = reg.masks[members].any(axis=0)
+            targets: BoolArray = np.zeros(shape, bool)
+            np.any(reg.masks[members], axis=0, out=targets)
             if cells.shape[0] == 0 or not targets.any():
                 continue
             cost, pred = navigation_cost(factor, feasible, cells, resolution, costs, targets)

@@ -60,11 +60,12 @@ class PlannerConfig:
             direction [rad].
         search_sectors: bearing and base yaw sectors per turn of the search's round-robin groups [count].
         search_band_m: width of the distance bands of those groups [m].
-        optimal_candidates: candidate placements per step of ``optimal``, shared by its (arm,
-            grasp) groups [count].
-        optimal_min_per_group: least candidates per (arm, grasp) group of ``optimal`` [count].
-        optimal_lattice: spacing of the lattice of ``optimal``'s candidate cells [cells].
-        optimal_max_repairs: DP reruns of ``optimal`` after an IK or collision failure [count].
+        optimal_max_repairs: most rejected placements after which ``optimal`` and ``global`` give
+            up (each rejection solves the dynamic program again from its step on) [count].
+        optimal_probe: cells each way around a rejected placement that ``optimal`` verifies at
+            once (removing those that fail) before it solves the program again [cells].
+        optimal_manipulability_weight: weight of Eq. 6's manipulation term ``1 / m`` in the
+            objective of ``optimal`` and ``global`` [m of travel per unit of 1 / m]; 0: travel only.
         ik_pos_tol_m: position tolerance of a verified TCP pose [m].
         ik_rot_tol_rad: rotation tolerance of a verified TCP pose [rad].
         ik_seeds: start configurations per pose after the witness: the given seed, then random
@@ -93,10 +94,9 @@ class PlannerConfig:
     search_same_direction_rad: float = 0.35
     search_sectors: int = 8
     search_band_m: float = 0.1
-    optimal_candidates: int = 40
-    optimal_min_per_group: int = 8
-    optimal_lattice: int = 3
-    optimal_max_repairs: int = 30
+    optimal_max_repairs: int = 500
+    optimal_manipulability_weight: float = 0.0
+    optimal_probe: int = 1
     ik_pos_tol_m: float = 2e-3
     ik_rot_tol_rad: float = 2e-2
     ik_seeds: int = 4

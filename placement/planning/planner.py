@@ -25,12 +25,13 @@ from placement.collision import SceneCollision
 from placement.errors import MapError, PlacementError
 from placement.maps.rmap import ReachabilityMap, open_map
 from placement.planning.arrays import Cell, FloatArray
+from placement.planning.certificate import certify
 from placement.planning.config import PlannerConfig
 from placement.planning.context import PlanningContext
 from placement.planning.footprints import BaseShape
 from placement.planning.manipulation import base_yaws
 from placement.planning.methods.base import Method
-from placement.planning.methods.registry import METHODS, method_named
+from placement.planning.methods.registry import DEFAULT_METHOD, METHODS, method_named
 from placement.planning.prepare import prefetch_slices, warm_checks, warm_kernels
 from placement.planning.problems import StepProblems
 from placement.planning.results import PlanResult, robot_info
@@ -97,7 +98,7 @@ class Planner:
     def __init__(
         self,
         scene: Scene | str | Path,
-        method: str = "sequential",
+        method: str = DEFAULT_METHOD,
         maps: str | Path | None = None,
         collisions: bool = True,
     ):
@@ -203,12 +204,15 @@ class Planner:
         kept in ``StepResult.maps`` (for plots)."""
         start = self.start_cell()
         steps = self.method.plan(self.context, start, keep_maps)
-        return PlanResult(self.scene.name, self.method.name, robot_info(self.robot, self.maps), steps)
+        cert = certify(self.context, self.method, start, steps)
+        return PlanResult(
+            self.scene.name, self.method.name, robot_info(self.robot, self.maps), steps, None, cert.to_json()
+        )
 
 
-def plan(scene: Scene | str | Path, method: str = "sequential", maps: str | Path | None = None) -> dict[str, Any]:
+def plan(scene: Scene | str | Path, method: str = DEFAULT_METHOD, maps: str | Path | None = None) -> dict[str, Any]:
     """Plan a scene's whole task (SPEC section 9): the JSON document of SPEC section 7 as a dict."""
     return Planner(scene, method, maps).plan().to_json()
 
 
-__all__ = ["METHODS", "Planner", "default_maps_path", "mapped_arms", "plan"]
+__all__ = ["DEFAULT_METHOD", "METHODS", "Planner", "default_maps_path", "mapped_arms", "plan"]

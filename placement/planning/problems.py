@@ -59,6 +59,8 @@ class StepProblems:
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
+        #: (region kind, start cell) -> the task's least travel [m] (see placement.planning.bound)
+        self.bounds: dict[tuple[str, tuple[int, int]], float] = {}
 
     def options(self, i: int) -> list[Option]:
         """Manipulation maps of step i for every arm and candidate (cached)."""

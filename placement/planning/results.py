@@ -202,6 +202,9 @@ class PlanResult:
     robot: dict[str, Any]
     steps: list[StepResult]
     update: dict[str, Any] | None = None
+    #: the plan's lower bound and gap (a :class:`~placement.planning.certificate.Certificate`'s
+    #: ``to_json()``), None when not computed
+    certificate: dict[str, Any] | None = None
 
     @property
     def status(self) -> str:
@@ -224,6 +227,8 @@ class PlanResult:
             "status": self.status,
             "steps": [s.to_json() for s in self.steps],
         }
+        if self.certificate is not None:
+            out["certificate"] = self.certificate
         if self.update is not None:
             out["update"] = self.update
         return out

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from placement.errors import MapError, ViewerError
+from placement.planning.methods.registry import DEFAULT_METHOD
 from placement.viewer.server import View, start_server
 
 if TYPE_CHECKING:
@@ -18,7 +19,7 @@ SCENE_SUFFIXES = (".yaml", ".yml")
 def view_scene(
     scene: Scene | Path | str,
     maps: Path | str | None = None,
-    method: str = "sequential",
+    method: str = DEFAULT_METHOD,
     plan: Path | str | None = None,
     port: int = 0,
 ) -> View:

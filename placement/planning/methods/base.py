@@ -14,6 +14,7 @@ from dataclasses import replace
 from typing import ClassVar
 
 from placement.planning.arrays import Cell
+from placement.planning.bound import Regions, map_regions
 from placement.planning.config import PlannerConfig
 from placement.planning.context import PlanningContext
 from placement.planning.results import StepResult
@@ -28,12 +29,14 @@ class Method(ABC):
         uses_navigation: weighs the navigation cost (``lambda_n``).
         ranks_fixed_placements: ranks the pre-defined placements beside the tables, by
             manipulability, instead of the manipulation maps' cells by Eq. 6.
+        region_kind: what :meth:`regions` ranges over (the certificate's ``regions``).
     """
 
     name: ClassVar[str]
     uses_heuristic: ClassVar[bool] = True
     uses_navigation: ClassVar[bool] = True
     ranks_fixed_placements: ClassVar[bool] = False
+    region_kind: ClassVar[str] = "maps"
 
     def configure(self, base: PlannerConfig) -> PlannerConfig:
         """``base`` (the scene's configuration) with the weights this method does not use set to 0."""
@@ -48,6 +51,11 @@ class Method(ABC):
     def plan(self, ctx: PlanningContext, start: Cell, keep_maps: bool) -> list[StepResult]:
         """Every step's result from the ``start`` cell (up to the first infeasible one); with
         ``keep_maps`` each step's layers are kept in ``StepResult.maps``."""
+
+    def regions(self, ctx: PlanningContext, i: int) -> Regions:
+        """The cells where this method may stand for step i, per (arm, grasp) group (the
+        certificate's bound ranges over them): by default where the maps keep the threshold."""
+        return map_regions(ctx, i)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"

@@ -9,6 +9,7 @@ import numpy as np
 
 from placement.errors import PlacementError
 from placement.planning.arrays import FloatArray
+from placement.planning.bound import Regions
 from placement.planning.context import PlanningContext
 from placement.planning.manipulation import manipulation_map
 from placement.planning.methods.stepwise import StepwiseMethod
@@ -82,6 +83,18 @@ def rank_fixed(ctx: PlanningContext, options: Sequence[Option]) -> list[Ranked]:
     return [Ranked(*r) for r in ranked]
 
 
+def fixed_regions(ctx: PlanningContext, i: int) -> Regions:
+    """Step i's pre-defined placements that :func:`rank_fixed` ranks, per (arm, grasp) group."""
+    opts = ctx.problems.options(i)
+    groups = sorted({(o.arm, o.candidate.grasp) for o in opts}, key=lambda g: (g[0], str(g[1])))
+    index = {g: k for k, g in enumerate(groups)}
+    masks = np.zeros((len(groups), *ctx.world.nav.shape), dtype=bool)
+    for r in rank_fixed(ctx, opts):
+        o = opts[r.option]
+        masks[index[(o.arm, o.candidate.grasp)]].flat[r.cell] = True
+    return Regions(tuple(groups), masks)
+
+
 class Fixed(StepwiseMethod):
     """The baseline: the pre-defined placements beside the tables, by manipulability (no weights)."""
 
@@ -89,6 +102,10 @@ class Fixed(StepwiseMethod):
     uses_heuristic = False
     uses_navigation = False
     ranks_fixed_placements = True
+    region_kind = "fixed placements"
+
+    def regions(self, ctx: PlanningContext, i: int) -> Regions:
+        return fixed_regions(ctx, i)
 
     def rank(
         self, ctx: PlanningContext, options: Sequence[Option], nav_cost: FloatArray, heuristic: FloatArray
@@ -96,4 +113,4 @@ class Fixed(StepwiseMethod):
         return rank_fixed(ctx, options)
 
 
-__all__ = ["Fixed", "fixed_placements", "rank_fixed"]
+__all__ = ["Fixed", "fixed_placements", "fixed_regions", "rank_fixed"]

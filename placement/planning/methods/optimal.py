@@ -1,222 +1,320 @@
-"""The ``optimal`` yardstick: the whole task at once by dynamic programming.
+"""Whole-task planning by dynamic programming over every feasible base cell: ``optimal`` and ``global``.
 
-Each step keeps a candidate set: the base cells on a lattice (every ``optimal_lattice`` cells) whose
-3 x 3 neighbourhood keeps the map threshold, with their best option and yaw, per (arm, grasp)
-group the lowest manipulation costs (``optimal_candidates`` per step shared by the groups, at least
-``optimal_min_per_group`` each); a place may follow only its pick's group (same arm, same grasp).
-Exact navigation costs link consecutive candidate sets (one Dijkstra per candidate, stopped once
-the next step's candidates are settled), and the DP minimises the task's summed Eq. 6 cost without
-heuristic, ``sum_i lambda_n nav(r_{i-1}, r_i) + lambda_m / m(r_i)``, which the one-step heuristic
-approximates. Chosen placements are IK-checked; one that fails (or collides, when the context has a
-collision check) is removed and the DP rerun (at most ``optimal_max_repairs`` times).
+Both solve the forward program of :mod:`placement.planning.bound` over the regions of the maps (every
+cell where some (arm, grasp) keeps the threshold, per group; a place keeps its pick's group) and
+verify the cheapest chain lazily: each step's placement along the chain, in task order, gets IK of
+every pose (seeded from the arm's previous solution and the map's witnesses) and the collision
+check, trying the group's options that keep the threshold there by decreasing map value, each at
+its best base yaw. A rejected (cell, group) is removed from its step's region, the program is solved
+again from that step on, and the loop ends when every step of the chain verifies.
+
+The objective is the task's base travel [m] (``travel_time_s`` times ``v_max``), plus, with
+``optimal_manipulability_weight`` > 0, that weight times ``1 / m`` per step (Eq. 6's manipulation
+term) as a tie-breaker between cells of similar travel. The model's approximations: base rotation
+and arm motion run in parallel with the travel (SPEC section 8) and are not in the objective (they
+add time only where a step's rotation or arm motion outlasts its travel: see ``task_time``); a cell
+stands for its centre, at the best yaw of the option.
+
+``optimal`` removes exactly the rejected (cell, group); its result is the best verified plan of
+the discretisation, up to IK's dependence on its seed (a cell rejected from one seed is not tried
+again from another). ``global``, the default, removes the rejected cell's 3 x 3 neighbourhood (IK
+failures cluster at the frontier of reach) and starts from the interior cells (whose 3 x 3
+neighbourhood keeps the threshold, like the ranking's first tier), so it needs few repairs. The
+first program's optimum is the plan's lower bound, computed once (:mod:`placement.planning.bound`).
 """
 
 from __future__ import annotations
 
+import logging
+import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import ndimage
 
-from placement.planning.arrays import BoolArray, Cell, FloatArray, IntArray
+from placement.planning.arrays import Cell
+from placement.planning.bound import Chain, Layer, Regions, backtrack, forward, linked_steps, map_regions
 from placement.planning.context import PlanningContext
 from placement.planning.explain import explain
 from placement.planning.methods.base import Method
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
 from placement.planning.navigation import extract_path, navigation_cost
-from placement.planning.option import Option
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import collision_args
-from placement.planning.verify import trajectory_ik
+from placement.planning.verify import TrajectoryIK, trajectory_ik
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class Candidates:
-    """One step's DP candidates, all (k,): flat cells, option indices, base yaws [rad], map values
-    (dimensionless) and (arm, grasp) groups."""
+class Verified:
+    """A (step, cell, group) that verified: the option, base pose (x [m], y [m], yaw [rad]), IK,
+    clearance [m] (None without a collision check) and map value."""
 
-    cells: IntArray
-    option: IntArray
-    yaw: FloatArray
-    value: FloatArray
-    group: list[str]
-
-
-def dp_candidates(ctx: PlanningContext, i: int) -> Candidates:
-    """Step i's candidates: per (arm, grasp) group (a pick and its place keep both), the lattice
-    cells with the best values."""
-    cfg = ctx.config
-    nav = ctx.world.nav
-    opts = ctx.problems.options(i)
-    groups = sorted({option_group(o) for o in opts})
-    lattice = np.zeros(nav.shape, bool)
-    lattice[:: cfg.optimal_lattice, :: cfg.optimal_lattice] = True
-    per_group = max(cfg.optimal_min_per_group, cfg.optimal_candidates // max(len(groups), 1))
-    cells: list[IntArray] = []
-    option: list[IntArray] = []
-    yaws: list[float] = []
-    values: list[FloatArray] = []
-    group: list[str] = []
-    for g in groups:
-        best_val = np.zeros(nav.shape, np.float32)
-        best_opt = np.full(nav.shape, -1, np.int64)
-        for k, o in enumerate(opts):
-            if option_group(o) != g:
-                continue
-            inner = ndimage.minimum_filter(o.value, size=3, mode="constant", cval=0.0) >= cfg.threshold
-            v = np.where(inner, o.value, 0.0)
-            bv, bo = best_val[o.window.slices], best_opt[o.window.slices]
-            better = v > bv
-            bv[better] = v[better]
-            bo[better] = k
-        flat = np.flatnonzero(lattice & (best_opt >= 0))
-        if flat.size == 0:  # tiny feasible set: fall back to every inner cell
-            flat = np.flatnonzero(best_opt >= 0)
-        flat = flat[np.argsort(-best_val.flat[flat], kind="stable")[:per_group]]
-        cells.append(flat.astype(np.int64))
-        option.append(best_opt.flat[flat].astype(np.int64))
-        yaws += [float(ctx.yaws[opts[best_opt.flat[f]].yaw_at(*divmod(int(f), nav.shape[1]))]) for f in flat]
-        values.append(best_val.flat[flat].astype(float))
-        group += [g] * flat.size
-    return Candidates(
-        np.concatenate(cells) if cells else np.zeros(0, np.int64),
-        np.concatenate(option) if option else np.zeros(0, np.int64),
-        np.array(yaws, dtype=float),
-        np.concatenate(values) if values else np.zeros(0),
-        group,
-    )
+    option: int
+    base: tuple[float, float, float]
+    ik: TrajectoryIK
+    clearance_m: float | None
+    value: float
 
 
-def option_group(o: Option) -> str:
-    """The (arm, grasp) an option commits a transfer to, as one string."""
-    return f"{o.arm}\n{o.candidate.grasp}"
+class DynamicProgram:
+    """One plan's program: regions (changed by repairs), layers, the verified and rejected placements."""
 
+    def __init__(self, ctx: PlanningContext, start: Cell, interior: bool, neighbourhood: int):
+        self.ctx, self.start, self.neighbourhood = ctx, start, neighbourhood
+        steps = ctx.problems.steps
+        self.linked = linked_steps(ctx)
+        self.full = [map_regions(ctx, i) for i in range(len(steps))]
+        self.regions = [interior_regions(r) if interior else r for r in self.full]
+        self.regions = [reweighted(ctx, i, r) for i, r in enumerate(self.regions)]
+        self.layers: list[Layer] = []
+        self.verified: dict[tuple[int, int, int], Verified | None] = {}
+        self.rejected = [0] * len(steps)
+        self.repairs = 0
+        self.solves = 0
+        self.first_total = math.inf  # the first solve's optimum [m]
 
-def cheapest_chain(
-    ctx: PlanningContext, start_cell: Cell, cands: list[Candidates], live: list[IntArray]
-) -> list[int] | None:
-    """Indices into each step's candidates of the cheapest chain from ``start_cell`` (None when no
-    chain keeps every transfer's arm and grasp)."""
-    cfg, world = ctx.config, ctx.world
-    shape = world.nav.shape
-    steps = ctx.problems.steps
-
-    def targets(i: int) -> BoolArray:
-        m = np.zeros(shape, bool)
-        m.flat[cands[i].cells[live[i]]] = True
-        return m
-
-    nav0, _ = navigation_cost(world.factor, world.feasible, start_cell, world.nav.resolution, targets=targets(0))
-    cost = cfg.lambda_n * nav0.flat[cands[0].cells[live[0]]] + cfg.lambda_m / cands[0].value[live[0]]
-    back = []
-    for i in range(1, len(cands)):
-        tgt = targets(i)
-        nxt_cells = cands[i].cells[live[i]]
-        trans = np.empty((live[i - 1].size, live[i].size))
-        for a, j in enumerate(live[i - 1]):
-            src = divmod(int(cands[i - 1].cells[j]), shape[1])
-            c, _ = navigation_cost(world.factor, world.feasible, src, world.nav.resolution, targets=tgt)
-            trans[a] = c.flat[nxt_cells]
-        if steps[i].pick == i - 1:  # a place: the arm and grasp of its pick
-            before = np.array(cands[i - 1].group, dtype=str)[live[i - 1]]
-            after = np.array(cands[i].group, dtype=str)[live[i]]
-            trans[~(before[:, None] == after[None, :])] = np.inf
-        total = cost[:, None] + cfg.lambda_n * trans
-        arg = np.argmin(total, axis=0)
-        back.append(arg)
-        cost = total[arg, np.arange(live[i].size)] + cfg.lambda_m / cands[i].value[live[i]]
-    if not np.isfinite(cost).any():
-        return None
-    choice = [int(np.argmin(cost))]
-    for arg in reversed(back):
-        choice.append(int(arg[choice[-1]]))
-    choice.reverse()
-    return [int(live[i][c]) for i, c in enumerate(choice)]
-
-
-def plan_optimal(ctx: PlanningContext, start_cell: Cell, keep_maps: bool = False) -> list[StepResult]:
-    """The DP plan's steps; on failure a single infeasible step naming the step that failed."""
-    world, cfg = ctx.world, ctx.config
-    nav = world.nav
-    steps = ctx.problems.steps
-    t0 = time.perf_counter()
-    cands = [dp_candidates(ctx, i) for i in range(len(steps))]
-    removed: list[set[int]] = [set() for _ in steps]
-    ik_failures = [0] * len(steps)
-    for _ in range(cfg.optimal_max_repairs):
-        live = [
-            np.array([j for j in range(len(c.cells)) if j not in removed[i]], dtype=np.int64)
-            for i, c in enumerate(cands)
-        ]
-        for i, lv in enumerate(live):
-            if lv.size == 0:
-                if ik_failures[i]:
-                    return [infeasible(steps[i], f"IK failed for all {ik_failures[i]} of its DP candidates")]
-                opts = ctx.problems.options(i)
-                reason, diagnosis = explain(ctx, False, steps[i], opts, None, unreachable_reason(ctx, opts))
-                return [infeasible(steps[i], reason, diagnosis)]
-        chosen = cheapest_chain(ctx, start_cell, cands, live)
-        if chosen is None:
-            return [
-                infeasible(
-                    steps[0], "no chain of DP candidates keeps each object's arm and grasp from its pick to its place"
-                )
-            ]
-        out: list[StepResult] = []
-        prev_cell, failed = start_cell, None
-        q_state = {arm: ctx.robot.arm(arm).home.copy() for arm in ctx.maps}
-        xs, ys = nav.centres()
-        for i, j in enumerate(chosen):
-            c = cands[i]
-            o = ctx.problems.options(i)[int(c.option[j])]
-            iy, ix = divmod(int(c.cells[j]), nav.shape[1])
-            base = (float(xs[ix]), float(ys[iy]), float(c.yaw[j]))
-            witness = getattr(ctx.maps[o.arm], "witness_q", None)
-            ik = trajectory_ik(ctx.robot, o.arm, o.candidate.poses, base, q_state[o.arm], witness, cfg)
-            clearance = free = None
-            if ik.ok and ctx.collisions is not None:
-                check = ctx.collisions.check(o.arm, ik.qs, base, **collision_args(ctx, steps[i], o))
-                clearance, free = float(check.clearance_m), bool(check.free)
-            if not ik.ok or free is False:
-                failed = (i, j)
-                break
-            full = None if keep_maps else np.zeros(nav.shape, bool)
-            if full is not None:
-                full[iy, ix] = True
-            navc, pred = navigation_cost(world.factor, world.feasible, prev_cell, nav.resolution, targets=full)
-            value = float(c.value[j])
-            step = placed(ctx, steps[i], o, base, ik.qs, float(navc[iy, ix]), 0.0, value, {}, clearance)
-            if keep_maps:
-                manip = np.max([p.full_value(nav.shape) for p in ctx.problems.options(i)], axis=0)
-                step.maps = StepMaps(navc, np.zeros(nav.shape), manip, None, extract_path(pred, (iy, ix)))
-            out.append(step)
-            prev_cell = (iy, ix)
-            q_state[o.arm] = ik.q
-        if failed is None:
-            ms = (time.perf_counter() - t0) * 1e3
-            for s in out:
-                s.timings_ms = {"total": ms / len(out)}
-            return out
-        removed[failed[0]].add(failed[1])
-        ik_failures[failed[0]] += 1
-    worst = int(np.argmax(ik_failures))
-    return [
-        infeasible(
-            steps[worst],
-            f"IK kept failing on the DP's choices ({ik_failures[worst]} failures "
-            f"at this step in {cfg.optimal_max_repairs} repairs)",
+    def solve(self, first: int = 0) -> Chain | None:
+        w = self.ctx.world
+        self.solves += 1
+        self.layers = forward(
+            w.factor, w.feasible, w.nav.resolution, self.start, self.regions, self.linked, self.layers, first
         )
-    ]
+        chain = backtrack(self.layers, self.regions, self.linked)
+        if self.solves == 1:
+            self.first_total = chain.total if chain is not None else math.inf
+        return chain
+
+    def verify(self, i: int, flat: int, g: int, q_state: dict[str, np.ndarray]) -> Verified | None:
+        """The first of step i's options of group g at ``flat`` that passes IK and the collision check."""
+        key = (i, flat, g)
+        if key in self.verified:
+            return self.verified[key]
+        ctx = self.ctx
+        nav = ctx.world.nav
+        iy, ix = divmod(flat, nav.shape[1])
+        xs, ys = nav.centres()
+        step = ctx.problems.steps[i]
+        group = self.regions[i].groups[g]
+        opts = ctx.problems.options(i)
+        order = sorted(
+            (k for k, o in enumerate(opts) if (o.arm, o.candidate.grasp) == group),
+            key=lambda k: -opts[k].value_at(iy, ix),
+        )
+        found = None
+        for k in order:
+            o = opts[k]
+            value = o.value_at(iy, ix)
+            if value < ctx.config.threshold:
+                break
+            base = (float(xs[ix]), float(ys[iy]), float(ctx.yaws[o.yaw_at(iy, ix)]))
+            witness = getattr(ctx.maps[o.arm], "witness_q", None)
+            ik = trajectory_ik(ctx.robot, o.arm, o.candidate.poses, base, q_state[o.arm], witness, ctx.config)
+            if not ik.ok:
+                continue
+            clearance = None
+            if ctx.collisions is not None:
+                check = ctx.collisions.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
+                if not check.free:
+                    continue
+                clearance = float(check.clearance_m)
+            found = Verified(k, base, ik, clearance, value)
+            break
+        self.verified[key] = found
+        return found
+
+    def remove(self, i: int, flat: int, g: int) -> None:
+        """Take the rejected (cell, group) (and its neighbourhood, for ``global``) out of step i's region."""
+        reg = self.regions[i]
+        masks = reg.masks.copy()
+        iy, ix = divmod(flat, masks.shape[2])
+        r = self.neighbourhood
+        masks[g, max(iy - r, 0) : iy + r + 1, max(ix - r, 0) : ix + r + 1] = False
+        self.regions[i] = replace(reg, masks=masks)
+        self.rejected[i] += 1
+        self.repairs += 1
+
+    def reject_around(self, i: int, flat: int, g: int, q_state: dict[str, np.ndarray]) -> None:
+        """Verify the cells around a rejected one (``ctx.config.optimal_probe`` cells each way) now and
+        remove those that fail too: rejections cluster (at the frontier of reach, beside an
+        obstacle), and an IK call costs less than solving the program again for each of them."""
+        r = self.ctx.config.optimal_probe
+        masks = self.regions[i].masks
+        ny, nx = masks.shape[1:]
+        iy, ix = divmod(flat, nx)
+        for y in range(max(iy - r, 0), min(iy + r + 1, ny)):
+            for x in range(max(ix - r, 0), min(ix + r + 1, nx)):
+                f = y * nx + x
+                if self.regions[i].masks[g, y, x] and self.verify(i, f, g, q_state) is None:
+                    self.remove(i, f, g)
+
+
+def interior_regions(reg: Regions) -> Regions:
+    """``reg`` without the frontier cells (a cell stays when its 3 x 3 neighbourhood is in the region
+    of its group); a group left empty keeps its frontier."""
+    masks = reg.masks.copy()
+    for g in range(masks.shape[0]):
+        inner = ndimage.binary_erosion(masks[g], structure=np.ones((3, 3), bool))
+        if inner.any():
+            masks[g] = inner
+    return replace(reg, masks=masks)
+
+
+def reweighted(ctx: PlanningContext, i: int, reg: Regions) -> Regions:
+    """``reg`` with the node cost ``optimal_manipulability_weight / m`` [m] per (group, cell) (m: the
+    group's best map value there), or unchanged when the weight is 0."""
+    weight = ctx.config.optimal_manipulability_weight
+    if weight <= 0 or not reg.groups:
+        return reg
+    best = np.zeros(reg.masks.shape, np.float32)
+    index = {gr: k for k, gr in enumerate(reg.groups)}
+    for o in ctx.problems.options(i):
+        k = index[(o.arm, o.candidate.grasp)]
+        np.maximum(best[k][o.window.slices], o.value, out=best[k][o.window.slices])
+    with np.errstate(divide="ignore"):
+        node = np.where(reg.masks, weight / np.maximum(best, 1e-12), 0.0)
+    return replace(reg, node=node)
+
+
+def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], StepResult | None]:
+    """Solve ``dp`` until its cheapest chain verifies: (the chain, each step's verified placement,
+    None), or (None, [], the infeasible result saying why)."""
+    ctx = dp.ctx
+    steps = ctx.problems.steps
+    chain = dp.solve()
+    while True:
+        if chain is None:
+            return None, [], why_not(ctx, dp)
+        # every step of the chain is checked before the program is solved again: the rejections of
+        # one pass are removed together (one solve from the earliest instead of one per rejection)
+        q_state = {arm: ctx.robot.arm(arm).home.copy() for arm in ctx.maps}
+        failed: list[tuple[int, int, int]] = []
+        picks: list[Verified] = []
+        for i, (flat, g) in enumerate(zip(chain.cells, chain.groups)):
+            v = dp.verify(i, flat, g, q_state)
+            if v is None:
+                failed.append((i, flat, g))
+                continue
+            picks.append(v)
+            q_state[ctx.problems.options(i)[v.option].arm] = v.ik.q
+        if not failed:
+            return chain, picks, None
+        if dp.repairs + len(failed) > ctx.config.optimal_max_repairs:
+            i = failed[0][0]
+            reason = (
+                f"IK or the collision check rejected {dp.rejected[i] + 1} placements of this step "
+                f"({dp.repairs + len(failed)} in the whole task, more than optimal_max_repairs "
+                f"{ctx.config.optimal_max_repairs})"
+            )
+            return None, [], infeasible(steps[i], reason)
+        for f in failed:
+            dp.remove(*f)
+            if dp.neighbourhood == 0:
+                dp.reject_around(*f, q_state)
+        chain = dp.solve(failed[0][0])
+
+
+def plan_dynamic(
+    ctx: PlanningContext, start: Cell, keep_maps: bool, interior: bool, neighbourhood: int
+) -> list[StepResult]:
+    """The verified cheapest chain's steps; when none is left, a single infeasible step saying why."""
+    t0 = time.perf_counter()
+    if not ctx.problems.steps:
+        return []
+    dp = DynamicProgram(ctx, start, interior, neighbourhood)
+    chain, picks, failure = solve_verified(dp)
+    if not interior and ctx.config.optimal_manipulability_weight <= 0:
+        # the first program over the maps' regions is the plan's lower bound: kept, not solved again
+        ctx.problems.bounds[("maps", start)] = dp.first_total
+    if failure is not None or chain is None:
+        return [failure] if failure is not None else []
+    out = results(ctx, start, dp, chain, picks, keep_maps)
+    ms = (time.perf_counter() - t0) * 1e3
+    log.debug(
+        "dynamic program: %d placements checked, %d rejected, %d solves, %.0f ms",
+        len(dp.verified),
+        dp.repairs,
+        dp.solves,
+        ms,
+    )
+    for s in out:
+        s.timings_ms = {"total": ms / len(out)}
+    return out
+
+
+def results(
+    ctx: PlanningContext, start: Cell, dp: DynamicProgram, chain: Chain, picks: list[Verified], keep_maps: bool
+) -> list[StepResult]:
+    """The step results of a verified chain: each step's travel [m] is its label less the previous
+    step's and its node cost (the chain's legs are shortest paths from the previous cell)."""
+    nav = ctx.world.nav
+    out = []
+    prev_label, prev_cell = 0.0, start
+    for i, (flat, g, v) in enumerate(zip(chain.cells, chain.groups, picks)):
+        step = ctx.problems.steps[i]
+        o = ctx.problems.options(i)[v.option]
+        iy, ix = divmod(flat, nav.shape[1])
+        node = dp.regions[i].node
+        travel = max(chain.labels[i] - prev_label - (0.0 if node is None else float(node[g].flat[flat])), 0.0)
+        r = placed(ctx, step, o, v.base, v.ik.qs, travel, 0.0, v.value, {}, v.clearance_m)
+        if keep_maps:
+            navc, pred = navigation_cost(ctx.world.factor, ctx.world.feasible, prev_cell, nav.resolution)
+            manip = np.max([p.full_value(nav.shape) for p in ctx.problems.options(i)], axis=0)
+            r.maps = StepMaps(navc, np.zeros(nav.shape), manip, None, extract_path(pred, (iy, ix)))
+        out.append(r)
+        prev_label, prev_cell = chain.labels[i], (iy, ix)
+    return out
+
+
+def why_not(ctx: PlanningContext, dp: DynamicProgram) -> StepResult:
+    """The infeasible result of the first step no chain reaches, and why."""
+    steps = ctx.problems.steps
+    i = next(k for k, layer in enumerate(dp.layers) if not np.isfinite(layer.labels).any())
+    step = steps[i]
+    opts = ctx.problems.options(i)
+    if not dp.full[i].masks.any():
+        reason, diagnosis = explain(ctx, False, step, opts, None, unreachable_reason(ctx, opts))
+        return infeasible(step, reason, diagnosis)
+    if dp.rejected[i] and not dp.regions[i].masks.any():
+        return infeasible(step, f"IK or the collision check rejected all {dp.rejected[i]} placements the maps allow")
+    if dp.linked[i]:
+        return infeasible(
+            step,
+            f"no arm and grasp that picks '{step.carries}' reaches '{step.target}' "
+            f"(a transfer keeps the arm and the grasp; {dp.rejected[i - 1] + dp.rejected[i]} placements "
+            "rejected by IK or the collision check)",
+        )
+    return infeasible(step, "no collision-free path for the base reaches a placement of this step")
 
 
 class Optimal(Method):
-    """The yardstick: every step's placement at once, by dynamic programming over candidate sets."""
+    """The exact optimum of the task's travel over every feasible cell, verified lazily."""
 
     name = "optimal"
+    uses_heuristic = False
 
     def plan(self, ctx: PlanningContext, start: Cell, keep_maps: bool) -> list[StepResult]:
-        return plan_optimal(ctx, start, keep_maps)
+        return plan_dynamic(ctx, start, keep_maps, interior=False, neighbourhood=0)
 
 
-__all__ = ["Candidates", "Optimal", "cheapest_chain", "option_group", "dp_candidates", "plan_optimal"]
+class Global(Optimal):
+    """The default: the same program from the interior cells, a rejection removing its neighbours."""
+
+    name = "global"
+
+    def plan(self, ctx: PlanningContext, start: Cell, keep_maps: bool) -> list[StepResult]:
+        return plan_dynamic(ctx, start, keep_maps, interior=True, neighbourhood=1)
+
+
+__all__ = [
+    "DynamicProgram",
+    "Global",
+    "Optimal",
+    "Verified",
+    "interior_regions",
+    "plan_dynamic",
+    "reweighted",
+    "solve_verified",
+]

@@ -6,10 +6,14 @@ from placement.errors import PlacementError
 from placement.planning.methods.base import Method
 from placement.planning.methods.eq6 import Irm, Sequential, SingleStep
 from placement.planning.methods.fixed import Fixed
-from placement.planning.methods.optimal import Optimal
+from placement.planning.methods.optimal import Global, Optimal
 
 #: Method name -> strategy class, in the order the CLI and the evaluation list them.
-METHODS: dict[str, type[Method]] = {m.name: m for m in (Sequential, SingleStep, Irm, Fixed, Optimal)}
+METHODS: dict[str, type[Method]] = {m.name: m for m in (Global, Sequential, SingleStep, Irm, Fixed, Optimal)}
+
+
+#: The method a planner uses unless told otherwise.
+DEFAULT_METHOD = "global"
 
 
 def method_named(name: str) -> Method:
@@ -20,4 +24,4 @@ def method_named(name: str) -> Method:
         raise PlacementError(f"unknown method '{name}'; choose from {', '.join(METHODS)}") from None
 
 
-__all__ = ["METHODS", "method_named"]
+__all__ = ["DEFAULT_METHOD", "METHODS", "method_named"]
