@@ -72,7 +72,7 @@ def test_the_bound_equals_brute_force_over_the_maps_cells(coarse):
 def test_optimal_equals_brute_force_over_the_cells_left_after_its_repairs(coarse):
     w = coarse.world
     dist = dijkstra(grid_graph(w.factor, w.feasible, w.nav.resolution))
-    dp = DynamicProgram(coarse.context, coarse.start_cell(), interior=False, neighbourhood=0)
+    dp = DynamicProgram(coarse.context, coarse.start_cell())
     chain, picks, failure = solve_verified(dp)
     assert failure is None and chain is not None and len(picks) == len(coarse.problems.steps)
     # the cells the program ended with: the maps' less those its verification rejected

@@ -101,7 +101,7 @@ def test_the_checker_sees_a_base_in_the_table_and_an_arm_in_it(tmp_path, maps_di
 
     doc = generate_scene(21, 1, objects=1, maps=str(maps_dir))
     doc["planner"] = {"threshold": 0.01, "yaw_steps": 40}
-    planner = Planner(write(tmp_path, doc, "one"))
+    planner = Planner(write(tmp_path, doc, "one"), "sequential")  # a placement beside pick_table_2
     step = planner.plan().to_json()["steps"][0]
     table = next(o for o in planner.scene.obstacles if o.name == "pick_table_2")
     check = IndependentCheck(pr2, planner.scene)

@@ -49,19 +49,19 @@ def child(scene: str, maps: str, runs: int, mode: str) -> dict:
     from placement.planning.planner import Planner
 
     if mode == "first":  # a fresh process: the first step's own timer
-        return {"first": _steps(Planner(scene, maps=maps).plan())[0]["timings_ms"]["total"]}
-    Planner(scene, maps=maps).plan()  # JIT warm-up
+        return {"first": _steps(Planner(scene, "sequential", maps=maps).plan())[0]["timings_ms"]["total"]}
+    Planner(scene, "sequential", maps=maps).plan()  # JIT warm-up
     if mode == "stages":
         per: dict[str, list[float]] = {}
         for _ in range(runs):
-            for s in _steps(Planner(scene, maps=maps).plan()):
+            for s in _steps(Planner(scene, "sequential", maps=maps).plan()):
                 for k, v in s["timings_ms"].items():
                     per.setdefault(k, []).append(v)
         out = {k: statistics.median(v) for k, v in per.items()}
         if "search" not in out:  # releases before the IK/collision split timed the whole search as "ik"
             out["search"] = out.pop("ik", None)
         return out
-    planner = Planner(scene, maps=maps)
+    planner = Planner(scene, "sequential", maps=maps)
     first = _steps(planner.plan())[0]
     name = first["target"]
     obj = next(o for o in planner.scene.objects if o.name == name)

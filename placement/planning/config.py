@@ -60,8 +60,12 @@ class PlannerConfig:
             direction [rad].
         search_sectors: bearing and base yaw sectors per turn of the search's round-robin groups [count].
         search_band_m: width of the distance bands of those groups [m].
-        optimal_max_repairs: most rejected placements after which ``optimal`` and ``global`` give
-            up (each rejection solves the dynamic program again from its step on) [count].
+        optimal_max_repairs: rejected placements ``optimal`` removes one by one (exactly) before
+            each rejection removes its 3 x 3 neighbourhood, as ``global`` does [count].
+        dp_max_solves: solves of the dynamic program (one per verification pass that rejected
+            something) after which ``optimal`` and ``global`` call the step infeasible [count].
+        global_exact_repairs: rejected placements ``global`` removes one by one, as ``optimal`` does,
+            before each rejection removes its 3 x 3 neighbourhood [count].
         optimal_probe: cells each way around a rejected placement that ``optimal`` verifies at
             once (removing those that fail) before it solves the program again [cells].
         optimal_manipulability_weight: weight of Eq. 6's manipulation term ``1 / m`` in the
@@ -95,8 +99,10 @@ class PlannerConfig:
     search_sectors: int = 8
     search_band_m: float = 0.1
     optimal_max_repairs: int = 500
+    dp_max_solves: int = 400
     optimal_manipulability_weight: float = 0.0
     optimal_probe: int = 1
+    global_exact_repairs: int = 8
     ik_pos_tol_m: float = 2e-3
     ik_rot_tol_rad: float = 2e-2
     ik_seeds: int = 4

@@ -15,12 +15,16 @@ and arm motion run in parallel with the travel (SPEC section 8) and are not in t
 add time only where a step's rotation or arm motion outlasts its travel: see ``task_time``); a cell
 stands for its centre, at the best yaw of the option.
 
-``optimal`` removes exactly the rejected (cell, group); its result is the best verified plan of
-the discretisation, up to IK's dependence on its seed (a cell rejected from one seed is not tried
-again from another). ``global``, the default, removes the rejected cell's 3 x 3 neighbourhood (IK
-failures cluster at the frontier of reach) and starts from the interior cells (whose 3 x 3
-neighbourhood keeps the threshold, like the ranking's first tier), so it needs few repairs. The
-first program's optimum is the plan's lower bound, computed once (:mod:`placement.planning.bound`).
+``optimal`` removes exactly the rejected (cell, group) (and verifies its neighbours at once, removing
+those that fail too: ``optimal_probe``); its result is the best verified plan of the discretisation,
+up to IK's dependence on its seed (a cell rejected from one seed is not tried again from another),
+as long as at most ``optimal_max_repairs`` placements are rejected; past that (maps far more
+optimistic than IK, e.g. beside shelves) it goes on as ``global`` does, so that it still finds a
+plan where one verifies, and the certificate's gap says how far it is from the bound.
+``global``, the default, does the same for its first ``global_exact_repairs`` rejections, then
+removes each rejected cell's 3 x 3 neighbourhood (rejections cluster at the frontier of reach), so
+that poor maps cannot make it slow; on good maps it is ``optimal``. The first program's optimum
+is the plan's lower bound (:mod:`placement.planning.bound`), kept for the certificate.
 """
 
 from __future__ import annotations
@@ -31,7 +35,6 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import ndimage
 
 from placement.planning.arrays import Cell
 from placement.planning.bound import Chain, Layer, Regions, backtrack, forward, linked_steps, map_regions
@@ -62,13 +65,14 @@ class Verified:
 class DynamicProgram:
     """One plan's program: regions (changed by repairs), layers, the verified and rejected placements."""
 
-    def __init__(self, ctx: PlanningContext, start: Cell, interior: bool, neighbourhood: int):
+    def __init__(self, ctx: PlanningContext, start: Cell, neighbourhood: int = 0, exact_repairs: int | None = None):
         self.ctx, self.start, self.neighbourhood = ctx, start, neighbourhood
+        #: rejections removed one (cell, group) at a time before ``neighbourhood`` applies (None: always)
+        self.exact_repairs = exact_repairs
         steps = ctx.problems.steps
         self.linked = linked_steps(ctx)
         self.full = [map_regions(ctx, i) for i in range(len(steps))]
-        self.regions = [interior_regions(r) if interior else r for r in self.full]
-        self.regions = [reweighted(ctx, i, r) for i, r in enumerate(self.regions)]
+        self.regions = [reweighted(ctx, i, r) for i, r in enumerate(self.full)]
         self.layers: list[Layer] = []
         self.verified: dict[tuple[int, int, int], Verified | None] = {}
         self.rejected = [0] * len(steps)
@@ -130,7 +134,7 @@ class DynamicProgram:
         reg = self.regions[i]
         masks = reg.masks.copy()
         iy, ix = divmod(flat, masks.shape[2])
-        r = self.neighbourhood
+        r = self.neighbourhood if self.exact_repairs is not None and self.repairs >= self.exact_repairs else 0
         masks[g, max(iy - r, 0) : iy + r + 1, max(ix - r, 0) : ix + r + 1] = False
         self.regions[i] = replace(reg, masks=masks)
         self.rejected[i] += 1
@@ -149,17 +153,6 @@ class DynamicProgram:
                 f = y * nx + x
                 if self.regions[i].masks[g, y, x] and self.verify(i, f, g, q_state) is None:
                     self.remove(i, f, g)
-
-
-def interior_regions(reg: Regions) -> Regions:
-    """``reg`` without the frontier cells (a cell stays when its 3 x 3 neighbourhood is in the region
-    of its group); a group left empty keeps its frontier."""
-    masks = reg.masks.copy()
-    for g in range(masks.shape[0]):
-        inner = ndimage.binary_erosion(masks[g], structure=np.ones((3, 3), bool))
-        if inner.any():
-            masks[g] = inner
-    return replace(reg, masks=masks)
 
 
 def reweighted(ctx: PlanningContext, i: int, reg: Regions) -> Regions:
@@ -201,31 +194,31 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
             q_state[ctx.problems.options(i)[v.option].arm] = v.ik.q
         if not failed:
             return chain, picks, None
-        if dp.repairs + len(failed) > ctx.config.optimal_max_repairs:
+        if dp.solves >= ctx.config.dp_max_solves:
             i = failed[0][0]
             reason = (
                 f"IK or the collision check rejected {dp.rejected[i] + 1} placements of this step "
-                f"({dp.repairs + len(failed)} in the whole task, more than optimal_max_repairs "
-                f"{ctx.config.optimal_max_repairs})"
+                f"({dp.repairs + len(failed)} in the whole task; the program was solved "
+                f"{dp.solves} times, dp_max_solves)"
             )
             return None, [], infeasible(steps[i], reason)
         for f in failed:
             dp.remove(*f)
-            if dp.neighbourhood == 0:
+            if dp.exact_repairs is None or dp.repairs < dp.exact_repairs:
                 dp.reject_around(*f, q_state)
         chain = dp.solve(failed[0][0])
 
 
 def plan_dynamic(
-    ctx: PlanningContext, start: Cell, keep_maps: bool, interior: bool, neighbourhood: int
+    ctx: PlanningContext, start: Cell, keep_maps: bool, neighbourhood: int = 0, exact_repairs: int | None = None
 ) -> list[StepResult]:
     """The verified cheapest chain's steps; when none is left, a single infeasible step saying why."""
     t0 = time.perf_counter()
     if not ctx.problems.steps:
         return []
-    dp = DynamicProgram(ctx, start, interior, neighbourhood)
+    dp = DynamicProgram(ctx, start, neighbourhood, exact_repairs)
     chain, picks, failure = solve_verified(dp)
-    if not interior and ctx.config.optimal_manipulability_weight <= 0:
+    if ctx.config.optimal_manipulability_weight <= 0:
         # the first program over the maps' regions is the plan's lower bound: kept, not solved again
         ctx.problems.bounds[("maps", start)] = dp.first_total
     if failure is not None or chain is None:
@@ -296,25 +289,17 @@ class Optimal(Method):
     uses_heuristic = False
 
     def plan(self, ctx: PlanningContext, start: Cell, keep_maps: bool) -> list[StepResult]:
-        return plan_dynamic(ctx, start, keep_maps, interior=False, neighbourhood=0)
+        return plan_dynamic(ctx, start, keep_maps, neighbourhood=1, exact_repairs=ctx.config.optimal_max_repairs)
 
 
 class Global(Optimal):
-    """The default: the same program from the interior cells, a rejection removing its neighbours."""
+    """The default: the exact program while rejections are few (``global_exact_repairs``), then a
+    rejection removes its 3 x 3 neighbourhood, so poor maps cannot make it slow."""
 
     name = "global"
 
     def plan(self, ctx: PlanningContext, start: Cell, keep_maps: bool) -> list[StepResult]:
-        return plan_dynamic(ctx, start, keep_maps, interior=True, neighbourhood=1)
+        return plan_dynamic(ctx, start, keep_maps, neighbourhood=1, exact_repairs=ctx.config.global_exact_repairs)
 
 
-__all__ = [
-    "DynamicProgram",
-    "Global",
-    "Optimal",
-    "Verified",
-    "interior_regions",
-    "plan_dynamic",
-    "reweighted",
-    "solve_verified",
-]
+__all__ = ["DynamicProgram", "Global", "Optimal", "Verified", "plan_dynamic", "reweighted", "solve_verified"]

@@ -1,0 +1,91 @@
+"""How far each method's plans are from the best possible: travel against the certified lower bound.
+
+Generates held-out table-clearing scenes (``placement scenes generate``; seeds the evaluation does not
+use, half of them with crates), plans each with every map-based method on one planner (shared IRMs,
+collisions on), and prints, per scene, the lower bound on the travel time of any plan on the maps'
+cells (the certificate), each method's travel and its ratio to the bound, and the planning time of
+the whole task per placement (median of ``--runs`` plans; the IRMs are computed before, as
+``placement query --stream`` keeps them). The last rows give the median and worst ratio per method.
+
+    python tools/bench_optimum.py [--maps maps/pr2] [--scenes 6] [--runs 3]
+
+Writes the table to docs/bench/optimum.md (atomically), which docs/benchmarks.md includes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from bench_output import write_atomic
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+METHODS = ("sequential", "global", "optimal")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--maps", default="maps/pr2")
+    ap.add_argument("--scenes", type=int, default=6)
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--out", default=str(ROOT / "docs/bench/optimum.md"))
+    args = ap.parse_args()
+
+    from placement.evaluation import write_scenes
+    from placement.planning import Planner
+
+    maps = str(Path(args.maps).resolve())
+    work = Path(tempfile.mkdtemp(prefix="bench-optimum-"))
+    free = write_scenes(work / "free", seed=101, count=(args.scenes + 1) // 2, maps=maps)
+    crates = write_scenes(work / "crates", seed=102, count=args.scenes // 2, obstacles=True, maps=maps)
+    rows = []
+    ratios: dict[str, list[float]] = {m: [] for m in METHODS}
+    for path in [*free, *crates]:
+        planner = Planner(path, METHODS[0], maps)
+        planner.plan()  # IRMs and the bound computed once, as a live planner keeps them
+        row = {"scene": Path(path).stem}
+        for m in METHODS:
+            planner.set_method(m)
+            times = []
+            for _ in range(args.runs):
+                t = time.perf_counter()
+                result = planner.plan()
+                times.append((time.perf_counter() - t) * 1e3 - result.certificate["timings_ms"]["bound"])
+            cert = result.certificate
+            row["bound"] = cert["lower_bound_s"]
+            if result.ok and cert["lower_bound_s"]:
+                ratios[m].append(cert["travel_s"] / cert["lower_bound_s"])
+                row[m] = f"{cert['travel_s']:.1f} ({ratios[m][-1]:.3f})"
+            else:
+                row[m] = "failed"
+            row[f"{m} ms"] = f"{statistics.median(times) / len(planner.problems.steps):.1f}"
+        rows.append(row)
+        print(row, file=sys.stderr, flush=True)
+    head = ["scene", "bound [s]"] + [f"{m} [s] (x bound)" for m in METHODS] + [f"{m} [ms/placement]" for m in METHODS]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        cells = [r["scene"], f"{r['bound']:.1f}" if r["bound"] is not None else "-"]
+        cells += [r[m] for m in METHODS] + [r[f"{m} ms"] for m in METHODS]
+        lines.append("| " + " | ".join(cells) + " |")
+    for name, f in (("median", statistics.median), ("worst", max)):
+        cells = [f"**{name}**", ""] + [f"x {f(ratios[m]):.3f}" if ratios[m] else "-" for m in METHODS]
+        lines.append("| " + " | ".join(cells + [""] * len(METHODS)) + " |")
+    text = "\n".join(lines) + "\n"
+    text += (
+        f"\n{len(rows)} held-out scenes of {len(planner.problems.steps)} steps, maps `{Path(args.maps).name}` "
+        f"({args.maps}), {args.runs} runs each; {platform.processor() or platform.machine()}, "
+        f"{platform.python_version()}.\n"
+    )
+    print(text)
+    write_atomic(Path(args.out), text)
+
+
+if __name__ == "__main__":
+    main()
