@@ -259,7 +259,7 @@ def test_a_bottle_goes_into_a_low_shelf_upright_through_the_gap(maps_dir, pr2):
     tops = [o for o in planner.problems.options(1) if o.candidate.grasp.startswith("top")]
     assert tops and all(o.candidate.poses[0][2, 3] > 0.80 + 0.26 for o in tops)
     # a gap lower than the bottle: no place fits, and the pick says which place failed for which arm
-    low = Planner(shelf_scene(0.18), maps=maps_dir).plan()
+    low = Planner(shelf_scene(0.18), "sequential", maps=maps_dir).plan()  # the stepwise pick explains
     assert not low.ok and low.steps[-1].action == "pick"
     assert "set it down at 'in_shelf'" in low.steps[-1].reason
 
@@ -324,7 +324,7 @@ def test_a_place_only_one_arm_reaches_decides_the_arm_of_the_pick(maps_dir, tmp_
     preset["footprint"] = [[0.335, 0.335], [-0.9, 0.335], [-0.9, -0.335], [0.335, -0.335]]
     (tmp_path / "pr2_cart.yaml").write_text(yaml.safe_dump(preset))
     (tmp_path / "corridor.yaml").write_text(CORRIDOR.replace("PRESET", str(tmp_path / "pr2_cart.yaml")))
-    planner = Planner(unbudgeted(load_scene(tmp_path / "corridor.yaml")), maps=maps_dir)
+    planner = Planner(unbudgeted(load_scene(tmp_path / "corridor.yaml")), "sequential", maps=maps_dir)
     pick, place = planner.problems.steps
     home = {a: planner.robot.arm(a).home.copy() for a in planner.maps}
     ctx, method = planner.context, planner.method

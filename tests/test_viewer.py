@@ -29,7 +29,7 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yam
 
 @pytest.fixture(scope="module")
 def scene_view(maps_dir):
-    v = view_scene(EXAMPLE, maps=maps_dir, port=0)
+    v = view_scene(EXAMPLE, maps=maps_dir, method="sequential", port=0)  # all four cost layers
     yield v
     v.stop()
 

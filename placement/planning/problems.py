@@ -13,6 +13,7 @@ methods of a scene (evaluation plans each scene with every method).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -61,6 +62,9 @@ class StepProblems:
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
         #: (region kind, start cell) -> the task's least travel [m] (see placement.planning.bound)
         self.bounds: dict[tuple[str, tuple[int, int]], float] = {}
+        #: (step, flat cell, (arm, grasp)) -> what the whole-task methods' verification found
+        #: there (a ``Verified``, or None: rejected)
+        self.verdicts: dict[tuple[int, int, tuple[str, str | None]], Any] = {}
 
     def options(self, i: int) -> list[Option]:
         """Manipulation maps of step i for every arm and candidate (cached)."""

@@ -37,7 +37,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from placement.planning.arrays import Cell
-from placement.planning.bound import Chain, Layer, Regions, backtrack, forward, linked_steps, map_regions
+from placement.planning.bound import Chain, Group, Layer, Regions, backtrack, forward, linked_steps, map_regions
 from placement.planning.context import PlanningContext
 from placement.planning.explain import explain
 from placement.planning.methods.base import Method
@@ -74,9 +74,20 @@ class DynamicProgram:
         self.full = [map_regions(ctx, i) for i in range(len(steps))]
         self.regions = [reweighted(ctx, i, r) for i, r in enumerate(self.full)]
         self.layers: list[Layer] = []
-        self.verified: dict[tuple[int, int, int], Verified | None] = {}
-        self.rejected = [0] * len(steps)
+        # what verification found, kept by the planner's per-step cache for its later plans (a
+        # live planner re-planning after an update, or another method on the same scene); the
+        # cache of a changed scene starts empty
+        self.verified: dict[tuple[int, int, Group], Verified | None] = ctx.problems.verdicts
         self.repairs = 0
+        self.rejected = [0] * len(steps)
+        #: a rejection took its neighbours with it (see :meth:`exact_again`)
+        self.coarse = False
+        #: no rejection of an earlier plan applied: the first solve is over the maps' regions
+        self.pristine = True
+        for (i, flat, group), v in list(self.verified.items()):
+            if v is None and i < len(steps) and group in self.full[i].groups:
+                self.remove(i, flat, self.full[i].groups.index(group), count=False)
+                self.pristine = False
         self.solves = 0
         self.first_total = math.inf  # the first solve's optimum [m]
 
@@ -93,7 +104,7 @@ class DynamicProgram:
 
     def verify(self, i: int, flat: int, g: int, q_state: dict[str, np.ndarray]) -> Verified | None:
         """The first of step i's options of group g at ``flat`` that passes IK and the collision check."""
-        key = (i, flat, g)
+        key = (i, flat, self.regions[i].groups[g])
         if key in self.verified:
             return self.verified[key]
         ctx = self.ctx
@@ -129,16 +140,29 @@ class DynamicProgram:
         self.verified[key] = found
         return found
 
-    def remove(self, i: int, flat: int, g: int) -> None:
+    def remove(self, i: int, flat: int, g: int, count: bool = True) -> None:
         """Take the rejected (cell, group) (and its neighbourhood, for ``global``) out of step i's region."""
         reg = self.regions[i]
         masks = reg.masks.copy()
         iy, ix = divmod(flat, masks.shape[2])
-        r = self.neighbourhood if self.exact_repairs is not None and self.repairs >= self.exact_repairs else 0
+        late = count and self.exact_repairs is not None and self.repairs >= self.exact_repairs
+        r = self.neighbourhood if late else 0
+        self.coarse = self.coarse or r > 0
         masks[g, max(iy - r, 0) : iy + r + 1, max(ix - r, 0) : ix + r + 1] = False
         self.regions[i] = replace(reg, masks=masks)
-        self.rejected[i] += 1
-        self.repairs += 1
+        if count:
+            self.rejected[i] += 1
+            self.repairs += 1
+
+    def exact_again(self) -> Chain | None:
+        """Solve again over the maps' regions less only the placements verification rejected, never
+        removing neighbours again (when removing them left no chain)."""
+        self.exact_repairs, self.coarse = None, False
+        self.regions = [reweighted(self.ctx, i, r) for i, r in enumerate(self.full)]
+        for (i, flat, group), v in self.verified.items():
+            if v is None and i < len(self.full) and group in self.full[i].groups:
+                self.remove(i, flat, self.full[i].groups.index(group), count=False)
+        return self.solve()
 
     def reject_around(self, i: int, flat: int, g: int, q_state: dict[str, np.ndarray]) -> None:
         """Verify the cells around a rejected one (``ctx.config.optimal_probe`` cells each way) now and
@@ -178,6 +202,10 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
     steps = ctx.problems.steps
     chain = dp.solve()
     while True:
+        if chain is None and dp.coarse:
+            # the neighbourhoods took every chain away: back to removing only what was rejected
+            chain = dp.exact_again()
+            continue
         if chain is None:
             return None, [], why_not(ctx, dp)
         # every step of the chain is checked before the program is solved again: the rejections of
@@ -218,7 +246,7 @@ def plan_dynamic(
         return []
     dp = DynamicProgram(ctx, start, neighbourhood, exact_repairs)
     chain, picks, failure = solve_verified(dp)
-    if ctx.config.optimal_manipulability_weight <= 0:
+    if dp.pristine and ctx.config.optimal_manipulability_weight <= 0:
         # the first program over the maps' regions is the plan's lower bound: kept, not solved again
         ctx.problems.bounds[("maps", start)] = dp.first_total
     if failure is not None or chain is None:
