@@ -74,20 +74,14 @@ class DynamicProgram:
         self.full = [map_regions(ctx, i) for i in range(len(steps))]
         self.regions = [reweighted(ctx, i, r) for i, r in enumerate(self.full)]
         self.layers: list[Layer] = []
-        # what verification found, kept by the planner's per-step cache for its later plans (a
-        # live planner re-planning after an update, or another method on the same scene); the
-        # cache of a changed scene starts empty
+        # what verification found, kept by the planner's per-step cache: a later plan of the same
+        # scene replays the same program with the IK answers looked up (same plan, without the IK
+        # time); the cache of a changed scene starts empty
         self.verified: dict[tuple[int, int, Group], Verified | None] = ctx.problems.verdicts
         self.repairs = 0
         self.rejected = [0] * len(steps)
         #: a rejection took its neighbours with it (see :meth:`exact_again`)
         self.coarse = False
-        #: no rejection of an earlier plan applied: the first solve is over the maps' regions
-        self.pristine = True
-        for (i, flat, group), v in list(self.verified.items()):
-            if v is None and i < len(steps) and group in self.full[i].groups:
-                self.remove(i, flat, self.full[i].groups.index(group), count=False)
-                self.pristine = False
         self.solves = 0
         self.first_total = math.inf  # the first solve's optimum [m]
 
@@ -246,7 +240,7 @@ def plan_dynamic(
         return []
     dp = DynamicProgram(ctx, start, neighbourhood, exact_repairs)
     chain, picks, failure = solve_verified(dp)
-    if dp.pristine and ctx.config.optimal_manipulability_weight <= 0:
+    if ctx.config.optimal_manipulability_weight <= 0:
         # the first program over the maps' regions is the plan's lower bound: kept, not solved again
         ctx.problems.bounds[("maps", start)] = dp.first_total
     if failure is not None or chain is None:
