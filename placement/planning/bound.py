@@ -29,7 +29,7 @@ import numpy as np
 
 from placement.planning.arrays import BoolArray, Cell, FloatArray, IntArray
 from placement.planning.context import PlanningContext
-from placement.planning.navigation import navigation_cost
+from placement.planning.navigation import extract_path, navigation_cost
 
 #: An (arm, grasp) pair: what a pick commits its place to.
 Group = tuple[str, str | None]
@@ -165,13 +165,8 @@ def forward(
 
 def _root(pred: IntArray, flat: int) -> int:
     """The source cell (flat) of the shortest path that ends at ``flat``."""
-    steps = 0
-    while pred.flat[flat] >= 0:
-        flat = int(pred.flat[flat])
-        steps += 1
-        if steps > pred.size:
-            raise RuntimeError("predecessor map has a cycle")
-    return flat
+    iy, ix = extract_path(pred, divmod(flat, pred.shape[1]))[0]
+    return int(iy) * int(pred.shape[1]) + int(ix)
 
 
 def backtrack(layers: Sequence[Layer], regions: Sequence[Regions], linked: Sequence[bool]) -> Chain | None:
