@@ -278,7 +278,7 @@ def test_out_is_never_overwritten_without_force(tmp_path):
         ("missing", ["not found"]),
         ("text", ["not a URDF"]),
         ("sdf", ["not a URDF", "<sdf>"]),
-        ("no_arm", ["no arm with >= 6", "joint_5"]),
+        ("no_arm", ["no arm with >= 5", "joint_4"]),
         ("xacro_error", ["xacro", "does not expand"]),
         ("directory", ["not a file"]),
     ],
@@ -287,7 +287,7 @@ def test_bad_input_is_one_line(tmp_path, case, words):
     files = {
         "text": ("robot.urdf", "just some text\n"),
         "sdf": ("robot.urdf", "<sdf version='1.6'/>"),
-        "no_arm": ("small.urdf", arm_urdf(joints=5)),
+        "no_arm": ("small.urdf", arm_urdf(joints=4)),
         "xacro_error": ("bad.urdf.xacro", arm_xacro().replace("${-limit}", "${-undefined_limit}")),
     }
     if case == "missing":

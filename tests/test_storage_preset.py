@@ -63,7 +63,7 @@ def test_tip_frame_differs(saved, tmp_path):
 
 
 def test_six_joint_arm_against_a_seven_joint_map(saved, tmp_path):
-    """(A 5-joint arm is refused by the preset itself: arms need 6 joints.)"""
+    """A 6-joint preset arm against the 7-joint map of that arm."""
 
     def edit(arm):
         arm["joints"] = arm["joints"][:6]

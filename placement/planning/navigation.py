@@ -66,9 +66,10 @@ def navigation_cost(
     if fac.shape != feas.shape:
         raise PlacementError(f"factor {fac.shape} and feasible {feas.shape} grids differ")
     ny, nx = feas.shape
-    for iy, ix in cells:
-        if not (0 <= iy < ny and 0 <= ix < nx):
-            raise PlacementError(f"start cell ({iy}, {ix}) is outside the {ny} x {nx} grid")
+    outside = (cells[:, 0] < 0) | (cells[:, 0] >= ny) | (cells[:, 1] < 0) | (cells[:, 1] >= nx)
+    if outside.any():
+        iy, ix = cells[int(np.argmax(outside))]
+        raise PlacementError(f"start cell ({iy}, {ix}) is outside the {ny} x {nx} grid")
     if not feas[cells[:, 0], cells[:, 1]].any():
         iy, ix = cells[0]
         raise PlacementError(f"start cell ({iy}, {ix}) is inside an obstacle or too close to one for the base")

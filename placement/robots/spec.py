@@ -47,8 +47,9 @@ ARM_REQUIRED = ("joints", "tip_frame")
 GRIPPER_KEYS = {"max_opening": "[m] widest chord the gripper closes across (default 0.09, the PR2's)"}
 #: Largest ``gripper.max_opening`` accepted [m]: a wider one is a units mistake.
 MAX_GRIPPER_OPENING = 2.0
-#: The extended manipulability is defined on the 6 x n Jacobian.
-MIN_ARM_JOINTS = 6
+#: Fewest joints of an arm: with 5, the base's planar motion supplies the missing degree of freedom
+#: (the maps hold the measure on the subspace the arm spans, see :mod:`placement.kernels.manipulability`).
+MIN_ARM_JOINTS = 5
 #: A ``tcp_offset`` quaternion whose norm is within this of 1 is accepted and normalised;
 #: any other is an error (it would scale or shear the TCP frame).
 QUATERNION_TOLERANCE = 1e-6
