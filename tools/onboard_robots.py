@@ -8,12 +8,14 @@ band -> ``examples/table_clearing_<robot>.yaml``, planned with ``Planner`` and e
 independent randomized IK search over base poses (:func:`independent_search`).
 
     python tools/onboard_robots.py [ROBOT ...] [--samples N] [--rebuild] [--objects K] [--reach-only]
+                                   [--root DIR]
 
-ROBOT is a key of :data:`ROBOTS` or a path to a URDF/xacro file. Run from the repository root. Writes
-(atomically, see bench_output.py) the table of the run to docs/bench/onboarding.md and the reach bands
-of the presets (``placement robots check``: heights and distances per arm and approach, and its
-warnings) to docs/bench/reach.md; ``--reach-only`` writes only the reach bands, from the presets as they
-are (no init, build or planning: seconds).
+ROBOT is a key of :data:`ROBOTS` or a path to a URDF/xacro file. Writes (atomically, see
+bench_output.py) the table of the run to docs/bench/onboarding.md and the reach bands of the presets
+(``placement robots check``: heights and distances per arm and approach, and its warnings) to
+docs/bench/reach.md; ``--reach-only`` writes only the reach bands, from the presets as they are (no
+init, build or planning: seconds). Every path above is under the repository root, or under ``--root
+DIR`` (a trial run whose presets, maps, scenes and tables stay out of the repository).
 """
 
 from __future__ import annotations
@@ -40,13 +42,21 @@ from placement.robots.onboarding.render import render  # noqa: E402
 from placement.robots.spec import share_dir  # noqa: E402
 
 ERD = "example-robot-data/robots/"
+#: The robots onboarded: example-robot-data's (paths in its share folder) and the repository's own
+#: (paths from the repository root; examples/robots/urdf holds their URDFs and how they were sized).
 ROBOTS = {
     "tiago": ERD + "tiago_description/robots/tiago.urdf",
     "talos_reduced": ERD + "talos_data/robots/talos_reduced.urdf",
     "romeo": ERD + "romeo_description/urdf/romeo.urdf",
+    # a wheeled centaur: four legs ending in wheels, a yaw torso and two 6-joint arms without fingers
+    "centauro": ERD + "centauro_description/urdf/centauro.urdf",
+    # example-robot-data's 5-joint SO-101 arm on a 0.65 m column: tables 0.45 m high
+    "so_arm_base": "examples/robots/urdf/so_arm_base.urdf.xacro",
+    # Stretch-like: a 1.1 m lift, four 0.13 m telescope joints and a yaw-pitch-roll wrist
+    "lift_telescope": "examples/robots/urdf/lift_telescope.urdf",
 }
-ONBOARDING_MD = ROOT / "docs/bench/onboarding.md"
-REACH_MD = ROOT / "docs/bench/reach.md"
+ONBOARDING_MD = Path("docs/bench/onboarding.md")
+REACH_MD = Path("docs/bench/reach.md")
 #: Columns of the onboarding table (keys of :func:`onboard`'s rows).
 KEYS = ["robot", "arms", "dof", "init s", "build s", "steps planned / verified", "result"]
 #: Gap between the base's edge and the table edge [m], and the largest table depth used [m].
@@ -65,6 +75,26 @@ bins: [20, 9, 20]
 index: isotropy
 format: zarr
 """
+
+
+def robot_urdf(name: str) -> Path:
+    """The URDF/xacro file of ``name``: a key of :data:`ROBOTS` or a path."""
+    if name not in ROBOTS:
+        return Path(name).resolve()
+    where = ROBOTS[name]
+    return share_dir() / where if where.startswith(ERD) else ROOT / where
+
+
+def robot_name(name: str) -> str:
+    """The preset name of ``name``: the key, or the file name up to its first dot."""
+    return name if name in ROBOTS else Path(name).name.split(".")[0]
+
+
+def shown_path(urdf: Path) -> str:
+    """``urdf`` as the preset's comment shows it: package://..., repository-relative, or absolute."""
+    if str(urdf).startswith(str(share_dir())):
+        return f"package://{urdf.relative_to(share_dir())}"
+    return str(urdf.relative_to(ROOT)) if urdf.is_relative_to(ROOT) else str(urdf)
 
 
 def table_depth(robot, height: float) -> float:
@@ -90,9 +120,9 @@ def table_height(robot) -> float:
     return round(min(TABLE_HEIGHT, math.floor((top - PRE_GRASP_TOP) / 0.05) * 0.05), 2)
 
 
-def make_scene(name: str, robot, objects: int) -> Path:
-    """``examples/table_clearing_<name>.yaml``: the seeded generator's scene with tables ``table_depth``
-    deep and ``table_height`` high."""
+def make_scene(name: str, robot, objects: int, root: Path = ROOT) -> Path:
+    """``<root>/examples/table_clearing_<name>.yaml``: the seeded generator's scene with tables
+    ``table_depth`` deep and ``table_height`` high."""
     from placement.evaluation.generate import TABLE_HEIGHT, generate_scene
 
     height = table_height(robot)
@@ -109,7 +139,7 @@ def make_scene(name: str, robot, objects: int) -> Path:
         o["position"][2] = round(o["position"][2] - TABLE_HEIGHT + height, 4)
     doc["robot"]["preset"] = f"robots/{name}.yaml"
     doc["maps"] = f"../maps/{name}"
-    path = ROOT / "examples" / f"table_clearing_{name}.yaml"
+    path = root / "examples" / f"table_clearing_{name}.yaml"
     head = (
         f"# Table clearing sized for {name} (tools/onboard_robots.py): tables {depth} m deep (twice its top-down "
         f"reach into a table) and {height} m high.\n# Units: metres, radians.\n"
@@ -159,21 +189,23 @@ def independent_search(robot, scene: Path, step, tries: int = 3000, seed: int = 
     return f"{found} of {tried} clear base poses work"
 
 
-def onboard(name: str, urdf: Path, samples: int, rebuild: bool, objects: int) -> dict:
+def onboard(name: str, urdf: Path, samples: int, rebuild: bool, objects: int, root: Path = ROOT) -> dict:
+    """One row of the onboarding table for robot ``name`` from ``urdf``; files under ``root``."""
     row: dict[str, object] = {"robot": name}
-    preset = ROOT / "examples" / "robots" / f"{name}.yaml"
+    preset = root / "examples" / "robots" / f"{name}.yaml"
+    preset.parent.mkdir(parents=True, exist_ok=True)
+    (root / "maps").mkdir(exist_ok=True)
     t = time.perf_counter()
     p = propose(urdf, preset)
-    rel = f"package://{urdf.relative_to(share_dir())}" if str(urdf).startswith(str(share_dir())) else str(urdf)
-    preset.write_text(render(p, f"placement robots init {rel} --out examples/robots/{name}.yaml"))
+    preset.write_text(render(p, f"placement robots init {shown_path(urdf)} --out examples/robots/{name}.yaml"))
     row["init s"] = round(time.perf_counter() - t, 1)
     robot = load_robot(preset)
     row["arms"] = ", ".join(robot.arms)
     row["dof"] = ", ".join(str(len(robot.arm(a).joints)) for a in robot.arms)
-    spec = ROOT / "maps" / f"{name}.yaml"
+    spec = root / "maps" / f"{name}.yaml"
     if not spec.exists():
         spec.write_text(SPEC.format(name=name, arms=", ".join(robot.arms), samples=samples))
-    out = ROOT / "maps" / name
+    out = root / "maps" / name
     row["build s"] = "-"
     if rebuild or not out.exists():
         t = time.perf_counter()
@@ -185,12 +217,12 @@ def onboard(name: str, urdf: Path, samples: int, rebuild: bool, objects: int) ->
                 "maps",
                 "build",
                 "--spec",
-                str(spec.relative_to(ROOT)),
+                str(spec.relative_to(root)),
                 "--out",
-                str(out.relative_to(ROOT)),
+                str(out.relative_to(root)),
                 "-q",
             ],
-            cwd=ROOT,
+            cwd=root,
             capture_output=True,
             text=True,
         )
@@ -200,7 +232,7 @@ def onboard(name: str, urdf: Path, samples: int, rebuild: bool, objects: int) ->
         row["build s"] = round(time.perf_counter() - t, 1)
     from placement.planning import Planner
 
-    scene = make_scene(name, robot, objects)
+    scene = make_scene(name, robot, objects, root)
     result = Planner(scene, "sequential").plan()
     planned = [s for s in result.steps if s.ok]
     problems = result.verify(robot)
@@ -225,14 +257,14 @@ def markdown_table(keys: list[str], rows: list[list]) -> str:
     return "\n".join(lines + ["| " + " | ".join(str(v) for v in r) + " |" for r in rows]) + "\n"
 
 
-def reach_table(names: list[str]) -> str:
+def reach_table(names: list[str], root: Path = ROOT) -> str:
     """The reach bands of ``examples/robots/<name>.yaml`` (as ``placement robots check`` computes them,
     seeded): per arm the 1 %-99 % TCP heights and distances from the base's axis [m] with a top-down and
     a horizontal approach, then the band warnings for a 0.75 m table."""
     rows, warnings = [], []
     span = lambda lo, hi: "-" if not math.isfinite(lo) else f"{lo:.2f} - {hi:.2f}"  # noqa: E731
     for name in names:
-        robot = load_robot(ROOT / "examples" / "robots" / f"{name}.yaml")
+        robot = load_robot(root / "examples" / "robots" / f"{name}.yaml")
         held = held_words(robot).removeprefix("with ")
         for arm in robot.arms:
             bands = {ap: reach_band(robot, arm, ap) for ap in APPROACHES}
@@ -254,22 +286,21 @@ def main(argv=None) -> int:
     ap.add_argument("--rebuild", action="store_true", help="build the maps even when they exist")
     ap.add_argument("--objects", type=int, default=4, help="objects per scene")
     ap.add_argument("--reach-only", action="store_true", help="write only the reach bands of the presets as they are")
+    ap.add_argument("--root", type=Path, default=ROOT, help="write presets, maps, scenes and tables under DIR")
     args = ap.parse_args(argv)
+    root = args.root.resolve()
+    (root / REACH_MD).parent.mkdir(parents=True, exist_ok=True)
     if args.reach_only:
-        names = [n if n in ROBOTS else Path(n).stem.split(".")[0] for n in args.robots]
-        write_atomic(REACH_MD, reach_table(names))
-        print(REACH_MD.read_text())
+        write_atomic(root / REACH_MD, reach_table([robot_name(n) for n in args.robots], root))
+        print((root / REACH_MD).read_text())
         return 0
     rows = []
     for name in args.robots:
-        urdf = share_dir() / ROBOTS[name] if name in ROBOTS else Path(name)
-        rows.append(
-            onboard(name if name in ROBOTS else urdf.stem.split(".")[0], urdf, args.samples, args.rebuild, args.objects)
-        )
+        rows.append(onboard(robot_name(name), robot_urdf(name), args.samples, args.rebuild, args.objects, root))
         print(rows[-1], file=sys.stderr)
     table = markdown_table(KEYS, [[r.get(k, "-") for k in KEYS] for r in rows])
-    write_atomic(ONBOARDING_MD, table)
-    write_atomic(REACH_MD, reach_table([str(r["robot"]) for r in rows]))
+    write_atomic(root / ONBOARDING_MD, table)
+    write_atomic(root / REACH_MD, reach_table([str(r["robot"]) for r in rows], root))
     print(table)
     return 0 if all(r.get("result") == "ok" for r in rows) else 1
 
