@@ -34,6 +34,7 @@ from bench_output import write_atomic
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from placement.errors import PlacementError  # noqa: E402
 from placement.robots import load_robot  # noqa: E402
 from placement.robots.onboarding.check import band_warnings, held_words  # noqa: E402
 from placement.robots.onboarding.propose import propose  # noqa: E402
@@ -127,9 +128,9 @@ def make_scene(name: str, robot, objects: int, root: Path = ROOT) -> Path:
 
     height = table_height(robot)
     depth = table_depth(robot, height)
-    doc = generate_scene(
-        0, 0, objects=objects, preset=f"examples/robots/{name}.yaml", table_size=(0.8, depth), maps=f"maps/{name}"
-    )
+    # absolute paths while the generator checks the scene (from any working directory), relative ones written
+    preset, maps = root / "examples" / "robots" / f"{name}.yaml", root / "maps" / name
+    doc = generate_scene(0, 0, objects=objects, preset=str(preset), table_size=(0.8, depth), maps=str(maps))
     for o in doc["obstacles"]:
         if o["name"].startswith("place_table"):
             o["box"]["size"][:2] = [depth, depth]
@@ -189,9 +190,13 @@ def independent_search(robot, scene: Path, step, tries: int = 3000, seed: int = 
     return f"{found} of {tried} clear base poses work"
 
 
-def onboard(name: str, urdf: Path, samples: int, rebuild: bool, objects: int, root: Path = ROOT) -> dict:
-    """One row of the onboarding table for robot ``name`` from ``urdf``; files under ``root``."""
-    row: dict[str, object] = {"robot": name}
+def onboard(
+    name: str, urdf: Path, samples: int, rebuild: bool, objects: int, root: Path = ROOT, row: dict | None = None
+) -> dict:
+    """One row of the onboarding table for robot ``name`` from ``urdf``; files under ``root``. ``row`` is
+    filled as the steps pass, so a caller catching an error keeps what was measured before it."""
+    row = {} if row is None else row
+    row["robot"] = name
     preset = root / "examples" / "robots" / f"{name}.yaml"
     preset.parent.mkdir(parents=True, exist_ok=True)
     (root / "maps").mkdir(exist_ok=True)
@@ -286,7 +291,9 @@ def main(argv=None) -> int:
     ap.add_argument("--rebuild", action="store_true", help="build the maps even when they exist")
     ap.add_argument("--objects", type=int, default=4, help="objects per scene")
     ap.add_argument("--reach-only", action="store_true", help="write only the reach bands of the presets as they are")
-    ap.add_argument("--root", type=Path, default=ROOT, help="write presets, maps, scenes and tables under DIR")
+    ap.add_argument(
+        "--root", type=Path, default=ROOT, metavar="DIR", help="write presets, maps, scenes and tables under DIR"
+    )
     args = ap.parse_args(argv)
     root = args.root.resolve()
     (root / REACH_MD).parent.mkdir(parents=True, exist_ok=True)
@@ -294,9 +301,13 @@ def main(argv=None) -> int:
         write_atomic(root / REACH_MD, reach_table([robot_name(n) for n in args.robots], root))
         print((root / REACH_MD).read_text())
         return 0
-    rows = []
+    rows: list[dict] = []
     for name in args.robots:
-        rows.append(onboard(robot_name(name), robot_urdf(name), args.samples, args.rebuild, args.objects, root))
+        rows.append({})
+        try:
+            onboard(robot_name(name), robot_urdf(name), args.samples, args.rebuild, args.objects, root, rows[-1])
+        except PlacementError as exc:  # one robot's problem (a preset, a URDF, a scene) ends its row only
+            rows[-1]["result"] = f"error: {exc}"
         print(rows[-1], file=sys.stderr)
     table = markdown_table(KEYS, [[r.get(k, "-") for k in KEYS] for r in rows])
     write_atomic(root / ONBOARDING_MD, table)
