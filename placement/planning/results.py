@@ -16,6 +16,7 @@ import numpy as np
 
 from placement.errors import PlacementError
 from placement.planning.arrays import FloatArray
+from placement.planning.configuration import Resting, actuated_joints, out_of_limits, pinocchio_q, world_tcp
 from placement.planning.transfer import UPRIGHT_TOLERANCE, tilt_between
 from placement.planning.verify import base_matrix
 from placement.robots import Robot, matrix_to_pose
@@ -71,6 +72,9 @@ class StepResult:
         object: the object a pick takes or a place sets down (None for a reach).
         placed_pose: a place's (4, 4) world pose of the object set down; support: the obstacle it
             stands on (None: none under it).
+        resting: what the step assumes of the rest of the robot (base frame, idle arms, other
+            joints; :mod:`placement.planning.configuration`), None for results made without it
+            (then the JSON has no ``configuration``).
         tried: placements the IK search tried; not part of the JSON.
         maps: the step's layers when they were kept (plots); not part of the JSON.
     """
@@ -100,6 +104,7 @@ class StepResult:
     object: str | None = None
     placed_pose: np.ndarray | None = None
     support: str | None = None
+    resting: Resting | None = None
 
     @property
     def ok(self) -> bool:
@@ -150,7 +155,12 @@ class StepResult:
             },
             "travel_time_s": float(self.need(self.travel_time_s, "travel time")),
             "timings_ms": timings,
-        } | self._transfer_json()
+        } | self._extras_json()
+
+    def _extras_json(self) -> dict[str, Any]:
+        """The keys of transfers and of the whole configuration (present only when known)."""
+        conf = self.configuration()
+        return self._transfer_json() | ({} if conf is None else {"configuration": conf})
 
     def _transfer_json(self) -> dict[str, Any]:
         """The object of a pick or place; a place's final object pose and support."""
@@ -161,6 +171,40 @@ class StepResult:
             out["placed_pose"] = matrix_to_pose(self.placed_pose)
             out["support"] = self.support
         return out
+
+    def configuration(self) -> dict[str, Any] | None:
+        """The robot's whole configuration at the step's last TCP pose (None without
+        :attr:`resting`): ``base`` {frame, x [m], y [m], yaw [rad]}, the moving ``arm``, ``arms``
+        {name: {state "moving" or "idle", joints (names), holds (the object in its gripper along the
+        trajectory, or None)}}, ``fixed_joints`` (names) and ``joints`` {every actuated joint: value
+        [rad or m]}: the step's own ``joints`` (the arm's and the fixed ones), the idle arms' and
+        the rest as :attr:`resting` says, in the model's order. Along the trajectory only the moving
+        arm's joints change (pose k: :meth:`pose_qs` ``[k]``)."""
+        r = self.resting
+        if r is None:
+            return None
+        arm = self.need(self.arm, "arm")
+        x, y, yaw = (round(float(v), 6) for v in self.need(self.base, "base"))
+        values = dict(r.other)
+        for idle in r.idle.values():
+            values.update(idle)
+        values.update(self.joints)  # per step: a step that sets the torso overrides the preset's
+        joints = {n: float(values.pop(n)) for n in r.order if n in values} | values
+        holds = self.object if self.action == "place" else None
+        return {
+            "base": {"frame": r.base_frame, "x": x, "y": y, "yaw": yaw},
+            "arm": arm,
+            "arms": {
+                a: {
+                    "state": "moving" if a == arm else "idle",
+                    "joints": list(names),
+                    "holds": holds if a == arm else None,
+                }
+                for a, names in r.arms.items()
+            },
+            "fixed_joints": list(self.joints)[len(self.need(self.q, "q")) :],
+            "joints": joints,
+        }
 
     def joints_of_arm(self) -> list[str]:
         """The arm's joint names, in ``q`` order (the first entries of ``joints``)."""
@@ -236,10 +280,12 @@ class PlanResult:
     def verify(self, robot: Robot, pos_tol: float = 0.01, rot_tol: float = math.radians(3)) -> list[str]:
         """Independent checks of every planned step with pinocchio FK: joints within limits, fixed
         joints at their values, the TCP at every pose of the trajectory with that pose's joints (the
-        last with ``joints``) (``pos_tol`` [m], ``rot_tol`` [rad]); and every transfer: the place
-        by the pick's arm and grasp, the object turned about the vertical only (within
-        :data:`~placement.planning.transfer.UPRIGHT_TOLERANCE`). Returns the problems found (empty:
-        the plan holds)."""
+        last with ``joints``) (``pos_tol`` [m], ``rot_tol`` [rad]), by FK of the step's whole
+        ``configuration`` when it has one (every actuated joint given, the base pose applied to the
+        base frame, the idle arms within their limits; see :func:`configuration_problems`); and
+        every transfer: the place by the pick's arm and grasp, the object turned about the vertical
+        only (within :data:`~placement.planning.transfer.UPRIGHT_TOLERANCE`). Returns the problems
+        found (empty: the plan holds)."""
         problems = []
         for s in self.steps:
             if not s.ok:
@@ -259,15 +305,50 @@ class PlanResult:
             qs[-1] = q
             B = base_matrix(*s.need(s.base, "base"))
             problems += transfer_problems(s, self.steps, where, rot_tol=UPRIGHT_TOLERANCE)
+            conf = s.configuration()
+            if conf is not None:
+                problems += configuration_problems(robot, conf, where)
             for i, (want, qi) in enumerate(zip(np.asarray(s.tcp), qs)):
                 if np.any(qi < arm.lower - 1e-9) or np.any(qi > arm.upper + 1e-9):
                     problems.append(f"{where}: pose {i}: joints outside their limits")
-                T = B @ robot.tcp_pose(arm_name, qi)
+                T = B @ robot.tcp_pose(arm_name, qi) if conf is None else configuration_tcp(robot, conf, qi)
                 err = float(np.linalg.norm(T[:3, 3] - want[:3, 3]))
                 ang = math.acos(float(np.clip((np.trace(T[:3, :3].T @ want[:3, :3]) - 1) / 2, -1, 1)))
                 if err > pos_tol or ang > rot_tol:
                     problems.append(f"{where}: pose {i}: TCP off by {err * 100:.1f} cm and {math.degrees(ang):.1f} deg")
         return problems
+
+
+def configuration_problems(robot: Robot, conf: dict[str, Any], where: str) -> list[str]:
+    """What is wrong with a step's ``configuration`` (:meth:`StepResult.configuration`) for
+    ``robot``: its base frame, an actuated joint missing or a joint the model lacks, an idle arm's
+    joint outside its limits, the fixed joints not those of the preset."""
+    out = []
+    if conf["base"]["frame"] != robot.base_frame:
+        out.append(f"{where}: configuration: base frame {conf['base']['frame']}, not {robot.base_frame}")
+    joints = conf["joints"]
+    missing = [j for j in actuated_joints(robot) if j not in joints]
+    unknown = [j for j in joints if not robot.model.existJointName(j)]
+    if missing or unknown:
+        out.append(f"{where}: configuration: joints missing {missing}, unknown {unknown}")
+        return out
+    for a, arm in conf["arms"].items():
+        bad = out_of_limits(robot, a, joints) if arm["state"] == "idle" else []
+        if bad:
+            out.append(f"{where}: configuration: idle arm {a}: {', '.join(bad)} outside their limits")
+    if set(conf["fixed_joints"]) != set(robot.fixed_joints):
+        out.append(f"{where}: configuration: fixed joints {conf['fixed_joints']}, not {list(robot.fixed_joints)}")
+    return out
+
+
+def configuration_tcp(robot: Robot, conf: dict[str, Any], q: FloatArray) -> FloatArray:
+    """(4, 4) world TCP pose of the moving arm by pinocchio FK of the whole configuration ``conf``
+    with the arm at ``q`` (n,) [rad or m] and the base frame at the configuration's base pose."""
+    arm = conf["arm"]
+    known = {j: v for j, v in conf["joints"].items() if robot.model.existJointName(j)}  # unknown: reported
+    joints = known | dict(zip(robot.arm(arm).joints, (float(v) for v in q)))
+    b = conf["base"]
+    return world_tcp(robot, arm, pinocchio_q(robot, joints), base_matrix(b["x"], b["y"], b["yaw"]))
 
 
 def transfer_problems(s: StepResult, steps: list[StepResult], where: str, rot_tol: float) -> list[str]:

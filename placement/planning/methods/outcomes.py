@@ -6,6 +6,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from placement.planning.arrays import BasePose, FloatArray
+from placement.planning.configuration import resting
 from placement.planning.context import PlanningContext
 from placement.planning.option import Option, height_range
 from placement.planning.results import Cost, StepResult
@@ -44,7 +45,9 @@ def placed(
     clearance_m: float | None = None,
 ) -> StepResult:
     """The result of a verified placement: weighted Eq. 6 terms, joints by name (``qs`` (P, n): the
-    arm at every pose of the trajectory), travel time [s], clearance [m] (None without a collision check)."""
+    arm at every pose of the trajectory), travel time [s], clearance [m] (None without a collision
+    check), and the rest of the robot's configuration as the collision check assumed it (the other
+    arms idle, see :mod:`placement.planning.configuration`)."""
     cfg = ctx.config
     arm = ctx.robot.arm(o.arm)
     q = qs[-1]
@@ -72,6 +75,7 @@ def placed(
         object=step.carries,
         placed_pose=c.object_pose,
         support=c.support,
+        resting=resting(ctx.robot, o.arm),
     )
 
 
