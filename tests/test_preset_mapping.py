@@ -61,14 +61,8 @@ def test_near_unit_quaternion_is_normalised(tmp_path):
         ("joints", "r_shoulder_pan_joint", ["arms.right.joints", "expected a list of joint names"]),
         (
             "joints",
-            [
-                "r_shoulder_pan_joint",
-                "r_shoulder_lift_joint",
-                "r_upper_arm_roll_joint",
-                "r_elbow_flex_joint",
-                "r_forearm_roll_joint",
-            ],
-            ["arms.right.joints", "at least 6 joint names, got 5"],
+            ["r_shoulder_pan_joint", "r_shoulder_lift_joint", "r_upper_arm_roll_joint", "r_elbow_flex_joint"],
+            ["arms.right.joints", "at least 5 joint names, got 4"],
         ),
         ("tip_frame", ["r_gripper_tool_frame"], ["arms.right.tip_frame", "non-empty string"]),
         ("grip", 1, ["arms.right.grip", "unknown key", "home, idle, joints, tcp_offset, tip_frame"]),
@@ -137,7 +131,10 @@ def test_builtin_and_fixture_presets_give_the_base_values(pr2):
         ("- name: pr2\n", ["expected a mapping, got a list"]),
         ("name: pr2\narms: [\n", ["invalid YAML at line 3, column 1"]),
         ("name: a\nname: b\n", ["invalid YAML at line 2, column 1", "duplicate key 'name'"]),
-        ("name: pr2\nwheels: 4\n", ["wheels: unknown key; allowed keys: arms, base_frame, fixed_joints"]),
+        (
+            "name: pr2\nwheels: 4\n",
+            ["wheels: unknown key; allowed keys: arms, base_frame, base_frame_parent, base_frame_xyz, fixed_joints"],
+        ),
     ],
 )
 def test_bad_documents(tmp_path, spec, words):

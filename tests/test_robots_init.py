@@ -218,7 +218,10 @@ def test_humanoid_base_frame_is_on_the_floor(proposed):
     pin.framesForwardKinematics(r.model, data, r.reference_q())
     z = [data.oMf[i].translation[2] - data.oMf[r.base_frame_id].translation[2] for i in range(len(r.model.frames))]
     assert min(z) > -0.02  # nothing below the base frame: it is on the floor
-    assert any("above the floor" in w for w in p.warnings)
+    # the pelvis projected to the floor, not a sole that the legs move
+    assert (r.base_frame, r.base_frame_parent) == ("base_floor", "base_link")
+    assert ancestors(r.model, r.model.frames[r.base_frame_id].parentJoint) == []
+    assert any("projected to the floor" in n for n in p.base.notes)
 
 
 def test_lift_is_held_where_top_down_reach_at_table_height_is_largest(proposed):

@@ -180,6 +180,9 @@ class Robot:
         self._check = Checker(spec.where, PresetError)
         self.model, self._mimic, self.urdf_sha256 = urdf_model(spec.urdf, spec.where)
         self.base_frame = spec.base_frame
+        self.base_frame_parent, self.base_frame_xyz = spec.base_frame_parent, spec.base_frame_xyz
+        if spec.base_frame_parent is not None and spec.base_frame_xyz is not None:
+            self._define_base_frame(spec.base_frame, spec.base_frame_parent, spec.base_frame_xyz)
         self.base_frame_id = self._frame_id(spec.base_frame, "base_frame")
         self.fixed_joints: dict[str, float] = {}
         for jname, value in spec.fixed_joints.items():
@@ -201,6 +204,14 @@ class Robot:
         )
 
     # -- model helpers -------------------------------------------------
+    def _define_base_frame(self, name: str, parent: str, xyz: tuple[float, float, float]) -> None:
+        """Add the preset's base frame: an operational frame ``xyz`` [m] from URDF frame ``parent``, its axes."""
+        if self.model.existFrame(name):
+            self._check.fail("base_frame", f"'{name}' is already a URDF frame; a defined base frame needs a new name")
+        f = self.model.frames[pid := self._frame_id(parent, "base_frame_parent")]
+        at = f.placement * pin.SE3(np.eye(3), np.array(xyz, dtype=float))
+        self.model.addFrame(pin.Frame(name, f.parentJoint, pid, at, pin.FrameType.OP_FRAME))
+
     def _frame_id(self, name: str, key: str | None = None) -> int:
         if not self.model.existFrame(name):
             names = [f.name for f in self.model.frames]

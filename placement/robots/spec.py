@@ -25,7 +25,9 @@ TOP_KEYS = {
     "name": "robot name",
     "urdf": "URDF path: absolute, relative to the preset, or package://example-robot-data/...",
     "srdf": "SRDF path, optional",
-    "base_frame": "URDF frame on the floor under the robot",
+    "base_frame": "frame on the floor under the robot: a URDF frame, or one defined by base_frame_parent",
+    "base_frame_parent": "URDF frame a new base_frame is fixed to (with base_frame_xyz), optional",
+    "base_frame_xyz": "[x, y, z] [m] origin of a new base_frame in base_frame_parent (same axes), optional",
     "fixed_joints": "{joint: value [rad or m]} held while mapping and planning",
     "footprint_radius": "[m] radius of a round base plus margin (or give footprint)",
     "footprint": "[[x, y], ...] [m] base outline polygon in the base frame, Nav2 convention (or footprint_radius)",
@@ -60,6 +62,8 @@ MAX_TCP_OFFSET = 10.0
 MAX_V, MAX_OMEGA = 100.0, 100.0
 #: Largest |value| of a joint value (fixed, home, idle) [rad or m] before the URDF limits are known.
 MAX_JOINT_VALUE = 1e4
+#: Largest |x|, |y|, |z| of ``base_frame_xyz`` [m]: a base frame farther from its parent is a units mistake.
+MAX_BASE_OFFSET = 10.0
 #: Largest preset file read [bytes].
 MAX_PRESET_BYTES = 4 * 2**20
 
@@ -116,6 +120,10 @@ class PresetSpec:
         ignore_collisions: ((link, link), ...) pairs of two different link names (not yet checked
             against the URDF) that collision checks skip, like an SRDF's disabled pairs.
         gripper: the gripper's geometry (:class:`GripperSpec`; its defaults when the preset has none).
+        base_frame_parent: URDF frame the base frame is fixed to when the preset defines the base frame
+            (a frame no URDF has, e.g. the root link projected to the floor), else None.
+        base_frame_xyz: (3,) [m] the defined base frame's origin in ``base_frame_parent`` (axes parallel
+            to the parent's), or None.
     """
 
     where: str
@@ -131,6 +139,8 @@ class PresetSpec:
     arms: dict[str, ArmSpec]
     ignore_collisions: tuple[tuple[str, str], ...] = ()
     gripper: GripperSpec = GripperSpec()
+    base_frame_parent: str | None = None
+    base_frame_xyz: tuple[float, float, float] | None = None
 
 
 def share_dir() -> Path:
@@ -245,6 +255,24 @@ def _base_shape(c: Checker, d: dict) -> tuple[float, tuple | None]:
     return circumradius(polygon), polygon
 
 
+def _base_definition(c: Checker, d: dict) -> tuple[str | None, tuple[float, float, float] | None]:
+    """(base_frame_parent, base_frame_xyz [m]): both or neither."""
+    if ("base_frame_parent" in d) != ("base_frame_xyz" in d):
+        missing = "base_frame_xyz" if "base_frame_parent" in d else "base_frame_parent"
+        c.fail(
+            missing,
+            f"missing: a defined base frame needs both base_frame_parent and base_frame_xyz ({TOP_KEYS[missing]})",
+        )
+    if "base_frame_parent" not in d:
+        return None, None
+    parent = c.string(d["base_frame_parent"], "base_frame_parent")
+    x, y, z = c.vector(d["base_frame_xyz"], "base_frame_xyz", 3, "numbers [x y z] [m]")
+    for i, v in enumerate((x, y, z)):
+        if abs(v) > MAX_BASE_OFFSET:
+            c.fail(f"base_frame_xyz[{i}]", f"must be within +-{MAX_BASE_OFFSET:g} m, got {v:g}")
+    return parent, (x, y, z)
+
+
 def parse_preset(data: Any, origin: Path, where: str) -> PresetSpec:
     """Check a parsed preset mapping (no URDF is loaded); raises :class:`PresetError`.
 
@@ -257,6 +285,7 @@ def parse_preset(data: Any, origin: Path, where: str) -> PresetSpec:
     d = c.mapping(data, "", TOP_KEYS, REQUIRED)
     name = c.string(d["name"], "name")
     base_frame = c.string(d["base_frame"], "base_frame")
+    base_parent, base_xyz = _base_definition(c, d)
     held = d.get("fixed_joints")
     held = {} if held is None else c.keyed(held, "fixed_joints")
     fixed = {j: c.number(v, f"fixed_joints.{j}") for j, v in held.items()}
@@ -276,5 +305,19 @@ def parse_preset(data: Any, origin: Path, where: str) -> PresetSpec:
     urdf = _existing_file(c, d["urdf"], "urdf", origin)
     srdf = _existing_file(c, d["srdf"], "srdf", origin) if d.get("srdf") is not None else None
     return PresetSpec(
-        where, name, urdf, srdf, base_frame, fixed, footprint_radius, footprint, v_max, omega_max, arms, ignore, gripper
+        where,
+        name,
+        urdf,
+        srdf,
+        base_frame,
+        fixed,
+        footprint_radius,
+        footprint,
+        v_max,
+        omega_max,
+        arms,
+        ignore,
+        gripper,
+        base_parent,
+        base_xyz,
     )

@@ -2,7 +2,9 @@
 
 Base frame: a root-level frame named ``*footprint*``, else the root link when it is on the floor (its
 origin within :data:`ON_FLOOR` of the lowest point of the robot's collision shapes), else (a root
-above the floor, as a humanoid's pelvis) the frame on the floor nearest the root's vertical axis.
+above the floor, as a humanoid's or a wheeled robot's pelvis) the root link projected to the floor, a
+frame the preset defines (``base_frame_parent``, ``base_frame_xyz``): never a link that a joint moves
+(a wheel, a sole).
 
 Footprint: the convex hull of the floor projection of the bounding boxes of every collision shape
 the arms do not move (through pinocchio/coal geometry), in the base frame, rounded outwards to the
@@ -48,6 +50,8 @@ class Base:
         footprint: (k, 2) [m] counter-clockwise polygon in the base frame, or None (use ``radius``).
         radius: [m] circumscribed radius (of the polygon, or the circle when footprint is None).
         notes: plain words on how each value was found; warnings: what was guessed.
+        parent, xyz: for a base frame the preset defines (no URDF frame is on the floor under the root):
+            the URDF frame it is fixed to and its origin (3,) [m] there; else None.
     """
 
     frame: str
@@ -55,6 +59,8 @@ class Base:
     radius: float
     notes: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    parent: str | None = None
+    xyz: tuple[float, float, float] | None = None
 
 
 def package_dirs(urdf: Path) -> list[str]:
@@ -183,29 +189,31 @@ def load_collision(model: pin.Model, xml: str, urdf: Path):
     return geom, ""
 
 
+def shape_corners(model: pin.Model, geom, q: np.ndarray, skip: set[int]) -> list[tuple[str, np.ndarray]]:
+    """[(shape name, (8, 3) corners [m] of its local bounding box in the root frame at ``q``)] of the
+    collision shapes of ``geom`` not on the joints ``skip``."""
+    gdata, data = geom.createData(), model.createData()
+    pin.updateGeometryPlacements(model, data, geom, gdata, q)
+    out = []
+    for k, obj in enumerate(geom.geometryObjects):
+        if obj.parentJoint in skip:
+            continue
+        obj.geometry.computeLocalAABB()
+        lo, hi = np.array(obj.geometry.aabb_local.min_), np.array(obj.geometry.aabb_local.max_)
+        M = gdata.oMg[k]
+        out.append((obj.name, np.array(list(itertools.product(*zip(lo, hi)))) @ M.rotation.T + M.translation))
+    return out
+
+
 def collision_boxes(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip: set[int]):
     """((m, 8, 3) corners [m] of the bounding boxes of collision shapes not on joints ``skip``, in the
     root frame at ``q``) or (None, reason)."""
     geom, why = load_collision(model, xml, urdf)
     if geom is None:
         return None, why
-    gdata = geom.createData()
-    dropped: list[str] = []
-    data = model.createData()
-    pin.updateGeometryPlacements(model, data, geom, gdata, q)
-    boxes = []
-    for k, obj in enumerate(geom.geometryObjects):
-        if obj.parentJoint in skip:
-            continue
-        obj.geometry.computeLocalAABB()
-        lo, hi = np.array(obj.geometry.aabb_local.min_), np.array(obj.geometry.aabb_local.max_)
-        corners = np.array(list(itertools.product(*zip(lo, hi))))
-        M = gdata.oMg[k]
-        corners = corners @ M.rotation.T + M.translation
-        if not np.all(np.isfinite(corners)):
-            dropped.append(obj.name)
-            continue
-        boxes.append(corners)
+    corners = shape_corners(model, geom, q, skip)
+    dropped = [name for name, c in corners if not np.all(np.isfinite(c))]
+    boxes = [c for _, c in corners if np.all(np.isfinite(c))]
     if dropped:
         why = f"collision shapes {', '.join(dropped[:5])} have a bounding box that is not finite"
     if not boxes:
@@ -236,12 +244,28 @@ def hull(points: np.ndarray) -> np.ndarray:
     return np.array(lower[:-1] + upper[:-1])
 
 
+#: Name of the base frame a preset defines when no URDF frame is on the floor under the root.
+FLOOR_FRAME = "base_floor"
+
+
+def floor_frame_name(model: pin.Model) -> str:
+    """:data:`FLOOR_FRAME`, or it with a number when the URDF already has a frame of that name."""
+    name, k = FLOOR_FRAME, 1
+    while model.existFrame(name):
+        name, k = f"{FLOOR_FRAME}_{k}", k + 1
+    return name
+
+
 def find_base(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, arm_joints: set[int]) -> Base:
-    """Base frame and footprint of ``model`` at ``q``; ``arm_joints``: joints of the arms and hands."""
+    """Base frame and footprint of ``model`` at ``q``; ``arm_joints``: joints of the arms and hands.
+
+    The base frame is a frame a navigation stack drives, never one a joint moves: a root-level
+    ``*footprint*`` frame, else the root link when it is on the floor, else the root link projected to
+    the floor (a frame the preset defines: :attr:`Base.parent`, :attr:`Base.xyz`)."""
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
     boxes, why = collision_boxes(model, xml, urdf, q, arm_joints)
-    frames_z = [data.oMf[i].translation[2] for i in range(len(model.frames))]
+    frames_z = [data.oMf[i].translation[2] for i, f in enumerate(model.frames) if f.parentJoint not in arm_joints]
     floor = float(min(frames_z) if boxes is None else min(boxes[..., 2].min(), min(frames_z)))
     root = next(i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY)
     notes, warnings = [], list(screen_collisions(xml, urdf)[1])
@@ -249,38 +273,27 @@ def find_base(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, arm_joints:
         warnings.append(f"{why}: they are left out of the footprint")
     prints = [i for i, f in enumerate(model.frames) if f.parentJoint == 0 and "footprint" in f.name.lower()]
     root_z = float(data.oMf[root].translation[2]) - floor
+    parent, xyz = None, None
+    base_M = data.oMf[root]
     if prints:
-        base = prints[0]
-        notes.append(f"base frame '{model.frames[base].name}': named as a footprint, on the root")
+        name, base_M = model.frames[prints[0]].name, data.oMf[prints[0]]
+        notes.append(f"base frame '{name}': named as a footprint, on the root")
     elif root_z <= ON_FLOOR:
-        base = root
-        notes.append(
-            f"base frame '{model.frames[base].name}': the root link, {root_z:.3f} m above the robot's lowest point"
-        )
+        name = model.frames[root].name
+        notes.append(f"base frame '{name}': the root link, {root_z:.3f} m above the robot's lowest point")
     else:
-        axis = data.oMf[root].translation[:2]
-        low = [
-            i
-            for i in range(len(model.frames))
-            if model.frames[i].type == pin.FrameType.BODY
-            and model.frames[i].parentJoint not in arm_joints
-            and frames_z[i] - floor <= ON_FLOOR
-        ]
-        if low:
-            base = min(low, key=lambda i: (np.linalg.norm(data.oMf[i].translation[:2] - axis), i))
-            off = float(np.linalg.norm(data.oMf[base].translation[:2] - axis))
-            warnings.append(
-                f"the root link '{model.frames[root].name}' is {root_z:.2f} m above the floor; the base "
-                f"frame is '{model.frames[base].name}' on the floor, {off:.3f} m off the root's "
-                "vertical axis (with every other joint at its neutral value)"
-            )
-        else:
-            base = root
-            warnings.append(
-                f"the root link '{model.frames[root].name}' is {root_z:.2f} m above the robot's lowest "
-                "point and no frame lies on the floor: heights are measured from the root; edit base_frame"
-            )
-    B = data.oMf[base].inverse()
+        name, parent = floor_frame_name(model), model.frames[root].name
+        # the floor point under the root's origin, in the root's axes (the root is level)
+        depth = round(root_z, 3)
+        xyz = (0.0, 0.0, -depth)
+        base_M = data.oMf[root] * pin.SE3(np.eye(3), np.array(xyz))
+        notes.append(
+            f"base frame '{name}': no URDF frame on the floor under the root, so the preset defines one: the "
+            f"root link '{parent}' projected to the floor, {depth:.3f} m below it (the robot's lowest point "
+            "with the held joints as below); a frame that no joint moves, as a navigation stack drives it"
+        )
+    base = name
+    B = base_M.inverse()
     if boxes is None:
         pts = np.array(
             [
@@ -294,7 +307,7 @@ def find_base(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, arm_joints:
             f"no collision geometry for the footprint ({why}); footprint_radius is the farthest "
             f"link origin + {RADIUS_MARGIN} m: measure the base"
         )
-        return Base(model.frames[base].name, None, round(radius, 3), notes, warnings)
+        return Base(base, None, round(radius, 3), notes, warnings, parent, xyz)
     flat = boxes.reshape(-1, 3) @ B.rotation.T + B.translation
     poly = hull(flat[:, :2])
     poly = np.sign(poly) * np.ceil(np.abs(poly) * 1000) / 1000
@@ -304,9 +317,9 @@ def find_base(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, arm_joints:
             "the collision shapes' outline does not surround the base frame's origin; footprint_radius "
             "is their farthest point: check the base frame"
         )
-        return Base(model.frames[base].name, None, round(radius + 0.005, 3), notes, warnings)
+        return Base(base, None, round(radius + 0.005, 3), notes, warnings, parent, xyz)
     notes.append(
         f"footprint: convex hull of the floor projection of the bounding boxes of {len(boxes)} collision "
         "shapes the arms do not move"
     )
-    return Base(model.frames[base].name, poly, float(np.max(np.hypot(poly[:, 0], poly[:, 1]))), notes, warnings)
+    return Base(base, poly, float(np.max(np.hypot(poly[:, 0], poly[:, 1]))), notes, warnings, parent, xyz)

@@ -1,9 +1,10 @@
 """``placement robots check``: what a loaded preset's robot reaches before any map is built.
 
 For every arm and both approaches (top-down, horizontal) the :func:`~placement.robots.onboarding.reach.reach_band`,
-a check that the TCP's approach axis points out of the gripper (away from the wrist), and warnings in
+a check that the TCP's approach axis points out of the gripper (away from the wrist), warnings in
 plain words where a table of :data:`TABLE_HEIGHT` and its pre-grasp :data:`PRE_GRASP` above are at or
-beyond the edge of a band.
+beyond the edge of a band (with the held torso values that would clear it, :func:`torso_fix`), and
+where an arm spans fewer than the 6 pose directions (:mod:`.rank`).
 """
 
 from __future__ import annotations
@@ -13,8 +14,19 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from placement.robots.chain import PRISMATIC
-from placement.robots.onboarding.reach import APPROACHES, SAMPLES, Band, reach_band
+from placement.robots.chain import PRISMATIC, ancestors, extract_chain
+from placement.robots.onboarding.rank import pose_rank, rank_warning
+from placement.robots.onboarding.reach import (
+    APPROACHES,
+    SAMPLES,
+    Band,
+    band_of,
+    base_clearance,
+    chain_fk,
+    reach_band,
+    sample_configs,
+)
+from placement.robots.onboarding.torso import Family, family_grid, joint_axes_kind, set_joint, words_of
 
 if TYPE_CHECKING:
     from placement.robots.preset import Robot
@@ -80,6 +92,63 @@ def tcp_axis_check(robot: Robot, arm: str) -> dict[str, Any]:
     }
 
 
+#: Joint samples per posture tried for a fix.
+FIX_SAMPLES = 20_000
+
+
+def torso_joints(robot: Robot, arm: str) -> list[int]:
+    """Held joints between the base frame and ``arm`` (joint ids, root first): the torso that carries it."""
+    model = robot.model
+    first = robot.arm(arm).joint_ids[0]
+    under_base = set(ancestors(model, model.frames[robot.base_frame_id].parentJoint))
+    return sorted(
+        j for j in ancestors(model, first)[1:] if model.names[j] in robot.fixed_joints and j not in under_base
+    )
+
+
+def fix_words(robot: Robot, posture: dict[int, float]) -> str:
+    """'raising torso_lift_joint to 0.25 m' (one joint) or 'holding torso_1 at 0.4 rad, ...' (several)."""
+    model = robot.model
+    if len(posture) == 1:
+        ((j, v),) = posture.items()
+        prismatic = joint_axes_kind(model, j) == PRISMATIC
+        verb = "raising" if v > robot.fixed_joints[model.names[j]] else "lowering"
+        return f"{verb if prismatic else 'turning'} {model.names[j]} to {v:.2f} {'m' if prismatic else 'rad'}"
+    return f"holding {words_of(model, posture)} (upright)"
+
+
+def torso_fix(robot: Robot, band: Band, seed: int = 0) -> str | None:
+    """Plain words naming held torso values (upright postures, :func:`~.torso.family_grid`) that clear
+    the warnings of ``band``, the ones nearest the preset's values; None when none does or no torso."""
+    torso = torso_joints(robot, band.arm)
+    if not torso:
+        return None
+    model, a = robot.model, robot.arm(band.arm)
+    q = robot.reference_q()
+    current = {j: robot.fixed_joints[model.names[j]] for j in torso}
+    options = []
+    for posture in family_grid(model, q, Family([torso], "torso")):
+        if all(abs(posture[j] - current[j]) < 1e-6 for j in posture):
+            continue
+        qc = q.copy()
+        for j, v in posture.items():
+            set_joint(model, qc, j, v)
+        for j in a.joint_ids:
+            set_joint(model, qc, j, 0.0)
+        tip = model.getFrameId(a.tip_frame)
+        chain = extract_chain(model, qc, robot.base_frame_id, a.joint_ids, tip, a.tcp_offset, (robot.name, a.name))
+        T = chain_fk(chain, sample_configs(a.lower, a.upper, FIX_SAMPLES, seed))
+        b = band_of(T, band.approach, band.arm, robot.fixed_joints, base_clearance(robot))
+        if not band_warnings(robot, b):
+            shift = sum(abs(posture[j] - current[j]) for j in posture)
+            options.append((shift, posture, b))
+    if not options:
+        return None
+    _, posture, b = min(options, key=lambda t: t[0])
+    what = {"down": "top-down", "horizontal": "horizontal"}[band.approach]
+    return f"{fix_words(robot, posture)} brings the {what} band of arm '{band.arm}' to {b.z_min:.2f}-{b.z_max:.2f} m"
+
+
 def check_robot(robot: Robot, samples: int = SAMPLES, seed: int = 0) -> dict[str, Any]:
     """Reach bands, TCP axis checks and warnings of every arm of ``robot`` (JSON-ready)."""
     out: dict[str, Any] = {
@@ -101,8 +170,17 @@ def check_robot(robot: Robot, samples: int = SAMPLES, seed: int = 0) -> dict[str
             "bands": {ap: b.to_json() for ap, b in bands.items()},
             "tcp_axis": axis,
         }
+        rank = pose_rank(a.chain, a.lower, a.upper)
+        out["arms"][arm]["pose_rank"] = rank
+        w = rank_warning(arm, rank)
+        if w:
+            out["warnings"].append(w)
         for b in bands.values():
-            out["warnings"] += band_warnings(robot, b)
+            found = band_warnings(robot, b)
+            out["warnings"] += found
+            fix = torso_fix(robot, b, seed) if found else None
+            if fix:
+                out["warnings"].append(fix)
         if not axis["ok"]:
             out["warnings"].append(
                 f"arm '{arm}': at home the TCP's approach axis (z) points back towards the wrist "

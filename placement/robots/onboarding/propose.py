@@ -2,18 +2,16 @@
 
 :func:`propose` reads the description (:mod:`.init_urdf`), finds the arms, torso and hands
 (:mod:`.init_tree`), the tip frames and TCP offsets (:mod:`.init_tcp`), the base frame and footprint
-(:mod:`.init_base`), the self-collision pairs that are modelling artefacts (:mod:`.init_selfpairs`), and holds each torso joint where the arms serve the most of a table: prismatic
-torso joints (lifts) are tried at :data:`TORSO_STEPS` values over their range and the one whose
-top-down grasps cover the most 5 cm cells at :data:`TABLE_BAND` wins (ties: nearest mid-range);
-revolute torso joints are held at 0 (or mid-range when 0 is outside their limits). They are held,
-not made part of the arm chains: maps and the planner treat held joints as part of the robot.
+(:mod:`.base`), the self-collision pairs that are modelling artefacts (:mod:`.selfpairs`), how many
+pose directions each arm spans (:mod:`.rank`), and holds the torso joints (and wheeled legs) in the
+upright posture where the arms serve the most of a table (:mod:`.torso`). They are held, not made
+part of the arm chains: maps and the planner treat held joints as part of the robot.
 :func:`render` writes the YAML with comments; the result loads with :func:`~placement.robots.load_robot`
 unedited (:func:`propose` checks it).
 """
 
 from __future__ import annotations
 
-import itertools
 import os
 import time
 from dataclasses import dataclass, field
@@ -23,22 +21,18 @@ import numpy as np
 import pinocchio as pin
 
 from placement.errors import PlacementError, RobotError
-from placement.robots.chain import PRISMATIC, extract_chain
+from placement.robots.chain import extract_chain
 from placement.robots.onboarding.base import Base, find_base, load_collision, screen_collisions
-from placement.robots.onboarding.reach import chain_fk, sample_configs, table_cells
+from placement.robots.onboarding.rank import pose_rank, rank_warning
 from placement.robots.onboarding.selfpairs import ArtefactPair, artefact_pairs
 from placement.robots.onboarding.tcp import TCP, deepen, hand_reach, infer_tcp
-from placement.robots.onboarding.tree import analyse, arm_names, subtree
+from placement.robots.onboarding.torso import Family, limits, set_joint, tune, wheeled_legs
+from placement.robots.onboarding.tree import REACH_SAMPLES, analyse, arm_names, subtree
 from placement.robots.onboarding.urdf import load_description
 from placement.robots.preset import Robot, matrix_to_pose
 from placement.robots.spec import MIN_ARM_JOINTS, PresetSpec, parse_preset, share_dir
 from placement.validation import one_line, parse_yaml
 
-#: Heights [m] of a table top and a pre-grasp 10-15 cm above it: what the torso is tuned for.
-TABLE_BAND = (0.70, 0.90)
-TORSO_STEPS = 6
-#: Joint samples per arm and torso value when tuning the torso.
-TUNE_SAMPLES = 30_000
 V_MAX, OMEGA_MAX = 0.5, 1.0
 
 
@@ -71,6 +65,8 @@ class Proposal:
             "name": self.name,
             "urdf": self.urdf,
             "base_frame": self.base.frame,
+            "base_frame_parent": self.base.parent,
+            "base_frame_xyz": None if self.base.xyz is None else list(self.base.xyz),
             "fixed_joints": self.fixed,
             "footprint": None if self.base.footprint is None else self.base.footprint.tolist(),
             "footprint_radius": self.base.radius,
@@ -104,75 +100,6 @@ def urdf_reference(path: Path, out: str | Path | None) -> str:
     return str(path)
 
 
-def limits(model: pin.Model, jid: int) -> tuple[float, float, bool]:
-    """(lower, upper [rad or m], continuous) of a 1-DoF joint."""
-    jm = model.joints[jid]
-    if jm.nq == 2:
-        return -np.pi, np.pi, True
-    return float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q]), False
-
-
-def set_joint(model: pin.Model, q: np.ndarray, jid: int, value: float) -> None:
-    jm = model.joints[jid]
-    if jm.nq == 2:
-        q[jm.idx_q : jm.idx_q + 2] = np.cos(value), np.sin(value)
-    else:
-        q[jm.idx_q] = value
-
-
-def tune_torso(model, q, torso, arms, tcps, base_id) -> tuple[dict[str, float], list[str]]:
-    """({torso joint: held value}, notes): see the module docstring."""
-    held, notes, lifts = {}, [], []
-    for jid in torso:
-        lo, hi, cont = limits(model, jid)
-        kind = extract_kind(model, jid)
-        if kind == PRISMATIC and np.isfinite(lo) and np.isfinite(hi) and hi > lo:
-            lifts.append((jid, np.linspace(lo, hi, TORSO_STEPS)))
-        else:
-            v = 0.0 if cont or lo <= 0.0 <= hi else (lo + hi) / 2
-            held[model.names[jid]] = round(float(v), 4)
-            notes.append(f"{model.names[jid]} held at {v:g} (a revolute torso joint: upright)")
-        set_joint(model, q, jid, held.get(model.names[jid], 0.0))
-    if not lifts:
-        return held, notes
-    data = model.createData()
-    scores = []
-    for values in itertools.product(*(v for _, v in lifts)):
-        qc = q.copy()
-        for (jid, _), v in zip(lifts, values):
-            set_joint(model, qc, jid, v)
-        score = 0
-        for k, (chain, tcp) in enumerate(zip(arms, tcps)):
-            for jid in chain:
-                set_joint(model, qc, jid, 0.0)
-            ch = extract_chain(
-                model, qc, base_id, chain, model.getFrameId(tcp.tip_frame), tcp.offset, ("init", str(k)), data
-            )
-            lower = np.array([limits(model, j)[0] for j in chain])
-            upper = np.array([limits(model, j)[1] for j in chain])
-            score += table_cells(chain_fk(ch, sample_configs(lower, upper, TUNE_SAMPLES, k)), *TABLE_BAND)
-        scores.append((values, score))
-    best = max(s for _, s in scores)
-    mids = [(lo + hi) / 2 for _, (lo, hi) in ((j, (v[0], v[-1])) for j, v in lifts)]
-    values = min((v for v, s in scores if s >= 0.98 * best), key=lambda v: sum(abs(a - b) for a, b in zip(v, mids)))
-    for (jid, rng), v in zip(lifts, values):
-        held[model.names[jid]] = round(float(v), 4)
-        tried = ", ".join(f"{x:.3g}: {s}" for x, s in ((vv[0], s) for vv, s in scores)) if len(lifts) == 1 else ""
-        notes.append(
-            f"{model.names[jid]} held at {v:.3g} of {rng[0]:.3g} .. {rng[-1]:.3g}: the value whose top-down "
-            f"grasps cover the most 5 cm cells {TABLE_BAND[0]}-{TABLE_BAND[1]} m high"
-            + (f" (cells per value: {tried})" if tried else "")
-        )
-    if best == 0:
-        notes.append("no torso value gives top-down grasps at table height")
-    return held, notes
-
-
-def extract_kind(model: pin.Model, jid: int) -> int:
-    """0 for a revolute joint, 1 (PRISMATIC) for a prismatic one (from its motion subspace)."""
-    return PRISMATIC if "P" in model.joints[jid].shortname().replace("JointModel", "")[:1] else 0
-
-
 def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
     """A preset for the URDF or xacro at ``path`` (``out``: where it will be written, for a relative
     ``urdf:``). Raises a one-line :class:`RobotError` for an unusable file or a robot without arms."""
@@ -188,8 +115,6 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
             f"(finger, mimic and leg joints excluded); chains: {found}"
         )
     moved = {j for c in tree.arms for j in c} | {j for h in tree.hand.values() for j in h}
-    base = find_base(model, d.xml, d.path, q, moved)
-    base_id = model.getFrameId(base.frame)
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
     tcps = [infer_tcp(model, data, c, tree.hand[c[-1]]) for c in tree.arms]
@@ -200,16 +125,38 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
             reach, link = hand_reach(model, q, geom, set(subtree(model, c[-1])), tip @ tcps[k].offset)
             tcps[k] = deepen(tcps[k], reach, link)
     names, side_notes = arm_names(model, tree.arms, [float(data.oMi[c[-1]].translation[1]) for c in tree.arms])
-    fixed, torso_notes = tune_torso(model, q.copy(), tree.torso, tree.arms, tcps, base_id)
+    families = [Family([tree.torso], "torso")] if tree.torso else []
+    actuated = {j for j in range(1, model.njoints) if model.joints[j].nv == 1 and model.names[j] not in d.mimic}
+    legs = wheeled_legs(model, actuated, moved | set(tree.torso))
+    if legs:
+        families.append(Family(legs, "legs"))
+    fixed, q_held, torso_notes = tune(model, q, families, tree.arms, tcps, geom, moved) if families else ({}, q, [])
+    base = find_base(model, d.xml, d.path, q_held, moved)
+    root = next(i for i, f in enumerate(model.frames) if f.type == pin.FrameType.BODY)
+    reach_notes, rank_warnings = [], []
+    for name, chain, tcp in zip(names, tree.arms, tcps):
+        high, far = tree.reach[chain[-1]]
+        reach_notes.append(
+            f"{name} arm: its end reaches {high:.2f} m above the robot's lowest point and {far:.2f} m from the "
+            f"root's vertical axis over {REACH_SAMPLES} sampled configurations"
+        )
+        qc = q_held.copy()
+        for j in chain:
+            set_joint(model, qc, j, 0.0)
+        ch = extract_chain(model, qc, root, chain, model.getFrameId(tcp.tip_frame), tcp.offset, ("init", name), data)
+        bounds = np.array([limits(model, j)[:2] for j in chain])
+        w = rank_warning(name, pose_rank(ch, bounds[:, 0], bounds[:, 1]))
+        if w:
+            rank_warnings.append(w)
     arms = []
     for name, chain, tcp in zip(names, tree.arms, tcps):
         lim = [limits(model, j) for j in chain]
         home = [0.0 if c else round((lo + hi) / 2, 4) for lo, hi, c in lim]
         arms.append(ArmProposal(name, [model.names[j] for j in chain], tcp, home, [c for _, _, c in lim]))
-    warnings = list(base.warnings)
+    warnings = list(base.warnings) + rank_warnings
     warnings += [f"arm '{a.name}': {a.tcp.how}" for a in arms if a.tcp.guessed]
-    others = [n for names_, why in tree.rejected for n in names_]
-    notes = base.notes + side_notes + torso_notes
+    others = [n for names_, why in tree.rejected for n in names_ if n not in fixed]
+    notes = base.notes + side_notes + reach_notes + torso_notes
     if others:
         notes.append(f"held at their neutral values (not arms): {', '.join(others)}")
     if not tree.torso:

@@ -37,6 +37,9 @@ def render(p, command: str | None = None) -> str:  # p: a Proposal (propose.py i
     for n in p.base.notes:
         lines += _comment(n)
     lines.append(f"base_frame: {json.dumps(p.base.frame)}")
+    if p.base.parent is not None and p.base.xyz is not None:
+        lines.append(f"base_frame_parent: {json.dumps(p.base.parent)}")
+        lines.append(f"base_frame_xyz: {_list(p.base.xyz, 4)}   # [m] in base_frame_parent, its axes")
     torso_notes = [n for n in p.notes if n not in p.base.notes]
     for n in torso_notes:
         lines += _comment(n)

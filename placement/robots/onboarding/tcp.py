@@ -10,7 +10,7 @@ at the reference configuration (fingers as the URDF's neutral pose has them):
    from the joint before it;
 3. closing direction: the finger points' widest spread across the approach; else the tip frame's axis
    most orthogonal to the approach;
-4. tip frame: a frame rigid with the last arm joint named tcp > grasp > tool > gripper that is not
+4. tip frame: a frame rigid with the last arm joint named tcp > grasp > tool > gripper > tip that is not
    behind the fingers (more than :data:`BEHIND` [m]), else the last link; the TCP sits at the named
    frame's origin, else at the finger points' centroid, else at the last link's origin;
 5. axes within :data:`SNAP` of one of the tip frame's axes are snapped to it (clean quaternions);
@@ -32,7 +32,8 @@ import pinocchio as pin
 
 from placement.robots.onboarding.tree import named_like, words
 
-TIP_WORDS = ("tcp", "grasp", "tool", "gripper")
+#: A frame named ``tip`` (a ball hand's end, ``ball1_tip``) ranks last: used when nothing else is named.
+TIP_WORDS = ("tcp", "grasp", "tool", "gripper", "tip")
 #: Frames rigid with the last arm joint named so are finger points (fixed fingers of a reduced model).
 FINGER_WORDS = ("finger", "thumb", "phalanx", "knuckle", "claw", "jaw")
 #: Finger points spread less than this across the approach [m] do not give a closing direction.

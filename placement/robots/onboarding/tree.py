@@ -7,7 +7,10 @@ Rules (each guess is reported by the caller):
   joint below one; *leg* joints are named like legs or wheels (:data:`LEG_WORDS`);
 - the remaining actuated joints form a tree; each of its leaves ends one chain, which runs up to
   (not including) the nearest joint with more than one branch. A chain of at least
-  :data:`~placement.robots.spec.MIN_ARM_JOINTS` joints whose end is not at the floor is an *arm*;
+  :data:`~placement.robots.spec.MIN_ARM_JOINTS` joints is an *arm* when its end rises at least
+  :data:`ARM_HEIGHT` above the robot's lowest point somewhere over its joint ranges
+  (:data:`REACH_SAMPLES` uniform configurations, the rest of the robot at the reference configuration):
+  a lift at the bottom of its travel does not make an arm a leg; a leg's end stays near the floor;
 - the actuated joints above the arms (lifts, torso joints) are *torso* joints, held fixed;
 - arms are named left/right from the words in their joint and link names (``l_``, ``left``,
   ``LShoulder``, ``Hand L``), or from the side they are on.
@@ -16,7 +19,7 @@ Rules (each guess is reported by the caller):
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
@@ -42,8 +45,10 @@ HAND_WORDS = (
     "tip",
 )
 LEG_WORDS = ("leg", "hip", "knee", "ankle", "foot", "wheel", "caster", "sole")
-#: A chain whose end is this close to the lowest point of the robot [m] is a leg, not an arm.
-FLOOR_BAND = 0.2
+#: A chain whose end never rises this high above the lowest point of the robot [m] is a leg, not an arm.
+ARM_HEIGHT = 0.5
+#: Uniform configurations of each chain sampled to see what its end reaches.
+REACH_SAMPLES = 300
 LEFT, RIGHT = ("l", "left"), ("r", "right")
 
 
@@ -73,6 +78,8 @@ class Tree:
         rejected: [(joint names, reason)] chains that are not arms.
         torso: joint ids above the arms (held fixed), base first.
         hand: {last arm joint id: hand joint ids below it}.
+        reach: {joint id of a chain's end: (highest [m] above the lowest point, farthest [m] from the
+            root's vertical axis)} its end reaches over the sampled configurations.
     """
 
     chains: dict[int, list[int]]
@@ -80,6 +87,7 @@ class Tree:
     rejected: list[tuple[list[str], str]]
     torso: list[int]
     hand: dict[int, list[int]]
+    reach: dict[int, tuple[float, float]] = field(default_factory=dict)
 
 
 def children(model: pin.Model) -> dict[int, list[int]]:
@@ -102,6 +110,39 @@ def subtree(model: pin.Model, jid: int) -> list[int]:
 def floor_height(model: pin.Model, data: pin.Data) -> float:
     """Lowest frame origin [m] in the root frame (after framesForwardKinematics)."""
     return float(min(data.oMf[i].translation[2] for i in range(len(model.frames))))
+
+
+def end_reach(model: pin.Model, q: np.ndarray, chain: list[int], below: list[int]) -> tuple[float, float]:
+    """(highest z [m] in the root frame, farthest [m] from the root's vertical axis) that the frames on
+    the joints ``below`` (the chain's end and what it carries) reach over :data:`REACH_SAMPLES` seeded
+    uniform configurations of ``chain`` (joint ids), the other joints at ``q``."""
+    frames = [i for i, f in enumerate(model.frames) if f.parentJoint in set(below)]
+    lim = []
+    for j in chain:
+        jm = model.joints[j]
+        lo, hi = (
+            (-np.pi, np.pi) if jm.nq == 2 else (model.lowerPositionLimit[jm.idx_q], model.upperPositionLimit[jm.idx_q])
+        )
+        # a URDF's reversed or infinite limits are refused when the preset loads; sample something here
+        lim.append((min(lo, hi), max(lo, hi)) if np.isfinite(lo) and np.isfinite(hi) else (-np.pi, np.pi))
+    rng = np.random.default_rng(0)
+    data = model.createData()
+    high, far = -np.inf, 0.0
+    root = data.oMi[0].translation[:2]
+    for values in rng.uniform([lo for lo, _ in lim], [hi for _, hi in lim], size=(REACH_SAMPLES, len(chain))):
+        qs = q.copy()
+        for j, v in zip(chain, values):
+            jm = model.joints[j]
+            if jm.nq == 2:
+                qs[jm.idx_q : jm.idx_q + 2] = np.cos(v), np.sin(v)
+            else:
+                qs[jm.idx_q] = v
+        pin.forwardKinematics(model, data, qs)
+        for i in frames:
+            p = pin.updateFramePlacement(model, data, i).translation
+            high = max(high, float(p[2]))
+            far = max(far, float(np.hypot(*(p[:2] - root))))
+    return high, far
 
 
 def analyse(model: pin.Model, mimic: dict[str, str], q: np.ndarray) -> Tree:
@@ -130,21 +171,29 @@ def analyse(model: pin.Model, mimic: dict[str, str], q: np.ndarray) -> Tree:
             chain.append(j)
             j = up(j)
         chains[leaf] = chain[::-1]
-    arms, rejected = [], []
+    arms, rejected, reach = [], [], {}
     for leaf, chain in sorted(chains.items()):
         names = [model.names[j] for j in chain]
-        end_z = data.oMi[leaf].translation[2]
         if len(chain) < MIN_ARM_JOINTS:
             rejected.append((names, f"{len(chain)} actuated joints (an arm needs {MIN_ARM_JOINTS})"))
-        elif end_z - floor < FLOOR_BAND:
-            rejected.append((names, f"its end is {end_z - floor:.2f} m above the robot's lowest point: a leg"))
+            continue
+        high, far = end_reach(model, q, chain, subtree(model, leaf))
+        reach[leaf] = (high - floor, far)
+        if high - floor < ARM_HEIGHT:
+            rejected.append(
+                (
+                    names,
+                    f"its end reaches at most {high - floor:.2f} m above the robot's lowest point over "
+                    f"{REACH_SAMPLES} sampled configurations: a leg",
+                )
+            )
         else:
             arms.append(chain)
     torso = []
     for chain in arms:
         torso += [j for j in ancestors(model, chain[0])[1:] if j in actuated and j not in torso]
     hands = {chain[-1]: [j for j in subtree(model, chain[-1])[1:]] for chain in arms}
-    return Tree(chains, arms, rejected, sorted(torso), hands)
+    return Tree(chains, arms, rejected, sorted(torso), hands, reach)
 
 
 def side_of(model: pin.Model, chain: list[int], tip_y: float) -> tuple[str | None, str]:
