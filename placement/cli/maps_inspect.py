@@ -101,6 +101,12 @@ def scan(rmap: ReachabilityMap, progress: Callable[[int], object] | None = None)
     }
 
 
+def rank_note(measure: dict[str, Any]) -> str:
+    """' on 5 of 6 dimensions' for a map of an arm that spans fewer than 6 (``measure.rank``), else ''."""
+    rank = int(measure.get("rank", 6))
+    return f" on {rank} of 6 dimensions (the arm's rank)" if rank < 6 else ""
+
+
 def _render_info(d: dict[str, Any]) -> str:
     r = d["root"]
     lines = [f"{d['path']}  ({d['size_bytes'] / 1e6:.1f} MB)  robot {r.get('robot')}  base {r.get('base_frame')}"]
@@ -109,7 +115,7 @@ def _render_info(d: dict[str, Any]) -> str:
         g = m["grid"]
         lines.append(
             f"  arm {a}: tip {m['tip_frame']}, grid {g['shape']} at {g['resolution']} m, "
-            f"{m['measure']['index']}, {m['samples']} samples (seed {m['seed']}), "
+            f"{m['measure']['index']}{rank_note(m['measure'])}, {m['samples']} samples (seed {m['seed']}), "
             f"built in {m['build_time_s']} s"
         )
         lines.append(

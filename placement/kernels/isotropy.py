@@ -26,7 +26,14 @@ from __future__ import annotations
 from numba import njit
 
 from placement.kernels.linalg6 import cho_solve6, cholesky6
-from placement.kernels.manipulability import gram_from, octant_gram, octant_gram_direct, octant_value, penalised_rows
+from placement.kernels.manipulability import (
+    gram_from,
+    most_penalised_octant,
+    octant_gram,
+    octant_gram_direct,
+    octant_value,
+    penalised_rows,
+)
 from placement.kernels.octants import fill_grams, lambda_max_lower, pd_flags, traces
 from placement.kernels.octants_refine import lambda_max_tight, lambda_min_upper
 
@@ -141,16 +148,7 @@ def isotropy_batched(J, pen_lo, pen_hi, rowfac, threshold, P, G, Ag, W, A, B, de
     if t > 0.0:
         # cheap first try: the most penalised octant and its complement, one at a time;
         # a sample far below its cell's value is usually settled here (~0.1 us each)
-        n = P.shape[1]
-        s_pen = 0
-        for r in range(6):
-            d0 = 0.0
-            d1 = 0.0
-            for j in range(n):
-                d0 += P[r, j, 0] * P[r, j, 0]
-                d1 += P[r, j, 1] * P[r, j, 1]
-            if d1 < d0:
-                s_pen |= 1 << r
+        s_pen = most_penalised_octant(P)
         if _below(P, s_pen, t2, A, B, W[4]) or _below(P, s_pen ^ 63, t2, A, B, W[4]):
             return -1.0
     gram_from(P, G)

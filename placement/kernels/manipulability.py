@@ -6,6 +6,20 @@ hyper-octants gives a penalised Jacobian ``J_s``; the measure is the worst case
 over the octants: ``min_s sigma_min(J_s)/sigma_max(J_s)`` (isotropy) or
 ``min_s prod sigma(J_s)`` (volume).
 
+Arms that span fewer than six dimensions (a 5-joint arm; a lift, a telescoping
+chain and a wrist, whose 6 x 8 Jacobian has rank 5 everywhere) would score 0
+everywhere: sigma_min of a rank-deficient Jacobian is 0. For them the measure is
+taken on the subspace the arm spans (:mod:`placement.kernels.subspace`): with
+r the arm's generic rank (the largest numerical rank of J over random
+configurations; 6 for ordinary arms, whose values are unchanged), each octant's
+isotropy is ``sigma_r/sigma_1`` and its volume ``prod`` of the r largest
+singular values, the worst case over octants as before. The base's planar
+motion supplies the degrees of freedom the arm lacks to reach a pose (the
+planner moves it anyway), so what the map should rank is how well-conditioned
+the arm is in the motions it can make, which this value still does: it drops
+near singularities and joint limits of those motions, and is comparable between
+cells of one arm (not with rank-6 arms' values: the map records r).
+
 All octant Gram matrices ``A_s = J_s J_s^T`` share one table: row r of ``J_s``
 depends only on the sign s_r, so ``A_s[r, c] = P[r, :, s_r] . P[c, :, s_c]``
 with ``P[r, j, a] = J[r, j] * factor(r, j, a)``.
@@ -78,6 +92,26 @@ def gram_from(P, G):
                         acc += P[r, j, a] * P[c, j, b]
                     G[r, c, a, b] = acc
                     G[c, r, b, a] = acc
+
+
+@njit(cache=True)
+def most_penalised_octant(P):
+    """The octant whose rows take the more penalised sign each (smaller row norm in P (6, n, 2)).
+
+    Usually the worst octant or close to it: trying it first settles most samples that cannot raise
+    their cell at once.
+    """
+    n = P.shape[1]
+    s = 0
+    for r in range(6):
+        d0 = 0.0
+        d1 = 0.0
+        for j in range(n):
+            d0 += P[r, j, 0] * P[r, j, 0]
+            d1 += P[r, j, 1] * P[r, j, 1]
+        if d1 < d0:
+            s |= 1 << r
+    return s
 
 
 @njit(cache=True)
@@ -216,11 +250,11 @@ def sym_eig_extremes(A, de):
 
 # Below this isotropy the Gram-matrix route (which squares the condition number)
 # may lose ~1e-12 absolute; such octants are recomputed from J_s itself.
-_ACCURATE_BELOW = 1e-4
+ACCURATE_BELOW = 1e-4
 
 
 @njit(cache=True)
-def _octant_r(P, s, R):
+def octant_r(P, s, R):
     """R (6, 6) upper triangular with J_s^T = Q R (Householder QR of the (n, 6) J_s^T)."""
     n = P.shape[1]
     M = np.empty((n, 6))
@@ -253,12 +287,13 @@ def _octant_r(P, s, R):
                 M[i, c] -= f * v[i]
     for r in range(6):
         for c in range(6):
-            R[r, c] = M[r, c] if c >= r else 0.0
+            # an arm of n < 6 joints: rows n.. of R are 0
+            R[r, c] = M[r, c] if c >= r and r < n else 0.0
 
 
 @njit(cache=True)
-def _singular_extremes(R):
-    """Smallest and largest singular value of a (6, 6) matrix by one-sided Jacobi (R is overwritten)."""
+def jacobi_columns(R):
+    """One-sided Jacobi on a (6, 6) matrix, in place: afterwards the column norms of R are its singular values."""
     for _sweep in range(60):
         rotated = False
         for p in range(5):
@@ -284,6 +319,12 @@ def _singular_extremes(R):
                     R[i, q] = sn * x + cs * y
         if not rotated:
             break
+
+
+@njit(cache=True)
+def _singular_extremes(R):
+    """Smallest and largest singular value of a (6, 6) matrix by one-sided Jacobi (R is overwritten)."""
+    jacobi_columns(R)
     smin = np.inf
     smax = 0.0
     for c in range(6):
@@ -300,8 +341,8 @@ def _singular_extremes(R):
 def _isotropy_from(lmin, lmax, P, s, R):
     """sigma_min/sigma_max of octant s from its Gram eigenvalues, refined from J_s when small."""
     v = math.sqrt(lmin / lmax) if lmin > 0.0 and lmax > 0.0 else 0.0
-    if v < _ACCURATE_BELOW:
-        _octant_r(P, s, R)
+    if v < ACCURATE_BELOW:
+        octant_r(P, s, R)
         smin, smax = _singular_extremes(R)
         v = smin / smax if smax > 0.0 else 0.0
     return v
@@ -311,7 +352,7 @@ def _isotropy_from(lmin, lmax, P, s, R):
 def octant_value(G, s, index, A, P, de):
     """The index value of one octant: sigma_min/sigma_max (isotropy) or prod sigma (volume)."""
     if index == VOLUME:
-        _octant_r(P, s, A)
+        octant_r(P, s, A)
         vol = 1.0
         for r in range(6):
             vol *= abs(A[r, r])

@@ -26,6 +26,7 @@ from placement.kernels.isotropy import W_ROWS, isotropy_batched
 from placement.kernels.kinematics import fk_jacobian
 from placement.kernels.manipulability import ISOTROPY, extended_manipulability, joint_penalties
 from placement.kernels.rng import uniform
+from placement.kernels.subspace import generic_rank, subspace_manipulability
 
 CHUNK = 256  # samples per parallel task; its buffers (q, J) stay in the L2 cache
 
@@ -52,6 +53,7 @@ def sample_block(
     rowfac,
     out_cell,
     out_val,
+    rank=0,
 ):
     """Evaluate samples start .. start+count-1 into out_cell (count,) and out_val (count,).
 
@@ -63,8 +65,12 @@ def sample_block(
     (length 0: no pruning, every value exact).
     ``rowfac`` is (count, 6, 2): each sample's row penalties (self-distance), a
     negative [i, 0, 0] rejecting the sample; or (0, 6, 2) for none.
+    ``rank``: the arm's generic rank (the measure is taken on the subspace it spans, see
+    :mod:`placement.kernels.subspace`); 0 (the default): computed here by :func:`generic_rank`.
     """
     n = lower.shape[0]
+    if rank <= 0:
+        rank = generic_rank(lower, upper, link_T, axis, kind, tip_T, rot_scale)
     n_chunks = (count + CHUNK - 1) // CHUNK
     for chunk in prange(n_chunks):
         q = np.empty((CHUNK, n))
@@ -110,7 +116,9 @@ def sample_block(
                 Ji[4, j] *= rot_scale
                 Ji[5, j] *= rot_scale
             joint_penalties(qi, lower, upper, continuous, plo, phi)
-            if index == ISOTROPY:
+            if rank < 6:
+                out_val[i] = subspace_manipulability(Ji, plo, phi, rf, index, rank, thr[i - lo], P, G, A, de)
+            elif index == ISOTROPY:
                 out_val[i] = isotropy_batched(Ji, plo, phi, rf, thr[i - lo], P, G, Ag, W, A, B, de)
             else:
                 out_val[i] = extended_manipulability(Ji, plo, phi, rf, index, thr[i - lo], P, G, A, de)

@@ -9,6 +9,7 @@ import numpy.typing as npt
 
 from placement.errors import GridError, MapError, PlacementError
 from placement.kernels.grid import cell_indices
+from placement.kinematics.manipulability import arm_rank
 from placement.maps.grid import Grid
 from placement.maps.witness import empty_value, plain_samples, witness_configs
 from placement.robots import Robot, load_robot
@@ -182,6 +183,12 @@ class ReachabilityMap:
             out[pos[k]] = self.slice(iz, ip, ir)[ix, iy, iyaw]
         return out
 
+    @property
+    def rank(self) -> int:
+        """The dimension r of the subspace the values measure (``measure.rank``; 6 for maps without it):
+        each octant's r largest singular values count (see :mod:`placement.kernels.subspace`)."""
+        return int(self.meta["measure"].get("rank", 6))
+
     def verify(self) -> None:
         """Read every chunk and compare it with its stored CRC32 (MapError if any is damaged)."""
         self.store.read_all(self.arm)
@@ -194,7 +201,8 @@ def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> Re
     by default against the preset recorded in the map. Checked here: the
     metadata is complete, the format version, robot name, URDF hash, base frame
     and fixed joints, the arm's joints (names, order, count), tip frame and TCP
-    offset (to 1e-9), the chunk checksum table and (Zarr) the stored chunk count.
+    offset (to 1e-9), the rank of the measure against the arm's (:func:`arm_rank`), the chunk
+    checksum table and (Zarr) the stored chunk count.
     Every later read checks each chunk's CRC32. Raises :class:`MapError` for a
     missing, half-written, corrupt, foreign or outdated map.
     """
@@ -215,6 +223,12 @@ def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> Re
     if rmap.meta["witness"]["empty"] != empty_value(rmap.meta["witness"]["dtype"]):
         raise MapError(f"{path}: metadata of arm '{arm}' is inconsistent (corrupt); rebuild the map")
     validate_arm(path, rmap.meta, robot, arm)
+    if rmap.rank != arm_rank(robot, arm):
+        # e.g. a map of an arm spanning 5 dimensions built with the 6-dimensional measure: all zeros
+        raise MapError(
+            f"{path}: the map of arm '{arm}' holds the measure on {rmap.rank} dimensions (measure.rank), "
+            f"the arm spans {arm_rank(robot, arm)}; rebuild the map"
+        )
     store.check_arrays(arm)
     for name, key in ((arm, "stored_chunks"), (witness_name(arm), "stored_witness_chunks")):
         want = rmap.meta.get(key)

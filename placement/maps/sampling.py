@@ -9,7 +9,7 @@ import numpy as np
 
 from placement.errors import PlacementError
 from placement.kernels.sampling import configs_at, reduce_max, sample_block
-from placement.kinematics.manipulability import INDEX_NAMES, ROTATION_SCALE
+from placement.kinematics.manipulability import INDEX_NAMES, ROTATION_SCALE, arm_rank
 from placement.maps.grid import Grid
 from placement.maps.selfcollision import SelfCollision
 from placement.robots import Robot
@@ -113,6 +113,7 @@ def fold(
         rowfac,
         cells,
         vals,
+        arm_rank(robot, arm),
     )
     if self_collision is not None and not self_distance:  # (row_factors already rejected collisions)
         raising = np.flatnonzero((cells >= 0) & (vals.astype(np.float32) > values[np.maximum(cells, 0)]))

@@ -105,7 +105,10 @@ def check_arm_types(path: Path | str, arm: str, meta: dict[str, Any]) -> None:
             raise _Bad("grid.shape", "6 positive counts", shape)
         samples = _int(meta, "samples", 1, 10**12)
         _int(meta, "seed", 0, MAX_SEED)
-        _str(_dict(meta, "measure"), "index", "measure.")
+        measure = _dict(meta, "measure")
+        _str(measure, "index", "measure.")
+        if "rank" in measure:
+            _int(measure, "rank", 1, 6, "measure.")
         witness = _dict(meta, "witness")
         if witness.get("dtype") not in WITNESS_DTYPES:
             raise _Bad("witness.dtype", " or ".join(WITNESS_DTYPES), witness.get("dtype"))
