@@ -198,6 +198,74 @@ def backtrack(layers: Sequence[Layer], regions: Sequence[Regions], linked: Seque
     return Chain(cells, groups, labels)
 
 
+def relaxed(reg: Regions) -> Regions:
+    """``reg`` with its groups merged into one (the transfer rule dropped): one Dijkstra per step.
+
+    Only for regions without node costs (a merged group has no single node cost)."""
+    return Regions((RELAXED,), reg.union()[None])
+
+
+#: The one group of a :func:`relaxed` region.
+RELAXED: Group = ("*", None)
+
+
+def regroup(chain: Chain, regions: Sequence[Regions], linked: Sequence[bool]) -> Chain | None:
+    """Groups for the cheapest chain of the relaxed program (cells only): per step the first group
+    whose region holds the chain's cell, a place the same group as its pick; None when a place
+    and its pick share no group there (the transfer rule binds: solve the grouped program).
+
+    The relaxed program's optimum is a lower bound of the grouped one's; a chain that keeps the
+    rule costs the same in both, so it is the grouped program's optimum too."""
+    n = len(chain.cells)
+    groups: list[int] = [-1] * n
+    for i in range(n - 1, -1, -1):
+        if groups[i] >= 0:
+            continue
+        here = [k for k in range(len(regions[i].groups)) if regions[i].masks[k].flat[chain.cells[i]]]
+        if i > 0 and linked[i]:
+            before = regions[i - 1]
+            common = [
+                k
+                for k in here
+                if regions[i].groups[k] in before.groups
+                and before.masks[before.groups.index(regions[i].groups[k])].flat[chain.cells[i - 1]]
+            ]
+            if not common:
+                return None
+            groups[i] = common[0]
+            groups[i - 1] = before.groups.index(regions[i].groups[common[0]])
+        elif here:
+            groups[i] = here[0]
+        else:
+            return None
+    return Chain(chain.cells, groups, chain.labels)
+
+
+def cheapest(
+    factor: FloatArray,
+    feasible: BoolArray,
+    resolution: float,
+    start: Cell,
+    regions: Sequence[Regions],
+    linked: Sequence[bool],
+) -> tuple[Chain | None, list[Layer]]:
+    """The cheapest chain and the layers of the program that found it: the relaxed program first
+    (one Dijkstra per step) when no region has node costs, the grouped one when its chain breaks
+    the transfer rule (the relaxed layers are returned only with a chain that keeps it)."""
+    if all(r.node is None for r in regions):
+        flat = [False] * len(regions)
+        merged = [relaxed(r) for r in regions]
+        layers = forward(factor, feasible, resolution, start, merged, flat)
+        chain = backtrack(layers, merged, flat)
+        if chain is None:
+            return None, layers
+        grouped = regroup(chain, regions, linked)
+        if grouped is not None:
+            return grouped, layers
+    layers = forward(factor, feasible, resolution, start, regions, linked)
+    return backtrack(layers, regions, linked), layers
+
+
 def linked_steps(ctx: PlanningContext) -> list[bool]:
     """Per step: True for a place right after its pick (it keeps the pick's group)."""
     return [s.pick is not None and s.pick == s.index - 1 for s in ctx.problems.steps]
@@ -212,9 +280,22 @@ def travel_bound(ctx: PlanningContext, start: Cell, regions: Sequence[Regions] |
     if not regs:
         return 0.0
     w = ctx.world
-    layers = forward(w.factor, w.feasible, w.nav.resolution, start, regs, linked_steps(ctx))
-    last = layers[-1].labels
-    return float(last.min()) if last.size else math.inf
+    chain, _ = cheapest(w.factor, w.feasible, w.nav.resolution, start, regs, linked_steps(ctx))
+    return chain.total if chain is not None else math.inf
 
 
-__all__ = ["Chain", "Group", "Layer", "Regions", "backtrack", "forward", "linked_steps", "map_regions", "travel_bound"]
+__all__ = [
+    "RELAXED",
+    "Chain",
+    "Group",
+    "Layer",
+    "Regions",
+    "backtrack",
+    "cheapest",
+    "forward",
+    "linked_steps",
+    "map_regions",
+    "regroup",
+    "relaxed",
+    "travel_bound",
+]

@@ -37,7 +37,18 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from placement.planning.arrays import Cell
-from placement.planning.bound import Chain, Group, Layer, Regions, backtrack, forward, linked_steps, map_regions
+from placement.planning.bound import (
+    Chain,
+    Group,
+    Layer,
+    Regions,
+    backtrack,
+    forward,
+    linked_steps,
+    map_regions,
+    regroup,
+    relaxed,
+)
 from placement.planning.context import PlanningContext
 from placement.planning.explain import explain
 from placement.planning.methods.base import Method
@@ -84,14 +95,29 @@ class DynamicProgram:
         self.coarse = False
         self.solves = 0
         self.first_total = math.inf  # the first solve's optimum [m]
+        #: solve the relaxed program (one Dijkstra per step) while its chains keep the transfer rule
+        self.relaxable = all(r.node is None for r in self.regions)
 
     def solve(self, first: int = 0) -> Chain | None:
+        """The cheapest chain over the current regions, recomputing the layers from step ``first``:
+        the relaxed program (:func:`~placement.planning.bound.regroup`) while its chains keep the
+        transfer rule, the grouped one from the first chain that breaks it on."""
         w = self.ctx.world
         self.solves += 1
-        self.layers = forward(
-            w.factor, w.feasible, w.nav.resolution, self.start, self.regions, self.linked, self.layers, first
-        )
-        chain = backtrack(self.layers, self.regions, self.linked)
+        grid = (w.factor, w.feasible, w.nav.resolution, self.start)
+        chain: Chain | None = None
+        if self.relaxable:
+            merged = [relaxed(r) for r in self.regions]
+            flat = [False] * len(merged)
+            self.layers = forward(*grid, merged, flat, self.layers, first)
+            chain = backtrack(self.layers, merged, flat)
+            if chain is not None:
+                chain = regroup(chain, self.regions, self.linked)
+                if chain is None:
+                    self.relaxable, self.layers, first = False, [], 0
+        if not self.relaxable:
+            self.layers = forward(*grid, self.regions, self.linked, self.layers, first)
+            chain = backtrack(self.layers, self.regions, self.linked)
         if self.solves == 1:
             self.first_total = chain.total if chain is not None else math.inf
         return chain
