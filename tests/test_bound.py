@@ -15,7 +15,7 @@ import pytest
 from scipy.sparse.csgraph import dijkstra
 from support.navigation import grid_graph
 
-from placement.planning.bound import Regions, backtrack, forward
+from placement.planning.bound import Regions, backtrack, cheapest, forward
 
 RES = 0.1
 GROUPS = (("left", "top"), ("right", "top"), ("right", "side"))
@@ -111,3 +111,44 @@ def test_a_place_with_no_group_of_its_pick_is_unreachable():
     # unlinked, the same cells cost 0.1 m then 0.2 m more
     layers = forward(factor, feasible, RES, (0, 0), [pick, place], [False, False])
     assert float(layers[-1].labels.min()) == pytest.approx(0.3)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_relaxed_program_gives_the_grouped_optimum_or_defers_to_it(seed):
+    """cheapest(): the relaxed program (groups merged) with groups given after, else the grouped one;
+    its chain keeps every transfer's group and costs the enumerated optimum."""
+    rng = np.random.default_rng(100 + seed)
+    linked = [False, True, False, True]
+    factor, feasible, start, regions = random_task(rng, 6, 6, 4, linked)
+    regions = [Regions(r.groups, r.masks) for r in regions]  # no node costs: the relaxation applies
+    want, dist = enumerate_best(factor, feasible, start, regions, linked)
+    chain, _ = cheapest(factor, feasible, RES, start, regions, linked)
+    if math.isinf(want):
+        assert chain is None
+        return
+    assert chain is not None and chain.total == pytest.approx(want, rel=1e-9)
+    nx = feasible.shape[1]
+    at, total = start[0] * nx + start[1], 0.0
+    for i, (f, g) in enumerate(zip(chain.cells, chain.groups)):
+        assert regions[i].masks[g].flat[f]
+        if linked[i]:
+            assert regions[i].groups[g] == regions[i - 1].groups[chain.groups[i - 1]]
+        total += dist[at, f]
+        at = f
+    assert total == pytest.approx(want, rel=1e-9)
+
+
+def test_the_relaxed_chain_that_breaks_a_transfer_is_not_taken():
+    #   a 1 x 5 corridor from cell 0: the left arm picks at 1, the right arm at 4; the place at 2
+    #   is the right arm's: the relaxed chain (1, 2) costs 0.2 m but breaks the transfer, the
+    #   grouped optimum is (4, 2): 0.4 m + 0.2 m with the right arm
+    factor, feasible = np.ones((1, 5)), np.ones((1, 5), bool)
+    pick = Regions((("left", "top"), ("right", "top")), np.array([[[0, 1, 0, 0, 0]], [[0, 0, 0, 0, 1]]], bool))
+    place = Regions((("right", "top"),), np.array([[[0, 0, 1, 0, 0]]], bool))
+    chain, _ = cheapest(factor, feasible, RES, (0, 0), [pick, place], [False, True])
+    assert chain is not None and chain.total == pytest.approx(0.6)
+    assert pick.groups[chain.groups[0]] == ("right", "top") and chain.cells == [4, 2]
+    #   the place at 0 after a pick at 1 only by the left arm: no chain keeps the rule
+    place = Regions((("right", "top"),), np.array([[[1, 0, 0, 0, 0]]], bool))
+    pick = Regions((("left", "top"),), np.array([[[0, 1, 0, 0, 0]]], bool))
+    assert cheapest(factor, feasible, RES, (0, 0), [pick, place], [False, True])[0] is None
