@@ -246,3 +246,19 @@ def bounds(model: pin.Model, names: list[str]) -> list[tuple[float, float]]:
         i = model.idx_qs[model.getJointId(n)]
         out.append((float(model.lowerPositionLimit[i]), float(model.upperPositionLimit[i])))
     return out
+
+
+def test_a_xacro_named_by_a_relative_path_expands_and_gives_collision_shapes(monkeypatch):
+    """The description is read from the caller's directory (the xacro child runs in the file's own);
+    the collision model of a xacro robot is built from its expansion, not from the raw xacro."""
+    from placement.collision.robot import usable_urdf
+    from placement.robots.description import read_description
+
+    monkeypatch.chdir(ROOT)
+    rel = SO_ARM.relative_to(ROOT)
+    text = read_description(rel, "test")
+    assert b"<robot" in text and b"${" not in text
+    urdf, lost, missing = usable_urdf(rel, [])
+    root = ET.fromstring(urdf)
+    assert not lost and not missing
+    assert len(root.findall("link/collision")) >= 6

@@ -32,6 +32,7 @@ import pinocchio as pin
 
 from placement.errors import PlacementError
 from placement.robots import Robot
+from placement.robots.description import read_description
 
 
 class CollisionGeometryWarning(UserWarning):
@@ -63,7 +64,7 @@ def resolve_mesh(filename: str, urdf: Path, dirs: list[str]) -> Path | None:
 def usable_urdf(urdf: Path, dirs: list[str]) -> tuple[str, list[str], list[str]]:
     """(URDF text with every mesh path made absolute and the ``<collision>`` elements of unfound meshes
     and degenerate shapes removed, links that lost a shape, what was removed in words)."""
-    root = ET.fromstring(Path(urdf).read_bytes())
+    root = ET.fromstring(read_description(Path(urdf), "collision geometry"))
     lost: list[str] = []
     missing: list[str] = []
     for link in root.iter("link"):

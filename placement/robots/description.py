@@ -79,7 +79,7 @@ def expand_xacro(path: Path, where: str) -> bytes:
     read_regular(path, RobotError, f"{where}: {path}", MAX_XACRO_BYTES, "xacro file")  # no FIFO, no device
     try:
         run = subprocess.run(
-            [sys.executable, "-c", _XACRO_CHILD, os.fspath(path), str(MAX_URDF_BYTES)],
+            [sys.executable, "-c", _XACRO_CHILD, os.fspath(Path(path).resolve()), str(MAX_URDF_BYTES)],
             stdin=subprocess.DEVNULL,
             capture_output=True,
             timeout=XACRO_TIMEOUT,
