@@ -7,12 +7,18 @@ at the reference configuration (fingers as the URDF's neutral pose has them):
    the hand's moving joints included); the ones named ``tip`` when there are such;
 2. approach: from the wrist (the last arm joint's origin) to the finger points' centroid; with no
    finger points, from the wrist to a named tool frame, else the last joint's axis pointing away
-   from the joint before it;
-3. closing direction: the finger points' widest spread across the approach; else the tip frame's axis
-   most orthogonal to the approach;
+   from the joint before it. A hand with *one moving jaw* (every finger frame on one hand joint, the
+   other jaw part of the last link: the SO-101) has its finger frame on the jaw's hinge, off to one
+   side (50 deg off the SO-101's ``gripper_frame_link``): its approach points from the wrist to the
+   named tool frame when there is one;
+3. closing direction: one moving jaw's motion (across its hinge axis and the approach, or along its
+   slide); else the finger points' widest spread across the approach; else the tip frame's axis most
+   orthogonal to the approach;
 4. tip frame: a frame rigid with the last arm joint named tcp > grasp > tool > gripper > tip that is not
-   behind the fingers (more than :data:`BEHIND` [m]), else the last link; the TCP sits at the named
-   frame's origin, else at the finger points' centroid, else at the last link's origin;
+   behind the fingers (more than :data:`BEHIND` [m]), a frame the URDF adds before the link's own
+   body frame of the same rank (``gripper_frame_link`` before ``gripper_link``), else the last link;
+   the TCP sits at the named frame's origin, else at the finger points' centroid, else at the last
+   link's origin;
 5. axes within :data:`SNAP` of one of the tip frame's axes are snapped to it (clean quaternions);
 6. depth (:func:`deepen`): the canonical TCP is where the fingertips close, as a parallel gripper's ROS
    tool frame (the PR2's fingertips reach 0.019 m past it): generated top grasps put the TCP on the
@@ -87,8 +93,8 @@ def _tip_rank(name: str) -> int | None:
     return None
 
 
-def finger_points(model: pin.Model, data: pin.Data, last: int, hand: list[int]) -> np.ndarray:
-    """(k, 3) origins [m] of the finger frames of the hand after joint ``last`` (see the module doc)."""
+def finger_frames(model: pin.Model, last: int, hand: list[int]) -> list[int]:
+    """Ids of the finger frames of the hand after joint ``last`` (see the module doc)."""
     moving = set(hand)
     ids = [
         i
@@ -97,8 +103,19 @@ def finger_points(model: pin.Model, data: pin.Data, last: int, hand: list[int]) 
         and (f.parentJoint in moving or (f.parentJoint == last and named_like(f.name, FINGER_WORDS)))
     ]
     tips = [i for i in ids if any(w.startswith("tip") or w.endswith("tip") for w in words(model.frames[i].name))]
-    chosen = tips or ids
-    return np.array([data.oMf[i].translation for i in chosen]).reshape(-1, 3)
+    return tips or ids
+
+
+def finger_points(model: pin.Model, data: pin.Data, last: int, hand: list[int]) -> np.ndarray:
+    """(k, 3) origins [m] of the finger frames of the hand after joint ``last`` (see the module doc)."""
+    return np.array([data.oMf[i].translation for i in finger_frames(model, last, hand)]).reshape(-1, 3)
+
+
+def single_jaw(model: pin.Model, last: int, hand: list[int]) -> int | None:
+    """The joint id of the one moving jaw when every finger frame rides on that one hand joint (the
+    other jaw is part of the last link: an SO-101), else None."""
+    joints = {model.frames[i].parentJoint for i in finger_frames(model, last, hand)}
+    return joints.pop() if len(joints) == 1 and joints <= set(hand) else None
 
 
 def infer_tcp(model: pin.Model, data: pin.Data, chain: list[int], hand: list[int]) -> TCP:
@@ -106,16 +123,29 @@ def infer_tcp(model: pin.Model, data: pin.Data, chain: list[int], hand: list[int
     last = chain[-1]
     wrist = data.oMi[last].translation
     P = finger_points(model, data, last, hand)
+    jaw = single_jaw(model, last, hand)
     centroid = P.mean(axis=0) if len(P) else None
     rigid = [i for i, f in enumerate(model.frames) if f.parentJoint == last and f.type == pin.FrameType.BODY]
     link = rigid[0]  # the body frame of the last joint's child link comes first
-    named = sorted(
+    # equal names: a frame the URDF adds for the purpose (gripper_frame_link) before the link's own (gripper_link)
+    ranked = [(r, i) for i in rigid if (r := _tip_rank(model.frames[i].name)) is not None]
+    named = [
         (r, i)
-        for i in rigid
-        if (r := _tip_rank(model.frames[i].name)) is not None and not named_like(model.frames[i].name, FINGER_WORDS)
-    )
+        for r, _, i in sorted(
+            (r, i == link, i) for r, i in ranked if not named_like(model.frames[i].name, FINGER_WORDS)
+        )
+    ]
+    ahead = [(r, i) for r, i in named if np.linalg.norm(data.oMf[i].translation - wrist) > 0.01]
     guessed = False
-    if centroid is not None and np.linalg.norm(centroid - wrist) > 1e-3:
+    if jaw is not None and ahead:
+        # the one jaw's frame sits on its hinge, off to one side: the fingers' centroid would tilt the approach
+        named = ahead
+        z = _unit(data.oMf[named[0][1]].translation - wrist)
+        how = (
+            f"one moving jaw ('{model.names[jaw]}', its frame on its hinge): approach from the wrist towards "
+            f"the frame '{model.frames[named[0][1]].name}'"
+        )
+    elif centroid is not None and np.linalg.norm(centroid - wrist) > 1e-3:
         z = _unit(centroid - wrist)
         how = f"approach from the wrist towards the centroid of {len(P)} finger frames"
         reach = float(z @ (centroid - wrist))
@@ -132,10 +162,14 @@ def infer_tcp(model: pin.Model, data: pin.Data, chain: list[int], hand: list[int
     tip = named[0][1] if named else link
     R_tip = data.oMf[tip].rotation
     z = _snap(z, R_tip)
-    spread = P - P.mean(axis=0) if len(P) else np.zeros((1, 3))
+    spread = P - P.mean(axis=0) if len(P) and jaw is None else np.zeros((1, 3))
     spread -= np.outer(spread @ z, z)
     _, sv, vt = np.linalg.svd(spread, full_matrices=False)
-    if sv[0] / math.sqrt(len(spread)) >= MIN_SPREAD:
+    motion = _jaw_motion(model, data, jaw, z) if jaw is not None else np.zeros(3)
+    if np.linalg.norm(motion - (motion @ z) * z) > 0.5:
+        y = motion
+        how += "; y along the jaw's motion"
+    elif sv[0] / math.sqrt(len(spread)) >= MIN_SPREAD:
         y = vt[0]
         how += "; y across the fingers' widest spread"
     else:
@@ -158,12 +192,24 @@ def infer_tcp(model: pin.Model, data: pin.Data, chain: list[int], hand: list[int
     return TCP(model.frames[tip].name, offset, how, guessed, P)
 
 
+def _jaw_motion(model: pin.Model, data: pin.Data, jaw: int, z: np.ndarray) -> np.ndarray:
+    """Unit direction (3,) in the root frame in which the jaw ``jaw`` moves at the grasp: across its
+    hinge axis and the approach ``z`` for a revolute jaw, along its slide for a prismatic one."""
+    axis = data.oMi[jaw].rotation @ _joint_axis(model, jaw)
+    revolute = np.linalg.norm(_joint_motion(model, jaw)[3:]) > 0.5
+    return _unit(np.cross(axis, z)) if revolute else axis
+
+
+def _joint_motion(model: pin.Model, jid: int) -> np.ndarray:
+    """The 1-DoF joint ``jid``'s motion (6,) in its own frame [linear, angular]."""
+    data = model.createData()
+    pin.computeJointJacobians(model, data, pin.neutral(model))
+    return np.asarray(pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, model.joints[jid].idx_v])
+
+
 def _joint_axis(model: pin.Model, jid: int) -> np.ndarray:
     """Unit axis (3,) of the 1-DoF joint ``jid`` in its own frame (revolute: rotation, prismatic: slide)."""
-    data = model.createData()
-    q = pin.neutral(model)
-    pin.computeJointJacobians(model, data, q)
-    motion = pin.getJointJacobian(model, data, jid, pin.LOCAL)[:, model.joints[jid].idx_v]
+    motion = _joint_motion(model, jid)
     ang, lin = motion[3:], motion[:3]
     return _unit(ang if np.linalg.norm(ang) > 0.5 else lin)
 
