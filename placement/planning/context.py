@@ -9,7 +9,7 @@ the planner, so they depend on what they read and never on the planner.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from placement.collision import SceneCollision
 from placement.maps.rmap import ReachabilityMap
@@ -32,6 +32,8 @@ class PlanningContext:
         config: the method's configuration (its weights over the scene's ``planner:`` block).
         yaws: (K,) base yaws tried per cell [rad].
         collisions: the scene collision checker, or None (planning without collision checks).
+        thresholds: arm -> its map threshold (map value), resolved at load (see
+            :mod:`placement.planning.thresholds`); an arm not in it uses ``config.threshold``.
     """
 
     scene: Scene
@@ -42,6 +44,11 @@ class PlanningContext:
     config: PlannerConfig
     yaws: FloatArray
     collisions: SceneCollision | None = None
+    thresholds: Mapping[str, float] = field(default_factory=dict)
+
+    def threshold(self, arm: str) -> float:
+        """The map value below which a placement of ``arm`` is infeasible (dimensionless)."""
+        return self.thresholds.get(arm, self.config.threshold)
 
 
 __all__ = ["PlanningContext"]

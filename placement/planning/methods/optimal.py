@@ -142,7 +142,7 @@ class DynamicProgram:
         for k in order:
             o = opts[k]
             value = o.value_at(iy, ix)
-            if value < ctx.config.threshold:
+            if value < ctx.threshold(o.arm):
                 break
             base = (float(xs[ix]), float(ys[iy]), float(ctx.yaws[o.yaw_at(iy, ix)]))
             witness = getattr(ctx.maps[o.arm], "witness_q", None)
