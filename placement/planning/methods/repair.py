@@ -1,0 +1,87 @@
+"""Local repair of a whole-task chain: how the default method ``global`` answers a rejected placement.
+
+The dynamic program stands each step on the cell nearest (in travel) to its neighbours' cells, which
+is, more often than not, at the frontier of the maps' reach, where IK rejects most cells (the maps
+count a 6D cell as reached when any sample inside it reaches; the base stands at the cell's centre).
+Solving the whole program again after each rejection costs one Dijkstra per step (and per group
+of a transfer) each time. ``global`` keeps the chain's other cells instead and moves the rejected
+step to the cell of its region that adds the least travel between its neighbours' cells,
+``d(c[i-1], x) + d(x, c[i+1])``, verifying candidates in that order (at most
+``global_repair_candidates``): three Dijkstras and a few IK calls instead of a solve. A transfer's
+pick and place keep their group. The legs into and out of the new cell are exact (one Dijkstra
+each); the order of the candidates uses the leg out of them computed from ``c[i+1]`` with the same
+kernel, which differs from the exact leg by at most one cell's length times the difference of two
+speed factors. When no candidate verifies, the caller removes the rejection and solves again.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from placement.planning.bound import Chain
+from placement.planning.navigation import navigation_cost
+
+if TYPE_CHECKING:
+    from placement.planning.methods.optimal import DynamicProgram, Verified
+
+
+def _node(dp: DynamicProgram, i: int, g: int, flat: int) -> float:
+    node = dp.regions[i].node
+    return 0.0 if node is None else float(node[g].flat[flat])
+
+
+def repair(dp: DynamicProgram, chain: Chain, i: int, q_state: dict[str, np.ndarray]) -> tuple[Chain, Verified] | None:
+    """``chain`` with step i moved to the least detour between its neighbours that verifies, and that
+    placement; None when none of the candidates does."""
+    ctx, w = dp.ctx, dp.ctx.world
+    nx = w.nav.shape[1]
+    n = len(chain.cells)
+    reg = dp.regions[i]
+    g0 = chain.groups[i]
+    fixed = dp.linked[i] or (i + 1 < n and dp.linked[i + 1])
+    groups = [g0] if fixed else list(range(len(reg.groups)))
+    targets = np.any(reg.masks[groups], axis=0)
+    if not targets.any():
+        return None
+    prev_cell = dp.start if i == 0 else divmod(chain.cells[i - 1], nx)
+    prev_label = 0.0 if i == 0 else chain.labels[i - 1]
+    into, _ = navigation_cost(w.factor, w.feasible, prev_cell, w.nav.resolution, targets=targets)
+    score = into.copy()
+    if i + 1 < n:
+        out_of, _ = navigation_cost(
+            w.factor, w.feasible, divmod(chain.cells[i + 1], nx), w.nav.resolution, targets=targets
+        )
+        score += out_of
+    cands = [
+        (float(score.flat[f]), int(f), g) for g in groups for f in np.flatnonzero(reg.masks[g] & np.isfinite(score))
+    ]
+    cands.sort()
+    for _, flat, g in cands[: ctx.config.global_repair_candidates]:
+        v = dp.verify(i, flat, g, q_state)
+        if v is None:
+            continue
+        labels = list(chain.labels)
+        labels[i] = prev_label + float(into.flat[flat]) + _node(dp, i, g, flat)
+        if i + 1 < n:
+            nxt = chain.cells[i + 1]
+            leg, _ = navigation_cost(
+                w.factor, w.feasible, divmod(flat, nx), w.nav.resolution, targets=_single(w.feasible.shape, nxt)
+            )
+            new_next = labels[i] + float(leg.flat[nxt]) + _node(dp, i + 1, chain.groups[i + 1], nxt)
+            shift = new_next - chain.labels[i + 1]
+            labels[i + 1 :] = [label + shift for label in chain.labels[i + 1 :]]
+        cells, grps = list(chain.cells), list(chain.groups)
+        cells[i], grps[i] = flat, g
+        return Chain(cells, grps, labels), v
+    return None
+
+
+def _single(shape: tuple[int, ...], flat: int) -> np.ndarray:
+    out = np.zeros(shape, bool)
+    out.flat[flat] = True
+    return out
+
+
+__all__ = ["repair"]
