@@ -25,6 +25,7 @@ from placement.maps.buildspec import (
 from placement.maps.completion import complete
 from placement.maps.distributed import sample_distributed
 from placement.maps.grid import Grid
+from placement.maps.quantiles import value_quantiles
 from placement.maps.reach import arm_reach, box_grid, reach_box
 from placement.maps.sampling import sample_range
 from placement.maps.selfcollision import ALPHA, BETA, SelfCollision
@@ -350,6 +351,8 @@ def build_map(
         "software": f"placement {__version__}",
         "filled_cells": filled,
         "max_value": float(values.max()),
+        # the planner's threshold_quantile resolves against these (placement/maps/quantiles.py)
+        "value_quantiles": value_quantiles(values),
         "witness": witness_info(samples, completion),
     }
     if completion:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -11,6 +12,7 @@ from placement.errors import GridError, MapError, PlacementError
 from placement.kernels.grid import cell_indices
 from placement.kinematics.manipulability import arm_rank
 from placement.maps.grid import Grid
+from placement.maps.quantiles import estimate_quantiles, quantile_value
 from placement.maps.witness import empty_value, plain_samples, witness_configs
 from placement.robots import Robot, load_robot
 from placement.storage import StoredMap, open_store
@@ -55,6 +57,7 @@ class ReachabilityMap:
         self._plain = plain_samples(self.meta)
         self._empty = int(self.meta["witness"]["empty"])
         self._seed = int(self.meta["seed"])
+        self._quantiles: dict[str, Any] | None = self.meta.get("value_quantiles")
 
     def __repr__(self) -> str:
         return f"ReachabilityMap({str(self.path)!r}, arm={self.arm!r}, shape={self.grid.shape})"
@@ -182,6 +185,19 @@ class ReachabilityMap:
             ix, iy, iz, iyaw, ip, ir = (int(a[k]) for a in idx)
             out[pos[k]] = self.slice(iz, ip, ir)[ix, iy, iyaw]
         return out
+
+    @property
+    def value_quantiles(self) -> dict[str, Any]:
+        """The distribution of the arm's non-zero values (see :mod:`placement.maps.quantiles`): the
+        metadata's ``value_quantiles``, or for a map built without it an estimate from every 8th
+        chunk, computed on first use (about 1.3 s for a 5 cm PR2 arm) and kept."""
+        if self._quantiles is None:
+            self._quantiles = estimate_quantiles(self.store, self.arm, self.grid.shape)
+        return self._quantiles
+
+    def quantile_value(self, q: float) -> float:
+        """The map value at quantile ``q`` (0 .. 1) of the arm's non-zero values (dimensionless)."""
+        return quantile_value(self.value_quantiles, q, f"{self.path}: arm '{self.arm}'")
 
     @property
     def rank(self) -> int:

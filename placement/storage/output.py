@@ -25,7 +25,7 @@ from placement.storage import backend, detect, open_store
 from placement.storage.base import ArmArrays, atomic_replace, partial_path
 from placement.storage.format import CRC_KEY, FORMAT_VERSION, READABLE_VERSIONS, WITNESS_CRC_KEY, BuiltMap, chunk_crcs
 from placement.storage.lock import FileLock, lock_path
-from placement.storage.validate import validate_robot
+from placement.storage.validate import base_frame_definition, validate_robot
 
 if TYPE_CHECKING:
     import numpy as np
@@ -209,6 +209,8 @@ class MapOutput:
                 "format_version": FORMAT_VERSION,
                 "preset": preset_name(self.robot),
                 **self.robot.fingerprint,
+                # a base frame the preset adds at load: the URDF hash does not cover it
+                "base_frame_definition": base_frame_definition(self.robot),
                 "arms": sorted(arms),
             }
             atomic_replace(backend(self.fmt), self.path, root, arms)

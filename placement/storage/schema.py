@@ -57,6 +57,34 @@ def _names(doc: dict[str, Any], key: str) -> list[str]:
     return v
 
 
+def _quantiles(v: object) -> None:
+    """A ``value_quantiles`` record (placement/maps/quantiles.py): ``levels`` a whole number, ``values``
+    empty (no reached cell) or ``levels + 1`` finite positive non-decreasing numbers."""
+    if not isinstance(v, dict):
+        raise _Bad("value_quantiles", "a mapping", v)
+    n = _int(v, "levels", 1, 1_000_000, "value_quantiles.")
+    vals = v.get("values")
+    if not isinstance(vals, list) or (vals and len(vals) != n + 1):
+        raise _Bad("value_quantiles.values", f"an empty list or {n + 1} numbers", vals)
+    for i, x in enumerate(vals):
+        if _real(x, f"value_quantiles.values[{i}]") <= 0 or (i and x < vals[i - 1]):
+            raise _Bad(f"value_quantiles.values[{i}]", "a positive number, not below the one before", x)
+
+
+def _base_frame_definition(v: object) -> None:
+    """The root's ``base_frame_definition``: null (a URDF frame) or {parent: name, xyz: [x, y, z] [m]}."""
+    if v is None:
+        return
+    if not isinstance(v, dict):
+        raise _Bad("base_frame_definition", "null or a mapping", v)
+    _str(v, "parent", "base_frame_definition.")
+    xyz = v.get("xyz")
+    if not isinstance(xyz, list) or len(xyz) != 3:
+        raise _Bad("base_frame_definition.xyz", "3 numbers", xyz)
+    for i, x in enumerate(xyz):
+        _real(x, f"base_frame_definition.xyz[{i}]")
+
+
 def check_arms(path: Path | str, root: dict[str, Any]) -> None:
     """MapError unless the root's arm list (if any) is a list of names (read by everything that opens a map)."""
     if "arms" in root:
@@ -76,6 +104,8 @@ def check_root_types(path: Path | str, root: dict[str, Any]) -> None:
         for name, value in _dict(root, "fixed_joints").items():
             _real(value, f"fixed_joints.{name}")
         _names(root, "arms")
+        if "base_frame_definition" in root:
+            _base_frame_definition(root["base_frame_definition"])
     except _Bad as exc:
         raise MapError(f"{path}: root metadata: {exc}; rebuild the map") from None
 
@@ -115,5 +145,7 @@ def check_arm_types(path: Path | str, arm: str, meta: dict[str, Any]) -> None:
         _int(witness, "empty", 0, 2**64, "witness.")
         if _int(witness, "plain_samples", 1, 10**12, "witness.") != samples:
             raise _Bad("witness.plain_samples", f"the sample count {samples}", witness.get("plain_samples"))
+        if "value_quantiles" in meta:  # maps built before it was recorded have none
+            _quantiles(meta["value_quantiles"])
     except _Bad as exc:
         raise MapError(f"{path}: metadata of arm '{arm}': {exc}; rebuild the map") from None

@@ -31,6 +31,16 @@ def check_root(path: Path, root: dict[str, Any]) -> None:
         )
 
 
+def base_frame_definition(robot: Robot) -> dict[str, Any] | None:
+    """How the preset defines its base frame, as a map records it: None for a frame of the URDF, else
+    ``{"parent": URDF frame, "xyz": [x, y, z] [m]}`` (the preset's ``base_frame_parent`` and
+    ``base_frame_xyz``: a frame added at load, which the URDF hash does not cover)."""
+    parent, xyz = robot.base_frame_parent, robot.base_frame_xyz
+    if parent is None or xyz is None:
+        return None
+    return {"parent": str(parent), "xyz": [float(v) for v in xyz]}
+
+
 def validate_robot(path: Path, root: dict[str, Any], robot: Robot) -> None:
     """MapError if the map at ``path`` was not built for ``robot`` as it is now."""
     if root.get("robot") != robot.name:
@@ -41,6 +51,8 @@ def validate_robot(path: Path, root: dict[str, Any], robot: Robot) -> None:
         raise MapError(
             f"{path}: map base frame '{root.get('base_frame')}' differs from the robot's '{robot.base_frame}'"
         )
+    if "base_frame_definition" in root:  # maps built before it was recorded are accepted
+        _same_base_frame(path, root["base_frame_definition"], base_frame_definition(robot), robot.base_frame)
     try:
         fixed = {k: float(v) for k, v in (root.get("fixed_joints") or {}).items()}
     except (AttributeError, TypeError, ValueError):
@@ -48,6 +60,25 @@ def validate_robot(path: Path, root: dict[str, Any], robot: Robot) -> None:
     if fixed != robot.fixed_joints:
         raise MapError(
             f"{path}: map was built with fixed joints {root.get('fixed_joints')}, the robot holds {robot.fixed_joints}"
+        )
+
+
+def _same_base_frame(path: Path, stored: Any, preset: dict[str, Any] | None, name: str) -> None:
+    """MapError unless the map's base frame definition is the preset's (xyz to TCP_TOLERANCE [m])."""
+
+    def words(d: Any) -> str:
+        if not isinstance(d, dict):
+            return "the URDF's own frame"
+        xyz = ", ".join(f"{float(v):g}" for v in d.get("xyz") or [])
+        return f"a frame at [{xyz}] m in '{d.get('parent')}'"
+
+    same = stored is None and preset is None
+    if isinstance(stored, dict) and preset is not None and stored.get("parent") == preset["parent"]:
+        same = bool(np.all(np.abs(np.asarray(stored.get("xyz"), dtype=float) - preset["xyz"]) <= TCP_TOLERANCE))
+    if not same:
+        raise MapError(
+            f"{path}: map base frame '{name}' was built as {words(stored)}, the preset defines it as "
+            f"{words(preset)} (base_frame_parent, base_frame_xyz); rebuild the map"
         )
 
 
