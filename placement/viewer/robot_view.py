@@ -137,12 +137,13 @@ class RobotDrawing:
 
 
 def config_of(robot: Robot, arm: str, q: npt.ArrayLike) -> npt.NDArray[np.float64]:
-    """Pinocchio configuration with ``q`` on ``arm``, every other arm at its home pose and the
-    preset's fixed joints set."""
+    """Pinocchio configuration with ``q`` on ``arm``, every other arm at its idle pose (where the
+    collision check and the plan's ``configuration`` put it) and the preset's fixed joints set."""
     ref = None
     for other in robot.arms:
         if other != arm:
-            ref = robot.full_q(other, robot.arm(other).home, reference=ref)
+            idle = robot.arm(other).idle
+            ref = robot.full_q(other, robot.arm(other).home if idle is None else idle, reference=ref)
     return robot.full_q(arm, q, reference=ref)
 
 
