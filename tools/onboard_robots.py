@@ -14,8 +14,9 @@ ROBOT is a key of :data:`ROBOTS` or a path to a URDF/xacro file. Writes (atomica
 bench_output.py) the table of the run to docs/bench/onboarding.md and the reach bands of the presets
 (``placement robots check``: heights and distances per arm and approach, and its warnings) to
 docs/bench/reach.md; ``--reach-only`` writes only the reach bands, from the presets as they are (no
-init, build or planning: seconds). Every path above is under the repository root, or under ``--root
-DIR`` (a trial run whose presets, maps, scenes and tables stay out of the repository).
+init, build or planning: seconds). Rows of robots not in the run stay in both tables. Every path above
+is under the repository root, or under ``--root DIR`` (a trial run whose presets, maps, scenes and
+tables stay out of the repository).
 """
 
 from __future__ import annotations
@@ -262,6 +263,26 @@ def markdown_table(keys: list[str], rows: list[list]) -> str:
     return "\n".join(lines + ["| " + " | ".join(str(v) for v in r) + " |" for r in rows]) + "\n"
 
 
+def read_rows(path: Path) -> list[dict]:
+    """The rows of an onboarding table written before (``{column: text}``; none when ``path`` is missing)."""
+    if not path.exists():
+        return []
+    lines = [ln for ln in path.read_text().splitlines() if ln.startswith("|")]
+    if len(lines) < 2:
+        return []
+    keys = [k.strip() for k in lines[0].strip("|").split("|")]
+    return [dict(zip(keys, (v.strip() for v in ln.strip("|").split("|")))) for ln in lines[2:]]
+
+
+def merge_rows(old: list[dict], new: list[dict]) -> list[dict]:
+    """The rows of this run replace those of the same robots; the other robots' earlier rows stay (a run
+    of a few robots does not drop the rows of the others' maps, which take long to build). Order: the
+    earlier table's, then the robots new to it."""
+    fresh = {str(r.get("robot")): r for r in new}
+    kept = [fresh.pop(str(r.get("robot")), r) for r in old]
+    return kept + [r for r in new if str(r.get("robot")) in fresh]
+
+
 def reach_table(names: list[str], root: Path = ROOT) -> str:
     """The reach bands of ``examples/robots/<name>.yaml`` (as ``placement robots check`` computes them,
     seeded): per arm the 1 %-99 % TCP heights and distances from the base's axis [m] with a top-down and
@@ -309,9 +330,10 @@ def main(argv=None) -> int:
         except PlacementError as exc:  # one robot's problem (a preset, a URDF, a scene) ends its row only
             rows[-1]["result"] = f"error: {exc}"
         print(rows[-1], file=sys.stderr)
-    table = markdown_table(KEYS, [[r.get(k, "-") for k in KEYS] for r in rows])
+    merged = merge_rows(read_rows(root / ONBOARDING_MD), rows)
+    table = markdown_table(KEYS, [[r.get(k, "-") for k in KEYS] for r in merged])
     write_atomic(root / ONBOARDING_MD, table)
-    write_atomic(root / REACH_MD, reach_table([str(r["robot"]) for r in rows], root))
+    write_atomic(root / REACH_MD, reach_table([str(r["robot"]) for r in merged], root))
     print(table)
     return 0 if all(r.get("result") == "ok" for r in rows) else 1
 

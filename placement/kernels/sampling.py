@@ -27,6 +27,7 @@ from placement.kernels.kinematics import fk_jacobian
 from placement.kernels.manipulability import ISOTROPY, extended_manipulability, joint_penalties
 from placement.kernels.rng import uniform
 from placement.kernels.subspace import generic_rank, subspace_manipulability
+from placement.kernels.subspace_batched import subspace_isotropy_batched
 
 CHUNK = 256  # samples per parallel task; its buffers (q, J) stay in the L2 cache
 
@@ -66,7 +67,9 @@ def sample_block(
     ``rowfac`` is (count, 6, 2): each sample's row penalties (self-distance), a
     negative [i, 0, 0] rejecting the sample; or (0, 6, 2) for none.
     ``rank``: the arm's generic rank (the measure is taken on the subspace it spans, see
-    :mod:`placement.kernels.subspace`); 0 (the default): computed here by :func:`generic_rank`.
+    :mod:`placement.kernels.subspace`; the isotropy index by the batched proofs of
+    :mod:`placement.kernels.subspace_batched`, the same values); 0 (the default): computed here by
+    :func:`generic_rank`.
     """
     n = lower.shape[0]
     if rank <= 0:
@@ -85,6 +88,8 @@ def sample_block(
         A = np.empty((6, 6))
         B = np.empty((6, 6))
         Ag = np.empty((21, 64))
+        Rg = np.empty((21, 64))
+        S = np.empty((2, 6, 6))
         ones = np.ones((6, 2))
         W = np.empty((W_ROWS, 64))
         de = np.empty((2, 6))
@@ -116,7 +121,11 @@ def sample_block(
                 Ji[4, j] *= rot_scale
                 Ji[5, j] *= rot_scale
             joint_penalties(qi, lower, upper, continuous, plo, phi)
-            if rank < 6:
+            if rank < 6 and index == ISOTROPY:
+                out_val[i] = subspace_isotropy_batched(
+                    Ji, plo, phi, rf, rank, thr[i - lo], P, G, Ag, Rg, W, A, B, S, de
+                )
+            elif rank < 6:
                 out_val[i] = subspace_manipulability(Ji, plo, phi, rf, index, rank, thr[i - lo], P, G, A, de)
             elif index == ISOTROPY:
                 out_val[i] = isotropy_batched(Ji, plo, phi, rf, thr[i - lo], P, G, Ag, W, A, B, de)

@@ -243,6 +243,7 @@ def verify_witnesses(
             rowfac,
             got_cell,
             got,
+            int(measure.get("rank", 6)),  # the rank the map was built with (maps without it: rank 6)
         )
         got32 = got.astype(np.float32)
         bad = np.flatnonzero((got_cell != part) | (got32.view(np.uint32) != values[part].view(np.uint32)))

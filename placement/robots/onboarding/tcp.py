@@ -188,7 +188,7 @@ def infer_tcp(model: pin.Model, data: pin.Data, chain: list[int], hand: list[int
     world = np.eye(4)
     world[:3, :3], world[:3, 3] = R, origin
     offset = np.linalg.inv(data.oMf[tip].homogeneous) @ world
-    offset[:3, 3] = np.round(offset[:3, 3], 4)
+    offset[:3, 3] = np.round(offset[:3, 3], 4) + 0.0  # no -0.0 in the preset
     return TCP(model.frames[tip].name, offset, how, guessed, P)
 
 
