@@ -30,6 +30,7 @@ def scratch(n: int):
         A=np.empty((6, 6)),
         B=np.empty((6, 6)),
         S=np.empty((2, 6, 6)),
+        C=np.empty((21, 21)),
         de=np.empty((2, 6)),
     )
 
@@ -37,9 +38,8 @@ def scratch(n: int):
 def batched(J, plo, phi, rank, threshold, rowfac=None) -> float:
     w = scratch(J.shape[1])
     rf = np.ones((6, 2)) if rowfac is None else rowfac
-    return subspace_isotropy_batched(
-        J, plo, phi, rf, rank, threshold, w["P"], w["G"], w["Ag"], w["Rg"], w["W"], w["A"], w["B"], w["S"], w["de"]
-    )
+    names = ("P", "G", "Ag", "Rg", "W", "A", "B", "S", "C", "de")
+    return subspace_isotropy_batched(J, plo, phi, rf, rank, threshold, *(w[k] for k in names))
 
 
 def plain(J, plo, phi, rank, threshold, rowfac=None) -> float:

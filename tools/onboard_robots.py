@@ -63,11 +63,15 @@ REACH_MD = Path("docs/bench/reach.md")
 KEYS = ["robot", "arms", "dof", "init s", "build s", "steps planned / verified", "result"]
 #: Gap between the base's edge and the table edge [m], and the largest table depth used [m].
 GAP, MAX_DEPTH = 0.05, 0.8
+#: Share of an arm's largest sampled top-down reach a table is sized for: the outer part is the arm stretched
+#: to its joint limits, reached exactly from few base poses, and its map values (joint-limit penalties) fall
+#: below the planner's threshold (so_arm_base and lift_telescope, sized for their whole reach, planned nothing).
+REACH_USE = 0.9
 #: Height above the table top [m] a top-down pre-grasp needs (object centre ~5 cm up, 10-15 cm above it).
 PRE_GRASP_TOP = 0.25
-SPEC = """# Build spec of the {name} maps of the onboarding check (issue 9, tools/onboard_robots.py). Units: m, rad.
-# The preset is the unedited output of `placement robots init`; 10 M samples per arm at 0.1 m keep the
-# build to minutes on the 2-core machine.
+SPEC = """# Build spec of the {name} maps of the onboarding check (tools/onboard_robots.py). Units: m, rad.
+# The preset is the unedited output of `placement robots init`; {millions:g} M samples per arm at 0.1 m keep
+# the build to minutes on the 2-core machine.
 robot: examples/robots/{name}.yaml
 arms: [{arms}]
 samples: {samples}
@@ -101,15 +105,15 @@ def shown_path(urdf: Path) -> str:
 
 def table_depth(robot, height: float) -> float:
     """Pick/place table depth [m] for tables ``height`` [m] high: twice what the best arm reaches top-down
-    into a table from its grasp to its pre-grasp height, beyond the base's circumscribed circle plus :data:`GAP` (objects
-    are approached from both long sides)."""
+    into a table from its grasp to its pre-grasp height (:data:`REACH_USE` of its largest sampled reach),
+    beyond the base's circumscribed circle plus :data:`GAP` (objects are approached from both long sides)."""
     best = 0.0
     for arm in robot.arms:
         band = reach_band(robot, arm, "down")
         rows = [s["r_max"] for s in band.profile if height <= s["z"][0] < height + PRE_GRASP_TOP]
         if len(rows) >= 2:
             # the circumscribed radius: the arm's reach may point where the base sticks out most
-            best = max(best, min(rows) - robot.footprint_radius - GAP)
+            best = max(best, REACH_USE * min(rows) - robot.footprint_radius - GAP)
     return round(min(max(2 * best, 0.2), MAX_DEPTH), 2)
 
 
@@ -210,7 +214,7 @@ def onboard(
     row["dof"] = ", ".join(str(len(robot.arm(a).joints)) for a in robot.arms)
     spec = root / "maps" / f"{name}.yaml"
     if not spec.exists():
-        spec.write_text(SPEC.format(name=name, arms=", ".join(robot.arms), samples=samples))
+        spec.write_text(SPEC.format(name=name, arms=", ".join(robot.arms), samples=samples, millions=samples / 1e6))
     out = root / "maps" / name
     row["build s"] = "-"
     if rebuild or not out.exists():

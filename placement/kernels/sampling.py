@@ -90,6 +90,7 @@ def sample_block(
         Ag = np.empty((21, 64))
         Rg = np.empty((21, 64))
         S = np.empty((2, 6, 6))
+        C = np.empty((21, 21))
         ones = np.ones((6, 2))
         W = np.empty((W_ROWS, 64))
         de = np.empty((2, 6))
@@ -123,7 +124,7 @@ def sample_block(
             joint_penalties(qi, lower, upper, continuous, plo, phi)
             if rank < 6 and index == ISOTROPY:
                 out_val[i] = subspace_isotropy_batched(
-                    Ji, plo, phi, rf, rank, thr[i - lo], P, G, Ag, Rg, W, A, B, S, de
+                    Ji, plo, phi, rf, rank, thr[i - lo], P, G, Ag, Rg, W, A, B, S, C, de
                 )
             elif rank < 6:
                 out_val[i] = subspace_manipulability(Ji, plo, phi, rf, index, rank, thr[i - lo], P, G, A, de)

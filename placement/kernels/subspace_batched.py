@@ -3,7 +3,8 @@
 Same value, bitwise, as :func:`placement.kernels.subspace.subspace_manipulability` with ``ISOTROPY``:
 the octants that decide the minimum are computed by the same routine (``octant_value_rank``), every
 other octant is *proven* not to be below the running minimum, as :mod:`placement.kernels.isotropy`
-does for rank 6. Octant s's value is ``sqrt(lambda_r(A_s) / lambda_1(A_s))`` (eigenvalues of its
+does for rank 6 (the most penalised octant first, exactly, as the octant-by-octant kernel: most samples
+that cannot raise their cell stop there). Octant s's value is ``sqrt(lambda_r(A_s) / lambda_1(A_s))`` (eigenvalues of its
 Gram matrix ``A_s``, largest first); the bounds on ``lambda_r`` come from Courant-Fischer in a basis
 ``E`` (6, 6, orthonormal columns): the eigenvectors of the most penalised octant, largest first.
 With ``B_s = E^T A_s E``:
@@ -99,23 +100,26 @@ def eigenvectors6(A, E, lam):
 
 
 @njit(cache=True)
-def rotated_grams(G, E, B, A, M):
-    """B (21, 64) <- ``E^T A_s E`` of every octant s, packed as :mod:`placement.kernels.octants` (entry (r, c),
-    r >= c, in row r (r + 1) / 2 + c). A, M (6, 6): scratch."""
-    for s in range(64):
-        octant_gram(G, s, A)
-        for r in range(6):
-            for c in range(6):
-                acc = 0.0
-                for k in range(6):
-                    acc += A[r, k] * E[k, c]
-                M[r, c] = acc
-        for r in range(6):
-            for c in range(r + 1):
-                acc = 0.0
-                for k in range(6):
-                    acc += E[k, r] * M[k, c]
-                B[r * (r + 1) // 2 + c, s] = acc
+def rotated_grams(Ag, E, B, C):
+    """B (21, 64) <- ``E^T A_s E`` of every octant s from Ag (21, 64), the packed ``A_s`` of
+    :func:`placement.kernels.octants.fill_grams` (entry (r, c), r >= c, in row r (r + 1) / 2 + c).
+
+    Each packed entry of B is a fixed combination of A_s's packed entries, ``B = C Ag`` with C (21, 21)
+    (scratch) from E: one product whose inner loop runs across the octants (SIMD)."""
+    for r in range(6):
+        for c in range(r + 1):
+            i = r * (r + 1) // 2 + c
+            for k in range(6):
+                for m in range(k + 1):
+                    j = k * (k + 1) // 2 + m
+                    C[i, j] = E[k, r] * E[k, c] if k == m else E[k, r] * E[m, c] + E[m, r] * E[k, c]
+    for i in range(21):
+        for s in range(64):
+            B[i, s] = 0.0
+        for j in range(21):
+            f = C[i, j]
+            for s in range(64):
+                B[i, s] += f * Ag[j, s]
 
 
 @njit(cache=True, inline="always")
@@ -154,34 +158,35 @@ def _lambda_r_above(B, s, rank, c, L):
 
 
 @njit(cache=True)
-def subspace_isotropy_batched(J, pen_lo, pen_hi, rowfac, rank, threshold, P, G, Ag, Rg, W, A, B, S, de):
+def subspace_isotropy_batched(J, pen_lo, pen_hi, rowfac, rank, threshold, P, G, Ag, Rg, W, A, B, S, C, de):
     """The rank-``rank`` isotropy index (min over octants of sigma_rank/sigma_1), or -1.0 if proven <= threshold.
 
     Args:
         J: (6, n) TCP Jacobian, rotation rows scaled; pen_lo, pen_hi: (n,) joint-limit penalty factors;
         rowfac: (6, 2) row factors (self-distance; ones without); rank: the arm's generic rank, 1 .. 5;
         threshold: the cell's current value; < 0 computes the exact value always.
-        P (6, n, 2), G (6, 6, 2, 2), Ag, Rg (21, 64), W (6, 64), A, B (6, 6), S (2, 6, 6), de (2, 6):
-        scratch (P to W as :func:`placement.kernels.isotropy.isotropy_batched`).
+        P (6, n, 2), G (6, 6, 2, 2), Ag, Rg (21, 64), W (6, 64), A, B (6, 6), S (2, 6, 6), C (21, 21),
+        de (2, 6): scratch (P to W as :func:`placement.kernels.isotropy.isotropy_batched`).
     """
     gram_table(J, pen_lo, pen_hi, rowfac, P, G)
     t = threshold
     t2 = t * t * (1.0 - _margin(t)) if t > 0.0 else 0.0
+    # the most penalised octant first, exactly: a sample far below its cell's value is usually settled here
     s_pen = most_penalised_octant(P)
+    best = octant_value_rank(G, s_pen, 0, rank, A, P, de)
+    if best <= t:
+        return -1.0
     octant_gram(G, s_pen, A)
     E = B
-    converged = eigenvectors6(A, E, de[0])
-    # the most penalised octant first: a sample far below its cell's value is usually settled here
-    if converged and t > 0.0 and de[0][rank - 1] < t2 * de[0][0]:
-        return -1.0
+    eigenvectors6(A, E, de[0])
     rho, upper, beta, flag, ub, done = W[0], W[1], W[2], W[3], W[4], W[5]
     fill_grams(G, Ag)
     top = de[1]
     for r in range(6):
         top[r] = E[r, 0]
     lambda_max_lower(Ag, top, rho)
-    M, L = S[0], S[1]
-    rotated_grams(G, E, Rg, A, M)
+    L = S[0]
+    rotated_grams(Ag, E, Rg, C)
     for s in range(64):
         ub[s] = _lambda_r_upper(Rg, s, rank)
     if t > 0.0:
@@ -195,11 +200,13 @@ def subspace_isotropy_batched(J, pen_lo, pen_hi, rowfac, rank, threshold, P, G, 
     for s in range(1, 64):
         if ub[s] < ub[s0]:
             s0 = s
-    best = octant_value_rank(G, s0, 0, rank, A, P, de)
-    if best <= t:
-        return -1.0
+    if s0 != s_pen:
+        best = min(best, octant_value_rank(G, s0, 0, rank, A, P, de))
+        if best <= t:
+            return -1.0
     for s in range(64):
         done[s] = 0.0
+    done[s_pen] = 1.0
     if best > 0.0:
         traces(Ag, upper)
         for slack in U_SLACKS:
