@@ -25,12 +25,12 @@ COARSE = {"resolution": 0.2, "task": [{"pick": "cup", "place": "spot"}]}
 
 
 def oracle_regions(planner):
-    """Per step: {(arm, grasp): set of flat cells} where an option keeps the threshold."""
+    """Per step: {(arm, grasp): set of flat cells} where an option keeps its arm's threshold."""
     out = []
     for i in range(len(planner.problems.steps)):
         groups: dict = {}
         for o in planner.problems.options(i):
-            full = o.full_value(planner.world.nav.shape) >= planner.config.threshold
+            full = o.full_value(planner.world.nav.shape) >= planner.thresholds[o.arm]
             groups.setdefault((o.arm, o.candidate.grasp), set()).update(np.flatnonzero(full & planner.world.feasible))
         out.append(groups)
     return out

@@ -139,7 +139,7 @@ ERRORS = [
     (
         set_key(["planner", "speed"], 2.0),
         "unknown key 'planner.speed'; allowed: collision_padding, d_max, footprint_padding, grasp_yaws, ik_budget_ms, "
-        "lambda_m, lambda_n, lambda_nh, threshold, velocity_k, velocity_lambda, yaw_steps",
+        "lambda_m, lambda_n, lambda_nh, threshold, threshold_quantile, velocity_k, velocity_lambda, yaw_steps",
     ),
     # yaw only, no quaternions
     (
@@ -318,6 +318,7 @@ def test_planner_keys_are_documented():
         "lambda_nh",
         "yaw_steps",
         "threshold",
+        "threshold_quantile",
         "velocity_lambda",
         "velocity_k",
         "d_max",

@@ -91,9 +91,8 @@ def map_regions(ctx: PlanningContext, i: int) -> Regions:
     groups = sorted({(o.arm, o.candidate.grasp) for o in opts}, key=lambda g: (g[0], str(g[1])))
     index = {g: k for k, g in enumerate(groups)}
     masks = np.zeros((len(groups), *nav.shape), dtype=bool)
-    thr = ctx.config.threshold
     for o in opts:
-        masks[index[(o.arm, o.candidate.grasp)]][o.window.slices] |= o.value >= thr
+        masks[index[(o.arm, o.candidate.grasp)]][o.window.slices] |= o.value >= ctx.threshold(o.arm)
     masks &= ctx.world.feasible
     return Regions(tuple(groups), masks)
 

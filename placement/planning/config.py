@@ -15,7 +15,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from placement.scene.planner_keys import MAX_WEIGHT, PLANNER_BOUNDS, PLANNER_KEYS, PLANNER_SETTINGS
+from placement.scene.model import SceneError
+from placement.scene.planner_keys import EXCLUSIVE, MAX_WEIGHT, PLANNER_BOUNDS, PLANNER_KEYS, PLANNER_SETTINGS
 
 
 def _key(name: str) -> Any:
@@ -33,7 +34,13 @@ class PlannerConfig:
         lambda_m: weight of the manipulation cost ``1/m`` (dimensionless).
         lambda_nh: weight of the heuristic cost towards the next step [1/m].
         yaw_steps: base yaws tried per cell [count].
-        threshold: map value below which a placement is infeasible (dimensionless, > 0).
+        threshold: map value below which a placement is infeasible (dimensionless, > 0). Given in
+            the scene, the same value on every arm; otherwise the planner resolves
+            ``threshold_quantile`` per arm at load and sets this to the smallest arm's value (the
+            per-arm values: ``PlanningContext.thresholds``).
+        threshold_quantile: fraction of each arm's reached map cells, the lowest-valued, that are
+            infeasible (dimensionless, 0 .. 1): each arm's threshold is this quantile of its map's
+            non-zero values (see :mod:`placement.maps.quantiles`); None when ``threshold`` is given.
         velocity_lambda, velocity_k: lambda and k of the velocity model (Eq. 4), dimensionless.
         d_max: distance beyond which obstacles do not slow the base (Eq. 4) [m].
         grasp_yaws: gripper yaws of place steps: a count (evenly spaced) or a tuple of yaws [rad].
@@ -81,6 +88,7 @@ class PlannerConfig:
     lambda_nh: float = _key("lambda_nh")
     yaw_steps: int = _key("yaw_steps")
     threshold: float = _key("threshold")
+    threshold_quantile: float | None = _key("threshold_quantile")
     velocity_lambda: float = _key("velocity_lambda")
     velocity_k: float = _key("velocity_k")
     d_max: float = _key("d_max")
@@ -108,9 +116,19 @@ class PlannerConfig:
     ik_seeds: int = 4
 
     @classmethod
-    def from_overrides(cls, overrides: Mapping[str, Any]) -> PlannerConfig:
-        """Defaults with a (validated) scene ``planner:`` block applied."""
+    def from_overrides(cls, overrides: Mapping[str, Any], where: str = "planner") -> PlannerConfig:
+        """Defaults with a (validated) scene ``planner:`` block applied; SceneError naming ``where``
+        and both keys when the block gives two keys that replace each other (``threshold`` and
+        ``threshold_quantile``)."""
         values = dict(overrides)
+        for a, b in EXCLUSIVE:
+            if a in values and b in values:
+                raise SceneError(
+                    f"{where}: both {a} and {b} are given; give one ({a}: a map value, the same on every "
+                    f"arm; {b}: the fraction of each arm's reached cells below its threshold)"
+                )
+        if "threshold" in values:  # a map value given: it replaces the quantile on every arm
+            values["threshold_quantile"] = None
         if isinstance(values.get("grasp_yaws"), list):
             values["grasp_yaws"] = tuple(values["grasp_yaws"])
         return cls(**values)

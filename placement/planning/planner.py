@@ -35,6 +35,7 @@ from placement.planning.methods.registry import DEFAULT_METHOD, METHODS, method_
 from placement.planning.prepare import prefetch_slices, warm_checks, warm_kernels
 from placement.planning.problems import StepProblems
 from placement.planning.results import PlanResult, robot_info
+from placement.planning.thresholds import resolve_thresholds, with_threshold
 from placement.planning.updates import apply_update
 from placement.planning.world import World, build_world
 from placement.robots import Robot, load_robot
@@ -90,8 +91,8 @@ class Planner:
         context: the :class:`~placement.planning.context.PlanningContext` the stages read; its
         fields are also attributes of the planner: scene, robot, maps (arm -> map), world, problems
         (the per-step cache), config (the method's), yaws ((K,) base yaws [rad]), collisions (the
-        :class:`~placement.collision.SceneCollision` checker, or None). base_config: the scene's
-        configuration. method: the :class:`~placement.planning.methods.base.Method` strategy
+        :class:`~placement.collision.SceneCollision` checker, or None), thresholds (arm -> map
+        threshold). base_config: the scene's configuration (its ``threshold`` the smallest arm's). method: the :class:`~placement.planning.methods.base.Method` strategy
         (``method.name`` its name).
     """
 
@@ -103,18 +104,22 @@ class Planner:
         collisions: bool = True,
     ):
         scene = scene if isinstance(scene, Scene) else load_scene(scene)
-        self.base_config = PlannerConfig.from_overrides(scene.planner)
+        where = f"{scene.source}: planner" if scene.source is not None else "planner"
+        cfg = PlannerConfig.from_overrides(scene.planner, where)
         self.method: Method = method_named(method)
         robot = load_robot(scene.robot_preset)
         map_path = Path(maps or scene.maps or default_maps_path(scene, robot))
         rmaps = {arm: open_map(map_path, arm, robot) for arm in mapped_arms(map_path, robot)}
-        cfg = self.base_config
+        thresholds = resolve_thresholds(cfg, rmaps)
+        self.base_config = cfg = with_threshold(cfg, thresholds)
         checker = SceneCollision(robot, scene, padding=cfg.collision_padding) if collisions else None
         yaws = base_yaws(cfg.yaw_steps)
         base = BaseShape.of(robot, cfg.footprint_padding, yaws)
         world = build_world(scene, base, cfg)
-        problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening)
-        self.context = PlanningContext(scene, robot, rmaps, world, problems, self.method.configure(cfg), yaws, checker)
+        problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening, thresholds)
+        self.context = PlanningContext(
+            scene, robot, rmaps, world, problems, self.method.configure(cfg), yaws, checker, thresholds
+        )
         # once per planner: kernels loaded and slices read here, not in the first step
         warm_kernels(problems, robot)
         prefetch_slices(problems)
@@ -144,6 +149,12 @@ class Planner:
     @property
     def config(self) -> PlannerConfig:
         return self.context.config
+
+    @property
+    def thresholds(self) -> Mapping[str, float]:
+        """arm -> its map threshold (map value), resolved at load from the scene's ``threshold`` or
+        ``threshold_quantile`` (see :mod:`placement.planning.thresholds`)."""
+        return self.context.thresholds
 
     @property
     def yaws(self) -> FloatArray:

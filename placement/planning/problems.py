@@ -42,6 +42,8 @@ class StepProblems:
         maps: arm -> reachability map. config: the planner configuration (threshold, grasp yaws).
         yaws: (K,) base yaws tried per cell [rad].
         opening_m: the gripper's widest opening [m] (generated grasps close across chords up to it).
+        thresholds: arm -> its map threshold (see :mod:`placement.planning.thresholds`); an arm not
+            in it uses ``config.threshold``.
     """
 
     def __init__(
@@ -52,9 +54,11 @@ class StepProblems:
         config: PlannerConfig,
         yaws: FloatArray,
         opening_m: float = GRIPPER_OPENING,
+        thresholds: Mapping[str, float] | None = None,
     ):
         self.scene, self.world, self.maps, self.config, self.yaws = scene, world, maps, config, yaws
         self.opening_m = opening_m
+        self.thresholds: Mapping[str, float] = dict(thresholds or {})
         self.steps: list[Step] = task_steps(scene)
         self._options: dict[int, list[Option]] = {}
         # options computed for another world (obstacles changed since): refreshed when used
@@ -65,6 +69,10 @@ class StepProblems:
         #: (step, flat cell, (arm, grasp)) -> what the whole-task methods' verification found
         #: there (a ``Verified``, or None: rejected)
         self.verdicts: dict[tuple[int, int, tuple[str, str | None]], Any] = {}
+
+    def threshold(self, arm: str) -> float:
+        """The map value below which a placement of ``arm`` is infeasible (dimensionless)."""
+        return self.thresholds.get(arm, self.config.threshold)
 
     def options(self, i: int) -> list[Option]:
         """Manipulation maps of step i for every arm and candidate (cached)."""
@@ -112,15 +120,15 @@ class StepProblems:
         return {
             (o.arm, o.candidate.grasp)
             for o in self.options(i)
-            if o.value.size and float(o.value.max()) >= self.config.threshold
+            if o.value.size and float(o.value.max()) >= self.threshold(o.arm)
         }
 
     def feasible_region(self, i: int, options: Sequence[Option] | None = None) -> BoolArray:
         """(ny, nx) bool: base cells from which some arm and candidate of step i (of ``options``,
-        default all of the step's) reach the threshold."""
+        default all of the step's) reach their arm's threshold."""
         mask = np.zeros(self.world.nav.shape, dtype=bool)
         for o in self.options(i) if options is None else options:
-            mask[o.window.slices] |= o.value >= self.config.threshold
+            mask[o.window.slices] |= o.value >= self.threshold(o.arm)
         return mask
 
     def heuristic(self, i: int, at: BoolArray | None = None) -> FloatArray:
@@ -138,7 +146,7 @@ class StepProblems:
         changed) they are refreshed on the cells whose allowed yaws changed (see refresh.py) when a
         step first needs them, and the heuristics are dropped. ``self`` is not modified.
         """
-        new = StepProblems(scene, world, self.maps, self.config, self.yaws, self.opening_m)
+        new = StepProblems(scene, world, self.maps, self.config, self.yaws, self.opening_m, self.thresholds)
         # a moved object's place poses follow its orientation when picked: its place too
         moved = {i for i, s in enumerate(self.steps) if s.carries is not None and s.carries in moved_objects}
         if world is not self.world:  # a place rests on the obstacles: one added or removed may move it

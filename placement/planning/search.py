@@ -175,7 +175,7 @@ def yaw_values(
 def other_yaws(
     ctx: PlanningContext, opts: Sequence[Option], nav_cost: FloatArray, heuristic: FloatArray
 ) -> tuple[list[Ranked], dict[tuple[int, int, float], float]]:
-    """Every (cell, base yaw) of every option that keeps the map threshold other than each cell's
+    """Every (cell, base yaw) of every option that keeps its arm's map threshold other than each cell's
     best yaw, ranked by Eq. 6 with its own map value; and {(option, cell, yaw): value}."""
     cfg, nav = ctx.config, ctx.world.nav
     nx = nav.shape[1]
@@ -183,7 +183,8 @@ def other_yaws(
     out: list[Ranked] = []
     values: dict[tuple[int, int, float], float] = {}
     for k, o in enumerate(opts):
-        local = np.flatnonzero(o.value.ravel() >= cfg.threshold)
+        thr = np.float32(ctx.threshold(o.arm))
+        local = np.flatnonzero(o.value.ravel() >= thr)
         cells = o.window.to_global(local, nx)
         iy, ix = np.divmod(cells, nx)
         ok = np.isfinite(nav_cost[iy, ix]) & np.isfinite(heuristic[iy, ix])
@@ -192,7 +193,7 @@ def other_yaws(
             continue
         v = yaw_values(ctx.maps[o.arm], o.candidate.poses, xs[ix], ys[iy], ctx.yaws)
         v[np.arange(cells.size), best] = 0.0
-        n, j = np.nonzero(v >= np.float32(cfg.threshold))
+        n, j = np.nonzero(v >= thr)
         cost = combined_cost(cfg, nav_cost[iy[n], ix[n]], v[n, j].astype(float), heuristic[iy[n], ix[n]])
         for c, cell, yaw, val in zip(cost, cells[n], ctx.yaws[j], v[n, j]):
             out.append(Ranked(float(c), k, int(cell), float(yaw)))

@@ -14,6 +14,15 @@ from typing import Any
 #: ``weight / m`` and ``weight * cost`` stay finite for every map value and grid.
 MAX_WEIGHT = 1e6
 
+#: Default ``threshold_quantile``: the fraction of the default PR2 maps' reached cells below the
+#: paper's threshold 0.0235, rounded down (right arm 0.3434, left 0.3433: 30 M samples, 5 cm cells, with
+#: completion), so that the PR2 keeps its threshold (0.02346 and 0.02348) and every other arm gets the
+#: same share of its own cells. See docs/planning.md, "The threshold".
+DEFAULT_THRESHOLD_QUANTILE = 0.343
+
+#: Planner keys of which a scene's block may give at most one (each replaces the other).
+EXCLUSIVE = (("threshold", "threshold_quantile"),)
+
 #: name -> default, help (with unit and default) and bounds (minimum, maximum, strict, integer, or_list).
 PLANNER_SETTINGS: dict[str, dict[str, Any]] = {
     "lambda_n": dict(
@@ -43,9 +52,17 @@ PLANNER_SETTINGS: dict[str, dict[str, Any]] = {
     ),
     "threshold": dict(
         default=0.0235,
-        help="manipulability below which a placement is infeasible, > 0 and <= 1 (default 0.0235)",
+        help="map value below which a placement is infeasible, the same on every arm, > 0 and <= 1 "
+        "(default 0.0235; applies only when given, instead of threshold_quantile: not both)",
         minimum=0.0,
         strict=True,
+        maximum=1.0,
+    ),
+    "threshold_quantile": dict(
+        default=DEFAULT_THRESHOLD_QUANTILE,
+        help="fraction of each arm's reached map cells, the lowest-valued, that are infeasible: the threshold is "
+        "this quantile of the arm's non-zero map values, 0 .. 1 (default 0.343; 0.0235 on the PR2's maps)",
+        minimum=0.0,
         maximum=1.0,
     ),
     "velocity_lambda": dict(

@@ -11,6 +11,7 @@ from placement.planning.context import PlanningContext
 from placement.planning.methods.stepwise import StepwiseMethod
 from placement.planning.option import Option
 from placement.planning.ranking import Ranked, rank_by_cost
+from placement.planning.thresholds import per_arm_values
 
 
 def rank_eq6(
@@ -21,9 +22,10 @@ def rank_eq6(
     per_option: int | None = None,
 ) -> list[Ranked]:
     """Eq. 6 with the context's weights (see :func:`~placement.planning.ranking.rank_by_cost`): the
-    ``per_option`` cheapest cells of each option and tier (default ``ik_tries``)."""
+    ``per_option`` cheapest cells of each option and tier (default ``ik_tries``), each option's
+    cells kept by its arm's threshold."""
     cfg = ctx.config if per_option is None else replace(ctx.config, ik_tries=per_option)
-    return rank_by_cost(options, nav_cost, heuristic, cfg, ctx.yaws)
+    return rank_by_cost(per_arm_values(options, ctx.thresholds, cfg.threshold), nav_cost, heuristic, cfg, ctx.yaws)
 
 
 class Eq6Method(StepwiseMethod):

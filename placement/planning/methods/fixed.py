@@ -66,7 +66,7 @@ def rank_fixed(ctx: PlanningContext, options: Sequence[Option]) -> list[Ranked]:
     the map marks reached (value > 0) is ranked, and IK decides which reaches. The map threshold is
     not applied here: it prunes the continuous search of the other methods, but a fixed placement at a
     table's side is often at the edge of reach, where the manipulability is low (at 5 cm cells the
-    PR2's placements 0.75 m from a 0.69 m table's centre score 0.014-0.016 against the threshold's
+    PR2's placements 0.75 m from a 0.69 m table's centre score 0.014-0.016 against its threshold's
     0.0235, and IK reaches them)."""
     nav = ctx.world.nav
     ranked = []

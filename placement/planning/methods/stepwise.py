@@ -24,6 +24,7 @@ from placement.planning.ranking import Ranked, combined_map
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import search_placement
 from placement.planning.steps import Step
+from placement.planning.thresholds import per_arm_values
 
 #: An (arm, grasp) pair a transfer commits to.
 Pair = tuple[str, str | None]
@@ -147,9 +148,10 @@ def transfer_reason(ctx: PlanningContext, pick: Step, place: Step, failed: Mappi
     tried = {p: r for p, r in failed.items() if r}
     parts = []
     if unreached:
+        arms = sorted({a for a, _ in unreached})
         parts.append(
             f"{excluded_words(unreached)}: no base placement reaches a place pose with the map threshold "
-            f"{ctx.config.threshold:g}"
+            + ", ".join(f"{ctx.threshold(a):g}" + (f" (arm {a})" if len(arms) > 1 else "") for a in arms)
         )
     for p, r in tried.items():
         parts.append(f"arm {p[0]}, grasp {p[1]}: picked, but the place failed: {r}")
@@ -205,7 +207,11 @@ def plan_step(
     maps = None
     if keep_maps:
         manip = np.max([o.full_value(nav.shape) for o in opts], axis=0) if opts else None
-        combined = combined_map(opts, nav_cost, heur, cfg) if not fixed else None
+        combined = (
+            combined_map(per_arm_values(opts, ctx.thresholds, cfg.threshold), nav_cost, heur, cfg)
+            if not fixed
+            else None
+        )
         maps = StepMaps(nav_cost, heur, manip, combined)
     t = time.perf_counter()
     more = method.more(ctx, opts, nav_cost, heur)
