@@ -97,7 +97,7 @@ eval: install maps/pr2/zarr.json
 # Issue 9's generality check: robots init -> maps build -> a scene sized from the reach band -> plan ->
 # FK verify, for example-robot-data robots no test uses (maps in maps/<robot>, built when missing).
 robots: install
-	$(PY) tools/onboard_robots.py tiago talos_reduced romeo
+	$(PY) tools/onboard_robots.py tiago talos_reduced romeo centauro so_arm_base lift_telescope
 
 clean:
 	rm -rf .venv build *.egg-info .pytest_cache
