@@ -126,3 +126,20 @@ def test_optimal_is_never_worse_than_sequential(every_method):
     _, results = every_method
     assert results["optimal"].certificate["travel_s"] <= results["sequential"].certificate["travel_s"] + 1e-6
     assert results["global"].ok and not results["global"].verify(every_method[0].robot)
+
+
+def test_each_step_of_the_whole_task_methods_travels_the_shortest_path_from_the_last(every_method):
+    """A chain repaired locally (``global``) keeps exact legs: each step's travel is scipy's shortest
+    path from the previous base cell (the start for the first)."""
+    planner, results = every_method
+    w = planner.world
+    dist = dijkstra(grid_graph(w.factor, w.feasible, w.nav.resolution))
+    nx = w.nav.shape[1]
+    v_max = planner.robot.v_max
+    for m in ("global", "optimal"):
+        at = planner.start_cell()
+        for s in results[m].steps:
+            here = w.nav.cell(s.base[0], s.base[1])
+            want = dist[at[0] * nx + at[1], here[0] * nx + here[1]] / v_max
+            assert s.travel_time_s == pytest.approx(want, rel=1e-6, abs=1e-6), (m, s.index)
+            at = here

@@ -14,6 +14,8 @@ grasp) *group*, and a place's group g is seeded by its pick's labels of group g 
 per group with labels; other steps seed one Dijkstra with the minimum over groups). ``min L_N`` is
 the optimum; with ``node = 0`` and the regions of the maps it is a lower bound on the travel of
 every plan whose cells lie in them, whichever IK or collision check rejects some of them.
+:class:`Program` solves it with the groups merged first (one Dijkstra per step) and groups only
+the transfers whose cheapest cells break the rule: the same optimum, at a fraction of the cost.
 
 Regions and node costs are (G, ny, nx) stacks; every label is in metres of free-space travel (divide
 by the robot's ``v_max`` for seconds).
@@ -208,36 +210,106 @@ def relaxed(reg: Regions) -> Regions:
 RELAXED: Group = ("*", None)
 
 
-def regroup(chain: Chain, regions: Sequence[Regions], linked: Sequence[bool]) -> Chain | None:
-    """Groups for the cheapest chain of the relaxed program (cells only): per step the first group
-    whose region holds the chain's cell, a place the same group as its pick; None when a place
-    and its pick share no group there (the transfer rule binds: solve the grouped program).
+def conflicts(cells: Sequence[int], regions: Sequence[Regions], linked: Sequence[bool]) -> list[int]:
+    """The places of a chain of cells whose cell no group of their pick's cell reaches (the steps
+    where the transfer rule breaks)."""
+    out = []
+    for i in range(1, len(cells)):
+        if not linked[i]:
+            continue
+        reg, before = regions[i], regions[i - 1]
+        picks = {before.groups[k] for k in range(len(before.groups)) if before.masks[k].flat[cells[i - 1]]}
+        if not any(reg.masks[k].flat[cells[i]] and reg.groups[k] in picks for k in range(len(reg.groups))):
+            out.append(i)
+    return out
 
-    The relaxed program's optimum is a lower bound of the grouped one's; a chain that keeps the
-    rule costs the same in both, so it is the grouped program's optimum too."""
+
+def regroup(chain: Chain, regions: Sequence[Regions], linked: Sequence[bool], loose: Sequence[int] = ()) -> Chain:
+    """Groups for a chain of cells: per step the first group whose region holds the cell, a place
+    and its pick the first group they share; a place of ``loose`` (one of its :func:`conflicts`)
+    takes the first group of its pick's cell that the place has, although its cell is not in it
+    (its verification fails; the caller moves it, see :mod:`placement.planning.methods.repair`)."""
     n = len(chain.cells)
     groups: list[int] = [-1] * n
     for i in range(n - 1, -1, -1):
         if groups[i] >= 0:
             continue
-        here = [k for k in range(len(regions[i].groups)) if regions[i].masks[k].flat[chain.cells[i]]]
+        reg = regions[i]
+        here = [k for k in range(len(reg.groups)) if reg.masks[k].flat[chain.cells[i]]]
         if i > 0 and linked[i]:
             before = regions[i - 1]
-            common = [
-                k
-                for k in here
-                if regions[i].groups[k] in before.groups
-                and before.masks[before.groups.index(regions[i].groups[k])].flat[chain.cells[i - 1]]
-            ]
-            if not common:
-                return None
-            groups[i] = common[0]
-            groups[i - 1] = before.groups.index(regions[i].groups[common[0]])
-        elif here:
-            groups[i] = here[0]
+            at_pick = [k for k in range(len(before.groups)) if before.masks[k].flat[chain.cells[i - 1]]]
+            if i in loose:
+                shared = [reg.groups.index(before.groups[k]) for k in at_pick if before.groups[k] in reg.groups]
+            else:
+                shared = [k for k in here if reg.groups[k] in before.groups]
+                shared = [k for k in shared if before.groups.index(reg.groups[k]) in at_pick]
+            k = shared[0]
+            groups[i], groups[i - 1] = k, before.groups.index(reg.groups[k])
         else:
-            return None
+            groups[i] = here[0]
     return Chain(chain.cells, groups, chain.labels)
+
+
+class Program:
+    """The forward program with the transfer rule applied where it binds.
+
+    Most transfers' cheapest cells keep the rule by themselves (a PR2's arms reach alike), so the
+    program starts relaxed: every step's groups merged into one region (one Dijkstra per step).
+    A transfer whose pick and place cells share no group is then *grouped* (its pick and place
+    keep their groups, one Dijkstra per group for the place) and the program solved again from
+    its pick on; a grouped transfer stays grouped. The relaxed program is a lower bound of the
+    grouped one, so the first chain without conflicts is the exact optimum (ties aside). With
+    node costs every step is grouped from the start.
+    """
+
+    def __init__(self, factor: FloatArray, feasible: BoolArray, resolution: float, start: Cell, linked: Sequence[bool]):
+        self.grid = (factor, feasible, resolution, start)
+        self.linked = list(linked)
+        #: the places whose transfer is grouped
+        self.grouped: set[int] = set()
+        self.layers: list[Layer] = []
+        self.dijkstras = 0
+        #: return a chain with conflicts (their places in :attr:`loose`) instead of grouping them
+        self.lazy = False
+        self.loose: list[int] = []
+
+    def _view(self, regions: Sequence[Regions]) -> tuple[list[Regions], list[bool]]:
+        if any(r.node is not None for r in regions):
+            return list(regions), self.linked
+        view, linked = [], []
+        for i, r in enumerate(regions):
+            place = i in self.grouped
+            pick = i + 1 in self.grouped
+            view.append(r if place or pick else relaxed(r))
+            linked.append(place)
+        return view, linked
+
+    def group(self, places: Sequence[int]) -> int:
+        """Group these transfers from now on; returns the first step to solve again from."""
+        self.grouped.update(places)
+        return min(places) - 1
+
+    @staticmethod
+    def _shares(regions: Sequence[Regions], i: int) -> bool:
+        return any(g in regions[i].groups for g in regions[i - 1].groups)
+
+    def solve(self, regions: Sequence[Regions], first: int = 0) -> Chain | None:
+        """The cheapest chain over ``regions``, the layers kept before step ``first`` (the regions
+        before it unchanged since the last solve)."""
+        while True:
+            view, linked = self._view(regions)
+            self.layers = forward(*self.grid, view, linked, self.layers, first)
+            self.dijkstras += sum(len(layer.pred) for layer in self.layers[first:])
+            chain = backtrack(self.layers, view, linked)
+            if chain is None:
+                return None
+            bad = conflicts(chain.cells, regions, self.linked)
+            shared = [i for i in bad if self._shares(regions, i)]
+            self.loose = shared if self.lazy and shared == bad else []
+            if not bad or self.loose:
+                return regroup(chain, regions, self.linked, self.loose)
+            first = self.group(bad)  # the earliest conflict's pick: its region is grouped now
 
 
 def cheapest(
@@ -248,21 +320,10 @@ def cheapest(
     regions: Sequence[Regions],
     linked: Sequence[bool],
 ) -> tuple[Chain | None, list[Layer]]:
-    """The cheapest chain and the layers of the program that found it: the relaxed program first
-    (one Dijkstra per step) when no region has node costs, the grouped one when its chain breaks
-    the transfer rule (the relaxed layers are returned only with a chain that keeps it)."""
-    if all(r.node is None for r in regions):
-        flat = [False] * len(regions)
-        merged = [relaxed(r) for r in regions]
-        layers = forward(factor, feasible, resolution, start, merged, flat)
-        chain = backtrack(layers, merged, flat)
-        if chain is None:
-            return None, layers
-        grouped = regroup(chain, regions, linked)
-        if grouped is not None:
-            return grouped, layers
-    layers = forward(factor, feasible, resolution, start, regions, linked)
-    return backtrack(layers, regions, linked), layers
+    """The cheapest chain over ``regions`` keeping each transfer's group, and the layers of the
+    :class:`Program` that found it."""
+    program = Program(factor, feasible, resolution, start, linked)
+    return program.solve(regions), program.layers
 
 
 def linked_steps(ctx: PlanningContext) -> list[bool]:
@@ -286,11 +347,13 @@ def travel_bound(ctx: PlanningContext, start: Cell, regions: Sequence[Regions] |
 __all__ = [
     "RELAXED",
     "Chain",
+    "Program",
     "Group",
     "Layer",
     "Regions",
     "backtrack",
     "cheapest",
+    "conflicts",
     "forward",
     "linked_steps",
     "map_regions",

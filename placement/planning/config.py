@@ -73,6 +73,8 @@ class PlannerConfig:
             something) after which ``optimal`` and ``global`` call the step infeasible [count].
         global_exact_repairs: rejected placements ``global`` removes one by one, as ``optimal`` does,
             before each rejection removes its 3 x 3 neighbourhood [count].
+        global_repair_candidates: cells ``global`` verifies, in order of the detour they add, when
+            it moves a rejected step between its neighbours' cells [count].
         optimal_probe: cells each way around a rejected placement that ``optimal`` verifies at
             once (removing those that fail) before it solves the program again [cells].
         optimal_manipulability_weight: weight of Eq. 6's manipulation term ``1 / m`` in the
@@ -109,8 +111,9 @@ class PlannerConfig:
     optimal_max_repairs: int = 500
     dp_max_solves: int = 400
     optimal_manipulability_weight: float = 0.0
-    optimal_probe: int = 1
+    optimal_probe: int = 0
     global_exact_repairs: int = 8
+    global_repair_candidates: int = 40
     ik_pos_tol_m: float = 2e-3
     ik_rot_tol_rad: float = 2e-2
     ik_seeds: int = 4

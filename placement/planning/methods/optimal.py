@@ -15,16 +15,22 @@ and arm motion run in parallel with the travel (SPEC section 8) and are not in t
 add time only where a step's rotation or arm motion outlasts its travel: see ``task_time``); a cell
 stands for its centre, at the best yaw of the option.
 
-``optimal`` removes exactly the rejected (cell, group) (and verifies its neighbours at once, removing
-those that fail too: ``optimal_probe``); its result is the best verified plan of the discretisation,
-up to IK's dependence on its seed (a cell rejected from one seed is not tried again from another),
-as long as at most ``optimal_max_repairs`` placements are rejected; past that (maps far more
-optimistic than IK, e.g. beside shelves) it goes on as ``global`` does, so that it still finds a
-plan where one verifies, and the certificate's gap says how far it is from the bound.
-``global``, the default, does the same for its first ``global_exact_repairs`` rejections, then
-removes each rejected cell's 3 x 3 neighbourhood (rejections cluster at the frontier of reach), so
-that poor maps cannot make it slow; on good maps it is ``optimal``. The first program's optimum
-is the plan's lower bound (:mod:`placement.planning.bound`), kept for the certificate.
+``optimal`` removes exactly the rejected (cell, group) and solves again (``optimal_probe`` > 0:
+it verifies the rejected cell's neighbours at once, removing those that fail too; IK and the
+collision check cost more than a solve of :class:`~placement.planning.bound.Program`, so the
+default is 0); its result is the best verified plan of the discretisation, up to IK's dependence
+on its seed (a cell rejected from one seed is not tried again from another), as long as at most
+``optimal_max_repairs`` placements are rejected; past that (maps far more optimistic than IK, e.g.
+beside shelves) each rejection removes its 3 x 3 neighbourhood, so that it still finds a plan
+where one verifies, and the certificate's gap says how far it is from the bound.
+
+``global``, the default, solves the program once and repairs the chain locally: a rejected step
+moves to the least detour between its neighbours' cells that verifies (:mod:`.repair`), and a
+transfer whose cheapest cells share no group is given its pick's group and repaired the same way;
+only what local repair cannot fix is removed and solved again (as ``optimal`` does). Its plans
+are within a few tenths of a percent of ``optimal``'s on the held-out scenes (docs/bench/optimum.md),
+for one solve instead of several. The first program's optimum (when exact) is the plan's lower
+bound (:mod:`placement.planning.bound`), kept for the certificate.
 """
 
 from __future__ import annotations
@@ -37,22 +43,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from placement.planning.arrays import Cell
-from placement.planning.bound import (
-    Chain,
-    Group,
-    Layer,
-    Regions,
-    backtrack,
-    forward,
-    linked_steps,
-    map_regions,
-    regroup,
-    relaxed,
-)
+from placement.planning.bound import Chain, Group, Layer, Program, Regions, linked_steps, map_regions
 from placement.planning.context import PlanningContext
 from placement.planning.explain import explain
 from placement.planning.methods.base import Method
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
+from placement.planning.methods.repair import repair
 from placement.planning.navigation import extract_path, navigation_cost
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import collision_args
@@ -84,7 +80,8 @@ class DynamicProgram:
         self.linked = linked_steps(ctx)
         self.full = [map_regions(ctx, i) for i in range(len(steps))]
         self.regions = [reweighted(ctx, i, r) for i, r in enumerate(self.full)]
-        self.layers: list[Layer] = []
+        w = ctx.world
+        self.program = Program(w.factor, w.feasible, w.nav.resolution, start, self.linked)
         # what verification found, kept by the planner's per-step cache: a later plan of the same
         # scene replays the same program with the IK answers looked up (same plan, without the IK
         # time); the cache of a changed scene starts empty
@@ -95,32 +92,23 @@ class DynamicProgram:
         self.coarse = False
         self.solves = 0
         self.first_total = math.inf  # the first solve's optimum [m]
-        #: solve the relaxed program (one Dijkstra per step) while its chains keep the transfer rule
-        self.relaxable = all(r.node is None for r in self.regions)
+        #: a rejected placement is first moved to the least detour that verifies (:mod:`.repair`)
+        self.local = False
+        self.repairs_local = 0
 
     def solve(self, first: int = 0) -> Chain | None:
-        """The cheapest chain over the current regions, recomputing the layers from step ``first``:
-        the relaxed program (:func:`~placement.planning.bound.regroup`) while its chains keep the
-        transfer rule, the grouped one from the first chain that breaks it on."""
-        w = self.ctx.world
+        """The cheapest chain over the current regions, recomputing the layers from step ``first``
+        (the transfer rule applied where it binds: :class:`~placement.planning.bound.Program`)."""
         self.solves += 1
-        grid = (w.factor, w.feasible, w.nav.resolution, self.start)
-        chain: Chain | None = None
-        if self.relaxable:
-            merged = [relaxed(r) for r in self.regions]
-            flat = [False] * len(merged)
-            self.layers = forward(*grid, merged, flat, self.layers, first)
-            chain = backtrack(self.layers, merged, flat)
-            if chain is not None:
-                chain = regroup(chain, self.regions, self.linked)
-                if chain is None:
-                    self.relaxable, self.layers, first = False, [], 0
-        if not self.relaxable:
-            self.layers = forward(*grid, self.regions, self.linked, self.layers, first)
-            chain = backtrack(self.layers, self.regions, self.linked)
-        if self.solves == 1:
+        chain = self.program.solve(self.regions, first)
+        if self.solves == 1 and not self.program.loose:  # a chain with loose transfers is no bound
             self.first_total = chain.total if chain is not None else math.inf
         return chain
+
+    @property
+    def layers(self) -> list[Layer]:
+        """The layers of the last solve."""
+        return self.program.layers
 
     def verify(self, i: int, flat: int, g: int, q_state: dict[str, np.ndarray]) -> Verified | None:
         """The first of step i's options of group g at ``flat`` that passes IK and the collision check."""
@@ -233,8 +221,14 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
         q_state = {arm: ctx.robot.arm(arm).home.copy() for arm in ctx.maps}
         failed: list[tuple[int, int, int]] = []
         picks: list[Verified] = []
-        for i, (flat, g) in enumerate(zip(chain.cells, chain.groups)):
+        for i in range(len(chain.cells)):
+            flat, g = chain.cells[i], chain.groups[i]
             v = dp.verify(i, flat, g, q_state)
+            if v is None and dp.local:
+                fixed = repair(dp, chain, i, q_state)
+                if fixed is not None:
+                    chain, v = fixed
+                    dp.repairs_local += 1
             if v is None:
                 failed.append((i, flat, g))
                 continue
@@ -242,6 +236,11 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
             q_state[ctx.problems.options(i)[v.option].arm] = v.ik.q
         if not failed:
             return chain, picks, None
+        loose = [f[0] for f in failed if f[0] in dp.program.loose]
+        if loose:
+            # a place given its pick's group found no cell of it near: that transfer is grouped
+            chain = dp.solve(dp.program.group(loose))
+            continue
         if dp.solves >= ctx.config.dp_max_solves:
             i = failed[0][0]
             reason = (
@@ -258,15 +257,21 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
 
 
 def plan_dynamic(
-    ctx: PlanningContext, start: Cell, keep_maps: bool, neighbourhood: int = 0, exact_repairs: int | None = None
+    ctx: PlanningContext,
+    start: Cell,
+    keep_maps: bool,
+    neighbourhood: int = 0,
+    exact_repairs: int | None = None,
+    local: bool = False,
 ) -> list[StepResult]:
     """The verified cheapest chain's steps; when none is left, a single infeasible step saying why."""
     t0 = time.perf_counter()
     if not ctx.problems.steps:
         return []
     dp = DynamicProgram(ctx, start, neighbourhood, exact_repairs)
+    dp.local = dp.program.lazy = local
     chain, picks, failure = solve_verified(dp)
-    if ctx.config.optimal_manipulability_weight <= 0:
+    if ctx.config.optimal_manipulability_weight <= 0 and math.isfinite(dp.first_total):
         # the first program over the maps' regions is the plan's lower bound: kept, not solved again
         ctx.problems.bounds[("maps", start)] = dp.first_total
     if failure is not None or chain is None:
@@ -274,10 +279,11 @@ def plan_dynamic(
     out = results(ctx, start, dp, chain, picks, keep_maps)
     ms = (time.perf_counter() - t0) * 1e3
     log.debug(
-        "dynamic program: %d placements checked, %d rejected, %d solves, %.0f ms",
+        "dynamic program: %d placements checked, %d rejected, %d solves, %d local repairs, %.0f ms",
         len(dp.verified),
         dp.repairs,
         dp.solves,
+        dp.repairs_local,
         ms,
     )
     for s in out:
@@ -347,7 +353,8 @@ class Global(Optimal):
     name = "global"
 
     def plan(self, ctx: PlanningContext, start: Cell, keep_maps: bool) -> list[StepResult]:
-        return plan_dynamic(ctx, start, keep_maps, neighbourhood=1, exact_repairs=ctx.config.global_exact_repairs)
+        cfg = ctx.config
+        return plan_dynamic(ctx, start, keep_maps, neighbourhood=1, exact_repairs=cfg.global_exact_repairs, local=True)
 
 
 __all__ = ["DynamicProgram", "Global", "Optimal", "Verified", "plan_dynamic", "reweighted", "solve_verified"]
