@@ -17,7 +17,7 @@ once (``octants.py``):
    ``A_s - m^2 U_s I`` > 0 proves octant s is not below m. Octants that no
    proof settles are computed exactly, lowest bound first.
 
-Relative margins (``_margin``) far above rounding keep every proof valid in
+Relative margins (``proof_margin``) far above rounding keep every proof valid in
 exact arithmetic.
 """
 
@@ -46,7 +46,7 @@ _U_SLACKS = (1.001, 1.03)  # U_s = rho_s * slack, certified by Cholesky
 
 
 @njit(cache=True, inline="always")
-def _margin(v):
+def proof_margin(v):
     """Relative margin of a proof at isotropy v.
 
     A Cholesky that succeeds proves positive definiteness of A + E with
@@ -144,7 +144,7 @@ def isotropy_batched(J, pen_lo, pen_hi, rowfac, threshold, P, G, Ag, W, A, B, de
     """
     penalised_rows(J, pen_lo, pen_hi, rowfac, P)
     t = threshold
-    t2 = t * t * (1.0 - _margin(t)) if t > 0.0 else 0.0
+    t2 = t * t * (1.0 - proof_margin(t)) if t > 0.0 else 0.0
     if t > 0.0:
         # cheap first try: the most penalised octant and its complement, one at a time;
         # a sample far below its cell's value is usually settled here (~0.1 us each)
@@ -187,7 +187,7 @@ def isotropy_batched(J, pen_lo, pen_hi, rowfac, threshold, P, G, Ag, W, A, B, de
             for s in range(64):
                 if flag[s] > 0.0 and beta[s] < upper[s]:
                     upper[s] = beta[s]
-        c = -best * best * (1.0 + _margin(best))
+        c = -best * best * (1.0 + proof_margin(best))
         for s in range(64):
             beta[s] = c * upper[s]
         pd_flags(Ag, 1.0, beta, done)

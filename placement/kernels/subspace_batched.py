@@ -17,7 +17,7 @@ With ``B_s = E^T A_s E``:
   Cholesky, else the trace), the kernels of :mod:`placement.kernels.octants`.
 
 ``E`` orthonormal to rounding makes ``B_s`` congruent to ``A_s`` (Ostrowski: eigenvalues equal within a
-relative ~1e-15); the proofs keep the relative margins of the rank-6 path (``_margin``), far above that.
+relative ~1e-15); the proofs keep the relative margins of the rank-6 path (``proof_margin``), far above that.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import math
 
 from numba import njit
 
-from placement.kernels.isotropy import _margin
+from placement.kernels.isotropy import proof_margin
 from placement.kernels.manipulability import gram_table, most_penalised_octant, octant_gram
 from placement.kernels.octants import fill_grams, lambda_max_lower, pd_flags, traces
 from placement.kernels.octants_refine import lambda_max_tight
@@ -170,7 +170,7 @@ def subspace_isotropy_batched(J, pen_lo, pen_hi, rowfac, rank, threshold, P, G, 
     """
     gram_table(J, pen_lo, pen_hi, rowfac, P, G)
     t = threshold
-    t2 = t * t * (1.0 - _margin(t)) if t > 0.0 else 0.0
+    t2 = t * t * (1.0 - proof_margin(t)) if t > 0.0 else 0.0
     # the most penalised octant first, exactly: a sample far below its cell's value is usually settled here
     s_pen = most_penalised_octant(P)
     best = octant_value_rank(G, s_pen, 0, rank, A, P, de)
@@ -216,7 +216,7 @@ def subspace_isotropy_batched(J, pen_lo, pen_hi, rowfac, rank, threshold, P, G, 
             for s in range(64):
                 if flag[s] > 0.0 and beta[s] < upper[s]:
                     upper[s] = beta[s]
-        c = best * best * (1.0 + _margin(best))
+        c = best * best * (1.0 + proof_margin(best))
         for s in range(64):
             if _lambda_r_above(Rg, s, rank, c * upper[s], L):
                 done[s] = 1.0

@@ -38,7 +38,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -48,25 +48,13 @@ from placement.planning.context import PlanningContext
 from placement.planning.explain import explain
 from placement.planning.methods.base import Method
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
-from placement.planning.methods.repair import repair
+from placement.planning.methods.repair import Verified, repair
 from placement.planning.navigation import extract_path, navigation_cost
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import collision_args
-from placement.planning.verify import TrajectoryIK, trajectory_ik
+from placement.planning.verify import trajectory_ik
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class Verified:
-    """A (step, cell, group) that verified: the option, base pose (x [m], y [m], yaw [rad]), IK,
-    clearance [m] (None without a collision check) and map value."""
-
-    option: int
-    base: tuple[float, float, float]
-    ik: TrajectoryIK
-    clearance_m: float | None
-    value: float
 
 
 class DynamicProgram:

@@ -16,15 +16,39 @@ speed factors. When no candidate verifies, the caller removes the rejection and 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
-from placement.planning.bound import Chain
+from placement.planning.arrays import Cell
+from placement.planning.bound import Chain, Regions
+from placement.planning.context import PlanningContext
 from placement.planning.navigation import navigation_cost
+from placement.planning.verify import TrajectoryIK
 
-if TYPE_CHECKING:
-    from placement.planning.methods.optimal import DynamicProgram, Verified
+
+@dataclass(frozen=True)
+class Verified:
+    """A (step, cell, group) that verified: the option, base pose (x [m], y [m], yaw [rad]), IK,
+    clearance [m] (None without a collision check) and map value."""
+
+    option: int
+    base: tuple[float, float, float]
+    ik: TrajectoryIK
+    clearance_m: float | None
+    value: float
+
+
+class DynamicProgram(Protocol):
+    """What a repair reads of the program (:class:`~placement.planning.methods.optimal.DynamicProgram`)."""
+
+    ctx: PlanningContext
+    start: Cell
+    regions: list[Regions]
+    linked: list[bool]
+
+    def verify(self, i: int, flat: int, g: int, q_state: dict[str, np.ndarray]) -> Verified | None: ...
 
 
 def _node(dp: DynamicProgram, i: int, g: int, flat: int) -> float:
@@ -84,4 +108,4 @@ def _single(shape: tuple[int, ...], flat: int) -> np.ndarray:
     return out
 
 
-__all__ = ["repair"]
+__all__ = ["DynamicProgram", "Verified", "repair"]
