@@ -29,7 +29,9 @@ def unreachable_reason(ctx: PlanningContext, opts: Sequence[Option]) -> str:
             f"the TCP poses (heights {', '.join(f'{v:g}' for v in z)} m) are outside the height range of "
             f"the maps ({ranges} above the base frame)"
         )
-    return f"no base placement reaches the target with the map threshold {ctx.config.threshold}"
+    arms = sorted({o.arm for o in opts}) or sorted(ctx.maps)
+    words = ", ".join(f"{a} {ctx.threshold(a):.4g}" for a in arms)
+    return f"no base placement reaches the target with the map thresholds ({words})"
 
 
 def placed(
