@@ -15,7 +15,7 @@ import pytest
 from scipy.sparse.csgraph import dijkstra
 from support.navigation import grid_graph
 
-from placement.planning.bound import Regions, backtrack, cheapest, forward
+from placement.planning.bound import Program, Regions, backtrack, cheapest, forward
 
 RES = 0.1
 GROUPS = (("left", "top"), ("right", "top"), ("right", "side"))
@@ -152,3 +152,29 @@ def test_the_relaxed_chain_that_breaks_a_transfer_is_not_taken():
     place = Regions((("right", "top"),), np.array([[[1, 0, 0, 0, 0]]], bool))
     pick = Regions((("left", "top"),), np.array([[[0, 1, 0, 0, 0]]], bool))
     assert cheapest(factor, feasible, RES, (0, 0), [pick, place], [False, True])[0] is None
+
+
+def test_a_lazy_program_groups_a_transfer_whose_pick_cell_has_no_group_of_the_place():
+    #   a 1 x 5 corridor from cell 0: the left arm picks at 1, the right arm at 3; the place at 2 is
+    #   the right arm's only. The relaxed chain (1, 2) conflicts and its pick cell has no group the
+    #   place has, so even the lazy program (global's) groups the transfer: (3, 2), 0.3 + 0.1 m
+    factor, feasible = np.ones((1, 5)), np.ones((1, 5), bool)
+    pick = Regions((("left", "top"), ("right", "top")), np.array([[[0, 1, 0, 0, 0]], [[0, 0, 0, 1, 0]]], bool))
+    place = Regions((("right", "top"),), np.array([[[0, 0, 1, 0, 0]]], bool))
+    program = Program(factor, feasible, RES, (0, 0), [False, True])
+    program.lazy = True
+    chain = program.solve([pick, place])
+    assert chain is not None and chain.cells == [3, 2] and chain.total == pytest.approx(0.4)
+    assert pick.groups[chain.groups[0]] == place.groups[chain.groups[1]] == ("right", "top")
+    assert program.loose == []
+    #   the place also by the left arm, at 4: the conflict's pick cell (1, left) has a group the
+    #   place has, so the lazy program keeps the cheap cells and marks the place loose with the
+    #   left arm (global then moves it to the left arm's cell); the grouped one solves it exactly
+    place = Regions((("left", "top"), ("right", "top")), np.array([[[0, 0, 0, 0, 1]], [[0, 0, 1, 0, 0]]], bool))
+    program = Program(factor, feasible, RES, (0, 0), [False, True])
+    program.lazy = True
+    chain = program.solve([pick, place])
+    assert chain is not None and chain.cells == [1, 2] and program.loose == [1]
+    assert place.groups[chain.groups[1]] == pick.groups[chain.groups[0]] == ("left", "top")
+    exact, _ = cheapest(factor, feasible, RES, (0, 0), [pick, place], [False, True])
+    assert exact is not None and exact.total == pytest.approx(0.4)  # (1, 4) left or (3, 2) right

@@ -269,7 +269,6 @@ class Program:
         #: the places whose transfer is grouped
         self.grouped: set[int] = set()
         self.layers: list[Layer] = []
-        self.dijkstras = 0
         #: return a chain with conflicts (their places in :attr:`loose`) instead of grouping them
         self.lazy = False
         self.loose: list[int] = []
@@ -291,8 +290,13 @@ class Program:
         return min(places) - 1
 
     @staticmethod
-    def _shares(regions: Sequence[Regions], i: int) -> bool:
-        return any(g in regions[i].groups for g in regions[i - 1].groups)
+    def _shares(regions: Sequence[Regions], cells: Sequence[int], i: int) -> bool:
+        """Whether a group of the pick's cell (step i - 1) is one the place (step i) has at all."""
+        before = regions[i - 1]
+        return any(
+            before.masks[k].flat[cells[i - 1]] and before.groups[k] in regions[i].groups
+            for k in range(len(before.groups))
+        )
 
     def solve(self, regions: Sequence[Regions], first: int = 0) -> Chain | None:
         """The cheapest chain over ``regions``, the layers kept before step ``first`` (the regions
@@ -300,12 +304,11 @@ class Program:
         while True:
             view, linked = self._view(regions)
             self.layers = forward(*self.grid, view, linked, self.layers, first)
-            self.dijkstras += sum(len(layer.pred) for layer in self.layers[first:])
             chain = backtrack(self.layers, view, linked)
             if chain is None:
                 return None
             bad = conflicts(chain.cells, regions, self.linked)
-            shared = [i for i in bad if self._shares(regions, i)]
+            shared = [i for i in bad if self._shares(regions, chain.cells, i)]
             self.loose = shared if self.lazy and shared == bad else []
             if not bad or self.loose:
                 return regroup(chain, regions, self.linked, self.loose)
