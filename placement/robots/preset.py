@@ -19,7 +19,8 @@ import math
 import threading
 import xml.etree.ElementTree as ET
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -173,6 +174,8 @@ class Robot:
     """
 
     def __init__(self, spec: PresetSpec):
+        self.spec = spec
+        self._variants: dict[tuple[tuple[str, float], ...], Robot] = {}
         self.source = spec.where
         self.name = spec.name
         self.urdf_path = spec.urdf
@@ -353,6 +356,30 @@ class Robot:
         for jid, v in zip(a.joint_ids, np.asarray(q, dtype=float)):
             self._set(out, jid, float(v))
         return out
+
+    def with_fixed(self, values: Mapping[str, float]) -> Robot:
+        """This robot with some of its fixed joints held at other values ({joint: value [rad or m]}),
+        e.g. a torso lift set per step; ``self`` when nothing changes.
+        The URDF is parsed once (see :func:`urdf_model`), the
+        variants are cached; a joint that is not fixed, or a value outside its limits, raises
+        :class:`PresetError` naming it."""
+        unknown = [j for j in values if j not in self.fixed_joints]
+        if unknown:
+            self._check.fail(
+                f"fixed_joints.{unknown[0]}",
+                f"'{unknown[0]}' is not a fixed joint of the preset (fixed: {', '.join(self.fixed_joints) or 'none'})",
+            )
+        held = dict(self.fixed_joints) | {j: float(v) for j, v in values.items()}
+        if held == self.fixed_joints:
+            return self
+        key = tuple(sorted(held.items()))
+        with _MODELS_LOCK:
+            found = self._variants.get(key)
+        if found is None:
+            found = Robot(replace(self.spec, fixed_joints=held))
+            with _MODELS_LOCK:
+                found = self._variants.setdefault(key, found)
+        return found
 
     def tcp_pose(self, arm: str, q) -> np.ndarray:
         """(4, 4) TCP pose in the base frame computed by pinocchio (the reference FK)."""
