@@ -4,7 +4,8 @@ A step moves one arm along its TCP trajectory with the base standing still. What
 robot does meanwhile is what the collision check (:mod:`placement.collision.checker`) assumed:
 
 * the preset's fixed joints (the PR2's torso lift) at the step's values (the step result's
-  ``joints``; today the preset's);
+  ``joints``): a step may hold them at other values within their URDF limits (a torso raised for a
+  high shelf), a step that does not give one holds it at the preset's value;
 * every other arm at its ``idle`` configuration (the preset's, by default ``home``; the PR2's arm
   tucked). The task's steps are pick/place pairs, each pick followed at once by its place with the
   same arm, so an arm never holds an object while another arm works: an arm that is not the step's
@@ -125,6 +126,52 @@ def world_tcp(robot: Robot, arm: str, q: FloatArray, base: FloatArray) -> FloatA
     return out
 
 
+def joint_limits(robot: Robot, name: str) -> tuple[float, float, bool]:
+    """(lower, upper [rad or m], continuous) of the 1-DoF joint ``name`` of ``robot``'s URDF (a
+    continuous joint: [-pi, pi], True)."""
+    model = robot.model
+    jm = model.joints[model.getJointId(name)]
+    if jm.nq == 2:
+        return -math.pi, math.pi, True
+    return float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q]), False
+
+
+def velocity_limit(robot: Robot, name: str) -> float:
+    """The URDF velocity limit [rad/s or m/s] of the 1-DoF joint ``name`` of ``robot``."""
+    model = robot.model
+    return float(model.velocityLimit[model.joints[model.getJointId(name)].idx_v])
+
+
+def fixed_problems(robot: Robot, joints: Mapping[str, float], tol: float = 1e-9) -> list[str]:
+    """The values of ``robot``'s fixed joints in ``joints`` ({name: value [rad or m]}, a step's)
+    outside their URDF limits, each as one problem naming the joint, its value and the limits (a
+    fixed joint may differ from the preset's value, as a torso set per step does; one not in
+    ``joints`` is not looked at)."""
+    return [p for p in (_fixed_problem(robot, j, joints, tol) for j in robot.fixed_joints if j in joints) if p]
+
+
+def _fixed_problem(robot: Robot, name: str, joints: Mapping[str, float], tol: float) -> str | None:
+    lo, hi, continuous = joint_limits(robot, name)
+    v = float(joints[name])
+    if not math.isfinite(v) or (not continuous and not lo - tol <= v <= hi + tol):
+        return f"fixed joint {name} is {v:g}, outside its URDF limits [{lo:g}, {hi:g}]"
+    return None
+
+
+def held(robot: Robot, joints: Mapping[str, float]) -> Robot:
+    """``robot`` with its fixed joints at their values in ``joints`` (a step's; one missing or outside
+    its limits stays at the preset's value, :func:`fixed_problems` reports it): the robot whose FK
+    (:meth:`Robot.tcp_pose`) is the step's."""
+    values = {}
+    for j in robot.fixed_joints:
+        if j in joints and _fixed_problem(robot, j, joints, 1e-9) is None:
+            lo, hi, continuous = joint_limits(robot, j)
+            v = float(joints[j])
+            # a value rounded just past a limit is held at the limit: with_fixed takes none outside
+            values[j] = v if continuous else min(max(v, lo), hi)
+    return robot.with_fixed(values)
+
+
 def out_of_limits(robot: Robot, arm: str, joints: Mapping[str, float], tol: float = 1e-9) -> list[str]:
     """The joints of ``arm`` in ``joints`` outside their limits (continuous joints never are)."""
     a = robot.arm(arm)
@@ -133,4 +180,16 @@ def out_of_limits(robot: Robot, arm: str, joints: Mapping[str, float], tol: floa
     return [a.joints[k] for k in np.flatnonzero(bad)]
 
 
-__all__ = ["Resting", "actuated_joints", "joint_values", "out_of_limits", "pinocchio_q", "resting", "world_tcp"]
+__all__ = [
+    "Resting",
+    "actuated_joints",
+    "fixed_problems",
+    "held",
+    "joint_limits",
+    "joint_values",
+    "out_of_limits",
+    "pinocchio_q",
+    "resting",
+    "velocity_limit",
+    "world_tcp",
+]

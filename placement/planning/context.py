@@ -34,6 +34,8 @@ class PlanningContext:
         collisions: the scene collision checker, or None (planning without collision checks).
         thresholds: arm -> its map threshold (map value), resolved at load (see
             :mod:`placement.planning.thresholds`); an arm not in it uses ``config.threshold``.
+        torso_checks: torso value [m] -> the collision check of the robot with its lift there
+            (built on first use, see :mod:`placement.planning.torso`; updated with ``collisions``).
     """
 
     scene: Scene
@@ -45,6 +47,7 @@ class PlanningContext:
     yaws: FloatArray
     collisions: SceneCollision | None = None
     thresholds: Mapping[str, float] = field(default_factory=dict)
+    torso_checks: dict[float, SceneCollision] = field(default_factory=dict)
 
     def threshold(self, arm: str) -> float:
         """The map value below which a placement of ``arm`` is infeasible (dimensionless)."""

@@ -24,6 +24,7 @@ from placement.planning.manipulation import pose_reach
 from placement.planning.option import Option
 from placement.planning.search import Failure, Search
 from placement.planning.steps import Step
+from placement.planning.torso import option_map
 from placement.planning.world import World
 from placement.robots import matrix_to_pose
 
@@ -85,7 +86,7 @@ def _hint(
             f"the {role} pose at {z:.2f} m is {'above' if z > hi else 'below'} the {lo:.2f}-{hi:.2f} m band "
             f"{arm} reaches {how}"
         )
-    reach = pose_reach(ctx.maps[o.arm], pose)
+    reach = pose_reach(option_map(ctx, o), pose)
     near = nearest_free_m(ctx.world, pose[:2, 3])
     if near > reach:
         return (
@@ -114,7 +115,7 @@ def _worst_pose(ctx: PlanningContext, opts: Sequence[Option]) -> tuple[int, int,
     worst = -math.inf
     for k, o in enumerate(opts):
         for i, pose in enumerate(o.candidate.poses):
-            band = height_band(ctx.maps[o.arm], pose)
+            band = height_band(option_map(ctx, o), pose)
             z = float(pose[2, 3])
             out = math.inf if band is None else max(band[0] - z, z - band[1])
             if out > worst:
@@ -136,7 +137,7 @@ def explain(
     if ik_fails:
         f = min(ik_fails, key=lambda f: f.residual_m + 0.1 * f.residual_rad)
         k, i = f.option, f.pose if f.pose is not None else len(opts[f.option].candidate.poses) - 1
-        band = height_band(ctx.maps[opts[k].arm], opts[k].candidate.poses[i])
+        band = height_band(option_map(ctx, opts[k]), opts[k].candidate.poses[i])
     else:
         k, i, band = _worst_pose(ctx, opts)
     o = opts[k]

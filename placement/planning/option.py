@@ -13,7 +13,7 @@ from placement.scene.navgrid import Window
 
 @dataclass(frozen=True)
 class Option:
-    """One (arm, candidate) of a step and its manipulation map over the base grid.
+    """One (arm, candidate, torso setting) of a step and its manipulation map over the base grid.
 
     The map is kept only over ``window``, the part of the grid within the arm's reach of the
     target (plus one cell): everywhere else it is 0, and a whole-grid copy per option and step
@@ -25,6 +25,8 @@ class Option:
         value: (h, w) float32 over ``window``, the IRM value of the best base yaw (0 = unreachable).
         yaw_index: (h, w) int64, that yaw's index into the planner's base yaws (-1 if none).
         out_of_range: True when a pose of the trajectory is outside the map's height range.
+        torso: the torso value [m] the option's map and IK hold the lift at (None: the preset's,
+            for maps without a torso record; see :mod:`placement.planning.torso`).
     """
 
     arm: str
@@ -33,6 +35,7 @@ class Option:
     value: np.ndarray
     yaw_index: np.ndarray
     out_of_range: bool = False
+    torso: float | None = None
 
     def value_at(self, iy: int, ix: int) -> float:
         """The IRM value at grid cell (iy, ix) (0 outside the window)."""

@@ -26,6 +26,7 @@ from placement.planning.manipulation import cells_within, manipulation_maps, pos
 from placement.planning.option import Option, height_range
 from placement.planning.refresh import refreshed_options
 from placement.planning.steps import Step, step_candidates, task_steps
+from placement.planning.torso import map_variants, torso_value
 from placement.planning.world import World
 from placement.scene import Scene
 from placement.scene.navgrid import Window
@@ -60,6 +61,8 @@ class StepProblems:
         self.opening_m = opening_m
         self.thresholds: Mapping[str, float] = dict(thresholds or {})
         self.steps: list[Step] = task_steps(scene)
+        #: arm -> its map at each torso setting (one map without a torso record)
+        self.variants = map_variants(maps)
         self._options: dict[int, list[Option]] = {}
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
@@ -70,6 +73,13 @@ class StepProblems:
         #: there (a ``Verified``, or None: rejected)
         self.verdicts: dict[tuple[int, int, tuple[str, str | None]], Any] = {}
 
+    def map_for(self, arm: str, torso: float | None) -> ReachabilityMap:
+        """``arm``'s map (view) at torso value ``torso`` [m] (None: the map without a torso record)."""
+        for rmap in self.variants[arm]:
+            if torso_value(rmap) == torso:
+                return rmap
+        raise KeyError(f"arm '{arm}' has no map at torso value {torso}")
+
     def threshold(self, arm: str) -> float:
         """The map value below which a placement of ``arm`` is infeasible (dimensionless)."""
         return self.thresholds.get(arm, self.config.threshold)
@@ -79,7 +89,7 @@ class StepProblems:
         if i not in self._options:
             if i in self._stale:
                 opts, was = self._stale.pop(i)
-                self._options[i] = refreshed_options(opts, self.maps, self.yaws, was, self.world)
+                self._options[i] = refreshed_options(opts, self.map_for, self.yaws, was, self.world)
             else:
                 self._options[i] = self._compute_options(self.steps[i])
         return self._options[i]
@@ -89,7 +99,7 @@ class StepProblems:
         opts = []
         near: dict[Reach, tuple[IntArray, MaskArray]] = {}  # candidates of a step share their target position
         candidates = step_candidates(self.scene, step, self.config, self.opening_m)
-        for arm, rmap in self.maps.items():
+        for arm, rmap in ((a, m) for a, ms in self.variants.items() for m in ms):
             lo, hi = height_range(rmap)
             by_cells: dict[Reach, list[Candidate]] = {}  # candidates of a step share their target position
             for cand in candidates:
@@ -111,7 +121,8 @@ class StepProblems:
                 results.update({c.poses.tobytes(): (window, *m) for c, m in zip(distinct, maps)})
             for cand in candidates:
                 z = cand.poses[:, 2, 3]
-                opts.append(Option(arm, cand, *results[cand.poses.tobytes()], bool(np.any((z < lo) | (z >= hi)))))
+                out = bool(np.any((z < lo) | (z >= hi)))
+                opts.append(Option(arm, cand, *results[cand.poses.tobytes()], out, torso_value(rmap)))
         return opts
 
     def pairs(self, i: int) -> set[tuple[str, str | None]]:
@@ -171,7 +182,8 @@ class StepProblems:
     def _candidates_of(self, i: int) -> list[Candidate]:
         """The candidates step i's cached options were computed for (one per option of the first arm)."""
         opts = self._options[i] if i in self._options else self._stale[i][0]
-        return [o.candidate for o in opts[: len(opts) // max(len(self.maps), 1)]]
+        per_map = sum(len(v) for v in self.variants.values())
+        return [o.candidate for o in opts[: len(opts) // max(per_map, 1)]]
 
 
 def _same_places(a: Sequence[Candidate], b: Sequence[Candidate]) -> bool:

@@ -9,7 +9,7 @@ against one).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -29,21 +29,27 @@ def _moved(src: Option, dst_window: Window, cells: IntArray, nx: int, value: Flo
 
 
 def refreshed_options(
-    options: Sequence[Option], maps: Mapping[str, ReachabilityMap], yaws: FloatArray, was: World, now: World
+    options: Sequence[Option],
+    map_for: Callable[[str, float | None], ReachabilityMap],
+    yaws: FloatArray,
+    was: World,
+    now: World,
 ) -> list[Option]:
-    """``options`` of one step for the world ``now``, computed for the world ``was``.
+    """``options`` of one step for the world ``now``, computed for the world ``was``; ``map_for(arm,
+    torso)``: the map (view) of an arm at a torso value [m] (see :mod:`placement.planning.torso`).
 
     Options whose reach disc saw no change of allowed yaws are returned as they are (same objects).
     """
     nav = now.nav
     out = list(options)
-    groups: dict[tuple[str, float, float, float], list[int]] = {}  # same arm and target: same cells
+    # same arm, torso and target: same cells
+    groups: dict[tuple[str, float | None, float, float, float], list[int]] = {}
     for j, o in enumerate(options):
         target = o.candidate.poses[-1]
-        key = (o.arm, float(target[0, 3]), float(target[1, 3]), pose_reach(maps[o.arm], target))
+        key = (o.arm, o.torso, float(target[0, 3]), float(target[1, 3]), pose_reach(map_for(o.arm, o.torso), target))
         groups.setdefault(key, []).append(j)
     nx = nav.shape[1]
-    for (arm, x, y, r), members in groups.items():
+    for (arm, torso, x, y, r), members in groups.items():
         disc = cells_within(nav, x, y, r)
         before, after = was.yaw_masks(disc), now.yaw_masks(disc)
         same = np.all(before == after, axis=1)
@@ -54,7 +60,7 @@ def refreshed_options(
         kept, fresh = disc[feasible & same], disc[feasible & ~same]
         computed = (
             manipulation_maps(
-                maps[arm],
+                map_for(arm, torso),
                 [options[j].candidate.poses for j in members],
                 nav,
                 yaws,
@@ -74,5 +80,5 @@ def refreshed_options(
                 fy, fx = np.divmod(fresh, nx)
                 value[fy - window.y0, fx - window.x0] = computed[n][0][fy - window.y0, fx - window.x0]
                 yaw[fy - window.y0, fx - window.x0] = computed[n][1][fy - window.y0, fx - window.x0]
-            out[j] = Option(o.arm, o.candidate, window, value, yaw, o.out_of_range)
+            out[j] = Option(o.arm, o.candidate, window, value, yaw, o.out_of_range, o.torso)
     return out

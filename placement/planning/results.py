@@ -16,7 +16,15 @@ import numpy as np
 
 from placement.errors import PlacementError
 from placement.planning.arrays import FloatArray
-from placement.planning.configuration import Resting, actuated_joints, out_of_limits, pinocchio_q, world_tcp
+from placement.planning.configuration import (
+    Resting,
+    actuated_joints,
+    fixed_problems,
+    held,
+    out_of_limits,
+    pinocchio_q,
+    world_tcp,
+)
 from placement.planning.transfer import UPRIGHT_TOLERANCE, tilt_between
 from placement.planning.verify import base_matrix
 from placement.robots import Robot, matrix_to_pose
@@ -60,8 +68,9 @@ class StepResult:
         base: (x [m], y [m], yaw [rad]) of the base frame on the floor.
         tcp: (P, 4, 4) TCP poses in the world frame, pre-pose first.
         q: (n,) the arm's IK solution for the last TCP pose [rad or m]; qs: (P, n) the solutions of
-            every pose of ``tcp``; joints: every arm joint (at the last pose) and every joint the
-            preset holds fixed, by name.
+            every pose of ``tcp``; joints: every arm joint (at the last pose), then every joint the
+            preset holds fixed at the value this step holds it (a torso set per step; within the
+            URDF limits, not necessarily the preset's), by name [rad or m].
         clearance_m: smallest distance [m] between the arm and the scene over the trajectory, from
             the planner's collision check (None without one).
         manipulability: the IRM value at the placement (dimensionless). cost: Eq. 6's terms.
@@ -176,20 +185,13 @@ class StepResult:
         """The robot's whole configuration at the step's last TCP pose (None without
         :attr:`resting`): ``base`` {frame, x [m], y [m], yaw [rad]}, the moving ``arm``, ``arms``
         {name: {state "moving" or "idle", joints (names), holds (the object in its gripper along the
-        trajectory, or None)}}, ``fixed_joints`` (names) and ``joints`` {every actuated joint: value
-        [rad or m]}: the step's own ``joints`` (the arm's and the fixed ones), the idle arms' and
-        the rest as :attr:`resting` says, in the model's order. Along the trajectory only the moving
-        arm's joints change (pose k: :meth:`pose_qs` ``[k]``)."""
+        trajectory, or None)}}, ``fixed_joints`` (names) and ``joints``: :meth:`whole_joints`. Along
+        the trajectory only the moving arm's joints change (pose k: :meth:`pose_qs` ``[k]``)."""
         r = self.resting
         if r is None:
             return None
         arm = self.need(self.arm, "arm")
         x, y, yaw = (round(float(v), 6) for v in self.need(self.base, "base"))
-        values = dict(r.other)
-        for idle in r.idle.values():
-            values.update(idle)
-        values.update(self.joints)  # per step: a step that sets the torso overrides the preset's
-        joints = {n: float(values.pop(n)) for n in r.order if n in values} | values
         holds = self.object if self.action == "place" else None
         return {
             "base": {"frame": r.base_frame, "x": x, "y": y, "yaw": yaw},
@@ -203,8 +205,19 @@ class StepResult:
                 for a, names in r.arms.items()
             },
             "fixed_joints": list(self.joints)[len(self.need(self.q, "q")) :],
-            "joints": joints,
+            "joints": self.whole_joints(r),
         }
+
+    def whole_joints(self, resting: Resting) -> dict[str, float]:
+        """{every actuated joint: value [rad or m]} at the step's last TCP pose, in the model's order:
+        the step's own ``joints`` (the arm's and the fixed ones at this step's values, e.g. a torso
+        raised for this step), the idle arms' and the rest as ``resting`` (the step's
+        :attr:`resting`, or one made for a step read from a file) says."""
+        values = dict(resting.other)
+        for idle in resting.idle.values():
+            values.update(idle)
+        values.update(self.joints)  # per step: a step that sets the torso overrides the preset's
+        return {n: float(values.pop(n)) for n in resting.order if n in values} | values
 
     def joints_of_arm(self) -> list[str]:
         """The arm's joint names, in ``q`` order (the first entries of ``joints``)."""
@@ -278,11 +291,14 @@ class PlanResult:
         return out
 
     def verify(self, robot: Robot, pos_tol: float = 0.01, rot_tol: float = math.radians(3)) -> list[str]:
-        """Independent checks of every planned step with pinocchio FK: joints within limits, fixed
-        joints at their values, the TCP at every pose of the trajectory with that pose's joints (the
-        last with ``joints``) (``pos_tol`` [m], ``rot_tol`` [rad]), by FK of the step's whole
-        ``configuration`` when it has one (every actuated joint given, the base pose applied to the
-        base frame, the idle arms within their limits; see :func:`configuration_problems`); and
+        """Independent checks of every planned step with pinocchio FK: joints within limits, every
+        fixed joint given and within its URDF limits (a step may hold it at another value than the
+        preset's: a torso set per step), the TCP at every pose of the trajectory with that pose's
+        joints (the last with ``joints``) and the step's fixed-joint values (``pos_tol`` [m],
+        ``rot_tol`` [rad]), by FK of the step's whole ``configuration`` when it has one (every
+        actuated joint given, the base pose applied to the base frame, the idle arms within their
+        limits; see :func:`configuration_problems`), else of the arm on the robot ``held`` at the
+        step's fixed-joint values (:meth:`Robot.with_fixed`); and
         every transfer: the place by the pick's arm and grasp, the object turned about the vertical
         only (within :data:`~placement.planning.transfer.UPRIGHT_TOLERANCE`). Returns the problems
         found (empty: the plan holds)."""
@@ -296,9 +312,8 @@ class PlanResult:
             where = f"step {s.step} ({s.action} {s.target})"
             if np.any(q < arm.lower - 1e-9) or np.any(q > arm.upper + 1e-9):
                 problems.append(f"{where}: joints outside their limits")
-            for j, v in robot.fixed_joints.items():
-                if s.joints.get(j) != v:
-                    problems.append(f"{where}: fixed joint {j} is {s.joints.get(j)}, not {v}")
+            missing = [j for j in robot.fixed_joints if j not in s.joints]
+            problems += [f"{where}: fixed joint {j} is missing" for j in missing]
             qs = np.array(s.pose_qs(), dtype=float)
             if s.qs is not None and not np.array_equal(qs[-1], q):
                 problems.append(f"{where}: the last pose's joints differ from the step's joints")
@@ -306,12 +321,15 @@ class PlanResult:
             B = base_matrix(*s.need(s.base, "base"))
             problems += transfer_problems(s, self.steps, where, rot_tol=UPRIGHT_TOLERANCE)
             conf = s.configuration()
-            if conf is not None:
+            if conf is not None:  # its fixed joints are the step's: checked there, and FK sets them
                 problems += configuration_problems(robot, conf, where)
+            else:
+                problems += [f"{where}: {p}" for p in fixed_problems(robot, s.joints)]
+            at = held(robot, s.joints) if conf is None else robot  # with the step's torso: the step's FK
             for i, (want, qi) in enumerate(zip(np.asarray(s.tcp), qs)):
                 if np.any(qi < arm.lower - 1e-9) or np.any(qi > arm.upper + 1e-9):
                     problems.append(f"{where}: pose {i}: joints outside their limits")
-                T = B @ robot.tcp_pose(arm_name, qi) if conf is None else configuration_tcp(robot, conf, qi)
+                T = B @ at.tcp_pose(arm_name, qi) if conf is None else configuration_tcp(robot, conf, qi)
                 err = float(np.linalg.norm(T[:3, 3] - want[:3, 3]))
                 ang = math.acos(float(np.clip((np.trace(T[:3, :3].T @ want[:3, :3]) - 1) / 2, -1, 1)))
                 if err > pos_tol or ang > rot_tol:
@@ -322,7 +340,8 @@ class PlanResult:
 def configuration_problems(robot: Robot, conf: dict[str, Any], where: str) -> list[str]:
     """What is wrong with a step's ``configuration`` (:meth:`StepResult.configuration`) for
     ``robot``: its base frame, an actuated joint missing or a joint the model lacks, an idle arm's
-    joint outside its limits, the fixed joints not those of the preset."""
+    joint outside its limits, the fixed joints not those of the preset or one outside its URDF
+    limits (naming the joint, value and limits; a value other than the preset's is no problem)."""
     out = []
     if conf["base"]["frame"] != robot.base_frame:
         out.append(f"{where}: configuration: base frame {conf['base']['frame']}, not {robot.base_frame}")
@@ -338,6 +357,7 @@ def configuration_problems(robot: Robot, conf: dict[str, Any], where: str) -> li
             out.append(f"{where}: configuration: idle arm {a}: {', '.join(bad)} outside their limits")
     if set(conf["fixed_joints"]) != set(robot.fixed_joints):
         out.append(f"{where}: configuration: fixed joints {conf['fixed_joints']}, not {list(robot.fixed_joints)}")
+    out += [f"{where}: configuration: {p}" for p in fixed_problems(robot, joints)]
     return out
 
 

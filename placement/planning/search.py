@@ -34,6 +34,7 @@ from placement.planning.manipulation import pose_slices
 from placement.planning.option import Option
 from placement.planning.ranking import Ranked, combined_cost
 from placement.planning.steps import Step
+from placement.planning.torso import collisions_at, option_map, robot_at
 from placement.planning.transfer import held_object
 from placement.planning.verify import TrajectoryIK, base_matrix, trajectory_ik
 from placement.robots import Robot
@@ -191,7 +192,7 @@ def other_yaws(
         cells, iy, ix, best = cells[ok], iy[ok], ix[ok], o.yaw_index.ravel()[local][ok]
         if cells.size == 0:
             continue
-        v = yaw_values(ctx.maps[o.arm], o.candidate.poses, xs[ix], ys[iy], ctx.yaws)
+        v = yaw_values(option_map(ctx, o), o.candidate.poses, xs[ix], ys[iy], ctx.yaws)
         v[np.arange(cells.size), best] = 0.0
         n, j = np.nonzero(v >= thr)
         cost = combined_cost(cfg, nav_cost[iy[n], ix[n]], v[n, j].astype(float), heuristic[iy[n], ix[n]])
@@ -226,9 +227,9 @@ def search_placement(
     def attempt(r: Ranked, o: Option, iy: int, ix: int) -> bool:
         tried.add((r.option, r.cell, r.yaw))
         base = (float(xs[ix]), float(ys[iy]), r.yaw)
-        witness = getattr(ctx.maps[o.arm], "witness_q", None)
+        witness = getattr(option_map(ctx, o), "witness_q", None)
         t = time.perf_counter()
-        ik = trajectory_ik(ctx.robot, o.arm, o.candidate.poses, base, prev_q[o.arm], witness, cfg)
+        ik = trajectory_ik(robot_at(ctx, o.torso), o.arm, o.candidate.poses, base, prev_q[o.arm], witness, cfg)
         out.ik_ms += (time.perf_counter() - t) * 1e3
         if not ik.ok:
             f = Failure(r.option, (iy, ix), r.yaw, "ik", ik.failed_pose, ik.residual_m, ik.residual_rad)
@@ -238,7 +239,9 @@ def search_placement(
         clearance = None
         if collisions is not None:
             t = time.perf_counter()
-            check = collisions.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
+            checker = collisions_at(ctx, o.torso)
+            assert checker is not None
+            check = checker.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
             out.collision_ms += (time.perf_counter() - t) * 1e3
             clearance = float(check.clearance_m)
             if not check.free:

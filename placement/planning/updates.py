@@ -159,10 +159,13 @@ def apply_update(ctx: PlanningContext, change: Any) -> tuple[PlanningContext, di
         timings["distance"] = (time.perf_counter() - t) * 1e3
     problems = ctx.problems.changed(scene, world, parsed.moved)
     if ctx.collisions is not None:
+        checkers = [ctx.collisions, *ctx.torso_checks.values()]
         try:
-            ctx.collisions.update(scene)
+            for c in checkers:
+                c.update(scene)
         except BaseException:  # e.g. the collision checker refused the new scene: back to the old one
-            ctx.collisions.update(ctx.scene)
+            for c in checkers:
+                c.update(ctx.scene)
             raise
     timings["update"] = (time.perf_counter() - t0) * 1e3
     updated = sorted(parsed.moved)

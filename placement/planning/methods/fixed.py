@@ -15,6 +15,7 @@ from placement.planning.manipulation import manipulation_map
 from placement.planning.methods.stepwise import StepwiseMethod
 from placement.planning.option import Option
 from placement.planning.ranking import Ranked
+from placement.planning.torso import option_map
 from placement.scene import Box, Cylinder
 from placement.scene.navgrid import Window
 
@@ -74,7 +75,12 @@ def rank_fixed(ctx: PlanningContext, options: Sequence[Option]) -> list[Ranked]:
         for k, o in enumerate(options):
             cell = np.array([flat], dtype=np.int64)
             v, _ = manipulation_map(
-                ctx.maps[o.arm], o.candidate.poses, nav, np.array([yaw]), cell, Window.around(cell, nav.shape, margin=0)
+                option_map(ctx, o),
+                o.candidate.poses,
+                nav,
+                np.array([yaw]),
+                cell,
+                Window.around(cell, nav.shape, margin=0),
             )
             value = float(v[0, 0])
             if value > 0.0:

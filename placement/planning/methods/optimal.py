@@ -52,6 +52,7 @@ from placement.planning.methods.repair import Verified, repair
 from placement.planning.navigation import extract_path, navigation_cost
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import collision_args
+from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first
 from placement.planning.verify import trajectory_ik
 
 log = logging.getLogger(__name__)
@@ -83,6 +84,8 @@ class DynamicProgram:
         #: a rejected placement is first moved to the least detour that verifies (:mod:`.repair`)
         self.local = False
         self.repairs_local = 0
+        #: the torso value [m] the robot holds at the step being verified (None: no torso settings)
+        self.torso: float | None = start_torso(ctx)
 
     def solve(self, first: int = 0) -> Chain | None:
         """The cheapest chain over the current regions, recomputing the layers from step ``first``
@@ -99,7 +102,9 @@ class DynamicProgram:
         return self.program.layers
 
     def verify(self, i: int, flat: int, g: int, q_state: dict[str, np.ndarray]) -> Verified | None:
-        """The first of step i's options of group g at ``flat`` that passes IK and the collision check."""
+        """The first of step i's options of group g at ``flat`` that passes IK and the collision check
+        (by map value; with torso settings, those at the torso value the robot holds (:attr:`torso`)
+        first, see :mod:`placement.planning.torso`)."""
         key = (i, flat, self.regions[i].groups[g])
         if key in self.verified:
             return self.verified[key]
@@ -114,20 +119,21 @@ class DynamicProgram:
             (k for k, o in enumerate(opts) if (o.arm, o.candidate.grasp) == group),
             key=lambda k: -opts[k].value_at(iy, ix),
         )
+        order = [k for k in order if opts[k].value_at(iy, ix) >= ctx.threshold(opts[k].arm)]
         found = None
-        for k in order:
+        for k in torso_first(opts, order, self.torso):
             o = opts[k]
             value = o.value_at(iy, ix)
-            if value < ctx.threshold(o.arm):
-                break
             base = (float(xs[ix]), float(ys[iy]), float(ctx.yaws[o.yaw_at(iy, ix)]))
-            witness = getattr(ctx.maps[o.arm], "witness_q", None)
-            ik = trajectory_ik(ctx.robot, o.arm, o.candidate.poses, base, q_state[o.arm], witness, ctx.config)
+            witness = getattr(option_map(ctx, o), "witness_q", None)
+            robot = robot_at(ctx, o.torso)
+            ik = trajectory_ik(robot, o.arm, o.candidate.poses, base, q_state[o.arm], witness, ctx.config)
             if not ik.ok:
                 continue
             clearance = None
-            if ctx.collisions is not None:
-                check = ctx.collisions.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
+            checker = collisions_at(ctx, o.torso)
+            if checker is not None:
+                check = checker.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
                 if not check.free:
                     continue
                 clearance = float(check.clearance_m)
@@ -207,6 +213,7 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
         # every step of the chain is checked before the program is solved again: the rejections of
         # one pass are removed together (one solve from the earliest instead of one per rejection)
         q_state = {arm: ctx.robot.arm(arm).home.copy() for arm in ctx.maps}
+        dp.torso = start_torso(ctx)
         failed: list[tuple[int, int, int]] = []
         picks: list[Verified] = []
         for i in range(len(chain.cells)):
@@ -221,7 +228,9 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
                 failed.append((i, flat, g))
                 continue
             picks.append(v)
-            q_state[ctx.problems.options(i)[v.option].arm] = v.ik.q
+            chosen = ctx.problems.options(i)[v.option]
+            q_state[chosen.arm] = v.ik.q
+            dp.torso = chosen.torso if chosen.torso is not None else dp.torso
         if not failed:
             return chain, picks, None
         loose = [f[0] for f in failed if f[0] in dp.program.loose]

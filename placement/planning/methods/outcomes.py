@@ -11,6 +11,7 @@ from placement.planning.context import PlanningContext
 from placement.planning.option import Option, height_range
 from placement.planning.results import Cost, StepResult
 from placement.planning.steps import Step
+from placement.planning.torso import robot_at
 
 
 def infeasible(step: Step, reason: str, diagnosis: dict[str, Any] | None = None) -> StepResult:
@@ -54,7 +55,7 @@ def placed(
     arm = ctx.robot.arm(o.arm)
     q = qs[-1]
     joints = {name: float(v) for name, v in zip(arm.joints, q)}
-    joints.update(ctx.robot.fixed_joints)
+    joints.update(robot_at(ctx, o.torso).fixed_joints)
     cost = Cost(cfg.lambda_n * nav_c, cfg.lambda_m / value, cfg.lambda_nh * heur_c)
     c = o.candidate
     return StepResult(

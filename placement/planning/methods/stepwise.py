@@ -25,6 +25,7 @@ from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import search_placement
 from placement.planning.steps import Step
 from placement.planning.thresholds import per_arm_values
+from placement.planning.torso import start_torso, torso_joint, torso_seconds
 
 #: An (arm, grasp) pair a transfer commits to.
 Pair = tuple[str, str | None]
@@ -56,16 +57,17 @@ def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell
     last result)."""
     prev_cell = start_cell
     prev_q = {arm: ctx.robot.arm(arm).home.copy() for arm in ctx.maps}
+    torso = start_torso(ctx)
     steps = ctx.problems.steps
     out: list[StepResult] = []
     i = 0
     while i < len(steps):
         step = steps[i]
         if step.action == "pick" and i + 1 < len(steps) and steps[i + 1].pick == i:
-            results, cell = plan_transfer(ctx, method, step, steps[i + 1], prev_cell, prev_q, keep_maps)
+            results, cell = plan_transfer(ctx, method, step, steps[i + 1], prev_cell, prev_q, keep_maps, torso)
         else:
             t0 = time.perf_counter()
-            result, cell = plan_step(ctx, method, step, prev_cell, prev_q, keep_maps)
+            result, cell = plan_step(ctx, method, step, prev_cell, prev_q, keep_maps, torso=torso)
             result.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
             results = [result]
         out += results
@@ -75,6 +77,7 @@ def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell
         for r in results:
             if r.arm is not None and r.q is not None:
                 prev_q[r.arm] = r.q
+            torso = held_torso(ctx, r, torso)
         i += len(results)
     return out
 
@@ -87,8 +90,10 @@ def plan_transfer(
     prev_cell: Cell,
     prev_q: Mapping[str, FloatArray],
     keep_maps: bool,
+    torso: float | None = None,
 ) -> tuple[list[StepResult], Cell | None]:
-    """A pick and its place with the same arm and grasp.
+    """A pick and its place with the same arm and grasp (``torso``: the torso value [m] the robot
+    holds before the pick, None without torso settings; the place may hold another).
 
     The pick may use only the (arm, grasp) pairs with which the maps reach a place pose of the
     object (:meth:`StepProblems.pairs`); the place then uses the pick's pair only. When that place
@@ -115,7 +120,7 @@ def plan_transfer(
                 timings_ms={"total": (time.perf_counter() - t0) * 1e3},
             )
             return [result], None
-        first, cell = plan_step(ctx, method, pick, prev_cell, prev_q, keep_maps, allowed)
+        first, cell = plan_step(ctx, method, pick, prev_cell, prev_q, keep_maps, allowed, torso)
         if not first.ok or cell is None or first.arm is None or first.q is None:
             if failed:
                 first.reason = (first.reason or "") + (
@@ -125,7 +130,8 @@ def plan_transfer(
             return [first], None
         t1 = time.perf_counter()
         pair = (first.arm, first.grasp)
-        second, cell = plan_step(ctx, method, place, cell, {**prev_q, first.arm: first.q}, keep_maps, {pair})
+        at = held_torso(ctx, first, torso)
+        second, cell = plan_step(ctx, method, place, cell, {**prev_q, first.arm: first.q}, keep_maps, {pair}, at)
         second.timings_ms["total"] = (time.perf_counter() - t1) * 1e3
         if second.ok:
             first.timings_ms["total"] = (t1 - t0) * 1e3
@@ -177,9 +183,12 @@ def plan_step(
     prev_q: Mapping[str, FloatArray],
     keep_maps: bool,
     pairs: set[Pair] | None = None,
+    torso: float | None = None,
 ) -> tuple[StepResult, Cell | None]:
     """The best verified placement of one step (or an infeasible result) and its cell; ``pairs``:
-    the (arm, grasp) pairs the step may use (default all)."""
+    the (arm, grasp) pairs the step may use (default all); ``torso``: the torso value [m] the robot
+    holds (None without torso settings): another one's lift time joins the Eq. 6 cost as travel
+    (lambda_n times the metres the base would drive meanwhile)."""
     cfg, problems, world = ctx.config, ctx.problems, ctx.world
     nav = world.nav
     timings: dict[str, float] = {}
@@ -202,7 +211,7 @@ def plan_step(
     heur = problems.heuristic(step.index + 1, needed) if steer else np.zeros(nav.shape)
     timings["heuristic"] = (time.perf_counter() - t) * 1e3
     t = time.perf_counter()
-    ranked = method.rank(ctx, opts, nav_cost, heur)
+    ranked = torso_ranked(ctx, opts, method.rank(ctx, opts, nav_cost, heur), torso, fixed)
     timings["combine"] = (time.perf_counter() - t) * 1e3
     maps = None
     if keep_maps:
@@ -256,6 +265,29 @@ def plan_step(
     )
     result.tried = search.tried if search else 0
     return result, None
+
+
+def held_torso(ctx: PlanningContext, result: StepResult, before: float | None) -> float | None:
+    """The torso value [m] the robot holds after ``result`` (``before`` if it planned nothing)."""
+    joint = torso_joint(ctx.maps)
+    if joint is None or not result.ok or joint not in result.joints:
+        return before
+    return float(result.joints[joint])
+
+
+def torso_ranked(
+    ctx: PlanningContext, opts: Sequence[Option], ranked: list[Ranked], torso: float | None, fixed: bool
+) -> list[Ranked]:
+    """``ranked`` with each option's torso motion from ``torso`` [m] added to its Eq. 6 cost as
+    lambda_n x the metres the base drives at v_max meanwhile, re-sorted (unchanged without torso
+    settings, and for the ``fixed`` baseline, which ranks by manipulability alone)."""
+    if torso is None or fixed or all(o.torso is None for o in opts):
+        return ranked
+    rate = ctx.config.lambda_n * ctx.robot.v_max
+    extra = [rate * torso_seconds(ctx, torso, o.torso) for o in opts]
+    out = [r._replace(cost=r.cost + extra[r.option]) for r in ranked]
+    out.sort(key=lambda r: (r.cost, r.option, r.cell, r.yaw))
+    return out
 
 
 __all__ = ["StepwiseMethod", "excluded_words", "plan_step", "plan_stepwise", "plan_transfer"]
