@@ -27,7 +27,7 @@ def test_literal_two_steps(pr2):
     t = task_time(pr2, res, (0, 0, 0))
     # step 0: base max(2.0, (pi/2)/1.0) = 2.0; arm 0.5 -> 2.0
     # step 1: base max(0.2, pi/1.0) = pi; arm 0.1 -> pi
-    assert t["steps"][0] == pytest.approx({"base_s": 2.0, "arm_s": 0.5, "step_s": 2.0})
+    assert t["steps"][0] == pytest.approx({"base_s": 2.0, "arm_s": 0.5, "torso_s": 0.0, "step_s": 2.0})
     assert t["steps"][1]["arm_s"] == pytest.approx(0.1)
     assert t["total_s"] == pytest.approx(2.0 + math.pi)
 

@@ -1,6 +1,7 @@
 """`placement view SCENE --plan PLAN.json` shows a plan only if it was made for that scene and its
 robot: scene and robot names, arms and their joints, step actions and targets, joints of the robot
-within the URDF limits, fixed joints at the preset's values, the TCP where the joints put it."""
+within the URDF limits (the fixed joints too, at the step's values), the TCP where the joints put it
+(with the step's torso)."""
 
 from __future__ import annotations
 
@@ -72,7 +73,11 @@ def _unknown_joint(d):
 
 
 def _fixed_joint(d):
-    first_ok(d)["joints"]["torso_lift_joint"] = 0.3
+    first_ok(d)["joints"]["torso_lift_joint"] = 0.3  # within the limits: the step's torso, 15 cm above the TCP
+
+
+def _fixed_joint_outside(d):
+    first_ok(d)["joints"]["torso_lift_joint"] = 0.5
 
 
 def _moved_tcp(d):
@@ -111,7 +116,8 @@ def _long_scene_name(d):
         (_elbow_100, ["elbow_flex_joint", "100", "outside the URDF limits"]),
         (_pose_elbow_100, ["poses[0].joints", "elbow_flex_joint", "outside the URDF limits"]),
         (_unknown_joint, ["knee_joint", "no such joint"]),
-        (_fixed_joint, ["torso_lift_joint", "holds it at 0.15"]),
+        (_fixed_joint, ["steps[0].joints", "TCP 15.0 cm", "torso_lift_joint 0.3)"]),
+        (_fixed_joint_outside, ["steps[0].joints.torso_lift_joint", "0.5 is outside the URDF limits [0, 0.31]"]),
         (_moved_tcp, ["TCP", "cm", "another robot or scene"]),
         (_moved_base, ["TCP", "cm"]),
         (_base_outside, ["base", "outside the scene's bounds"]),

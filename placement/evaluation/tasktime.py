@@ -1,4 +1,4 @@
-"""The task time model of SPEC section 8: base and arm move in parallel, steps add up."""
+"""The task time model of SPEC section 8: base, arm and torso move in parallel, steps add up."""
 
 from __future__ import annotations
 
@@ -7,6 +7,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from placement.errors import PlacementError
+from placement.planning.configuration import joint_limits, velocity_limit
 from placement.planning.results import PlanResult
 from placement.robots import Robot
 
@@ -17,7 +19,7 @@ class Move(NamedTuple):
     yaw: float  # base yaw of the placement [rad]
     travel_s: float  # base travel time from the previous placement [s]
     arm: str
-    joints: dict[str, float]  # joint name -> IK solution [rad or m]
+    joints: dict[str, float]  # joint name -> IK solution, and the fixed joints' values [rad or m]
 
 
 def plan_moves(result: PlanResult | None) -> list[Move] | None:
@@ -38,17 +40,24 @@ def _wrap(a: float) -> float:
 def task_time(robot: Robot, result: PlanResult | None, start: tuple[float, float, float]) -> dict[str, Any] | None:
     """Per-step and total time [s] of a planned task, or None if a step failed.
 
-    ``start``: the start pose (x [m], y [m], yaw [rad]). Step time = max(base time, arm time):
-    base time = max(travel cost / v_max, |yaw change| / omega_max) from the previous placement
-    (the start pose first); arm time = max over the step's arm joints of |q - q_prev| / URDF
-    velocity limit, from that arm's previous solution (its home configuration first); continuous
-    joints take the shorter way round. Grasping and releasing are excluded (constant).
+    ``start``: the start pose (x [m], y [m], yaw [rad]). Base, arm and torso move in parallel:
+    step time = max(base time, arm time, torso time), with base time = max(travel cost / v_max,
+    |yaw change| / omega_max) from the previous placement (the start pose first); arm time = max
+    over the step's arm joints of |q - q_prev| / URDF velocity limit, from that arm's previous
+    solution (its home configuration first); torso time = max over the preset's fixed joints (the
+    PR2's torso lift) of |value - previous value| / URDF velocity limit, from the previous step's
+    value (the robot starts in its preset posture: the preset's value before the first step; a step
+    that does not give a fixed joint holds it at the preset's value, as its configuration does);
+    continuous joints take the shorter way round. Grasping and releasing are excluded (constant).
+    Returns {"total_s", "steps": [{"base_s", "arm_s", "torso_s", "step_s"}]}; PlacementError when a
+    fixed joint moves but its URDF velocity limit is not positive.
     """
     moves = plan_moves(result)
     if moves is None:
         return None
     prev_yaw = float(start[2])
     prev_q = {arm: robot.arm(arm).home.copy() for arm in robot.arms}
+    prev_fixed = dict(robot.fixed_joints)
     steps: list[dict[str, float]] = []
     for m in moves:
         base_s = max(m.travel_s, abs(_wrap(m.yaw - prev_yaw)) / robot.omega_max)
@@ -57,6 +66,23 @@ def task_time(robot: Robot, result: PlanResult | None, start: tuple[float, float
         d = np.abs(q - prev_q[m.arm])
         d = np.where(arm.continuous, np.abs((q - prev_q[m.arm] + math.pi) % (2 * math.pi) - math.pi), d)
         arm_s = float(np.max(d / arm.velocity))
-        steps.append({"base_s": base_s, "arm_s": arm_s, "step_s": max(base_s, arm_s)})
-        prev_yaw, prev_q[m.arm] = m.yaw, q
+        fixed = {j: float(m.joints.get(j, v)) for j, v in robot.fixed_joints.items()}
+        torso_s = max((_fixed_time(robot, j, prev_fixed[j], v) for j, v in fixed.items()), default=0.0)
+        steps.append({"base_s": base_s, "arm_s": arm_s, "torso_s": torso_s, "step_s": max(base_s, arm_s, torso_s)})
+        prev_yaw, prev_q[m.arm], prev_fixed = m.yaw, q, fixed
     return {"total_s": sum(x["step_s"] for x in steps), "steps": steps}
+
+
+def _fixed_time(robot: Robot, joint: str, before: float, after: float) -> float:
+    """Time [s] fixed joint ``joint`` takes from ``before`` to ``after`` [rad or m] at its URDF
+    velocity limit (a continuous joint the shorter way round)."""
+    d = abs(_wrap(after - before)) if joint_limits(robot, joint)[2] else abs(after - before)
+    if d == 0.0:
+        return 0.0
+    v = velocity_limit(robot, joint)
+    if not v > 0.0:
+        raise PlacementError(
+            f"fixed joint {joint} of robot '{robot.name}' moves {d:g} between steps but its URDF velocity "
+            f"limit is {v:g}: the task time cannot be computed"
+        )
+    return d / v

@@ -1,5 +1,8 @@
 """Plan files for the viewer: a plan document (the JSON of ``placement query --json``, SPEC section 7)
-read and checked into :class:`~placement.planning.StepResult` objects, as the planner makes them."""
+read and checked into :class:`~placement.planning.StepResult` objects, as the planner makes them.
+
+A step may hold the preset's fixed joints (the PR2's torso lift) at its own values within their
+URDF limits (the step's ``joints``); one it does not give is at the preset's value."""
 
 from __future__ import annotations
 
@@ -12,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from placement.errors import ViewerError
+from placement.planning.configuration import held, joint_limits, resting
 from placement.planning.results import Cost, StepResult, transfer_problems
 from placement.planning.transfer import UPRIGHT_TOLERANCE
 from placement.robots import Robot, pose_to_matrix
@@ -74,7 +78,10 @@ def _numbers(v: Any, n: int | None, where: str) -> list[float]:
 
 
 def parse_step(d: Any, where: str, robot: Robot) -> StepResult:
-    """One step of a plan document; ``robot`` names the arms and joints it may use."""
+    """One step of a plan document; ``robot`` names the arms and joints it may use. Its ``joints``
+    are the arm's, then every fixed joint at the step's value (the preset's when the step gives
+    none; PlanFileError naming step, joint and value for one outside the URDF limits); its
+    ``resting`` is the one the planner assumes (other arms idle, other joints neutral)."""
     _need(isinstance(d, dict), where, "must be a mapping")
     step = d.get("step")
     _need(
@@ -109,6 +116,7 @@ def parse_step(d: Any, where: str, robot: Robot) -> StepResult:
     missing = [j for j in names if j not in joints]
     _need(not missing, f"{where}.joints", f"lacks joint(s) {', '.join(missing)} of the {arm} arm")
     q = np.array([_number(joints[j], f"{where}.joints.{j}") for j in names])
+    fixed = {j: _fixed_value(joints.get(j, v), robot, j, f"{where}.joints.{j}") for j, v in robot.fixed_joints.items()}
     extra = {
         key: _number(d[key], f"{where}.{key}") if key in d else None for key in ("manipulability", "travel_time_s")
     }
@@ -127,7 +135,7 @@ def parse_step(d: Any, where: str, robot: Robot) -> StepResult:
         (bx, by, byaw),
         np.stack(poses),
         q,
-        {j: float(v) for j, v in zip(names, q)},
+        {j: float(v) for j, v in zip(names, q)} | fixed,
         extra["manipulability"],
         cost,
         extra["travel_time_s"],
@@ -135,7 +143,20 @@ def parse_step(d: Any, where: str, robot: Robot) -> StepResult:
     # the transfer: the object a pick takes or a place sets down (plans made before transfers have none)
     out.object = d.get("object") if isinstance(d.get("object"), str) else None
     out.trajectory = d.get("trajectory") if isinstance(d.get("trajectory"), str) else None
+    out.resting = resting(robot, arm)
     return out
+
+
+def _fixed_value(v: Any, robot: Robot, joint: str, where: str) -> float:
+    """The value [rad or m] of fixed joint ``joint`` a step gives (``v``, from JSON), within its URDF limits."""
+    value = _number(v, where)
+    lo, hi, continuous = joint_limits(robot, joint)
+    _need(
+        continuous or lo - LIMIT_SLACK <= value <= hi + LIMIT_SLACK,
+        where,
+        f"{value:g} is outside the URDF limits [{lo:g}, {hi:g}] of robot '{robot.name}'",
+    )
+    return value
 
 
 def parse_plan(doc: Any, where: str, robot: Robot) -> list[StepResult]:
@@ -209,7 +230,8 @@ def check_plan(doc: dict[str, Any], steps: list[StepResult], scene: Scene, robot
     name and robot name, the arms with the robot's joints and tip frames, every step the scene's task
     step of that index (action and target) up to the first infeasible one, bases inside the scene's
     bounds, only joints of the robot, arm joints within the URDF limits (every pose's), fixed joints
-    at the preset's values, and the last TCP pose where the joints put the TCP."""
+    within theirs (at the step's values, not necessarily the preset's), and the last TCP pose where
+    the joints put the TCP (with the step's fixed-joint values)."""
     from placement.planning.steps import task_steps
 
     name = doc.get("scene")
@@ -263,7 +285,7 @@ def check_plan(doc: dict[str, Any], steps: list[StepResult], scene: Scene, robot
 
 def _check_step(d: dict[str, Any], s: StepResult, scene: Scene, robot: Robot, at: str) -> None:
     """The planned step ``s`` (read from ``d``): base in bounds, joints of the robot within limits,
-    fixed joints as the preset holds them, the TCP where the joints put it."""
+    the TCP where the joints put it (the fixed joints at the step's values)."""
     assert s.base is not None and s.arm is not None and s.tcp is not None and s.q is not None  # parse_step's
     xmin, ymin, xmax, ymax = scene.bounds
     x, y, yaw = s.base
@@ -281,12 +303,6 @@ def _check_step(d: dict[str, Any], s: StepResult, scene: Scene, robot: Robot, at
             f"robot '{robot.name}' has no such joint",
         )
         value = _number(v, f"{at}.joints.{j}")
-        if j in robot.fixed_joints:
-            _need(
-                abs(value - robot.fixed_joints[j]) <= LIMIT_SLACK,
-                f"{at}.joints.{j}",
-                f"is {value:g}; robot '{robot.name}' holds it at {robot.fixed_joints[j]:g}",
-            )
         jm = model.joints[model.getJointId(j)]
         if jm.nq == 1 and j not in arm.joints:  # the arm's joints are checked below (continuous ones too)
             lo, hi = float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q])
@@ -321,7 +337,8 @@ def _check_step(d: dict[str, Any], s: StepResult, scene: Scene, robot: Robot, at
             )
     c, sn = math.cos(yaw), math.sin(yaw)
     B = np.array([[c, -sn, 0, x], [sn, c, 0, y], [0, 0, 1, 0], [0, 0, 0, 1]])
-    T = B @ robot.tcp_pose(s.arm, s.q)
+    T = B @ held(robot, s.joints).tcp_pose(s.arm, s.q)  # the step's torso: the TCP it moves
+    held_text = "".join(f", {j} {s.joints[j]:g}" for j in robot.fixed_joints if j in s.joints)
     want = s.tcp[-1]
     off = float(np.linalg.norm(T[:3, 3] - want[:3, 3]))
     turn = math.acos(float(np.clip((np.trace(T[:3, :3].T @ want[:3, :3]) - 1) / 2, -1, 1)))
@@ -329,7 +346,7 @@ def _check_step(d: dict[str, Any], s: StepResult, scene: Scene, robot: Robot, at
         off <= FK_TOLERANCE_M and turn <= FK_TOLERANCE_RAD,
         f"{at}.joints",
         f"put the TCP {off * 100:.1f} cm and {math.degrees(turn):.1f} deg from the step's last TCP pose "
-        f"(robot '{robot.name}', base {list(s.base)}): a plan for another robot or scene",
+        f"(robot '{robot.name}', base {list(s.base)}{held_text}): a plan for another robot or scene",
     )
 
 

@@ -1,4 +1,5 @@
-"""A plan in the viewer: a step slider; per step the robot at its placement in its IK configuration,
+"""A plan in the viewer: a step slider; per step the robot at its placement in its whole configuration
+(the arm's IK solution, the fixed joints such as a torso at the step's values, the other arms idle),
 the TCP trajectory, the base path from the previous placement, the footprint, and the step's cost maps
 as floor layers (each switchable, with its colour scale)."""
 
@@ -14,7 +15,7 @@ import numpy.typing as npt
 from placement.viewer.colors import Scale, layer_image, scale_of
 from placement.viewer.geometry import footprint_segments, polyline_segments, ring_segments, yaw_wxyz
 from placement.viewer.plan_file import title
-from placement.viewer.robot_view import RobotDrawing, config_of
+from placement.viewer.robot_view import RobotDrawing, step_config
 
 if TYPE_CHECKING:
     import viser
@@ -116,8 +117,8 @@ class PlanView:
             self.draw_layers(index)
             self.draw_placements(index)
             if s.ok:
-                assert s.base is not None and s.arm is not None and s.q is not None  # a planned step has them
-                self.robot_drawing.show(s.base, config_of(self.robot, s.arm, s.q))
+                assert s.base is not None  # a planned step has it
+                self.robot_drawing.show(s.base, step_config(self.robot, s))  # the step's torso included
             else:
                 self.robot_drawing.visible = False
             self.info.content = self.describe(s)

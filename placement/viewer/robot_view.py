@@ -11,11 +11,13 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from placement.planning.configuration import pinocchio_q, resting
 from placement.viewer.geometry import pose_matrix
 
 if TYPE_CHECKING:
     import viser
 
+    from placement.planning.results import StepResult
     from placement.robots import Robot
 
 log = logging.getLogger("placement")
@@ -136,9 +138,21 @@ class RobotDrawing:
             self.frame.visible = True
 
 
+def step_config(robot: Robot, step: StepResult) -> npt.NDArray[np.float64]:
+    """Pinocchio configuration (model.nq,) of a planned ``step`` at its last TCP pose: its whole
+    configuration (:meth:`~placement.planning.StepResult.whole_joints`), so the arm at its IK
+    solution, the fixed joints at the step's values (a torso raised for this step is drawn raised),
+    the other arms idle and the rest neutral; a step without :attr:`resting` gets the planner's."""
+    arm = step.need(step.arm, "arm")
+    r = step.resting if step.resting is not None else resting(robot, arm)
+    joints = step.whole_joints(r) | dict(zip(robot.arm(arm).joints, map(float, step.need(step.q, "q"))))
+    return pinocchio_q(robot, joints)
+
+
 def config_of(robot: Robot, arm: str, q: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Pinocchio configuration with ``q`` on ``arm``, every other arm at its idle pose (where the
-    collision check and the plan's ``configuration`` put it) and the preset's fixed joints set."""
+    collision check and the plan's ``configuration`` put it) and the preset's fixed joints set (a
+    planned step's robot is drawn at :func:`step_config`, with the step's fixed-joint values)."""
     ref = None
     for other in robot.arms:
         if other != arm:
