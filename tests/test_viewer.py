@@ -62,11 +62,14 @@ def test_each_step_puts_the_robot_base_at_its_placement(scene_view):
 
 
 def test_the_drawn_tcp_is_where_the_plan_says(scene_view):
-    """Forward kinematics of the configuration shown, from the drawn base, reaches the step's last TCP pose."""
+    """Forward kinematics of the configuration shown, from the drawn base, reaches the step's last TCP
+    pose (with the step's torso: the robot held at the step's fixed-joint values)."""
     pv = scene_view.content
     pv.show(1)
     s, robot = pv.steps[1], pv.robot
-    T = base_pose_drawn(scene_view) @ robot.tcp_pose(s.arm, s.q)
+    T = base_pose_drawn(scene_view) @ robot.with_fixed({j: s.joints[j] for j in robot.fixed_joints}).tcp_pose(
+        s.arm, s.q
+    )
     assert np.linalg.norm(T[:3, 3] - s.tcp[-1][:3, 3]) < 0.01
 
 
