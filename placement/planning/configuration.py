@@ -30,7 +30,7 @@ import pinocchio as pin
 from placement.planning.arrays import FloatArray
 from placement.robots import Robot
 from placement.robots.description import expand_xacro, is_xacro
-from placement.robots.preset import mimic_joints
+from placement.robots.model_cache import mimic_joints
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,7 @@ def map_variants(maps: Mapping[str, ReachabilityMap]) -> dict[str, tuple[Reachab
     out: dict[str, tuple[ReachabilityMap, ...]] = {}
     for arm, rmap in maps.items():
         record = torso_record(rmap)
-        out[arm] = (rmap,) if record is None else tuple(rmap.at_torso(float(v)) for v in record.values)  # type: ignore[attr-defined]
+        out[arm] = (rmap,) if record is None else tuple(rmap.at_torso(float(v)) for v in record.values)
     return out
 
 

@@ -14,11 +14,7 @@ checks it against the URDF model (frames, joints, the serial chain, limits).
 from __future__ import annotations
 
 import difflib
-import hashlib
 import math
-import threading
-import xml.etree.ElementTree as ET
-from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -29,13 +25,11 @@ import pinocchio as pin
 
 from placement.errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
 from placement.robots.chain import Chain, ancestors, extract_chain
-from placement.robots.description import MAX_URDF_BYTES, expand_xacro, is_xacro
+from placement.robots.model_cache import MODELS_LOCK, urdf_model
 from placement.robots.spec import MAX_PRESET_BYTES, QUATERNION_TOLERANCE, ArmSpec, GripperSpec, PresetSpec, parse_preset
-from placement.validation import Checker, one_line, read_regular, read_yaml
+from placement.validation import Checker, one_line, read_yaml
 
 PRESET_DIR = Path(__file__).parent / "presets"
-#: Parsed URDF models kept in memory, keyed by (path, sha256 of the bytes parsed).
-MODEL_CACHE_SIZE = 8
 
 
 def builtin_presets() -> list[str]:
@@ -59,58 +53,6 @@ def matrix_to_pose(T: np.ndarray) -> list[float]:
     """(4, 4) homogeneous matrix -> ``[x, y, z, qx, qy, qz, qw]``."""
     q = pin.Quaternion(np.asarray(T[:3, :3], dtype=float))
     return [float(T[0, 3]), float(T[1, 3]), float(T[2, 3]), q.x, q.y, q.z, q.w]
-
-
-_MODELS: OrderedDict[tuple[str, str], tuple[pin.Model, dict[str, str]]] = OrderedDict()
-_MODELS_LOCK = threading.Lock()
-
-
-def mimic_joints(xml: bytes | str) -> dict[str, str]:
-    """{mimic joint: the joint it follows} of a URDF document ({} if it is not parseable XML: pinocchio
-    parsed it, so only an exotic encoding gets here)."""
-    try:
-        root = ET.fromstring(xml)
-    except ET.ParseError:
-        return {}
-    out: dict[str, str] = {}
-    for j in root.iter("joint"):
-        mimic, name = j.find("mimic"), j.get("name")
-        if mimic is not None and name is not None:
-            out[name] = mimic.get("joint", "?")
-    return out
-
-
-def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
-    """(model, {mimic joint: leader}, sha256) of the URDF file ``path`` as it is now.
-
-    The bytes are read once, hashed, and the model is parsed from those very
-    bytes, so the cache key always describes the cached model (an edited file
-    has a new hash). Each call returns its own copy of the model.
-    """
-    if is_xacro(path):  # expanded on every load: its includes may have changed
-        data = expand_xacro(path, f"{where}: urdf")
-    else:
-        data = read_regular(path, RobotError, f"{where}: urdf: {path}", MAX_URDF_BYTES, "URDF")
-    sha = hashlib.sha256(data).hexdigest()
-    key = (str(path), sha)
-    with _MODELS_LOCK:
-        hit = _MODELS.get(key)
-        if hit is not None:
-            _MODELS.move_to_end(key)
-    if hit is None:
-        try:
-            model = pin.buildModelFromXML(data.decode("utf-8"))
-        except UnicodeDecodeError as exc:
-            raise RobotError(one_line(f"{where}: urdf: {path} is not UTF-8 text (byte {exc.start})")) from None
-        except Exception as exc:  # pinocchio raises plain RuntimeError/ValueError
-            msg = " ".join(str(exc).split()) or type(exc).__name__
-            raise RobotError(one_line(f"{where}: urdf: URDF {path} does not load: {msg}")) from None
-        hit = (model, mimic_joints(data))
-        with _MODELS_LOCK:
-            _MODELS[key] = hit
-            while len(_MODELS) > MODEL_CACHE_SIZE:
-                _MODELS.popitem(last=False)
-    return pin.Model(hit[0]), dict(hit[1]), sha
 
 
 def _located(exc: RobotError, where: str, key: str) -> RobotError:
@@ -373,11 +315,11 @@ class Robot:
         if held == self.fixed_joints:
             return self
         key = tuple(sorted(held.items()))
-        with _MODELS_LOCK:
+        with MODELS_LOCK:
             found = self._variants.get(key)
         if found is None:
             found = Robot(replace(self.spec, fixed_joints=held))
-            with _MODELS_LOCK:
+            with MODELS_LOCK:
                 found = self._variants.setdefault(key, found)
         return found
 

@@ -285,7 +285,7 @@ def torso_ranked(
         return ranked
     rate = ctx.config.lambda_n * ctx.robot.v_max
     extra = [rate * torso_seconds(ctx, torso, o.torso) for o in opts]
-    out = [r._replace(cost=r.cost + extra[r.option]) for r in ranked]
+    out = [Ranked(r.cost + extra[r.option], r.option, r.cell, r.yaw) for r in ranked]
     out.sort(key=lambda r: (r.cost, r.option, r.cell, r.yaw))
     return out
 

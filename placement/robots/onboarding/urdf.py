@@ -15,7 +15,7 @@ import pinocchio as pin
 
 from placement.errors import RobotError
 from placement.robots.description import read_description
-from placement.robots.preset import mimic_joints
+from placement.robots.model_cache import mimic_joints
 from placement.validation import one_line
 
 

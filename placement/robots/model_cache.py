@@ -1,0 +1,72 @@
+"""Parsed URDF models, cached by the bytes they were parsed from, and their mimic joints."""
+
+from __future__ import annotations
+
+import hashlib
+import threading
+import xml.etree.ElementTree as ET
+from collections import OrderedDict
+from pathlib import Path
+
+import pinocchio as pin
+
+from placement.errors import RobotError
+from placement.robots.description import MAX_URDF_BYTES, expand_xacro, is_xacro
+from placement.validation import one_line, read_regular
+
+#: Parsed URDF models kept in memory, keyed by (path, sha256 of the bytes parsed).
+MODEL_CACHE_SIZE = 8
+
+_MODELS: OrderedDict[tuple[str, str], tuple[pin.Model, dict[str, str]]] = OrderedDict()
+MODELS_LOCK = threading.Lock()
+
+
+def mimic_joints(xml: bytes | str) -> dict[str, str]:
+    """{mimic joint: the joint it follows} of a URDF document ({} if it is not parseable XML: pinocchio
+    parsed it, so only an exotic encoding gets here)."""
+    try:
+        root = ET.fromstring(xml)
+    except ET.ParseError:
+        return {}
+    out: dict[str, str] = {}
+    for j in root.iter("joint"):
+        mimic, name = j.find("mimic"), j.get("name")
+        if mimic is not None and name is not None:
+            out[name] = mimic.get("joint", "?")
+    return out
+
+
+def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
+    """(model, {mimic joint: leader}, sha256) of the URDF file ``path`` as it is now.
+
+    The bytes are read once, hashed, and the model is parsed from those very
+    bytes, so the cache key always describes the cached model (an edited file
+    has a new hash). Each call returns its own copy of the model.
+    """
+    if is_xacro(path):  # expanded on every load: its includes may have changed
+        data = expand_xacro(path, f"{where}: urdf")
+    else:
+        data = read_regular(path, RobotError, f"{where}: urdf: {path}", MAX_URDF_BYTES, "URDF")
+    sha = hashlib.sha256(data).hexdigest()
+    key = (str(path), sha)
+    with MODELS_LOCK:
+        hit = _MODELS.get(key)
+        if hit is not None:
+            _MODELS.move_to_end(key)
+    if hit is None:
+        try:
+            model = pin.buildModelFromXML(data.decode("utf-8"))
+        except UnicodeDecodeError as exc:
+            raise RobotError(one_line(f"{where}: urdf: {path} is not UTF-8 text (byte {exc.start})")) from None
+        except Exception as exc:  # pinocchio raises plain RuntimeError/ValueError
+            msg = " ".join(str(exc).split()) or type(exc).__name__
+            raise RobotError(one_line(f"{where}: urdf: URDF {path} does not load: {msg}")) from None
+        hit = (model, mimic_joints(data))
+        with MODELS_LOCK:
+            _MODELS[key] = hit
+            while len(_MODELS) > MODEL_CACHE_SIZE:
+                _MODELS.popitem(last=False)
+    return pin.Model(hit[0]), dict(hit[1]), sha
+
+
+__all__ = ["MODELS_LOCK", "MODEL_CACHE_SIZE", "mimic_joints", "urdf_model"]
