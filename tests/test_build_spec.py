@@ -23,6 +23,7 @@ from placement.maps.buildspec import (
     MIN_RESOLUTION,
     SPEC_KEYS,
     BuildSpec,
+    TorsoSpec,
     load_build_spec,
     parse_build_spec,
     parse_build_spec_text,
@@ -44,6 +45,7 @@ def test_the_default_spec_file():
         index="isotropy",
         format="zarr",
         completion=True,
+        torso=TorsoSpec("torso_lift_joint", (0.0, 0.1, 0.2, 0.31)),
     )
     coarse = load_build_spec(ROOT / "maps" / "pr2-10cm.yaml")
     assert coarse.resolution == 0.1 and coarse.samples == 150_000_000 and not coarse.completion

@@ -27,6 +27,7 @@ from placement.maps.buildspec import (
     parse_length,
 )
 from placement.maps.rmap import MapOutput
+from placement.maps.torso import check_torso
 from placement.robots import load_robot
 from placement.warmup import BUILD_COMPILE_S, announce_compilation
 
@@ -143,6 +144,10 @@ def build(
         raise PlacementError(f"build spec {spec_path}: arms: {exc}") from None
     for a in arms:
         build_grid(loaded, a, spec.resolution, spec.bins)
+    if spec.torso is not None:
+        check_torso(
+            loaded, arms, spec.torso, f"build spec {spec_path}: torso", spec.self_collision or spec.self_distance
+        )
     out_path = Path(out)
     if spec.format == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
         out_path = out_path.with_suffix(".h5")
@@ -164,6 +169,7 @@ def build(
                 self_collision=spec.self_collision,
                 self_distance=spec.self_distance,
                 completion=spec.completion,
+                torso=spec.torso,
             )
             log.info(
                 "%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",

@@ -107,6 +107,16 @@ def rank_note(measure: dict[str, Any]) -> str:
     return f" on {rank} of 6 dimensions (the arm's rank)" if rank < 6 else ""
 
 
+def torso_line(t: dict[str, Any]) -> str:
+    """The info line of an arm's torso record (placement/maps/torso.py)."""
+    values = ", ".join(f"{v:g}" for v in t["values"])
+    shift = ", ".join(f"{v:.6g}" for v in t["shift"])
+    return (
+        f"    torso {t['joint']}: settings {values} m (built at {t['reference']:g} m; the map moves by "
+        f"[{shift}] m per m of lift), {t['velocity']:g} m/s"
+    )
+
+
 def _render_info(d: dict[str, Any]) -> str:
     r = d["root"]
     lines = [f"{d['path']}  ({d['size_bytes'] / 1e6:.1f} MB)  robot {r.get('robot')}  base {r.get('base_frame')}"]
@@ -118,6 +128,8 @@ def _render_info(d: dict[str, Any]) -> str:
             f"{m['measure']['index']}{rank_note(m['measure'])}, {m['samples']} samples (seed {m['seed']}), "
             f"built in {m['build_time_s']} s"
         )
+        if "torso" in m:
+            lines.append(torso_line(m["torso"]))
         lines.append(
             f"    filled {v['filled_cells']} of {v['cells']} cells ({100 * v['fill_ratio']:.2f} %), "
             f"max {v['value']['max']:.4f}, mean {v['value']['mean']:.4f}"

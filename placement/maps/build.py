@@ -19,6 +19,7 @@ from placement.maps.buildspec import (
     INDEXES,
     MAX_SAMPLES,
     MAX_SEED,
+    TorsoSpec,
     parse_choice,
     parse_count,
 )
@@ -29,6 +30,7 @@ from placement.maps.quantiles import value_quantiles
 from placement.maps.reach import arm_reach, box_grid, reach_box
 from placement.maps.sampling import sample_range
 from placement.maps.selfcollision import ALPHA, BETA, SelfCollision
+from placement.maps.torso import torso_settings
 from placement.maps.witness import empty_witnesses, witness_info
 from placement.progress import EtaBar
 from placement.robots import Robot
@@ -215,6 +217,7 @@ def build_map(
     self_collision: bool = False,
     self_distance: bool = False,
     completion: bool = False,
+    torso: TorsoSpec | None = None,
 ) -> BuiltMap:
     """Sample ``samples`` configurations of ``arm`` and keep the best value per 6D cell, with its witness.
 
@@ -244,6 +247,8 @@ def build_map(
         completion: after sampling, one completion pass from the witnesses into the empty
             face neighbours of reached cells (see :func:`placement.maps.completion.complete`;
             runs locally with a client too).
+        torso: lift settings the map also stands for (see :mod:`placement.maps.torso`): checked
+            against the robot before sampling and recorded as ``meta["torso"]``; costs no samples.
 
     The result's ``witness`` (flat-compatible 6D array, see :mod:`placement.maps.witness`) names the
     sample behind every cell's value; meta["witness"] says how to read it.
@@ -255,6 +260,7 @@ def build_map(
     parse_choice(index, "manipulability index", INDEXES)
     grid = build_grid(robot, arm, resolution, bins)
     a = robot.arm(arm)
+    lift = None if torso is None else torso_settings(robot, arm, torso, self_collision=self_collision or self_distance)
     checker = SelfCollision(robot, arm) if (self_collision or self_distance) else None
     grid_bound = "sampled reach"
     if client is None:
@@ -355,6 +361,8 @@ def build_map(
         "value_quantiles": value_quantiles(values),
         "witness": witness_info(samples, completion),
     }
+    if lift is not None:
+        meta["torso"] = lift.to_dict()
     if completion:
         meta["completion"] = {
             "candidates": candidates,

@@ -47,7 +47,24 @@ SPEC_KEYS = (
     "self_collision",
     "self_distance",
     "completion",
+    "torso",
 )
+TORSO_KEYS = ("joint", "values")
+MAX_TORSO_VALUES = 16
+MAX_TORSO_ABS = 10.0  # [m]: no lift moves further; a larger value is a typo (millimetres?)
+
+
+@dataclass(frozen=True)
+class TorsoSpec:
+    """The ``torso`` key of a build spec, parsed (checked against a robot by :mod:`placement.maps.torso`).
+
+    Attributes:
+        joint: the prismatic lift joint, one of the preset's fixed joints.
+        values: (k,) lift settings [m], 1 .. MAX_TORSO_VALUES distinct values, ascending.
+    """
+
+    joint: str
+    values: tuple[float, ...]
 
 
 @dataclass(frozen=True)
@@ -64,6 +81,7 @@ class BuildSpec:
         index: manipulability index, one of INDEXES.
         format: storage backend, one of FORMATS.
         self_collision, self_distance, completion: see `placement maps build --help`.
+        torso: the lift settings the maps also stand for (:class:`TorsoSpec`), or None.
     """
 
     robot: str = "pr2"
@@ -77,6 +95,7 @@ class BuildSpec:
     self_collision: bool = False
     self_distance: bool = False
     completion: bool = False
+    torso: TorsoSpec | None = None
 
     def arms_of(self, robot: Robot) -> list[str]:
         """The arms to build on ``robot`` (ArmNotFound, naming the robot's arms, for an unknown one)."""
@@ -179,6 +198,30 @@ def parse_arms(value: object, where: str) -> tuple[str, ...]:
     return arms
 
 
+def parse_torso(value: object, where: str) -> TorsoSpec:
+    """``{joint: name, values: [v1, ...]}`` [m]: 1 .. MAX_TORSO_VALUES distinct finite values, returned
+    ascending; errors name the sub-key (``torso.values[2]``)."""
+    if not isinstance(value, dict):
+        raise PlacementError(f"{where} must be a mapping {{joint: name, values: [m, ...]}}, got {show(value)}")
+    unknown = [k for k in value if k not in TORSO_KEYS]
+    if unknown:
+        raise PlacementError(f"{where}: unknown key {show(unknown[0])}; allowed: {', '.join(TORSO_KEYS)}")
+    for key in TORSO_KEYS:
+        if key not in value:
+            raise PlacementError(f"{where}.{key} is missing")
+    joint = parse_name(value["joint"], f"{where}.joint")
+    items = value["values"]
+    if not isinstance(items, (list, tuple)) or not 1 <= len(items) <= MAX_TORSO_VALUES:
+        raise PlacementError(
+            f"{where}.values must be a list of 1 to {MAX_TORSO_VALUES} lift settings [m], got {show(items)}"
+        )
+    values = [parse_length(v, f"{where}.values[{i}]", -MAX_TORSO_ABS, MAX_TORSO_ABS) for i, v in enumerate(items)]
+    for i, v in enumerate(values):
+        if v in values[:i]:
+            raise PlacementError(f"{where}.values[{i}]: {v:g} m is given twice (values[{values.index(v)}])")
+    return TorsoSpec(joint, tuple(sorted(values)))
+
+
 def parse_build_spec(data: object, source: str = "build spec") -> BuildSpec:
     """Check a build spec mapping (from YAML) and return it as a :class:`BuildSpec`."""
     if not isinstance(data, dict) or not data:
@@ -198,6 +241,7 @@ def parse_build_spec(data: object, source: str = "build spec") -> BuildSpec:
         "self_collision": parse_flag,
         "self_distance": parse_flag,
         "completion": parse_flag,
+        "torso": parse_torso,
     }
     return BuildSpec(**{key: parsers[key](value, f"{source}: {key}") for key, value in data.items()})
 

@@ -13,6 +13,7 @@ from placement.kernels.grid import cell_indices
 from placement.kinematics.manipulability import arm_rank
 from placement.maps.grid import Grid
 from placement.maps.quantiles import estimate_quantiles, quantile_value
+from placement.maps.torso import TorsoSettings, allowed_value, settings_from_meta
 from placement.maps.witness import empty_value, plain_samples, witness_configs
 from placement.robots import Robot, load_robot
 from placement.storage import StoredMap, open_store
@@ -33,34 +34,115 @@ __all__ = [
 ]
 
 
+class _Shared:
+    """What an opened map and its torso views share: the arrays and chunks read so far, the value
+    distribution, and the views made (lift setting [m] -> map)."""
+
+    def __init__(self, quantiles: dict[str, Any] | None) -> None:
+        self.full: np.ndarray | None = None
+        self.full_witness: np.ndarray | None = None
+        self.slices: dict[tuple[int, int, int], np.ndarray] = {}
+        self.witness_slices: dict[tuple[int, int, int], np.ndarray] = {}
+        self.quantiles = quantiles
+        self.views: dict[float, ReachabilityMap] = {}
+
+
 class ReachabilityMap:
     """One arm's map, opened lazily: slices are read on first use and cached.
 
     Attributes:
-        path: where the map lives; arm: arm name; meta: the arm's metadata;
-        grid: the 6D :class:`Grid`; robot: the :class:`Robot` it was validated
-        against (None if opened without :func:`open_map`).
+        path: where the map lives; arm: arm name; meta: the arm's metadata (as stored);
+        grid: the 6D :class:`Grid` this object answers on (for a torso view, the stored grid moved with
+        the lift); stored_grid: the grid as stored (the reference lift setting); robot: the
+        :class:`Robot` it was validated against (None if opened without :func:`open_map`).
     """
 
-    def __init__(self, store: StoredMap, arm: str, robot: Robot | None = None) -> None:
+    def __init__(
+        self,
+        store: StoredMap,
+        arm: str,
+        robot: Robot | None = None,
+        *,
+        torso_value: float | None = None,
+        shared: _Shared | None = None,
+    ) -> None:
+        """``torso_value`` and ``shared``: a view of :meth:`at_torso` (its setting [m], and what it shares)."""
         self.store = store
         self.path = store.path
         self.arm = arm
         self.robot = robot
         self.meta = store.arm_meta(arm)
-        self.grid = Grid.from_dict(self.meta["grid"])
-        self._slices: dict[tuple[int, int, int], np.ndarray] = {}
-        self._witness_slices: dict[tuple[int, int, int], np.ndarray] = {}
-        self._reach: dict[tuple[int, int, int], float] = {}
-        self._full: np.ndarray | None = None
-        self._full_witness: np.ndarray | None = None
+        self.stored_grid = self.grid = Grid.from_dict(self.meta["grid"])
+        self._torso = settings_from_meta(self.meta)
+        self._torso_value = None if self._torso is None else self._torso.reference
+        if self._torso is not None and torso_value is not None:
+            g = self.stored_grid
+            ox, oy, oz = (float(x) for x in g.origin_array + self._torso.offset(torso_value))
+            self.grid = Grid((ox, oy, oz), g.resolution, g.shape)
+            self._torso_value = torso_value
+        self._shared = _Shared(self.meta.get("value_quantiles")) if shared is None else shared
+        if self._torso_value is not None:
+            self._shared.views.setdefault(self._torso_value, self)
+        self._slices = self._shared.slices
+        self._witness_slices = self._shared.witness_slices
+        self._reach: dict[tuple[int, int, int], float] = {}  # depends on the grid: one per view
         self._plain = plain_samples(self.meta)
         self._empty = int(self.meta["witness"]["empty"])
         self._seed = int(self.meta["seed"])
-        self._quantiles: dict[str, Any] | None = self.meta.get("value_quantiles")
 
     def __repr__(self) -> str:
-        return f"ReachabilityMap({str(self.path)!r}, arm={self.arm!r}, shape={self.grid.shape})"
+        lift = "" if self._torso is None else f", {self._torso.joint}={self._torso_value:g}"
+        return f"ReachabilityMap({str(self.path)!r}, arm={self.arm!r}, shape={self.grid.shape}{lift})"
+
+    @property
+    def _full(self) -> np.ndarray | None:
+        return self._shared.full
+
+    @_full.setter
+    def _full(self, values: np.ndarray | None) -> None:
+        self._shared.full = values
+
+    @property
+    def _full_witness(self) -> np.ndarray | None:
+        return self._shared.full_witness
+
+    @_full_witness.setter
+    def _full_witness(self, witness: np.ndarray | None) -> None:
+        self._shared.full_witness = witness
+
+    @property
+    def torso(self) -> TorsoSettings | None:
+        """The lift settings the map stands for (the metadata's ``torso`` record), or None: a map built
+        without the build spec's ``torso`` key, for the preset's held value only."""
+        return self._torso
+
+    @property
+    def torso_value(self) -> float | None:
+        """The lift setting [m] this object stands for: the reference (the preset's held value) for the
+        opened map, the view's setting for a view of :meth:`at_torso`; None for a map without a record."""
+        return self._torso_value
+
+    def at_torso(self, value: float) -> ReachabilityMap:
+        """This map with the lift at ``value`` [m] (one of ``torso.values`` or the reference, else MapError
+        naming them): the same store, arrays and chunk caches (nothing is read again), the grid origin
+        moved by ``(value - reference) * torso.shift`` [m]; ``self`` for its own setting. Views are kept:
+        the same value gives the same object.
+
+        A view's :meth:`witness_q` gives the arm joints [rad or m] whose TCP, with the lift at ``value``
+        (``robot.with_fixed({joint: value})``), lies in the pose's cell; ``robot`` stays the reference robot.
+        """
+        t = self._torso
+        if t is None:
+            raise MapError(
+                f"{self.path}: the map of arm '{self.arm}' has no torso settings (stands for the preset's "
+                "fixed joints only); build it with the build spec's torso key"
+            )
+        v = allowed_value(t, value, f"{self.path}: arm '{self.arm}'")
+        if v == self._torso_value:
+            return self
+        if v not in self._shared.views:  # a new view registers itself there
+            ReachabilityMap(self.store, self.arm, self.robot, torso_value=v, shared=self._shared)
+        return self._shared.views[v]
 
     @property
     def in_memory(self) -> bool:
@@ -137,7 +219,8 @@ class ReachabilityMap:
         w = int(self.witness_slice(iz, ip, ir)[ix, iy, iyaw])
         if w == self._empty:
             return None
-        return witness_configs(self.robot.arm(self.arm), g, self._seed, self._plain, np.array([w]))[0]
+        # the witness stands for joints sampled on the stored grid (a view only moves where they land)
+        return witness_configs(self.robot.arm(self.arm), self.stored_grid, self._seed, self._plain, np.array([w]))[0]
 
     def slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
         """Values (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""
@@ -191,9 +274,9 @@ class ReachabilityMap:
         """The distribution of the arm's non-zero values (see :mod:`placement.maps.quantiles`): the
         metadata's ``value_quantiles``, or for a map built without it an estimate from every 8th
         chunk, computed on first use (about 1.3 s for a 5 cm PR2 arm) and kept."""
-        if self._quantiles is None:
-            self._quantiles = estimate_quantiles(self.store, self.arm, self.grid.shape)
-        return self._quantiles
+        if self._shared.quantiles is None:
+            self._shared.quantiles = estimate_quantiles(self.store, self.arm, self.grid.shape)
+        return self._shared.quantiles
 
     def quantile_value(self, q: float) -> float:
         """The map value at quantile ``q`` (0 .. 1) of the arm's non-zero values (dimensionless)."""

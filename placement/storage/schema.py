@@ -43,6 +43,14 @@ def _real(v: object, key: str) -> float:
     return float(v)
 
 
+def _vector3(v: object, key: str) -> None:
+    """3 finite numbers (a position [m] or a direction)."""
+    if not isinstance(v, list) or len(v) != 3:
+        raise _Bad(key, "3 numbers", v)
+    for i, x in enumerate(v):
+        _real(x, f"{key}[{i}]")
+
+
 def _dict(doc: dict[str, Any], key: str, prefix: str = "") -> dict[str, Any]:
     v = doc.get(key)
     if not isinstance(v, dict):
@@ -71,6 +79,25 @@ def _quantiles(v: object) -> None:
             raise _Bad(f"value_quantiles.values[{i}]", "a positive number, not below the one before", x)
 
 
+def _torso(v: object) -> None:
+    """A ``torso`` record (placement/maps/torso.py): ``joint`` a name, ``values`` 1 .. 16 ascending distinct
+    finite numbers [m], ``reference`` [m], ``shift`` 3 numbers [m/m], ``velocity`` a positive number [m/s]."""
+    if not isinstance(v, dict):
+        raise _Bad("torso", "a mapping", v)
+    _str(v, "joint", "torso.")
+    vals = v.get("values")
+    if not isinstance(vals, list) or not 1 <= len(vals) <= 16:
+        raise _Bad("torso.values", "1 to 16 numbers", vals)
+    for i, x in enumerate(vals):
+        _real(x, f"torso.values[{i}]")
+        if i and x <= vals[i - 1]:
+            raise _Bad(f"torso.values[{i}]", "a number above the one before", x)
+    _real(v.get("reference"), "torso.reference")
+    _vector3(v.get("shift"), "torso.shift")
+    if _real(v.get("velocity"), "torso.velocity") <= 0:
+        raise _Bad("torso.velocity", "a positive speed", v.get("velocity"))
+
+
 def _base_frame_definition(v: object) -> None:
     """The root's ``base_frame_definition``: null (a URDF frame) or {parent: name, xyz: [x, y, z] [m]}."""
     if v is None:
@@ -78,11 +105,7 @@ def _base_frame_definition(v: object) -> None:
     if not isinstance(v, dict):
         raise _Bad("base_frame_definition", "null or a mapping", v)
     _str(v, "parent", "base_frame_definition.")
-    xyz = v.get("xyz")
-    if not isinstance(xyz, list) or len(xyz) != 3:
-        raise _Bad("base_frame_definition.xyz", "3 numbers", xyz)
-    for i, x in enumerate(xyz):
-        _real(x, f"base_frame_definition.xyz[{i}]")
+    _vector3(v.get("xyz"), "base_frame_definition.xyz")
 
 
 def check_arms(path: Path | str, root: dict[str, Any]) -> None:
@@ -119,11 +142,7 @@ def check_arm_types(path: Path | str, arm: str, meta: dict[str, Any]) -> None:
             raise _Bad("joints", "a list of joint names", meta.get("joints"))
         _str(meta, "tip_frame")
         grid = _dict(meta, "grid")
-        origin = grid.get("origin")
-        if not isinstance(origin, list) or len(origin) != 3:
-            raise _Bad("grid.origin", "3 numbers", origin)
-        for i, v in enumerate(origin):
-            _real(v, f"grid.origin[{i}]")
+        _vector3(grid.get("origin"), "grid.origin")
         if _real(grid.get("resolution"), "grid.resolution") <= 0:
             raise _Bad("grid.resolution", "a positive length", grid.get("resolution"))
         shape = grid.get("shape")
@@ -147,5 +166,7 @@ def check_arm_types(path: Path | str, arm: str, meta: dict[str, Any]) -> None:
             raise _Bad("witness.plain_samples", f"the sample count {samples}", witness.get("plain_samples"))
         if "value_quantiles" in meta:  # maps built before it was recorded have none
             _quantiles(meta["value_quantiles"])
+        if "torso" in meta:  # only maps built with the spec's torso key have one
+            _torso(meta["torso"])
     except _Bad as exc:
         raise MapError(f"{path}: metadata of arm '{arm}': {exc}; rebuild the map") from None

@@ -96,6 +96,27 @@ def validate_arm(path: Path, meta: dict[str, Any], robot: Robot, arm: str) -> No
         same = False
     if not same:
         _differs(path, arm, "TCP offset (4x4)", meta.get("tcp_offset"), a.tcp_offset)
+    torso = meta.get("torso")
+    if isinstance(torso, dict):  # types checked with the metadata (schema.py)
+        _same_lift(path, arm, torso, robot)
+
+
+def _same_lift(path: Path, arm: str, torso: dict[str, Any], robot: Robot) -> None:
+    """MapError unless the lift the map's torso record names is a fixed joint the preset holds at the
+    record's reference value [m] (to TCP_TOLERANCE)."""
+    joint = torso.get("joint")
+    if joint not in robot.fixed_joints:
+        raise MapError(
+            f"{path}: the map of arm '{arm}' stands for settings of lift '{joint}' (torso.joint), which the "
+            f"preset of '{robot.name}' does not hold (fixed_joints: {', '.join(robot.fixed_joints) or 'none'}); "
+            "rebuild the map"
+        )
+    held = robot.fixed_joints[str(joint)]
+    if abs(float(torso.get("reference", held)) - held) > TCP_TOLERANCE:
+        raise MapError(
+            f"{path}: the map of arm '{arm}' was built with lift '{joint}' at {torso.get('reference')} m "
+            f"(torso.reference), the preset holds it at {held:g} m; rebuild the map"
+        )
 
 
 def _differs(path: Path, arm: str, field: str, stored: object, preset: object) -> NoReturn:

@@ -1,0 +1,198 @@
+"""The torso lift as a placement variable: one map stands for every setting of a prismatic lift.
+
+A prismatic joint whose axis is fixed in the base frame, that does not move the base frame and that lies
+between the base frame and every joint of an arm moves that arm's whole chain rigidly: with the lift at
+``v`` instead of the reference ``r`` (the value the preset holds it at), every TCP pose the arm reaches is
+the pose at ``r`` translated by ``(v - r) * s``, ``s`` the joint's unit axis in the base frame. The map's
+measure uses the TCP-frame Jacobian, which a translation does not change, so the map at ``v`` is the map
+at ``r`` with its grid origin moved by ``(v - r) * s``
+(:meth:`placement.maps.rmap.ReachabilityMap.at_torso`): no extra samples, no extra build time.
+
+The build spec's ``torso`` key (:class:`~placement.maps.buildspec.TorsoSpec`) names the joint and the
+settings; :func:`torso_settings` checks them against the robot before any sampling and measures ``s``
+with pinocchio (not trusting the URDF axis); the result is recorded in each arm's metadata as
+``torso: {joint, values, reference, shift, velocity}`` and read back by :func:`settings_from_meta`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pinocchio as pin
+
+from placement.errors import MapError, PlacementError
+from placement.maps.buildspec import TorsoSpec
+from placement.robots import Robot
+from placement.robots.chain import ancestors
+
+#: the lift step [m] at which the axis is measured
+PROBE_M = 0.01
+#: rotations and translations of the arm's frames must follow the rigid shift to this [m, dimensionless]
+RIGID_TOLERANCE = 1e-9
+#: pinocchio's prismatic joint models (axis x, y, z, or any axis)
+PRISMATIC = ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned")
+
+
+@dataclass(frozen=True)
+class TorsoSettings:
+    """The lift settings a map stands for, as recorded in an arm's metadata (key ``torso``).
+
+    Attributes:
+        joint: the prismatic lift joint, one of the preset's fixed joints.
+        values: (k,) lift settings [m], ascending, within the URDF limits.
+        reference: the setting the map was sampled at: the preset's held value [m] (need not be in values).
+        shift: (3,) the TCP's translation per metre of lift, in the base frame [m/m] (the joint's unit
+            axis as pinocchio moves it): the map at ``v`` is the map at ``reference`` moved by
+            ``(v - reference) * shift`` [m].
+        velocity: the joint's URDF velocity limit [m/s].
+    """
+
+    joint: str
+    values: tuple[float, ...]
+    reference: float
+    shift: tuple[float, float, float]
+    velocity: float
+
+    @property
+    def allowed(self) -> tuple[float, ...]:
+        """Every setting [m] a map view can stand for: ``values`` and the reference, ascending."""
+        return tuple(sorted({*self.values, self.reference}))
+
+    def offset(self, value: float) -> npt.NDArray[np.float64]:
+        """(3,) translation [m] of the arm's reach at lift ``value`` [m] against the reference."""
+        return (float(value) - self.reference) * np.asarray(self.shift, dtype=float)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The metadata record (plain JSON types)."""
+        return {
+            "joint": self.joint,
+            "values": [float(v) for v in self.values],
+            "reference": float(self.reference),
+            "shift": [float(v) for v in self.shift],
+            "velocity": float(self.velocity),
+        }
+
+
+def settings_from_meta(meta: dict[str, Any]) -> TorsoSettings | None:
+    """The ``torso`` record of an arm's metadata (types checked by the storage schema), or None."""
+    rec = meta.get("torso")
+    if rec is None:
+        return None
+    sx, sy, sz = (float(v) for v in rec["shift"])
+    return TorsoSettings(
+        str(rec["joint"]),
+        tuple(float(v) for v in rec["values"]),
+        float(rec["reference"]),
+        (sx, sy, sz),
+        float(rec["velocity"]),
+    )
+
+
+def _frames(robot: Robot, arm: str, q: npt.NDArray[np.float64]) -> list[pin.SE3]:
+    """The arm's first joint frame and its tip frame in the base frame at pinocchio configuration ``q``."""
+    model, a = robot.model, robot.arm(arm)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    base = data.oMf[robot.base_frame_id].inverse()
+    return [base * data.oMi[a.joint_ids[0]], base * data.oMf[model.getFrameId(a.tip_frame)]]
+
+
+def measured_shift(robot: Robot, arm: str, joint: str, values: Sequence[float], where: str = "torso") -> np.ndarray:
+    """(3,) the translation per metre of ``joint`` [m/m] of ``arm``'s chain in the base frame, measured by
+    pinocchio FK (arm at home) between the held value r and r + PROBE_M; PlacementError unless at every
+    one of ``values`` [m] the arm's first joint frame and tip frame keep their rotation and move by
+    exactly (v - r) times it (to RIGID_TOLERANCE)."""
+    model, a = robot.model, robot.arm(arm)
+    idx = model.joints[model.getJointId(joint)].idx_q
+    ref = float(robot.fixed_joints[joint])
+    q = robot.full_q(arm, a.home)
+    at_ref = _frames(robot, arm, q)
+    q[idx] = ref + PROBE_M
+    s = (_frames(robot, arm, q)[0].translation - at_ref[0].translation) / PROBE_M
+    for v in values:
+        q[idx] = v
+        for name, was, now in zip(("first joint", "tip"), at_ref, _frames(robot, arm, q)):
+            turned = float(np.abs(now.rotation - was.rotation).max())
+            moved = float(np.abs(now.translation - was.translation - (v - ref) * s).max())
+            if turned > RIGID_TOLERANCE or moved > RIGID_TOLERANCE:
+                raise PlacementError(
+                    f"{where}.joint: '{joint}' at {v:g} m does not move arm '{arm}' rigidly along a fixed axis "
+                    f"(its {name} frame turns by {turned:.3g} or is off the line by {moved:.3g} m)"
+                )
+    return np.asarray(s, dtype=float)
+
+
+def torso_settings(
+    robot: Robot, arm: str, spec: TorsoSpec, where: str = "torso", self_collision: bool = False
+) -> TorsoSettings:
+    """``spec`` checked against ``robot`` and ``arm`` (``where`` names the key in errors), with its shift.
+
+    The joint must be one of the preset's fixed joints, prismatic, not moving the base frame, between
+    the base frame and every joint of the arm, and every value within its URDF limits; PlacementError
+    naming the culprit otherwise. A map with ``self_collision`` (or the self-distance penalty) is refused:
+    the body the lift does not carry would stay put while the arm moves, so the shifted map would be wrong.
+    """
+    if self_collision:
+        raise PlacementError(
+            f"{where}: a map built with self_collision or self_distance holds the arm's clearance from the "
+            "body at the reference lift only; build it without them, or without torso"
+        )
+    model = robot.model
+    j = spec.joint
+    fixed = robot.fixed_joints
+    if j not in fixed:
+        raise PlacementError(
+            f"{where}.joint: '{j}' is not a fixed joint of robot '{robot.name}' "
+            f"(fixed_joints: {', '.join(fixed) or 'none'}); a lift must be held by the preset"
+        )
+    jid = model.getJointId(j)
+    jm = model.joints[jid]
+    if jm.shortname() not in PRISMATIC:
+        raise PlacementError(
+            f"{where}.joint: '{j}' is a {jm.shortname().removeprefix('JointModel')} joint; "
+            "only prismatic lifts are supported"
+        )
+    lo, hi = float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q])
+    for i, v in enumerate(spec.values):
+        if not lo <= v <= hi:
+            raise PlacementError(f"{where}.values[{i}]: {v:g} m is outside the URDF limits [{lo:g}, {hi:g}] of '{j}'")
+    if jid in ancestors(model, model.frames[robot.base_frame_id].parentJoint):
+        raise PlacementError(f"{where}.joint: '{j}' moves the base frame '{robot.base_frame}'")
+    a = robot.arm(arm)
+    for name, aid in zip(a.joints, a.joint_ids):
+        if jid not in ancestors(model, aid):
+            raise PlacementError(
+                f"{where}.joint: '{j}' does not carry arm '{arm}' (joint '{name}' is not moved by it): "
+                "the lift must lie between the base frame and every joint of the arm"
+            )
+    s = measured_shift(robot, arm, j, spec.values, where)
+    velocity = float(model.velocityLimit[jm.idx_v])
+    if not (math.isfinite(velocity) and velocity > 0):
+        raise PlacementError(f"{where}.joint: '{j}' has no usable velocity limit ({velocity:g} m/s) in the URDF")
+    return TorsoSettings(j, spec.values, float(fixed[j]), (float(s[0]), float(s[1]), float(s[2])), velocity)
+
+
+def check_torso(
+    robot: Robot, arms: Sequence[str], spec: TorsoSpec, where: str = "torso", self_collision: bool = False
+) -> dict[str, TorsoSettings]:
+    """{arm: :func:`torso_settings`} for every arm to build (before any sampling)."""
+    return {arm: torso_settings(robot, arm, spec, where, self_collision) for arm in arms}
+
+
+#: a requested lift setting matches an allowed one this closely [m] (and is replaced by it)
+VALUE_TOLERANCE = 1e-9
+
+
+def allowed_value(settings: TorsoSettings, value: float, where: str) -> float:
+    """The allowed setting [m] equal to ``value`` (to VALUE_TOLERANCE), else MapError naming the allowed ones."""
+    v = float(value)
+    for x in settings.allowed:
+        if abs(x - v) <= VALUE_TOLERANCE:
+            return x
+    shown = ", ".join(f"{x:g}" for x in settings.allowed)
+    raise MapError(f"{where}: no map for {settings.joint} at {v:g} m; the map stands for {shown} m")
