@@ -32,6 +32,8 @@ import numpy as np
 from placement.planning.arrays import BoolArray, Cell, FloatArray, IntArray
 from placement.planning.context import PlanningContext
 from placement.planning.navigation import extract_path, navigation_cost
+from placement.planning.option import Option
+from placement.planning.torso import start_torso
 
 #: An (arm, grasp) pair: what a pick commits its place to.
 Group = tuple[str, str | None]
@@ -85,11 +87,32 @@ class Chain:
         return self.labels[-1] if self.labels else 0.0
 
 
-def map_regions(ctx: PlanningContext, i: int) -> Regions:
+def map_regions(ctx: PlanningContext, i: int, hold_lift: bool = False) -> Regions:
     """Step i's region by the maps: per (arm, grasp) group the cells where one of its options keeps
-    the threshold (the cells the map-based methods may stand on)."""
-    nav = ctx.world.nav
+    the threshold (the cells the map-based methods may stand on), at any torso setting.
+
+    ``hold_lift``: only the options at the torso value the robot starts with (the preset's) when
+    they keep the threshold on some feasible cell, all settings otherwise: the program does not
+    price the lift's motion (a PR2's lift takes 24 s end to end), so the whole-task methods move it
+    only for a step the maps do not serve at the held value.
+    """
     opts = ctx.problems.options(i)
+    held = held_torso(ctx, i) if hold_lift else None
+    return _regions(ctx, opts if held is None else [o for o in opts if o.torso == held])
+
+
+def held_torso(ctx: PlanningContext, i: int) -> float | None:
+    """The torso value [m] the robot starts with if step i's options there keep the threshold on a
+    feasible cell (the step is planned with the lift held there, see :func:`map_regions`), else None."""
+    held = start_torso(ctx)
+    if held is None:
+        return None
+    region = _regions(ctx, [o for o in ctx.problems.options(i) if o.torso == held])
+    return held if region.masks.any() else None
+
+
+def _regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
+    nav = ctx.world.nav
     groups = sorted({(o.arm, o.candidate.grasp) for o in opts}, key=lambda g: (g[0], str(g[1])))
     index = {g: k for k, g in enumerate(groups)}
     masks = np.zeros((len(groups), *nav.shape), dtype=bool)
@@ -358,6 +381,7 @@ __all__ = [
     "cheapest",
     "conflicts",
     "forward",
+    "held_torso",
     "linked_steps",
     "map_regions",
     "regroup",

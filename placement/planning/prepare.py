@@ -18,6 +18,7 @@ from placement.planning.option import Option
 from placement.planning.problems import StepProblems
 from placement.planning.ranking import rank_by_cost
 from placement.planning.steps import step_candidates
+from placement.planning.torso import collisions_at, torso_value
 from placement.robots import Robot
 from placement.scene.navgrid import NavGrid, Window
 
@@ -51,7 +52,7 @@ def prefetch_slices(problems: StepProblems) -> None:
     slices (the IK starts there)."""
     for step in problems.steps:
         for cand in step_candidates(problems.scene, step, problems.config, problems.opening_m):
-            for rmap in problems.maps.values():
+            for rmap in (m for views in problems.variants.values() for m in views):
                 for key in pose_slices(rmap, cand.poses):
                     rmap.slice(*key)
                     rmap.witness_slice(*key)
@@ -64,5 +65,7 @@ def warm_checks(ctx: PlanningContext) -> None:
     for arm, rmap in ctx.maps.items():
         a = robot.arm(arm)
         rmap.witness_q(robot.tcp_pose(arm, a.home))
-        if ctx.collisions is not None:
-            ctx.collisions.check(arm, np.asarray(a.home, dtype=float)[None], ctx.scene.start)
+        for view in ctx.problems.variants[arm]:  # one collision check per torso setting
+            checker = collisions_at(ctx, torso_value(view))
+            if checker is not None:
+                checker.check(arm, np.asarray(a.home, dtype=float)[None], ctx.scene.start)

@@ -69,9 +69,9 @@ class StepProblems:
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
         #: (region kind, start cell) -> the task's least travel [m] (see placement.planning.bound)
         self.bounds: dict[tuple[str, tuple[int, int]], float] = {}
-        #: (step, flat cell, (arm, grasp)) -> what the whole-task methods' verification found
-        #: there (a ``Verified``, or None: rejected)
-        self.verdicts: dict[tuple[int, int, tuple[str, str | None]], Any] = {}
+        #: (step, flat cell, (arm, grasp), torso value held or None) -> what the whole-task methods'
+        #: verification found there (a ``Verified``, or None: rejected)
+        self.verdicts: dict[tuple[int, int, tuple[str, str | None], float | None], Any] = {}
 
     def map_for(self, arm: str, torso: float | None) -> ReachabilityMap:
         """``arm``'s map (view) at torso value ``torso`` [m] (None: the map without a torso record)."""

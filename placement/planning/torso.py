@@ -14,9 +14,10 @@ options at the torso value the robot holds first (no motion), then the others, n
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from placement.maps.rmap import ReachabilityMap
+from placement.maps.torso import TorsoSettings
 from placement.robots import Robot
 
 if TYPE_CHECKING:
@@ -25,10 +26,10 @@ if TYPE_CHECKING:
     from placement.planning.option import Option
 
 
-def torso_record(rmap: ReachabilityMap) -> Any:
-    """The map's torso record (``TorsoSettings``: joint, values [m], reference [m], shift, velocity
-    [m/s]), or None for a map built at one torso value."""
-    return getattr(rmap, "torso", None)
+def torso_record(rmap: ReachabilityMap) -> TorsoSettings | None:
+    """The map's torso record (joint, values [m], reference [m], shift, velocity [m/s]), or None for
+    a map built at one torso value."""
+    return rmap.torso
 
 
 def map_variants(maps: Mapping[str, ReachabilityMap]) -> dict[str, tuple[ReachabilityMap, ...]]:
@@ -42,13 +43,13 @@ def map_variants(maps: Mapping[str, ReachabilityMap]) -> dict[str, tuple[Reachab
 
 def torso_value(rmap: ReachabilityMap) -> float | None:
     """The torso value [m] a map (view) stands for; None for a map without a torso record."""
-    value = getattr(rmap, "torso_value", None)
-    return None if value is None or torso_record(rmap) is None else float(value)
+    value = rmap.torso_value
+    return None if value is None else float(value)
 
 
 def torso_joint(maps: Mapping[str, ReachabilityMap]) -> str | None:
     """The joint the maps' torso records move (the same on every arm), or None."""
-    joints = {torso_record(m).joint for m in maps.values() if torso_record(m) is not None}
+    joints = {record.joint for m in maps.values() if (record := torso_record(m)) is not None}
     return next(iter(joints)) if len(joints) == 1 else None
 
 

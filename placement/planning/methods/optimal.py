@@ -43,7 +43,7 @@ from dataclasses import replace
 import numpy as np
 
 from placement.planning.arrays import Cell
-from placement.planning.bound import Chain, Group, Layer, Program, Regions, linked_steps, map_regions
+from placement.planning.bound import Chain, Group, Layer, Program, Regions, held_torso, linked_steps, map_regions
 from placement.planning.context import PlanningContext
 from placement.planning.explain import explain
 from placement.planning.methods.base import Method
@@ -52,7 +52,7 @@ from placement.planning.methods.repair import Verified, repair
 from placement.planning.navigation import extract_path, navigation_cost
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import collision_args
-from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first
+from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first, torso_joint
 from placement.planning.verify import trajectory_ik
 
 log = logging.getLogger(__name__)
@@ -67,14 +67,17 @@ class DynamicProgram:
         self.exact_repairs = exact_repairs
         steps = ctx.problems.steps
         self.linked = linked_steps(ctx)
-        self.full = [map_regions(ctx, i) for i in range(len(steps))]
+        #: per step, the torso value [m] its region and verification hold the lift at (None: any)
+        self.hold = [held_torso(ctx, i) for i in range(len(steps))]
+        self.full = [map_regions(ctx, i, hold_lift=True) for i in range(len(steps))]
         self.regions = [reweighted(ctx, i, r) for i, r in enumerate(self.full)]
         w = ctx.world
         self.program = Program(w.factor, w.feasible, w.nav.resolution, start, self.linked)
         # what verification found, kept by the planner's per-step cache: a later plan of the same
         # scene replays the same program with the IK answers looked up (same plan, without the IK
         # time); the cache of a changed scene starts empty
-        self.verified: dict[tuple[int, int, Group], Verified | None] = ctx.problems.verdicts
+        #: (step, flat cell, group, the torso value held or None) -> what verification found
+        self.verified: dict[tuple[int, int, Group, float | None], Verified | None] = ctx.problems.verdicts
         self.repairs = 0
         self.rejected = [0] * len(steps)
         #: a rejection took its neighbours with it (see :meth:`exact_again`)
@@ -105,7 +108,7 @@ class DynamicProgram:
         """The first of step i's options of group g at ``flat`` that passes IK and the collision check
         (by map value; with torso settings, those at the torso value the robot holds (:attr:`torso`)
         first, see :mod:`placement.planning.torso`)."""
-        key = (i, flat, self.regions[i].groups[g])
+        key = (i, flat, self.regions[i].groups[g], self.hold[i])
         if key in self.verified:
             return self.verified[key]
         ctx = self.ctx
@@ -119,7 +122,12 @@ class DynamicProgram:
             (k for k, o in enumerate(opts) if (o.arm, o.candidate.grasp) == group),
             key=lambda k: -opts[k].value_at(iy, ix),
         )
-        order = [k for k in order if opts[k].value_at(iy, ix) >= ctx.threshold(opts[k].arm)]
+        hold = self.hold[i]
+        order = [
+            k
+            for k in order
+            if opts[k].value_at(iy, ix) >= ctx.threshold(opts[k].arm) and (hold is None or opts[k].torso == hold)
+        ]
         found = None
         for k in torso_first(opts, order, self.torso):
             o = opts[k]
@@ -156,13 +164,21 @@ class DynamicProgram:
             self.rejected[i] += 1
             self.repairs += 1
 
+    def release_lift(self) -> Chain | None:
+        """Solve again over every torso setting of every step (none held, see
+        :func:`~placement.planning.bound.map_regions`), keeping only the rejections made so."""
+        steps = range(len(self.hold))
+        self.hold = [None for _ in steps]
+        self.full = [map_regions(self.ctx, i) for i in steps]
+        return self.exact_again()
+
     def exact_again(self) -> Chain | None:
         """Solve again over the maps' regions less only the placements verification rejected, never
         removing neighbours again (when removing them left no chain)."""
         self.exact_repairs, self.coarse = None, False
         self.regions = [reweighted(self.ctx, i, r) for i, r in enumerate(self.full)]
-        for (i, flat, group), v in self.verified.items():
-            if v is None and i < len(self.full) and group in self.full[i].groups:
+        for (i, flat, group, hold), v in self.verified.items():
+            if v is None and hold == self.hold[i] and i < len(self.full) and group in self.full[i].groups:
                 self.remove(i, flat, self.full[i].groups.index(group), count=False)
         return self.solve()
 
@@ -207,6 +223,9 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
         if chain is None and dp.coarse:
             # the neighbourhoods took every chain away: back to removing only what was rejected
             chain = dp.exact_again()
+            continue
+        if chain is None and any(h is not None for h in dp.hold):
+            chain = dp.release_lift()  # no plan with the lift held: every step may move it
             continue
         if chain is None:
             return None, [], why_not(ctx, dp)
@@ -268,8 +287,13 @@ def plan_dynamic(
     dp = DynamicProgram(ctx, start, neighbourhood, exact_repairs)
     dp.local = dp.program.lazy = local
     chain, picks, failure = solve_verified(dp)
-    if ctx.config.optimal_manipulability_weight <= 0 and math.isfinite(dp.first_total):
+    if (
+        ctx.config.optimal_manipulability_weight <= 0
+        and math.isfinite(dp.first_total)
+        and torso_joint(ctx.maps) is None
+    ):
         # the first program over the maps' regions is the plan's lower bound: kept, not solved again
+        # (not with torso settings: the program held the lift, the bound takes every setting)
         ctx.problems.bounds[("maps", start)] = dp.first_total
     if failure is not None or chain is None:
         return [failure] if failure is not None else []
