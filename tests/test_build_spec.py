@@ -45,7 +45,7 @@ def test_the_default_spec_file():
         index="isotropy",
         format="zarr",
         completion=True,
-        torso=TorsoSpec("torso_lift_joint", (0.0, 0.1, 0.2, 0.31)),
+        torso=TorsoSpec("torso_lift_joint", (0.0, 0.15, 0.31)),
     )
     coarse = load_build_spec(ROOT / "maps" / "pr2-10cm.yaml")
     assert coarse.resolution == 0.1 and coarse.samples == 150_000_000 and not coarse.completion

@@ -301,7 +301,7 @@ def markdown(ground: Ground, result: Sweep, every: int = 2) -> str:
         f"## {result.robot}: {result.scene}",
         "",
         f"`{ground.joint}` swept over {result.values[0]:.2f} .. {result.values[-1]:.2f} {unit} by {STEP_M} {unit} "
-        f"({len(result.values)} values; the table shows every {every}th); a cell is `yes` when some base on the "
+        f"({len(result.values)} values; the table shows one in {every}); a cell is `yes` when some base on the "
         f"{ground.world.nav.resolution} m grid, at one of {len(ground.yaws)} yaws, does the step with some grasp "
         f"and arm (IK and collision check verified; no maps). {result.seconds:.0f} s; "
         f"{ground.capped} searches stopped at {ground.cap} IK tries.",
