@@ -51,10 +51,12 @@ class ReachabilityMap:
     """One arm's map, opened lazily: slices are read on first use and cached.
 
     Attributes:
-        path: where the map lives; arm: arm name; meta: the arm's metadata (as stored);
-        grid: the 6D :class:`Grid` this object answers on (for a torso view, the stored grid moved with
-        the lift); stored_grid: the grid as stored (the reference lift setting); robot: the
-        :class:`Robot` it was validated against (None if opened without :func:`open_map`).
+        path: where the map lives.
+        arm: arm name.
+        meta: the arm's metadata (as stored).
+        grid: the 6D :class:`Grid` this object answers on (a torso view's: the stored grid moved with the lift).
+        stored_grid: the grid as stored (at the reference lift setting).
+        robot: the :class:`Robot` it was validated against (None if opened without :func:`open_map`).
     """
 
     def __init__(
@@ -72,7 +74,8 @@ class ReachabilityMap:
         self.arm = arm
         self.robot = robot
         self.meta = store.arm_meta(arm)
-        self.stored_grid = self.grid = Grid.from_dict(self.meta["grid"])
+        self.stored_grid = Grid.from_dict(self.meta["grid"])
+        self.grid = self.stored_grid
         self._torso = settings_from_meta(self.meta)
         self._torso_value = None if self._torso is None else self._torso.reference
         if self._torso is not None and torso_value is not None:
