@@ -165,11 +165,14 @@ class DynamicProgram:
             self.repairs += 1
 
     def release_lift(self) -> Chain | None:
-        """Solve again over every torso setting of every step (none held, see
-        :func:`~placement.planning.bound.map_regions`), keeping only the rejections made so."""
-        steps = range(len(self.hold))
-        self.hold = [None for _ in steps]
-        self.full = [map_regions(self.ctx, i) for i in steps]
+        """Solve again with the lift free (every torso setting, see
+        :func:`~placement.planning.bound.map_regions`) at the first step no chain reaches when that
+        step held it, else at every step; the rejections made with the lift held stay removed."""
+        i = next((k for k, layer in enumerate(self.layers) if not np.isfinite(layer.labels).any()), None)
+        free = [i] if i is not None and self.hold[i] is not None else range(len(self.hold))
+        for k in free:
+            self.hold[k] = None
+            self.full[k] = map_regions(self.ctx, k)
         return self.exact_again()
 
     def exact_again(self) -> Chain | None:
@@ -225,7 +228,7 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
             chain = dp.exact_again()
             continue
         if chain is None and any(h is not None for h in dp.hold):
-            chain = dp.release_lift()  # no plan with the lift held: every step may move it
+            chain = dp.release_lift()  # no plan with the lift held: the first step none reaches may move it
             continue
         if chain is None:
             return None, [], why_not(ctx, dp)
