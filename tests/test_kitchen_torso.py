@@ -1,7 +1,8 @@
 """tools/kitchen_torso.py, the map-free ground truth of which torso heights serve which steps: the two
-kitchen scenes parse; a shelf step and a low-table step of the PR2 scene are served at one end of the
-torso's range and not at the other; the reach bound it prunes with never rejects a configuration
-forward kinematics reaches, and its kinematics equal pinocchio's."""
+kitchen scenes parse and their start poses leave room for the base; a shelf step and a low-table step
+of each scene (PR2, TIAGo) are served at one end of the torso's range and not at the other; the reach
+bound it prunes with never rejects a configuration forward kinematics reaches, and its kinematics equal
+pinocchio's."""
 
 from __future__ import annotations
 
@@ -38,6 +39,11 @@ def pr2() -> Ground:
     return Ground(PR2_SCENE)
 
 
+@pytest.fixture(scope="module")
+def tiago() -> Ground:
+    return Ground(TIAGO_SCENE)
+
+
 def step_of(ground: Ground, action: str, target: str) -> int:
     return next(s.index for s in ground.steps if s.action == action and s.target == target)
 
@@ -53,6 +59,30 @@ def test_a_low_table_pick_needs_the_torso_down(pr2):
     i = step_of(pr2, "place", "low_table_spot")
     assert pr2.placement(i, 0.0, ["top"]) is not None
     assert pr2.placement(i, 0.31) is None
+
+
+@pytest.mark.parametrize("which", ["pr2", "tiago"])
+def test_the_start_pose_leaves_room_for_the_base(which, request):
+    # the planner refuses a start whose footprint (plus its padding) touches an obstacle
+    ground = request.getfixturevalue(which)
+    x, y, yaw = ground.scene.start
+    assert ground.world.pose_clear(x, y, yaw)
+    assert ground.world.feasible[ground.world.nav.cell(x, y)]
+
+
+def test_a_tiago_shelf_pick_needs_the_torso_up(tiago):
+    # the sweep (docs/bench/kitchen_torso.md) serves it from 0.25 m: only side grasps clear the board
+    i = step_of(tiago, "pick", "shelf_cup")
+    found = tiago.placement(i, 0.30)
+    assert found is not None and found.grasp is not None and found.grasp.startswith("side")
+    assert tiago.placement(i, 0.0) is None
+
+
+def test_a_tiago_low_table_place_needs_the_torso_down(tiago):
+    # the sweep serves it up to 0.20 m: 0.6 m inside the table's edges, 0.3 m high
+    i = step_of(tiago, "place", "low_table_spot")
+    assert tiago.placement(i, 0.0) is not None
+    assert tiago.placement(i, 0.35) is None
 
 
 @pytest.mark.parametrize("preset", ["pr2", "examples/robots/tiago.yaml"])
