@@ -48,17 +48,24 @@ def step_of(ground: Ground, action: str, target: str) -> int:
     return next(s.index for s in ground.steps if s.action == action and s.target == target)
 
 
-def test_a_shelf_pick_needs_the_torso_up(pr2):
-    i = step_of(pr2, "pick", "shelf_cup")
-    found = pr2.placement(i, 0.31)
+# the sweeps (docs/bench/kitchen_torso.md) serve the shelf pick from 0.24 m (PR2) and 0.25 m (TIAGo),
+# only with side grasps (they clear the board), and the low-table place up to 0.20 m
+@pytest.mark.parametrize(("which", "up"), [("pr2", 0.31), ("tiago", 0.30)])
+def test_a_shelf_pick_needs_the_torso_up(which, up, request):
+    ground = request.getfixturevalue(which)
+    i = step_of(ground, "pick", "shelf_cup")
+    found = ground.placement(i, up)
     assert found is not None and found.grasp is not None and found.grasp.startswith("side")
-    assert pr2.placement(i, 0.0) is None
+    assert ground.placement(i, 0.0) is None
 
 
-def test_a_low_table_pick_needs_the_torso_down(pr2):
-    i = step_of(pr2, "place", "low_table_spot")
-    assert pr2.placement(i, 0.0, ["top"]) is not None
-    assert pr2.placement(i, 0.31) is None
+# (scene, the lift's upper limit [m], the grasps tried at 0 (None: all))
+@pytest.mark.parametrize(("which", "top", "grasps"), [("pr2", 0.31, ["top"]), ("tiago", 0.35, None)])
+def test_a_low_table_place_needs_the_torso_down(which, top, grasps, request):
+    ground = request.getfixturevalue(which)
+    i = step_of(ground, "place", "low_table_spot")
+    assert ground.placement(i, 0.0, grasps) is not None
+    assert ground.placement(i, top) is None
 
 
 @pytest.mark.parametrize("which", ["pr2", "tiago"])
@@ -68,21 +75,6 @@ def test_the_start_pose_leaves_room_for_the_base(which, request):
     x, y, yaw = ground.scene.start
     assert ground.world.pose_clear(x, y, yaw)
     assert ground.world.feasible[ground.world.nav.cell(x, y)]
-
-
-def test_a_tiago_shelf_pick_needs_the_torso_up(tiago):
-    # the sweep (docs/bench/kitchen_torso.md) serves it from 0.25 m: only side grasps clear the board
-    i = step_of(tiago, "pick", "shelf_cup")
-    found = tiago.placement(i, 0.30)
-    assert found is not None and found.grasp is not None and found.grasp.startswith("side")
-    assert tiago.placement(i, 0.0) is None
-
-
-def test_a_tiago_low_table_place_needs_the_torso_down(tiago):
-    # the sweep serves it up to 0.20 m: 0.6 m inside the table's edges, 0.3 m high
-    i = step_of(tiago, "place", "low_table_spot")
-    assert tiago.placement(i, 0.0) is not None
-    assert tiago.placement(i, 0.35) is None
 
 
 @pytest.mark.parametrize("preset", ["pr2", "examples/robots/tiago.yaml"])
