@@ -96,9 +96,8 @@ def map_regions(ctx: PlanningContext, i: int, hold_lift: bool = False) -> Region
     price the lift's motion (a PR2's lift takes 24 s end to end), so the whole-task methods move it
     only for a step the maps do not serve at the held value.
     """
-    opts = ctx.problems.options(i)
     held = held_torso(ctx, i) if hold_lift else None
-    return _regions(ctx, opts if held is None else [o for o in opts if o.torso == held])
+    return _regions(ctx, ctx.problems.options(i) if held is None else ctx.problems.held_options(i, held))
 
 
 def held_torso(ctx: PlanningContext, i: int) -> float | None:
@@ -107,7 +106,7 @@ def held_torso(ctx: PlanningContext, i: int) -> float | None:
     held = start_torso(ctx)
     if held is None:
         return None
-    region = _regions(ctx, [o for o in ctx.problems.options(i) if o.torso == held])
+    region = _regions(ctx, ctx.problems.held_options(i, held))
     return held if region.masks.any() else None
 
 

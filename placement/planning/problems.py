@@ -63,7 +63,13 @@ class StepProblems:
         self.steps: list[Step] = task_steps(scene)
         #: arm -> its map at each torso setting (one map without a torso record)
         self.variants = map_variants(maps)
+        #: the torso values [m] of the maps' settings, ascending ([None] without torso records)
+        self.settings: list[float | None] = sorted(
+            {torso_value(m) for ms in self.variants.values() for m in ms}, key=lambda t: -1.0 if t is None else t
+        )
         self._options: dict[int, list[Option]] = {}
+        # (step, torso value [m]) -> the options at that lift setting alone (see held_options)
+        self._held: dict[tuple[int, float], list[Option]] = {}
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
@@ -90,16 +96,33 @@ class StepProblems:
             if i in self._stale:
                 opts, was = self._stale.pop(i)
                 self._options[i] = refreshed_options(opts, self.map_for, self.yaws, was, self.world)
-            else:
+            elif self.settings == [None]:
                 self._options[i] = self._compute_options(self.steps[i])
+            else:  # setting by setting: the blocks already given by held_options are reused
+                self._options[i] = [o for t in self.settings if t is not None for o in self.held_options(i, t)]
         return self._options[i]
 
-    def _compute_options(self, step: Step) -> list[Option]:
+    def held_options(self, i: int, torso: float) -> list[Option]:
+        """Step i's options at torso value ``torso`` [m] alone (cached; the whole-task methods plan a
+        step with the lift held without the inverse maps of the other settings). Once given, the same
+        list is given again (verdicts index into it)."""
+        key = (i, torso)
+        if key not in self._held:
+            if i in self._options or i in self._stale:
+                self._held[key] = [o for o in self.options(i) if o.torso == torso]
+            else:
+                self._held[key] = self._compute_options(self.steps[i], torso)
+        return self._held[key]
+
+    def _compute_options(self, step: Step, torso: float | None = None) -> list[Option]:
+        """The options of ``step`` for every arm and candidate, at every lift setting (``torso``: at
+        that torso value [m] only)."""
         nav = self.world.nav
         opts = []
         near: dict[Reach, tuple[IntArray, MaskArray]] = {}  # candidates of a step share their target position
         candidates = step_candidates(self.scene, step, self.config, self.opening_m)
-        for arm, rmap in ((a, m) for a, ms in self.variants.items() for m in ms):
+        views = ((a, m) for a, ms in self.variants.items() for m in ms)
+        for arm, rmap in ((a, m) for a, m in views if torso is None or torso_value(m) == torso):
             lo, hi = height_range(rmap)
             by_cells: dict[Reach, list[Candidate]] = {}  # candidates of a step share their target position
             for cand in candidates:
@@ -174,6 +197,7 @@ class StepProblems:
             new._stale.update({i: (o, self.world) for i, o in kept.items()})
         else:
             new._options = kept
+            new._held = {k: v for k, v in self._held.items() if k[0] not in moved}
             # step i's heuristic reads step i's regions and stops once step i - 1's cells are settled
             stale = moved | {i + 1 for i in moved}
             new._heuristic = {k: h for k, h in self._heuristic.items() if k[0] not in stale}

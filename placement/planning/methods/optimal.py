@@ -50,6 +50,7 @@ from placement.planning.methods.base import Method
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
 from placement.planning.methods.repair import Verified, repair
 from placement.planning.navigation import extract_path, navigation_cost
+from placement.planning.option import Option
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import collision_args
 from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first, torso_joint
@@ -117,7 +118,7 @@ class DynamicProgram:
         xs, ys = nav.centres()
         step = ctx.problems.steps[i]
         group = self.regions[i].groups[g]
-        opts = ctx.problems.options(i)
+        opts = self.options(i)
         order = sorted(
             (k for k, o in enumerate(opts) if (o.arm, o.candidate.grasp) == group),
             key=lambda k: -opts[k].value_at(iy, ix),
@@ -163,6 +164,11 @@ class DynamicProgram:
         if count:
             self.rejected[i] += 1
             self.repairs += 1
+
+    def options(self, i: int) -> list[Option]:
+        """The options step i is verified with: those at the held lift value, or all of them."""
+        hold = self.hold[i]
+        return self.ctx.problems.options(i) if hold is None else self.ctx.problems.held_options(i, hold)
 
     def release_lift(self) -> Chain | None:
         """Solve again with the lift free (every torso setting, see
@@ -250,7 +256,7 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
                 failed.append((i, flat, g))
                 continue
             picks.append(v)
-            chosen = ctx.problems.options(i)[v.option]
+            chosen = dp.options(i)[v.option]
             q_state[chosen.arm] = v.ik.q
             dp.torso = chosen.torso if chosen.torso is not None else dp.torso
         if not failed:
@@ -325,7 +331,7 @@ def results(
     prev_label, prev_cell = 0.0, start
     for i, (flat, g, v) in enumerate(zip(chain.cells, chain.groups, picks)):
         step = ctx.problems.steps[i]
-        o = ctx.problems.options(i)[v.option]
+        o = dp.options(i)[v.option]
         iy, ix = divmod(flat, nav.shape[1])
         node = dp.regions[i].node
         travel = max(chain.labels[i] - prev_label - (0.0 if node is None else float(node[g].flat[flat])), 0.0)
