@@ -4,7 +4,7 @@ PY ?= .venv/bin/python
 # (placement/__init__.py), so .venv/bin/placement finds what `make install` compiled; same place here.
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 
-.PHONY: install constraints lint test coverage maps maps-armar6 demo bench bench-eval eval robots clean docs
+.PHONY: install constraints lint test coverage maps maps-armar6 maps-tiago demo bench bench-kitchen bench-eval eval robots clean docs
 
 install: .venv/installed $(NUMBA_CACHE_DIR)/warm
 
@@ -74,6 +74,17 @@ maps/armar6/zarr.json:
 demo: install maps/pr2/zarr.json
 	.venv/bin/placement query examples/table_clearing.yaml --plot demo-plots
 	.venv/bin/placement query examples/kitchen.yaml --plot demo-plots/kitchen
+
+# TIAGo (unedited `robots init` preset) with its lift settings, for the torso kitchen.
+maps-tiago: install
+	$(PY) -m placement.cli.main maps build --spec maps/tiago.yaml --out maps/tiago
+
+maps/tiago/zarr.json:
+	$(MAKE) maps-tiago
+
+# The torso kitchens (high shelf, low table) planned by PR2 and TIAGo: docs/bench/kitchen_plan.md.
+bench-kitchen: install maps/pr2/zarr.json maps/tiago/zarr.json
+	$(PY) tools/bench_kitchen.py examples/kitchen_torso.yaml examples/kitchen_torso_tiago.yaml
 
 bench: install maps/pr2/zarr.json maps/armar6/zarr.json
 	$(PY) tools/bench.py
