@@ -26,7 +26,7 @@ from placement.planning.manipulation import cells_within, manipulation_maps, pos
 from placement.planning.option import Option, height_range
 from placement.planning.refresh import refreshed_options
 from placement.planning.steps import Step, step_candidates, task_steps
-from placement.planning.torso import map_variants, torso_value
+from placement.planning.variants import map_variants, torso_value
 from placement.planning.world import World
 from placement.scene import Scene
 from placement.scene.navgrid import Window

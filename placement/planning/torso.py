@@ -17,34 +17,13 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from placement.maps.rmap import ReachabilityMap
-from placement.maps.torso import TorsoSettings
+from placement.planning.variants import map_variants, torso_record, torso_value
 from placement.robots import Robot
 
 if TYPE_CHECKING:
     from placement.collision import SceneCollision
     from placement.planning.context import PlanningContext
     from placement.planning.option import Option
-
-
-def torso_record(rmap: ReachabilityMap) -> TorsoSettings | None:
-    """The map's torso record (joint, values [m], reference [m], shift, velocity [m/s]), or None for
-    a map built at one torso value."""
-    return rmap.torso
-
-
-def map_variants(maps: Mapping[str, ReachabilityMap]) -> dict[str, tuple[ReachabilityMap, ...]]:
-    """arm -> its map at every torso setting of its record (the map alone without one)."""
-    out: dict[str, tuple[ReachabilityMap, ...]] = {}
-    for arm, rmap in maps.items():
-        record = torso_record(rmap)
-        out[arm] = (rmap,) if record is None else tuple(rmap.at_torso(float(v)) for v in record.values)
-    return out
-
-
-def torso_value(rmap: ReachabilityMap) -> float | None:
-    """The torso value [m] a map (view) stands for; None for a map without a torso record."""
-    value = rmap.torso_value
-    return None if value is None else float(value)
 
 
 def torso_joint(maps: Mapping[str, ReachabilityMap]) -> str | None:
