@@ -136,3 +136,24 @@ def test_ranking_adds_the_lift_time_as_travel(tmp_path, torso_maps):
     assert out == sorted([Ranked(2.0, 0, 0, 0.0), moved])
     assert torso_ranked(ctx, opts, ranked, 0.15, fixed=True) == ranked
     assert torso_ranked(ctx, opts, ranked, None, fixed=False) == ranked
+
+
+def test_an_update_reaches_the_lift_settings_collision_checks(tmp_path, torso_maps, pr2):
+    """A crate added on a live planner is in the collision check of every lift setting used so far, and
+    the re-planned task still holds (FK at each step's lift value, independent verify)."""
+    from placement.planning.torso import collisions_at
+
+    planner = Planner(_high_scene(tmp_path, torso_maps))
+    planner.plan()
+    ctx = planner.context
+    raised = collisions_at(ctx, 0.31)
+    assert raised is not None and raised is not ctx.collisions
+    planner.update(
+        {"obstacles": {"add": [{"name": "crate", "box": {"center": [4.5, 1.0, 0.3], "size": [0.4, 0.4, 0.6]}}]}}
+    )
+    assert collisions_at(planner.context, 0.31) is raised  # the same checker, updated
+    assert "crate" in {s.name for s in raised.shapes}
+    result = planner.plan()
+    _fk_at_step_torso(result, pr2)
+    assert result.steps[0].joints[LIFT] == 0.31
+    assert result.verify(pr2) == []
