@@ -36,7 +36,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from placement.errors import PlacementError  # noqa: E402
-from placement.robots import load_robot  # noqa: E402
+from placement.maps.buildspec import TorsoSpec  # noqa: E402
+from placement.maps.torso import check_torso  # noqa: E402
+from placement.robots import Robot, load_robot  # noqa: E402
 from placement.robots.onboarding.check import band_warnings, held_words  # noqa: E402
 from placement.robots.onboarding.propose import propose  # noqa: E402
 from placement.robots.onboarding.reach import APPROACHES, reach_band  # noqa: E402
@@ -81,6 +83,26 @@ bins: [20, 9, 20]
 index: isotropy
 format: zarr
 """
+
+
+def lift_key(robot: Robot) -> str:
+    """The build spec's ``torso`` line for the robot's lift: the first fixed joint that is a prismatic
+    lift carrying every arm (:func:`~placement.maps.torso.check_torso`), at its lower limit, its held
+    value (the middle of its range when that is a limit) and its upper limit [m]; "" when no fixed joint is one (every planned step holds the preset's)."""
+    for joint, held in robot.fixed_joints.items():
+        jm = robot.model.joints[robot.model.getJointId(joint)]
+        lo, hi = float(robot.model.lowerPositionLimit[jm.idx_q]), float(robot.model.upperPositionLimit[jm.idx_q])
+        chosen = {round(lo, 3), round(held, 3), round(hi, 3)}
+        if len(chosen) == 2:  # held at a limit: the middle too
+            chosen.add(round((lo + hi) / 2, 3))
+        values = tuple(sorted(chosen))
+        try:
+            check_torso(robot, robot.arms, TorsoSpec(joint, values))
+        except PlacementError:
+            continue
+        shown = ", ".join(f"{v:g}" for v in values)
+        return f"# the lift {joint} at its limits and held value [m]: chosen per step, no extra samples\ntorso: {{joint: {joint}, values: [{shown}]}}\n"
+    return ""
 
 
 def robot_urdf(name: str) -> Path:
@@ -214,7 +236,8 @@ def onboard(
     row["dof"] = ", ".join(str(len(robot.arm(a).joints)) for a in robot.arms)
     spec = root / "maps" / f"{name}.yaml"
     if not spec.exists():
-        spec.write_text(SPEC.format(name=name, arms=", ".join(robot.arms), samples=samples, millions=samples / 1e6))
+        text = SPEC.format(name=name, arms=", ".join(robot.arms), samples=samples, millions=samples / 1e6)
+        spec.write_text(text + lift_key(robot))
     out = root / "maps" / name
     row["build s"] = "-"
     if rebuild or not out.exists():
