@@ -87,3 +87,31 @@ def test_maps_are_found_beside_the_scene_from_any_directory(tmp_path, maps_dir):
 def test_unknown_option_and_command_are_one_line(tmp_path):
     assert_one_line_error(run("query", "x.yaml", "--method", "best"), "--method", "best")
     assert_one_line_error(run("frobnicate"), "frobnicate")
+
+
+def _step(i: int, lift: float) -> dict:
+    return {
+        "step": i,
+        "action": "pick",
+        "target": f"cup_{i}",
+        "arm": "right",
+        "grasp": "top",
+        "base": [1.0, 2.0, 0.5],
+        "joints": {"r_shoulder_pan_joint": 0.1, "torso_lift_joint": lift},
+        "configuration": {"fixed_joints": ["torso_lift_joint"]},
+        "manipulability": 0.05,
+        "cost": {"total": 0.1},
+        "travel_time_s": 1.0,
+        "timings_ms": {"total": 3.0},
+    }
+
+
+def test_the_table_shows_a_lift_the_plan_moves():
+    from placement.cli.query import _table
+
+    plan = {"scene": "s", "method": "global", "robot": {"name": "pr2"}, "steps": [_step(0, 0.31), _step(1, 0.0)]}
+    lines = _table(plan).splitlines()
+    assert "torso_lift_joint [m]" in lines[1]
+    assert lines[2].split()[8] == "0.310" and lines[3].split()[8] == "0.000"
+    held = {**plan, "steps": [_step(0, 0.15), _step(1, 0.15)]}
+    assert "torso_lift_joint" not in _table(held)

@@ -83,9 +83,19 @@ COLUMNS = (
 )
 
 
+def moved_joints(r: dict[str, Any]) -> list[str]:
+    """The fixed joints (a torso lift) whose value differs between the plan's planned steps."""
+    planned = [s for s in r["steps"] if s.get("status") != "infeasible" and s.get("configuration")]
+    names = planned[0]["configuration"]["fixed_joints"] if planned else []
+    return [j for j in names if len({s["joints"].get(j) for s in planned}) > 1]
+
+
 def _table(r: dict[str, Any]) -> str:
     """The plan as a text table whose columns fit their longest entry (names of any length line up);
-    an infeasible step's reason follows its target."""
+    an infeasible step's reason follows its target. A fixed joint the plan moves between steps (a
+    torso lift chosen per step) gets a column after the base pose."""
+    moved = moved_joints(r)
+    columns = COLUMNS[:8] + tuple((f"{j} [m]", ">") for j in moved) + COLUMNS[8:]
     rows: list[tuple[list[str], str | None]] = []
     for s in r["steps"]:
         head = [str(s["step"]), str(s["action"]), str(s["target"])]
@@ -102,6 +112,7 @@ def _table(r: dict[str, Any]) -> str:
                     f"{x:.3f}",
                     f"{y:.3f}",
                     f"{yaw:.3f}",
+                    *(f"{s['joints'][j]:.3f}" for j in moved),
                     f"{s['manipulability']:.4f}",
                     f"{s['cost']['total']:.3f}",
                     f"{s['travel_time_s']:.2f}",
@@ -111,16 +122,16 @@ def _table(r: dict[str, Any]) -> str:
             )
         )
     widths = [
-        max([len(name)] + [len(cells[i]) for cells, _ in rows if i < len(cells)]) for i, (name, _) in enumerate(COLUMNS)
+        max([len(name)] + [len(cells[i]) for cells, _ in rows if i < len(cells)]) for i, (name, _) in enumerate(columns)
     ]
 
     def line(cells: list[str], reason: str | None = None) -> str:
-        text = " ".join(f"{c:{a}{w}}" for c, (_, a), w in zip(cells, COLUMNS, widths))
+        text = " ".join(f"{c:{a}{w}}" for c, (_, a), w in zip(cells, columns, widths))
         return (f"{text} {reason}" if reason else text).rstrip()
 
     lines = [
         f"scene {r['scene']}  method {r['method']}  robot {r['robot']['name']}{certificate_words(r.get('certificate'))}",
-        line([n for n, _ in COLUMNS]),
+        line([n for n, _ in columns]),
     ]
     lines += [line(cells, reason) for cells, reason in rows]
     return "\n".join(lines)
