@@ -7,7 +7,10 @@ grid moved with the lift. Every step gets options at every setting (:class:`~pla
 check of an option run on the robot with the lift at the option's value.
 
 The torso moves while the base drives (the parallel model of the task time, SPEC section 8), so a
-torso change costs time only where it takes longer than the base's move. Verification tries the
+torso change costs time only where it takes longer than the base's move. The whole-task methods hold
+the lift at the preset's value on every step the maps serve there (their program prices travel, not
+the lift; see :func:`placement.planning.bound.map_regions`); the step-by-step methods add the lift's
+time to Eq. 6 (:func:`placement.planning.methods.stepwise.torso_ranked`). Verification tries the
 options at the torso value the robot holds first (no motion), then the others, nearest first.
 """
 
