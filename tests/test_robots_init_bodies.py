@@ -147,13 +147,29 @@ def test_a_defined_base_frame_is_checked(tmp_path):
         assert words in str(err.value) and "\n" not in str(err.value), case
 
 
-@pytest.mark.parametrize("preset", ["pr2", "examples/robots/tiago.yaml", "examples/robots/talos_reduced.yaml"])
-def test_existing_presets_keep_their_base_frames(preset):
+@pytest.mark.parametrize(
+    "preset, parent",
+    [
+        ("pr2", None),
+        ("examples/robots/tiago.yaml", None),
+        # a humanoid has no floor frame no joint moves: init defines the pelvis projected to the floor
+        ("examples/robots/talos_reduced.yaml", "base_link"),
+        ("examples/robots/romeo.yaml", "base_link"),
+    ],
+)
+def test_presets_base_frames_are_still_and_on_the_floor(preset, parent):
     from pathlib import Path
 
     path = preset if preset == "pr2" else Path(__file__).resolve().parents[1] / preset
     r = placement.load_robot(path)
-    assert r.base_frame_parent is None and r.model.existFrame(r.base_frame)
+    assert r.base_frame_parent == parent and r.model.existFrame(r.base_frame)
+    assert base_is_still(r)
+    if parent is not None:
+        # nothing below the defined frame (within 2 cm): it is on the floor
+        data = r.model.createData()
+        pin.framesForwardKinematics(r.model, data, r.reference_q())
+        z0 = data.oMf[r.base_frame_id].translation[2]
+        assert min(f.translation[2] for f in data.oMf) - z0 > -0.02
 
 
 def test_centauro(tmp_path):
