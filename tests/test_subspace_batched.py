@@ -2,7 +2,7 @@
 replaces in map builds (kernels/subspace.py, itself checked against numpy SVDs in
 test_rank_deficient.py): the same value bit for bit without a threshold, and with one the same
 decision (-1 exactly when the value is <= the threshold, else the same value), on random rank-deficient
-Jacobians with penalties and on the Jacobians of real rank-5 arms; its Jacobi eigenvectors against numpy."""
+Jacobians with penalties and on the Jacobians of real rank-5 arms; its inertia counts against numpy's eigenvalues."""
 
 from __future__ import annotations
 
@@ -14,9 +14,11 @@ from test_rank_deficient import random_penalties, random_rank_deficient, referen
 
 from placement.kernels.isotropy import W_ROWS
 from placement.kernels.kinematics import fk_jacobian_batch
-from placement.kernels.manipulability import ISOTROPY, joint_penalties
+from placement.kernels.manipulability import ISOTROPY, gram_table, joint_penalties
+from placement.kernels.octants import fill_grams
 from placement.kernels.subspace import subspace_manipulability
-from placement.kernels.subspace_batched import eigenvectors6, subspace_isotropy_batched
+from placement.kernels.subspace_batched import subspace_isotropy_batched
+from placement.kernels.subspace_inertia import ERROR_FACTOR, inertia
 from placement.kinematics.manipulability import ROTATION_SCALE
 
 
@@ -111,17 +113,37 @@ def test_real_rank5_arms(tmp_path, robot_name):
         agree(J, plo, phi, 5, rng)
 
 
-def test_jacobi_eigenvectors_against_numpy():
+def octant_grams(J, plo, phi):
+    """The 64 octant Gram matrices (64, 6, 6) of J straight from their definition, and their packing (21, 64)."""
+    n = J.shape[1]
+    P, G, Ag = np.empty((6, n, 2)), np.empty((6, 6, 2, 2)), np.empty((21, 64))
+    gram_table(J, plo, phi, np.ones((6, 2)), P, G)
+    fill_grams(G, Ag)
+    Js = np.array([[P[r, :, (s >> r) & 1] for r in range(6)] for s in range(64)])
+    return Js @ Js.transpose(0, 2, 1), Ag
+
+
+def test_inertia_counts_against_numpy():
+    """The negative pivots of A_s - c I are the eigenvalues below c wherever c is farther from every
+    eigenvalue than the error bound; and the bound is a small multiple of lambda_1 there."""
     rng = np.random.default_rng(3)
-    for _ in range(50):
-        J = random_rank_deficient(rng, 7, int(rng.integers(1, 7)))
-        S = J @ J.T
-        E, lam = np.empty((6, 6)), np.empty(6)
-        assert eigenvectors6(S.copy(), E, lam)
-        want = np.linalg.eigvalsh(S)[::-1]
-        np.testing.assert_allclose(lam, want, atol=1e-13 * want[0])
-        np.testing.assert_allclose(E.T @ E, np.eye(6), atol=1e-14)
-        np.testing.assert_allclose(E.T @ S @ E, np.diag(lam), atol=1e-13 * want[0])
+    checked = 0
+    for k in range(200):
+        n = int(rng.integers(4, 9))
+        J = random_rank_deficient(rng, n, int(rng.integers(1, 7)))
+        plo, phi = random_penalties(rng, n) if k % 2 else (np.ones(n), np.ones(n))
+        A, Ag = octant_grams(J, plo, phi)
+        lam = np.linalg.eigvalsh(A)  # (64, 6), ascending
+        # shifts at random eigenvalue ratios, at exact eigenvalues, and between two close ones
+        c = lam[:, -1] * 10.0 ** rng.uniform(-8, 0.1, 64)
+        c[::7] = lam[::7, int(rng.integers(0, 6))]
+        neg, err = np.empty(64), np.empty(64)
+        inertia(Ag, -c, neg, err)
+        below = (lam < c[:, None]).sum(axis=1)
+        clear = np.abs(lam - c[:, None]).min(axis=1) > ERROR_FACTOR * err
+        assert np.array_equal(neg[clear], below[clear]), k
+        checked += int(clear.sum())
+    assert checked > 0.8 * 200 * 64
 
 
 def test_witnesses_of_a_rank5_map_verify_with_the_recorded_rank(tmp_path):
@@ -142,3 +164,16 @@ def test_witnesses_of_a_rank5_map_verify_with_the_recorded_rank(tmp_path):
     wrong.meta = copy.deepcopy(built.meta)
     wrong.meta["measure"]["rank"] = 6
     assert verify_witnesses(robot, wrong, sample=300, seed=0)["mismatches"] == 300
+
+
+def test_inertia_module_is_generated():
+    """placement/kernels/subspace_inertia.py is exactly what tools/gen_subspace_inertia.py writes."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "tools" / "gen_subspace_inertia.py"
+    spec = importlib.util.spec_from_file_location("gen_subspace_inertia", path)
+    assert spec is not None and spec.loader is not None
+    gen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(gen)
+    assert gen.OUT.read_text() == gen.source(), "subspace_inertia.py is stale: run python tools/gen_subspace_inertia.py"
