@@ -153,6 +153,8 @@ def subspace_isotropy_batched(J, pen_lo, pen_hi, rowfac, rank, threshold, P, G, 
             best = v
             if best <= t:
                 return -1.0
-            if left > 1 and best > 0.0:
+            if best <= 0.0:
+                return best
+            if left > 1:
                 left = _prove_not_below(Ag, upper, best, rank, beta, neg, err, done)
     return best
