@@ -96,7 +96,7 @@ def _below(P, s, t2, A, L, z):
 
 
 @njit(cache=True)
-def _top_start(G, A, top, z):
+def top_start(G, A, top, z):
     """An approximate top eigenvector (6,) of octant 0 (A (6, 6), z (6,) scratch): the common power-step start."""
     octant_gram(G, 0, A)
     _largest_column(A, top)
@@ -154,7 +154,7 @@ def isotropy_batched(J, pen_lo, pen_hi, rowfac, threshold, P, G, Ag, W, A, B, de
     gram_from(P, G)
     fill_grams(G, Ag)
     rho, mu, flag, upper, beta, done = W[0], W[1], W[2], W[3], W[4], W[5]
-    _top_start(G, A, de[0], beta)
+    top_start(G, A, de[0], beta)
     lambda_max_lower(Ag, de[0], rho)
     if t > 0.0:
         for s in range(64):

@@ -27,7 +27,7 @@ import math
 
 from numba import njit
 
-from placement.kernels.isotropy import _top_start, proof_margin
+from placement.kernels.isotropy import proof_margin, top_start
 from placement.kernels.manipulability import gram_table, most_penalised_octant
 from placement.kernels.octants import fill_grams, lambda_max_lower, pd_flags, traces
 from placement.kernels.octants_refine import lambda_max_tight
@@ -119,7 +119,7 @@ def subspace_isotropy_batched(J, pen_lo, pen_hi, rowfac, rank, threshold, P, G, 
     lo, neg, err = Rg[0], Rg[1], Rg[2]
     fill_grams(G, Ag)
     top = de[1]
-    _top_start(G, A, top, de[0])
+    top_start(G, A, top, de[0])
     lambda_max_lower(Ag, top, rho)
     if t > 0.0 and _some_below(Ag, rho, t2, rank, beta, neg, err):
         return -1.0
