@@ -134,7 +134,9 @@ def test_ranking_adds_the_lift_time_as_travel(tmp_path, torso_maps):
     moved = Ranked(1.0 + rate * 0.16 / 0.013, 1, 0, 0.0)
     assert moved.cost > 1.0
     assert out == sorted([Ranked(2.0, 0, 0, 0.0), moved])
-    assert torso_ranked(ctx, opts, ranked, 0.15, fixed=True) == ranked
+    # fixed (and irm, lambda_n = 0): the placements at the lift's value first, each group in its order
+    assert torso_ranked(ctx, opts, ranked, 0.15, fixed=True) == [ranked[1], ranked[0]]
+    assert torso_ranked(ctx, opts, ranked, 0.31, fixed=True) == ranked
     assert torso_ranked(ctx, opts, ranked, None, fixed=False) == ranked
 
 

@@ -280,11 +280,16 @@ def torso_ranked(
 ) -> list[Ranked]:
     """``ranked`` with each option's torso motion from ``torso`` [m] added to its Eq. 6 cost as
     lambda_n x the metres the base drives at v_max meanwhile, re-sorted (unchanged without torso
-    settings, and for the ``fixed`` baseline, which ranks by manipulability alone)."""
-    if torso is None or fixed or all(o.torso is None for o in opts):
+    settings). The baselines that weigh no travel (``irm``: lambda_n = 0; ``fixed``, which ranks by
+    manipulability alone) keep their order among the placements at the lift's value and try the
+    others after them: they move the lift only for a step nothing at its value serves."""
+    if torso is None or all(o.torso is None for o in opts):
         return ranked
+    moves = [torso_seconds(ctx, torso, o.torso) for o in opts]
     rate = ctx.config.lambda_n * ctx.robot.v_max
-    extra = [rate * torso_seconds(ctx, torso, o.torso) for o in opts]
+    if fixed or rate <= 0:
+        return sorted(ranked, key=lambda r: moves[r.option] > 0)
+    extra = [rate * m for m in moves]
     out = [Ranked(r.cost + extra[r.option], r.option, r.cell, r.yaw) for r in ranked]
     out.sort(key=lambda r: (r.cost, r.option, r.cell, r.yaw))
     return out
