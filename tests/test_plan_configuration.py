@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from support.cli import run
+from support.fk import model_fk
 
 from placement.planning import Planner
 from placement.planning.config import PlannerConfig
@@ -60,12 +61,7 @@ def world_tcp(robot, doc_robot, arm, joints, base) -> np.ndarray:
     """(4, 4) world TCP by pinocchio FK: every joint of ``joints`` set by name, the base frame placed
     at ``base`` {x, y, yaw}, the tool offset of the plan document."""
     model = robot.model
-    q = pin.neutral(model)
-    for name, v in joints.items():
-        jm = model.joints[model.getJointId(name)]
-        q[jm.idx_q : jm.idx_q + jm.nq] = (math.cos(v), math.sin(v)) if jm.nq == 2 else (v,)
-    data = model.createData()
-    pin.framesForwardKinematics(model, data, q)
+    data = model_fk(robot, joints)
     B = np.eye(4)
     c, s = math.cos(base["yaw"]), math.sin(base["yaw"])
     B[:2, :2] = [[c, -s], [s, c]]

@@ -10,13 +10,13 @@ limits and velocity from the URDF's XML."""
 from __future__ import annotations
 
 import json
-import math
 import xml.etree.ElementTree as ET
 from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
 import pytest
+from support.fk import model_fk
 from support.robots import random_configs
 
 from placement.evaluation.tasktime import task_time
@@ -49,12 +49,7 @@ def fk_world_tcp(robot, arm: str, joints: dict[str, float], base) -> np.ndarray:
     """(4, 4) world TCP by pinocchio FK of the model with every joint of ``joints`` set by name (the
     rest neutral) and the base frame placed at ``base``."""
     model = robot.model
-    q = pin.neutral(model)
-    for name, v in joints.items():
-        jm = model.joints[model.getJointId(name)]
-        q[jm.idx_q : jm.idx_q + jm.nq] = (math.cos(v), math.sin(v)) if jm.nq == 2 else (v,)
-    data = model.createData()
-    pin.framesForwardKinematics(model, data, q)
+    data = model_fk(robot, joints)
     a = robot.arm(arm)
     root = base_matrix(*base) @ np.linalg.inv(data.oMf[robot.base_frame_id].homogeneous)
     return root @ data.oMf[model.getFrameId(a.tip_frame)].homogeneous @ a.tcp_offset

@@ -87,16 +87,18 @@ class Chain:
         return self.labels[-1] if self.labels else 0.0
 
 
-def map_regions(ctx: PlanningContext, i: int, hold_lift: bool = False) -> Regions:
+def map_regions(ctx: PlanningContext, i: int, hold_lift: bool = False, held: float | None = None) -> Regions:
     """Step i's region by the maps: per (arm, grasp) group the cells where one of its options keeps
     the threshold (the cells the map-based methods may stand on), at any torso setting.
 
     ``hold_lift``: only the options at the torso value the robot starts with (the preset's) when
     they keep the threshold on some feasible cell, all settings otherwise: the program does not
     price the lift's motion (a PR2's lift takes 24 s end to end), so the whole-task methods move it
-    only for a step the maps do not serve at the held value.
+    only for a step the maps do not serve at the held value. ``held``: that value [m] already found
+    by :func:`held_torso` (the options at it only; None: every setting).
     """
-    held = held_torso(ctx, i) if hold_lift else None
+    if hold_lift:
+        held = held_torso(ctx, i)
     return _regions(ctx, ctx.problems.options(i) if held is None else ctx.problems.held_options(i, held))
 
 

@@ -70,7 +70,7 @@ class DynamicProgram:
         self.linked = linked_steps(ctx)
         #: per step, the torso value [m] its region and verification hold the lift at (None: any)
         self.hold = [held_torso(ctx, i) for i in range(len(steps))]
-        self.full = [map_regions(ctx, i, hold_lift=True) for i in range(len(steps))]
+        self.full = [map_regions(ctx, i, held=h) for i, h in enumerate(self.hold)]
         self.regions = [reweighted(ctx, i, r) for i, r in enumerate(self.full)]
         w = ctx.world
         self.program = Program(w.factor, w.feasible, w.nav.resolution, start, self.linked)
