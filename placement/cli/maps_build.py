@@ -28,7 +28,9 @@ from placement.maps.buildspec import (
 )
 from placement.maps.rmap import MapOutput
 from placement.maps.torso import check_torso
+from placement.maps.torso_builds import build_torso_maps, built_seconds
 from placement.robots import load_robot
+from placement.storage.format import BuiltMap
 from placement.warmup import BUILD_COMPILE_S, announce_compilation
 
 if TYPE_CHECKING:
@@ -144,57 +146,75 @@ def build(
         raise PlacementError(f"build spec {spec_path}: arms: {exc}") from None
     for a in arms:
         build_grid(loaded, a, spec.resolution, spec.bins)
+    arrays = {a: [a] for a in arms}  # arm -> the stored arrays its build writes (one per torso setting)
     if spec.torso is not None:
-        check_torso(
-            loaded, arms, spec.torso, f"build spec {spec_path}: torso", spec.self_collision or spec.self_distance
-        )
+        where = f"build spec {spec_path}: torso"
+        for a, t in check_torso(loaded, arms, spec.torso, where, spec.self_collision or spec.self_distance).items():
+            arrays[a] += [name for name in t.arrays if name != a]
+            if t.shift is None:
+                n = len(t.allowed)
+                log.warning(
+                    "%s/%s: torso %s is a revolute joint: %d builds, one per setting (%s %s): the build takes "
+                    "%d times as long",
+                    loaded.name,
+                    a,
+                    t.joint,
+                    n,
+                    ", ".join(f"{v:g}" for v in t.allowed),
+                    t.unit,
+                    n,
+                )
     out_path = Path(out)
     if spec.format == "hdf5" and out_path.suffix not in (".h5", ".hdf5"):
         out_path = out_path.with_suffix(".h5")
-    with MapOutput(out_path, loaded, spec.format, arms, "--out") as output:  # proven writable, arms reserved
+    reserved = [name for a in arms for name in arrays[a]]
+    with MapOutput(out_path, loaded, spec.format, reserved, "--out") as output:  # proven writable, arms reserved
         client = dask_client(dask_address) if dask_address else None
         announce_compilation(BUILD_COMPILE_S)
-        built = {}
+        built: dict[str, BuiltMap] = {}
+        summary_arms: dict[str, dict[str, Any]] = {}
         for a in arms:
-            built[a] = m = build_map(
-                loaded,
-                a,
-                samples=spec.samples,
-                seed=spec.seed,
-                resolution=spec.resolution,
-                bins=spec.bins,
-                index=spec.index,
-                progress=not quiet,
-                client=client,
-                self_collision=spec.self_collision,
-                self_distance=spec.self_distance,
-                completion=spec.completion,
-                torso=spec.torso,
-            )
+            how: dict[str, Any] = {
+                "samples": spec.samples,
+                "seed": spec.seed,
+                "resolution": spec.resolution,
+                "bins": spec.bins,
+                "index": spec.index,
+                "progress": not quiet,
+                "client": client,
+                "self_collision": spec.self_collision,
+                "self_distance": spec.self_distance,
+                "completion": spec.completion,
+            }
+            if spec.torso is None:
+                maps = {a: build_map(loaded, a, **how)}
+            else:
+                maps = build_torso_maps(loaded, a, torso=spec.torso, **how)
+            built.update(maps)
+            m = maps[a]
             log.info(
-                "%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled",
+                "%s/%s: %d samples in %.1f s (%.0f samples/s), %d cells filled%s",
                 loaded.name,
                 a,
                 spec.samples,
-                m.meta["build_time_s"],
+                built_seconds(maps),
                 m.meta["samples_per_s"] or 0,
                 m.meta["filled_cells"],
+                f" at the reference; {len(maps)} builds, one per torso setting" if len(maps) > 1 else "",
             )
+            keys = ("samples", "seed", "build_time_s", "samples_per_s", "filled_cells", "max_value")
+            summary_arms[a] = {k: m.meta[k] for k in keys} | {
+                "builds": len(maps),
+                "build_time_s": round(built_seconds(maps), 3),
+            }
         output.save(built)
-    summary = {
-        "path": str(out_path),
-        "format": spec.format,
-        "robot": loaded.name,
-        "arms": {
-            a: {k: m.meta[k] for k in ("samples", "seed", "build_time_s", "samples_per_s", "filled_cells", "max_value")}
-            for a, m in built.items()
-        },
-    }
+    summary = {"path": str(out_path), "format": spec.format, "robot": loaded.name, "arms": summary_arms}
     emit(
         summary,
         as_json,
         lambda s: "\n".join(
             f"{s['path']}: {a} {v['samples']} samples, {v['build_time_s']} s, {v['filled_cells']} cells filled"
+            + (f" ({v['builds']} builds, one per torso setting)" if v["builds"] > 1 else "")
             for a, v in s["arms"].items()
         ),
     )

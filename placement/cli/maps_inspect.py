@@ -24,6 +24,7 @@ from placement.robots import Robot, load_robot
 from placement.storage import open_store
 from placement.storage.digest import DIGEST_KEY
 from placement.storage.format import CRC_KEY, WITNESS_CRC_KEY
+from placement.storage.schema import arm_arrays
 
 log = logging.getLogger("placement")
 
@@ -44,20 +45,27 @@ def info(path: str, robot: str | None, arm: str | None, as_json: bool, verbose: 
     setup_logging(verbose, quiet)
     store = open_store(path)
     check_root(Path(path), store.root)
-    stored = list(store.root.get("arms") or [])
+    stored = arm_arrays(list(store.root.get("arms") or []))  # a torso setting's array is read with its arm
     store.close()
     shown = [arm] if arm else stored
     root = {k: v for k, v in store.root.items() if k != DIGEST_KEY}
     out: dict[str, Any] = {"path": str(path), "size_bytes": _size(Path(path)), "root": root, "arms": {}}
     for a in dict.fromkeys([*shown, *stored]):  # the shown arm first: a wrong --arm fails before the reading
         rmap = open_map(path, a, robot)
-        with tqdm(
-            total=rmap.grid.shape[2], desc=f"info {a}", unit="layer", disable=_no_bars(quiet), leave=False
-        ) as bar:
-            stats = scan(rmap, progress=bar.update)  # reads and checks every chunk of the values and witnesses
+        t = rmap.torso
+        # one build per torso setting: every setting's map is read and checked like the arm's
+        views = [rmap] + ([rmap.at_torso(v) for v in t.values if v != t.reference] if t and t.shift is None else [])
+        found = []
+        for view in views:
+            label = a if view is rmap else f"{a} at {t.joint if t else ''}={view.torso_value:g}"
+            with tqdm(
+                total=view.grid.shape[2], desc=f"info {label}", unit="layer", disable=_no_bars(quiet), leave=False
+            ) as bar:
+                stats = scan(view, progress=bar.update)  # reads and checks every chunk of values and witnesses
+            meta = {k: v for k, v in view.meta.items() if k not in (CRC_KEY, WITNESS_CRC_KEY)}
+            found.append({"meta": meta, **stats} | ({} if view is rmap else {"array": view.array}))
         if a in shown:
-            meta = {k: v for k, v in rmap.meta.items() if k not in (CRC_KEY, WITNESS_CRC_KEY)}
-            out["arms"][a] = {"meta": meta, **stats}
+            out["arms"][a] = found[0] | ({"settings": found[1:]} if len(found) > 1 else {})
     emit(out, as_json, _render_info)
 
 
@@ -109,12 +117,28 @@ def rank_note(measure: dict[str, Any]) -> str:
 
 def torso_line(t: dict[str, Any]) -> str:
     """The info line of an arm's torso record (placement/maps/torso.py)."""
+    unit = t.get("unit", "m")
     values = ", ".join(f"{v:g}" for v in t["values"])
+    if t.get("shift") is None:
+        return (
+            f"    torso {t['joint']}: settings {values} {unit}, one build per setting (the arm's own at "
+            f"{t['reference']:g} {unit}), {t['velocity']:g} {unit}/s"
+        )
     shift = ", ".join(f"{v:.6g}" for v in t["shift"])
     return (
         f"    torso {t['joint']}: settings {values} m (built at {t['reference']:g} m; the map moves by "
         f"[{shift}] m per m of lift), {t['velocity']:g} m/s"
     )
+
+
+def _fill_lines(v: dict[str, Any], indent: str = "    ") -> list[str]:
+    h = v["value"]["histogram"]
+    return [
+        f"{indent}filled {v['filled_cells']} of {v['cells']} cells ({100 * v['fill_ratio']:.2f} %), "
+        f"max {v['value']['max']:.4f}, mean {v['value']['mean']:.4f}",
+        f"{indent}histogram: "
+        + ", ".join(f"[{lo:g}, {hi:g}): {c}" for lo, hi, c in zip(h["edges"], h["edges"][1:], h["counts"])),
+    ]
 
 
 def _render_info(d: dict[str, Any]) -> str:
@@ -130,15 +154,14 @@ def _render_info(d: dict[str, Any]) -> str:
         )
         if "torso" in m:
             lines.append(torso_line(m["torso"]))
-        lines.append(
-            f"    filled {v['filled_cells']} of {v['cells']} cells ({100 * v['fill_ratio']:.2f} %), "
-            f"max {v['value']['max']:.4f}, mean {v['value']['mean']:.4f}"
-        )
-        h = v["value"]["histogram"]
-        lines.append(
-            "    histogram: "
-            + ", ".join(f"[{lo:g}, {hi:g}): {c}" for lo, hi, c in zip(h["edges"], h["edges"][1:], h["counts"]))
-        )
+        lines += _fill_lines(v)
+        for sv in v.get("settings", []):
+            sm, st = sv["meta"], sv["meta"]["setting"]
+            lines.append(
+                f"    setting {st['joint']} = {st['value']:g} {st.get('unit', 'm')} (array {sv['array']}): built, "
+                f"grid {sm['grid']['shape']}, {sm['samples']} samples (seed {sm['seed']}) in {sm['build_time_s']} s"
+            )
+            lines += _fill_lines(sv, "      ")
     return "\n".join(lines)
 
 
@@ -160,7 +183,7 @@ def check(
     """Accuracy of a map against inverse kinematics on random poses (reads and checks every chunk first)."""
     setup_logging(verbose, quiet)
     store = open_store(path)
-    arms = [arm] if arm else list(store.root.get("arms") or [])
+    arms = [arm] if arm else arm_arrays(list(store.root.get("arms") or []))
     out: dict[str, Any] = {"path": str(path), "arms": {}}
     for a in arms:
         log.info("arm %s: reading and checking every chunk", a)
@@ -240,19 +263,25 @@ def verify(
     setup_logging(verbose, quiet)
     store = open_store(path)
     check_root(Path(path), store.root)
-    arms = [arm] if arm else list(store.root.get("arms") or [])
+    arms = [arm] if arm else arm_arrays(list(store.root.get("arms") or []))
     store.close()
     out: dict[str, Any] = {"path": str(path), "arms": {}}
     for a in arms:
         rmap = open_map(path, a, robot)
-        assert rmap.robot is not None  # open_map loads the robot the map names when none is given
-        with EtaBar(total=1, desc=f"verify {a}", unit="cell", unit_scale=True, disable=quiet, leave=False) as bar:
+        t = rmap.torso
+        # one build per torso setting: each setting's map is recomputed with the robot at that setting
+        views = [rmap] + ([rmap.at_torso(v) for v in t.values if v != t.reference] if t and t.shift is None else [])
+        for view in views:
+            assert view.robot is not None  # open_map loads the robot the map names when none is given
+            with EtaBar(
+                total=1, desc=f"verify {view.array}", unit="cell", unit_scale=True, disable=quiet, leave=False
+            ) as bar:
 
-            def tick(done: int, total: int) -> None:
-                bar.total = total
-                bar.update(done - bar.n)
+                def tick(done: int, total: int) -> None:
+                    bar.total = total
+                    bar.update(done - bar.n)
 
-            out["arms"][a] = verify_witnesses(rmap.robot, rmap, sample=sample, seed=seed, progress=tick)
+                out["arms"][view.array] = verify_witnesses(view.robot, view, sample=sample, seed=seed, progress=tick)
     emit(out, as_json, _render_verify)
     if any(r["mismatches"] for r in out["arms"].values()):
         raise SystemExit(1)

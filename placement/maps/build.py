@@ -146,6 +146,7 @@ def _sample_all(
     checker: SelfCollision | None,
     self_collision: bool,
     self_distance: bool,
+    label: str,
 ) -> tuple[np.ndarray, np.ndarray, int, float]:
     """The sampling pass of :func:`build_map` on ``grid``: (values, witness (flat), samples outside, time [s])."""
     try:
@@ -154,9 +155,7 @@ def _sample_all(
     except MemoryError:
         raise GridError(f"grid of {grid.size:.3g} cells does not fit in memory; use a coarser resolution") from None
     t0 = time.perf_counter()
-    with EtaBar(
-        total=samples, desc=f"{robot.name}/{arm}", unit="sample", unit_scale=True, disable=not progress, leave=False
-    ) as bar:
+    with EtaBar(total=samples, desc=label, unit="sample", unit_scale=True, disable=not progress, leave=False) as bar:
         if client is None:
             last = [0]
 
@@ -218,6 +217,7 @@ def build_map(
     self_distance: bool = False,
     completion: bool = False,
     torso: TorsoSpec | None = None,
+    label: str | None = None,
 ) -> BuiltMap:
     """Sample ``samples`` configurations of ``arm`` and keep the best value per 6D cell, with its witness.
 
@@ -248,7 +248,10 @@ def build_map(
             face neighbours of reached cells (see :func:`placement.maps.completion.complete`;
             runs locally with a client too).
         torso: lift settings the map also stands for (see :mod:`placement.maps.torso`): checked
-            against the robot before sampling and recorded as ``meta["torso"]``; costs no samples.
+            against the robot before sampling and recorded as ``meta["torso"]``; costs no samples. Only a
+            prismatic lift (a shifted map): a joint that needs one build per setting (a revolute torso)
+            is built by :func:`placement.maps.torso_builds.build_torso_maps`.
+        label: the progress bar's name (default ``robot/arm``).
 
     The result's ``witness`` (flat-compatible 6D array, see :mod:`placement.maps.witness`) names the
     sample behind every cell's value; meta["witness"] says how to read it.
@@ -261,11 +264,17 @@ def build_map(
     grid = build_grid(robot, arm, resolution, bins)
     a = robot.arm(arm)
     lift = None if torso is None else torso_settings(robot, arm, torso, self_collision=self_collision or self_distance)
+    if lift is not None and lift.shift is None:
+        raise PlacementError(
+            f"torso.joint: '{lift.joint}' needs one build per setting ({len(lift.allowed)} builds); "
+            "build it with placement.maps.torso_builds.build_torso_maps"
+        )
     checker = SelfCollision(robot, arm) if (self_collision or self_distance) else None
     grid_bound = "sampled reach"
     if client is None:
         compile_sampling(robot, arm, grid, index, checker, self_distance)
-    how = (samples, seed, index, block, progress, on_block, client, tasks, checker, self_collision, self_distance)
+    name = label or f"{robot.name}/{arm}"
+    how = (samples, seed, index, block, progress, on_block, client, tasks, checker, self_collision, self_distance, name)
     values, witness, outside, elapsed = _sample_all(robot, arm, grid, *how)
     if outside:
         # the sampled box missed part of the reach (never seen: tests/test_grid_sizing.py): start again
@@ -287,12 +296,7 @@ def build_map(
         if client is not None:
             compile_sampling(robot, arm, grid, index, checker, self_distance)
         with EtaBar(
-            total=1,
-            desc=f"{robot.name}/{arm} completion",
-            unit="cell",
-            unit_scale=True,
-            disable=not progress,
-            leave=False,
+            total=1, desc=f"{name} completion", unit="cell", unit_scale=True, disable=not progress, leave=False
         ) as bar:
 
             def step(done: int, total: int) -> None:

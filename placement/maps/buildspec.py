@@ -51,7 +51,7 @@ SPEC_KEYS = (
 )
 TORSO_KEYS = ("joint", "values")
 MAX_TORSO_VALUES = 16
-MAX_TORSO_ABS = 10.0  # [m]: no lift moves further; a larger value is a typo (millimetres?)
+MAX_TORSO_ABS = 10.0  # [m or rad]: no lift moves further, no torso turns further; a larger value is a typo
 
 
 @dataclass(frozen=True)
@@ -59,8 +59,10 @@ class TorsoSpec:
     """The ``torso`` key of a build spec, parsed (checked against a robot by :mod:`placement.maps.torso`).
 
     Attributes:
-        joint: the prismatic lift joint, one of the preset's fixed joints.
-        values: (k,) lift settings [m], 1 .. MAX_TORSO_VALUES distinct values, ascending.
+        joint: the torso joint, one of the preset's fixed joints: a prismatic lift (one map, shifted)
+            or a revolute joint (one build per setting).
+        values: (k,) settings [m for a prismatic joint, rad for a revolute one], 1 .. MAX_TORSO_VALUES
+            distinct values, ascending.
     """
 
     joint: str
@@ -198,11 +200,22 @@ def parse_arms(value: object, where: str) -> tuple[str, ...]:
     return arms
 
 
+def _setting(value: object, where: str) -> float:
+    """A torso setting: a length [m] (prismatic joint) or an angle [rad] (revolute), within +-MAX_TORSO_ABS."""
+    try:
+        return parse_length(value, where, -MAX_TORSO_ABS, MAX_TORSO_ABS)
+    except PlacementError:
+        raise PlacementError(
+            f"{where} must be a setting (a length [m] or an angle [rad]) from {-MAX_TORSO_ABS:g} to "
+            f"{MAX_TORSO_ABS:g}, got {show(value)}"
+        ) from None
+
+
 def parse_torso(value: object, where: str) -> TorsoSpec:
-    """``{joint: name, values: [v1, ...]}`` [m]: 1 .. MAX_TORSO_VALUES distinct finite values, returned
-    ascending; errors name the sub-key (``torso.values[2]``)."""
+    """``{joint: name, values: [v1, ...]}`` [m or rad]: 1 .. MAX_TORSO_VALUES distinct finite values,
+    returned ascending; errors name the sub-key (``torso.values[2]``)."""
     if not isinstance(value, dict):
-        raise PlacementError(f"{where} must be a mapping {{joint: name, values: [m, ...]}}, got {show(value)}")
+        raise PlacementError(f"{where} must be a mapping {{joint: name, values: [m or rad, ...]}}, got {show(value)}")
     unknown = [k for k in value if k not in TORSO_KEYS]
     if unknown:
         raise PlacementError(f"{where}: unknown key {show(unknown[0])}; allowed: {', '.join(TORSO_KEYS)}")
@@ -213,12 +226,12 @@ def parse_torso(value: object, where: str) -> TorsoSpec:
     items = value["values"]
     if not isinstance(items, (list, tuple)) or not 1 <= len(items) <= MAX_TORSO_VALUES:
         raise PlacementError(
-            f"{where}.values must be a list of 1 to {MAX_TORSO_VALUES} lift settings [m], got {show(items)}"
+            f"{where}.values must be a list of 1 to {MAX_TORSO_VALUES} settings [m or rad], got {show(items)}"
         )
-    values = [parse_length(v, f"{where}.values[{i}]", -MAX_TORSO_ABS, MAX_TORSO_ABS) for i, v in enumerate(items)]
+    values = [_setting(v, f"{where}.values[{i}]") for i, v in enumerate(items)]
     for i, v in enumerate(values):
         if v in values[:i]:
-            raise PlacementError(f"{where}.values[{i}]: {v:g} m is given twice (values[{values.index(v)}])")
+            raise PlacementError(f"{where}.values[{i}]: {v:g} is given twice (values[{values.index(v)}])")
     return TorsoSpec(joint, tuple(sorted(values)))
 
 

@@ -19,6 +19,7 @@ from placement.robots import Robot, load_robot
 from placement.storage import StoredMap, open_store
 from placement.storage.format import witness_name
 from placement.storage.output import MapOutput, check_target, save_maps
+from placement.storage.schema import arm_arrays
 from placement.storage.validate import TCP_TOLERANCE, check_root, validate_arm, validate_robot
 
 __all__ = [
@@ -35,16 +36,17 @@ __all__ = [
 
 
 class _Shared:
-    """What an opened map and its torso views share: the arrays and chunks read so far, the value
-    distribution, and the views made (lift setting [m] -> map)."""
+    """What an opened map and its views share: the arrays and chunks read so far and the value
+    distribution (a shifted torso view shares them; a per-setting view has its own), and the views made
+    (setting [m or rad] -> map, shared by every view of the opened map)."""
 
-    def __init__(self, quantiles: dict[str, Any] | None) -> None:
+    def __init__(self, quantiles: dict[str, Any] | None, views: dict[float, ReachabilityMap] | None = None) -> None:
         self.full: np.ndarray | None = None
         self.full_witness: np.ndarray | None = None
         self.slices: dict[tuple[int, int, int], np.ndarray] = {}
         self.witness_slices: dict[tuple[int, int, int], np.ndarray] = {}
         self.quantiles = quantiles
-        self.views: dict[float, ReachabilityMap] = {}
+        self.views: dict[float, ReachabilityMap] = {} if views is None else views
 
 
 class ReachabilityMap:
@@ -53,10 +55,14 @@ class ReachabilityMap:
     Attributes:
         path: where the map lives.
         arm: arm name.
-        meta: the arm's metadata (as stored).
-        grid: the 6D :class:`Grid` this object answers on (a torso view's: the stored grid moved with the lift).
-        stored_grid: the grid as stored (at the reference lift setting).
-        robot: the :class:`Robot` it was validated against (None if opened without :func:`open_map`).
+        array: the stored array it reads: the arm's own, or for a per-setting torso view that setting's
+            (``arm@joint=value``, see :mod:`placement.maps.torso_builds`).
+        meta: the array's metadata (as stored).
+        grid: the 6D :class:`Grid` this object answers on (a shifted torso view's: the stored grid moved
+            with the lift).
+        stored_grid: the grid as stored.
+        robot: the :class:`Robot` it was validated against (None if opened without :func:`open_map`); a
+            per-setting view's: that robot with the torso joint at the view's setting.
     """
 
     def __init__(
@@ -67,23 +73,29 @@ class ReachabilityMap:
         *,
         torso_value: float | None = None,
         shared: _Shared | None = None,
+        array: str | None = None,
+        record: TorsoSettings | None = None,
+        views: dict[float, ReachabilityMap] | None = None,
     ) -> None:
-        """``torso_value`` and ``shared``: a view of :meth:`at_torso` (its setting [m], and what it shares)."""
+        """``torso_value``, ``shared`` (or ``views`` alone), ``array`` and ``record``: a view of
+        :meth:`at_torso` (its setting [m or rad], what it shares, the array it reads, the opened map's
+        torso record)."""
         self.store = store
         self.path = store.path
         self.arm = arm
+        self.array = arm if array is None else array
         self.robot = robot
-        self.meta = store.arm_meta(arm)
+        self.meta = store.arm_meta(self.array)
         self.stored_grid = Grid.from_dict(self.meta["grid"])
         self.grid = self.stored_grid
-        self._torso = settings_from_meta(self.meta)
+        self._torso = settings_from_meta(self.meta) if record is None else record
         self._torso_value = None if self._torso is None else self._torso.reference
         if self._torso is not None and torso_value is not None:
             g = self.stored_grid
             ox, oy, oz = (float(x) for x in g.origin_array + self._torso.offset(torso_value))
             self.grid = Grid((ox, oy, oz), g.resolution, g.shape)
             self._torso_value = torso_value
-        self._shared = _Shared(self.meta.get("value_quantiles")) if shared is None else shared
+        self._shared = _Shared(self.meta.get("value_quantiles"), views) if shared is None else shared
         if self._torso_value is not None:
             self._shared.views.setdefault(self._torso_value, self)
         self._slices = self._shared.slices
@@ -126,13 +138,18 @@ class ReachabilityMap:
         return self._torso_value
 
     def at_torso(self, value: float) -> ReachabilityMap:
-        """This map with the lift at ``value`` [m] (one of ``torso.values`` or the reference, else MapError
-        naming them): the same store, arrays and chunk caches (nothing is read again), the grid origin
-        moved by ``(value - reference) * torso.shift`` [m]; ``self`` for its own setting. Views are kept:
-        the same value gives the same object.
+        """This map with the torso at ``value`` [m or rad] (one of ``torso.values`` or the reference, else
+        MapError naming them); ``self`` for its own setting. Views are kept: the same value gives the same
+        object.
 
-        A view's :meth:`witness_q` gives the arm joints [rad or m] whose TCP, with the lift at ``value``
-        (``robot.with_fixed({joint: value})``), lies in the pose's cell; ``robot`` stays the reference robot.
+        A shifted map's view (a prismatic lift) reads the same store, arrays and chunk caches (nothing is
+        read again), its grid origin moved by ``(value - reference) * torso.shift`` [m]; its ``robot``
+        stays the reference robot, and its :meth:`witness_q` gives the arm joints [rad or m] whose TCP,
+        with the lift at ``value`` (``robot.with_fixed({joint: value})``), lies in the pose's cell.
+
+        A per-setting map's view (one build per setting) is that setting's own stored map, opened and
+        checked now (its own grid, arrays, witnesses and value quantiles; MapError if it is missing or
+        was not built for this arm at ``value``); its ``robot`` is ``robot.with_fixed({joint: value})``.
         """
         t = self._torso
         if t is None:
@@ -144,7 +161,13 @@ class ReachabilityMap:
         if v == self._torso_value:
             return self
         if v not in self._shared.views:  # a new view registers itself there
-            ReachabilityMap(self.store, self.arm, self.robot, torso_value=v, shared=self._shared)
+            if t.shift is not None:
+                ReachabilityMap(self.store, self.arm, self.robot, torso_value=v, shared=self._shared)
+            else:
+                from placement.maps.torso_builds import open_setting
+
+                opened = self._shared.views[t.reference]  # the map open_map gave: the preset's robot
+                open_setting(opened.store, self.arm, opened.robot, t, v, self._shared.views)
         return self._shared.views[v]
 
     @property
@@ -155,21 +178,21 @@ class ReachabilityMap:
     def load(self) -> ReachabilityMap:
         """Read the whole array into memory (faster for many scattered queries)."""
         if self._full is None:
-            self._full = self.store.read_all(self.arm)
+            self._full = self.store.read_all(self.array)
         return self
 
     @property
     def values(self) -> npt.NDArray[np.float32]:
         """The whole 6D float32 array (x, y, z, yaw, pitch, roll), read on first use."""
         if self._full is None:
-            self._full = self.store.read_all(self.arm)
+            self._full = self.store.read_all(self.array)
         return self._full
 
     @property
     def witness(self) -> np.ndarray:
         """The whole 6D witness array (uint32 or int64, see :mod:`placement.maps.witness`), read on first use."""
         if self._full_witness is None:
-            self._full_witness = self.store.read_all(self.arm, witness=True)
+            self._full_witness = self.store.read_all(self.array, witness=True)
         return self._full_witness
 
     def witness_slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
@@ -190,7 +213,7 @@ class ReachabilityMap:
         key = (int(key[0]), int(key[1]), int(key[2]))
         s = cache.get(key)
         if s is None:
-            s = cache[key] = self.store.read_chunk(self.arm, *key, witness=witness)
+            s = cache[key] = self.store.read_chunk(self.array, *key, witness=witness)
         return s
 
     def witness_q(self, pose_base: npt.ArrayLike) -> npt.NDArray[np.float64] | None:
@@ -278,7 +301,7 @@ class ReachabilityMap:
         metadata's ``value_quantiles``, or for a map built without it an estimate from every 8th
         chunk, computed on first use (about 1.3 s for a 5 cm PR2 arm) and kept."""
         if self._shared.quantiles is None:
-            self._shared.quantiles = estimate_quantiles(self.store, self.arm, self.grid.shape)
+            self._shared.quantiles = estimate_quantiles(self.store, self.array, self.grid.shape)
         return self._shared.quantiles
 
     def quantile_value(self, q: float) -> float:
@@ -293,7 +316,7 @@ class ReachabilityMap:
 
     def verify(self) -> None:
         """Read every chunk and compare it with its stored CRC32 (MapError if any is damaged)."""
-        self.store.read_all(self.arm)
+        self.store.read_all(self.array)
 
 
 def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> ReachabilityMap:
@@ -316,28 +339,42 @@ def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> Re
         robot = load_robot(robot if robot is not None else str(root.get("preset") or root.get("robot")))
     validate_robot(path, root, robot)
     arms = list(root.get("arms") or [])
-    if arm not in arms:
-        raise MapError(f"{path}: no map for arm '{arm}'; it has: {', '.join(arms) or 'none'}")
+    if arm not in arm_arrays(arms):  # the arrays of torso settings are opened through their arm
+        raise MapError(f"{path}: no map for arm '{arm}'; it has: {', '.join(arm_arrays(arms)) or 'none'}")
     try:
         rmap = ReachabilityMap(store, arm, robot)  # its metadata checked against its digest and for its types
     except GridError as exc:
         raise MapError(f"{path}: metadata of arm '{arm}': {exc} (corrupt); rebuild the map") from None
+    validate_arm(path, rmap.meta, robot, arm)
+    check_arrays(rmap, robot)
+    t = rmap.torso
+    if t is not None and t.shift is None:
+        missing = [a for a in t.arrays if a not in arms]
+        if missing:
+            raise MapError(
+                f"{path}: the map of arm '{arm}' names the array '{missing[0]}' of a torso setting "
+                "(torso.arrays), which the map does not hold; rebuild the map"
+            )
+    return rmap
+
+
+def check_arrays(rmap: ReachabilityMap, robot: Robot) -> None:
+    """MapError unless the opened map's measure has the arm's rank and its arrays are complete."""
+    path, arm, store = rmap.path, rmap.arm, rmap.store
     if rmap.meta["witness"]["empty"] != empty_value(rmap.meta["witness"]["dtype"]):
         raise MapError(f"{path}: metadata of arm '{arm}' is inconsistent (corrupt); rebuild the map")
-    validate_arm(path, rmap.meta, robot, arm)
     if rmap.rank != arm_rank(robot, arm):
         # e.g. a map of an arm spanning 5 dimensions built with the 6-dimensional measure: all zeros
         raise MapError(
             f"{path}: the map of arm '{arm}' holds the measure on {rmap.rank} dimensions (measure.rank), "
             f"the arm spans {arm_rank(robot, arm)}; rebuild the map"
         )
-    store.check_arrays(arm)
-    for name, key in ((arm, "stored_chunks"), (witness_name(arm), "stored_witness_chunks")):
+    store.check_arrays(rmap.array)
+    for name, key in ((rmap.array, "stored_chunks"), (witness_name(rmap.array), "stored_witness_chunks")):
         want = rmap.meta.get(key)
         have = store.chunks_present(name)
         if want is not None and have is not None and have != want:
             raise MapError(
-                f"{path}: arm '{arm}' has {have} of {want} {'witness' if name != arm else 'data'} "
+                f"{path}: arm '{arm}' has {have} of {want} {'witness' if name != rmap.array else 'data'} "
                 f"chunks (half-written or corrupt); rebuild the map"
             )
-    return rmap

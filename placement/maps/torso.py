@@ -1,4 +1,6 @@
-"""The torso lift as a placement variable: one map stands for every setting of a prismatic lift.
+"""The torso as a placement variable: the settings of a held joint that carries every arm.
+
+Two kinds (``TorsoSettings.kind``). **Shifted**: one map stands for every setting of a prismatic lift.
 
 A prismatic joint whose axis is fixed in the base frame, that does not move the base frame and that lies
 between the base frame and every joint of an arm moves that arm's whole chain rigidly: with the lift at
@@ -12,6 +14,14 @@ The build spec's ``torso`` key (:class:`~placement.maps.buildspec.TorsoSpec`) na
 settings; :func:`torso_settings` checks them against the robot before any sampling and measures ``s``
 with pinocchio (not trusting the URDF axis); the result is recorded in each arm's metadata as
 ``torso: {joint, values, reference, shift, velocity}`` and read back by :func:`settings_from_meta`.
+
+**Per setting**: a revolute joint (a torso pitch such as talos_reduced's ``torso_2_joint``) turns the arm's
+chain, so no one map stands for two settings: the arm is built once per setting with the robot at
+``robot.with_fixed({joint: v})`` (:func:`placement.maps.torso_builds.build_torso_maps`; the build time
+multiplies by the number of settings), each setting's map stored as its own array
+(:func:`placement.storage.schema.setting_array`), and ``at_torso(v)`` opens that map. The record then has
+``kind: per_setting``, ``unit: rad``, ``shift: null`` and ``arrays`` (the stored array of each value).
+The reference setting's map is the arm's own array: a map a build without the key would have written.
 """
 
 from __future__ import annotations
@@ -29,53 +39,80 @@ from placement.errors import MapError, PlacementError
 from placement.maps.buildspec import TorsoSpec
 from placement.robots import Robot
 from placement.robots.chain import ancestors
+from placement.storage.schema import setting_array
 
 #: the lift step [m] at which the axis is measured
 PROBE_M = 0.01
 #: rotations and translations of the arm's frames must follow the rigid shift to this [m, dimensionless]
 RIGID_TOLERANCE = 1e-9
-#: pinocchio's prismatic joint models (axis x, y, z, or any axis)
+#: pinocchio's prismatic joint models (axis x, y, z, or any axis): a shifted map
 PRISMATIC = ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned")
+#: pinocchio's bounded revolute joint models: one build per setting
+REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRevoluteUnaligned")
 
 
 @dataclass(frozen=True)
 class TorsoSettings:
-    """The lift settings a map stands for, as recorded in an arm's metadata (key ``torso``).
+    """The torso settings a map stands for, as recorded in an arm's metadata (key ``torso``).
 
     Attributes:
-        joint: the prismatic lift joint, one of the preset's fixed joints.
-        values: (k,) lift settings [m], ascending, within the URDF limits.
-        reference: the setting the map was sampled at: the preset's held value [m] (need not be in values).
-        shift: (3,) the TCP's translation per metre of lift, in the base frame [m/m] (the joint's unit
-            axis as pinocchio moves it): the map at ``v`` is the map at ``reference`` moved by
-            ``(v - reference) * shift`` [m].
-        velocity: the joint's URDF velocity limit [m/s].
+        joint: the torso joint, one of the preset's fixed joints.
+        values: (k,) settings [m for a prismatic joint, rad for a revolute one], ascending, within the
+            URDF limits.
+        reference: the preset's held value [m or rad] (need not be in values): the setting of the arm's
+            own stored array.
+        shift: (3,) for a shifted map, the TCP's translation per metre of lift, in the base frame [m/m]
+            (the joint's unit axis as pinocchio moves it): the map at ``v`` is the map at ``reference``
+            moved by ``(v - reference) * shift`` [m]; None for one build per setting.
+        velocity: the joint's URDF velocity limit [m/s or rad/s].
+        unit: the unit of the settings: "m" (prismatic) or "rad" (revolute).
+        arrays: (k,) for one build per setting, the stored array holding each value's map (the arm's own
+            array at the reference); () for a shifted map.
     """
 
     joint: str
     values: tuple[float, ...]
     reference: float
-    shift: tuple[float, float, float]
+    shift: tuple[float, float, float] | None
     velocity: float
+    unit: str = "m"
+    arrays: tuple[str, ...] = ()
+
+    @property
+    def kind(self) -> str:
+        """ "shifted" (one map moved with a rigid prismatic lift) or "per_setting" (one build per setting)."""
+        return "shifted" if self.shift is not None else "per_setting"
 
     @property
     def allowed(self) -> tuple[float, ...]:
-        """Every setting [m] a map view can stand for: ``values`` and the reference, ascending."""
+        """Every setting [m or rad] a map view can stand for: ``values`` and the reference, ascending."""
         return tuple(sorted({*self.values, self.reference}))
 
+    def array(self, arm: str, value: float) -> str:
+        """The stored array of ``arm``'s map at setting ``value`` (one of :attr:`allowed`)."""
+        if value == self.reference or self.shift is not None:
+            return arm
+        return self.arrays[self.values.index(value)]
+
     def offset(self, value: float) -> npt.NDArray[np.float64]:
-        """(3,) translation [m] of the arm's reach at lift ``value`` [m] against the reference."""
+        """(3,) translation [m] of the arm's reach at lift ``value`` [m] against the reference (a shifted
+        map; zero for one build per setting, whose maps each have their own grid)."""
+        if self.shift is None:
+            return np.zeros(3)
         return (float(value) - self.reference) * np.asarray(self.shift, dtype=float)
 
     def to_dict(self) -> dict[str, Any]:
-        """The metadata record (plain JSON types)."""
-        return {
+        """The metadata record (plain JSON types); a shifted record as before kinds existed."""
+        out: dict[str, Any] = {
             "joint": self.joint,
             "values": [float(v) for v in self.values],
             "reference": float(self.reference),
-            "shift": [float(v) for v in self.shift],
+            "shift": None if self.shift is None else [float(v) for v in self.shift],
             "velocity": float(self.velocity),
         }
+        if self.shift is None:
+            out.update(kind=self.kind, unit=self.unit, arrays=list(self.arrays))
+        return out
 
 
 def settings_from_meta(meta: dict[str, Any]) -> TorsoSettings | None:
@@ -83,13 +120,18 @@ def settings_from_meta(meta: dict[str, Any]) -> TorsoSettings | None:
     rec = meta.get("torso")
     if rec is None:
         return None
-    sx, sy, sz = (float(v) for v in rec["shift"])
+    shift = None
+    if rec.get("shift") is not None:
+        sx, sy, sz = (float(v) for v in rec["shift"])
+        shift = (sx, sy, sz)
     return TorsoSettings(
         str(rec["joint"]),
         tuple(float(v) for v in rec["values"]),
         float(rec["reference"]),
-        (sx, sy, sz),
+        shift,
         float(rec["velocity"]),
+        str(rec.get("unit", "m")),
+        tuple(str(a) for a in rec.get("arrays") or ()),
     )
 
 
@@ -130,37 +172,43 @@ def measured_shift(robot: Robot, arm: str, joint: str, values: Sequence[float], 
 def torso_settings(
     robot: Robot, arm: str, spec: TorsoSpec, where: str = "torso", self_collision: bool = False
 ) -> TorsoSettings:
-    """``spec`` checked against ``robot`` and ``arm`` (``where`` names the key in errors), with its shift.
+    """``spec`` checked against ``robot`` and ``arm`` (``where`` names the key in errors), with its kind.
 
-    The joint must be one of the preset's fixed joints, prismatic, not moving the base frame, between
-    the base frame and every joint of the arm, and every value within its URDF limits; PlacementError
-    naming the culprit otherwise. A map with ``self_collision`` (or the self-distance penalty) is refused:
-    the body the lift does not carry would stay put while the arm moves, so the shifted map would be wrong.
+    The joint must be one of the preset's fixed joints, prismatic or revolute (bounded), not moving the
+    base frame, between the base frame and every joint of the arm, and every value within its URDF
+    limits; PlacementError naming the culprit otherwise. A prismatic lift gives a shifted map (its shift
+    measured by pinocchio); a map with ``self_collision`` (or the self-distance penalty) is then refused:
+    the body the lift does not carry would stay put while the arm moves, so the shifted map would be
+    wrong. A revolute joint gives one build per setting, each with its own self-collision check.
     """
-    if self_collision:
-        raise PlacementError(
-            f"{where}: a map built with self_collision or self_distance holds the arm's clearance from the "
-            "body at the reference lift only; build it without them, or without torso"
-        )
     model = robot.model
     j = spec.joint
     fixed = robot.fixed_joints
     if j not in fixed:
         raise PlacementError(
             f"{where}.joint: '{j}' is not a fixed joint of robot '{robot.name}' "
-            f"(fixed_joints: {', '.join(fixed) or 'none'}); a lift must be held by the preset"
+            f"(fixed_joints: {', '.join(fixed) or 'none'}); a torso joint must be held by the preset"
         )
     jid = model.getJointId(j)
     jm = model.joints[jid]
-    if jm.shortname() not in PRISMATIC:
+    kind = jm.shortname()
+    if kind not in PRISMATIC + REVOLUTE:
         raise PlacementError(
-            f"{where}.joint: '{j}' is a {jm.shortname().removeprefix('JointModel')} joint; "
-            "only prismatic lifts are supported"
+            f"{where}.joint: '{j}' is a {kind.removeprefix('JointModel')} joint; "
+            "only prismatic lifts and bounded revolute joints are supported"
+        )
+    unit = "m" if kind in PRISMATIC else "rad"
+    if unit == "m" and self_collision:
+        raise PlacementError(
+            f"{where}: a map built with self_collision or self_distance holds the arm's clearance from the "
+            "body at the reference lift only; build it without them, or without torso"
         )
     lo, hi = float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q])
     for i, v in enumerate(spec.values):
         if not lo <= v <= hi:
-            raise PlacementError(f"{where}.values[{i}]: {v:g} m is outside the URDF limits [{lo:g}, {hi:g}] of '{j}'")
+            raise PlacementError(
+                f"{where}.values[{i}]: {v:g} {unit} is outside the URDF limits [{lo:g}, {hi:g}] {unit} of '{j}'"
+            )
     if jid in ancestors(model, model.frames[robot.base_frame_id].parentJoint):
         raise PlacementError(f"{where}.joint: '{j}' moves the base frame '{robot.base_frame}'")
     a = robot.arm(arm)
@@ -168,13 +216,17 @@ def torso_settings(
         if jid not in ancestors(model, aid):
             raise PlacementError(
                 f"{where}.joint: '{j}' does not carry arm '{arm}' (joint '{name}' is not moved by it): "
-                "the lift must lie between the base frame and every joint of the arm"
+                "the torso joint must lie between the base frame and every joint of the arm"
             )
-    s = measured_shift(robot, arm, j, spec.values, where)
     velocity = float(model.velocityLimit[jm.idx_v])
     if not (math.isfinite(velocity) and velocity > 0):
-        raise PlacementError(f"{where}.joint: '{j}' has no usable velocity limit ({velocity:g} m/s) in the URDF")
-    return TorsoSettings(j, spec.values, float(fixed[j]), (float(s[0]), float(s[1]), float(s[2])), velocity)
+        raise PlacementError(f"{where}.joint: '{j}' has no usable velocity limit ({velocity:g} {unit}/s) in the URDF")
+    reference = float(fixed[j])
+    if unit == "rad":
+        arrays = tuple(arm if v == reference else setting_array(arm, j, v) for v in spec.values)
+        return TorsoSettings(j, spec.values, reference, None, velocity, "rad", arrays)
+    s = measured_shift(robot, arm, j, spec.values, where)
+    return TorsoSettings(j, spec.values, reference, (float(s[0]), float(s[1]), float(s[2])), velocity)
 
 
 def check_torso(
@@ -184,15 +236,17 @@ def check_torso(
     return {arm: torso_settings(robot, arm, spec, where, self_collision) for arm in arms}
 
 
-#: a requested lift setting matches an allowed one this closely [m] (and is replaced by it)
+#: a requested setting matches an allowed one this closely [m or rad] (and is replaced by it)
 VALUE_TOLERANCE = 1e-9
 
 
 def allowed_value(settings: TorsoSettings, value: float, where: str) -> float:
-    """The allowed setting [m] equal to ``value`` (to VALUE_TOLERANCE), else MapError naming the allowed ones."""
+    """The allowed setting [m or rad] equal to ``value`` (to VALUE_TOLERANCE), else MapError naming the allowed
+    ones."""
     v = float(value)
     for x in settings.allowed:
         if abs(x - v) <= VALUE_TOLERANCE:
             return x
     shown = ", ".join(f"{x:g}" for x in settings.allowed)
-    raise MapError(f"{where}: no map for {settings.joint} at {v:g} m; the map stands for {shown} m")
+    u = settings.unit
+    raise MapError(f"{where}: no map for {settings.joint} at {v:g} {u}; the map stands for {shown} {u}")

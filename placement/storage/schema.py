@@ -79,9 +79,34 @@ def _quantiles(v: object) -> None:
             raise _Bad(f"value_quantiles.values[{i}]", "a positive number, not below the one before", x)
 
 
+#: how a torso record's maps stand for its settings (placement/maps/torso.py): one map moved with the lift
+#: (a rigid prismatic lift; the record of maps without ``kind``), or one build per setting
+TORSO_KINDS = ("shifted", "per_setting")
+#: the units of a torso record's settings: a prismatic joint's [m], a revolute joint's [rad]
+TORSO_UNITS = ("m", "rad")
+#: between an arm's name and its setting in the name of the array of one setting of a per-setting build
+SETTING_SEPARATOR = "@"
+
+
+def setting_array(arm: str, joint: str, value: float) -> str:
+    """The stored name of the map of ``arm`` built with ``joint`` at ``value`` [m or rad] (a per-setting
+    torso build): ``right@torso_2_joint=0.2``, the value as Python's shortest round-trip repr."""
+    return f"{arm}{SETTING_SEPARATOR}{joint}={float(value)!r}"
+
+
+def arm_arrays(names: list[str]) -> list[str]:
+    """The arms among a root's ``arms`` list: every name but the per-setting arrays (``arm@joint=value``
+    of an arm the list holds), which the arm's torso record names."""
+    listed = set(names)
+    return [n for n in names if not (SETTING_SEPARATOR in n and n.split(SETTING_SEPARATOR, 1)[0] in listed)]
+
+
 def _torso(v: object) -> None:
     """A ``torso`` record (placement/maps/torso.py): ``joint`` a name, ``values`` 1 .. 16 ascending distinct
-    finite numbers [m], ``reference`` [m], ``shift`` 3 numbers [m/m], ``velocity`` a positive number [m/s]."""
+    finite numbers [m or rad], ``reference`` [m or rad], ``velocity`` a positive number [m/s or rad/s];
+    ``kind`` (absent: shifted) one of TORSO_KINDS, ``unit`` (absent: m) one of TORSO_UNITS; a shifted
+    record has ``shift`` 3 numbers [m/m], a per-setting one ``shift`` null and ``arrays``: the stored
+    array of each value."""
     if not isinstance(v, dict):
         raise _Bad("torso", "a mapping", v)
     _str(v, "joint", "torso.")
@@ -93,7 +118,24 @@ def _torso(v: object) -> None:
         if i and x <= vals[i - 1]:
             raise _Bad(f"torso.values[{i}]", "a number above the one before", x)
     _real(v.get("reference"), "torso.reference")
-    _vector3(v.get("shift"), "torso.shift")
+    kind = v.get("kind", "shifted")
+    if kind not in TORSO_KINDS:
+        raise _Bad("torso.kind", " or ".join(TORSO_KINDS), kind)
+    if v.get("unit", "m") not in TORSO_UNITS:
+        raise _Bad("torso.unit", " or ".join(TORSO_UNITS), v.get("unit"))
+    if kind == "shifted":
+        _vector3(v.get("shift"), "torso.shift")
+    else:
+        if v.get("shift") is not None:
+            raise _Bad("torso.shift", "null (one build per setting)", v.get("shift"))
+        arrays = v.get("arrays")
+        if (
+            not isinstance(arrays, list)
+            or len(arrays) != len(vals)
+            or not all(isinstance(a, str) and a for a in arrays)
+            or len(set(arrays)) != len(arrays)
+        ):
+            raise _Bad("torso.arrays", f"{len(vals)} distinct array names (one per value)", arrays)
     if _real(v.get("velocity"), "torso.velocity") <= 0:
         raise _Bad("torso.velocity", "a positive speed", v.get("velocity"))
 
@@ -136,7 +178,13 @@ def check_root_types(path: Path | str, root: dict[str, Any]) -> None:
 def check_arm_types(path: Path | str, arm: str, meta: dict[str, Any]) -> None:
     """MapError naming the key unless an arm's metadata has what reading and verifying it needs."""
     try:
-        if meta.get("arm") != arm:
+        if "setting" in meta:  # one setting of a per-setting torso build: its name says which
+            setting = _dict(meta, "setting")
+            joint = _str(setting, "joint", "setting.")
+            value = _real(setting.get("value"), "setting.value")
+            if not isinstance(meta.get("arm"), str) or setting_array(meta["arm"], joint, value) != arm:
+                raise _Bad("arm", f"the arm of array '{arm}'", meta.get("arm"))
+        elif meta.get("arm") != arm:
             raise _Bad("arm", repr(arm), meta.get("arm"))
         if not isinstance(meta.get("joints"), list) or not all(isinstance(j, str) for j in meta["joints"]):
             raise _Bad("joints", "a list of joint names", meta.get("joints"))

@@ -102,8 +102,8 @@ def validate_arm(path: Path, meta: dict[str, Any], robot: Robot, arm: str) -> No
 
 
 def _same_lift(path: Path, arm: str, torso: dict[str, Any], robot: Robot) -> None:
-    """MapError unless the lift the map's torso record names is a fixed joint the preset holds at the
-    record's reference value [m] (to TCP_TOLERANCE)."""
+    """MapError unless the torso joint the map's record names is a fixed joint the preset holds at the
+    record's reference value [m or rad, the record's ``unit``] (to TCP_TOLERANCE)."""
     joint = torso.get("joint")
     if joint not in robot.fixed_joints:
         raise MapError(
@@ -112,10 +112,11 @@ def _same_lift(path: Path, arm: str, torso: dict[str, Any], robot: Robot) -> Non
             "rebuild the map"
         )
     held = robot.fixed_joints[str(joint)]
+    unit = torso.get("unit", "m")
     if abs(float(torso.get("reference", held)) - held) > TCP_TOLERANCE:
         raise MapError(
-            f"{path}: the map of arm '{arm}' was built with lift '{joint}' at {torso.get('reference')} m "
-            f"(torso.reference), the preset holds it at {held:g} m; rebuild the map"
+            f"{path}: the map of arm '{arm}' was built with lift '{joint}' at {torso.get('reference')} {unit} "
+            f"(torso.reference), the preset holds it at {held:g} {unit}; rebuild the map"
         )
 
 
