@@ -127,14 +127,14 @@ class ReachabilityMap:
 
     @property
     def torso(self) -> TorsoSettings | None:
-        """The lift settings the map stands for (the metadata's ``torso`` record), or None: a map built
-        without the build spec's ``torso`` key, for the preset's held value only."""
+        """The torso settings the map stands for (the opened map's ``torso`` record, shared by its views),
+        or None: a map built without the build spec's ``torso`` key, for the preset's held value only."""
         return self._torso
 
     @property
     def torso_value(self) -> float | None:
-        """The lift setting [m] this object stands for: the reference (the preset's held value) for the
-        opened map, the view's setting for a view of :meth:`at_torso`; None for a map without a record."""
+        """The torso setting [m or rad] this object stands for: the reference (the preset's held value) for
+        the opened map, the view's setting for a view of :meth:`at_torso`; None for a map without a record."""
         return self._torso_value
 
     def at_torso(self, value: float) -> ReachabilityMap:

@@ -33,15 +33,6 @@ from placement.storage.format import BuiltMap
 log = logging.getLogger("placement")
 
 
-def torso_arrays(robot: Robot, arm: str, spec: TorsoSpec | None, self_collision: bool = False) -> list[str]:
-    """The stored arrays a build of ``arm`` with ``spec`` writes: the arm's own, and one per setting of a
-    per-setting build other than the reference (checked against the robot first: PlacementError)."""
-    if spec is None:
-        return [arm]
-    settings = torso_settings(robot, arm, spec, self_collision=self_collision)
-    return [arm, *(a for a in settings.arrays if a != arm)]
-
-
 def build_torso_maps(robot: Robot, arm: str, *, torso: TorsoSpec, **options: Any) -> dict[str, BuiltMap]:
     """{stored array name: map} of ``arm`` with the torso settings ``torso``.
 
@@ -128,4 +119,4 @@ def built_seconds(maps: dict[str, BuiltMap]) -> float:
     return float(sum(m.meta["build_time_s"] for m in maps.values()))
 
 
-__all__ = ["build_torso_maps", "built_seconds", "open_setting", "torso_arrays"]
+__all__ = ["build_torso_maps", "built_seconds", "open_setting"]

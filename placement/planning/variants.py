@@ -10,8 +10,8 @@ from placement.maps.torso import TorsoSettings
 
 
 def torso_record(rmap: ReachabilityMap) -> TorsoSettings | None:
-    """The map's torso record (joint, values [m], reference [m], shift, velocity [m/s]), or None for
-    a map built at one torso value."""
+    """The map's torso record (joint, values and reference [m or rad], shift (None: one build per
+    setting), velocity [m/s or rad/s]), or None for a map built at one torso value."""
     return rmap.torso
 
 
@@ -25,7 +25,7 @@ def map_variants(maps: Mapping[str, ReachabilityMap]) -> dict[str, tuple[Reachab
 
 
 def torso_value(rmap: ReachabilityMap) -> float | None:
-    """The torso value [m] a map (view) stands for; None for a map without a torso record."""
+    """The torso value [m or rad] a map (view) stands for; None for a map without a torso record."""
     value = rmap.torso_value
     return None if value is None else float(value)
 
