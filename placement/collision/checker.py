@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import heapq
 from collections.abc import Collection, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -154,18 +155,43 @@ class SceneCollision:
                 )
         A = self.geometry.base_in_model @ np.linalg.inv(base_matrix(*(float(v) for v in base)))
         inst = self._instances(arm, Q, shapes)
+        box = self._box(arm, Q, base, held, A, inst)
         scene = self._scene_in_model(A, inst)
         pairs = self._pairs(inst, scene, shapes, grasped, frozenset(gone))
         hit = self._first_collision(pairs, inst, scene)
         if hit is not None:
-            return hit
+            return replace(hit, box=box)
         if held is None:
-            return self._closest(pairs, inst, scene)
+            return replace(self._closest(pairs, inst, scene), box=box)
         carried = self._held(arm, Q, base, held, A, inst, frozenset(gone) | {held.name})
         if not carried.free:
-            return carried
+            return replace(carried, box=box)
         free = self._closest(pairs, inst, scene)
-        return free if free.clearance_m <= carried.clearance_m else carried
+        return replace(free if free.clearance_m <= carried.clearance_m else carried, box=box)
+
+    def _box(
+        self,
+        arm: str,
+        qs: npt.NDArray[np.float64],
+        base: tuple[float, float, float] | npt.NDArray[np.float64],
+        held: Held | None,
+        A: npt.NDArray[np.float64],
+        inst: Instances,
+    ) -> tuple[float, float, float, float, float, float]:
+        """The world box outside which no scene piece pairs with a shape of this check (see
+        :class:`CollisionResult`): a piece pairs only when its bounds come within the cap (or the
+        padding) of a shape's bounding sphere (:meth:`_pairs`, :meth:`_held`)."""
+        grow = max(self.cap, self.padding)
+        Ainv = np.linalg.inv(A)
+        centres = inst["centre"] @ Ainv[:3, :3].T + Ainv[:3, 3]
+        r = inst["radius"][:, None] + grow
+        lo, hi = (centres - r).min(axis=0, initial=np.inf), (centres + r).max(axis=0, initial=-np.inf)
+        if held is not None:
+            B = base_matrix(*(float(v) for v in base))
+            at = np.array([(B @ self.robot.tcp_pose(arm, q) @ held.tcp_to_object)[:3, 3] for q in qs])
+            reach = 0.5 * float(np.linalg.norm(held.size)) + grow
+            lo, hi = np.minimum(lo, at.min(axis=0) - reach), np.maximum(hi, at.max(axis=0) + reach)
+        return (float(lo[0]), float(lo[1]), float(lo[2]), float(hi[0]), float(hi[1]), float(hi[2]))
 
     def _held(
         self,

@@ -6,7 +6,7 @@ pose), the scene pieces near them, and the candidate pairs of the two.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TypedDict
 
 import coal
@@ -75,9 +75,14 @@ class CollisionResult:
             occupancy cells as ``occupancy[row,col]``.
         pose: index of the trajectory pose of ``culprit``, None for a part of the robot the arm does
             not move (or no culprit).
+        box: the world-frame box (x0, y0, z0, x1, y1, z1) [m] outside which no scene piece can change
+            this result (every checked shape's bounding sphere, and the held object's, grown by the
+            larger of padding and cap); None when not computed. A scene change whose pieces all lie
+            outside it leaves the result as it is (see :mod:`placement.planning.checks`).
     """
 
     free: bool
     clearance_m: float
     culprit: str | None
     pose: int | None = None
+    box: tuple[float, float, float, float, float, float] | None = field(default=None, compare=False)

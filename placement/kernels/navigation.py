@@ -78,12 +78,15 @@ def distance_transform(occupied, res):
 
 
 @njit(cache=True)
-def shortest_costs(factor, feasible, sources, source_costs, res, targets):
+def shortest_costs(factor, feasible, sources, source_costs, res, targets, reverse=False):
     """Minimal path cost from the sources to every cell of an 8-connected grid (Dijkstra).
 
     The edge from cell i to its neighbour j costs ``|p_i - p_j| * factor[j]`` (res or
     res*sqrt(2) times the target cell's factor, the paper's Eq. 5). Only feasible
-    cells are entered; infeasible cells keep cost inf.
+    cells are entered; infeasible cells keep cost inf. With ``reverse`` the cost is that of the
+    path from each cell *to* the sources (the graph's edges turned around: the edge into cell u
+    from a neighbour costs ``|p_u - p_v| * factor[u]``), and ``pred`` points to the next cell
+    towards the sources.
 
     Args:
         factor: (ny, nx) float64 >= 1, the slowdown ``1 + lambda d_s``.
@@ -181,11 +184,12 @@ def shortest_costs(factor, feasible, sources, source_costs, res, targets):
                     stop = True
                     break
             c = cost[u]
+            fu = fac[u]
             for j in range(8):
                 v = u + offs[j]
                 if not feas[v] or done[v]:
                     continue
-                nc = c + steps[j] * fac[v]
+                nc = c + steps[j] * (fu if reverse else fac[v])
                 if nc < cost[v]:
                     cost[v] = nc
                     prev[v] = u

@@ -45,8 +45,10 @@ def navigation_cost(
     resolution: float,
     start_costs: npt.ArrayLike | None = None,
     targets: BoolArray | None = None,
+    reverse: bool = False,
 ) -> tuple[FloatArray, IntArray]:
-    """Minimal travel cost [m] from the start cells to every cell (Eq. 5, exact, Dijkstra).
+    """Minimal travel cost [m] from the start cells to every cell (Eq. 5, exact, Dijkstra); with
+    ``reverse``, from every cell to the start cells (``pred``: the next cell towards them).
 
     Args:
         factor: (ny, nx) slowdown per cell (>= 1), from :func:`speed_factor`.
@@ -77,7 +79,7 @@ def navigation_cost(
     tgt = np.zeros(feas.shape, dtype=np.bool_) if targets is None else np.ascontiguousarray(targets, dtype=np.bool_)
     if tgt.shape != feas.shape:
         raise PlacementError(f"targets {tgt.shape} and feasible {feas.shape} grids differ")
-    cost, pred = shortest_costs(fac, feas, cells, costs, float(resolution), tgt)
+    cost, pred = shortest_costs(fac, feas, cells, costs, float(resolution), tgt, bool(reverse))
     return np.asarray(cost, dtype=np.float64), np.asarray(pred, dtype=np.int64)
 
 

@@ -3,6 +3,7 @@
 What a scene change invalidates (used by dynamic updates, paper Table III):
 
 * a moved object: the IRMs of the steps that pick and place it, and every heuristic (they read those IRMs);
+  the verification checks of those steps, and the collision results near the object (:mod:`.checks`);
 * added or removed obstacles: everything (the feasible base cells and their allowed yaws changed);
 * a new start pose: nothing.
 
@@ -17,12 +18,15 @@ from typing import Any
 
 import numpy as np
 
+from placement.collision.scene import scene_shapes
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray, MaskArray
+from placement.planning.checks import Checks
 from placement.planning.config import PlannerConfig
 from placement.planning.grasps import GRIPPER_OPENING, Candidate
 from placement.planning.heuristic import region_heuristic
 from placement.planning.manipulation import cells_within, manipulation_maps, pose_reach
+from placement.planning.navigation import navigation_cost
 from placement.planning.option import Option, height_range
 from placement.planning.refresh import refreshed_options
 from placement.planning.steps import Step, step_candidates, task_steps
@@ -31,6 +35,8 @@ from placement.planning.world import World
 from placement.scene import Scene
 from placement.scene.navgrid import Window
 
+#: Legs kept at most (each holds the costs on its targets only): past it the cache starts again.
+MAX_LEGS = 4096
 #: Where a candidate's target is and how far the map reaches it: (x [m], y [m], reach [m]).
 Reach = tuple[float, float, float]
 
@@ -78,6 +84,28 @@ class StepProblems:
         #: (step, flat cell, (arm, grasp), torso value held or None) -> what the whole-task methods'
         #: verification found there (a ``Verified``, or None: rejected)
         self.verdicts: dict[tuple[int, int, tuple[str, str | None], float | None], Any] = {}
+        #: the IK answers and collision results behind the verdicts (kept by an update where valid)
+        self.checks = Checks()
+        #: (cell (iy, ix), reversed, packed targets) -> the travel costs [m] on the targets between the
+        #: cell and each of them (see :meth:`legs`); they read the world only
+        self._legs: dict[tuple[tuple[int, int], bool, bytes], FloatArray] = {}
+
+    def legs(self, cell: tuple[int, int], targets: BoolArray, reverse: bool = False) -> FloatArray:
+        """(ny, nx) travel cost [m] from ``cell`` to every cell of ``targets`` (``reverse``: from each of
+        them to ``cell``), inf elsewhere (cached: a re-plan after an update that left the world as it
+        was repairs the same chains again)."""
+        cell = (int(cell[0]), int(cell[1]))
+        key = (cell, reverse, np.packbits(targets).tobytes())
+        hit = self._legs.get(key)
+        w = self.world
+        if hit is None:
+            cost, _ = navigation_cost(w.factor, w.feasible, cell, w.nav.resolution, targets=targets, reverse=reverse)
+            if len(self._legs) >= MAX_LEGS:
+                self._legs.clear()
+            hit = self._legs[key] = cost[targets]
+        out: FloatArray = np.full(targets.shape, np.inf)
+        out[targets] = hit
+        return out
 
     def map_for(self, arm: str, torso: float | None) -> ReachabilityMap:
         """``arm``'s map (view) at torso value ``torso`` [m] (None: the map without a torso record)."""
@@ -198,6 +226,12 @@ class StepProblems:
         else:
             new._options = kept
             new._held = {k: v for k, v in self._held.items() if k[0] not in moved}
+            # the same options and base grid: their checks stand, but near a moved object (its
+            # pieces before and after the move)
+            names = set(moved_objects)
+            boxes = [s.aabb for sc in (self.scene, scene) for s in scene_shapes(sc) if s.name in names]
+            new.checks = self.checks.kept(moved, boxes)
+            new._legs = self._legs
             # step i's heuristic reads step i's regions and stops once step i - 1's cells are settled
             stale = moved | {i + 1 for i in moved}
             new._heuristic = {k: h for k, h in self._heuristic.items() if k[0] not in stale}

@@ -3,7 +3,8 @@
 Both solve the forward program of :mod:`placement.planning.bound` over the regions of the maps (every
 cell where some (arm, grasp) keeps the threshold, per group; a place keeps its pick's group) and
 verify the cheapest chain lazily: each step's placement along the chain, in task order, gets IK of
-every pose (seeded from the arm's previous solution and the map's witnesses) and the collision
+every pose (started from the map's witness, then the arm's home: a placement's answer is its own,
+kept by :mod:`placement.planning.checks` across re-plans) and the collision
 check, trying the group's options that keep the threshold there by decreasing map value, each at
 its best base yaw. A rejected (cell, group) is removed from its step's region, the program is solved
 again from that step on, and the loop ends when every step of the chain verifies.
@@ -54,7 +55,7 @@ from placement.planning.option import Option
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import collision_args
 from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first, torso_joint
-from placement.planning.verify import trajectory_ik
+from placement.planning.verify import TrajectoryIK, trajectory_ik
 
 log = logging.getLogger(__name__)
 
@@ -105,7 +106,7 @@ class DynamicProgram:
         """The layers of the last solve."""
         return self.program.layers
 
-    def verify(self, i: int, flat: int, g: int, q_state: dict[str, np.ndarray]) -> Verified | None:
+    def verify(self, i: int, flat: int, g: int) -> Verified | None:
         """The first of step i's options of group g at ``flat`` that passes IK and the collision check
         (by map value; with torso settings, those at the torso value the robot holds (:attr:`torso`)
         first, see :mod:`placement.planning.torso`)."""
@@ -130,19 +131,23 @@ class DynamicProgram:
             if opts[k].value_at(iy, ix) >= ctx.threshold(opts[k].arm) and (hold is None or opts[k].torso == hold)
         ]
         found = None
+        checks = ctx.problems.checks
         for k in torso_first(opts, order, self.torso):
             o = opts[k]
             value = o.value_at(iy, ix)
             base = (float(xs[ix]), float(ys[iy]), float(ctx.yaws[o.yaw_at(iy, ix)]))
-            witness = getattr(option_map(ctx, o), "witness_q", None)
-            robot = robot_at(ctx, o.torso)
-            ik = trajectory_ik(robot, o.arm, o.candidate.poses, base, q_state[o.arm], witness, ctx.config)
+            ck = (i, hold, k, flat)
+            ik = checks.ik.get(ck)
+            if ik is None:
+                ik = checks.ik[ck] = self._ik(o, base)
             if not ik.ok:
                 continue
             clearance = None
             checker = collisions_at(ctx, o.torso)
             if checker is not None:
-                check = checker.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
+                check = checks.collision.get(ck)
+                if check is None:
+                    check = checks.collision[ck] = checker.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
                 if not check.free:
                     continue
                 clearance = float(check.clearance_m)
@@ -150,6 +155,16 @@ class DynamicProgram:
             break
         self.verified[key] = found
         return found
+
+    def _ik(self, o: Option, base: tuple[float, float, float]) -> TrajectoryIK:
+        """IK of option ``o``'s poses with the base at ``base``, started from the map's witness, then
+        the arm's home and random restarts: not from the arm's configuration after the step before,
+        so that the answer is the placement's alone and stays valid when earlier steps change (see
+        :mod:`placement.planning.checks`)."""
+        witness = getattr(option_map(self.ctx, o), "witness_q", None)
+        robot = robot_at(self.ctx, o.torso)
+        home = self.ctx.robot.arm(o.arm).home
+        return trajectory_ik(robot, o.arm, o.candidate.poses, base, home, witness, self.ctx.config)
 
     def remove(self, i: int, flat: int, g: int, count: bool = True) -> None:
         """Take the rejected (cell, group) (and its neighbourhood, for ``global``) out of step i's region."""
@@ -191,7 +206,7 @@ class DynamicProgram:
                 self.remove(i, flat, self.full[i].groups.index(group), count=False)
         return self.solve()
 
-    def reject_around(self, i: int, flat: int, g: int, q_state: dict[str, np.ndarray]) -> None:
+    def reject_around(self, i: int, flat: int, g: int) -> None:
         """Verify the cells around a rejected one (``ctx.config.optimal_probe`` cells each way) now and
         remove those that fail too: rejections cluster (at the frontier of reach, beside an
         obstacle), and an IK call costs less than solving the program again for each of them."""
@@ -202,7 +217,7 @@ class DynamicProgram:
         for y in range(max(iy - r, 0), min(iy + r + 1, ny)):
             for x in range(max(ix - r, 0), min(ix + r + 1, nx)):
                 f = y * nx + x
-                if self.regions[i].masks[g, y, x] and self.verify(i, f, g, q_state) is None:
+                if self.regions[i].masks[g, y, x] and self.verify(i, f, g) is None:
                     self.remove(i, f, g)
 
 
@@ -240,15 +255,14 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
             return None, [], why_not(ctx, dp)
         # every step of the chain is checked before the program is solved again: the rejections of
         # one pass are removed together (one solve from the earliest instead of one per rejection)
-        q_state = {arm: ctx.robot.arm(arm).home.copy() for arm in ctx.maps}
         dp.torso = start_torso(ctx)
         failed: list[tuple[int, int, int]] = []
         picks: list[Verified] = []
         for i in range(len(chain.cells)):
             flat, g = chain.cells[i], chain.groups[i]
-            v = dp.verify(i, flat, g, q_state)
+            v = dp.verify(i, flat, g)
             if v is None and dp.local:
-                fixed = repair(dp, chain, i, q_state)
+                fixed = repair(dp, chain, i)
                 if fixed is not None:
                     chain, v = fixed
                     dp.repairs_local += 1
@@ -257,7 +271,6 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
                 continue
             picks.append(v)
             chosen = dp.options(i)[v.option]
-            q_state[chosen.arm] = v.ik.q
             dp.torso = chosen.torso if chosen.torso is not None else dp.torso
         if not failed:
             return chain, picks, None
@@ -277,7 +290,7 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
         for f in failed:
             dp.remove(*f)
             if dp.exact_repairs is None or dp.repairs < dp.exact_repairs:
-                dp.reject_around(*f, q_state)
+                dp.reject_around(*f)
         chain = dp.solve(failed[0][0])
 
 

@@ -7,11 +7,10 @@ Solving the whole program again after each rejection costs one Dijkstra per step
 of a transfer) each time. ``global`` keeps the chain's other cells instead and moves the rejected
 step to the cell of its region that adds the least travel between its neighbours' cells,
 ``d(c[i-1], x) + d(x, c[i+1])``, verifying candidates in that order (at most
-``global_repair_candidates``): three Dijkstras and a few IK calls instead of a solve. A transfer's
-pick and place keep their group. The legs into and out of the new cell are exact (one Dijkstra
-each); the order of the candidates uses the leg out of them computed from ``c[i+1]`` with the same
-kernel, which differs from the exact leg by at most one cell's length times the difference of two
-speed factors. When no candidate verifies, the caller removes the rejection and solves again.
+``global_repair_candidates``): two Dijkstras (one from ``c[i-1]``, one to ``c[i+1]`` on the reversed
+grid) and a few IK calls instead of a solve. A transfer's pick and place keep their group. The legs
+into and out of the new cell are exact. When no candidate verifies, the caller removes the
+rejection and solves again.
 """
 
 from __future__ import annotations
@@ -24,7 +23,6 @@ import numpy as np
 from placement.planning.arrays import Cell
 from placement.planning.bound import Chain, Regions
 from placement.planning.context import PlanningContext
-from placement.planning.navigation import navigation_cost
 from placement.planning.verify import TrajectoryIK
 
 
@@ -48,7 +46,7 @@ class DynamicProgram(Protocol):
     regions: list[Regions]
     linked: list[bool]
 
-    def verify(self, i: int, flat: int, g: int, q_state: dict[str, np.ndarray]) -> Verified | None: ...
+    def verify(self, i: int, flat: int, g: int) -> Verified | None: ...
 
 
 def _node(dp: DynamicProgram, i: int, g: int, flat: int) -> float:
@@ -56,7 +54,7 @@ def _node(dp: DynamicProgram, i: int, g: int, flat: int) -> float:
     return 0.0 if node is None else float(node[g].flat[flat])
 
 
-def repair(dp: DynamicProgram, chain: Chain, i: int, q_state: dict[str, np.ndarray]) -> tuple[Chain, Verified] | None:
+def repair(dp: DynamicProgram, chain: Chain, i: int) -> tuple[Chain, Verified] | None:
     """``chain`` with step i moved to the least detour between its neighbours that verifies, and that
     placement; None when none of the candidates does."""
     ctx, w = dp.ctx, dp.ctx.world
@@ -71,41 +69,30 @@ def repair(dp: DynamicProgram, chain: Chain, i: int, q_state: dict[str, np.ndarr
         return None
     prev_cell = dp.start if i == 0 else divmod(chain.cells[i - 1], nx)
     prev_label = 0.0 if i == 0 else chain.labels[i - 1]
-    into, _ = navigation_cost(w.factor, w.feasible, prev_cell, w.nav.resolution, targets=targets)
+    into = ctx.problems.legs(prev_cell, targets)
     score = into.copy()
-    if i + 1 < n:
-        out_of, _ = navigation_cost(
-            w.factor, w.feasible, divmod(chain.cells[i + 1], nx), w.nav.resolution, targets=targets
-        )
+    if i + 1 < n:  # from every candidate to the next step's cell: the legs out, exact
+        out_of = ctx.problems.legs(divmod(chain.cells[i + 1], nx), targets, reverse=True)
         score += out_of
     cands = [
         (float(score.flat[f]), int(f), g) for g in groups for f in np.flatnonzero(reg.masks[g] & np.isfinite(score))
     ]
     cands.sort()
     for _, flat, g in cands[: ctx.config.global_repair_candidates]:
-        v = dp.verify(i, flat, g, q_state)
+        v = dp.verify(i, flat, g)
         if v is None:
             continue
         labels = list(chain.labels)
         labels[i] = prev_label + float(into.flat[flat]) + _node(dp, i, g, flat)
         if i + 1 < n:
             nxt = chain.cells[i + 1]
-            leg, _ = navigation_cost(
-                w.factor, w.feasible, divmod(flat, nx), w.nav.resolution, targets=_single(w.feasible.shape, nxt)
-            )
-            new_next = labels[i] + float(leg.flat[nxt]) + _node(dp, i + 1, chain.groups[i + 1], nxt)
+            new_next = labels[i] + float(out_of.flat[flat]) + _node(dp, i + 1, chain.groups[i + 1], nxt)
             shift = new_next - chain.labels[i + 1]
             labels[i + 1 :] = [label + shift for label in chain.labels[i + 1 :]]
         cells, grps = list(chain.cells), list(chain.groups)
         cells[i], grps[i] = flat, g
         return Chain(cells, grps, labels), v
     return None
-
-
-def _single(shape: tuple[int, ...], flat: int) -> np.ndarray:
-    out = np.zeros(shape, bool)
-    out.flat[flat] = True
-    return out
 
 
 __all__ = ["DynamicProgram", "Verified", "repair"]
