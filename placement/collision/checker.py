@@ -56,6 +56,9 @@ GRID_SLACK = 1e-6
 
 #: [m] a convex hull this much farther than the best distance so far is not measured exactly.
 HULL_SLACK = 1e-5
+#: [m] a closest pair farther than the padding by more than this collides with nothing: the collision
+#: tests are skipped (far above coal's GJK tolerance, so a distance near the padding is always tested)
+CLEAR_SLACK = 1e-4
 
 
 class SceneCollision:
@@ -155,26 +158,32 @@ class SceneCollision:
                 )
         A = self.geometry.base_in_model @ np.linalg.inv(base_matrix(*(float(v) for v in base)))
         inst = self._instances(arm, Q, shapes)
-        box = self._box(arm, Q, base, held, A, inst)
+        carried_at = None  # the held object's (P, 4, 4) world poses
+        if held is not None:
+            B = base_matrix(*(float(v) for v in base))
+            carried_at = np.array([B @ self.robot.tcp_pose(arm, q) @ held.tcp_to_object for q in Q])
+        box = self._box(held, carried_at, A, inst)
         scene = self._scene_in_model(A, inst)
         pairs = self._pairs(inst, scene, shapes, grasped, frozenset(gone))
-        hit = self._first_collision(pairs, inst, scene)
-        if hit is not None:
-            return replace(hit, box=box)
+        # the closest pair first: when it is farther than the padding no pair collides, and the
+        # collision tests (as many calls again) are not needed; otherwise they decide, as always
+        free = self._closest(pairs, inst, scene)
+        if free.clearance_m <= self.padding + CLEAR_SLACK:
+            hit = self._first_collision(pairs, inst, scene)
+            if hit is not None:
+                return replace(hit, box=box)
         if held is None:
-            return replace(self._closest(pairs, inst, scene), box=box)
-        carried = self._held(arm, Q, base, held, A, inst, frozenset(gone) | {held.name})
+            return replace(free, box=box)
+        assert carried_at is not None
+        carried = self._held(held, carried_at, A, inst, frozenset(gone) | {held.name})
         if not carried.free:
             return replace(carried, box=box)
-        free = self._closest(pairs, inst, scene)
         return replace(free if free.clearance_m <= carried.clearance_m else carried, box=box)
 
     def _box(
         self,
-        arm: str,
-        qs: npt.NDArray[np.float64],
-        base: tuple[float, float, float] | npt.NDArray[np.float64],
         held: Held | None,
+        carried_at: npt.NDArray[np.float64] | None,
         A: npt.NDArray[np.float64],
         inst: Instances,
     ) -> tuple[float, float, float, float, float, float]:
@@ -186,26 +195,22 @@ class SceneCollision:
         centres = inst["centre"] @ Ainv[:3, :3].T + Ainv[:3, 3]
         r = inst["radius"][:, None] + grow
         lo, hi = (centres - r).min(axis=0, initial=np.inf), (centres + r).max(axis=0, initial=-np.inf)
-        if held is not None:
-            B = base_matrix(*(float(v) for v in base))
-            at = np.array([(B @ self.robot.tcp_pose(arm, q) @ held.tcp_to_object)[:3, 3] for q in qs])
+        if held is not None and carried_at is not None:
+            at = carried_at[:, :3, 3]
             reach = 0.5 * float(np.linalg.norm(held.size)) + grow
             lo, hi = np.minimum(lo, at.min(axis=0) - reach), np.maximum(hi, at.max(axis=0) + reach)
         return (float(lo[0]), float(lo[1]), float(lo[2]), float(hi[0]), float(hi[1]), float(hi[2]))
 
     def _held(
         self,
-        arm: str,
-        qs: npt.NDArray[np.float64],
-        base: tuple[float, float, float] | npt.NDArray[np.float64],
         held: Held,
+        world: npt.NDArray[np.float64],
         A: npt.NDArray[np.float64],
         inst: Instances,
         skip: frozenset[str],
     ) -> CollisionResult:
-        """The held object along the trajectory against the scene and the robot (see held.py)."""
-        B = base_matrix(*(float(v) for v in base))
-        world = np.array([B @ self.robot.tcp_pose(arm, q) @ held.tcp_to_object for q in qs])
+        """The held object at its world poses ``world`` (P, 4, 4) along the trajectory against the
+        scene and the robot (see held.py)."""
         check = HeldCheck(held, world, self.padding, self.cap)
         reach = check.radius + max(self.cap, self.padding)
         lo, hi = world[:, :3, 3].min(axis=0) - reach, world[:, :3, 3].max(axis=0) + reach
