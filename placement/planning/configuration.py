@@ -30,7 +30,7 @@ import pinocchio as pin
 from placement.planning.arrays import FloatArray
 from placement.robots import Robot
 from placement.robots.description import expand_xacro, is_xacro
-from placement.robots.model_cache import mimic_joints
+from placement.robots.model_cache import fk_data, mimic_joints
 
 
 @dataclass(frozen=True)
@@ -117,7 +117,7 @@ def pinocchio_q(robot: Robot, joints: Mapping[str, float]) -> FloatArray:
 def world_tcp(robot: Robot, arm: str, q: FloatArray, base: FloatArray) -> FloatArray:
     """(4, 4) world pose of ``arm``'s TCP by pinocchio FK of the whole configuration ``q`` with the
     base frame at ``base`` (4, 4) in the world."""
-    data = robot.model.createData()
+    data = fk_data(robot.model)
     pin.framesForwardKinematics(robot.model, data, q)
     a = robot.arm(arm)
     root = base @ data.oMf[robot.base_frame_id].inverse().homogeneous

@@ -70,3 +70,20 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
 
 
 __all__ = ["MODELS_LOCK", "MODEL_CACHE_SIZE", "mimic_joints", "urdf_model"]
+
+
+_FK_DATA = threading.local()
+
+
+def fk_data(model: pin.Model) -> pin.Data:
+    """A pinocchio ``Data`` of ``model`` for the calling thread, made once (``createData`` of a
+    full robot costs far more than the forward kinematics it serves)."""
+    cache: dict[int, tuple[pin.Model, pin.Data]] | None = getattr(_FK_DATA, "by_model", None)
+    if cache is None:
+        cache = _FK_DATA.by_model = {}
+    hit = cache.get(id(model))
+    if hit is None or hit[0] is not model:  # the model is kept with it: its id is not reused meanwhile
+        if len(cache) >= 4 * MODEL_CACHE_SIZE:
+            cache.clear()
+        hit = cache[id(model)] = (model, model.createData())
+    return hit[1]

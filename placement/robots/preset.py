@@ -25,7 +25,7 @@ import pinocchio as pin
 
 from placement.errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
 from placement.robots.chain import Chain, ancestors, extract_chain
-from placement.robots.model_cache import MODELS_LOCK, urdf_model
+from placement.robots.model_cache import MODELS_LOCK, fk_data, urdf_model
 from placement.robots.spec import MAX_PRESET_BYTES, QUATERNION_TOLERANCE, ArmSpec, GripperSpec, PresetSpec, parse_preset
 from placement.validation import Checker, one_line, read_yaml
 
@@ -326,7 +326,7 @@ class Robot:
     def tcp_pose(self, arm: str, q) -> np.ndarray:
         """(4, 4) TCP pose in the base frame computed by pinocchio (the reference FK)."""
         a = self.arm(arm)
-        data = self.model.createData()
+        data = fk_data(self.model)
         pin.framesForwardKinematics(self.model, data, self.full_q(arm, q))
         base = data.oMf[self.base_frame_id]
         tip = data.oMf[self._frame_id(a.tip_frame)]
