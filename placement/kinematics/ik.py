@@ -229,7 +229,7 @@ def solve_ik(
         q0 = finite_array(q_seed, "q_seed", PlacementError)
     if q0.shape != (a.dof,):
         raise PlacementError(f"q_seed must have {a.dof} values for arm '{arm}', got shape {q0.shape}")
-    rng = np.random.default_rng(rng_seed)
+    rng: np.random.Generator | None = None  # made for the first random start only (it costs)
     best: IKResult | None = None
     total = 0
     target = np.eye(4)
@@ -238,7 +238,11 @@ def solve_ik(
     ch = a.chain
     cont = a.continuous.astype(np.bool_)
     for k in range(seeds):
-        start = q0 if k == 0 else rng.uniform(a.lower, a.upper)
+        if k == 0:
+            start = q0
+        else:
+            rng = np.random.default_rng(rng_seed) if rng is None else rng
+            start = rng.uniform(a.lower, a.upper)
         # the descent runs in numba on the chain kernels (= pinocchio to 1e-9) ...
         ok, q, pe, re, it = dls_attempt(
             s.project(start.copy()),
