@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -52,7 +53,11 @@ class BaseShape:
         return (len(self.yaws) + 63) // 64
 
     def full_mask(self) -> MaskArray:
-        """(W,) uint64 with the bits of every yaw set."""
+        """(W,) uint64 with the bits of every yaw set (one array per shape: callers copy, never write)."""
+        return self._full
+
+    @cached_property
+    def _full(self) -> MaskArray:
         out = np.zeros(self.words, np.uint64)
         for k in range(len(self.yaws)):
             out[k >> 6] |= np.uint64(1) << np.uint64(k & 63)
