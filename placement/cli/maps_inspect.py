@@ -82,7 +82,7 @@ def scan(rmap: ReachabilityMap, progress: Callable[[int], object] | None = None)
     """Fill and value statistics of a map, reading every chunk of its values and witnesses (each checked
     against its CRC32) one z layer at a time (memory: two layers, not the whole map); ``progress(1)``
     after each layer."""
-    store, arm = rmap.store, rmap.arm
+    store, arm = rmap.store, rmap.array  # a torso setting's view reads its own array
     counts = np.zeros(len(HISTOGRAM_EDGES) - 1, dtype=np.int64)
     total, high, cells = 0.0, 0.0, 0
     for iz in range(rmap.grid.shape[2]):
