@@ -79,6 +79,8 @@ class StepProblems:
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
+        # step -> its grasp or place candidates (the options of each torso setting share them)
+        self._candidates: dict[int, list[Candidate]] = {}
         #: (region kind, start cell) -> the task's least travel [m] (see placement.planning.bound)
         self.bounds: dict[tuple[str, tuple[int, int]], float] = {}
         #: (step, flat cell, (arm, grasp), torso value held or None) -> what the whole-task methods'
@@ -148,7 +150,9 @@ class StepProblems:
         nav = self.world.nav
         opts = []
         near: dict[Reach, tuple[IntArray, MaskArray]] = {}  # candidates of a step share their target position
-        candidates = step_candidates(self.scene, step, self.config, self.opening_m)
+        candidates = self._candidates.get(step.index)
+        if candidates is None:  # the same at every torso setting
+            candidates = self._candidates[step.index] = step_candidates(self.scene, step, self.config, self.opening_m)
         views = ((a, m) for a, ms in self.variants.items() for m in ms)
         for arm, rmap in ((a, m) for a, m in views if torso is None or torso_value(m) == torso):
             lo, hi = height_range(rmap)
