@@ -23,7 +23,7 @@ import numpy.typing as npt
 from placement.errors import PlacementError
 
 if TYPE_CHECKING:
-    from placement.scene import Box, Cylinder, OccupancyMap, Polygon, Scene
+    from placement.scene import Box, Cylinder, OccupancyMap, Polygon, Scene, SceneObject
 
 #: Height [m] given to polygon prisms and occupancy cells (unbounded in the scene model).
 PRISM_HEIGHT = 3.0
@@ -66,6 +66,11 @@ def box_aabb(pose: npt.NDArray[np.float64], size: npt.ArrayLike) -> npt.NDArray[
     """(2, 3) world AABB of a box of full ``size`` (3,) at ``pose`` (4, 4)."""
     half = np.abs(pose[:3, :3]) @ (np.asarray(size, dtype=float) / 2)
     return np.array([pose[:3, 3] - half, pose[:3, 3] + half])
+
+
+def object_aabb(obj: SceneObject) -> npt.NDArray[np.float64]:
+    """(2, 3) world AABB [m] of a scene object: the box of its piece in :func:`scene_shapes`."""
+    return box_aabb(pose_of(obj, obj.position, obj.yaw), obj.size)
 
 
 def box_shape(name: str, thing: object, centre: npt.ArrayLike, size: npt.NDArray[np.float64], yaw: float) -> SceneShape:

@@ -113,6 +113,16 @@ def held_torso(ctx: PlanningContext, i: int) -> float | None:
 
 
 def _regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
+    """The region of an options list of the problems' cache (computed once per list: the lists are
+    kept, and so is the region, which nothing writes to)."""
+    cache = ctx.problems.regions
+    hit = cache.get(id(opts))
+    if hit is None or hit[0] is not opts:  # the list is kept with it: its id is not reused meanwhile
+        hit = cache[id(opts)] = (opts, _compute_regions(ctx, opts))
+    return hit[1]
+
+
+def _compute_regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
     nav = ctx.world.nav
     groups = sorted({(o.arm, o.candidate.grasp) for o in opts}, key=lambda g: (g[0], str(g[1])))
     index = {g: k for k, g in enumerate(groups)}
@@ -121,6 +131,21 @@ def _regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
         masks[index[(o.arm, o.candidate.grasp)]][o.window.slices] |= o.value >= ctx.threshold(o.arm)
     masks &= ctx.world.feasible
     return Regions(tuple(groups), masks)
+
+
+def _lowest(labels: FloatArray, shape: tuple[int, ...]) -> tuple[FloatArray, IntArray | None]:
+    """(ny, nx) the minimum over the groups of (G, ny, nx) ``labels`` and the first group that has it
+    (``min`` and ``argmin`` over axis 0, one pass per group: numpy's strided argmin is slower);
+    all inf and None without groups."""
+    if labels.shape[0] == 0:
+        return np.full(shape, math.inf), None
+    low = labels[0].copy()
+    group = np.zeros(shape, dtype=np.int64)
+    for g in range(1, labels.shape[0]):
+        better = labels[g] < low
+        low[better] = labels[g][better]
+        group[better] = g
+    return low, group
 
 
 def _seeds(labels: FloatArray) -> tuple[IntArray, FloatArray]:
@@ -169,9 +194,7 @@ def forward(
             same = {g: k for k, g in enumerate(regions[i - 1].groups)}
             seedings = [(_seeds(prev[same[g]]), [k]) for k, g in enumerate(reg.groups) if g in same]
         else:
-            prev = out[i - 1].labels
-            low = prev.min(axis=0) if prev.shape[0] else np.full(shape, math.inf)
-            seed_group = prev.argmin(axis=0) if prev.shape[0] else None
+            low, seed_group = _lowest(out[i - 1].labels, shape)
             seedings = [(_seeds(low), list(range(G)))]
         for (cells, costs), members in seedings:
             targets: BoolArray = np.zeros(shape, bool)

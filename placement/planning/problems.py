@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from placement.collision.scene import scene_shapes
+from placement.collision.scene import object_aabb
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray, MaskArray
 from placement.planning.checks import Checks
@@ -79,6 +79,8 @@ class StepProblems:
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
+        #: id(options list) -> (that list, its region by the maps): see placement.planning.bound
+        self.regions: dict[int, tuple[Sequence[Option], Any]] = {}
         # step -> its grasp or place candidates (the options of each torso setting share them)
         self._candidates: dict[int, list[Candidate]] = {}
         #: (region kind, start cell) -> the task's least travel [m] (see placement.planning.bound)
@@ -232,8 +234,7 @@ class StepProblems:
             new._held = {k: v for k, v in self._held.items() if k[0] not in moved}
             # the same options and base grid: their checks stand, but near a moved object (its
             # pieces before and after the move)
-            names = set(moved_objects)
-            boxes = [s.aabb for sc in (self.scene, scene) for s in scene_shapes(sc) if s.name in names]
+            boxes = [object_aabb(o) for sc in (self.scene, scene) for o in sc.objects if o.name in moved_objects]
             new.checks = self.checks.kept(moved, boxes)
             new._legs = self._legs
             # step i's heuristic reads step i's regions and stops once step i - 1's cells are settled

@@ -74,11 +74,7 @@ def repair(dp: DynamicProgram, chain: Chain, i: int) -> tuple[Chain, Verified] |
     if i + 1 < n:  # from every candidate to the next step's cell: the legs out, exact
         out_of = ctx.problems.legs(divmod(chain.cells[i + 1], nx), targets, reverse=True)
         score += out_of
-    cands = [
-        (float(score.flat[f]), int(f), g) for g in groups for f in np.flatnonzero(reg.masks[g] & np.isfinite(score))
-    ]
-    cands.sort()
-    for _, flat, g in cands[: ctx.config.global_repair_candidates]:
+    for flat, g in _best(score, reg.masks, groups, ctx.config.global_repair_candidates):
         v = dp.verify(i, flat, g)
         if v is None:
             continue
@@ -93,6 +89,23 @@ def repair(dp: DynamicProgram, chain: Chain, i: int) -> tuple[Chain, Verified] |
         cells[i], grps[i] = flat, g
         return Chain(cells, grps, labels), v
     return None
+
+
+def _best(score: np.ndarray, masks: np.ndarray, groups: list[int], count: int) -> list[tuple[int, int]]:
+    """The ``count`` (flat cell, group) of ``groups`` with the lowest finite ``score`` (ny, nx) on their
+    masks (G, ny, nx), by (score, cell, group) ascending."""
+    flats, grps, vals = [], [], []
+    finite = np.isfinite(score)
+    for g in groups:
+        f = np.flatnonzero(masks[g] & finite)
+        flats.append(f)
+        grps.append(np.full(f.size, g))
+        vals.append(score.flat[f])
+    if not flats:
+        return []
+    cell, group, value = np.concatenate(flats), np.concatenate(grps), np.concatenate(vals)
+    order = np.lexsort((group, cell, value))[:count]
+    return [(int(cell[k]), int(group[k])) for k in order]
 
 
 __all__ = ["DynamicProgram", "Verified", "repair"]
