@@ -68,6 +68,8 @@ def navigation_cost(
     if fac.shape != feas.shape:
         raise PlacementError(f"factor {fac.shape} and feasible {feas.shape} grids differ")
     ny, nx = feas.shape
+    if 9 * (ny + 2) * (nx + 2) + len(cells) >= 2**31:
+        raise PlacementError(f"the {ny} x {nx} grid is too large for the shortest-path kernel (int32 queue)")
     outside = (cells[:, 0] < 0) | (cells[:, 0] >= ny) | (cells[:, 1] < 0) | (cells[:, 1] >= nx)
     if outside.any():
         iy, ix = cells[int(np.argmax(outside))]
