@@ -6,15 +6,22 @@ Plain helpers live in ``tests/support`` (the ARMAR-6 URDF and preset in :mod:`su
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(__file__).resolve().parents[1] / ".venv" / "numba-cache"))
+# The command-line tests start ~200 Python processes that import placement; with PYTHONDONTWRITEBYTECODE
+# (set in some containers) each compiled the package's sources again (0.2 s a process). Their bytecode
+# goes to a cache outside the working tree instead.
+if os.environ.pop("PYTHONDONTWRITEBYTECODE", None):
+    os.environ.setdefault("PYTHONPYCACHEPREFIX", str(Path(tempfile.gettempdir()) / "placement-test-pycache"))
 
 import pytest
 from hypothesis import settings
 from skip_summary import pytest_terminal_summary  # noqa: F401  (the run's closing skip summary)
 from support.robots import ARMAR6_SOURCE, ARMAR6_URDF, write_armar6_preset
 from support.storage import SMALL
+from support.workers import built_once, module_groups, run_dir
 
 import placement
 
@@ -42,7 +49,29 @@ PYCRAM_ONLY = (
 )
 
 
+# Test files holding the suite's longest single tests (20 to 70 s each), run first so that the two workers
+# do not end on one of them while the other waits; speed only (a file not here runs in its usual place).
+FIRST = (
+    "test_viewer_browser.py",
+    "test_transfers.py",
+    "test_warmup.py",
+    "test_search.py",
+    "test_regression.py",
+    "test_cli.py",
+    "test_selfcollision.py",
+    "test_query_cli.py",
+    "test_footprints.py",
+    "test_scene_v2_plan.py",
+)
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist reads the groups (its hook tags the test ids)
 def pytest_collection_modifyitems(config, items):
+    rank = {name: k for k, name in enumerate(FIRST)}
+    items.sort(key=lambda item: rank.get(Path(item.nodeid.partition("::")[0]).name, len(FIRST)))  # stable
+    for module, grouped in module_groups(items).items():
+        for item in grouped:
+            item.add_marker(pytest.mark.xdist_group(module))
     if ARMAR6_SOURCE != "package":
         return
     for item in items:
@@ -76,13 +105,20 @@ def pr2():
 
 
 @pytest.fixture(scope="session")
-def maps_dir(pr2, tmp_path_factory):
-    """Small PR2 maps (both arms) shared by the planning tests."""
-    built = {
-        arm: placement.build_map(pr2, arm, samples=700_000, seed=1, resolution=0.1, bins=(10, 5, 10), progress=False)
-        for arm in ("right", "left")
-    }
-    return placement.save_maps(tmp_path_factory.mktemp("maps") / "pr2", pr2, built)
+def maps_dir(pr2, tmp_path_factory, worker_id):
+    """Small PR2 maps (both arms) shared by the planning tests: built once per run, by the first
+    pytest-xdist worker that needs them (read-only for every test)."""
+
+    def build(folder: Path) -> None:
+        built = {
+            arm: placement.build_map(
+                pr2, arm, samples=700_000, seed=1, resolution=0.1, bins=(10, 5, 10), progress=False
+            )
+            for arm in ("right", "left")
+        }
+        placement.save_maps(folder / "pr2", pr2, built)
+
+    return built_once(run_dir(tmp_path_factory, worker_id), "maps", build) / "pr2"
 
 
 @pytest.fixture(scope="module")
