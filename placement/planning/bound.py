@@ -133,6 +133,15 @@ def _compute_regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
     return Regions(tuple(groups), masks)
 
 
+def _narrowed(layer: Layer, old: Regions, new: Regions) -> Layer | None:
+    """``layer`` (computed over ``old``) for ``new`` when ``new`` only lost cells, else None."""
+    if new.groups != old.groups or new.node is not old.node or new.masks.shape != old.masks.shape:
+        return None
+    if np.any(new.masks & ~old.masks):
+        return None
+    return Layer(np.where(new.masks, layer.labels, math.inf), layer.pred, layer.dijkstra, layer.seed_group)
+
+
 def _lowest(labels: FloatArray, shape: tuple[int, ...]) -> tuple[FloatArray, IntArray | None]:
     """(ny, nx) the minimum over the groups of (G, ny, nx) ``labels`` and the first group that has it
     (``min`` and ``argmin`` over axis 0, one pass per group: numpy's strided argmin is slower);
@@ -163,6 +172,7 @@ def forward(
     linked: Sequence[bool],
     layers: list[Layer] | None = None,
     first: int = 0,
+    before: Sequence[Regions] | None = None,
 ) -> list[Layer]:
     """The labels of every step (see the module docstring).
 
@@ -174,12 +184,19 @@ def forward(
         linked: per step, True for a place that keeps the previous step's group (its pick's).
         layers, first: recompute from step ``first`` on, keeping ``layers[:first]`` (after a
             change of the regions of step ``first`` or later).
+        before: the regions ``layers`` were computed with: when step ``first`` only lost cells
+            (same groups and node costs, masks a subset), its layer is the old one with those cells
+            set to inf (its Dijkstras' costs do not depend on their targets), no Dijkstra.
     Returns:
         one :class:`Layer` per step; a step no cell reaches has all labels inf, and so do the
         steps after it.
     """
     out = list(layers[:first]) if layers is not None else []
     shape = feasible.shape
+    if layers is not None and before is not None and first < min(len(layers), len(before), len(regions)):
+        kept = _narrowed(layers[first], before[first], regions[first])
+        if kept is not None:
+            out.append(kept)
     for i in range(len(out), len(regions)):
         reg = regions[i]
         G = len(reg.groups)
@@ -316,6 +333,9 @@ class Program:
         #: the places whose transfer is grouped
         self.grouped: set[int] = set()
         self.layers: list[Layer] = []
+        #: the regions and links the layers were computed with (see :func:`forward`'s ``before``)
+        self.views: list[Regions] | None = None
+        self.linked_view: list[bool] = []
         #: return a chain with conflicts (their places in :attr:`loose`) instead of grouping them
         self.lazy = False
         self.loose: list[int] = []
@@ -350,7 +370,9 @@ class Program:
         before it unchanged since the last solve)."""
         while True:
             view, linked = self._view(regions)
-            self.layers = forward(*self.grid, view, linked, self.layers, first)
+            same = self.views is not None and linked == self.linked_view
+            self.layers = forward(*self.grid, view, linked, self.layers, first, self.views if same else None)
+            self.views, self.linked_view = view, linked
             chain = backtrack(self.layers, view, linked)
             if chain is None:
                 return None

@@ -1,0 +1,52 @@
+"""A step whose region only lost cells keeps its layer (no Dijkstra): the same labels and chains as a
+program solved from scratch, on random tasks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_bound import RES, random_task
+
+import placement.planning.bound as bound
+from placement.planning.bound import Regions, backtrack, forward
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_a_narrowed_step_keeps_its_layer_and_the_result(seed, monkeypatch):
+    rng = np.random.default_rng(500 + seed)
+    linked = [False, True, False, True, False]
+    factor, feasible, start, regions = random_task(rng, 9, 10, 5, linked)
+    layers = forward(factor, feasible, RES, start, regions, linked)
+    i = int(rng.integers(0, 5))
+    masks = regions[i].masks & (rng.random(regions[i].masks.shape) > 0.3)  # a few cells rejected
+    changed = [*regions[:i], Regions(regions[i].groups, masks, regions[i].node), *regions[i + 1 :]]
+    calls = []
+    real = bound.navigation_cost
+    monkeypatch.setattr(bound, "navigation_cost", lambda *a, **k: calls.append(1) or real(*a, **k))
+    again = forward(factor, feasible, RES, start, changed, linked, layers, first=i, before=regions)
+    monkeypatch.undo()
+    fresh = forward(factor, feasible, RES, start, changed, linked)
+    for a, b in zip(again, fresh):
+        np.testing.assert_array_equal(a.labels, b.labels)
+    a, b = backtrack(again, changed, linked), backtrack(fresh, changed, linked)
+    assert (a is None) == (b is None)
+    if a is not None:
+        assert a.total == b.total
+    # step i cost no Dijkstra: only the later steps did, as many as they do on their own
+    later = []
+    monkeypatch.setattr(bound, "navigation_cost", lambda *a, **k: later.append(1) or real(*a, **k))
+    forward(factor, feasible, RES, start, changed, linked, again, first=i + 1)
+    assert len(calls) == len(later)
+
+
+def test_a_step_that_gained_cells_is_computed_again():
+    rng = np.random.default_rng(3)
+    linked = [False, False, False]
+    factor, feasible, start, regions = random_task(rng, 8, 8, 3, linked)
+    layers = forward(factor, feasible, RES, start, regions, linked)
+    grown = Regions(regions[1].groups, regions[1].masks | feasible[None], regions[1].node)
+    changed = [regions[0], grown, regions[2]]
+    again = forward(factor, feasible, RES, start, changed, linked, layers, first=1, before=regions)
+    fresh = forward(factor, feasible, RES, start, changed, linked)
+    for a, b in zip(again, fresh):
+        np.testing.assert_array_equal(a.labels, b.labels)
