@@ -181,11 +181,7 @@ class SceneCollision:
         return replace(free if free.clearance_m <= carried.clearance_m else carried, box=box)
 
     def _box(
-        self,
-        held: Held | None,
-        carried_at: npt.NDArray[np.float64] | None,
-        A: npt.NDArray[np.float64],
-        inst: Instances,
+        self, held: Held | None, carried_at: npt.NDArray[np.float64] | None, A: npt.NDArray[np.float64], inst: Instances
     ) -> tuple[float, float, float, float, float, float]:
         """The world box outside which no scene piece pairs with a shape of this check (see
         :class:`CollisionResult`): a piece pairs only when its bounds come within the cap (or the
