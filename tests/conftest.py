@@ -118,7 +118,8 @@ def maps_dir(pr2, tmp_path_factory, worker_id):
         }
         placement.save_maps(folder / "pr2", pr2, built)
 
-    return built_once(run_dir(tmp_path_factory, worker_id), "maps", build) / "pr2"
+    # not ".../maps/pr2": scenes without a 'maps' key look for maps/pr2 in every parent of their folder
+    return built_once(run_dir(tmp_path_factory, worker_id), "planning-maps", build) / "pr2"
 
 
 @pytest.fixture(scope="module")
