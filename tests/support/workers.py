@@ -1,10 +1,9 @@
-"""Work the pytest-xdist workers of one run share: a directory built once per run (not once per worker),
-and the rule that keeps the tests of a module with a module-scoped fixture on one worker.
+"""Work the pytest-xdist workers of one run share: a directory built once per run, not once per worker.
 
-``-n 2`` starts two worker processes; each has its own session, so a session fixture runs in both, and
-a module whose tests are spread over both builds its module fixtures twice. The PR2 planning maps
-(about 20 s of CPU) are built by the first worker that asks and read by the other; with ``--dist
-loadgroup`` (pyproject.toml) a module with an expensive module fixture runs on one worker.
+``-n 2`` starts two worker processes; each has its own session, so a session fixture runs in both. The
+PR2 planning maps (about 20 s of CPU) are built by the first worker that asks and read by the other.
+(Module fixtures are set up once because ``--dist loadfile``, in pyproject.toml, keeps a file on one
+worker.)
 """
 
 from __future__ import annotations
@@ -12,7 +11,7 @@ from __future__ import annotations
 import fcntl
 import os
 import shutil
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -50,15 +49,3 @@ def built_once(root: Path, name: str, build: Callable[[Path], object]) -> Path:
             build(partial)
             os.rename(partial, done)
         return done
-
-
-def module_groups(items: Sequence[pytest.Item]) -> dict[str, list[pytest.Item]]:
-    """Per test file, its tests that use a module-scoped fixture (under ``--dist loadgroup`` they get
-    one ``xdist_group`` per file: such a fixture is then set up on one worker, not on both)."""
-    groups: dict[str, list[pytest.Item]] = {}
-    for item in items:
-        info = getattr(item, "_fixtureinfo", None)
-        defs = info.name2fixturedefs.values() if info is not None else ()
-        if any(d and d[-1].scope == "module" for d in defs):
-            groups.setdefault(item.nodeid.partition("::")[0], []).append(item)
-    return groups
