@@ -41,7 +41,8 @@ from placement.errors import (  # noqa: E402
 from placement.kinematics.ik import IKResult, solve_ik  # noqa: E402
 from placement.kinematics.manipulability import extended_manipulability  # noqa: E402
 from placement.maps.grid import Grid  # noqa: E402
-from placement.maps.rmap import ReachabilityMap, open_map, save_maps  # noqa: E402
+from placement.maps.opening import open_map  # noqa: E402
+from placement.maps.rmap import ReachabilityMap, save_maps  # noqa: E402
 from placement.planning import PlannerConfig, PlanResult, StepResult  # noqa: E402
 from placement.planning.planner import Planner, plan  # noqa: E402
 from placement.robots import Arm, Robot, load_robot  # noqa: E402

@@ -115,7 +115,8 @@ def warm(work: Path, say: Callable[[str], object] = print) -> dict[str, float]:
     from placement.kinematics.manipulability import extended_manipulability
     from placement.maps.accuracy import check_map
     from placement.maps.build import build_map
-    from placement.maps.rmap import open_map, save_maps
+    from placement.maps.opening import open_map
+    from placement.maps.rmap import save_maps
     from placement.planning import METHODS, Planner
     from placement.robots import load_robot
 

@@ -20,7 +20,8 @@ from placement.kernels.sampling import configs_at
 from placement.kernels.subspace import subspace_manipulability
 from placement.kinematics.manipulability import arm_rank
 from placement.maps.build import build_map, provable_grid
-from placement.maps.rmap import open_map, save_maps
+from placement.maps.opening import open_map
+from placement.maps.rmap import save_maps
 
 INDEXES = {"isotropy": ISOTROPY, "volume": VOLUME}
 SO101 = {

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 from support.scenes import KITCHEN
 
-from placement.maps.rmap import open_map
+from placement.maps.opening import open_map
 from placement.planning import Planner
 from placement.planning.grasps import box_grasps
 from placement.planning.manipulation import base_yaws, manipulation_map

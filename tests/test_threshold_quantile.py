@@ -19,8 +19,8 @@ from support.storage import SMALL, reseal_arm, set_root
 
 import placement
 from placement.errors import MapError
+from placement.maps.opening import open_map
 from placement.maps.quantiles import ESTIMATE_STRIDE, estimate_quantiles, levels
-from placement.maps.rmap import open_map
 from placement.planning.config import PlannerConfig
 from placement.planning.methods.eq6 import rank_eq6
 from placement.planning.navigation import navigation_cost

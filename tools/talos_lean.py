@@ -41,7 +41,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this checkout, not an installed copy
 
 from placement.evaluation.tasktime import task_time  # noqa: E402
-from placement.maps.rmap import open_map  # noqa: E402
+from placement.maps.opening import open_map  # noqa: E402
 from placement.planning.planner import Planner  # noqa: E402
 from placement.scene import Scene  # noqa: E402
 

@@ -17,7 +17,8 @@ from placement.cli.maps_build import SEED, count_type
 from placement.cli.options import arm_option, emit, robot_option, setup_logging, standard_options
 from placement.cli.params import OneLineCommand
 from placement.maps.accuracy import MAX_CHECK_SAMPLES, check_map, pose_metrics
-from placement.maps.rmap import ReachabilityMap, check_root, open_map
+from placement.maps.opening import open_map
+from placement.maps.rmap import ReachabilityMap, check_root
 from placement.maps.witness import verify_witnesses
 from placement.progress import EtaBar
 from placement.robots import Robot, load_robot

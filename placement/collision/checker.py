@@ -33,8 +33,9 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from placement.collision.bounds import base_matrix, box_distance, model_aabb
+from placement.collision.bounds import base_matrix, influence_box, model_aabb
 from placement.collision.held import HeldCheck
+from placement.collision.pairs import candidate_pairs
 from placement.collision.robot import ArmShapes, robot_geometry
 from placement.collision.scene import OccupancyCells, PieceGrid, SceneShape, scene_shapes
 from placement.collision.tables import CollisionResult, Instances, Operand, Pairs, ScenePieces
@@ -162,7 +163,14 @@ class SceneCollision:
         if held is not None:
             B = base_matrix(*(float(v) for v in base))
             carried_at = np.array([B @ self.robot.tcp_pose(arm, q) @ held.tcp_to_object for q in Q])
-        box = self._box(held, carried_at, A, inst)
+        Ainv = np.linalg.inv(A)
+        grow = max(self.cap, self.padding)  # a piece pairs within the cap (or padding) of a bounding sphere
+        box = influence_box(
+            inst["centre"] @ Ainv[:3, :3].T + Ainv[:3, 3],
+            inst["radius"] + grow,
+            None if carried_at is None else carried_at[:, :3, 3],
+            0.0 if held is None else 0.5 * float(np.linalg.norm(held.size)) + grow,
+        )
         scene = self._scene_in_model(A, inst)
         pairs = self._pairs(inst, scene, shapes, grasped, frozenset(gone))
         # the closest pair first: when it is farther than the padding no pair collides, and the
@@ -179,23 +187,6 @@ class SceneCollision:
         if not carried.free:
             return replace(carried, box=box)
         return replace(free if free.clearance_m <= carried.clearance_m else carried, box=box)
-
-    def _box(
-        self, held: Held | None, carried_at: npt.NDArray[np.float64] | None, A: npt.NDArray[np.float64], inst: Instances
-    ) -> tuple[float, float, float, float, float, float]:
-        """The world box outside which no scene piece pairs with a shape of this check (see
-        :class:`CollisionResult`): a piece pairs only when its bounds come within the cap (or the
-        padding) of a shape's bounding sphere (:meth:`_pairs`, :meth:`_held`)."""
-        grow = max(self.cap, self.padding)
-        Ainv = np.linalg.inv(A)
-        centres = inst["centre"] @ Ainv[:3, :3].T + Ainv[:3, 3]
-        r = inst["radius"][:, None] + grow
-        lo, hi = (centres - r).min(axis=0, initial=np.inf), (centres + r).max(axis=0, initial=-np.inf)
-        if held is not None and carried_at is not None:
-            at = carried_at[:, :3, 3]
-            reach = 0.5 * float(np.linalg.norm(held.size)) + grow
-            lo, hi = np.minimum(lo, at.min(axis=0) - reach), np.maximum(hi, at.max(axis=0) + reach)
-        return (float(lo[0]), float(lo[1]), float(lo[2]), float(hi[0]), float(hi[1]), float(hi[2]))
 
     def _held(
         self,
@@ -290,38 +281,7 @@ class SceneCollision:
         self, inst: Instances, scene: ScenePieces, shapes: ArmShapes, grasped: str | None, gone: frozenset[str]
     ) -> Pairs:
         """Candidate pairs with a lower bound of their distance [m]: robot-scene then self."""
-        lb = box_distance(inst["centre"], scene["aabb"]) - inst["radius"][:, None]  # (N, S)
-        if gone:
-            lb[:, [i for i, o in enumerate(scene["objects"]) if o in gone]] = np.inf
-        if grasped is not None:
-            held = np.array([o == grasped for o in scene["objects"]], dtype=bool)
-            lb[np.ix_(inst["gripper"], held)] = np.inf
-        a, b = np.nonzero(lb <= self.cap)
-        sa, sb = self._self_instances(shapes, inst["poses"])
-        c, r = inst["centre"], inst["radius"]
-        self_lb = np.linalg.norm(c[sa] - c[sb], axis=1) - r[sa] - r[sb]
-        keep = self_lb <= self.cap
-        return {
-            "a": np.concatenate([a, sa[keep]]),
-            "b": np.concatenate([b, sb[keep]]),
-            "self": np.concatenate([np.zeros(len(a), bool), np.ones(int(keep.sum()), bool)]),
-            "lb": np.concatenate([lb[a, b], self_lb[keep]]),
-        }
-
-    def _self_instances(self, shapes: ArmShapes, poses: int) -> tuple[npt.NDArray[np.int_], npt.NDArray[np.int_]]:
-        """Instance indices (see :meth:`_instances`) of both shapes of every self pair at every pose."""
-        G = self.geometry.geom.ngeoms
-        slot = np.full(G, -1)
-        slot[shapes.static] = np.arange(len(shapes.static))
-        mslot = np.full(G, -1)
-        mslot[shapes.moving] = np.arange(len(shapes.moving))
-        out = []
-        for col in (shapes.self_pairs[:, 0], shapes.self_pairs[:, 1]):
-            moves = mslot[col] >= 0
-            first = np.where(moves, len(shapes.static) + mslot[col], slot[col])
-            step = np.where(moves, len(shapes.moving), 0)
-            out.append((first[None, :] + np.arange(poses)[:, None] * step[None, :]).ravel())
-        return out[0], out[1]
+        return candidate_pairs(inst, scene, shapes, self.geometry.geom.ngeoms, self.cap, grasped, gone)
 
     # -- narrow phase --------------------------------------------------
     def _robot(self, inst: Instances, k: int) -> Operand:

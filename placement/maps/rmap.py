@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -15,11 +14,10 @@ from placement.maps.grid import Grid
 from placement.maps.quantiles import estimate_quantiles, quantile_value
 from placement.maps.torso import TorsoSettings, allowed_value, settings_from_meta
 from placement.maps.witness import empty_value, plain_samples, witness_configs
-from placement.robots import Robot, load_robot
-from placement.storage import StoredMap, open_store
+from placement.robots import Robot
+from placement.storage import StoredMap
 from placement.storage.format import witness_name
 from placement.storage.output import MapOutput, check_target, save_maps
-from placement.storage.schema import arm_arrays
 from placement.storage.validate import TCP_TOLERANCE, check_root, validate_arm, validate_robot
 
 __all__ = [
@@ -28,7 +26,7 @@ __all__ = [
     "ReachabilityMap",
     "check_root",
     "check_target",
-    "open_map",
+    "open_setting",
     "save_maps",
     "validate_arm",
     "validate_robot",
@@ -164,11 +162,16 @@ class ReachabilityMap:
             if t.shift is not None:
                 ReachabilityMap(self.store, self.arm, self.robot, torso_value=v, shared=self._shared)
             else:
-                from placement.maps.torso_builds import open_setting
-
                 opened = self._shared.views[t.reference]  # the map open_map gave: the preset's robot
                 open_setting(opened.store, self.arm, opened.robot, t, v, self._shared.views)
         return self._shared.views[v]
+
+    def join(self, views: dict[float, ReachabilityMap]) -> None:
+        """Make ``views`` (a map's views by torso value) this view's, and register it there (a setting's
+        map joins its arm's once it has been checked)."""
+        self._shared.views = views
+        if self._torso_value is not None:
+            views[self._torso_value] = self
 
     @property
     def in_memory(self) -> bool:
@@ -319,45 +322,6 @@ class ReachabilityMap:
         self.store.read_all(self.array)
 
 
-def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> ReachabilityMap:
-    """Open the map of ``arm`` at ``path`` (Zarr directory or HDF5 file), lazily.
-
-    The map is validated against ``robot`` (a :class:`Robot` or preset name/path);
-    by default against the preset recorded in the map. Checked here: the
-    metadata is complete, the format version, robot name, URDF hash, base frame
-    and fixed joints, the arm's joints (names, order, count), tip frame and TCP
-    offset (to 1e-9), the rank of the measure against the arm's (:func:`arm_rank`), the chunk
-    checksum table and (Zarr) the stored chunk count.
-    Every later read checks each chunk's CRC32. Raises :class:`MapError` for a
-    missing, half-written, corrupt, foreign or outdated map.
-    """
-    path = Path(path)
-    store = open_store(path)
-    root = store.root
-    check_root(path, root)
-    if not isinstance(robot, Robot):
-        robot = load_robot(robot if robot is not None else str(root.get("preset") or root.get("robot")))
-    validate_robot(path, root, robot)
-    arms = list(root.get("arms") or [])
-    if arm not in arm_arrays(arms):  # the arrays of torso settings are opened through their arm
-        raise MapError(f"{path}: no map for arm '{arm}'; it has: {', '.join(arm_arrays(arms)) or 'none'}")
-    try:
-        rmap = ReachabilityMap(store, arm, robot)  # its metadata checked against its digest and for its types
-    except GridError as exc:
-        raise MapError(f"{path}: metadata of arm '{arm}': {exc} (corrupt); rebuild the map") from None
-    validate_arm(path, rmap.meta, robot, arm)
-    check_arrays(rmap, robot)
-    t = rmap.torso
-    if t is not None and t.shift is None:
-        missing = [a for a in t.arrays if a not in arms]
-        if missing:
-            raise MapError(
-                f"{path}: the map of arm '{arm}' names the array '{missing[0]}' of a torso setting "
-                "(torso.arrays), which the map does not hold; rebuild the map"
-            )
-    return rmap
-
-
 def check_arrays(rmap: ReachabilityMap, robot: Robot) -> None:
     """MapError unless the opened map's measure has the arm's rank and its arrays are complete."""
     path, arm, store = rmap.path, rmap.arm, rmap.store
@@ -378,3 +342,40 @@ def check_arrays(rmap: ReachabilityMap, robot: Robot) -> None:
                 f"{path}: arm '{arm}' has {have} of {want} {'witness' if name != rmap.array else 'data'} "
                 f"chunks (half-written or corrupt); rebuild the map"
             )
+
+
+def open_setting(
+    store: StoredMap,
+    arm: str,
+    robot: Robot | None,
+    record: TorsoSettings,
+    value: float,
+    views: dict[float, ReachabilityMap],
+) -> ReachabilityMap:
+    """The stored map of ``arm`` at setting ``value`` [m or rad] of a per-setting torso ``record``, checked:
+    the array is there, its metadata says it was built for this arm with the joint at ``value`` and the
+    preset's other fixed joints, and (given ``robot``) it matches the arm like :func:`open_map`'s checks.
+    It registers itself in ``views``."""
+    path, name, unit = store.path, record.array(arm, value), record.unit
+    where = f"{path}: the map of arm '{arm}' at {record.joint} = {value:g} {unit} (array '{name}')"
+    if name not in (store.root.get("arms") or []):
+        raise MapError(f"{where} is missing; rebuild the map")
+    held = None if robot is None else robot.with_fixed({record.joint: value})
+    try:  # with views of its own until checked
+        rmap = ReachabilityMap(store, arm, held, torso_value=value, array=name, record=record, views={})
+    except GridError as exc:
+        raise MapError(f"{where}: {exc} (corrupt); rebuild the map") from None
+    setting = rmap.meta.get("setting") or {}
+    if setting.get("joint") != record.joint or abs(float(setting.get("value", float("nan"))) - value) > 1e-9:
+        raise MapError(f"{where} was built for setting {setting} (corrupt); rebuild the map")
+    if held is not None:
+        built = {k: float(v) for k, v in (rmap.meta.get("fixed_joints") or {}).items()}
+        if built != held.fixed_joints:
+            raise MapError(
+                f"{where} was built with fixed joints {rmap.meta.get('fixed_joints')}, not {held.fixed_joints}; "
+                "rebuild the map"
+            )
+        validate_arm(path, rmap.meta, held, arm)
+        check_arrays(rmap, held)
+    rmap.join(views)
+    return rmap

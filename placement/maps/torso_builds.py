@@ -21,13 +21,10 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from placement.errors import GridError, MapError
 from placement.maps.build import build_map
 from placement.maps.buildspec import TorsoSpec
-from placement.maps.rmap import ReachabilityMap, check_arrays, validate_arm
 from placement.maps.torso import TorsoSettings, torso_settings
 from placement.robots import Robot
-from placement.storage import StoredMap
 from placement.storage.format import BuiltMap
 
 log = logging.getLogger("placement")
@@ -76,47 +73,9 @@ def _recorded(m: BuiltMap, settings: TorsoSettings, value: float) -> BuiltMap:
     return BuiltMap(m.values, meta, m.witness)
 
 
-def open_setting(
-    store: StoredMap,
-    arm: str,
-    robot: Robot | None,
-    record: TorsoSettings,
-    value: float,
-    views: dict[float, ReachabilityMap],
-) -> ReachabilityMap:
-    """The stored map of ``arm`` at setting ``value`` [m or rad] of a per-setting torso ``record``, checked:
-    the array is there, its metadata says it was built for this arm with the joint at ``value`` and the
-    preset's other fixed joints, and (given ``robot``) it matches the arm like :func:`open_map`'s checks.
-    It registers itself in ``views``."""
-    path, name, unit = store.path, record.array(arm, value), record.unit
-    where = f"{path}: the map of arm '{arm}' at {record.joint} = {value:g} {unit} (array '{name}')"
-    if name not in (store.root.get("arms") or []):
-        raise MapError(f"{where} is missing; rebuild the map")
-    held = None if robot is None else robot.with_fixed({record.joint: value})
-    try:  # with views of its own until checked
-        rmap = ReachabilityMap(store, arm, held, torso_value=value, array=name, record=record, views={})
-    except GridError as exc:
-        raise MapError(f"{where}: {exc} (corrupt); rebuild the map") from None
-    setting = rmap.meta.get("setting") or {}
-    if setting.get("joint") != record.joint or abs(float(setting.get("value", float("nan"))) - value) > 1e-9:
-        raise MapError(f"{where} was built for setting {setting} (corrupt); rebuild the map")
-    if held is not None:
-        built = {k: float(v) for k, v in (rmap.meta.get("fixed_joints") or {}).items()}
-        if built != held.fixed_joints:
-            raise MapError(
-                f"{where} was built with fixed joints {rmap.meta.get('fixed_joints')}, not {held.fixed_joints}; "
-                "rebuild the map"
-            )
-        validate_arm(path, rmap.meta, held, arm)
-        check_arrays(rmap, held)
-    rmap._shared.views = views
-    views[value] = rmap
-    return rmap
-
-
 def built_seconds(maps: dict[str, BuiltMap]) -> float:
     """The build time [s] of all settings' maps together."""
     return float(sum(m.meta["build_time_s"] for m in maps.values()))
 
 
-__all__ = ["build_torso_maps", "built_seconds", "open_setting"]
+__all__ = ["build_torso_maps", "built_seconds"]

@@ -23,7 +23,8 @@ from typing import Any
 
 from placement.collision import SceneCollision
 from placement.errors import MapError, PlacementError
-from placement.maps.rmap import ReachabilityMap, open_map
+from placement.maps.opening import open_map
+from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import Cell, FloatArray
 from placement.planning.certificate import certify
 from placement.planning.config import PlannerConfig

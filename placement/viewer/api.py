@@ -75,7 +75,8 @@ def view_map(
     on 127.0.0.1:``port``: reached cells as points coloured by value (best over orientations, or for
     the TCP ``direction``), a threshold slider, the robot at home. ``view.timings["render_s"]``: from
     opening the map to the cloud sent [s]."""
-    from placement.maps.rmap import check_root, open_map
+    from placement.maps.opening import open_map
+    from placement.maps.rmap import check_root
     from placement.robots import load_robot
     from placement.storage import open_store
     from placement.viewer.map_view import DEFAULT_POINTS, DIRECTIONS, MapView

@@ -44,7 +44,7 @@ from dataclasses import replace
 import numpy as np
 
 from placement.planning.arrays import Cell
-from placement.planning.bound import Chain, Group, Layer, Program, Regions, held_torso, linked_steps, map_regions
+from placement.planning.bound import Chain, Layer, Program, linked_steps
 from placement.planning.context import PlanningContext
 from placement.planning.explain import explain
 from placement.planning.methods.base import Method
@@ -52,6 +52,7 @@ from placement.planning.methods.outcomes import infeasible, placed, unreachable_
 from placement.planning.methods.repair import Verified, repair
 from placement.planning.navigation import extract_path, navigation_cost
 from placement.planning.option import Option
+from placement.planning.regions import Group, held_torso, map_regions, reweighted
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import collision_args
 from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first, torso_joint
@@ -219,22 +220,6 @@ class DynamicProgram:
                 f = y * nx + x
                 if self.regions[i].masks[g, y, x] and self.verify(i, f, g) is None:
                     self.remove(i, f, g)
-
-
-def reweighted(ctx: PlanningContext, i: int, reg: Regions) -> Regions:
-    """``reg`` with the node cost ``optimal_manipulability_weight / m`` [m] per (group, cell) (m: the
-    group's best map value there), or unchanged when the weight is 0."""
-    weight = ctx.config.optimal_manipulability_weight
-    if weight <= 0 or not reg.groups:
-        return reg
-    best = np.zeros(reg.masks.shape, np.float32)
-    index = {gr: k for k, gr in enumerate(reg.groups)}
-    for o in ctx.problems.options(i):
-        k = index[(o.arm, o.candidate.grasp)]
-        np.maximum(best[k][o.window.slices], o.value, out=best[k][o.window.slices])
-    with np.errstate(divide="ignore"):
-        node = np.where(reg.masks, weight / np.maximum(best, 1e-12), 0.0)
-    return replace(reg, node=node)
 
 
 def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], StepResult | None]:
