@@ -18,12 +18,15 @@ does) and pairs already in contact with every arm idle.
 from __future__ import annotations
 
 import os
+import threading
 import warnings
 import weakref
 import xml.etree.ElementTree as ET
+from collections import OrderedDict
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import coal
 import numpy as np
@@ -206,26 +209,12 @@ class RobotGeometry:
     def __init__(self, robot: Robot, extra_dirs: Sequence[Path | str] = ()):
         self.robot = robot
         model = robot.model
-        self.geom, self.lost = load_geometry(robot, extra_dirs, strict=False)
-        if self.lost or self.geom.ngeoms == 0:
-            what = (
-                f"links without their collision meshes: {', '.join(self.lost)}"
-                if self.lost
-                else "the URDF has no <collision> shapes"
-            )
-            warnings.warn(
-                f"robot '{robot.name}': {what}; collision checks use the {self.geom.ngeoms} shapes that loaded",
-                CollisionGeometryWarning,
-                stacklevel=3,
-            )
+        self.geom, self.lost, hulls = _shapes(robot, extra_dirs)
+        if self.lost_message():
+            warnings.warn(f"robot '{robot.name}': {self.lost_message()}", CollisionGeometryWarning, stacklevel=3)
         objs = self.geom.geometryObjects
         self.names = [model.frames[o.parentFrame].name for o in objs]
         self.joint = np.array([o.parentJoint for o in objs], dtype=int)
-        for o in objs:
-            o.geometry.computeLocalAABB()
-        # convex hulls of the meshes: GJK on them is 10-100x faster than on the triangles, and their
-        # distances are lower bounds of the meshes' (exact queries are made only when that can matter)
-        hulls = [convex_hull(o.geometry) for o in objs]
         self.hulls = [h for h, _ in hulls]
         self.exact = np.array([e for _, e in hulls], dtype=bool)  # the hull is the shape itself
         self.centre = np.array([np.asarray(o.geometry.aabb_center) for o in objs]).reshape(-1, 3)
@@ -241,6 +230,17 @@ class RobotGeometry:
         pin.updateGeometryPlacements(model, self.data, self.geom, self.gdata, q)
         self.home_placements = [pin.SE3(M) for M in self.gdata.oMg]
         self._arms: dict[str, ArmShapes] = {}
+
+    def lost_message(self) -> str:
+        """What of the robot's collision geometry did not load ("" when everything did)."""
+        if not self.lost and self.geom.ngeoms:
+            return ""
+        what = (
+            f"links without their collision meshes: {', '.join(self.lost)}"
+            if self.lost
+            else "the URDF has no <collision> shapes"
+        )
+        return f"{what}; collision checks use the {self.geom.ngeoms} shapes that loaded"
 
     def arm_shapes(self, arm: str) -> ArmShapes:
         """The :class:`ArmShapes` of ``arm`` (computed once)."""
@@ -293,13 +293,66 @@ class RobotGeometry:
         return np.array(keep, dtype=int).reshape(-1, 2)
 
 
-_CACHE: weakref.WeakKeyDictionary[Robot, dict[tuple[str, ...], RobotGeometry]] = weakref.WeakKeyDictionary()
+#: Robots' shapes (meshes loaded, convex hulls built) and geometries kept in memory, by content.
+GEOMETRY_CACHE_SIZE = 16
+_SHAPES: OrderedDict[
+    tuple[str, ...], tuple[pin.GeometryModel, list[str], list[tuple[coal.CollisionGeometry, bool]]]
+] = OrderedDict()
+_GEOMETRIES: OrderedDict[tuple[object, ...], RobotGeometry] = OrderedDict()
+_LOCK = threading.Lock()
+#: robot objects told already what of their geometry did not load
+_WARNED: weakref.WeakSet[Robot] = weakref.WeakSet()
+
+
+def _remember(cache: OrderedDict[Any, Any], key: Any, value: Any) -> Any:
+    with _LOCK:
+        cache[key] = cache.get(key, value)
+        cache.move_to_end(key)
+        while len(cache) > GEOMETRY_CACHE_SIZE:
+            cache.popitem(last=False)
+        return cache[key]
+
+
+def _shapes(
+    robot: Robot, extra_dirs: Sequence[Path | str]
+) -> tuple[pin.GeometryModel, list[str], list[tuple[coal.CollisionGeometry, bool]]]:
+    """(shapes, links left out, (convex hull, hull is the shape) per shape) of the robot's URDF, loaded
+    once per URDF content and package folders: a robot with other fixed joints (a torso setting, a
+    preset loaded again) has the same shapes."""
+    key = (str(robot.urdf_path), robot.urdf_sha256, *(str(d) for d in extra_dirs))
+    with _LOCK:
+        hit = _SHAPES.get(key)
+    if hit is None:
+        geom, lost = load_geometry(robot, extra_dirs, strict=False)
+        for o in geom.geometryObjects:
+            o.geometry.computeLocalAABB()
+        # convex hulls of the meshes: GJK on them is 10-100x faster than on the triangles, and their
+        # distances are lower bounds of the meshes' (exact queries are made only when that can matter)
+        hit = _remember(_SHAPES, key, (geom, lost, [convex_hull(o.geometry) for o in geom.geometryObjects]))
+    return hit
 
 
 def robot_geometry(robot: Robot, extra_dirs: Sequence[Path | str] = ()) -> RobotGeometry:
-    """The :class:`RobotGeometry` of ``robot`` (loaded once per robot object and package folders)."""
-    per_robot = _CACHE.setdefault(robot, {})
-    key = tuple(str(d) for d in extra_dirs)
-    if key not in per_robot:
-        per_robot[key] = RobotGeometry(robot, extra_dirs)
-    return per_robot[key]
+    """The :class:`RobotGeometry` of ``robot`` and package folders, made once per content (the URDF, the
+    SRDF, the base frame, the fixed joints, the arms' idle configurations and ignored pairs): a planner
+    made again for the same robot reuses its shapes and each arm's self pairs."""
+    key = (
+        str(robot.urdf_path),
+        robot.urdf_sha256,
+        str(robot.srdf_path),
+        robot.base_frame,
+        tuple(sorted(robot.fixed_joints.items())),
+        tuple((a, np.asarray(robot.arm(a).idle, dtype=float).tobytes()) for a in robot.arms),
+        robot.ignore_collisions,
+        tuple(str(d) for d in extra_dirs),
+    )
+    with _LOCK:
+        hit = _GEOMETRIES.get(key)
+    if hit is not None:
+        if hit.lost_message() and robot not in _WARNED:  # said once for every robot object that loads it
+            warnings.warn(f"robot '{robot.name}': {hit.lost_message()}", CollisionGeometryWarning, stacklevel=2)
+        _WARNED.add(robot)
+        return hit
+    _WARNED.add(robot)
+    made: RobotGeometry = _remember(_GEOMETRIES, key, RobotGeometry(robot, extra_dirs))
+    return made
