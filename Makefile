@@ -33,8 +33,8 @@ lint: install
 	.venv/bin/ruff format --check placement tools tests
 	.venv/bin/mypy
 
-# Two pytest workers (pytest-xdist), a test file on one worker (--dist loadfile: pyproject.toml): 13.6 minutes
-# measured on the shared 2-core machine while other work ran (load 2.5; 818 s for 1595 s of tests).
+# Two pytest workers (pytest-xdist), a test file on one worker (--dist loadfile: pyproject.toml): 10.3 minutes
+# on the idle 2-core machine with the built maps present (their tests skip without them, as in CI).
 test: install
 	$(PY) -m pytest -q -n 2
 
