@@ -14,6 +14,8 @@ from placement.viewer import view_map, view_scene
 from placement.viewer.screenshot import find_browser, screenshot
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yaml"
+#: [s] per screenshot try: software WebGL on a 2-core machine that runs the other test worker beside it
+BROWSER_S = 120
 pytestmark = pytest.mark.skipif(
     find_browser() is None, reason="no chromium on PATH (.ci/run installs Debian's chromium)"
 )
@@ -71,7 +73,7 @@ def drawn(img: np.ndarray) -> float:
 
 def _shot(url: str, path: Path, ok, tries: int = 4) -> np.ndarray:
     for _ in range(tries):
-        img = pixels(screenshot(url, path))
+        img = pixels(screenshot(url, path, timeout_s=BROWSER_S))
         if ok(img):
             break
     return img
@@ -98,7 +100,7 @@ def test_the_robot_is_drawn(shots):
 def test_the_map_cloud_is_drawn(maps_dir, tmp_path):
     v = view_map(maps_dir, port=0)
     try:
-        img = pixels(screenshot(v.url, tmp_path / "map.png"))
+        img = pixels(screenshot(v.url, tmp_path / "map.png", timeout_s=BROWSER_S))
     finally:
         v.stop()
     r, g, b = (img[..., i].astype(int) for i in range(3))
