@@ -34,7 +34,8 @@ lint: install
 	.venv/bin/mypy
 
 # Two pytest workers (pytest-xdist), a test file on one worker (--dist loadfile: pyproject.toml): 10.3 minutes
-# on the idle 2-core machine with the built maps present (their tests skip without them, as in CI).
+# on the idle 2-core machine with the built maps present, 13.3 in a clean clone (CI) with the browser tests
+# last (headless Chromium alone took 3.5 minutes there).
 test: install
 	$(PY) -m pytest -q -n 2
 
