@@ -19,8 +19,8 @@ stands for its centre, at the best yaw of the option.
 ``optimal`` removes exactly the rejected (cell, group) and solves again (``optimal_probe`` > 0:
 it verifies the rejected cell's neighbours at once, removing those that fail too; IK and the
 collision check cost more than a solve of :class:`~placement.planning.bound.Program`, so the
-default is 0); its result is the best verified plan of the discretisation, up to IK's dependence
-on its seed (a cell rejected from one seed is not tried again from another), as long as at most
+default is 0); its result is the best verified plan of the discretisation, up to IK being a local
+search (a placement is answered once, from the witness, the home and the seeded restarts), as long as at most
 ``optimal_max_repairs`` placements are rejected; past that (maps far more optimistic than IK, e.g.
 beside shelves) each rejection removes its 3 x 3 neighbourhood, so that it still finds a plan
 where one verifies, and the certificate's gap says how far it is from the bound.
