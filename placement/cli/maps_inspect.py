@@ -19,6 +19,7 @@ from placement.cli.params import OneLineCommand
 from placement.maps.accuracy import MAX_CHECK_SAMPLES, check_map, pose_metrics
 from placement.maps.opening import open_map
 from placement.maps.rmap import ReachabilityMap, check_root
+from placement.maps.torso import TorsoSettings
 from placement.maps.witness import verify_witnesses
 from placement.progress import EtaBar
 from placement.robots import Robot, load_robot
@@ -58,7 +59,7 @@ def info(path: str, robot: str | None, arm: str | None, as_json: bool, verbose: 
         views = [rmap] + ([rmap.at_torso(v) for v in t.values if v != t.reference] if t and t.shift is None else [])
         found = []
         for view in views:
-            label = a if view is rmap else f"{a} at {t.joint if t else ''}={view.torso_value:g}"
+            label = a if view is rmap or t is None else f"{a} at {_at(t, view.torso_value)}"
             with tqdm(
                 total=view.grid.shape[2], desc=f"info {label}", unit="layer", disable=_no_bars(quiet), leave=False
             ) as bar:
@@ -116,10 +117,34 @@ def rank_note(measure: dict[str, Any]) -> str:
     return f" on {rank} of 6 dimensions (the arm's rank)" if rank < 6 else ""
 
 
+def _at(t: TorsoSettings, value: float | None) -> str:
+    """A view's setting in a label: ``torso_2_joint=0.2``, or ``posture 1 (hip=0.5 rad, knee=-0.5 rad)``."""
+    return t.describe(float(value or 0.0)) if t.joints else f"{t.joint}={value:g}"
+
+
+def _posture_at(index: float, posture: dict[str, float]) -> str:
+    """A stored posture setting in words: ``posture 1 (hip=0.5, knee=-0.5)`` [m or rad per joint]."""
+    return f"posture {round(index)} ({', '.join(f'{j}={x:g}' for j, x in posture.items())})"
+
+
+def _posture(joints: list[str], units: list[str], values: list[float]) -> str:
+    return ", ".join(f"{j}={x:g} {u}" for j, u, x in zip(joints, units, values))
+
+
 def torso_line(t: dict[str, Any]) -> str:
     """The info line of an arm's torso record (placement/maps/torso.py)."""
     unit = t.get("unit", "m")
     values = ", ".join(f"{v:g}" for v in t["values"])
+    if t.get("kind") == "posture":
+        shown = "; ".join(
+            f"{round(v)} ({_posture(t['joints'], t['units'], t['postures'][round(v)])})" for v in t["values"]
+        )
+        ref = t["reference_setting"]
+        speeds = ", ".join(f"{v:g} {u}/s" for v, u in zip(t["velocities"], t["units"]))
+        return (
+            f"    torso {'+'.join(t['joints'])}: postures {shown}, one build per posture (the arm's own at "
+            f"{_posture(t['joints'], t['units'], t['postures'][ref])}), {speeds}"
+        )
     if t.get("shift") is None:
         return (
             f"    torso {t['joint']}: settings {values} {unit}, one build per setting (the arm's own at "
@@ -158,8 +183,11 @@ def _render_info(d: dict[str, Any]) -> str:
         lines += _fill_lines(v)
         for sv in v.get("settings", []):
             sm, st = sv["meta"], sv["meta"]["setting"]
+            at = f"{st['joint']} = {st['value']:g} {st.get('unit', 'm')}"
+            if "posture" in st:  # a posture of several torso joints: its index and every joint's value
+                at = _posture_at(st["value"], st["posture"])
             lines.append(
-                f"    setting {st['joint']} = {st['value']:g} {st.get('unit', 'm')} (array {sv['array']}): built, "
+                f"    setting {at} (array {sv['array']}): built, "
                 f"grid {sm['grid']['shape']}, {sm['samples']} samples (seed {sm['seed']}) in {sm['build_time_s']} s"
             )
             lines += _fill_lines(sv, "      ")

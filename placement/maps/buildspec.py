@@ -50,7 +50,10 @@ SPEC_KEYS = (
     "torso",
 )
 TORSO_KEYS = ("joint", "values")
+#: the keys of a torso of several joints held at postures (one build per posture)
+POSTURE_KEYS = ("joints", "postures")
 MAX_TORSO_VALUES = 16
+MAX_TORSO_JOINTS = 16
 MAX_TORSO_ABS = 10.0  # [m or rad]: no lift moves further, no torso turns further; a larger value is a typo
 
 
@@ -60,13 +63,19 @@ class TorsoSpec:
 
     Attributes:
         joint: the torso joint, one of the preset's fixed joints: a prismatic lift (one map, shifted)
-            or a revolute joint (one build per setting).
+            or a revolute joint (one build per setting); for postures, the first of ``joints``.
         values: (k,) settings [m for a prismatic joint, rad for a revolute one], 1 .. MAX_TORSO_VALUES
-            distinct values, ascending.
+            distinct values, ascending; for postures, the posture indices 0 .. k-1.
+        joints: (n,) for a torso of several joints held at postures (``torso: {joints, postures}``), the
+            joints, distinct; () for one joint.
+        postures: (k, n) for postures, each posture's value of every joint [m or rad per joint], in the
+            spec's order (posture i is setting i), distinct; () for one joint.
     """
 
     joint: str
     values: tuple[float, ...]
+    joints: tuple[str, ...] = ()
+    postures: tuple[tuple[float, ...], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -211,17 +220,28 @@ def _setting(value: object, where: str) -> float:
         ) from None
 
 
-def parse_torso(value: object, where: str) -> TorsoSpec:
-    """``{joint: name, values: [v1, ...]}`` [m or rad]: 1 .. MAX_TORSO_VALUES distinct finite values,
-    returned ascending; errors name the sub-key (``torso.values[2]``)."""
-    if not isinstance(value, dict):
-        raise PlacementError(f"{where} must be a mapping {{joint: name, values: [m or rad, ...]}}, got {show(value)}")
-    unknown = [k for k in value if k not in TORSO_KEYS]
+def _exact_keys(value: dict[Any, Any], where: str, keys: tuple[str, ...]) -> None:
+    """PlacementError naming the first key of ``value`` not in ``keys``, or the first of ``keys`` missing."""
+    unknown = [k for k in value if k not in keys]
     if unknown:
-        raise PlacementError(f"{where}: unknown key {show(unknown[0])}; allowed: {', '.join(TORSO_KEYS)}")
-    for key in TORSO_KEYS:
+        raise PlacementError(f"{where}: unknown key {show(unknown[0])}; allowed: {', '.join(keys)}")
+    for key in keys:
         if key not in value:
             raise PlacementError(f"{where}.{key} is missing")
+
+
+def parse_torso(value: object, where: str) -> TorsoSpec:
+    """``{joint: name, values: [v1, ...]}`` [m or rad]: 1 .. MAX_TORSO_VALUES distinct finite values,
+    returned ascending; or ``{joints: [j1, ...], postures: [[v11, ...], ...]}`` (:func:`parse_postures`).
+    Errors name the sub-key (``torso.values[2]``)."""
+    if not isinstance(value, dict):
+        raise PlacementError(
+            f"{where} must be a mapping {{joint: name, values: [m or rad, ...]}} or "
+            f"{{joints: [names], postures: [[m or rad per joint], ...]}}, got {show(value)}"
+        )
+    if any(k in value for k in POSTURE_KEYS):
+        return parse_postures(value, where)
+    _exact_keys(value, where, TORSO_KEYS)
     joint = parse_name(value["joint"], f"{where}.joint")
     items = value["values"]
     if not isinstance(items, (list, tuple)) or not 1 <= len(items) <= MAX_TORSO_VALUES:
@@ -233,6 +253,43 @@ def parse_torso(value: object, where: str) -> TorsoSpec:
         if v in values[:i]:
             raise PlacementError(f"{where}.values[{i}]: {v:g} is given twice (values[{values.index(v)}])")
     return TorsoSpec(joint, tuple(sorted(values)))
+
+
+def parse_postures(value: dict[Any, Any], where: str) -> TorsoSpec:
+    """``{joints: [j1, ..., jn], postures: [[v1, ..., vn], ...]}``: 1 .. MAX_TORSO_JOINTS distinct joint
+    names and 1 .. MAX_TORSO_VALUES distinct postures of n finite values each [m or rad per joint], kept
+    in the spec's order (posture i is setting i); errors name the sub-key (``torso.postures[1][0]``)."""
+    if "joint" in value or "values" in value:
+        extra = "joint" if "joint" in value else "values"
+        raise PlacementError(
+            f"{where}.{extra}: give either joint and values (one joint) or joints and postures (several), not both"
+        )
+    _exact_keys(value, where, POSTURE_KEYS)
+    names = value["joints"]
+    if not isinstance(names, (list, tuple)) or not 1 <= len(names) <= MAX_TORSO_JOINTS:
+        raise PlacementError(f"{where}.joints must be a list of 1 to {MAX_TORSO_JOINTS} joint names, got {show(names)}")
+    joints = tuple(parse_name(j, f"{where}.joints[{i}]") for i, j in enumerate(names))
+    for i, j in enumerate(joints):
+        if j in joints[:i]:
+            raise PlacementError(f"{where}.joints[{i}]: '{j}' is given twice (joints[{joints.index(j)}])")
+    items = value["postures"]
+    if not isinstance(items, (list, tuple)) or not 1 <= len(items) <= MAX_TORSO_VALUES:
+        raise PlacementError(
+            f"{where}.postures must be a list of 1 to {MAX_TORSO_VALUES} postures (one value [m or rad] per "
+            f"joint each), got {show(items)}"
+        )
+    postures: list[tuple[float, ...]] = []
+    for i, p in enumerate(items):
+        if not isinstance(p, (list, tuple)) or len(p) != len(joints):
+            raise PlacementError(
+                f"{where}.postures[{i}] must be a list of {len(joints)} values [m or rad] (one per joint of "
+                f"{where}.joints), got {show(p)}"
+            )
+        posture = tuple(_setting(v, f"{where}.postures[{i}][{k}]") for k, v in enumerate(p))
+        if posture in postures:
+            raise PlacementError(f"{where}.postures[{i}] is given twice (postures[{postures.index(posture)}])")
+        postures.append(posture)
+    return TorsoSpec(joints[0], tuple(float(i) for i in range(len(postures))), joints, tuple(postures))
 
 
 def parse_build_spec(data: object, source: str = "build spec") -> BuildSpec:

@@ -148,6 +148,8 @@ class ReachabilityMap:
         A per-setting map's view (one build per setting) is that setting's own stored map, opened and
         checked now (its own grid, arrays, witnesses and value quantiles; MapError if it is missing or
         was not built for this arm at ``value``); its ``robot`` is ``robot.with_fixed({joint: value})``.
+        A posture record's ``value`` is the posture's index and the view's ``robot`` is
+        ``robot.with_fixed(torso.held(value))`` (every torso joint at the posture).
         """
         t = self._torso
         if t is None:
@@ -352,21 +354,27 @@ def open_setting(
     value: float,
     views: dict[float, ReachabilityMap],
 ) -> ReachabilityMap:
-    """The stored map of ``arm`` at setting ``value`` [m or rad] of a per-setting torso ``record``, checked:
-    the array is there, its metadata says it was built for this arm with the joint at ``value`` and the
-    preset's other fixed joints, and (given ``robot``) it matches the arm like :func:`open_map`'s checks.
+    """The stored map of ``arm`` at setting ``value`` [m or rad; a posture's index] of a per-setting or
+    posture torso ``record``, checked: the array is there, its metadata says it was built for this arm
+    with the joint at ``value`` (every joint at the posture's values) and the preset's other fixed joints, and (given ``robot``) it matches the arm like :func:`open_map`'s checks.
     It registers itself in ``views``."""
     path, name, unit = store.path, record.array(arm, value), record.unit
-    where = f"{path}: the map of arm '{arm}' at {record.joint} = {value:g} {unit} (array '{name}')"
+    at = record.describe(value) if record.joints else f"{record.joint} = {value:g} {unit}"
+    where = f"{path}: the map of arm '{arm}' at {at} (array '{name}')"
     if name not in (store.root.get("arms") or []):
         raise MapError(f"{where} is missing; rebuild the map")
-    held = None if robot is None else robot.with_fixed({record.joint: value})
+    held = None if robot is None else robot.with_fixed(record.held(value))
     try:  # with views of its own until checked
         rmap = ReachabilityMap(store, arm, held, torso_value=value, array=name, record=record, views={})
     except GridError as exc:
         raise MapError(f"{where}: {exc} (corrupt); rebuild the map") from None
     setting = rmap.meta.get("setting") or {}
-    if setting.get("joint") != record.joint or abs(float(setting.get("value", float("nan"))) - value) > 1e-9:
+    posture = {k: float(x) for k, x in (setting.get("posture") or {}).items()}
+    if (
+        setting.get("joint") != record.joint
+        or abs(float(setting.get("value", float("nan"))) - value) > 1e-9
+        or (record.joints and posture != record.held(value))
+    ):
         raise MapError(f"{where} was built for setting {setting} (corrupt); rebuild the map")
     if held is not None:
         built = {k: float(v) for k, v in (rmap.meta.get("fixed_joints") or {}).items()}

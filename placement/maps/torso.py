@@ -56,18 +56,24 @@ class TorsoSettings:
     """The torso settings a map stands for, as recorded in an arm's metadata (key ``torso``).
 
     Attributes:
-        joint: the torso joint, one of the preset's fixed joints.
+        joint: the torso joint, one of the preset's fixed joints (for postures: the first of ``joints``).
         values: (k,) settings [m for a prismatic joint, rad for a revolute one], ascending, within the
-            URDF limits.
+            URDF limits; for postures, the indices 0 .. k-1 of the spec's postures.
         reference: the preset's held value [m or rad] (need not be in values): the setting of the arm's
-            own stored array.
+            own stored array; for postures, the index of the preset's posture (k when it is not one of
+            the spec's).
         shift: (3,) for a shifted map, the TCP's translation per metre of lift, in the base frame [m/m]
             (the joint's unit axis as pinocchio moves it): the map at ``v`` is the map at ``reference``
             moved by ``(v - reference) * shift`` [m]; None for one build per setting.
         velocity: the joint's URDF velocity limit [m/s or rad/s].
-        unit: the unit of the settings: "m" (prismatic) or "rad" (revolute).
+        unit: the unit of the settings: "m" (prismatic), "rad" (revolute) or "index" (postures).
         arrays: (k,) for one build per setting, the stored array holding each value's map (the arm's own
             array at the reference); () for a shifted map.
+        joints: (n,) for postures, every torso joint; () for one joint.
+        postures: (len(allowed), n) for postures, setting i's value of every joint [m or rad per joint]
+            (the reference's included); () for one joint.
+        velocities: (n,) for postures, each joint's URDF velocity limit [m/s or rad/s].
+        units: (n,) for postures, each joint's unit ("m" or "rad").
     """
 
     joint: str
@@ -77,11 +83,23 @@ class TorsoSettings:
     velocity: float
     unit: str = "m"
     arrays: tuple[str, ...] = ()
+    joints: tuple[str, ...] = ()
+    postures: tuple[tuple[float, ...], ...] = ()
+    velocities: tuple[float, ...] = ()
+    units: tuple[str, ...] = ()
 
     @property
     def kind(self) -> str:
-        """ "shifted" (one map moved with a rigid prismatic lift) or "per_setting" (one build per setting)."""
+        """ "shifted" (one map moved with a rigid prismatic lift), "per_setting" (one build per setting of
+        one joint) or "posture" (one build per posture of several joints)."""
+        if self.joints:
+            return "posture"
         return "shifted" if self.shift is not None else "per_setting"
+
+    @property
+    def label(self) -> str:
+        """The torso's name in messages and for the planner: the joint, or the joints joined by "+"."""
+        return "+".join(self.joints) if self.joints else self.joint
 
     @property
     def allowed(self) -> tuple[float, ...]:
@@ -94,6 +112,28 @@ class TorsoSettings:
             return arm
         return self.arrays[self.values.index(value)]
 
+    def held(self, value: float) -> dict[str, float]:
+        """{joint: value [m or rad]} the robot holds at setting ``value`` (one of :attr:`allowed`): the
+        joint at ``value``, or for postures every joint at posture ``value``'s values."""
+        if not self.joints:
+            return {self.joint: float(value)}
+        return dict(zip(self.joints, self.postures[round(value)]))
+
+    def seconds(self, a: float, b: float) -> float:
+        """Time [s] from setting ``a`` to ``b`` (of :attr:`allowed`) at the URDF velocity limits: |b - a| /
+        velocity, or for postures max over the joints of |b_j - a_j| / velocity_j (they move together)."""
+        if not self.joints:
+            return abs(float(b) - float(a)) / self.velocity
+        pa, pb = self.postures[round(a)], self.postures[round(b)]
+        return max(abs(y - x) / v for x, y, v in zip(pa, pb, self.velocities))
+
+    def describe(self, value: float) -> str:
+        """Setting ``value`` in words: ``torso_2_joint=0.2 rad``, or ``posture 1 (hip=0.5 rad, knee=-0.5 rad)``."""
+        if not self.joints:
+            return f"{self.joint}={float(value):g} {self.unit}"
+        held = ", ".join(f"{j}={x:g} {u}" for (j, x), u in zip(self.held(value).items(), self.units))
+        return f"posture {round(value)} ({held})"
+
     def offset(self, value: float) -> npt.NDArray[np.float64]:
         """(3,) translation [m] of the arm's reach at lift ``value`` [m] against the reference (a shifted
         map; zero for one build per setting, whose maps each have their own grid)."""
@@ -102,7 +142,10 @@ class TorsoSettings:
         return (float(value) - self.reference) * np.asarray(self.shift, dtype=float)
 
     def to_dict(self) -> dict[str, Any]:
-        """The metadata record (plain JSON types); a shifted record as before kinds existed."""
+        """The metadata record (plain JSON types); a shifted record as before kinds existed. A posture
+        record's ``joint``, ``reference`` and ``velocity`` are its first joint's (the joint the preset
+        holds, at the value it holds it [m or rad], and its speed), as in every record; the posture
+        index of the arm's own array is ``reference_setting``."""
         out: dict[str, Any] = {
             "joint": self.joint,
             "values": [float(v) for v in self.values],
@@ -112,6 +155,15 @@ class TorsoSettings:
         }
         if self.shift is None:
             out.update(kind=self.kind, unit=self.unit, arrays=list(self.arrays))
+        if self.joints:
+            out.update(
+                reference=float(self.postures[round(self.reference)][0]),
+                joints=list(self.joints),
+                units=list(self.units),
+                velocities=[float(v) for v in self.velocities],
+                postures=[[float(x) for x in p] for p in self.postures],
+                reference_setting=round(self.reference),
+            )
         return out
 
 
@@ -124,14 +176,19 @@ def settings_from_meta(meta: dict[str, Any]) -> TorsoSettings | None:
     if rec.get("shift") is not None:
         sx, sy, sz = (float(v) for v in rec["shift"])
         shift = (sx, sy, sz)
+    joints = tuple(str(j) for j in rec.get("joints") or ())
     return TorsoSettings(
         str(rec["joint"]),
         tuple(float(v) for v in rec["values"]),
-        float(rec["reference"]),
+        float(rec["reference_setting"]) if joints else float(rec["reference"]),
         shift,
         float(rec["velocity"]),
         str(rec.get("unit", "m")),
         tuple(str(a) for a in rec.get("arrays") or ()),
+        joints,
+        tuple(tuple(float(x) for x in p) for p in rec.get("postures") or ()),
+        tuple(float(v) for v in rec.get("velocities") or ()),
+        tuple(str(u) for u in rec.get("units") or ()),
     )
 
 
@@ -169,6 +226,50 @@ def measured_shift(robot: Robot, arm: str, joint: str, values: Sequence[float], 
     return np.asarray(s, dtype=float)
 
 
+def checked_joint(robot: Robot, arm: str, j: str, where: str) -> tuple[str, float]:
+    """(unit, URDF velocity limit [m/s or rad/s]) of torso joint ``j``: one of the preset's fixed joints,
+    prismatic (unit "m") or bounded revolute ("rad"), not moving the base frame, between the base frame
+    and every joint of ``arm``, with a usable velocity limit; PlacementError naming ``where`` otherwise."""
+    model = robot.model
+    fixed = robot.fixed_joints
+    if j not in fixed:
+        raise PlacementError(
+            f"{where}: '{j}' is not a fixed joint of robot '{robot.name}' "
+            f"(fixed_joints: {', '.join(fixed) or 'none'}); a torso joint must be held by the preset"
+        )
+    jid = model.getJointId(j)
+    jm = model.joints[jid]
+    kind = jm.shortname()
+    if kind not in PRISMATIC + REVOLUTE:
+        raise PlacementError(
+            f"{where}: '{j}' is a {kind.removeprefix('JointModel')} joint; "
+            "only prismatic lifts and bounded revolute joints are supported"
+        )
+    unit = "m" if kind in PRISMATIC else "rad"
+    if jid in ancestors(model, model.frames[robot.base_frame_id].parentJoint):
+        raise PlacementError(f"{where}: '{j}' moves the base frame '{robot.base_frame}'")
+    a = robot.arm(arm)
+    for name, aid in zip(a.joints, a.joint_ids):
+        if jid not in ancestors(model, aid):
+            raise PlacementError(
+                f"{where}: '{j}' does not carry arm '{arm}' (joint '{name}' is not moved by it): "
+                "the torso joint must lie between the base frame and every joint of the arm"
+            )
+    velocity = float(model.velocityLimit[jm.idx_v])
+    if not (math.isfinite(velocity) and velocity > 0):
+        raise PlacementError(f"{where}: '{j}' has no usable velocity limit ({velocity:g} {unit}/s) in the URDF")
+    return unit, velocity
+
+
+def check_limits(robot: Robot, j: str, v: float, unit: str, where: str) -> None:
+    """PlacementError naming ``where`` unless ``v`` [m or rad] is within joint ``j``'s URDF limits."""
+    model = robot.model
+    jm = model.joints[model.getJointId(j)]
+    lo, hi = float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q])
+    if not lo <= v <= hi:
+        raise PlacementError(f"{where}: {v:g} {unit} is outside the URDF limits [{lo:g}, {hi:g}] {unit} of '{j}'")
+
+
 def torso_settings(
     robot: Robot, arm: str, spec: TorsoSpec, where: str = "torso", self_collision: bool = False
 ) -> TorsoSettings:
@@ -181,46 +282,20 @@ def torso_settings(
     the body the lift does not carry would stay put while the arm moves, so the shifted map would be
     wrong. A revolute joint gives one build per setting, each with its own self-collision check.
     """
-    model = robot.model
+    if spec.joints:  # several joints held at postures: one build per posture
+        from placement.maps.torso_postures import posture_settings
+
+        return posture_settings(robot, arm, spec, where)
     j = spec.joint
-    fixed = robot.fixed_joints
-    if j not in fixed:
-        raise PlacementError(
-            f"{where}.joint: '{j}' is not a fixed joint of robot '{robot.name}' "
-            f"(fixed_joints: {', '.join(fixed) or 'none'}); a torso joint must be held by the preset"
-        )
-    jid = model.getJointId(j)
-    jm = model.joints[jid]
-    kind = jm.shortname()
-    if kind not in PRISMATIC + REVOLUTE:
-        raise PlacementError(
-            f"{where}.joint: '{j}' is a {kind.removeprefix('JointModel')} joint; "
-            "only prismatic lifts and bounded revolute joints are supported"
-        )
-    unit = "m" if kind in PRISMATIC else "rad"
+    unit, velocity = checked_joint(robot, arm, j, f"{where}.joint")
     if unit == "m" and self_collision:
         raise PlacementError(
             f"{where}: a map built with self_collision or self_distance holds the arm's clearance from the "
             "body at the reference lift only; build it without them, or without torso"
         )
-    lo, hi = float(model.lowerPositionLimit[jm.idx_q]), float(model.upperPositionLimit[jm.idx_q])
     for i, v in enumerate(spec.values):
-        if not lo <= v <= hi:
-            raise PlacementError(
-                f"{where}.values[{i}]: {v:g} {unit} is outside the URDF limits [{lo:g}, {hi:g}] {unit} of '{j}'"
-            )
-    if jid in ancestors(model, model.frames[robot.base_frame_id].parentJoint):
-        raise PlacementError(f"{where}.joint: '{j}' moves the base frame '{robot.base_frame}'")
-    a = robot.arm(arm)
-    for name, aid in zip(a.joints, a.joint_ids):
-        if jid not in ancestors(model, aid):
-            raise PlacementError(
-                f"{where}.joint: '{j}' does not carry arm '{arm}' (joint '{name}' is not moved by it): "
-                "the torso joint must lie between the base frame and every joint of the arm"
-            )
-    velocity = float(model.velocityLimit[jm.idx_v])
-    if not (math.isfinite(velocity) and velocity > 0):
-        raise PlacementError(f"{where}.joint: '{j}' has no usable velocity limit ({velocity:g} {unit}/s) in the URDF")
+        check_limits(robot, j, v, unit, f"{where}.values[{i}]")
+    fixed = robot.fixed_joints
     reference = float(fixed[j])
     if unit == "rad":
         arrays = tuple(arm if v == reference else setting_array(arm, j, v) for v in spec.values)
@@ -249,4 +324,6 @@ def allowed_value(settings: TorsoSettings, value: float, where: str) -> float:
             return x
     shown = ", ".join(f"{x:g}" for x in settings.allowed)
     u = settings.unit
+    if settings.joints:
+        raise MapError(f"{where}: no map for posture {v:g} of {settings.label}; the map stands for postures {shown}")
     raise MapError(f"{where}: no map for {settings.joint} at {v:g} {u}; the map stands for {shown} {u}")

@@ -13,6 +13,11 @@ every other setting's map is an array ``arm@joint=value`` (:func:`placement.stor
 whose metadata holds ``setting: {joint, value}``. Every array is sealed like an arm's (chunk CRC32s,
 metadata digests); ``ReachabilityMap.at_torso(v)`` opens and checks the one of ``v``.
 
+A torso of several joints held at postures (:mod:`placement.maps.torso_postures`) is built the same
+way, once per posture with ``robot.with_fixed(posture)``: the record has ``kind: posture``, the other
+postures' arrays are ``arm@posture=i`` (:func:`placement.storage.schema.posture_array`) whose
+``setting`` holds the index (``value``) and ``posture: {joint: value}``.
+
 The build time multiplies by the number of settings (``len(allowed)``: the values and the reference).
 """
 
@@ -45,19 +50,29 @@ def build_torso_maps(robot: Robot, arm: str, *, torso: TorsoSpec, **options: Any
         return {arm: build_map(robot, arm, torso=torso, **options)}
     label = options.pop("label", None) or f"{robot.name}/{arm}"
     order = sorted(settings.allowed, key=lambda v: v != settings.reference)  # the reference first
-    log.info(
-        "%s: %s is a revolute joint: %d builds, one per setting (%s %s), the build time times %d",
-        label,
-        settings.joint,
-        len(order),
-        ", ".join(f"{v:g}" for v in order),
-        settings.unit,
-        len(order),
-    )
+    if settings.joints:
+        log.info(
+            "%s: torso %s held at postures: %d builds, one per posture (%s), the build time times %d",
+            label,
+            settings.label,
+            len(order),
+            "; ".join(settings.describe(v) for v in order),
+            len(order),
+        )
+    else:
+        log.info(
+            "%s: %s is a revolute joint: %d builds, one per setting (%s %s), the build time times %d",
+            label,
+            settings.joint,
+            len(order),
+            ", ".join(f"{v:g}" for v in order),
+            settings.unit,
+            len(order),
+        )
     out: dict[str, BuiltMap] = {}
     for k, v in enumerate(order, 1):
-        held = robot.with_fixed({settings.joint: v})
-        m = build_map(held, arm, label=f"{label} {settings.joint}={v:g} {settings.unit} ({k}/{len(order)})", **options)
+        held = robot.with_fixed(settings.held(v))
+        m = build_map(held, arm, label=f"{label} {settings.describe(v)} ({k}/{len(order)})", **options)
         out[settings.array(arm, v)] = _recorded(m, settings, v)
     return out
 
@@ -70,6 +85,8 @@ def _recorded(m: BuiltMap, settings: TorsoSettings, value: float) -> BuiltMap:
         meta["torso"] = settings.to_dict()
     else:
         meta["setting"] = {"joint": settings.joint, "value": float(value), "unit": settings.unit}
+        if settings.joints:  # a posture: its index (``value``) and every joint's value
+            meta["setting"]["posture"] = settings.held(value)
     return BuiltMap(m.values, meta, m.witness)
 
 

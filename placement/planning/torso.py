@@ -12,6 +12,10 @@ the lift at the preset's value on every step the maps serve there (their program
 the lift; see :func:`placement.planning.bound.map_regions`); the step-by-step methods add the lift's
 time to Eq. 6 (:func:`placement.planning.methods.stepwise.torso_ranked`). Verification tries the
 options at the torso value the robot holds first (no motion), then the others, nearest first.
+
+A torso of several joints held at postures (:mod:`placement.maps.torso_postures`) is carried the same
+way, its setting the posture's index: :func:`robot_at` holds every joint at the posture, a step's
+``joints`` list every torso joint's value, and :func:`torso_seconds` is the slowest joint's time.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from placement.maps.rmap import ReachabilityMap
+from placement.maps.torso import TorsoSettings
 from placement.planning.variants import map_variants, torso_record, torso_value
 from placement.robots import Robot
 
@@ -29,18 +34,25 @@ if TYPE_CHECKING:
     from placement.planning.option import Option
 
 
+def _record(maps: Mapping[str, ReachabilityMap]) -> TorsoSettings | None:
+    """The first torso record among the maps' (they share the joint), or None."""
+    return next((r for m in maps.values() if (r := torso_record(m)) is not None), None)
+
+
 def torso_joint(maps: Mapping[str, ReachabilityMap]) -> str | None:
-    """The joint the maps' torso records move (the same on every arm), or None."""
-    joints = {record.joint for m in maps.values() if (record := torso_record(m)) is not None}
+    """The joint the maps' torso records move (the same on every arm; for postures of several joints
+    their names joined by "+", which no step's ``joints`` holds: see :func:`held_setting`), or None."""
+    joints = {record.label for m in maps.values() if (record := torso_record(m)) is not None}
     return next(iter(joints)) if len(joints) == 1 else None
 
 
 def robot_at(ctx: PlanningContext, torso: float | None) -> Robot:
-    """The context's robot with the torso at ``torso`` [m] (the robot itself for None)."""
-    joint = torso_joint(ctx.maps)
-    if torso is None or joint is None:
+    """The context's robot with the torso at ``torso`` [m or rad; a posture's index] (the robot itself
+    for None): every torso joint at its value there."""
+    record = _record(ctx.maps)
+    if torso is None or record is None or torso_joint(ctx.maps) is None:
         return ctx.robot
-    return ctx.robot.with_fixed({joint: torso})
+    return ctx.robot.with_fixed(record.held(torso))
 
 
 def collisions_at(ctx: PlanningContext, torso: float | None) -> SceneCollision | None:
@@ -66,9 +78,28 @@ def option_map(ctx: PlanningContext, o: Option) -> ReachabilityMap:
 
 
 def start_torso(ctx: PlanningContext) -> float | None:
-    """The torso value [m] the robot starts with: the preset's (None without torso records)."""
+    """The torso value [m or rad; a posture's index] the robot starts with: the preset's (None without
+    torso records)."""
     joint = torso_joint(ctx.maps)
-    return None if joint is None else float(ctx.robot.fixed_joints[joint])
+    record = _record(ctx.maps)
+    if joint is None or record is None:
+        return None
+    return record.reference if record.joints else float(ctx.robot.fixed_joints[joint])
+
+
+def held_setting(ctx: PlanningContext, joints: Mapping[str, float], before: float | None) -> float | None:
+    """The torso setting [m or rad; a posture's index] a step's ``joints`` ({name: value}) hold: the
+    torso joint's value, or the index of the posture whose every joint matches (to 1e-9); ``before``
+    when they hold none."""
+    record = _record(ctx.maps)
+    if record is None or torso_joint(ctx.maps) is None:
+        return before
+    if not record.joints:
+        return float(joints[record.joint]) if record.joint in joints else before
+    for v in record.allowed:
+        if all(j in joints and abs(float(joints[j]) - x) <= 1e-9 for j, x in record.held(v).items()):
+            return v
+    return before
 
 
 def torso_first(options: Sequence[Option], order: Sequence[int], now: float | None) -> list[int]:
@@ -80,17 +111,19 @@ def torso_first(options: Sequence[Option], order: Sequence[int], now: float | No
 
 
 def torso_seconds(ctx: PlanningContext, a: float | None, b: float | None) -> float:
-    """Time [s] the lift takes from ``a`` to ``b`` [m] at its URDF velocity limit (0 without a torso)."""
+    """Time [s] the torso takes from setting ``a`` to ``b`` [m or rad; postures' indices] at its URDF
+    velocity limits (:meth:`TorsoSettings.seconds`: for postures the slowest joint's); 0 without a torso."""
     if a is None or b is None:
         return 0.0
-    record = next((torso_record(m) for m in ctx.maps.values() if torso_record(m) is not None), None)
+    record = _record(ctx.maps)
     if record is None or not record.velocity > 0:
         return 0.0
-    return abs(b - a) / float(record.velocity)
+    return record.seconds(a, b)
 
 
 __all__ = [
     "collisions_at",
+    "held_setting",
     "map_variants",
     "option_map",
     "robot_at",

@@ -81,9 +81,9 @@ def _quantiles(v: object) -> None:
 
 #: how a torso record's maps stand for its settings (placement/maps/torso.py): one map moved with the lift
 #: (a rigid prismatic lift; the record of maps without ``kind``), or one build per setting
-TORSO_KINDS = ("shifted", "per_setting")
-#: the units of a torso record's settings: a prismatic joint's [m], a revolute joint's [rad]
-TORSO_UNITS = ("m", "rad")
+TORSO_KINDS = ("shifted", "per_setting", "posture")
+#: the units of a torso record's settings: a prismatic joint's [m], a revolute joint's [rad], a posture's index
+TORSO_UNITS = ("m", "rad", "index")
 #: between an arm's name and its setting in the name of the array of one setting of a per-setting build
 SETTING_SEPARATOR = "@"
 
@@ -92,6 +92,12 @@ def setting_array(arm: str, joint: str, value: float) -> str:
     """The stored name of the map of ``arm`` built with ``joint`` at ``value`` [m or rad] (a per-setting
     torso build): ``right@torso_2_joint=0.2``, the value as Python's shortest round-trip repr."""
     return f"{arm}{SETTING_SEPARATOR}{joint}={float(value)!r}"
+
+
+def posture_array(arm: str, index: int) -> str:
+    """The stored name of the map of ``arm`` built at posture ``index`` of a torso of several joints:
+    ``right@posture=1`` (the joints' values are in its metadata's ``setting``)."""
+    return f"{arm}{SETTING_SEPARATOR}posture={int(index)}"
 
 
 def arm_arrays(names: list[str]) -> list[str]:
@@ -106,7 +112,9 @@ def _torso(v: object) -> None:
     finite numbers [m or rad], ``reference`` [m or rad], ``velocity`` a positive number [m/s or rad/s];
     ``kind`` (absent: shifted) one of TORSO_KINDS, ``unit`` (absent: m) one of TORSO_UNITS; a shifted
     record has ``shift`` 3 numbers [m/m], a per-setting one ``shift`` null and ``arrays``: the stored
-    array of each value."""
+    array of each value; a posture record (values the indices 0 .. k-1) also ``joints``, ``units``,
+    ``velocities`` and ``postures`` (one value per joint for every index, the arm's own
+    ``reference_setting`` included)."""
     if not isinstance(v, dict):
         raise _Bad("torso", "a mapping", v)
     _str(v, "joint", "torso.")
@@ -138,6 +146,31 @@ def _torso(v: object) -> None:
             raise _Bad("torso.arrays", f"{len(vals)} distinct array names (one per value)", arrays)
     if _real(v.get("velocity"), "torso.velocity") <= 0:
         raise _Bad("torso.velocity", "a positive speed", v.get("velocity"))
+    if kind == "posture":
+        _postures(v, len(vals))
+
+
+def _postures(v: dict[str, Any], k: int) -> None:
+    """The posture fields of a torso record with ``k`` values (see :func:`_torso`)."""
+    joints = v.get("joints")
+    if not isinstance(joints, list) or not joints or not all(isinstance(j, str) and j for j in joints):
+        raise _Bad("torso.joints", "a list of joint names", joints)
+    n = len(joints)
+    for key, ok in (("units", lambda u: u in ("m", "rad")), ("velocities", lambda x: _real(x, "torso.velocities") > 0)):
+        items = v.get(key)
+        if not isinstance(items, list) or len(items) != n or not all(ok(x) for x in items):
+            raise _Bad(f"torso.{key}", f"{n} entries (one per joint)", items)
+    ref = v.get("reference_setting")
+    if not isinstance(ref, int) or isinstance(ref, bool) or not 0 <= ref <= k:
+        raise _Bad("torso.reference_setting", f"a posture index from 0 to {k}", ref)
+    postures = v.get("postures")
+    if not isinstance(postures, list) or len(postures) != max(k, ref + 1):
+        raise _Bad("torso.postures", f"{max(k, ref + 1)} postures", postures)
+    for i, p in enumerate(postures):
+        if not isinstance(p, list) or len(p) != n:
+            raise _Bad(f"torso.postures[{i}]", f"{n} numbers (one per joint)", p)
+        for x in p:
+            _real(x, f"torso.postures[{i}]")
 
 
 def _base_frame_definition(v: object) -> None:
@@ -182,7 +215,12 @@ def check_arm_types(path: Path | str, arm: str, meta: dict[str, Any]) -> None:
             setting = _dict(meta, "setting")
             joint = _str(setting, "joint", "setting.")
             value = _real(setting.get("value"), "setting.value")
-            if not isinstance(meta.get("arm"), str) or setting_array(meta["arm"], joint, value) != arm:
+            owner = meta.get("arm")
+            if "posture" in setting:  # a posture of a torso of several joints: ``value`` is its index
+                named = isinstance(owner, str) and value == int(value) and posture_array(owner, int(value)) == arm
+            else:
+                named = isinstance(owner, str) and setting_array(owner, joint, value) == arm
+            if not named:
                 raise _Bad("arm", f"the arm of array '{arm}'", meta.get("arm"))
         elif meta.get("arm") != arm:
             raise _Bad("arm", repr(arm), meta.get("arm"))
