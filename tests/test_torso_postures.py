@@ -16,6 +16,7 @@ from support.fk import model_fk
 from support.knee_torso import CROUCH, HIP, KNEE, UPRIGHT, write_knee_torso
 
 import placement
+from placement.evaluation.tasktime import task_time
 from placement.maps.buildspec import parse_torso
 from placement.maps.torso_builds import build_torso_maps
 from placement.planning.planner import Planner
@@ -97,6 +98,9 @@ def test_a_far_cup_is_picked_crouched(tmp_path, knee, method):
     pick = result.steps[0]
     assert (pick.joints[HIP], pick.joints[KNEE]) == CROUCH
     assert result.verify(robot) == []
+    # the task time's torso term from the plan's joints: upright -> crouch is the hip's 0.9 / 0.4 s
+    timing = task_time(robot, result, (1.0, 4.0, 0.0))
+    assert timing is not None and timing["steps"][0]["torso_s"] == pytest.approx(2.25, abs=1e-12)
     plan = json.loads(json.dumps(result.to_json()))
     for s, doc in zip(result.steps, plan["steps"]):  # the plan lists every torso joint, not the index
         assert doc["joints"][HIP] == s.joints[HIP] and doc["joints"][KNEE] == s.joints[KNEE]
