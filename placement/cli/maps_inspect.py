@@ -209,17 +209,43 @@ def _render_info(d: dict[str, Any]) -> str:
 def check(
     path: str, robot: str | None, arm: str | None, samples: int, seed: int, as_json: bool, verbose: int, quiet: bool
 ) -> None:
-    """Accuracy of a map against inverse kinematics on random poses (reads and checks every chunk first)."""
+    """Accuracy of a map against inverse kinematics on random poses (reads and checks every chunk first);
+    a map built once per torso setting: every setting's map, with the torso held there."""
     setup_logging(verbose, quiet)
     store = open_store(path)
     arms = [arm] if arm else arm_arrays(list(store.root.get("arms") or []))
     out: dict[str, Any] = {"path": str(path), "arms": {}}
+    held = load_robot(robot or store.root.get("preset") or store.root["robot"])
     for a in arms:
         log.info("arm %s: reading and checking every chunk", a)
-        rmap = open_map(path, a, robot).load()
-        out["arms"][a] = _check_arm(
-            load_robot(robot or store.root.get("preset") or store.root["robot"]), rmap, a, samples, seed, quiet
-        )
+        rmap = open_map(path, a, held).load()
+        doc = out["arms"][a] = _check_arm(held, rmap, a, samples, seed, quiet)
+        t = rmap.torso
+        if t is None:
+            continue
+        doc["torso"] = {
+            "joint": t.joint,
+            "kind": t.kind,
+            "unit": t.unit,
+            "reference": t.reference,
+            "values": list(t.values),
+            "checked": "reference" if t.kind == "shifted" else "every setting",
+        }
+        if t.joints:
+            doc["torso"]["posture"] = t.held(t.reference)
+        if t.kind == "shifted":  # the same array moved with the lift: the reference's check is every setting's
+            continue
+        doc["settings"] = []
+        for v in t.values:
+            if v == t.reference:
+                continue
+            log.info("arm %s at %s = %g %s: reading and checking every chunk", a, t.joint, v, t.unit)
+            view = rmap.at_torso(v).load()
+            one = _check_arm(held.with_fixed(t.held(v)), view, f"{a} {_at(t, v)}", samples, seed, quiet)
+            setting = {"joint": t.joint, "value": v, "unit": t.unit, "array": view.array}
+            if t.joints:
+                setting["posture"] = t.held(v)
+            doc["settings"].append({"setting": setting} | one)
     emit(out, as_json, _render_check)
 
 
@@ -245,24 +271,48 @@ def _check_arm(robot: Robot, rmap: ReachabilityMap, arm: str, samples: int, seed
     return doc
 
 
+def _rate(x: float | None, ci: Sequence[float]) -> str:
+    return "n/a" if x is None else f"{100 * x:.1f} % (95 % CI {100 * ci[0]:.1f}-{100 * ci[1]:.1f})"
+
+
+def _check_lines(head: str, r: dict[str, Any]) -> list[str]:
+    """The two lines of one map's check (``head`` names it)."""
+    p = r["pose_level"]
+    return [
+        f"{head}: pose-level (IK to {p['pos_tol_m']} m, {p['rot_tol_rad']} rad): "
+        f"precision {_rate(p['precision'], p['precision_ci95'])} of {p['precision_poses']} poses in "
+        f"reachable cells; recall {_rate(p['recall'], p['recall_ci95'])} of {p['recall_cells']} "
+        f"IK-reachable cells ({p['recall_draws']} drawn in reach)",
+        "  cell-level (one-cell tolerance): "
+        + ", ".join(f"{k} {v}" for k, v in r.items() if not isinstance(v, (dict, list))),
+    ]
+
+
 def _render_check(d: dict[str, Any]) -> str:
     lines = []
     for a, r in d["arms"].items():
-        p = r["pose_level"]
-
-        def rate(x: float | None, ci: Sequence[float]) -> str:
-            return "n/a" if x is None else f"{100 * x:.1f} % (95 % CI {100 * ci[0]:.1f}-{100 * ci[1]:.1f})"
-
-        lines.append(
-            f"{d['path']} arm {a}: pose-level (IK to {p['pos_tol_m']} m, {p['rot_tol_rad']} rad): "
-            f"precision {rate(p['precision'], p['precision_ci95'])} of {p['precision_poses']} poses in "
-            f"reachable cells; recall {rate(p['recall'], p['recall_ci95'])} of {p['recall_cells']} "
-            f"IK-reachable cells ({p['recall_draws']} drawn in reach)"
-        )
-        lines.append(
-            "  cell-level (one-cell tolerance): "
-            + ", ".join(f"{k} {v}" for k, v in r.items() if not isinstance(v, (dict, list)))
-        )
+        t = r.get("torso")
+        if t is None:
+            lines += _check_lines(f"{d['path']} arm {a}", r)
+            continue
+        unit = t["unit"]
+        values = ", ".join(f"{v:g}" for v in t["values"])
+        at = f"{t['joint']} = {t['reference']:g} {unit}"
+        if "posture" in t:
+            at = _posture_at(t["reference"], t["posture"])
+        lines += _check_lines(f"{d['path']} arm {a} at {at} (reference)", r)
+        if t["kind"] == "shifted":
+            lines.append(
+                f"  torso {t['joint']}: settings {values} {unit} share this map moved with the lift (a shifted "
+                "map): the reference's check stands for every setting"
+            )
+        for sv in r.get("settings", []):
+            st = sv["setting"]
+            at = f"{st['joint']} = {st['value']:g} {unit}"
+            if "posture" in st:
+                at = _posture_at(st["value"], st["posture"])
+            head = f"{d['path']} arm {a} at {at} (array {st['array']})"
+            lines += _check_lines(head, sv)
     return "\n".join(lines)
 
 

@@ -43,6 +43,7 @@ from placement.maps.buildspec import MAX_SEED, parse_count
 from placement.maps.pose_accuracy import (
     POSE_POS_TOL,
     POSE_ROT_TOL,
+    check_setting,
     pose_metrics,
     poses_in_cells,
     ratio,
@@ -86,7 +87,8 @@ def check_map(
     """Accuracy of ``rmap`` against IK on random cells it calls reachable and unreachable.
 
     Args:
-        robot: the robot the map was built for.
+        robot: the robot the map was built for (a map of one torso setting: with the torso held there,
+            ``robot.with_fixed({joint: value})``; MapError otherwise).
         rmap: a :class:`placement.ReachabilityMap` (from :func:`placement.open_map`)
             or a :class:`placement.BuiltMap` (from :func:`placement.build_map`);
             its arm is ``rmap.meta["arm"]``. The whole array is read.
@@ -126,6 +128,7 @@ def check_map(
         raise MapError(
             f"map of arm '{arm}' was built for robot '{meta.get('robot')}' (or another URDF), not '{robot.name}'"
         )
+    check_setting(robot, meta)  # a torso setting's map: IK with the torso where it was built
     grid = rmap.grid
     values = rmap.values
     if values.shape != grid.shape:

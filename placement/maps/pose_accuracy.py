@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from placement.errors import MapError
 from placement.kinematics.ik import solve_ik
 from placement.maps.build import arm_reach
 from placement.maps.grid import Grid
@@ -20,6 +21,33 @@ from placement.robots import Robot
 if TYPE_CHECKING:
     from placement.maps.rmap import ReachabilityMap
     from placement.storage.format import BuiltMap
+
+
+#: a robot's held torso joints match a map's setting this closely [rad or m]
+SETTING_TOLERANCE = 1e-9
+
+
+def is_setting_map(meta: dict[str, Any]) -> bool:
+    """Whether a map (``meta``) is one torso setting's build of a map built once per setting (its
+    ``setting`` record, or the reference's ``torso`` record without a shift); a shifted map is not: the
+    reference robot checks every setting of it."""
+    record = meta.get("torso")
+    return bool(meta.get("setting")) or bool(record and record.get("shift") is None)
+
+
+def check_setting(robot: Robot, meta: dict[str, Any]) -> None:
+    """MapError unless ``robot`` holds every fixed joint where the build of a torso setting's map
+    (``meta``) held it: IK of another setting's robot would measure the map against the wrong arm."""
+    if not is_setting_map(meta):
+        return
+    for joint, value in (meta.get("fixed_joints") or {}).items():
+        held = robot.fixed_joints.get(joint)
+        if held is None or abs(held - float(value)) > SETTING_TOLERANCE:
+            now = "does not hold it" if held is None else f"holds it at {held:g}"
+            raise MapError(
+                f"map of arm '{meta.get('arm')}' was built with {joint} at {float(value):g}, the robot {now}; "
+                f"check a torso setting's map with the robot held there (robot.with_fixed)"
+            )
 
 
 def ratio(num: float, den: float) -> float | None:
@@ -100,6 +128,7 @@ def pose_metrics(
 
     t0 = time.perf_counter()
     meta = rmap.meta
+    check_setting(robot, meta)
     arm = meta["arm"]
     grid = rmap.grid
     flat = rmap.values.reshape(-1)

@@ -16,6 +16,7 @@ from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import FloatArray
 from placement.planning.config import PlannerConfig
 from placement.planning.problems import StepProblems
+from placement.planning.thresholds import threshold_at
 from placement.planning.world import World
 from placement.robots import Robot
 from placement.scene import Scene
@@ -33,9 +34,12 @@ class PlanningContext:
         yaws: (K,) base yaws tried per cell [rad].
         collisions: the scene collision checker, or None (planning without collision checks).
         thresholds: arm -> its map threshold (map value), resolved at load (see
-            :mod:`placement.planning.thresholds`); an arm not in it uses ``config.threshold``.
+            :mod:`placement.planning.thresholds`; the arm's own map's, the reference torso setting's);
+            an arm not in it uses ``config.threshold``.
         torso_checks: torso value [m] -> the collision check of the robot with its lift there
             (built on first use, see :mod:`placement.planning.torso`; updated with ``collisions``).
+        setting_thresholds: (arm, torso value [rad]) -> the threshold of that setting of a map built
+            once per torso setting (its own distribution); a setting not in it uses its arm's.
     """
 
     scene: Scene
@@ -48,10 +52,20 @@ class PlanningContext:
     collisions: SceneCollision | None = None
     thresholds: Mapping[str, float] = field(default_factory=dict)
     torso_checks: dict[float, SceneCollision] = field(default_factory=dict)
+    setting_thresholds: Mapping[tuple[str, float], float] = field(default_factory=dict)
 
-    def threshold(self, arm: str) -> float:
-        """The map value below which a placement of ``arm`` is infeasible (dimensionless)."""
-        return self.thresholds.get(arm, self.config.threshold)
+    def threshold(self, arm: str, torso: float | None = None) -> float:
+        """The map value below which a placement of ``arm`` with the torso at ``torso`` [m or rad] (an
+        option's ``torso``; None: the arm's own map) is infeasible (dimensionless)."""
+        return threshold_at(self.thresholds, self.setting_thresholds, self.config.threshold, arm, torso)
+
+    def threshold_words(self, arm: str) -> str:
+        """``arm``'s threshold in words: one value, or one per torso setting of a map built once per
+        setting ("0.0123 at torso 0, 0.0151 at torso 0.4")."""
+        own = sorted((t, v) for (a, t), v in self.setting_thresholds.items() if a == arm)
+        if not own:
+            return f"{self.threshold(arm):.4g}"
+        return ", ".join(f"{v:.4g} at torso {t:g}" for t, v in own)
 
 
 __all__ = ["PlanningContext"]

@@ -36,7 +36,7 @@ from placement.planning.methods.registry import DEFAULT_METHOD, METHODS, method_
 from placement.planning.prepare import prefetch_slices, warm_checks, warm_kernels
 from placement.planning.problems import StepProblems
 from placement.planning.results import PlanResult, robot_info
-from placement.planning.thresholds import resolve_thresholds, with_threshold
+from placement.planning.thresholds import resolve_thresholds, setting_thresholds, with_threshold
 from placement.planning.updates import apply_update
 from placement.planning.world import World, build_world
 from placement.robots import Robot, load_robot
@@ -93,7 +93,8 @@ class Planner:
         fields are also attributes of the planner: scene, robot, maps (arm -> map), world, problems
         (the per-step cache), config (the method's), yaws ((K,) base yaws [rad]), collisions (the
         :class:`~placement.collision.SceneCollision` checker, or None), thresholds (arm -> map
-        threshold). base_config: the scene's configuration (its ``threshold`` the smallest arm's). method: the :class:`~placement.planning.methods.base.Method` strategy
+        threshold), setting_thresholds ((arm, torso value) -> map threshold of a map built once per
+        torso setting). base_config: the scene's configuration (its ``threshold`` the smallest of them). method: the :class:`~placement.planning.methods.base.Method` strategy
         (``method.name`` its name).
     """
 
@@ -112,14 +113,24 @@ class Planner:
         map_path = Path(maps or scene.maps or default_maps_path(scene, robot))
         rmaps = {arm: open_map(map_path, arm, robot) for arm in mapped_arms(map_path, robot)}
         thresholds = resolve_thresholds(cfg, rmaps)
-        self.base_config = cfg = with_threshold(cfg, thresholds)
+        settings = setting_thresholds(cfg, rmaps)
+        self.base_config = cfg = with_threshold(cfg, thresholds, settings)
         checker = SceneCollision(robot, scene, padding=cfg.collision_padding) if collisions else None
         yaws = base_yaws(cfg.yaw_steps)
         base = BaseShape.of(robot, cfg.footprint_padding, yaws)
         world = build_world(scene, base, cfg)
-        problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening, thresholds)
+        problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening, thresholds, settings)
         self.context = PlanningContext(
-            scene, robot, rmaps, world, problems, self.method.configure(cfg), yaws, checker, thresholds
+            scene,
+            robot,
+            rmaps,
+            world,
+            problems,
+            self.method.configure(cfg),
+            yaws,
+            checker,
+            thresholds,
+            setting_thresholds=settings,
         )
         # once per planner: kernels loaded and slices read here, not in the first step
         warm_kernels(problems, robot)
@@ -154,8 +165,18 @@ class Planner:
     @property
     def thresholds(self) -> Mapping[str, float]:
         """arm -> its map threshold (map value), resolved at load from the scene's ``threshold`` or
-        ``threshold_quantile`` (see :mod:`placement.planning.thresholds`)."""
+        ``threshold_quantile`` (see :mod:`placement.planning.thresholds`): the arm's own map's, which for
+        a map with torso settings is the reference setting's (the preset's held value). A map built once
+        per torso setting has one per setting (:attr:`setting_thresholds`); a shifted map's settings all
+        keep the arm's. ``context.threshold(arm, torso)`` gives an option's."""
         return self.context.thresholds
+
+    @property
+    def setting_thresholds(self) -> Mapping[tuple[str, float], float]:
+        """(arm, torso value [rad]) -> the map threshold of that setting of a map built once per torso
+        setting: the quantile of that setting's own map (empty when the scene gave ``threshold``, and
+        for maps without torso settings or shifted ones)."""
+        return self.context.setting_thresholds
 
     @property
     def yaws(self) -> FloatArray:

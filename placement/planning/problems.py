@@ -30,6 +30,7 @@ from placement.planning.navigation import navigation_cost
 from placement.planning.option import Option, height_range
 from placement.planning.refresh import refreshed_options
 from placement.planning.steps import Step, step_candidates, task_steps
+from placement.planning.thresholds import threshold_at
 from placement.planning.variants import map_variants, torso_value
 from placement.planning.world import World
 from placement.scene import Scene
@@ -50,7 +51,8 @@ class StepProblems:
         yaws: (K,) base yaws tried per cell [rad].
         opening_m: the gripper's widest opening [m] (generated grasps close across chords up to it).
         thresholds: arm -> its map threshold (see :mod:`placement.planning.thresholds`); an arm not
-            in it uses ``config.threshold``.
+            in it uses ``config.threshold``. setting_thresholds: (arm, torso value [rad]) -> the
+            threshold of that setting of a map built once per setting (else its arm's).
     """
 
     def __init__(
@@ -62,10 +64,12 @@ class StepProblems:
         yaws: FloatArray,
         opening_m: float = GRIPPER_OPENING,
         thresholds: Mapping[str, float] | None = None,
+        setting_thresholds: Mapping[tuple[str, float], float] | None = None,
     ):
         self.scene, self.world, self.maps, self.config, self.yaws = scene, world, maps, config, yaws
         self.opening_m = opening_m
         self.thresholds: Mapping[str, float] = dict(thresholds or {})
+        self.setting_thresholds: Mapping[tuple[str, float], float] = dict(setting_thresholds or {})
         self.steps: list[Step] = task_steps(scene)
         #: arm -> its map at each torso setting (one map without a torso record)
         self.variants = map_variants(maps)
@@ -118,9 +122,10 @@ class StepProblems:
                 return rmap
         raise KeyError(f"arm '{arm}' has no map at torso value {torso}")
 
-    def threshold(self, arm: str) -> float:
-        """The map value below which a placement of ``arm`` is infeasible (dimensionless)."""
-        return self.thresholds.get(arm, self.config.threshold)
+    def threshold(self, arm: str, torso: float | None = None) -> float:
+        """The map value below which a placement of ``arm`` with the torso at ``torso`` [m or rad] is
+        infeasible (dimensionless)."""
+        return threshold_at(self.thresholds, self.setting_thresholds, self.config.threshold, arm, torso)
 
     def options(self, i: int) -> list[Option]:
         """Manipulation maps of step i for every arm and candidate (cached)."""
@@ -188,7 +193,7 @@ class StepProblems:
         return {
             (o.arm, o.candidate.grasp)
             for o in self.options(i)
-            if o.value.size and float(o.value.max()) >= self.threshold(o.arm)
+            if o.value.size and float(o.value.max()) >= self.threshold(o.arm, o.torso)
         }
 
     def feasible_region(self, i: int, options: Sequence[Option] | None = None) -> BoolArray:
@@ -196,7 +201,7 @@ class StepProblems:
         default all of the step's) reach their arm's threshold."""
         mask = np.zeros(self.world.nav.shape, dtype=bool)
         for o in self.options(i) if options is None else options:
-            mask[o.window.slices] |= o.value >= self.threshold(o.arm)
+            mask[o.window.slices] |= o.value >= self.threshold(o.arm, o.torso)
         return mask
 
     def heuristic(self, i: int, at: BoolArray | None = None) -> FloatArray:
@@ -214,7 +219,9 @@ class StepProblems:
         changed) they are refreshed on the cells whose allowed yaws changed (see refresh.py) when a
         step first needs them, and the heuristics are dropped. ``self`` is not modified.
         """
-        new = StepProblems(scene, world, self.maps, self.config, self.yaws, self.opening_m, self.thresholds)
+        new = StepProblems(
+            scene, world, self.maps, self.config, self.yaws, self.opening_m, self.thresholds, self.setting_thresholds
+        )
         # a moved object's place poses follow its orientation when picked: its place too
         moved = {i for i, s in enumerate(self.steps) if s.carries is not None and s.carries in moved_objects}
         if world is not self.world:  # a place rests on the obstacles: one added or removed may move it

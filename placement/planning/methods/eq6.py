@@ -23,9 +23,9 @@ def rank_eq6(
 ) -> list[Ranked]:
     """Eq. 6 with the context's weights (see :func:`~placement.planning.ranking.rank_by_cost`): the
     ``per_option`` cheapest cells of each option and tier (default ``ik_tries``), each option's
-    cells kept by its arm's threshold."""
+    cells kept by its own threshold (its arm's, at its torso setting)."""
     cfg = ctx.config if per_option is None else replace(ctx.config, ik_tries=per_option)
-    return rank_by_cost(per_arm_values(options, ctx.thresholds, cfg.threshold), nav_cost, heuristic, cfg, ctx.yaws)
+    return rank_by_cost(per_arm_values(options, ctx.threshold, cfg.threshold), nav_cost, heuristic, cfg, ctx.yaws)
 
 
 class Eq6Method(StepwiseMethod):

@@ -31,7 +31,7 @@ def unreachable_reason(ctx: PlanningContext, opts: Sequence[Option]) -> str:
             f"the maps ({ranges} above the base frame)"
         )
     arms = sorted({o.arm for o in opts}) or sorted(ctx.maps)
-    words = ", ".join(f"{a} {ctx.threshold(a):.4g}" for a in arms)
+    words = ", ".join(f"{a} {ctx.threshold_words(a)}" for a in arms)
     return f"no base placement reaches the target with the map thresholds ({words})"
 
 

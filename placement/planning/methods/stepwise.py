@@ -217,9 +217,7 @@ def plan_step(
     if keep_maps:
         manip = np.max([o.full_value(nav.shape) for o in opts], axis=0) if opts else None
         combined = (
-            combined_map(per_arm_values(opts, ctx.thresholds, cfg.threshold), nav_cost, heur, cfg)
-            if not fixed
-            else None
+            combined_map(per_arm_values(opts, ctx.threshold, cfg.threshold), nav_cost, heur, cfg) if not fixed else None
         )
         maps = StepMaps(nav_cost, heur, manip, combined)
     t = time.perf_counter()
