@@ -123,3 +123,49 @@ def test_start_costs_and_predecessors(seed):
         step = 0.05 * (S2 if vy != uy and vx != ux else 1.0)
         assert max(abs(vy - uy), abs(vx - ux)) == 1
         assert cost.flat[v] == cost.flat[u] + step * fac[vy, vx]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_directed_search_is_exact_on_a_box_of_targets(seed):
+    """With targets the search heads for their bounding box (A* keys, :data:`GUIDE`): from several
+    sources with start costs, forward and on the reversed graph, uniform (many ties) or varying
+    slowdowns, the targets' costs equal scipy's Dijkstra, and each settled cell's predecessor lies on
+    a shortest path."""
+    rng = np.random.default_rng(600 + seed)
+    ny, nx = rng.integers(8, 45, size=2)
+    feas = rng.random((ny, nx)) > 0.15
+    fac = np.ones((ny, nx)) if seed % 2 else speed_factor(distance_map(~feas, 0.05), 1.3, 4, 1.0)
+    reverse = seed >= 3
+    starts = np.argwhere(feas)[rng.choice(feas.sum(), size=2, replace=False)]
+    start_costs = rng.uniform(0, 1.0, 2)
+    y0, x0 = rng.integers(0, ny - 3), rng.integers(0, nx - 3)
+    targets = np.zeros_like(feas)
+    targets[y0 : y0 + rng.integers(1, 6), x0 : x0 + rng.integers(1, 8)] = True
+    cost, pred = navigation_cost(fac, feas, starts, 0.05, start_costs, targets, reverse=reverse)
+    g = grid_graph(fac, feas, 0.05)
+    g = (g.T if reverse else g).tolil()
+    g.resize((ny * nx + 1, ny * nx + 1))
+    for (y, x), c in zip(starts, start_costs):
+        g[ny * nx, y * nx + x] = c
+    ref = dijkstra(g.tocsr(), indices=ny * nx)[:-1].reshape(ny, nx)
+    sel = targets & feas
+    assert np.array_equal(np.isinf(cost[sel]), np.isinf(ref[sel]))
+    np.testing.assert_allclose(cost[sel & np.isfinite(ref)], ref[sel & np.isfinite(ref)], rtol=1e-12, atol=0)
+    for v in np.flatnonzero(pred.ravel() >= 0):
+        u = pred.flat[v]
+        (vy, vx), (uy, ux) = divmod(v, nx), divmod(u, nx)
+        step = 0.05 * (S2 if vy != uy and vx != ux else 1.0)
+        entered = (uy, ux) if reverse else (vy, vx)
+        assert cost.flat[v] == cost.flat[u] + step * fac[entered]
+
+
+def test_directed_search_leaves_the_far_side_unsearched():
+    """An open 40 x 40 grid, the source in the middle, one target cell at the east edge: a plain
+    Dijkstra settles every cell nearer than the target (about pi r^2 of them), the directed search
+    hardly any cell west of the source."""
+    feas = np.ones((40, 40), bool)
+    targets = np.zeros_like(feas)
+    targets[20, 39] = True
+    cost, _ = navigation_cost(np.ones((40, 40)), feas, (20, 20), 0.1, targets=targets)
+    assert cost[20, 39] == pytest.approx(1.9, abs=1e-12)
+    assert np.isfinite(cost[:, :20]).sum() < 60  # a plain search settles all 800 west-side cells

@@ -11,6 +11,10 @@ import numpy as np
 from numba import njit
 
 _INF = np.inf
+#: the goal-directed search's heuristic is this fraction of the octile distance to the targets' box:
+#: below 1 so that every edge still raises a cell's key by (1 - GUIDE) * res * min(factor) (the bucket
+#: queue's condition), close to 1 so that the search heads for the targets
+GUIDE = 0.9
 
 
 @njit(cache=True)
@@ -94,8 +98,8 @@ def shortest_costs(factor, feasible, sources, source_costs, res, targets, revers
         sources: (k, 2) int64 (iy, ix) start cells; source_costs: (k,) their initial costs.
         res: cell size [m].
         targets: (ny, nx) bool; the search stops once every feasible target cell is settled
-            (exact for them; cells not settled by then are returned as inf). An array with no
-            True cell means: settle everything.
+            (exact for them; cells not settled by then are returned as inf) and is directed at them
+            (see below). An array with no True cell means: settle everything.
     Returns:
         cost (ny, nx) float64 [m of free-space travel], pred (ny, nx) int64 flat index of the
         predecessor (-1 at sources and unreached cells).
@@ -106,6 +110,11 @@ def shortest_costs(factor, feasible, sources, source_costs, res, targets, revers
     # labels are final and the bucket is settled in any order. Costs equal Dijkstra's exactly (a
     # cell's cost is the minimum of cost[u] + w over the neighbours u settled before it, the same
     # set either way); among equal-cost paths the predecessor may differ.
+    # With targets the buckets hold keys cost + h (A*), h = GUIDE * res * min(factor) * the octile
+    # distance to the targets' bounding box: h changes along an edge by at most GUIDE times the edge's
+    # least cost (the octile distance to a box is 1-Lipschitz), so an edge raises a key by at least
+    # (1 - GUIDE) * res * min(factor), the bucket width: a key's bucket is still final when reached,
+    # and a target's cost is exact once settled; cells farther from the targets are never reached.
     ny, nx = factor.shape
     W = nx + 2
     N = (ny + 2) * W
@@ -115,6 +124,7 @@ def shortest_costs(factor, feasible, sources, source_costs, res, targets, revers
     remaining = 0
     fmin = _INF
     fmax = 0.0
+    ty0, ty1, tx0, tx1 = N, -1, N, -1  # the feasible targets' box (padded indices)
     for y in range(ny):
         for x in range(nx):
             i = (y + 1) * W + x + 1
@@ -126,13 +136,25 @@ def shortest_costs(factor, feasible, sources, source_costs, res, targets, revers
                 if targets[y, x]:
                     tgt[i] = True
                     remaining += 1
+                    ty0, ty1 = min(ty0, y + 1), max(ty1, y + 1)
+                    tx0, tx1 = min(tx0, x + 1), max(tx1, x + 1)
     early = remaining > 0
+    hs = GUIDE * res * fmin if early else 0.0  # heuristic per unit of octile distance [m]
+    h = np.zeros(N)
+    if early:
+        r2 = math.sqrt(2.0) - 1.0
+        for y in range(1, ny + 1):
+            dy = max(ty0 - y, y - ty1, 0)
+            for x in range(1, nx + 1):
+                dx = max(tx0 - x, x - tx1, 0)
+                h[y * W + x] = hs * (max(dx, dy) + r2 * min(dx, dy))
     open_ = feas.copy()  # feasible and not settled: one read per neighbour
     cost = np.full(N, _INF)
     prev = np.full(N, -1, dtype=np.int64)
     done = np.zeros(N, dtype=np.bool_)
     diag = res * math.sqrt(2.0)
-    delta = res * fmin / (1.0 + 1e-9)  # a hair below the shortest edge, against rounding
+    # a hair below the least key increase along an edge, against rounding
+    delta = (res * fmin - hs) / (1.0 + 1e-9)
     # entries: (cell, next entry in its bucket); a cell is entered again when its cost drops; int32
     # halves their memory traffic (the wrapper refuses grids whose 9 N entries would not fit)
     cap = 9 * N + sources.shape[0] + 1
@@ -148,19 +170,20 @@ def shortest_costs(factor, feasible, sources, source_costs, res, targets, revers
     for s in range(sources.shape[0]):
         i = (sources[s, 0] + 1) * W + sources[s, 1] + 1
         if feas[i] and cost[i] == source_costs[s]:
-            lo = min(lo, cost[i])
-            hi = max(hi, cost[i])
+            lo = min(lo, cost[i] + h[i])
+            hi = max(hi, cost[i] + h[i])
     if lo == _INF:
         return np.full((ny, nx), _INF), np.full((ny, nx), -1, dtype=np.int64)
-    # live labels span at most (sources' spread + the longest edge): a ring of buckets that wide
-    nb = int((hi - lo + diag * fmax) / delta) + 3
+    # live keys span at most (sources' spread + the largest key increase along an edge): a ring of
+    # buckets that wide
+    nb = int((hi - lo + diag * fmax + math.sqrt(2.0) * hs) / delta) + 3
     head = np.full(nb, -1, dtype=np.int32)
     base = lo
     live = 0
     for s in range(sources.shape[0]):
         i = (sources[s, 0] + 1) * W + sources[s, 1] + 1
         if feas[i] and cost[i] == source_costs[s] and not done[i]:
-            b = int((cost[i] - base) / delta) % nb
+            b = int((cost[i] + h[i] - base) / delta) % nb
             ent_cell[n_ent] = i
             ent_next[n_ent] = head[b]
             head[b] = n_ent
@@ -196,7 +219,7 @@ def shortest_costs(factor, feasible, sources, source_costs, res, targets, revers
                 if nc < cost[v]:
                     cost[v] = nc
                     prev[v] = u
-                    kb = int((nc - base) / delta)
+                    kb = int((nc + h[v] - base) / delta)
                     if kb <= k:  # cannot happen (edges are longer than a bucket): never lose a cell
                         kb = k + 1
                     bb = kb % nb

@@ -11,10 +11,16 @@ step to the cell of its region that adds the least travel between its neighbours
 grid) and a few IK calls instead of a solve. A transfer's pick and place keep their group. The legs
 into and out of the new cell are exact. When no candidate verifies, the caller removes the
 rejection and solves again.
+
+The two searches are asked only for the region's cells whose detour cannot exceed the least one by
+more than ``WINDOW_M`` (by a lower bound: octile distances times the least slowdown), a window that
+grows while none of its cells verifies: the candidates come in the order a search of the whole
+region gives, and the searches, directed at a smaller box of targets, settle fewer cells.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -24,6 +30,9 @@ from placement.planning.arrays import Cell
 from placement.planning.bound import Chain, Regions
 from placement.planning.context import PlanningContext
 from placement.planning.verify import TrajectoryIK
+
+#: the detour [m] beyond the least bound that a repair searches first (doubled while nothing verifies)
+WINDOW_M = 0.5
 
 
 @dataclass(frozen=True)
@@ -69,26 +78,63 @@ def repair(dp: DynamicProgram, chain: Chain, i: int) -> tuple[Chain, Verified] |
         return None
     prev_cell = dp.start if i == 0 else divmod(chain.cells[i - 1], nx)
     prev_label = 0.0 if i == 0 else chain.labels[i - 1]
-    into = ctx.problems.legs(prev_cell, targets)
-    score = into.copy()
-    if i + 1 < n:  # from every candidate to the next step's cell: the legs out, exact
-        out_of = ctx.problems.legs(divmod(chain.cells[i + 1], nx), targets, reverse=True)
-        score += out_of
-    for flat, g in _best(score, reg.masks, groups, ctx.config.global_repair_candidates):
-        v = dp.verify(i, flat, g)
-        if v is None:
-            continue
-        labels = list(chain.labels)
-        labels[i] = prev_label + float(into.flat[flat]) + _node(dp, i, g, flat)
-        if i + 1 < n:
-            nxt = chain.cells[i + 1]
-            new_next = labels[i] + float(out_of.flat[flat]) + _node(dp, i + 1, chain.groups[i + 1], nxt)
-            shift = new_next - chain.labels[i + 1]
-            labels[i + 1 :] = [label + shift for label in chain.labels[i + 1 :]]
-        cells, grps = list(chain.cells), list(chain.groups)
-        cells[i], grps[i] = flat, g
-        return Chain(cells, grps, labels), v
+    next_cell = divmod(chain.cells[i + 1], nx) if i + 1 < n else None
+    bound = _detour_bound(w.factor, w.feasible, w.nav.resolution, prev_cell, next_cell)
+    count = ctx.config.global_repair_candidates
+    tried: set[tuple[int, int]] = set()
+    reach = float(np.min(bound[targets])) + WINDOW_M
+    while len(tried) < count:
+        # only the region's cells whose detour bound is within ``reach`` are searched: a cell outside
+        # detours more than ``reach`` [m], so those within rank exactly as they would among all
+        window = targets & (bound <= reach)
+        whole = bool(np.array_equal(window, targets))
+        into = ctx.problems.legs(prev_cell, window)
+        score = into.copy()
+        if next_cell is not None:  # from every candidate to the next step's cell: the legs out, exact
+            out_of = ctx.problems.legs(next_cell, window, reverse=True)
+            score += out_of
+        if not whole:
+            score[score > reach] = np.inf
+        for flat, g in _best(score, reg.masks, groups, count):
+            if (flat, g) in tried:
+                continue
+            tried.add((flat, g))
+            v = dp.verify(i, flat, g)
+            if v is None:
+                if len(tried) >= count:
+                    break
+                continue
+            labels = list(chain.labels)
+            labels[i] = prev_label + float(into.flat[flat]) + _node(dp, i, g, flat)
+            if i + 1 < n:
+                nxt = chain.cells[i + 1]
+                new_next = labels[i] + float(out_of.flat[flat]) + _node(dp, i + 1, chain.groups[i + 1], nxt)
+                shift = new_next - chain.labels[i + 1]
+                labels[i + 1 :] = [label + shift for label in chain.labels[i + 1 :]]
+            cells, grps = list(chain.cells), list(chain.groups)
+            cells[i], grps[i] = flat, g
+            return Chain(cells, grps, labels), v
+        if whole:
+            break
+        reach += 2.0 * (reach - float(np.min(bound[targets])))
     return None
+
+
+def _detour_bound(
+    factor: np.ndarray, feasible: np.ndarray, res: float, prev: tuple[int, int], nxt: tuple[int, int] | None
+) -> np.ndarray:
+    """(ny, nx) a lower bound [m] on ``d(prev, x) + d(x, nxt)`` for every cell x: the octile distances
+    (the shortest 8-connected paths with no obstacle) times the least slowdown of a feasible cell."""
+    ny, nx = factor.shape
+    fmin = float(np.min(factor[feasible])) if feasible.any() else 1.0
+    ys, xs = np.ogrid[:ny, :nx]
+    total = np.zeros((ny, nx))
+    for cy, cx in (prev, nxt) if nxt is not None else (prev,):
+        dy, dx = np.abs(ys - cy), np.abs(xs - cx)
+        total = total + np.maximum(dy, dx) + (math.sqrt(2.0) - 1.0) * np.minimum(dy, dx)
+    # a hair low against rounding: the bound only decides which cells are searched
+    out: np.ndarray = total * (res * fmin * (1.0 - 1e-9))
+    return out
 
 
 def _best(score: np.ndarray, masks: np.ndarray, groups: list[int], count: int) -> list[tuple[int, int]]:
