@@ -126,11 +126,6 @@ def test_every_option_is_thresholded_by_its_own_setting(tmp_path, pitch):
     assert all(s.ok for s in result.steps), [s.reason for s in result.steps]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="regions.py (and search.py, optimal.py) still call ctx.threshold(o.arm) without o.torso "
-    "(outside this change's files): the arm's (reference) threshold at every setting",
-)
 def test_whole_task_regions_use_each_settings_threshold(tmp_path, pitch):
     _, preset, maps = pitch
     p = Planner(_scene(tmp_path, preset, maps, {"threshold_quantile": Q}), "global")

@@ -81,7 +81,7 @@ def _compute_regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
     index = {g: k for k, g in enumerate(groups)}
     masks = np.zeros((len(groups), *nav.shape), dtype=bool)
     for o in opts:
-        masks[index[(o.arm, o.candidate.grasp)]][o.window.slices] |= o.value >= ctx.threshold(o.arm)
+        masks[index[(o.arm, o.candidate.grasp)]][o.window.slices] |= o.value >= ctx.threshold(o.arm, o.torso)
     masks &= ctx.world.feasible
     return Regions(tuple(groups), masks)
 

@@ -184,7 +184,7 @@ def other_yaws(
     out: list[Ranked] = []
     values: dict[tuple[int, int, float], float] = {}
     for k, o in enumerate(opts):
-        thr = np.float32(ctx.threshold(o.arm))
+        thr = np.float32(ctx.threshold(o.arm, o.torso))
         local = np.flatnonzero(o.value.ravel() >= thr)
         cells = o.window.to_global(local, nx)
         iy, ix = np.divmod(cells, nx)

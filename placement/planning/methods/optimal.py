@@ -129,7 +129,8 @@ class DynamicProgram:
         order = [
             k
             for k in order
-            if opts[k].value_at(iy, ix) >= ctx.threshold(opts[k].arm) and (hold is None or opts[k].torso == hold)
+            if opts[k].value_at(iy, ix) >= ctx.threshold(opts[k].arm, opts[k].torso)
+            and (hold is None or opts[k].torso == hold)
         ]
         found = None
         checks = ctx.problems.checks

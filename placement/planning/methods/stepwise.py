@@ -25,7 +25,7 @@ from placement.planning.results import StepMaps, StepResult
 from placement.planning.search import search_placement
 from placement.planning.steps import Step
 from placement.planning.thresholds import per_arm_values
-from placement.planning.torso import start_torso, torso_joint, torso_seconds
+from placement.planning.torso import held_setting, start_torso, torso_seconds
 
 #: An (arm, grasp) pair a transfer commits to.
 Pair = tuple[str, str | None]
@@ -157,7 +157,7 @@ def transfer_reason(ctx: PlanningContext, pick: Step, place: Step, failed: Mappi
         arms = sorted({a for a, _ in unreached})
         parts.append(
             f"{excluded_words(unreached)}: no base placement reaches a place pose with the map threshold "
-            + ", ".join(f"{ctx.threshold(a):g}" + (f" (arm {a})" if len(arms) > 1 else "") for a in arms)
+            + ", ".join(ctx.threshold_words(a) + (f" (arm {a})" if len(arms) > 1 else "") for a in arms)
         )
     for p, r in tried.items():
         parts.append(f"arm {p[0]}, grasp {p[1]}: picked, but the place failed: {r}")
@@ -267,10 +267,7 @@ def plan_step(
 
 def held_torso(ctx: PlanningContext, result: StepResult, before: float | None) -> float | None:
     """The torso value [m] the robot holds after ``result`` (``before`` if it planned nothing)."""
-    joint = torso_joint(ctx.maps)
-    if joint is None or not result.ok or joint not in result.joints:
-        return before
-    return float(result.joints[joint])
+    return held_setting(ctx, result.joints, before) if result.ok else before
 
 
 def torso_ranked(
