@@ -158,7 +158,10 @@ def test_cli_builds_each_setting_and_info_shows_them(tmp_path):
     )
     proc = run("maps", "build", "--spec", str(spec), "--out", str(tmp_path / "m"), "-q")
     assert proc.returncode == 0, proc.stderr
-    assert "3 builds, one per setting (0, 0.3, 0.6 rad): the build takes 3 times as long" in proc.stderr
+    assert (
+        "torso_pitch is a revolute joint: 3 builds, one per setting (torso_pitch=0 rad; torso_pitch=0.3 rad; "
+        "torso_pitch=0.6 rad): the build takes 3 times as long"
+    ) in proc.stderr
     assert "(3 builds, one per torso setting)" in proc.stdout, proc.stdout
     proc = run("maps", "info", str(tmp_path / "m"))
     assert proc.returncode == 0, proc.stderr

@@ -154,14 +154,13 @@ def build(
             if t.shift is None:
                 n = len(t.allowed)
                 log.warning(
-                    "%s/%s: torso %s is a revolute joint: %d builds, one per setting (%s %s): the build takes "
-                    "%d times as long",
+                    "%s/%s: torso %s %s: %d builds, one per setting (%s): the build takes %d times as long",
                     loaded.name,
                     a,
-                    t.joint,
+                    t.label,
+                    "has several joints" if t.joints else "is a revolute joint",
                     n,
-                    ", ".join(f"{v:g}" for v in t.allowed),
-                    t.unit,
+                    "; ".join(t.describe(v) for v in t.allowed),
                     n,
                 )
     out_path = Path(out)
