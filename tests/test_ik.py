@@ -135,3 +135,35 @@ def test_log3_kernel_matches_pinocchio():
             np.testing.assert_allclose(pin.exp3(out), R, atol=1e-6)
         else:
             np.testing.assert_allclose(out, want, atol=1e-7)
+
+
+def test_target_rotation_is_orthonormalised_and_a_reflection_refused(pr2):
+    """A target whose rotation is off by 1e-6 (rounded text) is re-orthonormalised and reached within
+    the tolerances of the exact pose; a reflection is refused in one line."""
+    arm = pr2.arm("right")
+    q = random_configs(arm, 1, np.random.default_rng(5))[0]
+    T = pr2.tcp_pose("right", q)
+    noisy = T.copy()
+    noisy[:3, :3] += 1e-6 * np.random.default_rng(6).standard_normal((3, 3))
+    res = solve_ik(pr2, "right", noisy, q)
+    assert res.success
+    got = pr2.tcp_pose("right", res.q)
+    assert np.linalg.norm(got[:3, 3] - T[:3, 3]) <= 1e-3
+    assert _rot_angle(got[:3, :3], T[:3, :3]) <= 1e-2
+    mirrored = T.copy()
+    mirrored[:3, 0] *= -1.0
+    with pytest.raises(PlacementError, match="reflection"):
+        solve_ik(pr2, "right", mirrored)
+
+
+def test_start_outside_the_limits_is_clipped_and_continuous_joints_wrapped(pr2):
+    """A seed 3 rad past every limit: the answer lies within the limits, each continuous joint in
+    [-pi, pi), and the seed itself is not modified."""
+    arm = pr2.arm("left")
+    assert arm.continuous.any()  # the PR2's forearm and wrist rolls
+    T = pr2.tcp_pose("left", arm.home)
+    seed = np.where(arm.continuous, arm.home + 4 * math.pi, arm.upper + 3.0)
+    kept = seed.copy()
+    res = solve_ik(pr2, "left", T, seed, seeds=1)
+    _assert_in_limits(arm, res.q)
+    assert np.array_equal(seed, kept)

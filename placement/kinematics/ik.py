@@ -106,6 +106,16 @@ class _ArmIK:
         self.cols = np.asarray(cols, dtype=np.int64)
         self.idx_q = np.asarray(idx_q, dtype=np.int64)
         self.nq2 = np.asarray(nq2, dtype=bool)
+        # per call these cost more than the FK itself: computed once
+        self._plain = ~self.nq2
+        self._plain_q = self.idx_q[self._plain]
+        self._circle = bool(self.nq2.any())
+        cont = np.asarray(a.continuous, dtype=bool)
+        self.continuous = cont
+        self._wrap = bool(cont.any())
+        # clipping bounds: a continuous joint is wrapped, never clipped
+        self._lower = np.where(cont, -np.inf, a.lower).astype(float)
+        self._upper = np.where(cont, np.inf, a.upper).astype(float)
         self.q_ref = robot.reference_q()
         data = model.createData()
         pin.framesForwardKinematics(model, data, robot.full_q(arm, a.home))
@@ -123,9 +133,8 @@ class _ArmIK:
     def full(self, q: np.ndarray) -> np.ndarray:
         """Pinocchio configuration (nq,) with the arm at q (n,)."""
         out = self.q_ref.copy()
-        plain = ~self.nq2
-        out[self.idx_q[plain]] = q[plain]
-        if self.nq2.any():
+        out[self._plain_q] = q[self._plain]
+        if self._circle:
             iq = self.idx_q[self.nq2]
             qc = q[self.nq2]
             out[iq] = np.cos(qc)
@@ -134,12 +143,10 @@ class _ArmIK:
 
     def project(self, q: np.ndarray) -> np.ndarray:
         """Clip q (n,) to the limits, wrap continuous joints to [-pi, pi) (in place)."""
-        a = self.arm
-        cont = a.continuous
-        if cont.any():
+        if self._wrap:
+            cont = self.continuous
             q[cont] = np.mod(q[cont] + math.pi, _TWO_PI) - math.pi
-        lim = ~cont
-        q[lim] = np.minimum(np.maximum(q[lim], a.lower[lim]), a.upper[lim])
+        np.clip(q, self._lower, self._upper, out=q)
         return q
 
     def check(self, q: np.ndarray, oMt: pin.SE3, pos_tol: float, rot_tol: float) -> tuple[bool, float, float]:
@@ -149,6 +156,19 @@ class _ArmIK:
         pos_err = float(np.linalg.norm(oMf.translation - oMt.translation))
         rot_err = float(np.linalg.norm(pin.log3(oMf.rotation.T @ oMt.rotation)))
         return pos_err <= pos_tol and rot_err <= rot_tol, pos_err, rot_err
+
+
+def _rotation(R: np.ndarray) -> np.ndarray:
+    """(3, 3) ``R`` as a rotation: re-orthonormalised by SVD when it is off by more than 1e-12 (poses
+    from text files carry rounding errors; the planner's own are orthonormal and skip the SVD);
+    PlacementError for a reflection."""
+    if np.abs(R.T @ R - np.eye(3)).max() > 1e-12:
+        u, _, vt = np.linalg.svd(R)
+        R = u @ vt
+    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
+    if a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) < 0:
+        raise PlacementError("IK target rotation is a reflection (determinant < 0)")
+    return R
 
 
 _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -215,12 +235,7 @@ def solve_ik(
             raise PlacementError(f"{name} must be a positive finite number, got {tol!r}")
     s = _solver(robot, arm)
     a = s.arm
-    R = T[:3, :3]
-    # Re-orthonormalise the rotation (poses from text files carry rounding errors).
-    u, _, vt = np.linalg.svd(R)
-    R = u @ vt
-    if np.linalg.det(R) < 0:
-        raise PlacementError("IK target rotation is a reflection (determinant < 0)")
+    R = _rotation(T[:3, :3])
     oMt = s.oMbase * pin.SE3(R, T[:3, 3].copy())
     # a NaN start would reach the kernels' divisions (a NaN home once came in through a preset)
     if q_seed is None:
@@ -236,7 +251,7 @@ def solve_ik(
     target[:3, :3] = R
     target[:3, 3] = T[:3, 3]
     ch = a.chain
-    cont = a.continuous.astype(np.bool_)
+    cont = s.continuous
     for k in range(seeds):
         if k == 0:
             start = q0
