@@ -85,14 +85,12 @@ class HeldCheck:
         Collisions first, over every pose; distances only when all are free, nearest bounds first,
         skipping pieces whose bounds are already farther than the best distance."""
         near: list[tuple[float, int, SceneShape]] = []  # (bounds gap [m], pose index, piece)
+        kept = [piece for piece in pieces if piece.name not in skip]
+        bounds = np.array([piece.aabb for piece in kept]).reshape(len(kept), 2, 3)
         for p, T in enumerate(self.world):
             lo, hi = box_aabb(T, self.held.size)
-            for piece in pieces:
-                if piece.name in skip:
-                    continue
-                gap = float(np.linalg.norm(np.maximum(piece.aabb[0] - hi, 0.0) + np.maximum(lo - piece.aabb[1], 0.0)))
-                if gap <= max(self.cap, self.padding):
-                    near.append((gap, p, piece))
+            gaps = np.sqrt((np.maximum(bounds[:, 0] - hi, 0.0) + np.maximum(lo - bounds[:, 1], 0.0)) ** 2 @ np.ones(3))
+            near += [(float(gaps[s]), p, kept[s]) for s in np.flatnonzero(gaps <= max(self.cap, self.padding))]
         for gap, p, piece in near:
             g, Tg, req = self._operand(p, piece)
             if gap <= self.padding and coal.collide(
