@@ -167,3 +167,26 @@ def test_start_outside_the_limits_is_clipped_and_continuous_joints_wrapped(pr2):
     res = solve_ik(pr2, "left", T, seed, seeds=1)
     _assert_in_limits(arm, res.q)
     assert np.array_equal(seed, kept)
+
+
+def test_solvers_are_shared_by_content_and_kept_apart_by_held_joints(pr2):
+    """A second robot object loaded from the same preset reuses the first one's solver (same answers);
+    the robot with its lift held elsewhere gets its own, and its answers reach the pose by its own FK
+    (a solver of the wrong lift would miss by the lift's travel)."""
+    import placement
+    from placement.kinematics import ik as ik_module
+
+    again = placement.load_robot("pr2")
+    assert again is not pr2
+    assert ik_module._solver(again, "right") is ik_module._solver(pr2, "right")
+    q = random_configs(pr2.arm("right"), 1, np.random.default_rng(8))[0]
+    T = pr2.tcp_pose("right", q)
+    a, b = solve_ik(pr2, "right", T, q), solve_ik(again, "right", T, q)
+    assert a.success and np.array_equal(a.q, b.q)
+    low = pr2.with_fixed({"torso_lift_joint": 0.0})
+    assert ik_module._solver(low, "right") is not ik_module._solver(pr2, "right")
+    T_low = low.tcp_pose("right", q)
+    assert np.linalg.norm(T_low[:3, 3] - T[:3, 3]) > 0.1
+    res = solve_ik(low, "right", T_low, q)
+    assert res.success
+    assert np.linalg.norm(low.tcp_pose("right", res.q)[:3, 3] - T_low[:3, 3]) <= 1e-3

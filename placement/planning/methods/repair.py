@@ -79,7 +79,7 @@ def repair(dp: DynamicProgram, chain: Chain, i: int) -> tuple[Chain, Verified] |
     prev_cell = dp.start if i == 0 else divmod(chain.cells[i - 1], nx)
     prev_label = 0.0 if i == 0 else chain.labels[i - 1]
     next_cell = divmod(chain.cells[i + 1], nx) if i + 1 < n else None
-    bound = _detour_bound(w.factor, w.feasible, w.nav.resolution, prev_cell, next_cell)
+    bound = _detour_bound(w.factor, w.feasible, w.nav.resolution, prev_cell, next_cell, targets)
     count = ctx.config.global_repair_candidates
     tried: set[tuple[int, int]] = set()
     reach = float(np.min(bound[targets])) + WINDOW_M
@@ -121,19 +121,25 @@ def repair(dp: DynamicProgram, chain: Chain, i: int) -> tuple[Chain, Verified] |
 
 
 def _detour_bound(
-    factor: np.ndarray, feasible: np.ndarray, res: float, prev: tuple[int, int], nxt: tuple[int, int] | None
+    factor: np.ndarray,
+    feasible: np.ndarray,
+    res: float,
+    prev: tuple[int, int],
+    nxt: tuple[int, int] | None,
+    cells: np.ndarray,
 ) -> np.ndarray:
-    """(ny, nx) a lower bound [m] on ``d(prev, x) + d(x, nxt)`` for every cell x: the octile distances
-    (the shortest 8-connected paths with no obstacle) times the least slowdown of a feasible cell."""
-    ny, nx = factor.shape
+    """(ny, nx) a lower bound [m] on ``d(prev, x) + d(x, nxt)`` for every cell x of ``cells`` (ny, nx)
+    bool, inf elsewhere: the octile distances (the shortest 8-connected paths with no obstacle) times
+    the least slowdown of a feasible cell."""
     fmin = float(np.min(factor[feasible])) if feasible.any() else 1.0
-    ys, xs = np.ogrid[:ny, :nx]
-    total = np.zeros((ny, nx))
+    ys, xs = np.nonzero(cells)
+    total = np.zeros(len(ys))
     for cy, cx in (prev, nxt) if nxt is not None else (prev,):
         dy, dx = np.abs(ys - cy), np.abs(xs - cx)
-        total = total + np.maximum(dy, dx) + (math.sqrt(2.0) - 1.0) * np.minimum(dy, dx)
+        total += np.maximum(dy, dx) + (math.sqrt(2.0) - 1.0) * np.minimum(dy, dx)
+    out = np.full(cells.shape, np.inf)
     # a hair low against rounding: the bound only decides which cells are searched
-    out: np.ndarray = total * (res * fmin * (1.0 - 1e-9))
+    out[ys, xs] = total * (res * fmin * (1.0 - 1e-9))
     return out
 
 
