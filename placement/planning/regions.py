@@ -26,11 +26,15 @@ class Regions:
         groups: (G,) the groups, in a fixed order.
         masks: (G, ny, nx) bool, the cells of each group.
         node: (G, ny, nx) float [m] cost of standing there (added to the label), or None (all 0).
+        settings: (G,) the torso setting [m or rad; a posture's index] each group's options hold, for
+            the program that prices the torso (:mod:`placement.planning.torso_program`: a group per
+            (arm, grasp, setting), so a (arm, grasp) may repeat); None: any setting.
     """
 
     groups: tuple[Group, ...]
     masks: BoolArray
     node: FloatArray | None = None
+    settings: tuple[float, ...] | None = None
 
     def union(self) -> BoolArray:
         """(ny, nx) bool: the cells of any group."""

@@ -39,188 +39,23 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import replace
 
 import numpy as np
 
 from placement.planning.arrays import Cell
-from placement.planning.bound import Chain, Layer, Program, linked_steps
+from placement.planning.bound import Chain
 from placement.planning.context import PlanningContext
 from placement.planning.explain import explain
 from placement.planning.methods.base import Method
+from placement.planning.methods.dynamic import DynamicProgram
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
 from placement.planning.methods.repair import Verified, repair
 from placement.planning.navigation import extract_path, navigation_cost
-from placement.planning.option import Option
-from placement.planning.regions import Group, held_torso, map_regions, reweighted
+from placement.planning.regions import reweighted
 from placement.planning.results import StepMaps, StepResult
-from placement.planning.search import collision_args
-from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first, torso_joint
-from placement.planning.verify import TrajectoryIK, trajectory_ik
+from placement.planning.torso import start_torso, torso_joint
 
 log = logging.getLogger(__name__)
-
-
-class DynamicProgram:
-    """One plan's program: regions (changed by repairs), layers, the verified and rejected placements."""
-
-    def __init__(self, ctx: PlanningContext, start: Cell, neighbourhood: int = 0, exact_repairs: int | None = None):
-        self.ctx, self.start, self.neighbourhood = ctx, start, neighbourhood
-        #: rejections removed one (cell, group) at a time before ``neighbourhood`` applies (None: always)
-        self.exact_repairs = exact_repairs
-        steps = ctx.problems.steps
-        self.linked = linked_steps(ctx)
-        #: per step, the torso value [m] its region and verification hold the lift at (None: any)
-        self.hold = [held_torso(ctx, i) for i in range(len(steps))]
-        self.full = [map_regions(ctx, i, held=h) for i, h in enumerate(self.hold)]
-        self.regions = [reweighted(ctx, i, r) for i, r in enumerate(self.full)]
-        w = ctx.world
-        self.program = Program(w.factor, w.feasible, w.nav.resolution, start, self.linked)
-        # what verification found, kept by the planner's per-step cache: a later plan of the same
-        # scene replays the same program with the IK answers looked up (same plan, without the IK
-        # time); the cache of a changed scene starts empty
-        #: (step, flat cell, group, the torso value held or None) -> what verification found
-        self.verified: dict[tuple[int, int, Group, float | None], Verified | None] = ctx.problems.verdicts
-        self.repairs = 0
-        self.rejected = [0] * len(steps)
-        #: a rejection took its neighbours with it (see :meth:`exact_again`)
-        self.coarse = False
-        self.solves = 0
-        self.first_total = math.inf  # the first solve's optimum [m]
-        #: a rejected placement is first moved to the least detour that verifies (:mod:`.repair`)
-        self.local = False
-        self.repairs_local = 0
-        #: the torso value [m] the robot holds at the step being verified (None: no torso settings)
-        self.torso: float | None = start_torso(ctx)
-
-    def solve(self, first: int = 0) -> Chain | None:
-        """The cheapest chain over the current regions, recomputing the layers from step ``first``
-        (the transfer rule applied where it binds: :class:`~placement.planning.bound.Program`)."""
-        self.solves += 1
-        chain = self.program.solve(self.regions, first)
-        if self.solves == 1 and not self.program.loose:  # a chain with loose transfers is no bound
-            self.first_total = chain.total if chain is not None else math.inf
-        return chain
-
-    @property
-    def layers(self) -> list[Layer]:
-        """The layers of the last solve."""
-        return self.program.layers
-
-    def verify(self, i: int, flat: int, g: int) -> Verified | None:
-        """The first of step i's options of group g at ``flat`` that passes IK and the collision check
-        (by map value; with torso settings, those at the torso value the robot holds (:attr:`torso`)
-        first, see :mod:`placement.planning.torso`)."""
-        key = (i, flat, self.regions[i].groups[g], self.hold[i])
-        if key in self.verified:
-            return self.verified[key]
-        ctx = self.ctx
-        nav = ctx.world.nav
-        iy, ix = divmod(flat, nav.shape[1])
-        xs, ys = nav.centres()
-        step = ctx.problems.steps[i]
-        group = self.regions[i].groups[g]
-        opts = self.options(i)
-        order = sorted(
-            (k for k, o in enumerate(opts) if (o.arm, o.candidate.grasp) == group),
-            key=lambda k: -opts[k].value_at(iy, ix),
-        )
-        hold = self.hold[i]
-        order = [
-            k
-            for k in order
-            if opts[k].value_at(iy, ix) >= ctx.threshold(opts[k].arm, opts[k].torso)
-            and (hold is None or opts[k].torso == hold)
-        ]
-        found = None
-        checks = ctx.problems.checks
-        for k in torso_first(opts, order, self.torso):
-            o = opts[k]
-            value = o.value_at(iy, ix)
-            base = (float(xs[ix]), float(ys[iy]), float(ctx.yaws[o.yaw_at(iy, ix)]))
-            ck = (i, hold, k, flat)
-            ik = checks.ik.get(ck)
-            if ik is None:
-                ik = checks.ik[ck] = self._ik(o, base)
-            if not ik.ok:
-                continue
-            clearance = None
-            checker = collisions_at(ctx, o.torso)
-            if checker is not None:
-                check = checks.collision.get(ck)
-                if check is None:
-                    check = checks.collision[ck] = checker.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
-                if not check.free:
-                    continue
-                clearance = float(check.clearance_m)
-            found = Verified(k, base, ik, clearance, value)
-            break
-        self.verified[key] = found
-        return found
-
-    def _ik(self, o: Option, base: tuple[float, float, float]) -> TrajectoryIK:
-        """IK of option ``o``'s poses with the base at ``base``, started from the map's witness, then
-        the arm's home and random restarts: not from the arm's configuration after the step before,
-        so that the answer is the placement's alone and stays valid when earlier steps change (see
-        :mod:`placement.planning.checks`)."""
-        witness = getattr(option_map(self.ctx, o), "witness_q", None)
-        robot = robot_at(self.ctx, o.torso)
-        home = self.ctx.robot.arm(o.arm).home
-        return trajectory_ik(robot, o.arm, o.candidate.poses, base, home, witness, self.ctx.config)
-
-    def remove(self, i: int, flat: int, g: int, count: bool = True) -> None:
-        """Take the rejected (cell, group) (and its neighbourhood, for ``global``) out of step i's region."""
-        reg = self.regions[i]
-        masks = reg.masks.copy()
-        iy, ix = divmod(flat, masks.shape[2])
-        late = count and self.exact_repairs is not None and self.repairs >= self.exact_repairs
-        r = self.neighbourhood if late else 0
-        self.coarse = self.coarse or r > 0
-        masks[g, max(iy - r, 0) : iy + r + 1, max(ix - r, 0) : ix + r + 1] = False
-        self.regions[i] = replace(reg, masks=masks)
-        if count:
-            self.rejected[i] += 1
-            self.repairs += 1
-
-    def options(self, i: int) -> list[Option]:
-        """The options step i is verified with: those at the held lift value, or all of them."""
-        hold = self.hold[i]
-        return self.ctx.problems.options(i) if hold is None else self.ctx.problems.held_options(i, hold)
-
-    def release_lift(self) -> Chain | None:
-        """Solve again with the lift free (every torso setting, see
-        :func:`~placement.planning.bound.map_regions`) at the first step no chain reaches when that
-        step held it, else at every step; the rejections made with the lift held stay removed."""
-        i = next((k for k, layer in enumerate(self.layers) if not np.isfinite(layer.labels).any()), None)
-        free = [i] if i is not None and self.hold[i] is not None else range(len(self.hold))
-        for k in free:
-            self.hold[k] = None
-            self.full[k] = map_regions(self.ctx, k)
-        return self.exact_again()
-
-    def exact_again(self) -> Chain | None:
-        """Solve again over the maps' regions less only the placements verification rejected, never
-        removing neighbours again (when removing them left no chain)."""
-        self.exact_repairs, self.coarse = None, False
-        self.regions = [reweighted(self.ctx, i, r) for i, r in enumerate(self.full)]
-        for (i, flat, group, hold), v in self.verified.items():
-            if v is None and hold == self.hold[i] and i < len(self.full) and group in self.full[i].groups:
-                self.remove(i, flat, self.full[i].groups.index(group), count=False)
-        return self.solve()
-
-    def reject_around(self, i: int, flat: int, g: int) -> None:
-        """Verify the cells around a rejected one (``ctx.config.optimal_probe`` cells each way) now and
-        remove those that fail too: rejections cluster (at the frontier of reach, beside an
-        obstacle), and an IK call costs less than solving the program again for each of them."""
-        r = self.ctx.config.optimal_probe
-        masks = self.regions[i].masks
-        ny, nx = masks.shape[1:]
-        iy, ix = divmod(flat, nx)
-        for y in range(max(iy - r, 0), min(iy + r + 1, ny)):
-            for x in range(max(ix - r, 0), min(ix + r + 1, nx)):
-                f = y * nx + x
-                if self.regions[i].masks[g, y, x] and self.verify(i, f, g) is None:
-                    self.remove(i, f, g)
 
 
 def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], StepResult | None]:
@@ -256,7 +91,7 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
                 failed.append((i, flat, g))
                 continue
             picks.append(v)
-            chosen = dp.options(i)[v.option]
+            chosen = dp.options(i, chain.groups[i])[v.option]
             dp.torso = chosen.torso if chosen.torso is not None else dp.torso
         if not failed:
             return chain, picks, None
@@ -287,12 +122,14 @@ def plan_dynamic(
     neighbourhood: int = 0,
     exact_repairs: int | None = None,
     local: bool = False,
+    priced: bool = False,
 ) -> list[StepResult]:
-    """The verified cheapest chain's steps; when none is left, a single infeasible step saying why."""
+    """The verified cheapest chain's steps; when none is left, a single infeasible step saying why
+    (``priced``: the torso priced per step, :mod:`placement.planning.torso_program`)."""
     t0 = time.perf_counter()
     if not ctx.problems.steps:
         return []
-    dp = DynamicProgram(ctx, start, neighbourhood, exact_repairs)
+    dp = DynamicProgram(ctx, start, neighbourhood, exact_repairs, priced)
     dp.local = dp.program.lazy = local
     chain, picks, failure = solve_verified(dp)
     if (
@@ -324,16 +161,17 @@ def results(
     ctx: PlanningContext, start: Cell, dp: DynamicProgram, chain: Chain, picks: list[Verified], keep_maps: bool
 ) -> list[StepResult]:
     """The step results of a verified chain: each step's travel [m] is its label less the previous
-    step's and its node cost (the chain's legs are shortest paths from the previous cell)."""
+    step's, its node cost and its torso term (the chain's legs are shortest paths from the previous cell)."""
     nav = ctx.world.nav
     out = []
     prev_label, prev_cell = 0.0, start
     for i, (flat, g, v) in enumerate(zip(chain.cells, chain.groups, picks)):
         step = ctx.problems.steps[i]
-        o = dp.options(i)[v.option]
+        o = dp.options(i, g)[v.option]
         iy, ix = divmod(flat, nav.shape[1])
-        node = dp.regions[i].node
-        travel = max(chain.labels[i] - prev_label - (0.0 if node is None else float(node[g].flat[flat])), 0.0)
+        nodes = dp.regions[i].node
+        node = 0.0 if nodes is None else float(nodes[g].flat[flat])
+        travel = max(chain.labels[i] - prev_label - node - dp.torso_m(chain, i), 0.0)
         r = placed(ctx, step, o, v.base, v.ik.qs, travel, 0.0, v.value, {}, v.clearance_m)
         if keep_maps:
             navc, pred = navigation_cost(ctx.world.factor, ctx.world.feasible, prev_cell, nav.resolution)
@@ -366,13 +204,15 @@ def why_not(ctx: PlanningContext, dp: DynamicProgram) -> StepResult:
 
 
 class Optimal(Method):
-    """The exact optimum of the task's travel over every feasible cell, verified lazily."""
+    """The exact optimum of the task's travel over every feasible cell, verified lazily; with torso
+    settings, of the travel plus the torso term over every (cell, setting)."""
 
     name = "optimal"
     uses_heuristic = False
 
     def plan(self, ctx: PlanningContext, start: Cell, keep_maps: bool) -> list[StepResult]:
-        return plan_dynamic(ctx, start, keep_maps, neighbourhood=1, exact_repairs=ctx.config.optimal_max_repairs)
+        cfg = ctx.config
+        return plan_dynamic(ctx, start, keep_maps, neighbourhood=1, exact_repairs=cfg.optimal_max_repairs, priced=True)
 
 
 class Global(Optimal):
