@@ -49,9 +49,9 @@ def map_regions(ctx: PlanningContext, i: int, hold_lift: bool = False, held: flo
     the threshold (the cells the map-based methods may stand on), at any torso setting.
 
     ``hold_lift``: only the options at the torso value the robot starts with (the preset's) when
-    they keep the threshold on some feasible cell, all settings otherwise: the program does not
-    price the lift's motion (a PR2's lift takes 24 s end to end), so the whole-task methods move it
-    only for a step the maps do not serve at the held value. ``held``: that value [m] already found
+    they keep the threshold on some feasible cell, all settings otherwise: ``global``'s program does
+    not price the lift's motion (a PR2's lift takes 24 s end to end), so it moves it only for a step
+    the maps do not serve at the held value (``optimal`` prices it: :mod:`placement.planning.torso_program`). ``held``: that value [m] already found
     by :func:`held_torso` (the options at it only; None: every setting).
     """
     if hold_lift:

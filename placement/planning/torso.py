@@ -7,11 +7,12 @@ grid moved with the lift. Every step gets options at every setting (:class:`~pla
 check of an option run on the robot with the lift at the option's value.
 
 The torso moves while the base drives (the parallel model of the task time, SPEC section 8), so a
-torso change costs time only where it takes longer than the base's move. The whole-task methods hold
-the lift at the preset's value on every step the maps serve there (their program prices travel, not
-the lift; see :func:`placement.planning.bound.map_regions`); the step-by-step methods add the lift's
-time to Eq. 6 (:func:`placement.planning.methods.stepwise.torso_ranked`). Verification tries the
-options at the torso value the robot holds first (no motion), then the others, nearest first.
+torso change costs time only where it takes longer than the base's move. ``global`` holds the lift
+at the preset's value on every step the maps serve there (its program prices travel, not the lift;
+see :func:`placement.planning.regions.map_regions`); ``optimal`` prices the torso's time per step
+(:mod:`placement.planning.torso_program`); the step-by-step methods add the lift's time to Eq. 6
+(:func:`placement.planning.methods.stepwise.torso_ranked`). Verification tries the options at the
+torso value the robot holds first (no motion), then the others, nearest first.
 
 A torso of several joints held at postures (:mod:`placement.maps.torso_postures`) is carried the same
 way, its setting the posture's index: :func:`robot_at` holds every joint at the posture, a step's

@@ -24,7 +24,11 @@ from placement.planning.verify import TrajectoryIK, trajectory_ik
 
 
 class DynamicProgram:
-    """One plan's program: regions (changed by repairs), layers, the verified and rejected placements."""
+    """One plan's program: regions (changed by repairs), layers, the verified and rejected placements.
+
+    ``priced`` (with torso settings): the regions have a group per (arm, grasp, setting), each
+    verified at its setting, and the program prices the torso
+    (:class:`~placement.planning.torso_held.HeldFirst`); otherwise the hold rule (:attr:`hold`)."""
 
     def __init__(
         self,

@@ -32,6 +32,15 @@ only what local repair cannot fix is removed and solved again (as ``optimal`` do
 are within a few tenths of a percent of ``optimal``'s on the held-out scenes (docs/bench/optimum.md),
 for one solve instead of several. The first program's optimum (when exact) is the plan's lower
 bound (:mod:`placement.planning.bound`), kept for the certificate.
+
+With torso settings (:mod:`placement.planning.torso`) the two differ in how they choose them.
+``global`` holds the torso at the preset's value on every step the maps serve there (the hold rule,
+``DynamicProgram.hold``; released only where no chain is left). ``optimal`` prices it: its program
+has a group per (arm, grasp, setting), and a move between steps costs the travel plus
+``v_max * torso_s`` [m] (:mod:`placement.planning.torso_program`: the sum bounds the task time's
+max(base, torso) of a step from above, by at most twice it), each step verified at its group's
+setting; the plain program at the preset's setting answers while it provably is that optimum
+(:mod:`placement.planning.torso_held`), so a task that never moves the torso costs what it did.
 """
 
 from __future__ import annotations
