@@ -43,15 +43,17 @@ def _inside(p, poly):
 
 
 def poly_distance(P, Q):
-    """Distance (N,) between polygons P (N, k, 2) and polygon Q (m, 2); 0 when they overlap."""
+    """Distance (N,) between polygons P (N, k, 2) and polygon Q (m, 2), or each P[n] and its own Q[n] of Q
+    (N, m, 2); 0 when they overlap."""
     N, k = P.shape[:2]
-    Qb = np.broadcast_to(Q, (N, *Q.shape))
+    m = Q.shape[-2]
+    Qb = np.broadcast_to(Q, (N, m, 2))
     best = np.full(N, np.inf)
     hit = _inside(P[:, 0], Qb) | _inside(Qb[:, 0], P)
     for i in range(k):
         a, b = P[:, i], P[:, (i + 1) % k]
-        for j in range(len(Q)):
-            c, d = Qb[:, j], Qb[:, (j + 1) % len(Q)]
+        for j in range(m):
+            c, d = Qb[:, j], Qb[:, (j + 1) % m]
             hit |= (_cross(a, b, c) * _cross(a, b, d) < 0) & (_cross(c, d, a) * _cross(c, d, b) < 0)
             best = np.minimum.reduce(
                 [best, _point_seg(c, a, b), _point_seg(d, a, b), _point_seg(a, c, d), _point_seg(b, c, d)]
@@ -153,14 +155,17 @@ def test_band_masks_equal_a_brute_force_reference(seed):
     xs, ys = nav.centres()
     iy, ix = np.divmod(np.arange(world.feasible.size), nav.shape[1])
     h = res / 2
+    squares = np.array(
+        [
+            [[xs[b] - h, ys[a] - h], [xs[b] + h, ys[a] - h], [xs[b] + h, ys[a] + h], [xs[b] - h, ys[a] + h]]
+            for a, b in zip(*np.nonzero(world.touched))
+        ]
+    ).reshape(-1, 4, 2)
     for k, yaw in enumerate(yaws):
         P = np.stack([base.placed(xs[i], ys[j], yaw) for j, i in zip(iy, ix)])
-        d = np.full(len(P), np.inf)
-        for a, b in zip(*np.nonzero(world.touched)):
-            Q = np.array(
-                [[xs[b] - h, ys[a] - h], [xs[b] + h, ys[a] - h], [xs[b] + h, ys[a] + h], [xs[b] - h, ys[a] + h]]
-            )
-            d = np.minimum(d, poly_distance(P, Q))
+        # every (cell, touched square) pair in one call: row n * len(squares) + s is cell n and square s
+        pairs = poly_distance(np.repeat(P, len(squares), axis=0), np.tile(squares, (len(P), 1, 1)))
+        d = pairs.reshape(len(P), len(squares)).min(axis=1, initial=np.inf)
         unsure = np.abs(d - pad) < 1e-5
         assert np.array_equal(allowed[~unsure, k], d[~unsure] > pad), k
     assert 0 < allowed.sum() < allowed.size
