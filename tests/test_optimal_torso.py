@@ -193,8 +193,11 @@ def test_the_priced_program_equals_every_sequence_enumerated(coarse, held, n, ki
     # that costs nothing where the torso stays)
     if kind != "lean dearer":
         floor = travel_bound(ctx, planner.start_cell())
-        first = HeldFirst(grid, linked, held, SETTINGS, program_term, floor).solve(regions)
+        answer = HeldFirst(grid, linked, held, SETTINGS, program_term, floor)
+        first = answer.solve(regions)
         assert first is not None and first.total == pytest.approx(want, rel=1e-9)
+        if kind == "urdf":  # both branches taken: the upright start escalates, the leaning one need not
+            assert answer.escalated == (held == 0.0)
 
 
 def test_optimal_is_the_enumerated_optimum_of_the_cells_verification_left(pitch):
