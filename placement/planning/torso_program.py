@@ -37,7 +37,7 @@ from placement.planning.arrays import BoolArray, Cell, FloatArray, IntArray
 from placement.planning.bound import RELAXED, Chain, Layer
 from placement.planning.context import PlanningContext
 from placement.planning.navigation import extract_path, navigation_cost
-from placement.planning.regions import Regions, map_regions
+from placement.planning.regions import Group, Regions, map_regions
 from placement.planning.torso import torso_seconds
 
 #: (setting before, setting after) -> the torso term [m]
@@ -195,14 +195,19 @@ def forward(
             prev, prev_reg = out[i - 1].labels, regions[i - 1]
             before_sets = settings_of(prev_reg)
             everyone = list(range(len(prev_reg.groups)))
+            wanted = [k for k in range(G) if reg.masks[k].any()]  # a group without cells needs no search
             if linked[i]:  # a place: its pick's groups of the same arm and grasp, any setting
-                for k in range(G):
-                    sources = [j for j in everyone if prev_reg.groups[j] == reg.groups[k]]
-                    if sources:
-                        seedings.append((*_seeded(_per_setting(prev, before_sets, sources), sets[k], term), [k]))
-            elif everyone:
+                lows_of: dict[Group, list[tuple[float, FloatArray, IntArray]]] = {}
+                for k in wanted:
+                    g = reg.groups[k]
+                    if g not in lows_of:
+                        sources = [j for j in everyone if prev_reg.groups[j] == g]
+                        lows_of[g] = _per_setting(prev, before_sets, sources) if sources else []
+                    if lows_of[g]:
+                        seedings.append((*_seeded(lows_of[g], sets[k], term), [k]))
+            elif everyone and wanted:
                 lows = _per_setting(prev, before_sets, everyone)
-                for t in sorted(set(sets)):
+                for t in sorted({sets[k] for k in wanted}):
                     seedings.append((*_seeded(lows, t, term), [k for k in range(G) if sets[k] == t]))
         for cells, costs, frm, members in seedings:
             targets: BoolArray = np.zeros(shape, bool)
