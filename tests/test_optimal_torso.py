@@ -16,12 +16,14 @@ import numpy as np
 import pytest
 import yaml
 from scipy.sparse.csgraph import dijkstra
+from support.deep_table import deep_table_scene
+from support.knee_torso import CROUCH, HIP, HIP_SPEED, KNEE, KNEE_SPEED, UPRIGHT, write_knee_torso
 from support.navigation import grid_graph
 from support.pitch_torso import JOINT, SPEED, write_pitch_torso
 
 import placement
 from placement.evaluation.tasktime import task_time
-from placement.maps.buildspec import TorsoSpec
+from placement.maps.buildspec import TorsoSpec, parse_torso
 from placement.maps.torso_builds import build_torso_maps
 from placement.planning.bound import travel_bound
 from placement.planning.methods.optimal import DynamicProgram, solve_verified
@@ -267,3 +269,40 @@ def test_tiago_kitchen_optimal_plans_every_step_no_dearer_than_global():
     other = planner.plan()
     assert all(s.ok for s in other.steps)
     assert _model_m(robot, result, joint, start) <= _model_m(robot, other, joint, start) + 1e-9
+
+
+def test_postures_are_priced_by_their_slowest_joint(tmp_path):
+    """The hip-and-knee torso (support/knee_torso.py) at two postures: the deep table's cup only
+    crouched; ``optimal`` crouches for it, and the chain's torso terms are v_max times the slowest
+    joint's time between the plan's postures (hip 0.9 rad at 0.4 rad/s: 2.25 s, the knee's 1.29 s)."""
+    preset = write_knee_torso(tmp_path / "robot")
+    robot = placement.load_robot(preset)
+    spec = {"joints": [HIP, KNEE], "postures": [list(UPRIGHT), list(CROUCH)]}
+    built = build_torso_maps(
+        robot,
+        "arm",
+        torso=parse_torso(spec, "torso"),
+        samples=200_000,
+        seed=2,
+        resolution=0.1,
+        bins=(8, 5, 8),
+        progress=False,
+    )
+    maps = placement.save_maps(tmp_path / "maps", robot, built)
+    planner = Planner(deep_table_scene(tmp_path, preset, maps), "optimal")
+    result = planner.plan()
+    assert all(s.ok for s in result.steps), [s.reason for s in result.steps]
+    assert result.verify(robot) == []
+    assert (result.steps[0].joints[HIP], result.steps[0].joints[KNEE]) == CROUCH
+    ctx = planner.context
+    dp = DynamicProgram(ctx, planner.start_cell(), priced=True)
+    chain, _, failure = solve_verified(dp)
+    assert failure is None and chain is not None
+    before, total = UPRIGHT, 0.0
+    for s in result.steps:
+        now = (s.joints[HIP], s.joints[KNEE])
+        seconds = max(abs(now[0] - before[0]) / HIP_SPEED, abs(now[1] - before[1]) / KNEE_SPEED)
+        total += robot.v_max * (s.travel_time_s + seconds)
+        before = now
+    assert chain.total == pytest.approx(total, rel=1e-9)
+    assert sum(dp.torso_m(chain, i) for i in range(len(chain.cells))) >= robot.v_max * 2.25 - 1e-9
