@@ -17,7 +17,7 @@ from placement.viewer import view_map, view_scene
 from placement.viewer.screenshot import find_browser, panel_filled, screenshot
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yaml"
-#: [s] per screenshot try: software WebGL on a 2-core machine that runs the other test worker beside it
+#: [s] per screenshot try of the package's ``screenshot``
 BROWSER_S = 120
 #: [s] for a page to be drawn (45 s on the busy development machine)
 PAGE_S = 240
@@ -57,9 +57,19 @@ def loaded(ok: Callable[[np.ndarray], bool]) -> Callable[[Path], bool]:
 
 
 @pytest.fixture(scope="module")
-def shots(maps_dir, tmp_path_factory):
+def browser():
+    """One headless Chromium for the file's pages (a launch and a fresh profile per picture cost more)."""
+    b = Browser()
+    try:
+        yield b
+    finally:
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def shots(browser, maps_dir, tmp_path_factory):
     """Screenshots of the example scene's first step with the robot, then of the same page after the
-    server hid the robot: one browser, one page load (a page takes tens of seconds to draw in software
+    server hid the robot: one page load (a page takes tens of seconds to draw in software
     WebGL), each picture taken as soon as the page shows what it waits for."""
     out = tmp_path_factory.mktemp("shots")
     v = view_scene(EXAMPLE, maps=maps_dir, port=0)
@@ -67,32 +77,26 @@ def shots(maps_dir, tmp_path_factory):
         for box in v.content.toggles.values():  # no cost layer: its viridis blues would pass for the robot
             box.value = False
         v.content.show(0)
-        browser = Browser()
-        try:
-            with browser.page(v.url) as page:
-                # a page is drawn in steps (scene, then the robot's meshes): wait for the robot and the tables
-                robot = page.wait_for(
-                    out / "robot.png",
-                    loaded(lambda im: robot_blue(im).sum() > 1500 and drawn(im) > 0.1 and table_brown(im).sum() > 1000),
-                    PAGE_S,
+        with browser.page(v.url) as page:
+            # a page is drawn in steps (scene, then the robot's meshes): wait for the robot and the tables
+            robot = page.wait_for(
+                out / "robot.png",
+                loaded(lambda im: robot_blue(im).sum() > 1500 and drawn(im) > 0.1 and table_brown(im).sum() > 1000),
+                PAGE_S,
+            )
+            with_robot = pixels(robot)
+            blue = robot_blue(with_robot).sum()
+            v.content.robot_drawing.visible = False
+            # until the hidden robot is gone from the page (the test then says whether it went)
+            without = pixels(
+                page.wait_for(
+                    out / "no_robot.png",
+                    loaded(
+                        lambda im: robot_blue(im).sum() < blue / 3 and drawn(im) > 0.1 and table_brown(im).sum() > 1000
+                    ),
+                    UPDATE_S,
                 )
-                with_robot = pixels(robot)
-                blue = robot_blue(with_robot).sum()
-                v.content.robot_drawing.visible = False
-                # until the hidden robot is gone from the page (the test then says whether it went)
-                without = pixels(
-                    page.wait_for(
-                        out / "no_robot.png",
-                        loaded(
-                            lambda im: (
-                                robot_blue(im).sum() < blue / 3 and drawn(im) > 0.1 and table_brown(im).sum() > 1000
-                            )
-                        ),
-                        UPDATE_S,
-                    )
-                )
-        finally:
-            browser.close()
+            )
     finally:
         v.stop()
     return with_robot, without
@@ -117,14 +121,28 @@ def test_the_robot_is_drawn(shots):
     assert table_brown(without).sum() > 0.7 * table_brown(with_robot).sum()
 
 
-def test_the_map_cloud_is_drawn(maps_dir, tmp_path):
-    # the package's own screenshot (a browser of its own, a budget of virtual time): what the
-    # documentation's pictures are taken with
+def coloured(img: np.ndarray) -> int:
+    """Pixels of the viridis points (not the white background or the grey robot)."""
+    r, g, b = (img[..., i].astype(int) for i in range(3))
+    return int((np.abs(r - g) + np.abs(g - b) > 60).sum())
+
+
+def test_the_map_cloud_is_drawn(browser, maps_dir, tmp_path):
     v = view_map(maps_dir, port=0)
     try:
-        img = pixels(screenshot(v.url, tmp_path / "map.png", timeout_s=BROWSER_S))
+        with browser.page(v.url) as page:
+            img = pixels(page.wait_for(tmp_path / "map.png", loaded(lambda im: coloured(im) > 3000), PAGE_S))
     finally:
         v.stop()
-    r, g, b = (img[..., i].astype(int) for i in range(3))
-    coloured = (np.abs(r - g) + np.abs(g - b) > 60).sum()  # viridis points, not the white background
-    assert coloured > 3000, coloured
+    assert coloured(img) > 3000, coloured(img)
+
+
+def test_screenshot_writes_the_page_at_its_size(tmp_path):
+    """The package's screenshot (the documentation's pictures): a browser of its own writes a PNG of the
+    page at the size asked; a page without the viewer's panel is taken again (tries) and the last kept."""
+    page = "data:text/html,<body style='margin:0;background:rgb(200,30,40)'></body>"
+    path = screenshot(page, tmp_path / "red.png", size=(640, 400), budget_ms=500, timeout_s=BROWSER_S, tries=2)
+    img = image(path)
+    assert img.shape == (400, 640, 3), img.shape
+    red = (np.abs(img.astype(int) - [200, 30, 40]).max(axis=2) < 10).mean()
+    assert red > 0.95 and not panel_filled(path), red
