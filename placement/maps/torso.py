@@ -22,6 +22,18 @@ multiplies by the number of settings), each setting's map stored as its own arra
 (:func:`placement.storage.schema.setting_array`), and ``at_torso(v)`` opens that map. The record then has
 ``kind: per_setting``, ``unit: rad``, ``shift: null`` and ``arrays`` (the stored array of each value).
 The reference setting's map is the arm's own array: a map a build without the key would have written.
+
+**Postures** (:func:`posture_settings`): robots whose arms ride on a chain of held joints (talos's torso
+yaw and pitch, a legged robot's hip and knee pitches holding the chest) cannot move one joint alone to a
+useful setting: a setting is a POSTURE, a value of every one of those joints. The build spec names them ``torso: {joints: [j1, ..., jn],
+postures: [[v1, ..., vn], ...]}`` [m or rad per joint]; the arm is built once per posture with the
+robot at ``robot.with_fixed(posture)`` (:func:`placement.maps.torso_builds.build_torso_maps`), like one
+joint's per-setting builds.
+
+The planner carries a torso setting as one number; for postures it is the posture's index (0 .. k-1 in
+the spec's order; k for the preset's own posture when it is not one of them): the record maps each index
+to its joint values (:meth:`TorsoSettings.held`), the time between two postures is the slowest joint's
+(:meth:`TorsoSettings.seconds`), and a planned step's ``joints`` hold every torso joint's value.
 """
 
 from __future__ import annotations
@@ -39,7 +51,7 @@ from placement.errors import MapError, PlacementError
 from placement.maps.buildspec import TorsoSpec
 from placement.robots import Robot
 from placement.robots.chain import ancestors
-from placement.storage.schema import setting_array
+from placement.storage.schema import posture_array, setting_array
 
 #: the lift step [m] at which the axis is measured
 PROBE_M = 0.01
@@ -283,8 +295,6 @@ def torso_settings(
     wrong. A revolute joint gives one build per setting, each with its own self-collision check.
     """
     if spec.joints:  # several joints held at postures: one build per posture
-        from placement.maps.torso_postures import posture_settings
-
         return posture_settings(robot, arm, spec, where)
     j = spec.joint
     unit, velocity = checked_joint(robot, arm, j, f"{where}.joint")
@@ -302,6 +312,41 @@ def torso_settings(
         return TorsoSettings(j, spec.values, reference, None, velocity, "rad", arrays)
     s = measured_shift(robot, arm, j, spec.values, where)
     return TorsoSettings(j, spec.values, reference, (float(s[0]), float(s[1]), float(s[2])), velocity)
+
+
+def posture_settings(robot: Robot, arm: str, spec: TorsoSpec, where: str = "torso") -> TorsoSettings:
+    """The posture record of ``spec`` (``spec.joints`` given) for ``arm`` of ``robot``: every joint one of
+    the preset's fixed joints, prismatic or bounded revolute, not moving the base frame and carrying
+    every joint of the arm (``{where}.joints[i]`` in errors), every value within its joint's URDF limits
+    (``{where}.postures[i][k]``); PlacementError naming the key otherwise."""
+    checked = [checked_joint(robot, arm, j, f"{where}.joints[{k}]") for k, j in enumerate(spec.joints)]
+    units = tuple(u for u, _ in checked)
+    for i, posture in enumerate(spec.postures):
+        if len(posture) != len(spec.joints):  # the parser refuses it; a TorsoSpec made in code may not
+            raise PlacementError(f"{where}.postures[{i}] has {len(posture)} values for {len(spec.joints)} joints")
+        for k, (j, v) in enumerate(zip(spec.joints, posture)):
+            check_limits(robot, j, v, units[k], f"{where}.postures[{i}][{k}]")
+    preset = tuple(float(robot.fixed_joints[j]) for j in spec.joints)
+    postures = tuple(tuple(float(v) for v in p) for p in spec.postures)
+    reference = postures.index(preset) if preset in postures else len(postures)
+    if reference == len(postures):
+        postures += (preset,)
+    values = tuple(float(i) for i in range(len(spec.postures)))
+    arrays = tuple(arm if i == reference else posture_array(arm, i) for i in range(len(values)))
+    velocities = tuple(v for _, v in checked)
+    return TorsoSettings(
+        spec.joint,
+        values,
+        float(reference),
+        None,
+        velocities[0],
+        "index",
+        arrays,
+        spec.joints,
+        postures,
+        velocities,
+        units,
+    )
 
 
 def check_torso(

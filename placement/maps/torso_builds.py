@@ -13,7 +13,7 @@ every other setting's map is an array ``arm@joint=value`` (:func:`placement.stor
 whose metadata holds ``setting: {joint, value}``. Every array is sealed like an arm's (chunk CRC32s,
 metadata digests); ``ReachabilityMap.at_torso(v)`` opens and checks the one of ``v``.
 
-A torso of several joints held at postures (:mod:`placement.maps.torso_postures`) is built the same
+A torso of several joints held at postures (:mod:`placement.maps.torso`) is built the same
 way, once per posture with ``robot.with_fixed(posture)``: the record has ``kind: posture``, the other
 postures' arrays are ``arm@posture=i`` (:func:`placement.storage.schema.posture_array`) whose
 ``setting`` holds the index (``value``) and ``posture: {joint: value}``.

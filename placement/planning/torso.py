@@ -14,7 +14,7 @@ see :func:`placement.planning.regions.map_regions`); ``optimal`` prices the tors
 (:func:`placement.planning.methods.stepwise.torso_ranked`). Verification tries the options at the
 torso value the robot holds first (no motion), then the others, nearest first.
 
-A torso of several joints held at postures (:mod:`placement.maps.torso_postures`) is carried the same
+A torso of several joints held at postures (:mod:`placement.maps.torso`) is carried the same
 way, its setting the posture's index: :func:`robot_at` holds every joint at the posture, a step's
 ``joints`` list every torso joint's value, and :func:`torso_seconds` is the slowest joint's time.
 """
