@@ -306,3 +306,34 @@ def test_postures_are_priced_by_their_slowest_joint(tmp_path):
         before = now
     assert chain.total == pytest.approx(total, rel=1e-9)
     assert sum(dp.torso_m(chain, i) for i in range(len(chain.cells))) >= robot.v_max * 2.25 - 1e-9
+
+
+def test_solving_again_keeps_each_settings_node_costs(coarse):
+    """With ``optimal_manipulability_weight`` > 0 the node cost of a (arm, grasp, setting) group is
+    the weight over that setting's best map value: solving again from the maps' regions (after
+    rejections took neighbourhoods away) prices the same chain the same."""
+    planner = coarse[2]
+    ctx = planner.context
+    config = ctx.config
+    object.__setattr__(config, "optimal_manipulability_weight", 0.05)
+    try:
+        dp = DynamicProgram(ctx, planner.start_cell(), priced=True)
+        chain, _, failure = solve_verified(dp)
+        assert failure is None and chain is not None
+        again = dp.exact_again()
+        assert again is not None and again.total == pytest.approx(chain.total, rel=1e-12)
+        for i, reg in enumerate(dp.regions):  # node = weight / the group's best value at its setting
+            assert reg.node is not None and reg.settings is not None
+            for k, ((arm, grasp), t) in enumerate(zip(reg.groups, reg.settings)):
+                best = np.max(
+                    [
+                        o.full_value(planner.world.nav.shape)
+                        for o in ctx.problems.held_options(i, t)
+                        if (o.arm, o.candidate.grasp) == (arm, grasp)
+                    ],
+                    axis=0,
+                )
+                cells = reg.masks[k]
+                assert np.allclose(reg.node[k][cells], 0.05 / best[cells], rtol=1e-6)
+    finally:
+        object.__setattr__(config, "optimal_manipulability_weight", 0.0)

@@ -15,7 +15,7 @@ from placement.planning.bound import Chain, Layer, Program, linked_steps, travel
 from placement.planning.context import PlanningContext
 from placement.planning.methods.repair import Verified
 from placement.planning.option import Option
-from placement.planning.regions import Group, held_torso, map_regions, reweighted
+from placement.planning.regions import Group, Regions, held_torso, map_regions, reweighted
 from placement.planning.search import collision_args
 from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first
 from placement.planning.torso_held import HeldFirst
@@ -51,7 +51,6 @@ class DynamicProgram:
             # setting), no hold rule; the plain program at the start setting while provably optimal
             self.hold: list[float | None] = [None] * len(steps)
             self.full = [torso_regions(ctx, i) for i in range(len(steps))]
-            self.regions = [torso_reweighted(ctx, i, r) for i, r in enumerate(self.full)]
             grid = (w.factor, w.feasible, w.nav.resolution, start)
             floor = ctx.problems.bounds.get(("maps", start))
             if floor is None:  # the certificate's bound of the maps' regions: computed once, kept for it
@@ -62,8 +61,8 @@ class DynamicProgram:
             #: per step, the torso value [m] its region and verification hold the lift at (None: any)
             self.hold = [held_torso(ctx, i) for i in range(len(steps))]
             self.full = [map_regions(ctx, i, held=h) for i, h in enumerate(self.hold)]
-            self.regions = [reweighted(ctx, i, r) for i, r in enumerate(self.full)]
             self.program = Program(w.factor, w.feasible, w.nav.resolution, start, self.linked)
+        self.regions = self.weighted()
         # what verification found, kept by the planner's per-step cache: a later plan of the same
         # scene replays the same program with the IK answers looked up (same plan, without the IK
         # time); the cache of a changed scene starts empty
@@ -204,7 +203,7 @@ class DynamicProgram:
         """Solve again over the maps' regions less only the placements verification rejected, never
         removing neighbours again (when removing them left no chain)."""
         self.exact_repairs, self.coarse = None, False
-        self.regions = [reweighted(self.ctx, i, r) for i, r in enumerate(self.full)]
+        self.regions = self.weighted()
         for (i, flat, group, hold), v in self.verified.items():
             if v is not None or i >= len(self.full):
                 continue
@@ -214,6 +213,11 @@ class DynamicProgram:
             if k is not None:
                 self.remove(i, flat, k, count=False)
         return self.solve()
+
+    def weighted(self) -> list[Regions]:
+        """The maps' regions (:attr:`full`) with their node costs (``optimal_manipulability_weight``)."""
+        weigh = torso_reweighted if isinstance(self.program, HeldFirst) else reweighted
+        return [weigh(self.ctx, i, r) for i, r in enumerate(self.full)]
 
     def reject_around(self, i: int, flat: int, g: int) -> None:
         """Verify the cells around a rejected one (``ctx.config.optimal_probe`` cells each way) now and
