@@ -1,8 +1,9 @@
 """Map build throughput of the rank-deficient arms against the PR2's, per sample at the same resolution.
 
 Builds ``--samples`` samples per arm at ``--resolution`` [m] (default 1 M at 0.1 m, the (20, 9, 20)
-bins) for the PR2's right arm and the two rank-5 example robots (so_arm_base: 5 joints;
-lift_telescope: a lift, a telescoping chain and a 3-joint wrist), ``--runs`` times each, and reports
+bins) for the PR2's right arm, the two rank-5 example robots (so_arm_base: 5 joints;
+lift_telescope: a lift, a telescoping chain and a 3-joint wrist) and centauro's left arm (6 joints on a
+torso above wheeled legs), ``--runs`` times each, and reports
 the median sampling rate [samples/s] and its ratio to the PR2's. Then, on one thread, where a sample's
 time goes: FK + Jacobian, and the measure kernel on the same arrays, exact (no threshold) and against
 the cell values of the map just built (what a build's later samples see). Writes the table to
@@ -38,6 +39,7 @@ ROBOTS = (
     ("pr2", "pr2", "right"),
     ("so_arm_base", str(ROOT / "examples/robots/so_arm_base.yaml"), "arm"),
     ("lift_telescope", str(ROOT / "examples/robots/lift_telescope.yaml"), "arm"),
+    ("centauro", str(ROOT / "examples/robots/centauro.yaml"), "left"),
 )
 
 
