@@ -33,9 +33,9 @@ lint: install
 	.venv/bin/ruff format --check placement tools tests
 	.venv/bin/mypy
 
-# Two pytest workers (pytest-xdist), a test file on one worker (--dist loadfile: pyproject.toml): 10.3 minutes
-# on the idle 2-core machine with the built maps present, 13.3 in a clean clone (CI) with the browser tests
-# last (headless Chromium alone took 3.5 minutes there).
+# Two pytest workers (pytest-xdist), a test file on one worker (--dist loadfile: pyproject.toml): 11.9 minutes
+# on the 2-core machine with the built maps present, 11.6 in a clean clone (CI), the browser tests last
+# (one headless Chromium for every picture, about 1.5 minutes).
 test: install
 	$(PY) -m pytest -q -n 2
 
