@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 import yaml
 from support.cli import run
-from support.fk import model_fk
+from support.fk import world_tcp
 from support.pitch_torso import JOINT as TOY_JOINT
 from support.pitch_torso import write_pitch_torso
 
@@ -121,22 +121,6 @@ def test_maps_info_reports_each_settings_own_array(tmp_path):
     assert len(set(filled.values())) == 3  # the builds differ, so a setting showing the arm's would fail
 
 
-def _planar(x: float, y: float, yaw: float) -> np.ndarray:
-    B = np.eye(4)
-    B[:2, :2] = [[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]]
-    B[:2, 3] = (x, y)
-    return B
-
-
-def _world_tcp(robot, arm: str, joints: dict[str, float], base) -> np.ndarray:
-    a = robot.arm(arm)
-    data = model_fk(robot, joints)
-    root = data.oMf[robot.model.getFrameId(robot.base_frame)]
-    tip = data.oMf[robot.model.getFrameId(a.tip_frame)]
-    T: np.ndarray = _planar(*base) @ (root.inverse() * tip).homogeneous @ a.tcp_offset
-    return T
-
-
 @no_maps
 def test_the_global_plan_leans_over_the_low_table(talos, ground):
     from placement.planning.planner import Planner
@@ -149,10 +133,10 @@ def test_the_global_plan_leans_over_the_low_table(talos, ground):
     for s in result.steps:
         a = talos.arm(s.arm)
         joints = {j: s.joints[j] for j in a.joints}
-        T, target = _world_tcp(talos, s.arm, joints | {JOINT: s.joints[JOINT]}, s.base), np.asarray(s.tcp[-1])
+        T, target = world_tcp(talos, s.arm, joints | {JOINT: s.joints[JOINT]}, s.base), np.asarray(s.tcp[-1])
         assert np.linalg.norm(T[:3, 3] - target[:3, 3]) < 0.01
         cos = np.clip((np.trace(T[:3, :3].T @ target[:3, :3]) - 1) / 2, -1, 1)
         assert math.degrees(math.acos(cos)) < 3
         if s.step in low:  # upright, the same arm joints put the hand elsewhere
-            up = _world_tcp(talos, s.arm, joints | {JOINT: 0.0}, s.base)
+            up = world_tcp(talos, s.arm, joints | {JOINT: 0.0}, s.base)
             assert np.linalg.norm(up[:3, 3] - target[:3, 3]) > 0.1

@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 import pytest
-from support.deep_table import deep_table_scene, planar
-from support.fk import model_fk
+from support.deep_table import deep_table_scene
+from support.fk import world_tcp
 from support.knee_torso import CROUCH, HIP, KNEE, UPRIGHT, write_knee_torso
 
 import placement
@@ -108,17 +108,12 @@ def test_a_far_cup_is_picked_crouched(tmp_path, knee, method):
         assert {HIP, KNEE} <= set(conf["fixed_joints"])
         assert (conf["joints"][HIP], conf["joints"][KNEE]) == (s.joints[HIP], s.joints[KNEE])
     for s in result.steps:  # pinocchio FK of the robot with both torso joints at the step's posture
-        a = robot.arm(s.arm)
-        arm_q = {j: s.joints[j] for j in a.joints}
-        data = model_fk(robot, {**arm_q, HIP: s.joints[HIP], KNEE: s.joints[KNEE]})
-        base = data.oMf[robot.model.getFrameId(robot.base_frame)]
-        tip = data.oMf[robot.model.getFrameId(a.tip_frame)]
-        T = planar(*s.base) @ (base.inverse() * tip).homogeneous @ a.tcp_offset
+        arm_q = {j: s.joints[j] for j in robot.arm(s.arm).joints}
+        T = world_tcp(robot, s.arm, {**arm_q, HIP: s.joints[HIP], KNEE: s.joints[KNEE]}, s.base)
         target = np.asarray(s.tcp[-1])
         assert np.linalg.norm(T[:3, 3] - target[:3, 3]) < 0.01
         cos = np.clip((np.trace(T[:3, :3].T @ target[:3, :3]) - 1) / 2, -1, 1)
         assert math.degrees(math.acos(cos)) < 3
         if (s.joints[HIP], s.joints[KNEE]) != UPRIGHT:  # the posture matters: upright misses the target
-            data = model_fk(robot, {**arm_q, HIP: 0.0, KNEE: 0.0})
-            up = planar(*s.base) @ (base.inverse() * data.oMf[robot.model.getFrameId(a.tip_frame)]).homogeneous
-            assert np.linalg.norm((up @ a.tcp_offset)[:3, 3] - target[:3, 3]) > 0.1
+            up = world_tcp(robot, s.arm, {**arm_q, HIP: 0.0, KNEE: 0.0}, s.base)
+            assert np.linalg.norm(up[:3, 3] - target[:3, 3]) > 0.1

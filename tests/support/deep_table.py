@@ -1,13 +1,10 @@
 """The deep-table pick of the torso planning tests: a cup in the middle of a 1.2 m deep table, which a
-base of 0.3 m radius cannot come nearer than 0.9 m, and a narrow stand to put it on; and the planar
-base pose as a matrix."""
+base of 0.3 m radius cannot come nearer than 0.9 m, and a narrow stand to put it on."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
-import numpy as np
 import yaml
 
 
@@ -32,11 +29,3 @@ def deep_table_scene(folder: Path, preset: Path | str, maps: Path | str) -> str:
     path = Path(folder) / "scene.yaml"
     path.write_text(yaml.safe_dump(scene))
     return str(path)
-
-
-def planar(x: float, y: float, yaw: float) -> np.ndarray:
-    """(4, 4) the base pose (x, y [m], yaw [rad]) in the world."""
-    B = np.eye(4)
-    B[:2, :2] = [[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]]
-    B[:2, 3] = (x, y)
-    return B
