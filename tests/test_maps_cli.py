@@ -198,7 +198,7 @@ def test_bad_check_options(work, args, words):
 def test_info_and_check_on_a_sound_map(work, pr2):
     m = placement.build_map(pr2, "right", samples=2000, seed=1, progress=False, **SMALL)
     placement.save_maps(work / "m", pr2, {"right": m})
-    result = run(["maps", "info", "m", "--json"], work)
+    result = run(["maps", "info", "m", "--json", "--full"], work)
     assert result.exit_code == 0, result.output
     import json
 

@@ -97,12 +97,12 @@ def _on_a_terminal(*args: str, timeout: float = 600) -> tuple[int, str, str]:
     return proc.returncode, out.decode(), b"".join(drawn).decode(errors="replace")
 
 
-def test_maps_info_shows_the_layers_it_reads_per_arm_on_a_terminal(maps_dir):
+def test_maps_info_full_shows_the_layers_it_reads_per_arm_on_a_terminal(maps_dir):
     import json
 
     from placement import open_map
 
-    code, out, terminal = _on_a_terminal("maps", "info", str(maps_dir), "--json")
+    code, out, terminal = _on_a_terminal("maps", "info", str(maps_dir), "--json", "--full")
     assert code == 0, terminal
     assert set(json.loads(out)["arms"]) == {"right", "left"}  # stdout: the document alone
     frames = _frames(terminal)

@@ -196,10 +196,10 @@ def test_damage_is_named_as_such(damaged):
     assert "\n" not in str(exc.value)
 
 
-def test_maps_info_fails_with_one_line(damaged):
+def test_maps_info_full_fails_with_one_line(damaged):
     path, _, _ = damaged
     p = subprocess.run(
-        [sys.executable, "-m", "placement.cli.main", "maps", "info", str(path)],
+        [sys.executable, "-m", "placement.cli.main", "maps", "info", str(path), "--full"],
         capture_output=True,
         text=True,
         cwd=ROOT,

@@ -217,8 +217,8 @@ def test_a_map_without_digests(sources, tmp_path, fmt):
     ]
 
 
-def test_info_reads_every_witness_chunk(sources, tmp_path, right_map):
-    """A witness chunk rewritten with valid bytes (other data) fails info, naming the witness chunk."""
+def test_info_full_reads_every_witness_chunk(sources, tmp_path, right_map):
+    """A witness chunk rewritten with valid bytes (other data) fails info --full, naming the witness chunk."""
     import zarr
 
     path = copy_map(sources["zarr"], tmp_path)
@@ -226,7 +226,7 @@ def test_info_reads_every_witness_chunk(sources, tmp_path, right_map):
     arr = zarr.open_group(str(path), mode="r+")["right.witness"]
     block = arr[:, :, iz, :, ip, ir]
     arr[:, :, iz, :, ip, ir] = np.where(block == block.max(), block, block + 1)
-    one_line_error(info(path), f"witness chunk (z, pitch, roll) = ({iz}, {ip}, {ir})", "checksum")
+    one_line_error(info(path, "--full"), f"witness chunk (z, pitch, roll) = ({iz}, {ip}, {ir})", "checksum")
 
 
 # --------------------------------------------------------------------------------------------
@@ -237,7 +237,7 @@ def test_info_reads_every_witness_chunk(sources, tmp_path, right_map):
 @pytest.fixture(scope="module")
 def hdf5_truth(sources):
     src = sources["hdf5"]
-    result = info(src)
+    result = info(src, "--full")
     assert result.exit_code == 0
     doc = json.loads(result.output)
     rmaps = {a: placement.open_map(src, a) for a in ("right", "left")}
@@ -258,7 +258,7 @@ def test_hdf5_bytes_flipped_anywhere(hdf5_truth, tmp_path_factory, where, flip):
     damaged[offset] ^= flip
     path = tmp_path_factory.mktemp("flip") / "pr2.h5"
     path.write_bytes(bytes(damaged))
-    result = info(path)
+    result = info(path, "--full")
     if result.exit_code == 2:
         one_line_error(result)
         return
@@ -341,7 +341,7 @@ def test_hostile_chunk_files(sources, tmp_path, replace, words, name):
         return exc
 
     guarded(read)
-    one_line_error(guarded(lambda: info(path)), "rebuild the map", words)
+    one_line_error(guarded(lambda: info(path, "--full")), "rebuild the map", words)
     verify = guarded(lambda: CliRunner().invoke(cli, ["maps", "verify", str(path), "-q"], catch_exceptions=False))
     one_line_error(verify, "rebuild the map", words)
 
@@ -350,7 +350,7 @@ def test_fifo_chunk_from_the_command_line(sources, tmp_path):
     """The same in a fresh process, as a user runs it: exit 2 and one line within the timeout."""
     path = copy_map(sources["zarr"], tmp_path)
     replace_with_fifo(largest_chunk(path, "right.witness"))
-    assert_refused(run_cli("maps", "info", str(path)), "is a FIFO")
+    assert_refused(run_cli("maps", "info", str(path), "--full"), "is a FIFO")
     assert_refused(run_cli("maps", "verify", str(path), "-q"), "is a FIFO")
 
 

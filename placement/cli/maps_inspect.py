@@ -4,18 +4,19 @@ whether its stored values follow from their witnesses."""
 from __future__ import annotations
 
 import logging
+import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import click
-import numpy as np
 from tqdm import tqdm
 
 from placement.cli.maps_build import SEED, count_type
 from placement.cli.options import arm_option, emit, robot_option, setup_logging, standard_options
 from placement.cli.params import OneLineCommand
+from placement.errors import MapError
 from placement.maps.accuracy import MAX_CHECK_SAMPLES, check_map, pose_metrics
 from placement.maps.opening import open_map
 from placement.maps.rmap import ReachabilityMap, check_root
@@ -27,23 +28,41 @@ from placement.storage import open_store
 from placement.storage.digest import DIGEST_KEY
 from placement.storage.format import CRC_KEY, WITNESS_CRC_KEY
 from placement.storage.schema import arm_arrays
+from placement.storage.stats import STATS_KEY, read_stats, stats_difference, stored_stats
 
 log = logging.getLogger("placement")
 
 
 def _size(path: Path) -> int:
+    """Bytes of the map file, or of every regular file under the map directory (os.scandir: a directory
+    entry knows whether it is a file without a second stat, a 5 cm map holds ~30,000 chunk files)."""
     if path.is_file():
         return path.stat().st_size
-    return sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
+    total, folders = 0, [str(path)]
+    while folders:
+        with os.scandir(folders.pop()) as entries:
+            for e in entries:
+                if e.is_dir(follow_symlinks=False):
+                    folders.append(e.path)
+                elif e.is_file(follow_symlinks=False):
+                    total += e.stat(follow_symlinks=False).st_size
+    return total
 
 
 @click.command(cls=OneLineCommand)
 @click.argument("path", type=click.Path())
 @robot_option
 @arm_option
+@click.option(
+    "--full",
+    is_flag=True,
+    help="Read and check every chunk of every arm and compare the statistics with the stored ones "
+    "(exit 2 naming the arm if they differ).",
+)
 @standard_options
-def info(path: str, robot: str | None, arm: str | None, as_json: bool, verbose: int, quiet: bool) -> None:
-    """Metadata, fill ratio and value histogram of a map; reads and checks every chunk of every arm."""
+def info(path: str, robot: str | None, arm: str | None, full: bool, as_json: bool, verbose: int, quiet: bool) -> None:
+    """Metadata, fill ratio and value histogram of a map, from the statistics stored when it was saved
+    (a map without them, or --full: read from every chunk of every arm, each checked)."""
     setup_logging(verbose, quiet)
     store = open_store(path)
     check_root(Path(path), store.root)
@@ -55,60 +74,51 @@ def info(path: str, robot: str | None, arm: str | None, as_json: bool, verbose: 
     for a in dict.fromkeys([*shown, *stored]):  # the shown arm first: a wrong --arm fails before the reading
         rmap = open_map(path, a, robot)
         t = rmap.torso
-        # one build per torso setting: every setting's map is read and checked like the arm's
+        # one build per torso setting: every setting's map is shown (and with --full read) like the arm's
         views = [rmap] + ([rmap.at_torso(v) for v in t.values if v != t.reference] if t and t.shift is None else [])
         found = []
         for view in views:
             label = a if view is rmap or t is None else f"{a} at {_at(t, view.torso_value)}"
-            with tqdm(
-                total=view.grid.shape[2], desc=f"info {label}", unit="layer", disable=_no_bars(quiet), leave=False
-            ) as bar:
-                stats = scan(view, progress=bar.update)  # reads and checks every chunk of values and witnesses
-            meta = {k: v for k, v in view.meta.items() if k not in (CRC_KEY, WITNESS_CRC_KEY)}
+            stats = _stats(view, label, full, quiet)
+            meta = {k: v for k, v in view.meta.items() if k not in (CRC_KEY, WITNESS_CRC_KEY, STATS_KEY)}
             found.append({"meta": meta, **stats} | ({} if view is rmap else {"array": view.array}))
         if a in shown:
             out["arms"][a] = found[0] | ({"settings": found[1:]} if len(found) > 1 else {})
     emit(out, as_json, _render_info)
 
 
-HISTOGRAM_EDGES = [0.0, 0.01, 0.0235, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0]
+def _stats(view: ReachabilityMap, label: str, full: bool, quiet: bool) -> dict[str, Any]:
+    """The statistics of one array as info shows them, with ``stats_from``: "stored" (its metadata's, no
+    chunk read) or "read" (every chunk read: ``full``, or a map saved without them, said on stderr);
+    MapError naming the array if ``full`` reads other statistics than the stored ones."""
+    kept = stored_stats(view.meta)
+    if kept is not None and not full:
+        return {"stats_from": "stored", "chunks_checked": 0, **kept}
+    if kept is None:
+        log.info(
+            "note: %s: array '%s' has no stored statistics (saved before they were recorded); "
+            "computed them by reading every chunk",
+            view.path,
+            view.array,
+        )
+    with tqdm(
+        total=view.grid.shape[2], desc=f"info {label}", unit="layer", disable=_no_bars(quiet), leave=False
+    ) as bar:
+        read = read_stats(view.store, view.array, progress=bar.update)  # a torso setting's view: its own array
+    if kept is not None:
+        differs = stats_difference(kept, read)
+        if differs is not None:
+            raise MapError(
+                f"{view.path}: the stored statistics of array '{view.array}' ({STATS_KEY}) do not match its "
+                f"chunks ({differs}); rebuild the map"
+            )
+    return {"stats_from": "read", **read}
 
 
 def _no_bars(quiet: bool) -> bool:
     """No progress bars with -q, nor when stderr is not a terminal (a pipe, a log file, a test runner
     that mixes stderr into stdout): what info and check print stays plain."""
     return quiet or not sys.stderr.isatty()
-
-
-def scan(rmap: ReachabilityMap, progress: Callable[[int], object] | None = None) -> dict[str, Any]:
-    """Fill and value statistics of a map, reading every chunk of its values and witnesses (each checked
-    against its CRC32) one z layer at a time (memory: two layers, not the whole map); ``progress(1)``
-    after each layer."""
-    store, arm = rmap.store, rmap.array  # a torso setting's view reads its own array
-    counts = np.zeros(len(HISTOGRAM_EDGES) - 1, dtype=np.int64)
-    total, high, cells = 0.0, 0.0, 0
-    for iz in range(rmap.grid.shape[2]):
-        values = store.read_slab(arm, iz)
-        store.read_slab(arm, iz, witness=True)
-        reached = values[values > 0]
-        counts += np.histogram(reached, bins=HISTOGRAM_EDGES)[0]
-        cells += reached.size
-        total += float(reached.sum(dtype=np.float64))
-        high = max(high, float(reached.max(initial=0.0)))
-        if progress is not None:
-            progress(1)
-    size = rmap.grid.size
-    return {
-        "chunks_checked": 2 * int(np.prod(np.shape(rmap.meta[CRC_KEY]))),
-        "cells": size,
-        "filled_cells": cells,
-        "fill_ratio": cells / size,
-        "value": {
-            "max": high,
-            "mean": total / cells if cells else 0.0,
-            "histogram": {"edges": HISTOGRAM_EDGES, "counts": counts.tolist()},
-        },
-    }
 
 
 def rank_note(measure: dict[str, Any]) -> str:
@@ -157,11 +167,15 @@ def torso_line(t: dict[str, Any]) -> str:
     )
 
 
+#: how info's text says where an array's statistics came from (``stats_from``)
+_FROM = {"stored": "stored statistics", "read": "read from every chunk"}
+
+
 def _fill_lines(v: dict[str, Any], indent: str = "    ") -> list[str]:
     h = v["value"]["histogram"]
     return [
         f"{indent}filled {v['filled_cells']} of {v['cells']} cells ({100 * v['fill_ratio']:.2f} %), "
-        f"max {v['value']['max']:.4f}, mean {v['value']['mean']:.4f}",
+        f"max {v['value']['max']:.4f}, mean {v['value']['mean']:.4f} ({_FROM[v['stats_from']]})",
         f"{indent}histogram: "
         + ", ".join(f"[{lo:g}, {hi:g}): {c}" for lo, hi, c in zip(h["edges"], h["edges"][1:], h["counts"])),
     ]

@@ -8,7 +8,9 @@ roll) reads exactly one chunk; the arm's metadata in the array's attributes,
 including ``chunk_crc32``: the CRC32 of every decoded chunk (see :func:`chunk_crcs`).
 Beside it, the array ``<arm>.witness`` of the same shape and chunking holds the
 cells' witnesses (uint32 or int64, see placement/maps/witness.py), with its own
-per-chunk CRC32 table ``witness_crc32`` in the arm's metadata. The root's ``digests``
+per-chunk CRC32 table ``witness_crc32`` in the arm's metadata, and ``value_stats``: the fill and
+value statistics of the values (placement/storage/stats.py; optional, a map saved before them has
+none, so no new version). The root's ``digests``
 entry seals the root and every arm's metadata (placement/storage/digest.py).
 """
 
@@ -32,6 +34,8 @@ READABLE_VERSIONS = (UNSEALED_VERSION, FORMAT_VERSION)
 ROOT_KEY = "placement_map"
 CRC_KEY = "chunk_crc32"
 WITNESS_CRC_KEY = "witness_crc32"
+#: the arm metadata key of the fill and value statistics (placement/storage/stats.py)
+STATS_KEY = "value_stats"
 WITNESS_SUFFIX = ".witness"
 
 

@@ -25,6 +25,7 @@ from placement.storage import backend, detect, open_store
 from placement.storage.base import ArmArrays, atomic_replace, partial_path
 from placement.storage.format import CRC_KEY, FORMAT_VERSION, READABLE_VERSIONS, WITNESS_CRC_KEY, BuiltMap, chunk_crcs
 from placement.storage.lock import FileLock, lock_path
+from placement.storage.stats import STATS_KEY, array_stats
 from placement.storage.validate import base_frame_definition, validate_robot
 
 if TYPE_CHECKING:
@@ -187,6 +188,7 @@ class MapOutput:
                     **m.meta,
                     CRC_KEY: chunk_crcs(m.values).tolist(),
                     WITNESS_CRC_KEY: chunk_crcs(witnesses[arm]).tolist(),
+                    STATS_KEY: array_stats(m.values),  # what `maps info` prints, without reading the map
                 },
                 witnesses[arm],
             )
@@ -202,7 +204,10 @@ class MapOutput:
                     if old.root.get("complete") is True and old.root.get("format_version") in READABLE_VERSIONS:
                         for arm in old.root.get("arms") or []:
                             if arm not in arms:
-                                arms[arm] = (old.read_all(arm), old.arm_meta(arm), old.read_all(arm, witness=True))
+                                values = old.read_all(arm)
+                                # an arm saved before the statistics were stored gets them now
+                                meta = {**old.arm_meta(arm), STATS_KEY: array_stats(values)}
+                                arms[arm] = (values, meta, old.read_all(arm, witness=True))
                 finally:
                     old.close()
             root = {
@@ -225,8 +230,8 @@ def preset_name(robot: Robot) -> str:
 
 
 def save_maps(path: str | Path, robot: Robot, maps: dict[str, BuiltMap], fmt: str = "zarr") -> Path:
-    """Write ``maps`` (arm -> BuiltMap) to ``path`` atomically, with the CRC32 of every chunk and the
-    metadata digests.
+    """Write ``maps`` (arm -> BuiltMap) to ``path`` atomically, with the CRC32 of every chunk, every array's
+    fill and value statistics (:mod:`placement.storage.stats`) and the metadata digests.
 
     Arms already in an existing complete map of the same robot at ``path`` are
     kept (and checked as they are read); a path that holds something else is

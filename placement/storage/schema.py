@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from placement.errors import MapError
+from placement.storage.format import STATS_KEY
 
 MAX_SEED = 2**64 - 1
 WITNESS_DTYPES = ("uint32", "int64")
@@ -77,6 +78,35 @@ def _quantiles(v: object) -> None:
     for i, x in enumerate(vals):
         if _real(x, f"value_quantiles.values[{i}]") <= 0 or (i and x < vals[i - 1]):
             raise _Bad(f"value_quantiles.values[{i}]", "a positive number, not below the one before", x)
+
+
+def _stats(v: object) -> None:
+    """A statistics record (placement/storage/stats.py): ``cells`` a positive whole number, ``filled_cells``
+    a whole number up to it, ``fill_ratio`` a number from 0 to 1, ``value.max`` and ``value.mean`` finite
+    numbers, ``value.histogram`` ascending ``edges`` and one whole ``counts`` entry per bin between them."""
+    p = STATS_KEY + "."
+    if not isinstance(v, dict):
+        raise _Bad(STATS_KEY, "a mapping", v)
+    cells = _int(v, "cells", 1, 2**63 - 1, p)
+    _int(v, "filled_cells", 0, cells, p)
+    if not 0 <= _real(v.get("fill_ratio"), p + "fill_ratio") <= 1:
+        raise _Bad(p + "fill_ratio", "a number from 0 to 1", v.get("fill_ratio"))
+    value = _dict(v, "value", p)
+    for key in ("max", "mean"):
+        _real(value.get(key), f"{p}value.{key}")
+    hist = _dict(value, "histogram", p + "value.")
+    edges = hist.get("edges")
+    if not isinstance(edges, list) or len(edges) < 2:
+        raise _Bad(p + "value.histogram.edges", "2 or more numbers", edges)
+    for i, x in enumerate(edges):
+        if _real(x, f"{p}value.histogram.edges[{i}]") <= (edges[i - 1] if i else -math.inf):
+            raise _Bad(f"{p}value.histogram.edges[{i}]", "a number above the one before", x)
+    counts = hist.get("counts")
+    if not isinstance(counts, list) or len(counts) != len(edges) - 1:
+        raise _Bad(p + "value.histogram.counts", f"{len(edges) - 1} counts (one per bin)", counts)
+    for i, c in enumerate(counts):
+        if isinstance(c, bool) or not isinstance(c, int) or not 0 <= c <= cells:
+            raise _Bad(f"{p}value.histogram.counts[{i}]", f"a whole number from 0 to {cells}", c)
 
 
 #: how a torso record's maps stand for its settings (placement/maps/torso.py): one map moved with the lift
@@ -254,5 +284,7 @@ def check_arm_types(path: Path | str, arm: str, meta: dict[str, Any]) -> None:
             _quantiles(meta["value_quantiles"])
         if "torso" in meta:  # only maps built with the spec's torso key have one
             _torso(meta["torso"])
+        if STATS_KEY in meta:  # maps saved before it was recorded have none
+            _stats(meta[STATS_KEY])
     except _Bad as exc:
         raise MapError(f"{path}: metadata of arm '{arm}': {exc}; rebuild the map") from None
