@@ -2,11 +2,13 @@
 
 Public API (see README and docs/): robots (:func:`load_robot`), the manipulability measure, reachability
 maps (:func:`build_map`, :func:`open_map`, :func:`check_map`), IK, and planning (:func:`plan`,
-:class:`Planner`, typed results). No viewer or plotting module is imported here.
+:class:`Planner`, typed results). Importing the package loads only the errors and the version: each
+other name loads its module on first use. No viewer or plotting module is imported here.
 """
 
 import os as _os
 import sys as _sys
+from typing import TYPE_CHECKING as _TYPE_CHECKING
 from typing import Any as _Any
 
 
@@ -38,28 +40,60 @@ from placement.errors import (  # noqa: E402
     PresetError,
     RobotError,
 )
-from placement.kinematics.ik import IKResult, solve_ik  # noqa: E402
-from placement.kinematics.manipulability import extended_manipulability  # noqa: E402
-from placement.maps.grid import Grid  # noqa: E402
-from placement.maps.opening import open_map  # noqa: E402
-from placement.maps.rmap import ReachabilityMap, save_maps  # noqa: E402
-from placement.planning import PlannerConfig, PlanResult, StepResult  # noqa: E402
-from placement.planning.planner import Planner, plan  # noqa: E402
-from placement.robots import Arm, Robot, load_robot  # noqa: E402
-from placement.storage.format import BuiltMap  # noqa: E402
 from placement.version import __version__  # noqa: E402
 
-# the map builder and the accuracy check pull in the sampler, tqdm and coal: loaded on first use, so
-# that opening a map (the online path) does not pay for them
-_LAZY = {"build_map": "placement.maps.build", "check_map": "placement.maps.accuracy", "view": "placement.viewer"}
+if _TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs (never run)
+    from placement.kinematics.ik import IKResult, solve_ik
+    from placement.kinematics.manipulability import extended_manipulability
+    from placement.maps.accuracy import check_map
+    from placement.maps.build import build_map
+    from placement.maps.grid import Grid
+    from placement.maps.opening import open_map
+    from placement.maps.rmap import ReachabilityMap, save_maps
+    from placement.planning import PlannerConfig, PlanResult, StepResult
+    from placement.planning.planner import Planner, plan
+    from placement.robots import Arm, Robot, load_robot
+    from placement.storage.format import BuiltMap
+
+#: public name -> the module defining it, imported on first access: importing the package then costs
+#: no numba, zarr or pinocchio (about 1.6 s), so a command's --help or a bad option answers at once,
+#: and opening a map (the online path) does not pay for the builder (sampler, tqdm, coal)
+_LAZY = {
+    "Arm": "placement.robots",
+    "BuiltMap": "placement.storage.format",
+    "Grid": "placement.maps.grid",
+    "IKResult": "placement.kinematics.ik",
+    "PlanResult": "placement.planning",
+    "Planner": "placement.planning.planner",
+    "PlannerConfig": "placement.planning",
+    "ReachabilityMap": "placement.maps.rmap",
+    "Robot": "placement.robots",
+    "StepResult": "placement.planning",
+    "build_map": "placement.maps.build",
+    "check_map": "placement.maps.accuracy",
+    "extended_manipulability": "placement.kinematics.manipulability",
+    "load_robot": "placement.robots",
+    "open_map": "placement.maps.opening",
+    "plan": "placement.planning.planner",
+    "save_maps": "placement.maps.rmap",
+    "solve_ik": "placement.kinematics.ik",
+    "view": "placement.viewer",
+}
 
 
-def __getattr__(name: str) -> _Any:  # the lazy function, of its own type
-    if name in _LAZY:
-        import importlib
+def __getattr__(name: str) -> _Any:  # a lazy name, of its own type
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'placement' has no attribute '{name}'")
+    import importlib
 
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'placement' has no attribute '{name}'")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later look-ups find it without this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})
 
 
 __all__ = [

@@ -14,7 +14,6 @@ import click
 from click.core import ParameterSource
 from tqdm import tqdm
 
-from placement.cli.maps_build import dask_client
 from placement.cli.options import emit, setup_logging, standard_options
 from placement.cli.params import Bounded, OneLineCommand
 from placement.errors import PlacementError
@@ -113,6 +112,8 @@ def evaluate(
             stack.enter_context(output_dir(out_dir, "--out"))
         client = None
         if dask_address:
+            from placement.cli.maps_build import dask_client  # with the build spec and the stores: for --dask only
+
             client = dask_client(dask_address)
             stack.callback(client.close)
         try:

@@ -4,28 +4,25 @@ from __future__ import annotations
 
 import click
 
-from placement import __version__
-from placement.cli.evaluate import evaluate
-from placement.cli.maps import maps
-from placement.cli.params import OneLineGroup
-from placement.cli.query import query
-from placement.cli.robots import robots
-from placement.cli.scenes import scenes
-from placement.cli.view import view
+from placement.cli.lazy import LazyGroup
+from placement.version import __version__
+
+#: command -> where it is defined: imported only when it runs or shows its own help, so that
+#: `placement --help` and a mistyped command answer without loading the planner or the map store
+COMMANDS = {
+    "evaluate": "placement.cli.evaluate:evaluate",
+    "maps": "placement.cli.maps:maps",
+    "query": "placement.cli.query:query",
+    "robots": "placement.cli.robots:robots",
+    "scenes": "placement.cli.scenes:scenes",
+    "view": "placement.cli.view:view",
+}
 
 
-@click.group(cls=OneLineGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=LazyGroup, lazy=COMMANDS, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="placement")
 def cli() -> None:
     """Robot base placement for mobile manipulation."""
-
-
-cli.add_command(maps)
-cli.add_command(query)
-cli.add_command(scenes)
-cli.add_command(evaluate)
-cli.add_command(view)
-cli.add_command(robots)
 
 
 def main() -> None:

@@ -12,7 +12,6 @@ import click
 from placement.cli.options import arm_option, emit, robot_option, setup_logging, standard_options
 from placement.cli.params import Checked, OneLineCommand
 from placement.errors import ArmNotFound, PlacementError
-from placement.maps.build import build_grid, build_map
 from placement.maps.buildspec import (
     FORMATS,
     INDEXES,
@@ -26,15 +25,11 @@ from placement.maps.buildspec import (
     parse_count,
     parse_length,
 )
-from placement.maps.rmap import MapOutput
-from placement.maps.torso import check_torso
-from placement.maps.torso_builds import build_torso_maps, built_seconds
-from placement.robots import load_robot
-from placement.storage.format import BuiltMap
-from placement.warmup import BUILD_COMPILE_S, announce_compilation
 
 if TYPE_CHECKING:
     from dask.distributed import Client
+
+    from placement.storage.format import BuiltMap
 
 log = logging.getLogger("placement")
 
@@ -122,6 +117,14 @@ def build(
     Everything (spec, robot, arms, grid, output path) is checked before sampling starts.
     """
     setup_logging(verbose, quiet)
+    # the sampler, the robot model and the compiler: loaded once the command runs, not for --help
+    from placement.maps.build import build_grid, build_map
+    from placement.maps.rmap import MapOutput
+    from placement.maps.torso import check_torso
+    from placement.maps.torso_builds import build_torso_maps, built_seconds
+    from placement.robots import load_robot
+    from placement.warmup import BUILD_COMPILE_S, announce_compilation
+
     spec = load_build_spec(spec_path) if spec_path else BuildSpec()
     options: dict[str, Any] = {
         "robot": robot,

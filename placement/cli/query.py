@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable, Iterator
-from typing import Any, BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 import click
 
 from placement.cli.options import bounded, emit, setup_logging, standard_options, to_json_line, writable_dir
 from placement.cli.params import OneLineCommand
-from placement.planning import DEFAULT_METHOD, METHODS, Planner, PlanResult
-from placement.warmup import QUERY_COMPILE_S, announce_compilation
+from placement.planning import DEFAULT_METHOD, METHODS
+
+if TYPE_CHECKING:
+    from placement.planning import Planner, PlanResult
 
 
 @click.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
@@ -40,6 +42,9 @@ def query(
 ) -> None:
     """Plan the base placement, arm, grasp and IK solution of every step."""
     setup_logging(verbose, quiet)
+    from placement.planning import Planner
+    from placement.warmup import QUERY_COMPILE_S, announce_compilation
+
     if plot_dir:
         writable_dir(plot_dir, "--plot")
     announce_compilation(QUERY_COMPILE_S)

@@ -9,7 +9,6 @@ import click
 
 from placement.cli.options import F, setup_logging, standard_options, to_json_line
 from placement.cli.params import Bounded, OneLineCommand, OneLineError
-from placement.cli.query import stream_plans
 from placement.planning import DEFAULT_METHOD, METHODS
 
 if TYPE_CHECKING:
@@ -91,6 +90,8 @@ def view(
         load_checked_plan(plan_path, shown)
     v = view_scene(target, maps=maps_path, method=method or DEFAULT_METHOD, plan=plan_path, port=port)
     if stream:
+        from placement.cli.query import stream_plans
+
         click.echo(f"viewer at {v.url}; reading updates from stdin", err=True)
         try:
             # as `placement query --stream`, and each new plan is shown
