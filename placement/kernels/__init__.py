@@ -12,6 +12,13 @@ from pathlib import Path
 
 import numba
 
+# numba's OpenMP threading layer (GNU libgomp) spins while it waits for work by default. With another
+# process on the cores (a map build, a test suite, a browser) a parallel inverse map then took 4-8x
+# longer than on one thread; waiting passively costs a wake-up per parallel region and nothing under
+# load. libgomp reads the variable when it loads, at the first parallel kernel; a value set by the
+# user is kept.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
 
 def _cache_dir() -> str:
     digest = hashlib.sha256()
