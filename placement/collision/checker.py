@@ -241,6 +241,7 @@ class SceneCollision:
             "t": t,
             "centre": centre,
             "radius": geo.radius[ids],
+            "extent": np.einsum("nij,nj->ni", np.abs(R), geo.half[ids]),
             "gripper": gripper,
             "tf": {},
         }

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from placement.collision.bounds import box_distance
+from placement.collision.bounds import box_distance, boxes_distance
 from placement.collision.robot import ArmShapes
 from placement.collision.tables import Instances, Pairs, ScenePieces
 
@@ -20,10 +20,18 @@ def candidate_pairs(
     grasped: str | None,
     gone: frozenset[str],
 ) -> Pairs:
-    """Pairs whose lower bound [m] (bounding sphere against piece bounds, or two spheres) is within
-    ``cap`` [m]: robot-scene first, then self pairs (``shapes.self_pairs`` at every pose). Pieces of
-    the objects in ``gone`` pair with nothing, the ``grasped`` object not with the gripper."""
-    lb = box_distance(inst["centre"], scene["aabb"]) - inst["radius"][:, None]  # (N, S)
+    """Pairs whose lower bound [m] is within ``cap`` [m]: robot-scene first, then self pairs
+    (``shapes.self_pairs`` at every pose). Pieces of the objects in ``gone`` pair with nothing, the
+    ``grasped`` object not with the gripper.
+
+    A pair's bound is the larger of two, each no more than its distance: bounding sphere against the
+    piece's box (or two spheres), and the axis-aligned box around the robot shape's own box against
+    the piece's box (or two such boxes). The box is the tighter one for long links lying along an
+    axis of the model (a forearm, a gripper above a table top): those pairs are not given to coal."""
+    centre, ext, radius = inst["centre"], inst["extent"], inst["radius"]
+    lb = np.maximum(
+        box_distance(centre, scene["aabb"]) - radius[:, None], boxes_distance(centre, ext, scene["aabb"])
+    )  # (N, S)
     if gone:
         lb[:, [i for i, o in enumerate(scene["objects"]) if o in gone]] = np.inf
     if grasped is not None:
@@ -31,8 +39,9 @@ def candidate_pairs(
         lb[np.ix_(inst["gripper"], held)] = np.inf
     a, b = np.nonzero(lb <= cap)
     sa, sb = self_instances(shapes, inst["poses"], ngeoms)
-    c, r = inst["centre"], inst["radius"]
-    self_lb = np.linalg.norm(c[sa] - c[sb], axis=1) - r[sa] - r[sb]
+    c, r = centre, radius
+    gap = np.maximum(np.abs(c[sa] - c[sb]) - ext[sa] - ext[sb], 0.0)
+    self_lb = np.maximum(np.linalg.norm(c[sa] - c[sb], axis=1) - r[sa] - r[sb], np.linalg.norm(gap, axis=1))
     keep = self_lb <= cap
     return {
         "a": np.concatenate([a, sa[keep]]),

@@ -201,6 +201,7 @@ class RobotGeometry:
         names: (G,) link name of each shape (culprit names).
         lost: links whose shapes were left out (missing meshes).
         centre, radius: (G, 3), (G,) bounding sphere of each shape in its own frame [m].
+        half: (G, 3) half extents [m] of each shape's bounding box in its own frame, centred on ``centre``.
         home_q: pinocchio configuration: the preset's fixed joints, every arm at its ``idle``
             configuration (the preset's, by default home).
         base_in_model: (4, 4) pose of the base frame in the model's root frame at ``home_q``.
@@ -219,6 +220,9 @@ class RobotGeometry:
         self.exact = np.array([e for _, e in hulls], dtype=bool)  # the hull is the shape itself
         self.centre = np.array([np.asarray(o.geometry.aabb_center) for o in objs]).reshape(-1, 3)
         self.radius = np.array([o.geometry.aabb_radius for o in objs], dtype=float)
+        self.half = np.array(
+            [0.5 * (np.asarray(o.geometry.aabb_local.max_) - np.asarray(o.geometry.aabb_local.min_)) for o in objs]
+        ).reshape(-1, 3)
         q = robot.reference_q()
         for name in robot.arms:
             q = robot.full_q(name, robot.arm(name).idle, q)

@@ -25,7 +25,8 @@ class Instances(TypedDict):
 
     Keys: ``id`` (N,) shape index; ``pose`` (N,) trajectory pose (-1: static); ``poses`` number of poses;
     ``R`` (N, 3, 3), ``t`` (N, 3) [m] placement; ``centre`` (N, 3) [m], ``radius`` (N,) [m] bounding
-    sphere; ``gripper`` (N,) the shape is the arm's gripper; ``tf`` operands made so far, by instance.
+    sphere; ``extent`` (N, 3) [m] half extents of the axis-aligned box around the shape's own box,
+    centred on ``centre``; ``gripper`` (N,) the shape is the arm's gripper; ``tf`` operands made so far, by instance.
     """
 
     id: npt.NDArray[np.int_]
@@ -35,6 +36,7 @@ class Instances(TypedDict):
     t: npt.NDArray[np.float64]
     centre: npt.NDArray[np.float64]
     radius: npt.NDArray[np.float64]
+    extent: npt.NDArray[np.float64]
     gripper: npt.NDArray[np.bool_]
     tf: dict[int, Operand]
 
