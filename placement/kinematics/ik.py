@@ -122,6 +122,23 @@ class _ArmIK:
         # The base frame does not move with the arm's joints: its world pose is constant.
         self.oMbase = pin.SE3(data.oMf[robot.base_frame_id])
         self._local = threading.local()
+        #: rng seed -> the random starts drawn so far, projected (see :meth:`restarts`)
+        self._restarts: dict[int, np.ndarray] = {}
+
+    def restarts(self, rng_seed: int, count: int) -> np.ndarray:
+        """(>= count, n) the random start configurations of :func:`solve_ik` after its first, in order,
+        projected into the limits: what ``np.random.default_rng(rng_seed)`` draws uniformly within
+        the limits, one configuration at a time. Drawn once per solver and seed, because making the
+        generator and drawing cost more than a failed attempt."""
+        drawn = self._restarts.get(rng_seed)
+        if drawn is None or len(drawn) < count:
+            rng = np.random.default_rng(rng_seed)
+            a = self.arm
+            drawn = np.array([self.project(rng.uniform(a.lower, a.upper)) for _ in range(max(count, 8))])
+            drawn = drawn.reshape(-1, a.dof)
+            drawn.flags.writeable = False
+            self._restarts[rng_seed] = drawn  # replaced whole: a reader never sees it half drawn
+        return drawn
 
     @property
     def data(self) -> pin.Data:
@@ -146,7 +163,9 @@ class _ArmIK:
         if self._wrap:
             cont = self.continuous
             q[cont] = np.mod(q[cont] + math.pi, _TWO_PI) - math.pi
-        np.clip(q, self._lower, self._upper, out=q)
+        # (np.clip's dispatch costs more than the two ufuncs)
+        np.maximum(q, self._lower, out=q)
+        np.minimum(q, self._upper, out=q)
         return q
 
     def check(self, q: np.ndarray, oMt: pin.SE3, pos_tol: float, rot_tol: float) -> tuple[bool, float, float]:
@@ -272,7 +291,7 @@ def solve_ik(
         q0 = finite_array(q_seed, "q_seed", PlacementError)
     if q0.shape != (a.dof,):
         raise PlacementError(f"q_seed must have {a.dof} values for arm '{arm}', got shape {q0.shape}")
-    rng: np.random.Generator | None = None  # made for the first random start only (it costs)
+    restarts = s.restarts(rng_seed, seeds - 1) if seeds > 1 else None
     best: IKResult | None = None
     total = 0
     target = np.eye(4)
@@ -282,13 +301,13 @@ def solve_ik(
     cont = s.continuous
     for k in range(seeds):
         if k == 0:
-            start = q0
+            start = s.project(q0.copy())
         else:
-            rng = np.random.default_rng(rng_seed) if rng is None else rng
-            start = rng.uniform(a.lower, a.upper)
+            assert restarts is not None
+            start = restarts[k - 1].copy()
         # the descent runs in numba on the chain kernels (= pinocchio to 1e-9) ...
         ok, q, pe, re, it = dls_attempt(
-            s.project(start.copy()),
+            start,
             target,
             a.lower,
             a.upper,
