@@ -23,6 +23,7 @@ trajectory gets distance queries, in order of the bound, until the bound exceeds
 from __future__ import annotations
 
 import heapq
+import math
 from collections.abc import Collection, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -362,23 +363,29 @@ class SceneCollision:
         pair with the smallest key is refined until an exact distance comes first: no other pair can be
         nearer. Coal's GJK tolerance is far below HULL_SLACK, so hull keys are lowered by it."""
         order = np.argsort(pairs["lb"], kind="stable")
-        lbs = pairs["lb"][order]
+        # plain lists and local names: this loop runs for every pair below the best distance
+        lbs, ks = pairs["lb"][order].tolist(), order.tolist()
+        a_of, b_of, is_self = pairs["a"].tolist(), pairs["b"].tolist(), pairs["self"].tolist()
+        robot, piece, distance, push, pop = self._robot, self._scene, self._distance, heapq.heappush, heapq.heappop
+        cap, n = self.cap, len(ks)
         heap: list[tuple[float, int, int]] = []  # (key, stage 1 hull / 2 exact, pair)
         nxt = 0
         while True:
-            top = heap[0][0] if heap else np.inf
-            if nxt < len(order) and lbs[nxt] < min(top, self.cap):
-                k = int(order[nxt])
+            top = heap[0][0] if heap else math.inf
+            if nxt < n and lbs[nxt] < min(top, cap):
+                k = ks[nxt]
                 nxt += 1
-                (_, h1, e1, T1), (_, h2, e2, T2) = self._operands(pairs, k, inst, scene)
-                d = self._distance(h1, T1, h2, T2)
-                heapq.heappush(heap, (d, 2, k) if e1 and e2 else (d - HULL_SLACK, 1, k))
+                _, h1, e1, T1 = robot(inst, a_of[k])
+                _, h2, e2, T2 = robot(inst, b_of[k]) if is_self[k] else piece(scene, b_of[k])
+                d = distance(h1, T1, h2, T2)
+                push(heap, (d, 2, k) if e1 and e2 else (d - HULL_SLACK, 1, k))
                 continue
-            if not heap or top >= self.cap:
+            if not heap or top >= cap:
                 return CollisionResult(True, self.cap, None, None)
-            key, stage, k = heapq.heappop(heap)
+            key, stage, k = pop(heap)
             if stage == 2:
                 name, pose = self._name(pairs, k, inst, scene)
                 return CollisionResult(True, key, name, pose)
-            (g1, _, _, T1), (g2, _, _, T2) = self._operands(pairs, k, inst, scene)
-            heapq.heappush(heap, (self._distance(g1, T1, g2, T2), 2, k))
+            g1, _, _, T1 = robot(inst, a_of[k])
+            g2, _, _, T2 = robot(inst, b_of[k]) if is_self[k] else piece(scene, b_of[k])
+            push(heap, (distance(g1, T1, g2, T2), 2, k))
