@@ -50,8 +50,8 @@ def warm_kernels(problems: StepProblems, robot: Robot) -> None:
 def prefetch_slices(problems: StepProblems) -> None:
     """Read (and check) every map slice the task's candidates will use, and the witnesses of those
     slices (the IK starts there)."""
-    for step in problems.steps:
-        for cand in step_candidates(problems.scene, step, problems.config, problems.opening_m):
+    for i in range(len(problems.steps)):
+        for cand in problems.candidates(i):
             for rmap in (m for views in problems.variants.values() for m in views):
                 for key in pose_slices(rmap, cand.poses):
                     rmap.slice(*key)

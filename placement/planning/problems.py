@@ -115,6 +115,14 @@ class StepProblems:
         out[targets] = hit
         return out
 
+    def candidates(self, i: int) -> list[Candidate]:
+        """Step i's grasp or place candidates (cached: the options of every arm and torso setting, and
+        the planner's prefetch of map slices, share them)."""
+        hit = self._candidates.get(i)
+        if hit is None:
+            hit = self._candidates[i] = step_candidates(self.scene, self.steps[i], self.config, self.opening_m)
+        return hit
+
     def map_for(self, arm: str, torso: float | None) -> ReachabilityMap:
         """``arm``'s map (view) at torso value ``torso`` [m] (None: the map without a torso record)."""
         for rmap in self.variants[arm]:
@@ -157,9 +165,7 @@ class StepProblems:
         nav = self.world.nav
         opts = []
         near: dict[Reach, tuple[IntArray, MaskArray]] = {}  # candidates of a step share their target position
-        candidates = self._candidates.get(step.index)
-        if candidates is None:  # the same at every torso setting
-            candidates = self._candidates[step.index] = step_candidates(self.scene, step, self.config, self.opening_m)
+        candidates = self.candidates(step.index)
         views = ((a, m) for a, ms in self.variants.items() for m in ms)
         for arm, rmap in ((a, m) for a, m in views if torso is None or torso_value(m) == torso):
             lo, hi = height_range(rmap)
