@@ -33,9 +33,9 @@ lint: install
 	.venv/bin/ruff format --check placement tools tests
 	.venv/bin/mypy
 
-# Two pytest workers (pytest-xdist), a test file on one worker (--dist loadfile: pyproject.toml): 11.9 minutes
-# on the 2-core machine with the built maps present, 11.6 in a clean clone (CI), the browser tests last
-# (one headless Chromium for every picture, about 1.5 minutes).
+# Two pytest workers (pytest-xdist), a test file on one worker (--dist loadfile: pyproject.toml): 9.1 minutes
+# on the 2-core machine in a clean clone (CI, Chromium installed), 8.4 with the built maps and no Chromium;
+# the browser tests last (one headless Chromium for every picture, about 1.5 minutes).
 test: install
 	$(PY) -m pytest -q -n 2
 
