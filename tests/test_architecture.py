@@ -81,6 +81,7 @@ HELPERS = {
     "placement.validation",
     "placement.simplicity",
     "placement.version",
+    "placement.method_names",
 }
 BELOW_ROBOTS = {"placement.kernels", *HELPERS}
 BELOW_KINEMATICS = {"placement.robots", "placement.storage", *BELOW_ROBOTS}
@@ -95,6 +96,7 @@ ALLOWED: dict[str, set[str] | frozenset[str]] = {
     "placement.version": NOTHING,
     "placement.validation": NOTHING,
     "placement.simplicity": NOTHING,
+    "placement.method_names": NOTHING,
     "placement.progress": {"placement.errors"},
     "placement.kernels": {"placement.errors"},
     "placement.robots": BELOW_ROBOTS,

@@ -91,7 +91,9 @@ def test_dir_lists_the_public_names_and_an_unknown_name_fails():
         placement.no_such_name  # noqa: B018
 
 
-@pytest.mark.parametrize("args", [[], ["maps"], ["scenes"], ["robots"]], ids=lambda a: " ".join(["placement", *a]))
+@pytest.mark.parametrize(
+    "args", [[], ["maps"], ["scenes"], ["robots"], ["query"], ["view"]], ids=lambda a: " ".join(["placement", *a])
+)
 def test_help_and_group_listings_load_nothing_heavy(args):
     out = _fresh(
         "from click.testing import CliRunner\nfrom placement.cli.main import cli\n"
@@ -144,3 +146,11 @@ def test_the_listing_from_docstrings_is_clicks_listing_of_the_loaded_commands(pa
     reference = formatter.getvalue()
     assert "Commands:" in reference
     assert reference in str(fresh["help"])
+
+
+def test_the_light_method_names_are_the_registrys():
+    from placement.method_names import DEFAULT_METHOD, METHOD_NAMES
+    from placement.planning.methods import registry
+
+    assert METHOD_NAMES == tuple(registry.METHODS) and DEFAULT_METHOD == registry.DEFAULT_METHOD
+    assert DEFAULT_METHOD in METHOD_NAMES

@@ -10,7 +10,8 @@ import click
 
 from placement.cli.options import bounded, emit, setup_logging, standard_options, to_json_line, writable_dir
 from placement.cli.params import OneLineCommand
-from placement.planning import DEFAULT_METHOD, METHODS
+from placement.method_names import DEFAULT_METHOD
+from placement.method_names import METHOD_NAMES as METHODS
 
 if TYPE_CHECKING:
     from placement.planning import Planner, PlanResult

@@ -9,7 +9,8 @@ import click
 
 from placement.cli.options import F, setup_logging, standard_options, to_json_line
 from placement.cli.params import Bounded, OneLineCommand, OneLineError
-from placement.planning import DEFAULT_METHOD, METHODS
+from placement.method_names import DEFAULT_METHOD
+from placement.method_names import METHOD_NAMES as METHODS
 
 if TYPE_CHECKING:
     from placement.scene import Scene

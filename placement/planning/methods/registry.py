@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from placement.errors import PlacementError
+from placement.method_names import DEFAULT_METHOD
 from placement.planning.methods.base import Method
 from placement.planning.methods.eq6 import Irm, Sequential, SingleStep
 from placement.planning.methods.fixed import Fixed
@@ -10,10 +11,6 @@ from placement.planning.methods.optimal import Global, Optimal
 
 #: Method name -> strategy class, in the order the CLI and the evaluation list them.
 METHODS: dict[str, type[Method]] = {m.name: m for m in (Global, Sequential, SingleStep, Irm, Fixed, Optimal)}
-
-
-#: The method a planner uses unless told otherwise.
-DEFAULT_METHOD = "global"
 
 
 def method_named(name: str) -> Method:
