@@ -19,11 +19,11 @@ from scipy.sparse.csgraph import dijkstra
 from support.deep_table import deep_table_scene
 from support.knee_torso import CROUCH, HIP, HIP_SPEED, KNEE, KNEE_SPEED, UPRIGHT, write_knee_torso
 from support.navigation import grid_graph
-from support.pitch_torso import JOINT, SPEED, write_pitch_torso
+from support.pitch_torso import JOINT, SETTINGS, SPEED, pitch_torso_maps, write_pitch_torso
 
 import placement
 from placement.evaluation.tasktime import task_time
-from placement.maps.buildspec import TorsoSpec, parse_torso
+from placement.maps.buildspec import parse_torso
 from placement.maps.torso_builds import build_torso_maps
 from placement.planning.bound import travel_bound
 from placement.planning.methods.optimal import DynamicProgram, solve_verified
@@ -31,7 +31,6 @@ from placement.planning.planner import Planner
 from placement.planning.torso_held import HeldFirst
 from placement.planning.torso_program import TorsoProgram, torso_regions, torso_term
 
-SETTINGS = (0.0, 0.6)  # [rad]: upright (the preset's) and leaning forward
 ROOT = Path(__file__).resolve().parents[1]
 TIAGO_SCENE = ROOT / "examples" / "kitchen_torso_tiago.yaml"
 TIAGO_MAPS = ROOT / "maps" / "tiago"
@@ -41,18 +40,7 @@ TIAGO_MAPS = ROOT / "maps" / "tiago"
 def pitch(tmp_path_factory):
     """(folder, maps path): the toy pitch robot's arm at both settings, 0.1 m cells."""
     folder = tmp_path_factory.mktemp("optimal_torso")
-    robot = placement.load_robot(write_pitch_torso(folder / "robot"))
-    built = build_torso_maps(
-        robot,
-        "arm",
-        torso=TorsoSpec(JOINT, SETTINGS),
-        samples=200_000,
-        seed=2,
-        resolution=0.1,
-        bins=(8, 5, 8),
-        progress=False,
-    )
-    return folder, placement.save_maps(folder / "maps", robot, built)
+    return folder, pitch_torso_maps(folder)[2]
 
 
 def _scene(folder: Path, maps: Path, resolution: float = 0.1, second: bool = False) -> str:

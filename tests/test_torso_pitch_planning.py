@@ -10,33 +10,15 @@ import numpy as np
 import pytest
 from support.deep_table import deep_table_scene
 from support.fk import world_tcp
-from support.pitch_torso import JOINT, write_pitch_torso
+from support.pitch_torso import JOINT, SETTINGS, pitch_torso_maps
 
-import placement
-from placement.maps.buildspec import TorsoSpec
-from placement.maps.torso_builds import build_torso_maps
 from placement.planning.planner import Planner
-
-SETTINGS = (0.0, 0.6)  # [rad]: upright (the preset's) and leaning forward
 
 
 @pytest.fixture(scope="module")
 def pitch(tmp_path_factory):
     """(robot, preset path, maps path): the arm at both settings, 0.1 m cells."""
-    folder = tmp_path_factory.mktemp("pitch_planning")
-    preset = write_pitch_torso(folder / "robot")
-    robot = placement.load_robot(preset)
-    built = build_torso_maps(
-        robot,
-        "arm",
-        torso=TorsoSpec(JOINT, SETTINGS),
-        samples=200_000,
-        seed=2,
-        resolution=0.1,
-        bins=(8, 5, 8),
-        progress=False,
-    )
-    return robot, preset, placement.save_maps(folder / "maps", robot, built)
+    return pitch_torso_maps(tmp_path_factory.mktemp("pitch_planning"))
 
 
 @pytest.mark.parametrize("method", ["global", "sequential"])

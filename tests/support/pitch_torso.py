@@ -105,3 +105,28 @@ def write_pitch_torso(folder: Path, held: float = 0.0, second_arm: bool = False,
 def pitch_torso_robot(folder: Path, held: float = 0.0, second_arm: bool = False, **changes: object):
     """The robot, loaded from a preset written into ``folder``."""
     return placement.load_robot(write_pitch_torso(folder, held, second_arm, **changes))
+
+
+#: [rad] the settings the tests' maps are built at: upright (the preset's) and leaning forward
+SETTINGS = (0.0, 0.6)
+
+
+def pitch_torso_maps(folder: Path) -> tuple[placement.Robot, Path, Path]:
+    """(robot, preset path, maps path): the toy robot's arm mapped at both :data:`SETTINGS`, 0.1 m
+    cells (200 k samples, seed 2), written into ``folder``."""
+    from placement.maps.buildspec import TorsoSpec
+    from placement.maps.torso_builds import build_torso_maps
+
+    preset = write_pitch_torso(folder / "robot")
+    robot = placement.load_robot(preset)
+    built = build_torso_maps(
+        robot,
+        "arm",
+        torso=TorsoSpec(JOINT, SETTINGS),
+        samples=200_000,
+        seed=2,
+        resolution=0.1,
+        bins=(8, 5, 8),
+        progress=False,
+    )
+    return robot, preset, placement.save_maps(folder / "maps", robot, built)
