@@ -136,3 +136,45 @@ def test_irm_max_runs_over_each_cells_allowed_yaws(coarse_map):
         )
         reached += max(per_yaw) > 0
     assert reached > 20
+
+
+@pytest.mark.parametrize(
+    "positions, yaws_rad",
+    [
+        # a grasp under its pre-grasp, a third pose beside them: the first two merge, the third not
+        ([[0.1234, 0.2345, 0.95], [0.1234, 0.2345, 0.75], [0.1734, 0.2345, 0.85]], [0.3, 0.3, 0.3]),
+        # stacked poses at different yaws: nothing merges
+        ([[0.1234, 0.2345, 0.95], [0.1234, 0.2345, 0.85]], [0.3, 1.9]),
+        # the same pose twice (one z bin) and one stacked between: all three read one merged slice
+        ([[0.1234, 0.2345, 0.95], [0.1234, 0.2345, 0.85], [0.1234, 0.2345, 0.95]], [-2.0, -2.0, -2.0]),
+    ],
+)
+def test_stacked_poses_read_once_equal_direct_lookup(coarse_map, positions, yaws_rad):
+    """Poses that differ only in height read one merged slice (their elementwise minimum); whether or
+    not they merge, the map equals the direct 6D lookups of the inverted poses."""
+    nav = NavGrid((-1.4, -1.4), 0.2, (14, 14))
+    yaws = base_yaws(24)
+    n = len(positions)
+    traj = pose_from_zyx(np.array(positions), yaws_rad, [0.0] * n, [math.pi] * n)
+    val, arg = manipulation_map(coarse_map, traj, nav, yaws, cells=np.arange(14 * 14))
+    xs, ys = nav.centres()
+    reached = 0
+    for iy in range(14):
+        for ix in range(14):
+            per_yaw = [coarse_map.value(np.linalg.inv(_planar(xs[ix], ys[iy], a)) @ traj).min() for a in yaws]
+            assert val[iy, ix] == max(per_yaw), (iy, ix)
+            assert arg[iy, ix] == (per_yaw.index(max(per_yaw)) if max(per_yaw) > 0 else -1)
+            reached += max(per_yaw) > 0
+    assert reached > 5
+
+
+def test_lowest_is_the_elementwise_minimum_of_the_slices(coarse_map):
+    g = coarse_map.grid
+    ip, ir = g.shape[4] // 2, 0
+    zs = (g.shape[2] - 2, 1, g.shape[2] - 2)
+    low = coarse_map.lowest(zs, ip, ir)
+    expect = np.minimum(coarse_map.slice(1, ip, ir), coarse_map.slice(g.shape[2] - 2, ip, ir))
+    assert low.dtype == np.float32 and np.array_equal(low, expect)
+    assert coarse_map.lowest((1, g.shape[2] - 2), ip, ir) is low  # cached, whatever the order
+    assert not low.flags.writeable
+    assert np.array_equal(coarse_map.lowest((3,), ip, ir), coarse_map.slice(3, ip, ir))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -43,6 +44,8 @@ class _Shared:
         self.full_witness: np.ndarray | None = None
         self.slices: dict[tuple[int, int, int], np.ndarray] = {}
         self.witness_slices: dict[tuple[int, int, int], np.ndarray] = {}
+        #: (z bins, pitch bin, roll bin) -> the elementwise minimum of those slices (see ``lowest``)
+        self.lowest: dict[tuple[tuple[int, ...], int, int], np.ndarray] = {}
         self.quantiles = quantiles
         self.views: dict[float, ReachabilityMap] = {} if views is None else views
 
@@ -256,6 +259,20 @@ class ReachabilityMap:
     def slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
         """Values (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""
         return self._chunk(self._full, self._slices, (iz, ip, ir), False)
+
+    def lowest(self, zs: Sequence[int], ip: int, ir: int) -> np.ndarray:
+        """(nx, ny, n_yaw) the elementwise minimum of the slices at z bins ``zs`` (pitch bin ip, roll
+        bin ir): what poses stacked above each other with the same yaw, pitch and roll read, in one
+        slice (cached; read-only)."""
+        key = (tuple(sorted({int(z) for z in zs})), int(ip), int(ir))
+        hit = self._shared.lowest.get(key)
+        if hit is None:
+            hit = self.slice(key[0][0], key[1], key[2]).copy()
+            for z in key[0][1:]:
+                np.minimum(hit, self.slice(z, key[1], key[2]), out=hit)
+            hit.flags.writeable = False
+            self._shared.lowest[key] = hit
+        return hit
 
     def slice_reach(self, iz: int, ip: int, ir: int) -> float:
         """Largest horizontal distance [m] from the base origin to any point of a reached cell of

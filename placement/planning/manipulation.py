@@ -99,8 +99,9 @@ def manipulation_maps(
     """:func:`manipulation_map` of several trajectories over the same ``cells``, ``window`` and ``masks``.
 
     Trajectories whose poses share positions and map slices (they differ only in the gripper's
-    yaw, like a step's grasp or place candidates) are evaluated in one pass; each result is the same
-    as its own evaluation. Returns (value, yaw_index) per trajectory, in order.
+    yaw, like a step's grasp or place candidates) are evaluated in one pass, and poses stacked above
+    each other read one merged slice (:func:`_stacked`); each result is the same as its own
+    evaluation. Returns (value, yaw_index) per trajectory, in order.
     """
     g: Grid = rmap.grid
     window = window or Window(0, nav.shape[0], 0, nav.shape[1])
@@ -124,14 +125,19 @@ def manipulation_maps(
         else:
             groups.setdefault(keyed[0], []).append((i, keyed[1]))
     for keys, members in groups.items():
-        slices = np.ascontiguousarray(np.stack([rmap.slice(iz, ip, ir) for _, _, iz, ip, ir in keys]))
+        yaws_of = [m[1] for m in members]
+        stacked = _stacked(keys, yaws_of)
+        read = [
+            rmap.lowest(zs, ip, ir) if len(zs) > 1 else rmap.slice(zs[0], ip, ir) for _, _, zs, ip, ir, _ in stacked
+        ]
+        slices = np.ascontiguousarray(np.stack(read))
         vals = np.zeros((len(members), *window.shape), np.float32)
         args = np.full((len(members), *window.shape), -1, np.int64)
         trajectory_maps(
             slices,
-            np.array([k[0] for k in keys]),
-            np.array([k[1] for k in keys]),
-            np.array([m[1] for m in members], dtype=float),
+            np.array([k[0] for k in stacked]),
+            np.array([k[1] for k in stacked]),
+            np.array([[t[k[5]] for k in stacked] for t in yaws_of], dtype=float),
             np.array(g.origin[:2]),
             g.resolution,
             np.asarray(yaws, dtype=float),
@@ -149,6 +155,23 @@ def manipulation_maps(
         for j, (i, _) in enumerate(members):
             out[i] = (vals[j], args[j])
     return [m for m in out if m is not None]  # every trajectory has its map by now
+
+
+#: Poses merged by :func:`_stacked`: (x [m], y [m], z bins, pitch bin, roll bin, index of the first pose).
+Stacked = tuple[float, float, tuple[int, ...], int, int, int]
+
+
+def _stacked(keys: tuple[PoseKey, ...], yaws: Sequence[list[float]]) -> list[Stacked]:
+    """The trajectory's poses merged where they read the same map row: poses at the same (x, y) with
+    the same pitch and roll bins and, in every trajectory of ``yaws`` (C lists of P yaws [rad]), the
+    same yaw differ only in their z bin (a pre-grasp above its grasp), so at every base pose they read
+    the same row of their slices. Their minimum is then read once from the slices' elementwise
+    minimum (``ReachabilityMap.lowest``): the same value, half the lookups. In the order of each
+    merged pose's first pose."""
+    out: dict[tuple[float, float, int, int, tuple[float, ...]], tuple[list[int], int]] = {}
+    for j, (x, y, iz, ip, ir) in enumerate(keys):
+        out.setdefault((x, y, ip, ir, tuple(t[j] for t in yaws)), ([], j))[0].append(iz)
+    return [(x, y, tuple(zs), ip, ir, j) for (x, y, ip, ir, _), (zs, j) in out.items()]
 
 
 def pose_reach(rmap: ReachabilityMap, pose: FloatArray) -> float:
