@@ -178,3 +178,31 @@ def test_lowest_is_the_elementwise_minimum_of_the_slices(coarse_map):
     assert coarse_map.lowest((1, g.shape[2] - 2), ip, ir) is low  # cached, whatever the order
     assert not low.flags.writeable
     assert np.array_equal(coarse_map.lowest((3,), ip, ir), coarse_map.slice(3, ip, ir))
+
+
+@pytest.mark.parametrize("poses, candidates", [(1, 1), (1, 8), (2, 2), (3, 5)])
+def test_column_skip_changes_no_result(poses, candidates):
+    """The kernel skips a base yaw whose first pose lands on a map column no higher than every
+    candidate's best: on random sparse slices its results equal the kernel's without skips (an
+    upper bound that never holds) bit for bit, values and best yaws."""
+    from placement.kernels.irm import trajectory_maps
+
+    rng = np.random.default_rng(poses * 10 + candidates)
+    slices = rng.random((poses, 12, 14, 8)).astype(np.float32)
+    slices[slices < 0.6] = 0.0  # sparse, like a map's slices
+    slices = np.round(slices * 8) / 8  # ties between yaws: the first best yaw must win in both
+    tcp = rng.uniform(-0.2, 0.2, (2, poses))
+    tcp_yaw = rng.uniform(-math.pi, math.pi, (candidates, poses))
+    yaws = base_yaws(36)
+    ny, nx = 16, 15
+    cells = np.sort(rng.choice(ny * nx, 150, replace=False)).astype(np.int64)
+    masks = rng.integers(0, 2**62, (150, 1)).astype(np.uint64)
+    out = []
+    for bound in (np.ascontiguousarray(slices[0].max(axis=2)), np.full((12, 14), np.inf, np.float32)):
+        val = np.zeros((candidates, ny, nx), np.float32)
+        arg = np.full((candidates, ny, nx), -1, np.int64)
+        args = (tcp[0], tcp[1], tcp_yaw, np.array([-0.6, -0.7]), 0.1, yaws, np.array([-0.75, -0.8]), 0.1)
+        trajectory_maps(slices, bound, *args, ny, nx, cells, masks, val, arg, 0, 0)
+        out.append((val, arg))
+    assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
+    assert (out[0][0] > 0).sum() > 20

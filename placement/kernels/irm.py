@@ -21,6 +21,7 @@ CHUNK = 64  # cells per parallel task: per-task scratch, no allocation per cell
 @njit(cache=True, parallel=True)
 def trajectory_maps(
     slices,
+    column_max,
     tcp_x,
     tcp_y,
     tcp_yaw,
@@ -44,10 +45,15 @@ def trajectory_maps(
     Candidates of one step (two top grasps, eight place yaws) hold the TCP at the same points with
     the same tilt: the rotated position of a pose seen from a base pose is computed once and the map
     row read there serves all C of them. Each candidate's result equals its own one-trajectory
-    evaluation exactly (same arithmetic, same early exits).
+    evaluation exactly (same arithmetic; an early exit never changes a result).
+
+    A base yaw whose first pose lands on a map column (all yaw bins at one position) whose maximum is
+    at most every candidate's best so far is skipped: no value there could beat a best (a strict
+    improvement is needed), so the results are those of evaluating it.
 
     Args:
         slices: (P, nx_rm, ny_rm, n_yaw) float32, the map slice of each TCP pose.
+        column_max: (nx_rm, ny_rm) float32, ``slices[0].max(axis=2)`` (or any upper bound of it).
         tcp_x, tcp_y: (P,) world position of each pose [m]; tcp_yaw: (C, P) ZYX yaw of each
             candidate's poses [rad].
         rm_origin: (2,) map grid lower corner (x, y) in the base frame [m]; rm_res [m].
@@ -91,6 +97,7 @@ def trajectory_maps(
             for c in range(C):
                 best[c] = np.float32(0.0)
                 arg[c] = -1
+            floor = np.float32(0.0)  # the least best over the candidates
             for k in range(K):
                 if (masks[ci, k >> 6] >> np.uint64(k & 63)) & np.uint64(1) == 0:
                     continue
@@ -110,6 +117,9 @@ def trajectory_maps(
                     if jx < 0 or jy < 0 or jx >= nxr or jy >= nyr:
                         left = 0  # unreachable for all: m would be 0, never above best
                         break
+                    if p == 0 and column_max[jx, jy] <= floor:
+                        left = 0  # no candidate's value here can beat its best
+                        break
                     for c in range(C):
                         if alive[c]:
                             v = slices[p, jx, jy, ybin[k, p, c]]
@@ -125,6 +135,9 @@ def trajectory_maps(
                         if alive[c] and m[c] > best[c]:
                             best[c] = m[c]
                             arg[c] = k
+                    floor = best[0]
+                    for c in range(1, C):
+                        floor = min(floor, best[c])
             for c in range(C):
                 out_val[c, iy - out_y0, ix - out_x0] = best[c]
                 out_yaw[c, iy - out_y0, ix - out_x0] = arg[c]

@@ -46,6 +46,8 @@ class _Shared:
         self.witness_slices: dict[tuple[int, int, int], np.ndarray] = {}
         #: (z bins, pitch bin, roll bin) -> the elementwise minimum of those slices (see ``lowest``)
         self.lowest: dict[tuple[tuple[int, ...], int, int], np.ndarray] = {}
+        #: the same keys -> that slice's maximum over the yaw bins (see ``column_max``)
+        self.column_max: dict[tuple[tuple[int, ...], int, int], np.ndarray] = {}
         self.quantiles = quantiles
         self.views: dict[float, ReachabilityMap] = {} if views is None else views
 
@@ -263,8 +265,10 @@ class ReachabilityMap:
     def lowest(self, zs: Sequence[int], ip: int, ir: int) -> np.ndarray:
         """(nx, ny, n_yaw) the elementwise minimum of the slices at z bins ``zs`` (pitch bin ip, roll
         bin ir): what poses stacked above each other with the same yaw, pitch and roll read, in one
-        slice (cached; read-only)."""
+        slice (cached; read-only; one z bin: that slice)."""
         key = (tuple(sorted({int(z) for z in zs})), int(ip), int(ir))
+        if len(key[0]) == 1:
+            return self.slice(key[0][0], key[1], key[2])
         hit = self._shared.lowest.get(key)
         if hit is None:
             hit = self.slice(key[0][0], key[1], key[2]).copy()
@@ -272,6 +276,17 @@ class ReachabilityMap:
                 np.minimum(hit, self.slice(z, key[1], key[2]), out=hit)
             hit.flags.writeable = False
             self._shared.lowest[key] = hit
+        return hit
+
+    def column_max(self, zs: Sequence[int], ip: int, ir: int) -> np.ndarray:
+        """(nx, ny) float32: the maximum over the yaw bins of :meth:`lowest` ``(zs, ip, ir)`` (cached;
+        read-only): a bound the inverse-map kernel skips base yaws with."""
+        key = (tuple(sorted({int(z) for z in zs})), int(ip), int(ir))
+        hit = self._shared.column_max.get(key)
+        if hit is None:
+            hit = np.ascontiguousarray(self.lowest(*key).max(axis=2))
+            hit.flags.writeable = False
+            self._shared.column_max[key] = hit
         return hit
 
     def slice_reach(self, iz: int, ip: int, ir: int) -> float:

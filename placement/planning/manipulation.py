@@ -135,6 +135,7 @@ def manipulation_maps(
         args = np.full((len(members), *window.shape), -1, np.int64)
         trajectory_maps(
             slices,
+            rmap.column_max(*stacked[0][2:5]),
             np.array([k[0] for k in stacked]),
             np.array([k[1] for k in stacked]),
             np.array([[t[k[5]] for k in stacked] for t in yaws_of], dtype=float),
