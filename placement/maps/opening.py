@@ -5,7 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from placement.errors import GridError, MapError
-from placement.maps.rmap import ReachabilityMap, check_arrays
+from placement.maps.array_checks import check_arrays
+from placement.maps.rmap import ReachabilityMap
 from placement.robots import Robot, load_robot
 from placement.storage import open_store
 from placement.storage.schema import arm_arrays

@@ -10,14 +10,13 @@ import numpy.typing as npt
 
 from placement.errors import GridError, MapError, PlacementError
 from placement.kernels.grid import cell_indices
-from placement.kinematics.manipulability import arm_rank
+from placement.maps.array_checks import check_arrays
 from placement.maps.grid import Grid
 from placement.maps.quantiles import estimate_quantiles, quantile_value
 from placement.maps.torso import TorsoSettings, allowed_value, settings_from_meta
-from placement.maps.witness import empty_value, plain_samples, witness_configs
+from placement.maps.witness import plain_samples, witness_configs
 from placement.robots import Robot
 from placement.storage import StoredMap
-from placement.storage.format import witness_name
 from placement.storage.output import MapOutput, check_target, save_maps
 from placement.storage.validate import TCP_TOLERANCE, check_root, validate_arm, validate_robot
 
@@ -354,28 +353,6 @@ class ReachabilityMap:
     def verify(self) -> None:
         """Read every chunk and compare it with its stored CRC32 (MapError if any is damaged)."""
         self.store.read_all(self.array)
-
-
-def check_arrays(rmap: ReachabilityMap, robot: Robot) -> None:
-    """MapError unless the opened map's measure has the arm's rank and its arrays are complete."""
-    path, arm, store = rmap.path, rmap.arm, rmap.store
-    if rmap.meta["witness"]["empty"] != empty_value(rmap.meta["witness"]["dtype"]):
-        raise MapError(f"{path}: metadata of arm '{arm}' is inconsistent (corrupt); rebuild the map")
-    if rmap.rank != arm_rank(robot, arm):
-        # e.g. a map of an arm spanning 5 dimensions built with the 6-dimensional measure: all zeros
-        raise MapError(
-            f"{path}: the map of arm '{arm}' holds the measure on {rmap.rank} dimensions (measure.rank), "
-            f"the arm spans {arm_rank(robot, arm)}; rebuild the map"
-        )
-    store.check_arrays(rmap.array)
-    for name, key in ((rmap.array, "stored_chunks"), (witness_name(rmap.array), "stored_witness_chunks")):
-        want = rmap.meta.get(key)
-        have = store.chunks_present(name)
-        if want is not None and have is not None and have != want:
-            raise MapError(
-                f"{path}: arm '{arm}' has {have} of {want} {'witness' if name != rmap.array else 'data'} "
-                f"chunks (half-written or corrupt); rebuild the map"
-            )
 
 
 def open_setting(
