@@ -127,10 +127,7 @@ def manipulation_maps(
     for keys, members in groups.items():
         yaws_of = [m[1] for m in members]
         stacked = _stacked(keys, yaws_of)
-        read = [
-            rmap.lowest(zs, ip, ir) if len(zs) > 1 else rmap.slice(zs[0], ip, ir) for _, _, zs, ip, ir, _ in stacked
-        ]
-        slices = np.ascontiguousarray(np.stack(read))
+        slices = np.ascontiguousarray(np.stack([rmap.lowest(zs, ip, ir) for _, _, zs, ip, ir, _ in stacked]))
         vals = np.zeros((len(members), *window.shape), np.float32)
         args = np.full((len(members), *window.shape), -1, np.int64)
         trajectory_maps(
