@@ -52,14 +52,11 @@ def oracle_scene(scene) -> list[tuple[str, object, np.ndarray]]:
     for o in scene.objects:
         out.append((o.name, coal.Box(*o.size), rz(o.yaw, o.position)))
     occ = scene.occupancy
-    if occ is not None:
+    if occ is not None and occ.arm_height is not None:
+        h = occ.arm_height
         for r, c in zip(*np.nonzero(occ.occupied)):
-            centre = [
-                occ.origin[0] + (c + 0.5) * occ.resolution,
-                occ.origin[1] + (r + 0.5) * occ.resolution,
-                HEIGHT / 2,
-            ]
-            out.append((f"occupancy[{r},{c}]", coal.Box(occ.resolution, occ.resolution, HEIGHT), rz(0.0, centre)))
+            centre = [occ.origin[0] + (c + 0.5) * occ.resolution, occ.origin[1] + (r + 0.5) * occ.resolution, h / 2]
+            out.append((f"occupancy[{r},{c}]", coal.Box(occ.resolution, occ.resolution, h), rz(0.0, centre)))
     return out
 
 

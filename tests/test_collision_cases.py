@@ -153,12 +153,15 @@ def test_far_from_everything_reports_the_cap(pr2):
 
 
 def test_occupancy_cells_only_near_the_robot(pr2):
-    """A 4 million cell map, nearly all occupied, checked in milliseconds; cells name the culprit."""
+    """A 4 million cell map, nearly all occupied, given a height for the arm, checked in milliseconds;
+    cells name the culprit. Without a height the map is the base's alone: the arm reaches over it."""
     occ = np.ones((2000, 2000), dtype=bool)  # 0.01 m cells over [-10, 10)^2
     occ[900:1100, 900:1100] = False  # a free 2 m x 2 m room around the origin
     scene = dataclasses.replace(
-        table_scene(), objects=(), obstacles=(), occupancy=OccupancyMap(occ, 0.01, (-10.0, -10.0, 0.0))
+        table_scene(), objects=(), obstacles=(), occupancy=OccupancyMap(occ, 0.01, (-10.0, -10.0, 0.0), arm_height=3.0)
     )
+    flat = dataclasses.replace(scene, occupancy=OccupancyMap(occ, 0.01, (-10.0, -10.0, 0.0)))
+    assert SceneCollision(pr2, flat).check("right", [pr2.arm("right").home], (0.45, 0.0, 0.0)).free
     c = SceneCollision(pr2, scene)
     home = pr2.arm("right").home
     assert c.check("right", [home], (0.0, 0.0, 0.0)).free

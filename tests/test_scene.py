@@ -131,7 +131,7 @@ ERRORS = [
     ),
     (
         set_key(["robots"], {}),
-        "unknown key 'robots'; allowed: bounds, maps, objects, obstacles, occupancy_map, place_locations",
+        "unknown key 'robots'; allowed: bounds, keepout_mask, maps, objects, obstacles, occupancy_map, place_locations",
     ),
     (set_key(["robot", "goal"], [0, 0, 0]), "unknown key 'robot.goal'; allowed: preset, start"),
     (set_key(["task", 0, "arm"], "left"), "unknown key 'task[0].arm'; allowed: pick, place"),

@@ -10,6 +10,8 @@ Pairs checked (coal, on the URDF's collision shapes, see :mod:`placement.collisi
   the gripper (the shapes moved by the arm's last joint or carrying its tip frame) against the
   ``grasped`` object: it is being grasped, or held in a place step. The rest of the arm is checked
   against it. A pair collides when its distance is below ``padding`` [m].
+* floor: every shape moved by the arm, and the held object, against the floor (z = 0): see
+  :mod:`placement.collision.floor`.
 * self: every shape moved by the arm against every other shape, except shapes on the same or adjacent
   links, the SRDF's disabled pairs and pairs already in contact with every arm idle (they touch by
   design or through the model's slack). A pair collides when the shapes overlap (no padding).
@@ -35,6 +37,7 @@ import numpy.typing as npt
 import pinocchio as pin
 
 from placement.collision.bounds import base_matrix, influence_box, model_aabb
+from placement.collision.floor import floor_collision
 from placement.collision.held import HeldCheck
 from placement.collision.pairs import candidate_pairs
 from placement.collision.robot import ArmShapes, robot_geometry
@@ -112,7 +115,9 @@ class SceneCollision:
         object_of: list[str | None] = [s.name if s.name in names else None for s in shapes]
         aabb = np.array([s.aabb for s in shapes]).reshape(-1, 2, 3)
         occ = getattr(scene, "occupancy", None)
-        cells = OccupancyCells(occ) if occ is not None else None
+        # a 2D map is the base's; its cells enter the arm's model only with a height the user gave
+        height = getattr(occ, "arm_height", None)
+        cells = OccupancyCells(occ, height) if occ is not None and height is not None else None
         grid = PieceGrid(aabb, self._tilt()) if self.prefilter and len(shapes) >= GRID_PIECES else None
         # all or nothing: a scene the check cannot take leaves the checker as it was
         self.shapes, self.objects, self._object_of, self._aabb, self.cells, self._grid = (
@@ -181,13 +186,14 @@ class SceneCollision:
             hit = self._first_collision(pairs, inst, scene)
             if hit is not None:
                 return replace(hit, box=box)
-        if held is None:
-            return replace(free, box=box)
-        assert carried_at is not None
-        carried = self._held(held, carried_at, A, inst, frozenset(gone) | {held.name})
-        if not carried.free:
-            return replace(carried, box=box)
-        return replace(free if free.clearance_m <= carried.clearance_m else carried, box=box)
+        if held is not None:
+            assert carried_at is not None
+            carried = self._held(held, carried_at, A, inst, frozenset(gone) | {held.name})
+            if not carried.free:
+                return replace(carried, box=box)
+            free = free if free.clearance_m <= carried.clearance_m else carried
+        floor = floor_collision(inst, A, lambda k: self._robot(inst, k), self.geometry.names, held, carried_at)
+        return replace(free if floor is None else floor, box=box)
 
     def _held(
         self,

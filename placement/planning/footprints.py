@@ -48,6 +48,14 @@ class BaseShape:
         return cls(float(robot.footprint_radius), poly, float(padding), np.asarray(yaws, dtype=float))
 
     @property
+    def clearance(self) -> float:
+        """[m] the least distance from the base origin to an obstacle at which the base can fit at some
+        yaw: the inscribed radius plus padding (a polygon), the radius (a round base)."""
+        if self.polygon is None:
+            return self.radius
+        return inscribed_radius(self.outline()) + self.padding
+
+    @property
     def words(self) -> int:
         """uint64 words per yaw mask."""
         return (len(self.yaws) + 63) // 64

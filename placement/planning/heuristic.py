@@ -5,22 +5,31 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from placement.planning.navigation import navigation_cost
+from placement.planning.navigation import EIGHT, navigation_cost
 from placement.planning.world import World
 
 
 def region_heuristic(
-    region: np.ndarray, world: World, min_region: float, targets: np.ndarray | None = None
+    region: np.ndarray,
+    world: World,
+    min_region: float,
+    targets: np.ndarray | None = None,
+    reachable: np.ndarray | None = None,
 ) -> np.ndarray:
     """Navigation cost [m] towards the connected regions of ``region`` (ny, nx) bool.
 
-    Each 8-connected region contributes the cost map from its centre cell (the region cell nearest
+    ``reachable``: optional (ny, nx) bool, the cells the base can get to
+    (:func:`~placement.planning.navigation.reachable_from`); the
+    region's other cells are left out, since a region in a pocket of floor the base cannot reach
+    would make the cost infinite everywhere. Each 8-connected region contributes the cost map from its centre cell (the region cell nearest
     its centroid), weighted by its share of the area. Regions under ``min_region`` of the total
     area would add a full cost map each for a negligible weight: they are dropped and the weights
     renormalised. ``targets``: optional (ny, nx) bool of the cells that will be read (the cost maps
     then stop once those are settled; other cells are inf). All zeros when ``region`` is empty.
     """
-    labels, n = ndimage.label(region, structure=np.ones((3, 3)))
+    if reachable is not None:
+        region = region & reachable
+    labels, n = ndimage.label(region, structure=EIGHT)
     total = np.zeros(world.nav.shape)
     if n == 0:
         return total

@@ -8,10 +8,29 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
+from scipy import ndimage
 
 from placement.errors import PlacementError
 from placement.kernels.navigation import distance_transform, shortest_costs
 from placement.planning.arrays import BoolArray, FloatArray, IntArray
+from placement.scene.navgrid import NavGrid
+
+#: 8-connected, as the base moves (placement.kernels.navigation)
+EIGHT = np.ones((3, 3), dtype=bool)
+
+
+def reachable_from(feasible: BoolArray, nav: NavGrid, x: float, y: float) -> BoolArray:
+    """(ny, nx) bool: the ``feasible`` cells the base can drive to from (x, y) [m] on ``nav``: its
+    8-connected component (every feasible cell when (x, y) is not on one: nothing narrower can be said)."""
+    try:
+        cell = nav.cell(x, y)
+    except PlacementError:
+        return feasible.copy()
+    if not feasible[cell]:
+        return feasible.copy()
+    labels, _ = ndimage.label(feasible, structure=EIGHT)
+    out: BoolArray = labels == labels[cell]
+    return out
 
 
 def distance_map(occupied: BoolArray, resolution: float) -> FloatArray:

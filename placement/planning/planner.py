@@ -38,7 +38,7 @@ from placement.planning.problems import StepProblems
 from placement.planning.results import PlanResult, robot_info
 from placement.planning.thresholds import resolve_thresholds, setting_thresholds, with_threshold
 from placement.planning.updates import apply_update
-from placement.planning.world import World, build_world
+from placement.planning.world import World, windowed_world
 from placement.robots import Robot, load_robot
 from placement.scene import Scene, load_scene
 from placement.storage import open_store
@@ -118,7 +118,7 @@ class Planner:
         checker = SceneCollision(robot, scene, padding=cfg.collision_padding) if collisions else None
         yaws = base_yaws(cfg.yaw_steps)
         base = BaseShape.of(robot, cfg.footprint_padding, yaws)
-        world = build_world(scene, base, cfg)
+        world = windowed_world(scene, base, cfg, robot.v_max)
         problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening, thresholds, settings)
         self.context = PlanningContext(
             scene,
@@ -212,7 +212,7 @@ class Planner:
         try:
             cell = self.world.nav.cell(x, y)
         except PlacementError:
-            raise PlacementError(f"start pose ({x}, {y}) is outside the scene bounds") from None
+            raise PlacementError(f"start pose ({x}, {y}) is outside the planning grid") from None
         if self.robot.footprint is not None:
             if not self.world.pose_clear(x, y, yaw):
                 raise PlacementError(

@@ -26,7 +26,7 @@ from placement.planning.config import PlannerConfig
 from placement.planning.grasps import GRIPPER_OPENING, Candidate
 from placement.planning.heuristic import region_heuristic
 from placement.planning.manipulation import cells_within, manipulation_maps, pose_reach
-from placement.planning.navigation import navigation_cost
+from placement.planning.navigation import navigation_cost, reachable_from
 from placement.planning.option import Option, height_range
 from placement.planning.refresh import refreshed_options
 from placement.planning.steps import Step, step_candidates, task_steps
@@ -83,6 +83,7 @@ class StepProblems:
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
+        self._reachable: BoolArray | None = None
         #: id(options list) -> (that list, its region by the maps): see placement.planning.bound
         self.regions: dict[int, tuple[Sequence[Option], Any]] = {}
         # step -> its grasp or place candidates (the options of each torso setting share them)
@@ -210,12 +211,20 @@ class StepProblems:
             mask[o.window.slices] |= o.value >= self.threshold(o.arm, o.torso)
         return mask
 
+    @property
+    def reachable(self) -> BoolArray:
+        """(ny, nx) bool: the cells the base can drive to from the scene's start (cached)."""
+        if self._reachable is None:
+            self._reachable = reachable_from(self.world.feasible, self.world.nav, *self.scene.start[:2])
+        return self._reachable
+
     def heuristic(self, i: int, at: BoolArray | None = None) -> FloatArray:
-        """Navigation cost [m] towards step i's feasible regions (cached); ``at``: optional (ny, nx)
-        bool of the cells that will be read (see :func:`region_heuristic`)."""
+        """Navigation cost [m] towards step i's feasible regions that the base can reach (cached);
+        ``at``: optional (ny, nx) bool of the cells that will be read (see :func:`region_heuristic`)."""
         key = (i, at is None)
         if key not in self._heuristic:
-            self._heuristic[key] = region_heuristic(self.feasible_region(i), self.world, self.config.min_region, at)
+            region = self.feasible_region(i)
+            self._heuristic[key] = region_heuristic(region, self.world, self.config.min_region, at, self.reachable)
         return self._heuristic[key]
 
     def changed(self, scene: Scene, world: World, moved_objects: set[str]) -> StepProblems:
@@ -252,7 +261,9 @@ class StepProblems:
             new._legs = self._legs
             # step i's heuristic reads step i's regions and stops once step i - 1's cells are settled
             stale = moved | {i + 1 for i in moved}
-            new._heuristic = {k: h for k, h in self._heuristic.items() if k[0] not in stale}
+            # ... and only the cells the start reaches: a start moved to another part of the floor changes them
+            if self._reachable is not None and np.array_equal(new.reachable, self._reachable):
+                new._heuristic = {k: h for k, h in self._heuristic.items() if k[0] not in stale}
         return new
 
     def _candidates_of(self, i: int) -> list[Candidate]:

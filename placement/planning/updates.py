@@ -23,7 +23,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from placement.planning.context import PlanningContext
-from placement.planning.world import add_touched, build_world, changed_occupancy, world_from_occupancy
+from placement.planning.problems import StepProblems
+from placement.planning.world import add_touched, build_world, changed_occupancy, windowed_world, world_from_occupancy
 from placement.scene import Obstacle, Scene, SceneObject, SceneParser, check_scene
 from placement.scene.parse import OBJECT_KEYS_V1
 from placement.validation import describe
@@ -136,12 +137,20 @@ def apply_update(ctx: PlanningContext, change: Any) -> tuple[PlanningContext, di
     scene = parsed.scene
     timings: dict[str, float] = {}
     world = ctx.world
-    if parsed.obstacles_changed:
+    windowed = ctx.world.window is not None or scene.occupancy is not None and not scene.bounds_given
+    if windowed:  # the task's new routes may need another window: the world is made again
+        t = time.perf_counter()
+        world = windowed_world(scene, world.base, ctx.config, ctx.robot.v_max)
+        if world.window == ctx.world.window and not parsed.obstacles_changed:
+            world = ctx.world  # the same layers: keep what was computed on them
+        timings["distance"] = (time.perf_counter() - t) * 1e3
+    elif parsed.obstacles_changed:
         t = time.perf_counter()
         # ctx.config differs from the scene's configuration in the methods' weights only, which
         # the world does not read
-        if parsed.obstacles_removed and scene.occupancy is not None:  # cleared cells need the map raster again
-            world = build_world(scene, world.base, ctx.config)
+        layers = (scene.occupancy, scene.keepout, scene.speed)
+        if parsed.obstacles_removed and any(x is not None for x in layers):  # cleared cells need the 2D layers again
+            world = build_world(scene, world.base, ctx.config, ctx.robot.v_max)
         else:
             # by identity: a name removed and added again in one change is a different obstacle
             old = {id(o) for o in ctx.scene.obstacles}
@@ -157,7 +166,11 @@ def apply_update(ctx: PlanningContext, change: Any) -> tuple[PlanningContext, di
             )
             world = world_from_occupancy(world.nav, occupied, world.base, ctx.config, touched, world)
         timings["distance"] = (time.perf_counter() - t) * 1e3
-    problems = ctx.problems.changed(scene, world, parsed.moved)
+    if world.nav != ctx.world.nav:  # another window: nothing computed on the old grid holds
+        p = ctx.problems
+        problems = StepProblems(scene, world, p.maps, p.config, p.yaws, p.opening_m, p.thresholds, p.setting_thresholds)
+    else:
+        problems = ctx.problems.changed(scene, world, parsed.moved)
     if ctx.collisions is not None:
         checkers = [ctx.collisions, *ctx.torso_checks.values()]
         try:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -12,6 +13,7 @@ from placement.planning.arrays import BoolArray, FloatArray, IntArray, MaskArray
 from placement.planning.config import PlannerConfig
 from placement.planning.footprints import BaseShape, YawMasks, masks_at, polygon_feasibility, pose_clear
 from placement.planning.navigation import distance_map, speed_factor
+from placement.planning.window import Window, serves, task_window
 from placement.scene import Box, Cylinder, Obstacle, Polygon, Scene
 from placement.scene.navgrid import NavGrid
 from placement.scene.occupancy import rasterize_occupancy
@@ -165,6 +167,9 @@ class World:
         these cells. factor: slowdown of Eq. 4 (travel cost per metre, >= 1), from ``distance``.
         base: the base shape and yaws. touched: bool, cells an obstacle reaches into (polygon
         bases; None for round ones). masks: the allowed yaws of the band cells (None for round bases).
+        slowdown: (ny, nx) the speed mask's travel cost multiplier (>= 1), or None without one.
+        window: the rows and columns (j0, j1, i0, i1) of the scene's grid that ``nav`` covers, or None
+            for the whole grid (see :mod:`placement.planning.window`).
     """
 
     nav: NavGrid
@@ -175,6 +180,8 @@ class World:
     base: BaseShape
     touched: BoolArray | None = None
     masks: YawMasks | None = None
+    slowdown: FloatArray | None = None
+    window: Window | None = None
 
     def yaw_masks(self, cells: IntArray) -> MaskArray:
         """(N, W) uint64 packed masks of the base yaws allowed on flat ``cells`` (N,) (bit k of word
@@ -190,21 +197,107 @@ class World:
                 return False
         return pose_clear(self.base, self.touched, self.nav, x, y, yaw)
 
+    def crop(self, j0: int, j1: int, i0: int, i1: int, window: Window | None) -> World:
+        """The world on rows j0..j1-1 and columns i0..i1-1 of its grid (each cell as it was), recorded
+        as covering ``window`` of the scene's grid."""
+        r = self.nav.resolution
+        nav = NavGrid((self.nav.origin[0] + i0 * r, self.nav.origin[1] + j0 * r), r, (j1 - j0, i1 - i0))
 
-def build_world(scene: Scene, base: BaseShape, config: PlannerConfig) -> World:
-    """Occupancy from the scene's obstacles (and occupancy map), then distance, feasibility, speed.
+        def cut(a: np.ndarray | None) -> np.ndarray | None:
+            return None if a is None else np.ascontiguousarray(a[j0:j1, i0:i1])
 
-    ``base``: the robot's base shape and yaws; the velocity model's parameters come from ``config``.
+        masks = None
+        if self.masks is not None:
+            nx = self.nav.shape[1]
+            rows, cols = self.masks.cells // nx, self.masks.cells % nx
+            keep = (rows >= j0) & (rows < j1) & (cols >= i0) & (cols < i1)
+            cells = (rows[keep] - j0) * (i1 - i0) + (cols[keep] - i0)
+            masks = YawMasks(np.ascontiguousarray(cells), np.ascontiguousarray(self.masks.bits[keep]))
+        out = World(
+            nav,
+            cut(self.occupied),  # type: ignore[arg-type]
+            cut(self.distance),  # type: ignore[arg-type]
+            cut(self.feasible),  # type: ignore[arg-type]
+            cut(self.factor),  # type: ignore[arg-type]
+            self.base,
+            cut(self.touched),
+            masks,
+            cut(self.slowdown),
+            window,
+        )
+        return out
+
+
+def base_layers(scene: Scene, nav: NavGrid, v_max: float) -> tuple[BoolArray | None, FloatArray | None]:
+    """The scene's 2D inputs on ``nav``: the cells closed to the base, conservatively (occupancy map
+    cells that are occupied, or unknown unless the map frees them, cells outside the map likewise,
+    keepout cells, and cells a speed limit of 0 closes), or None without any; and the speed mask's
+    travel cost multiplier (>= 1), or None without one. ``v_max``: the robot's top speed [m/s]."""
+    closed = None
+    if scene.occupancy is not None:
+        outside = scene.occupancy.unknown == "occupied"
+        closed = rasterize_occupancy(
+            scene.occupancy, nav.origin, nav.resolution, nav.shape, conservative=True, outside_occupied=outside
+        )
+    if scene.keepout is not None:
+        keep = scene.keepout.closed(nav.origin, nav.resolution, nav.shape)
+        closed = keep if closed is None else closed | keep
+    slowdown = None
+    if scene.speed is not None:
+        slowdown = scene.speed.slowdown(nav.origin, nav.resolution, nav.shape, v_max)
+        stopped = ~np.isfinite(slowdown)
+        if stopped.any():
+            closed = stopped if closed is None else closed | stopped
+            slowdown = np.where(stopped, 1.0, slowdown)
+    return closed, slowdown
+
+
+def halo_cells(base: BaseShape, config: PlannerConfig, resolution: float) -> int:
+    """Cells around a window whose obstacles can change a window cell's layers: the base's reach
+    (footprint and padding) and the Eq. 4 slowdown distance, plus slack."""
+    reach = base.radius + base.padding + config.d_max
+    return int(math.ceil(reach / resolution)) + 2
+
+
+def build_world(
+    scene: Scene, base: BaseShape, config: PlannerConfig, v_max: float = 1.0, window: Window | None = None
+) -> World:
+    """Occupancy from the scene's obstacles and 2D inputs (occupancy map, keepout and speed masks), then
+    distance, feasibility, speed.
+
+    ``base``: the robot's base shape and yaws; the velocity model's parameters come from ``config``;
+    ``v_max``: the robot's top speed [m/s] (for a speed mask in m/s); ``window``: (j0, j1, i0, i1) of
+    the scene's grid to build (with a halo, cut off after, so that its cells are exact), or None.
     """
     nav = scene.nav_grid()
+    if window is None:
+        return _build(scene, nav, base, config, v_max)
+    j0, j1, i0, i1 = window
+    halo = halo_cells(base, config, nav.resolution)
+    g0, g1 = max(j0 - halo, 0), min(j1 + halo, nav.shape[0])
+    h0, h1 = max(i0 - halo, 0), min(i1 + halo, nav.shape[1])
+    r = nav.resolution
+    grown = NavGrid((nav.origin[0] + h0 * r, nav.origin[1] + g0 * r), r, (g1 - g0, h1 - h0))
+    return _build(scene, grown, base, config, v_max).crop(j0 - g0, j1 - g0, i0 - h0, i1 - h0, window)
+
+
+def windowed_world(scene: Scene, base: BaseShape, config: PlannerConfig, v_max: float = 1.0) -> World:
+    """The world of ``scene`` on the window its task needs (see :mod:`placement.planning.window`), or
+    on the whole grid when there is no window or the window would cut the base off a target."""
+    window = task_window(scene, scene.nav_grid(), base)
+    if window is not None:
+        world = build_world(scene, base, config, v_max, window)
+        if serves(world.feasible, world.nav, scene):
+            return world
+    return build_world(scene, base, config, v_max)
+
+
+def _build(scene: Scene, nav: NavGrid, base: BaseShape, config: PlannerConfig, v_max: float) -> World:
     occ = np.zeros(nav.shape, dtype=bool)
     for ob in scene.obstacles:
         add_shape(occ, ob.shape, nav)
-    raster = None
-    if scene.occupancy is not None:
-        raster = rasterize_occupancy(
-            scene.occupancy, nav.origin, nav.resolution, nav.shape, conservative=True, outside_occupied=True
-        )
+    raster, slowdown = base_layers(scene, nav, v_max)
+    if raster is not None:
         occ |= raster
     touched = None
     if base.polygon is not None:
@@ -212,7 +305,7 @@ def build_world(scene: Scene, base: BaseShape, config: PlannerConfig) -> World:
         touched = np.zeros(nav.shape, dtype=bool) if raster is None else raster.copy()
         for ob in scene.obstacles:
             add_touched(touched, ob.shape, nav)
-    return world_from_occupancy(nav, occ, base, config, touched)
+    return world_from_occupancy(nav, occ, base, config, touched, slowdown=slowdown)
 
 
 def world_from_occupancy(
@@ -222,18 +315,24 @@ def world_from_occupancy(
     config: PlannerConfig,
     touched: BoolArray | None = None,
     previous: World | None = None,
+    slowdown: FloatArray | None = None,
 ) -> World:
     """Distance, feasibility and speed from an occupancy grid (ny, nx) bool (and, for a polygon
     base, the touched layer (ny, nx) bool). ``previous``: the world of the same grid and base before
-    an obstacle change (the yaw masks far from the change are taken from it)."""
+    an obstacle change (the yaw masks far from the change, and the speed mask's ``slowdown`` when
+    none is given, are taken from it). ``slowdown``: (ny, nx) the speed mask's multiplier (>= 1)."""
+    if slowdown is None and previous is not None:
+        slowdown = previous.slowdown
     dist = distance_map(occ, nav.resolution)
     factor = speed_factor(dist, config.velocity_lambda, config.velocity_k, config.d_max)
+    if slowdown is not None:
+        factor = factor * slowdown
     if base.polygon is None:
-        return World(nav, occ, dist, dist >= base.radius, factor, base)
+        return World(nav, occ, dist, dist >= base.radius, factor, base, slowdown=slowdown)
     if touched is None:
         raise PlacementError("world_from_occupancy: a polygon base needs the touched layer")
     before = None
     if previous is not None and previous.touched is not None and previous.masks is not None and previous.base is base:
         before = (previous.touched, previous.masks)
     feasible, masks = polygon_feasibility(base, touched, distance_map(touched, nav.resolution), nav.resolution, before)
-    return World(nav, occ, dist, feasible, factor, base, touched, masks)
+    return World(nav, occ, dist, feasible, factor, base, touched, masks, slowdown)

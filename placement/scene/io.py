@@ -10,6 +10,7 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
+from placement.scene.base_layers import base_layers_to_dict
 from placement.scene.limits import MAX_SCENE_BYTES
 from placement.scene.model import Box, Cylinder, Obstacle, Scene, SceneError, SceneObject, Trajectory, is_path
 from placement.scene.parse import parse_scene
@@ -112,8 +113,7 @@ def scene_to_dict(scene: Scene, relative_to: str | Path | None = None) -> dict[s
     }
     if scene.maps is not None:
         out["maps"] = path(scene.maps)
-    if scene.occupancy_map is not None:
-        out["occupancy_map"] = path(scene.occupancy_map)
+    out.update(base_layers_to_dict(scene, path))
     out["obstacles"] = [obstacle_to_dict(o) for o in scene.obstacles]
     out["objects"] = [object_to_dict(o, scene.version) for o in scene.objects]
     out["place_locations"] = []

@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from placement.errors import PlacementError
+from placement.scene.masks import KeepoutMask, SpeedMask
 from placement.scene.navgrid import NavGrid
 from placement.scene.occupancy import OccupancyMap
 from placement.scene.poses import box_corners, matrix_yaw, pose_matrices, pose_matrix, quaternion_matrix, yaw_quaternion
@@ -254,12 +255,16 @@ class Scene(ArrayEq):
         robot_preset: built-in preset name, or absolute path of a preset YAML.
         start: (x, y, yaw) of the robot's base frame [m, m, rad].
         maps: absolute path of the reachability maps, or None.
-        occupancy_map: absolute path of the ROS map YAML, or None.
+        occupancy_map: absolute path of the ROS map YAML, or None (the base's map; never the arm's).
         obstacles, objects, place_locations, task: tuples, in file order.
         planner: overrides of the planner defaults (keys in :data:`PLANNER_KEYS`).
         trajectories: named world-frame TCP trajectories for ``reach`` steps (version 2).
         source: the scene file, if loaded from one (not compared).
         occupancy: the loaded occupancy map, if any (not compared).
+        keepout_mask, speed_mask: absolute paths of Nav2 filter masks, or None.
+        keepout, speed: the loaded masks (not compared; see :mod:`placement.scene.masks`).
+        bounds_given: the file gave ``bounds`` (not compared; without them a scene on an occupancy
+            map is planned on a window around its task: :mod:`placement.planning.window`).
     """
 
     version: int
@@ -278,6 +283,11 @@ class Scene(ArrayEq):
     trajectories: tuple[Trajectory, ...] = ()
     source: Path | None = field(default=None, compare=False)
     occupancy: OccupancyMap | None = field(default=None, compare=False, repr=False)
+    keepout_mask: Path | None = None
+    speed_mask: Path | None = None
+    keepout: KeepoutMask | None = field(default=None, compare=False, repr=False)
+    speed: SpeedMask | None = field(default=None, compare=False, repr=False)
+    bounds_given: bool = field(default=False, compare=False)
 
     # -- look-ups ------------------------------------------------------
     def object(self, name: str) -> SceneObject:

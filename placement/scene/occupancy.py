@@ -13,9 +13,15 @@ A map is a YAML file in the ROS ``map_server`` / nav2 format::
 Semantics (as ``map_server``): a pixel value ``v`` (0..maxval, 255 for the usual 8-bit image) has
 occupancy probability ``p = (maxval - v) / maxval`` (``p = v / maxval`` with ``negate``); it is
 occupied if ``p > occupied_thresh``, free if ``p < free_thresh`` and unknown otherwise.
-**Unknown cells are treated as occupied** (the base must not drive where nobody has looked), so in
-the boolean map a cell is free exactly when ``p < free_thresh``; ``mode: scale`` therefore gives the
-same boolean map as ``trinary``.
+By default **unknown cells are treated as occupied** (the base must not drive where nobody has
+looked), so in the boolean map a cell is free exactly when ``p < free_thresh``; ``mode: scale``
+therefore gives the same boolean map as ``trinary``. ``unknown="free"`` frees them instead (SLAM
+specks and unmapped corners, where the user knows the floor is clear), as Nav2's planners do with
+``allow_unknown``.
+
+The same files carry Nav2's costmap filter masks (keepout and speed limit): :func:`load_map_image`
+reads one into OccupancyGrid values (-1 unknown, 0..100) exactly as ``nav2_map_server`` publishes
+it, and :mod:`placement.scene.masks` gives them their meaning.
 
 The image is stored top row first (the top row is the largest y); :class:`OccupancyMap` flips it so
 that row 0 is the lowest y, like every other planar grid of the package (row = y, column = x).
@@ -49,6 +55,8 @@ DEFAULT_OCCUPIED_THRESH = 0.65
 DEFAULT_FREE_THRESH = 0.196
 _MAP_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode")
 _MODES = ("trinary", "scale")
+#: What unknown cells of an occupancy map are for the base.
+UNKNOWN_POLICIES = ("occupied", "free")
 #: Bounds checked before anything is allocated: the map YAML's size [bytes], the resolution [m] and
 #: the coordinates of the map's corners [m] (the image's: see placement/scene/pgm.py).
 MAX_MAP_YAML_BYTES = 2**20
@@ -67,12 +75,18 @@ class OccupancyMap:
         resolution: cell size [m].
         origin: (x, y, yaw) of the lower-left corner of cell (0, 0) [m, m, rad]; yaw is 0.
         source: the map YAML it was loaded from, if any.
+        unknown: what the unknown cells (and cells outside the map) were made: ``occupied`` or ``free``.
+        arm_height: None (the default): the map is the base's alone, as a 2D map says nothing about
+            height; else the occupied cells are also boxes this tall [m] from the floor in the arm's
+            collision model (for a map of things the user knows to be that tall).
     """
 
     occupied: npt.NDArray[np.bool_]
     resolution: float
     origin: tuple[float, float, float]
     source: Path | None = None
+    unknown: str = "occupied"
+    arm_height: float | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -92,30 +106,65 @@ class OccupancyMap:
 # map_server YAML
 
 
-def occupancy_from_pixels(
+def _probabilities(pixels: npt.NDArray[Any], maxval: int, negate: bool) -> npt.NDArray[np.float64]:
+    """The occupancy probability of each pixel value 0 .. max(maxval, the image's largest)."""
+    # a rule is applied to each value, then looked up: the same floats as per pixel, without a float64
+    # copy of a large image
+    v = np.arange(max(maxval, int(pixels.max(initial=0))) + 1, dtype=np.float64)
+    out: npt.NDArray[np.float64] = v / maxval if negate else (maxval - v) / maxval
+    return out
+
+
+def _looked_up(lut: npt.NDArray[Any], pixels: npt.NDArray[Any]) -> npt.NDArray[Any]:
+    """``lut`` of each pixel, the image flipped so that row 0 is the lowest y."""
+    return np.ascontiguousarray(lut[pixels.astype(np.intp, copy=False)][::-1])
+
+
+def grid_values(
     pixels: npt.ArrayLike,
     maxval: int = 255,
     *,
     negate: bool = False,
     occupied_thresh: float = DEFAULT_OCCUPIED_THRESH,
     free_thresh: float = DEFAULT_FREE_THRESH,
-) -> npt.NDArray[np.bool_]:
-    """map_server semantics on an image (top row first) -> (rows, cols) bool, row 0 = lowest y.
-
-    ``p = (maxval - v) / maxval`` (``v / maxval`` if ``negate``); True where ``p >= free_thresh``,
-    i.e. occupied (``p > occupied_thresh``) or unknown (in between), which is treated as occupied.
-    ``occupied_thresh`` only separates occupied from unknown and so does not change the result.
-    """
+    mode: str = "trinary",
+) -> npt.NDArray[np.int8]:
+    """``nav2_map_server``'s OccupancyGrid values of an image (top row first) -> (rows, cols) int8,
+    row 0 = lowest y: 0 where ``p < free_thresh``, 100 where ``p > occupied_thresh``, and in between
+    -1 (``trinary``) or ``rint(100 (p - free_thresh) / (occupied_thresh - free_thresh))`` (``scale``)."""
     pixels = np.asarray(pixels)
-    # the rule on each of the maxval + 1 values, then looked up: the same floats as per pixel, without
-    # a float64 copy of a large image
-    v = np.arange(max(maxval, int(pixels.max(initial=0))) + 1, dtype=np.float64)
-    p = v / maxval if negate else (maxval - v) / maxval
-    occupied = p > occupied_thresh
-    free = p < free_thresh
-    unknown = ~occupied & ~free
-    lut = occupied | unknown
-    return np.ascontiguousarray(lut[pixels.astype(np.intp, copy=False)][::-1])
+    p = _probabilities(pixels, maxval, negate)
+    lut = np.full(p.shape, -1, dtype=np.int8)
+    if mode == "scale":
+        span = occupied_thresh - free_thresh
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scaled = np.rint(100.0 * (p - free_thresh) / span) if span > 0 else np.full(p.shape, 100.0)
+        lut[:] = np.clip(scaled, 0, 100).astype(np.int8)
+    lut[p > occupied_thresh] = 100
+    lut[p < free_thresh] = 0
+    values: npt.NDArray[np.int8] = _looked_up(lut, pixels)
+    return values
+
+
+@dataclass(frozen=True, eq=False)
+class MapImage:
+    """A map_server image as the OccupancyGrid it publishes.
+
+    Attributes:
+        values: (rows, cols) int8, row 0 the lowest y: -1 unknown, 0 free .. 100 occupied
+            (see :func:`grid_values`).
+        unknown: (rows, cols) bool, cells whose probability lies between the thresholds (unknown in
+            ``trinary`` mode, a cost in ``scale`` mode).
+        resolution: cell size [m]. origin: (x [m], y [m], yaw [rad]) of cell (0, 0)'s lower-left corner.
+        mode: ``trinary`` or ``scale``. source: the map YAML.
+    """
+
+    values: npt.NDArray[np.int8]
+    unknown: npt.NDArray[np.bool_]
+    resolution: float
+    origin: tuple[float, float, float]
+    mode: str
+    source: Path
 
 
 def _number(doc: dict[str, Any], key: str, where: str, lo: float | None = None, hi: float | None = None) -> float:
@@ -133,12 +182,27 @@ def _number(doc: dict[str, Any], key: str, where: str, lo: float | None = None, 
     return v
 
 
-def load_occupancy_map(path: str | Path) -> OccupancyMap:
+def load_occupancy_map(path: str | Path, unknown: str = "occupied", arm_height: float | None = None) -> OccupancyMap:
     """Load a ROS map_server map (YAML + 8-bit PGM); see the module docstring for the semantics.
 
+    ``unknown``: what unknown cells are for the base, ``occupied`` (default) or ``free``;
+    ``arm_height``: see :class:`OccupancyMap` [m].
     Raises :class:`OccupancyMapError` for a missing or malformed YAML or image, an unsupported
     mode or image format, or a rotated origin (yaw != 0, not supported yet).
     """
+    if unknown not in UNKNOWN_POLICIES:
+        raise OccupancyMapError(f"unknown cells may be {' or '.join(UNKNOWN_POLICIES)}, got {show(unknown)}")
+    image = load_map_image(path)
+    # occupied: p > occupied_thresh; unknown: in between (a cost in scale mode); free below
+    certain = (image.values == 100) & ~image.unknown
+    occupied = certain | image.unknown if unknown == "occupied" else certain
+    occupied.setflags(write=False)
+    return OccupancyMap(occupied, image.resolution, image.origin, image.source, unknown, arm_height)
+
+
+def load_map_image(path: str | Path) -> MapImage:
+    """Read a map_server YAML and its PGM into the OccupancyGrid values ``nav2_map_server`` would
+    publish (see :class:`MapImage`); the checks of :func:`load_occupancy_map`."""
     path = Path(path)
     where = str(path)
     if not path.is_file():
@@ -197,16 +261,21 @@ def load_occupancy_map(path: str | Path) -> OccupancyMap:
             f"{where}: the map's {cols} x {rows} cells of {resolution:g} m from origin "
             f"({ox:g}, {oy:g}) reach {far:.3g} m from the world origin, beyond +-{MAX_COORD:g} m"
         )
-    occupied = occupancy_from_pixels(pixels, maxval, negate=bool(negate), occupied_thresh=occ_t, free_thresh=free_t)
-    occupied.setflags(write=False)
-    return OccupancyMap(occupied, resolution, (ox, oy, 0.0), path)
+    values = grid_values(pixels, maxval, negate=bool(negate), occupied_thresh=occ_t, free_thresh=free_t, mode=mode)
+    # between the thresholds: the same cells in both modes (trinary's -1, scale's costs 1..99 and any 0/100 the
+    # rounding made of them)
+    p = _probabilities(pixels, maxval, bool(negate))
+    undecided: npt.NDArray[np.bool_] = _looked_up((p >= free_t) & (p <= occ_t), pixels)
+    values.setflags(write=False)
+    undecided.setflags(write=False)
+    return MapImage(values, undecided, resolution, (ox, oy, 0.0), mode, path)
 
 
 # ---------------------------------------------------------------------------------------------------
 # rasterisation
 
 
-def _span(
+def cell_span(
     lo: npt.NDArray[np.floating], hi: npt.NDArray[np.floating], origin: float, res: float, n: int
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.bool_]]:
     """Indices [first, last] of the occupancy cells that overlap the open intervals (lo, hi)."""
@@ -279,8 +348,8 @@ def _conservative(
     mx, my, mres = occ.origin[0], occ.origin[1], occ.resolution
     x0 = ox + np.arange(nx) * resolution
     y0 = oy + np.arange(ny) * resolution
-    c0, c1, vc = _span(x0, x0 + resolution, mx, mres, cols)
-    r0, r1, vr = _span(y0, y0 + resolution, my, mres, rows)
+    c0, c1, vc = cell_span(x0, x0 + resolution, mx, mres, cols)
+    r0, r1, vr = cell_span(y0, y0 + resolution, my, mres, rows)
     sat = np.zeros((rows + 1, cols + 1), dtype=np.int64)  # summed-area table of occupied cells
     sat[1:, 1:] = np.cumsum(np.cumsum(occ.occupied, axis=0, dtype=np.int64), axis=1)
     R0, R1, C0, C1 = r0[:, None], r1[:, None] + 1, c0[None, :], c1[None, :] + 1

@@ -11,7 +11,9 @@ and the file gains grasps, place orientations and reach steps (see v2.py and bel
       preset: pr2                    # built-in name or path to a robot YAML (default pr2)
       start: [x, y, yaw]             # [m, m, rad]
     maps: maps/pr2                   # optional: where the reachability maps are
-    occupancy_map: floor.yaml        # optional: ROS map_server map, merged with the obstacles
+    occupancy_map: floor.yaml        # optional: ROS map_server map, for the base only (see base_layers.py)
+    keepout_mask: keepout.yaml       # optional: Nav2 keepout filter mask
+    speed_mask: speed.yaml           # optional: Nav2 speed filter mask
     obstacles:                       # the base must avoid all of them
       - {name: table_1, box: {center: [x, y, z], size: [sx, sy, sz], yaw: 0.0}, table: true}
       - {name: pillar, cylinder: {center: [x, y, z], radius: r, height: h}}
@@ -53,10 +55,10 @@ from pathlib import Path
 from typing import Any
 
 from placement.robots.preset import builtin_presets
+from placement.scene.base_layers import parse_base_layers, resolve
 from placement.scene.consistency import check_scene
 from placement.scene.limits import MAX_OBJECTS, MAX_OBSTACLES, RESOLUTION_RANGE, default_bounds
 from placement.scene.model import Scene, is_path
-from placement.scene.occupancy import OccupancyMapError, load_occupancy_map
 from placement.scene.parser import OBJECT_KEYS_V1, SCENE_VERSION, SCENE_VERSIONS, SceneParser
 from placement.scene.planner_block import parse_planner
 from placement.validation import describe, show
@@ -74,6 +76,8 @@ TOP_KEYS = (
     "robot",
     "maps",
     "occupancy_map",
+    "keepout_mask",
+    "speed_mask",
     "obstacles",
     "objects",
     "place_locations",
@@ -82,11 +86,6 @@ TOP_KEYS = (
     "trajectories",
 )
 ROBOT_KEYS = ("preset", "start")
-
-
-def _resolve(value: str, origin: Path) -> Path:
-    p = Path(value).expanduser()
-    return Path(os.path.normpath(p if p.is_absolute() else origin / p))
 
 
 def parse_scene(
@@ -128,7 +127,7 @@ def parse_scene(
     robot = P.mapping(doc["robot"], "robot", ROBOT_KEYS, ("start",))
     preset = P.string(robot.get("preset", DEFAULT_PRESET), "robot.preset")
     if is_path(preset):
-        preset_path = _resolve(preset, origin)
+        preset_path = resolve(preset, origin)
         if not preset_path.is_file():
             P.fail("robot.preset", f"robot preset file not found: {preset_path}")
         preset = str(preset_path)
@@ -141,14 +140,8 @@ def parse_scene(
 
     maps = None
     if doc.get("maps") is not None:
-        maps = str(_resolve(P.string(doc["maps"], "maps"), origin))
-    occ_path, occupancy = None, None
-    if doc.get("occupancy_map") is not None:
-        occ_path = _resolve(P.string(doc["occupancy_map"], "occupancy_map"), origin)
-        try:
-            occupancy = load_occupancy_map(occ_path)
-        except OccupancyMapError as exc:
-            P.fail("occupancy_map", str(exc))
+        maps = str(resolve(P.string(doc["maps"], "maps"), origin))
+    layers = parse_base_layers(P, doc, origin)
 
     for key, most in (
         ("obstacles", MAX_OBSTACLES),
@@ -179,7 +172,7 @@ def parse_scene(
         robot_preset=preset,
         start=(start_x, start_y, start_yaw),
         maps=maps,
-        occupancy_map=occ_path,
+        occupancy_map=layers.occupancy_map,
         obstacles=tuple(obstacles),
         objects=tuple(objects),
         place_locations=tuple(places),
@@ -187,7 +180,11 @@ def parse_scene(
         planner=planner,
         trajectories=tuple(trajectories),
         source=Path(source) if source is not None else None,
-        occupancy=occupancy,
+        occupancy=layers.occupancy,
+        keepout_mask=layers.keepout_mask,
+        speed_mask=layers.speed_mask,
+        keepout=layers.keepout,
+        speed=layers.speed,
     )
     if doc.get("bounds") is not None:
         bounds = P.coords(doc["bounds"], "bounds", 4)
@@ -196,4 +193,5 @@ def parse_scene(
     else:
         bounds = default_bounds(scene)
     xmin, ymin, xmax, ymax = (float(b) for b in bounds)
-    return check_scene(replace(scene, bounds=(xmin, ymin, xmax, ymax)), where)
+    given = doc.get("bounds") is not None
+    return check_scene(replace(scene, bounds=(xmin, ymin, xmax, ymax), bounds_given=given), where)

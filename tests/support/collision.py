@@ -34,8 +34,9 @@ def scene_doc(preset: str, table_x: float) -> dict:
 
 
 def with_occupancy(scene):
-    """The scene plus a 0.1 m occupancy map: a wall behind the robot and a few posts near the table."""
+    """The scene plus a 0.1 m occupancy map: a wall behind the robot and a few posts near the table, its
+    cells 3 m tall boxes for the arm too."""
     occ = np.zeros((40, 40), dtype=bool)  # x, y in [-2, 2)
     occ[:, 5] = True  # x in [-1.5, -1.4)
     occ[12, 30] = occ[27, 29] = True  # posts at (1.05, -0.75), (0.95, 0.75)
-    return dataclasses.replace(scene, occupancy=OccupancyMap(occ, 0.1, (-2.0, -2.0, 0.0)))
+    return dataclasses.replace(scene, occupancy=OccupancyMap(occ, 0.1, (-2.0, -2.0, 0.0), arm_height=3.0))

@@ -1,0 +1,83 @@
+"""Plans on real building maps (examples/buildings: SLAM maps as their teams published them, tables at
+their named locations): every step planned by the default method and `sequential`, each plan checked
+by FK and against the map independently (no base footprint on a cell the map marks)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from placement.evaluation.tasktime import task_time
+from placement.planning import Planner
+
+BUILDINGS = sorted((Path(__file__).resolve().parents[1] / "examples" / "buildings").glob("*/tidy_up.yaml"))
+
+
+def footprint_on_map(planner, base) -> list[tuple[int, int]]:
+    """Map cells (row, col) marked occupied (or unknown) whose centre lies inside the base's footprint
+    polygon at ``base`` (x, y, yaw): plain geometry on the map's own cells."""
+    occ = planner.scene.occupancy
+    x, y, yaw = base
+    poly = np.asarray(planner.robot.footprint, dtype=float)
+    c, s = math.cos(yaw), math.sin(yaw)
+    world = poly @ np.array([[c, s], [-s, c]]) + [x, y]
+    r = occ.resolution
+    lo, hi = world.min(axis=0), world.max(axis=0)
+    c0, c1 = int((lo[0] - occ.origin[0]) / r) - 1, int((hi[0] - occ.origin[0]) / r) + 2
+    r0, r1 = int((lo[1] - occ.origin[1]) / r) - 1, int((hi[1] - occ.origin[1]) / r) + 2
+    hits = []
+    for row in range(max(r0, 0), min(r1, occ.occupied.shape[0])):
+        for col in range(max(c0, 0), min(c1, occ.occupied.shape[1])):
+            if not occ.occupied[row, col]:
+                continue
+            px, py = occ.origin[0] + (col + 0.5) * r, occ.origin[1] + (row + 0.5) * r
+            inside = True
+            for k in range(len(world)):
+                (ax, ay), (bx, by) = world[k], world[(k + 1) % len(world)]
+                if (bx - ax) * (py - ay) - (by - ay) * (px - ax) < 0:
+                    inside = False
+                    break
+            if inside:
+                hits.append((row, col))
+    return hits
+
+
+@pytest.fixture(scope="module")
+def plans(maps_dir):
+    out = {}
+    for path in BUILDINGS:
+        for method in ("global", "sequential"):
+            planner = Planner(path, method, maps_dir)
+            out[path.parent.name, method] = (planner, planner.plan())
+    return out
+
+
+@pytest.mark.parametrize("path", BUILDINGS, ids=lambda p: p.parent.name)
+@pytest.mark.parametrize("method", ["global", "sequential"])
+def test_every_step_plans_and_holds(plans, path, method):
+    planner, result = plans[path.parent.name, method]
+    assert result.ok, result.failed_step
+    assert result.verify(planner.robot) == []
+    for step in result.steps:
+        assert footprint_on_map(planner, step.base) == [], (step.step, step.base)
+
+
+@pytest.mark.parametrize("path", BUILDINGS, ids=lambda p: p.parent.name)
+def test_the_default_takes_no_longer_than_sequential(plans, path):
+    times = {}
+    for method in ("global", "sequential"):
+        planner, result = plans[path.parent.name, method]
+        times[method] = task_time(planner.robot, result, planner.scene.start)["total_s"]
+    assert times["global"] <= times["sequential"], times
+
+
+def test_rooms_plan_on_a_window_of_the_map(plans):
+    """The lab and the arena are planned on windows around their tasks (a fraction of the maps' cells)."""
+    for name in ("brsu_home_lab", "wrs_arena"):
+        planner, _ = plans[name, "global"]
+        ny, nx = planner.scene.grid_shape
+        wy, wx = planner.world.nav.shape
+        assert planner.world.window is not None and wy * wx < 0.6 * ny * nx, name
