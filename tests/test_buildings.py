@@ -81,3 +81,52 @@ def test_rooms_plan_on_a_window_of_the_map(plans):
         ny, nx = planner.scene.grid_shape
         wy, wx = planner.world.nav.shape
         assert planner.world.window is not None and wy * wx < 0.6 * ny * nx, name
+
+
+def pocket_scene():
+    """A pick table and a place table 3 m apart; behind the place table a pocket of floor closed by
+    knee-high walls (the base cannot get in, the arm reaches over them): the place step's feasible
+    region has a part there that no base can drive to."""
+    from placement.scene import parse_scene
+
+    wall = 0.1
+    walls = [  # the pocket: x 4.4 .. 6.0, y 2.35 .. 4.0, the place table its south side
+        ((5.2, 4.0 + wall / 2), (1.6 + 2 * wall, wall)),
+        ((4.4 - wall / 2, 3.2), (wall, 1.7)),
+        ((6.0 + wall / 2, 3.2), (wall, 1.7)),
+    ]
+    return parse_scene(
+        {
+            "version": 1,
+            "bounds": [-1.0, -1.0, 8.0, 6.0],
+            "robot": {"preset": "pr2", "start": [1.0, 1.0, 0.0]},
+            "obstacles": [
+                {"name": "pick_table", "box": {"center": [1.5, 3.5, 0.36], "size": [0.8, 0.6, 0.72]}, "table": True},
+                {"name": "place_table", "box": {"center": [5.2, 2.0, 0.36], "size": [1.6, 0.7, 0.72]}, "table": True},
+            ]
+            + [
+                {"name": f"wall_{i}", "box": {"center": [x, y, 0.15], "size": [sx, sy, 0.3]}}
+                for i, ((x, y), (sx, sy)) in enumerate(walls)
+            ],
+            "objects": [{"name": "cup", "position": [1.5, 3.35, 0.77], "size": [0.06, 0.06, 0.1]}],
+            "place_locations": [{"name": "spot", "position": [5.2, 2.1, 0.8]}],
+            "task": [{"pick": "cup", "place": "spot"}],
+        }
+    )
+
+
+def test_sequential_plans_beside_floor_the_base_cannot_reach(maps_dir):
+    """The next-step heuristic weighs only regions the base can reach: with the pocket's region in
+    it, every cost was infinite and `sequential` called the pick infeasible."""
+    from placement.planning.navigation import reachable_from
+
+    planner = Planner(pocket_scene(), "sequential", maps_dir)
+    world, problems = planner.world, planner.problems
+    pocket = world.feasible & ~problems.reachable
+    assert pocket[world.nav.cell(5.2, 3.2)]
+    assert (problems.feasible_region(1) & pocket).any()  # the place can be reached from the pocket
+    np.testing.assert_array_equal(problems.reachable, reachable_from(world.feasible, world.nav, 1.0, 1.0))
+    result = planner.plan()
+    assert result.ok, result.failed_step
+    assert result.verify(planner.robot) == []
+    assert np.isfinite(problems.heuristic(1)[world.nav.cell(*result.steps[0].base[:2])])
