@@ -130,3 +130,27 @@ def test_sequential_plans_beside_floor_the_base_cannot_reach(maps_dir):
     assert result.ok, result.failed_step
     assert result.verify(planner.robot) == []
     assert np.isfinite(problems.heuristic(1)[world.nav.cell(*result.steps[0].base[:2])])
+
+
+@pytest.mark.parametrize("method", ["global", "sequential"])
+def test_a_spent_time_budget_keeps_the_verified_steps_and_says_why(maps_dir, method):
+    """With 0.1 s for the whole task, the plan stops soon after: the steps verified by then are kept,
+    and the first one not verified says which budget ran out and how to raise it."""
+    import dataclasses
+    import time
+
+    from placement.scene import load_scene
+
+    scene = load_scene(next(p for p in BUILDINGS if p.parent.name == "willow_office"))  # ~1 s on the full map
+    planner = Planner(dataclasses.replace(scene, planner={"time_budget_s": 0.1}), method, maps_dir)
+    t = time.perf_counter()
+    result = planner.plan()
+    assert time.perf_counter() - t < 2.0
+    assert not result.ok
+    *done, failed = result.steps
+    assert all(s.ok for s in done) and failed.status == "infeasible"
+    assert "time budget of 0.1 s ran out" in failed.reason and "planner.time_budget_s" in failed.reason
+    assert [s.step for s in result.steps] == list(range(len(result.steps)))
+    if done:
+        partial = dataclasses.replace(result, steps=done)
+        assert partial.verify(planner.robot) == []

@@ -139,7 +139,7 @@ ERRORS = [
     (
         set_key(["planner", "speed"], 2.0),
         "unknown key 'planner.speed'; allowed: collision_padding, d_max, footprint_padding, grasp_yaws, ik_budget_ms, "
-        "lambda_m, lambda_n, lambda_nh, threshold, threshold_quantile, velocity_k, velocity_lambda, yaw_steps",
+        "lambda_m, lambda_n, lambda_nh, threshold, threshold_quantile, time_budget_s, velocity_k, velocity_lambda, yaw_steps",
     ),
     # yaw only, no quaternions
     (
@@ -326,4 +326,5 @@ def test_planner_keys_are_documented():
         "footprint_padding",
         "collision_padding",
         "ik_budget_ms",
+        "time_budget_s",
     }

@@ -49,6 +49,8 @@ class PlannerConfig:
         footprint_padding: clearance a polygon base footprint keeps from obstacles [m] (Nav2's
             footprint_padding; round bases have their margin in footprint_radius).
         ik_budget_ms: time the IK search of one step may spend before the step is infeasible [ms].
+        time_budget_s: time planning the whole task may take [s]; a step not verified by then is
+            infeasible and says so (:meth:`PlanningContext.out_of_time`).
     Fixed (not in scenes; the stages' tuning constants):
         ik_tries: placements tried best-first (per option and tier in the ranking) before the search
             spreads over every ranked placement [count] (see placement/planning/search.py).
@@ -99,6 +101,7 @@ class PlannerConfig:
     collision_padding: float = _key("collision_padding")
     footprint_padding: float = _key("footprint_padding")
     ik_budget_ms: float = _key("ik_budget_ms")
+    time_budget_s: float = _key("time_budget_s")
     ik_tries: int = 25
     ik_cap: int = 2000
     min_region: float = 0.02

@@ -8,6 +8,8 @@ the planner, so they depend on what they read and never on the planner.
 
 from __future__ import annotations
 
+import time
+
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -38,6 +40,8 @@ class PlanningContext:
             an arm not in it uses ``config.threshold``.
         torso_checks: torso value [m] -> the collision check of the robot with its lift there
             (built on first use, see :mod:`placement.planning.torso`; updated with ``collisions``).
+        deadline: ``time.perf_counter()`` after which the running plan stops (None: none); set by
+            :meth:`Planner.plan <placement.planning.planner.Planner.plan>` from ``time_budget_s``.
         setting_thresholds: (arm, torso value [rad]) -> the threshold of that setting of a map built
             once per torso setting (its own distribution); a setting not in it uses its arm's.
     """
@@ -53,6 +57,18 @@ class PlanningContext:
     thresholds: Mapping[str, float] = field(default_factory=dict)
     torso_checks: dict[float, SceneCollision] = field(default_factory=dict)
     setting_thresholds: Mapping[tuple[str, float], float] = field(default_factory=dict)
+    deadline: float | None = None
+
+    def out_of_time(self) -> bool:
+        """Whether the plan's time budget has run out (``deadline``: a ``time.perf_counter()`` value)."""
+        return self.deadline is not None and time.perf_counter() > self.deadline
+
+    def budget_words(self) -> str:
+        """Why a step was not planned when :meth:`out_of_time`."""
+        return (
+            f"the task's time budget of {self.config.time_budget_s:g} s ran out before this step was verified "
+            "(raise planner.time_budget_s to plan longer)"
+        )
 
     def threshold(self, arm: str, torso: float | None = None) -> float:
         """The map value below which a placement of ``arm`` with the torso at ``torso`` [m or rad] (an

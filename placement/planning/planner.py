@@ -16,6 +16,7 @@ scene change, which the planner swaps in.
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -236,7 +237,8 @@ class Planner:
         """Plan every step from the scene's start pose; with ``keep_maps`` each step's layers are
         kept in ``StepResult.maps`` (for plots)."""
         start = self.start_cell()
-        steps = self.method.plan(self.context, start, keep_maps)
+        deadline = time.perf_counter() + self.context.config.time_budget_s
+        steps = self.method.plan(replace(self.context, deadline=deadline), start, keep_maps)
         cert = certify(self.context, self.method, start, steps)
         return PlanResult(
             self.scene.name, self.method.name, robot_info(self.robot, self.maps), steps, None, cert.to_json()

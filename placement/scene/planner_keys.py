@@ -113,6 +113,13 @@ PLANNER_SETTINGS: dict[str, dict[str, Any]] = {
         minimum=1.0,
         maximum=60000.0,
     ),
+    "time_budget_s": dict(
+        default=10.0,
+        help="time planning the whole task may take [s], 0.1 .. 3600 (default 10): a step not verified by "
+        "then is infeasible, saying so",
+        minimum=0.1,
+        maximum=3600.0,
+    ),
 }
 
 #: Keys allowed in a scene's ``planner:`` block: name -> help text with unit and default.

@@ -69,7 +69,8 @@ log = logging.getLogger(__name__)
 
 def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], StepResult | None]:
     """Solve ``dp`` until its cheapest chain verifies: (the chain, each step's verified placement,
-    None), or (None, [], the infeasible result saying why)."""
+    None), or (None, [], the infeasible result saying why); when the time budget runs out, (the
+    chain, the placements verified along it so far, the first step not verified)."""
     ctx = dp.ctx
     steps = ctx.problems.steps
     chain = dp.solve()
@@ -89,6 +90,8 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
         failed: list[tuple[int, int, int]] = []
         picks: list[Verified] = []
         for i in range(len(chain.cells)):
+            if ctx.out_of_time():  # the steps verified so far stand: a partial plan
+                return chain, picks, infeasible(steps[i], ctx.budget_words())
             flat, g = chain.cells[i], chain.groups[i]
             v = dp.verify(i, flat, g)
             if v is None and dp.local:
@@ -133,7 +136,8 @@ def plan_dynamic(
     local: bool = False,
     priced: bool = False,
 ) -> list[StepResult]:
-    """The verified cheapest chain's steps; when none is left, a single infeasible step saying why
+    """The verified cheapest chain's steps; when none is left, a single infeasible step saying why;
+    when the time budget runs out, the steps verified so far and the first one not verified
     (``priced``: the torso priced per step, :mod:`placement.planning.torso_program`)."""
     t0 = time.perf_counter()
     if not ctx.problems.steps:
@@ -149,9 +153,9 @@ def plan_dynamic(
         # the first program over the maps' regions is the plan's lower bound: kept, not solved again
         # (not with torso settings: the program held the lift, the bound takes every setting)
         ctx.problems.bounds[("maps", start)] = dp.first_total
-    if failure is not None or chain is None:
+    if chain is None:
         return [failure] if failure is not None else []
-    out = results(ctx, start, dp, chain, picks, keep_maps)
+    out = results(ctx, start, dp, chain, picks, keep_maps)  # the verified steps (all, or before the failure)
     ms = (time.perf_counter() - t0) * 1e3
     log.debug(
         "dynamic program: %d placements checked, %d rejected, %d solves, %d local repairs, %.0f ms",
@@ -163,7 +167,7 @@ def plan_dynamic(
     )
     for s in out:
         s.timings_ms = {"total": ms / len(out)}
-    return out
+    return out if failure is None else [*out, failure]
 
 
 def results(

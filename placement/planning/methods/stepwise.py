@@ -17,7 +17,7 @@ from placement.planning.arrays import Cell, FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.explain import explain
 from placement.planning.methods.base import Method
-from placement.planning.methods.outcomes import placed, unreachable_reason
+from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
 from placement.planning.navigation import extract_path, navigation_cost
 from placement.planning.option import Option
 from placement.planning.ranking import Ranked, combined_map
@@ -63,6 +63,9 @@ def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell
     i = 0
     while i < len(steps):
         step = steps[i]
+        if ctx.out_of_time():
+            out.append(infeasible(step, ctx.budget_words()))
+            break
         if step.action == "pick" and i + 1 < len(steps) and steps[i + 1].pick == i:
             results, cell = plan_transfer(ctx, method, step, steps[i + 1], prev_cell, prev_q, keep_maps, torso)
         else:
@@ -109,6 +112,8 @@ def plan_transfer(
     failed: dict[Pair, str] = {p: "" for p in picks - viable}  # pair -> its place's failure ("": by the maps)
     while True:
         allowed = picks - failed.keys()
+        if failed and ctx.out_of_time():
+            return [infeasible(pick, ctx.budget_words())], None
         if not allowed:
             result = StepResult(
                 pick.index,
