@@ -142,6 +142,37 @@ def test_tcp_z_points_from_the_wrist_to_the_fingers(proposed, robot):
             assert cos > 0.8, f"{robot} {name}: TCP z makes {np.degrees(np.arccos(cos)):.0f} deg with wrist->fingers"
 
 
+@pytest.mark.parametrize("robot", list(ROBOTS))
+def test_tcp_y_is_the_fingers_closing_direction(proposed, robot):
+    """Grippers with sliding fingers: the TCP's y lies along every finger joint's slide (the Franka
+    hand's fingers touch at the neutral pose, so no spread of finger frames can say it)."""
+    if robot not in proposed:
+        pytest.skip("URDF not available")
+    r, _ = proposed[robot]
+    data = r.model.createData()
+    checked = 0
+    for name in r.arms:
+        a = r.arm(name)
+        full = r.full_q(name, a.home)
+        jac = pin.computeJointJacobians(r.model, data, full)
+        pin.framesForwardKinematics(r.model, data, full)
+        last = a.joint_ids[-1]
+        tcp = data.oMf[r.model.getFrameId(a.tip_frame)].homogeneous @ a.tcp_offset
+        for j in range(1, r.model.njoints):
+            if j == last or last not in ancestors(r.model, j) or r.model.joints[j].nv != 1:
+                continue
+            col = jac[:, r.model.joints[j].idx_v]
+            if np.linalg.norm(col[3:]) > 1e-9:  # a hinge, not a slide
+                continue
+            cos = abs(tcp[:3, 1] @ col[:3]) / np.linalg.norm(col[:3])
+            assert cos > 0.99, f"{robot} {name}: TCP y makes {np.degrees(np.arccos(min(cos, 1))):.0f} deg with {r.model.names[j]}"
+            checked += 1
+    if robot == "panda":
+        assert checked == 2
+    elif not checked:
+        pytest.skip(f"{robot}: no sliding finger joints")
+
+
 def _beyond(r, arm: str, depth: float) -> list[str]:
     """Links of ``arm``'s gripper shapes (as the collision check knows them) that reach ``depth`` [m] or more
     beyond the TCP along its approach at home: coal collisions with the half-space past that plane."""

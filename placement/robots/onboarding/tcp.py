@@ -12,8 +12,9 @@ at the reference configuration (fingers as the URDF's neutral pose has them):
    side (50 deg off the SO-101's ``gripper_frame_link``): its approach points from the wrist to the
    named tool frame when there is one;
 3. closing direction: one moving jaw's motion (across its hinge axis and the approach, or along its
-   slide); else the finger points' widest spread across the approach; else the tip frame's axis most
-   orthogonal to the approach;
+   slide); else the finger points' widest spread across the approach; else (fingers that touch at the
+   neutral pose, a Franka hand's) the first finger joint's motion across the approach; else the tip
+   frame's axis most orthogonal to the approach;
 4. tip frame: a frame rigid with the last arm joint named tcp > grasp > tool > gripper > tip that is not
    behind the fingers (more than :data:`BEHIND` [m]), a frame the URDF adds before the link's own
    body frame of the same rank (``gripper_frame_link`` before ``gripper_link``), else the last link;
@@ -172,6 +173,9 @@ def infer_tcp(model: pin.Model, data: pin.Data, chain: list[int], hand: list[int
     elif sv[0] / math.sqrt(len(spread)) >= MIN_SPREAD:
         y = vt[0]
         how += "; y across the fingers' widest spread"
+    elif (fingers := _fingers_motion(model, data, last, hand, z)) is not None:
+        y, joint = fingers
+        how += f"; y along the motion of finger joint '{joint}' (the fingers touch at the neutral pose)"
     else:
         y = R_tip[:, int(np.argmin(np.abs(R_tip.T @ z)))]
         how += f"; y along the tip frame's {'xyz'[int(np.argmin(np.abs(R_tip.T @ z)))]} axis"
@@ -198,6 +202,20 @@ def _jaw_motion(model: pin.Model, data: pin.Data, jaw: int, z: np.ndarray) -> np
     axis = data.oMi[jaw].rotation @ _joint_axis(model, jaw)
     revolute = np.linalg.norm(_joint_motion(model, jaw)[3:]) > 0.5
     return _unit(np.cross(axis, z)) if revolute else axis
+
+
+def _fingers_motion(
+    model: pin.Model, data: pin.Data, last: int, hand: list[int], z: np.ndarray
+) -> tuple[np.ndarray, str] | None:
+    """(unit direction (3,) in the root frame, joint name) of the first hand joint that carries a finger
+    frame and moves it across the approach ``z`` (a slide, or a hinge's swing), or None."""
+    carriers = sorted({model.frames[i].parentJoint for i in finger_frames(model, last, hand)} & set(hand))
+    for j in carriers:
+        motion = _jaw_motion(model, data, j, z)
+        across = motion - (motion @ z) * z
+        if np.linalg.norm(across) > 0.5:
+            return _unit(across), str(model.names[j])
+    return None
 
 
 def _joint_motion(model: pin.Model, jid: int) -> np.ndarray:
