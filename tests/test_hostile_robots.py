@@ -22,6 +22,7 @@ from placement.robots.footprint import MAX_FOOTPRINT_VERTICES
 from placement.robots.onboarding import base as init_base
 from placement.robots.onboarding import urdf as init_urdf
 from placement.robots.onboarding.propose import propose
+from placement.robots.onboarding.render import render
 from placement.robots.preset import load_robot
 from placement.scene import OccupancyMapError, SceneError, load_occupancy_map, load_scene
 
@@ -201,8 +202,10 @@ def test_init_warns_on_a_mesh_it_leaves_out(tmp_path, scale):
 
 
 def test_init_bounds_mesh_triangles(tmp_path, monkeypatch):
-    """A 2 M triangle base mesh (100 MB) is refused by its size before it is read; a mesh that loads
-    is refused when it holds more triangles than the bound (lowered here to keep the test fast)."""
+    """A 2 M triangle base mesh (100 MB) is refused by its size before it is read; meshes that load
+    but hold more triangles than the bound (lowered here to keep the test fast) are replaced by their
+    convex hulls, heaviest first, with a warning giving the triangles before and after; only when the
+    hulls are still too heavy is the robot refused."""
     huge = tmp_path / "huge.stl"
     with open(huge, "wb") as f:
         f.write(b"\0" * 80 + struct.pack("<I", 2_000_000))
@@ -216,6 +219,15 @@ def test_init_bounds_mesh_triangles(tmp_path, monkeypatch):
     monkeypatch.setattr(init_base, "MAX_COLLISION_TRIANGLES", 5_000)
     _stl(tmp_path / "base.stl", 6_000)
     urdf.write_text(arm_urdf().replace('<box size="0.6 0.5 0.3"/>', '<mesh filename="base.stl"/>'))
+    p = propose(urdf)
+    said = [w for w in p.warnings if "convex hulls" in w]
+    assert len(said) == 1 and "6000 triangles" in said[0] and "5000" in said[0] and "base_link" in said[0], p.warnings
+    after = int(said[0].split(" -> ")[1].split(" triangles")[0])
+    assert 0 < after <= 5_000
+    preset = tmp_path / "toy.yaml"
+    preset.write_text(render(p))
+    load_robot(preset)  # the proposal loads as it is
+    monkeypatch.setattr(init_base, "MAX_COLLISION_TRIANGLES", 10)
     with pytest.raises(RobotError) as err:
         propose(urdf)
-    one_line(err.value, "6000 triangles", "5000 allowed")
+    one_line(err.value, "6000 triangles", "10 allowed", "convex hulls")

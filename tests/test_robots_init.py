@@ -165,7 +165,9 @@ def test_tcp_y_is_the_fingers_closing_direction(proposed, robot):
             if np.linalg.norm(col[3:]) > 1e-9:  # a hinge, not a slide
                 continue
             cos = abs(tcp[:3, 1] @ col[:3]) / np.linalg.norm(col[:3])
-            assert cos > 0.99, f"{robot} {name}: TCP y makes {np.degrees(np.arccos(min(cos, 1))):.0f} deg with {r.model.names[j]}"
+            assert cos > 0.99, (
+                f"{robot} {name}: TCP y makes {np.degrees(np.arccos(min(cos, 1))):.0f} deg with {r.model.names[j]}"
+            )
             checked += 1
     if robot == "panda":
         assert checked == 2

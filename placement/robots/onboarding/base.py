@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from placement.collision.robot import convex_hull
 from placement.errors import RobotError
 from placement.robots.footprint import contains_origin
 from placement.robots.spec import share_dir
@@ -171,22 +172,57 @@ def screen_collisions(xml: str, urdf: Path) -> tuple[str, list[str]]:
     return ET.tostring(root, encoding="unicode"), warnings
 
 
-def load_collision(model: pin.Model, xml: str, urdf: Path):
+def load_collision(model: pin.Model, xml: str, urdf: Path, notes: list[str] | None = None):
     """(pinocchio GeometryModel of the usable ``<collision>`` shapes (see :func:`screen_collisions`),
-    "") or (None, reason). Raises :class:`RobotError` when the meshes hold more than
-    :data:`MAX_COLLISION_TRIANGLES` triangles."""
+    "") or (None, reason). Meshes holding more than :data:`MAX_COLLISION_TRIANGLES` triangles in all
+    are made lighter by :func:`simplify_meshes`; what it did is appended to ``notes`` (a warning)."""
     xml, _ = screen_collisions(xml, urdf)
     try:
         geom = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION, package_dirs=package_dirs(urdf))
     except Exception as exc:  # a mesh that cannot be found or read
         return None, one_line(" ".join(str(exc).split()))[:160]
-    tris = sum(int(getattr(o.geometry, "num_tris", 0) or 0) for o in geom.geometryObjects)
-    if tris > MAX_COLLISION_TRIANGLES:
-        raise RobotError(
-            f"{urdf}: the collision meshes hold {tris} triangles, more than the "
-            f"{MAX_COLLISION_TRIANGLES} allowed: use simplified collision meshes"
-        )
+    said = simplify_meshes(geom, MAX_COLLISION_TRIANGLES)
+    if said and notes is not None:
+        notes.append(said)
     return geom, ""
+
+
+def triangles(geometry: object) -> int:
+    """Triangles of a collision geometry (0 for primitives)."""
+    return int(getattr(geometry, "num_tris", 0) or 0)
+
+
+def simplify_meshes(geom: pin.GeometryModel, limit: int) -> str:
+    """Replace the heaviest meshes of ``geom`` by their convex hulls until they hold at most ``limit``
+    triangles in all (a vendor's visual-grade collision meshes); returns what was done in one line, or
+    "" when nothing was. Raises :class:`RobotError` when even every hull together holds more."""
+    objs = geom.geometryObjects
+    counts = [triangles(o.geometry) for o in objs]
+    total = before = sum(counts)
+    if total <= limit:
+        return ""
+    replaced: list[str] = []
+    for k in sorted(range(len(objs)), key=lambda k: -counts[k]):
+        if total <= limit or counts[k] == 0:
+            break
+        hull, same = convex_hull(objs[k].geometry)
+        if same:
+            continue
+        after = max(2 * int(hull.num_points) - 4, 0)  # a triangulated convex polyhedron of V vertices
+        objs[k].geometry = hull
+        total += after - counts[k]
+        replaced.append(objs[k].name)
+    if total > limit:
+        raise RobotError(
+            f"the collision meshes hold {before} triangles, more than the {limit} allowed, and still {total} "
+            "with the heaviest replaced by their convex hulls: use simplified collision meshes"
+        )
+    shown = ", ".join(replaced[:4]) + (f" and {len(replaced) - 4} more" if len(replaced) > 4 else "")
+    return (
+        f"the collision meshes hold {before} triangles, more than the {limit} that init works with: "
+        f"{len(replaced)} are replaced by their convex hulls here ({shown}): {before} -> {total} triangles "
+        "(the planner's check uses the URDF's meshes; give lighter ones to speed it up)"
+    )
 
 
 def shape_corners(model: pin.Model, geom, q: np.ndarray, skip: set[int]) -> list[tuple[str, np.ndarray]]:

@@ -118,7 +118,8 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
     tcps = [infer_tcp(model, data, c, tree.hand[c[-1]]) for c in tree.arms]
-    geom, _ = load_collision(model, d.xml, d.path)
+    mesh_notes: list[str] = []
+    geom, _ = load_collision(model, d.xml, d.path, mesh_notes)
     if geom is not None:  # fingers reaching far beyond a palm-centred grasp frame: a deeper TCP
         for k, c in enumerate(tree.arms):
             tip = data.oMf[model.getFrameId(tcps[k].tip_frame)].homogeneous
@@ -153,7 +154,7 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
         lim = [limits(model, j) for j in chain]
         home = [0.0 if c else round((lo + hi) / 2, 4) for lo, hi, c in lim]
         arms.append(ArmProposal(name, [model.names[j] for j in chain], tcp, home, [c for _, _, c in lim]))
-    warnings = list(base.warnings) + rank_warnings
+    warnings = mesh_notes + list(base.warnings) + rank_warnings
     warnings += [f"arm '{a.name}': {a.tcp.how}" for a in arms if a.tcp.guessed]
     others = [n for names_, why in tree.rejected for n in names_ if n not in fixed]
     notes = base.notes + side_notes + reach_notes + torso_notes
