@@ -9,7 +9,6 @@ the planner, so they depend on what they read and never on the planner.
 from __future__ import annotations
 
 import time
-
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
