@@ -154,3 +154,29 @@ def test_a_spent_time_budget_keeps_the_verified_steps_and_says_why(maps_dir, met
     if done:
         partial = dataclasses.replace(result, steps=done)
         assert partial.verify(planner.robot) == []
+
+
+def test_every_method_names_the_same_failing_step_and_keeps_the_steps_before(maps_dir):
+    """The lab's last place moved to 1.9 m, above what the maps hold: every map-based method plans the
+    steps before it, then names that place with the same reason (not its pick, not a band as a limit)."""
+    import dataclasses
+
+    from placement.scene import load_scene
+
+    scene = load_scene(next(p for p in BUILDINGS if p.parent.name == "brsu_home_lab"))
+    places = tuple(
+        dataclasses.replace(p, position=(p.position[0], p.position[1], 1.9)) if p.name == "desk_right" else p
+        for p in scene.place_locations
+    )
+    scene = dataclasses.replace(scene, place_locations=places)
+    reasons = {}
+    for method in ("global", "optimal", "sequential", "single-step"):
+        planner = Planner(scene, method, maps_dir)
+        result = planner.plan()
+        *done, failed = result.steps
+        assert [s.step for s in result.steps] == list(range(6)), method
+        assert all(s.ok for s in done) and failed.target == "desk_right" and failed.action == "place", method
+        assert dataclasses.replace(result, steps=done).verify(planner.robot) == [], method
+        reasons[method] = failed.reason
+    assert len(set(reasons.values())) == 1, reasons
+    assert "outside the height range of the maps" in reasons["global"]

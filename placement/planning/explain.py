@@ -78,13 +78,15 @@ def _hint(
     pose = o.candidate.poses[pose_index]
     z, how = float(pose[2, 3]), orientation_words(pose)
     arm = f"arm {o.arm}"
+    held = "" if o.torso is None else f" with the torso at {o.torso:g}"
     if band is None:
-        return f"{arm} reaches no {how} TCP orientation like this one at any height (another grasp would help)"
+        return f"{arm} reaches no {how} TCP orientation like this one at any height{held} (another grasp would help)"
     lo, hi = band
     if z > hi or z < lo:
+        # the band is the map's own limit for this orientation: the heights where it holds any value
         return (
             f"the {role} pose at {z:.2f} m is {'above' if z > hi else 'below'} the {lo:.2f}-{hi:.2f} m band "
-            f"{arm} reaches {how}"
+            f"{arm} reaches {how}: the heights where its map{held} holds any {how} pose like it"
         )
     reach = pose_reach(option_map(ctx, o), pose)
     near = nearest_free_m(ctx.world, pose[:2, 3])

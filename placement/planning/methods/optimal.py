@@ -45,9 +45,11 @@ setting; the plain program at the preset's setting answers while it provably is 
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -136,8 +138,9 @@ def plan_dynamic(
     local: bool = False,
     priced: bool = False,
 ) -> list[StepResult]:
-    """The verified cheapest chain's steps; when none is left, a single infeasible step saying why;
-    when the time budget runs out, the steps verified so far and the first one not verified
+    """The verified cheapest chain's steps; when none is left, the plan of the steps before the first
+    one no chain reaches and that step, saying why; when the time budget runs out, the steps verified
+    so far and the first one not verified
     (``priced``: the torso priced per step, :mod:`placement.planning.torso_program`)."""
     t0 = time.perf_counter()
     if not ctx.problems.steps:
@@ -154,7 +157,15 @@ def plan_dynamic(
         # (not with torso settings: the program held the lift, the bound takes every setting)
         ctx.problems.bounds[("maps", start)] = dp.first_total
     if chain is None:
-        return [failure] if failure is not None else []
+        if failure is None:
+            return []
+        if failure.step == 0:
+            return [failure]
+        # no chain reaches step i: the steps before it are planned alone (their plan, then the failure)
+        head = plan_dynamic(
+            prefix_context(ctx, failure.step), start, keep_maps, neighbourhood, exact_repairs, local, priced
+        )
+        return head if head and not head[-1].ok else [*head, failure]
     out = results(ctx, start, dp, chain, picks, keep_maps)  # the verified steps (all, or before the failure)
     ms = (time.perf_counter() - t0) * 1e3
     log.debug(
@@ -168,6 +179,15 @@ def plan_dynamic(
     for s in out:
         s.timings_ms = {"total": ms / len(out)}
     return out if failure is None else [*out, failure]
+
+
+def prefix_context(ctx: PlanningContext, count: int) -> PlanningContext:
+    """``ctx`` with the task cut to its first ``count`` steps (the cached options, IK and collision
+    answers shared; the task bounds not: they belong to the whole task)."""
+    problems = copy.copy(ctx.problems)
+    problems.steps = ctx.problems.steps[:count]
+    problems.bounds = {}
+    return replace(ctx, problems=problems)
 
 
 def results(

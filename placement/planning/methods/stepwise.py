@@ -110,6 +110,16 @@ def plan_transfer(
     viable = problems.pairs(place.index)
     irms_ms = (time.perf_counter() - t0) * 1e3  # the pick's and the place's IRMs: manipulation work
     failed: dict[Pair, str] = {p: "" for p in picks - viable}  # pair -> its place's failure ("": by the maps)
+    if not viable and picks:
+        # no arm and grasp reaches the place anywhere: the place is what fails (as the whole-task methods
+        # say), after the pick planned alone
+        first, cell = plan_step(ctx, method, pick, prev_cell, prev_q, keep_maps, None, torso)
+        first.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
+        if not first.ok or cell is None:
+            return [first], None
+        opts = problems.options(place.index)
+        reason, diagnosis = explain(ctx, False, place, opts, None, unreachable_reason(ctx, opts))
+        return [first, infeasible(place, reason, diagnosis)], None
     while True:
         allowed = picks - failed.keys()
         if failed and ctx.out_of_time():
