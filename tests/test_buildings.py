@@ -132,7 +132,7 @@ def test_sequential_plans_beside_floor_the_base_cannot_reach(maps_dir):
     assert np.isfinite(problems.heuristic(1)[world.nav.cell(*result.steps[0].base[:2])])
 
 
-@pytest.mark.parametrize("method", ["global", "sequential"])
+@pytest.mark.parametrize("method", ["global", "optimal", "sequential"])
 def test_a_spent_time_budget_keeps_the_verified_steps_and_says_why(maps_dir, method):
     """With 0.1 s for the whole task, the plan stops soon after: the steps verified by then are kept,
     and the first one not verified says which budget ran out and how to raise it."""

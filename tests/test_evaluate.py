@@ -19,7 +19,12 @@ def _scenes(tmp_path, maps_dir, n=2):
     paths = []
     for k in range(n):
         doc = generate_scene(5, k, objects=2, maps=str(maps_dir))
-        doc["planner"] = {"threshold": 0.01, "yaw_steps": 40, "ik_budget_ms": 60000}  # load-independent
+        doc["planner"] = {
+            "threshold": 0.01,
+            "yaw_steps": 40,
+            "ik_budget_ms": 60000,
+            "time_budget_s": 3600,
+        }  # load-independent
         p = tmp_path / f"s{k}.yaml"
         p.write_text(yaml.safe_dump(doc))
         paths.append(p)

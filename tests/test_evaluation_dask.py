@@ -44,7 +44,7 @@ def scenes(maps_dir, tmp_path_factory):
         doc = generate_scene(7, k, objects=2, obstacles=k > 0, maps=str(maps_dir))
         # no effective IK time budget: a budget that runs out depends on the machine's load, and the
         # local and Dask documents must agree whatever else runs
-        doc["planner"] = {"threshold": 0.01, "yaw_steps": 40, "ik_budget_ms": 60000}
+        doc["planner"] = {"threshold": 0.01, "yaw_steps": 40, "ik_budget_ms": 60000, "time_budget_s": 3600}
         p = d / f"s{k}.yaml"
         p.write_text(yaml.safe_dump(doc))
         paths.append(p)

@@ -67,7 +67,7 @@ def kitchen_variant(maps) -> dict:
     doc = yaml.safe_load((EXAMPLES / "kitchen.yaml").read_text())
     doc["maps"] = str(maps)
     # machine-independent: the default 300 ms IK budget runs out on the reach step on a loaded machine
-    doc["planner"] = {"ik_budget_ms": 60000}
+    doc["planner"] = {"ik_budget_ms": 60000, "time_budget_s": 3600}
     obs = {o["name"]: o for o in doc["obstacles"]}
     obs["shelf"]["box"] = {"center": [1.5, 4.6, 0.5], "size": [1.0, 0.4, 1.0]}
     obs["shelf_board"]["box"] = {"center": [1.5, 4.6, 1.41], "size": [1.0, 0.4, 0.02]}

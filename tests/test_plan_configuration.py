@@ -43,7 +43,9 @@ def doc(maps_dir):
 def planned(maps_dir):
     """(planner, result) of the example scene, planned in this process."""
     scene = load_scene(EXAMPLE)
-    planner = Planner(replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0}), maps=maps_dir)
+    planner = Planner(
+        replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0, "time_budget_s": 3600.0}), maps=maps_dir
+    )
     return planner, planner.plan()
 
 

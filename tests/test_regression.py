@@ -60,7 +60,7 @@ def _plans(maps_dir, preset: str | None, collisions: bool = True) -> dict:
         scene = load_scene(path)
         # no time budget (the search stops when every candidate was tried, or at its cap): the plans
         # must not depend on the machine's speed
-        scene = replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0})
+        scene = replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0, "time_budget_s": 3600.0})
         planner = Planner(
             scene if preset is None else replace(scene, robot_preset=preset),
             METHODS[0],

@@ -62,7 +62,7 @@ def edge_scene(
         "place_locations": [{"name": "spot", "position": [4.2, 1.0, 0.76]}],
         "task": [{"pick": "cup", "place": "spot"}],
         # no time budget: what the search finds must not depend on the machine's load
-        "planner": {"threshold": threshold, "yaw_steps": 40, "ik_budget_ms": 60000.0},
+        "planner": {"threshold": threshold, "yaw_steps": 40, "ik_budget_ms": 60000.0, "time_budget_s": 3600.0},
     }
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(doc))

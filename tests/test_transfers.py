@@ -30,7 +30,7 @@ from placement.scene.poses import quaternion_matrix, yaw_quaternion
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 METHODS = ("sequential", "single-step", "irm", "fixed", "optimal")
-NO_BUDGET = {"ik_budget_ms": 60000.0}  # plans must not depend on the machine's load
+NO_BUDGET = {"ik_budget_ms": 60000.0, "time_budget_s": 3600.0}  # plans must not depend on the machine's load
 
 
 def unbudgeted(scene):

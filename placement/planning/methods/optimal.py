@@ -156,6 +156,8 @@ def plan_dynamic(
         # the first program over the maps' regions is the plan's lower bound: kept, not solved again
         # (not with torso settings: the program held the lift, the bound takes every setting)
         ctx.problems.bounds[("maps", start)] = dp.first_total
+    if failure is not None and not failure.timings_ms:
+        failure.timings_ms = {"total": (time.perf_counter() - t0) * 1e3}
     if chain is None:
         if failure is None:
             return []
