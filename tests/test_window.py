@@ -125,3 +125,31 @@ def test_reachable_floor_is_the_start_component(tmp_path, base, pr2):
     assert reach[inside] and world.feasible[far] and not reach[far]
     # off the floor: nothing narrower than every feasible cell can be said
     np.testing.assert_array_equal(reachable_from(world.feasible, world.nav, 30.1, 5.0), world.feasible)
+
+
+def test_a_cut_window_falls_back_to_the_planners_own_routes(tmp_path, base, pr2):
+    """As above in a 100 m building whose far half the task never needs: the map's route through the
+    closed door gives a window that cuts the base off; the whole grid is built and cut to the window of
+    the planner's own cheapest routes (round by the corridor), whose cells are the whole grid's."""
+    walls = [(8.0, 1.8, 8.2, 4.0), (8.0, 6.0, 8.2, 10.0), (8.2, 2.0, 38.0, 2.2), (45.0, 0.0, 45.2, 10.0)]
+    write_building(tmp_path, building(walls, size=(100.0, 10.0)))
+    keep = np.full((100, 1000), 254)
+    keep[::-1][40:60, 75:90] = 0
+    write_pgm(tmp_path / "keep.pgm", keep.tolist())
+    (tmp_path / "keep.yaml").write_text(yaml.safe_dump({"image": "keep.pgm", "resolution": RES, "origin": [0, 0, 0]}))
+    sc = scene(tmp_path, [(4.0, 3.0)], [(12.0, 6.0)], keepout_mask="keep.yaml")
+    cfg = PlannerConfig()
+    first = task_window(sc, sc.nav_grid(), base)
+    assert first is not None and not serves(*_layers(build_world(sc, base, cfg, pr2.v_max, first)), sc)
+    world = windowed_world(sc, base, cfg, pr2.v_max)
+    assert world.window is not None and world.window != first
+    j0, j1, i0, i1 = world.window
+    full = build_world(sc, base, cfg, pr2.v_max)
+    assert world.nav.shape[1] < 0.6 * full.nav.shape[1] and world.nav.origin[0] + world.nav.shape[1] * 0.05 > 38.0
+    for name in ("occupied", "feasible", "factor"):
+        np.testing.assert_array_equal(getattr(world, name), getattr(full, name)[j0:j1, i0:i1], err_msg=name)
+    assert serves(world.feasible, world.nav, sc)
+
+
+def _layers(world):
+    return world.feasible, world.nav

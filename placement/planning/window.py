@@ -13,8 +13,10 @@ target, over the cells clear of occupied ones by the base's outer radius (drivab
 where there is no such route by its inner radius (a door the base may pass turned just so). The
 window holds one route to every target, not every route: a detour that would leave the window is
 not planned (give the scene ``bounds`` to plan over more of the map). After the world is built on
-the window, :func:`serves` checks that the base still gets near every target from the start; if
-not, the planner uses the whole grid.
+the window, :func:`serves` checks that the base still gets near every target from the start. If
+not (the map's route passed a gap too narrow for the base as the planner rasterises it), the world
+is built on the whole grid and cut to the window of the planner's own cheapest routes
+(:func:`route_window`): exact, at the cost of building the whole grid once.
 
 Inside the window everything is exact: :func:`~placement.planning.world.build_world` rasterises the
 window grown by a halo of the base's reach and the Eq. 4 slowdown distance, then cuts the halo off,
@@ -134,6 +136,49 @@ def serves(feasible: BoolArray, nav: NavGrid, scene: Scene) -> bool:
     return True
 
 
+def route_window(feasible: BoolArray, factor: np.ndarray, nav: NavGrid, scene: Scene) -> Window | None:
+    """The window of ``nav`` (the whole scene grid, with its ``feasible`` and ``factor`` layers) that
+    holds the task's things and the base's cheapest routes from the start to within
+    :data:`TARGET_RADIUS` of every target, grown by :data:`WINDOW_MARGIN`; None when it would save
+    too little or the start is not on a feasible cell. Exact: the routes are the planner's own."""
+    try:
+        start = nav.cell(scene.start[0], scene.start[1])
+    except PlacementError:
+        return None
+    if not feasible[start]:
+        return None
+    cost, pred = navigation_cost(factor, feasible, start, nav.resolution)
+    r = nav.resolution
+    ys = nav.origin[1] + (np.arange(nav.shape[0]) + 0.5) * r
+    xs = nav.origin[0] + (np.arange(nav.shape[1]) + 0.5) * r
+    x0, y0, x1, y1 = _things_extent(scene)
+    for tx, ty in _targets(scene):
+        near = ((ys[:, None] - ty) ** 2 + (xs[None, :] - tx) ** 2) <= TARGET_RADIUS**2
+        local = np.where(near, cost, np.inf)
+        k = int(np.argmin(local))
+        if not np.isfinite(local.flat[k]):
+            continue
+        path = extract_path(pred, divmod(k, nav.shape[1]))
+        x0, x1 = min(x0, float(xs[path[:, 1]].min())), max(x1, float(xs[path[:, 1]].max()))
+        y0, y1 = min(y0, float(ys[path[:, 0]].min())), max(y1, float(ys[path[:, 0]].max()))
+    return _cells(nav, (x0, y0, x1, y1))
+
+
+def _cells(nav: NavGrid, box: tuple[float, float, float, float]) -> Window | None:
+    """The rows and columns of ``nav`` covering ``box`` (x0, y0, x1, y1) [m] grown by
+    :data:`WINDOW_MARGIN`, or None when that would save too little."""
+    x0, y0, x1, y1 = (box[0] - WINDOW_MARGIN, box[1] - WINDOW_MARGIN, box[2] + WINDOW_MARGIN, box[3] + WINDOW_MARGIN)
+    ny, nx = nav.shape
+    r = nav.resolution
+    i0 = max(int(math.floor((x0 - nav.origin[0]) / r)), 0)
+    i1 = min(int(math.ceil((x1 - nav.origin[0]) / r)), nx)
+    j0 = max(int(math.floor((y0 - nav.origin[1]) / r)), 0)
+    j1 = min(int(math.ceil((y1 - nav.origin[1]) / r)), ny)
+    if j1 <= j0 or i1 <= i0 or (j1 - j0) * (i1 - i0) > MIN_SAVING * ny * nx:
+        return None
+    return j0, j1, i0, i1
+
+
 def task_window(scene: Scene, nav: NavGrid, base: BaseShape) -> Window | None:
     """The window of ``nav`` (the scene's grid) the task needs (see the module doc), or None to plan
     on the whole grid: no occupancy map, ``bounds`` given in the scene file, or too little saved."""
@@ -149,16 +194,5 @@ def task_window(scene: Scene, nav: NavGrid, base: BaseShape) -> Window | None:
     if routes is None:
         return None
     things = _things_extent(scene)
-    x0 = min(routes[0], things[0]) - WINDOW_MARGIN
-    y0 = min(routes[1], things[1]) - WINDOW_MARGIN
-    x1 = max(routes[2], things[2]) + WINDOW_MARGIN
-    y1 = max(routes[3], things[3]) + WINDOW_MARGIN
-    ny, nx = nav.shape
-    r = nav.resolution
-    i0 = max(int(math.floor((x0 - nav.origin[0]) / r)), 0)
-    i1 = min(int(math.ceil((x1 - nav.origin[0]) / r)), nx)
-    j0 = max(int(math.floor((y0 - nav.origin[1]) / r)), 0)
-    j1 = min(int(math.ceil((y1 - nav.origin[1]) / r)), ny)
-    if j1 <= j0 or i1 <= i0 or (j1 - j0) * (i1 - i0) > MIN_SAVING * ny * nx:
-        return None
-    return j0, j1, i0, i1
+    box = (min(routes[0], things[0]), min(routes[1], things[1]), max(routes[2], things[2]), max(routes[3], things[3]))
+    return _cells(nav, box)

@@ -13,7 +13,7 @@ from placement.planning.arrays import BoolArray, FloatArray, IntArray, MaskArray
 from placement.planning.config import PlannerConfig
 from placement.planning.footprints import BaseShape, YawMasks, masks_at, polygon_feasibility, pose_clear
 from placement.planning.navigation import distance_map, speed_factor
-from placement.planning.window import Window, serves, task_window
+from placement.planning.window import Window, route_window, serves, task_window
 from placement.scene import Box, Cylinder, Obstacle, Polygon, Scene
 from placement.scene.navgrid import NavGrid
 from placement.scene.occupancy import rasterize_occupancy
@@ -282,14 +282,18 @@ def build_world(
 
 
 def windowed_world(scene: Scene, base: BaseShape, config: PlannerConfig, v_max: float = 1.0) -> World:
-    """The world of ``scene`` on the window its task needs (see :mod:`placement.planning.window`), or
-    on the whole grid when there is no window or the window would cut the base off a target."""
+    """The world of ``scene`` on the window its task needs (see :mod:`placement.planning.window`): the
+    map routes' window, else the whole grid cut to the planner's own routes, else the whole grid."""
     window = task_window(scene, scene.nav_grid(), base)
+    if window is None and (scene.occupancy is None or scene.bounds_given):
+        return build_world(scene, base, config, v_max)
     if window is not None:
         world = build_world(scene, base, config, v_max, window)
         if serves(world.feasible, world.nav, scene):
             return world
-    return build_world(scene, base, config, v_max)
+    full = build_world(scene, base, config, v_max)
+    exact = route_window(full.feasible, full.factor, full.nav, scene)
+    return full if exact is None else full.crop(*exact, exact)
 
 
 def _build(scene: Scene, nav: NavGrid, base: BaseShape, config: PlannerConfig, v_max: float) -> World:
