@@ -49,26 +49,28 @@ def init(urdf: str, out: str | None, force: bool, as_json: bool, verbose: int, q
     """Propose a commented preset for the robot in URDF (a .urdf or .xacro file)."""
     setup_logging(verbose, quiet)
     from placement.robots.onboarding.propose import propose
-    from placement.robots.onboarding.render import render
+    from placement.robots.onboarding.render import build_command, render
 
     out_path = Path(out) if out else None
     if out_path is not None:
         check_out(out_path, force)
     proposal = propose(urdf, out_path)
     command = "placement robots init " + shlex.quote(str(urdf)) + (f" --out {shlex.quote(str(out))}" if out else "")
-    text = render(proposal, command)
+    text = render(proposal, command, shlex.quote(str(out_path)) if out_path else "PRESET.yaml")
     if out_path is not None:
         write_atomic(out_path, text)
     for w in proposal.warnings:
         log.warning("warning: %s", w)
     if as_json:
-        emit({**proposal.to_json(), "out": str(out_path) if out_path else None, "yaml": text}, True, str)
+        build = build_command(shlex.quote(str(out_path)) if out_path else "PRESET.yaml", proposal.name)
+        emit({**proposal.to_json(), "out": str(out_path) if out_path else None, "yaml": text, "build": build}, True, str)
     elif out_path is None:
         click.echo(text, nl=False)
     else:
         click.echo(
             f"{out_path}: preset for {proposal.name} with arms {', '.join(a.name for a in proposal.arms)} "
-            f"({proposal.seconds:.1f} s); check it with: placement robots check {out_path}"
+            f"({proposal.seconds:.1f} s); check it with: placement robots check {out_path}; build its maps with: "
+            f"{build_command(shlex.quote(str(out_path)), proposal.name)}"
         )
 
 
