@@ -63,7 +63,9 @@ def init(urdf: str, out: str | None, force: bool, as_json: bool, verbose: int, q
         log.warning("warning: %s", w)
     if as_json:
         build = build_command(shlex.quote(str(out_path)) if out_path else "PRESET.yaml", proposal.name)
-        emit({**proposal.to_json(), "out": str(out_path) if out_path else None, "yaml": text, "build": build}, True, str)
+        emit(
+            {**proposal.to_json(), "out": str(out_path) if out_path else None, "yaml": text, "build": build}, True, str
+        )
     elif out_path is None:
         click.echo(text, nl=False)
     else:

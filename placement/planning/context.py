@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from placement.collision import SceneCollision
 from placement.maps.rmap import ReachabilityMap
@@ -57,6 +57,19 @@ class PlanningContext:
     torso_checks: dict[float, SceneCollision] = field(default_factory=dict)
     setting_thresholds: Mapping[tuple[str, float], float] = field(default_factory=dict)
     deadline: float | None = None
+
+    def for_step(self, i: int) -> PlanningContext:
+        """The context step i is planned in: this one, or with every threshold multiplied by
+        ``problems.relaxed(i)`` when no option of the step keeps its threshold anywhere."""
+        r = self.problems.relaxed(i)
+        if r >= 1.0:
+            return self
+        return replace(
+            self,
+            config=replace(self.config, threshold=self.config.threshold * r),
+            thresholds={a: t * r for a, t in self.thresholds.items()},
+            setting_thresholds={k: t * r for k, t in self.setting_thresholds.items()},
+        )
 
     def out_of_time(self) -> bool:
         """Whether the plan's time budget has run out (``deadline``: a ``time.perf_counter()`` value)."""

@@ -38,6 +38,9 @@ from placement.scene.navgrid import Window
 
 #: Legs kept at most (each holds the costs on its targets only): past it the cache starts again.
 MAX_LEGS = 4096
+#: A step none of whose options keeps its threshold anywhere is planned with its thresholds lowered to
+#: this share of its best map value (relative to its threshold): see :meth:`StepProblems.relaxed`.
+RELAX = 0.5
 #: Where a candidate's target is and how far the map reaches it: (x [m], y [m], reach [m]).
 Reach = tuple[float, float, float]
 
@@ -84,6 +87,7 @@ class StepProblems:
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
         self._reachable: BoolArray | None = None
+        self._relaxed: dict[int, float] = {}
         #: id(options list) -> (that list, its region by the maps): see placement.planning.bound
         self.regions: dict[int, tuple[Sequence[Option], Any]] = {}
         # step -> its grasp or place candidates (the options of each torso setting share them)
@@ -135,6 +139,17 @@ class StepProblems:
         """The map value below which a placement of ``arm`` with the torso at ``torso`` [m or rad] is
         infeasible (dimensionless)."""
         return threshold_at(self.thresholds, self.setting_thresholds, self.config.threshold, arm, torso)
+
+    def relaxed(self, i: int) -> float:
+        """The factor (0, 1] step i's thresholds are multiplied by: 1 when some option keeps its threshold
+        on some base cell, else :data:`RELAX` times the best ratio of a map value to its threshold (the
+        threshold prefers well-manipulable placements; where the maps give a step none, the best of what
+        they reach is verified by IK rather than the step called infeasible)."""
+        if i not in self._relaxed:
+            ratios = [float(o.value.max()) / self.threshold(o.arm, o.torso) for o in self.options(i) if o.value.size]
+            best = max(ratios, default=0.0)
+            self._relaxed[i] = 1.0 if best >= 1.0 or best <= 0.0 else RELAX * best
+        return self._relaxed[i]
 
     def options(self, i: int) -> list[Option]:
         """Manipulation maps of step i for every arm and candidate (cached)."""
@@ -200,7 +215,7 @@ class StepProblems:
         return {
             (o.arm, o.candidate.grasp)
             for o in self.options(i)
-            if o.value.size and float(o.value.max()) >= self.threshold(o.arm, o.torso)
+            if o.value.size and float(o.value.max()) >= self.threshold(o.arm, o.torso) * self.relaxed(i)
         }
 
     def feasible_region(self, i: int, options: Sequence[Option] | None = None) -> BoolArray:
@@ -208,7 +223,7 @@ class StepProblems:
         default all of the step's) reach their arm's threshold."""
         mask = np.zeros(self.world.nav.shape, dtype=bool)
         for o in self.options(i) if options is None else options:
-            mask[o.window.slices] |= o.value >= self.threshold(o.arm, o.torso)
+            mask[o.window.slices] |= o.value >= self.threshold(o.arm, o.torso) * self.relaxed(i)
         return mask
 
     @property

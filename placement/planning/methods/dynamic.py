@@ -102,7 +102,7 @@ class DynamicProgram:
         key = (i, flat, self.regions[i].groups[g], hold)
         if key in self.verified:
             return self.verified[key]
-        ctx = self.ctx
+        ctx = self.ctx.for_step(i)
         nav = ctx.world.nav
         iy, ix = divmod(flat, nav.shape[1])
         xs, ys = nav.centres()

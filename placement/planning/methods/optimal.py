@@ -223,6 +223,7 @@ def why_not(ctx: PlanningContext, dp: DynamicProgram) -> StepResult:
     i = next(k for k, layer in enumerate(dp.layers) if not np.isfinite(layer.labels).any())
     step = steps[i]
     opts = ctx.problems.options(i)
+    ctx = ctx.for_step(i)
     if not dp.full[i].masks.any():
         reason, diagnosis = explain(ctx, False, step, opts, None, unreachable_reason(ctx, opts))
         return infeasible(step, reason, diagnosis)

@@ -118,7 +118,8 @@ def plan_transfer(
         if not first.ok or cell is None:
             return [first], None
         opts = problems.options(place.index)
-        reason, diagnosis = explain(ctx, False, place, opts, None, unreachable_reason(ctx, opts))
+        place_ctx = ctx.for_step(place.index)
+        reason, diagnosis = explain(place_ctx, False, place, opts, None, unreachable_reason(place_ctx, opts))
         return [first, infeasible(place, reason, diagnosis)], None
     while True:
         allowed = picks - failed.keys()
@@ -204,6 +205,7 @@ def plan_step(
     the (arm, grasp) pairs the step may use (default all); ``torso``: the torso value [m] the robot
     holds (None without torso settings): another one's lift time joins the Eq. 6 cost as travel
     (lambda_n times the metres the base would drive meanwhile)."""
+    ctx = ctx.for_step(step.index)
     cfg, problems, world = ctx.config, ctx.problems, ctx.world
     nav = world.nav
     timings: dict[str, float] = {}

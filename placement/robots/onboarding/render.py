@@ -27,9 +27,7 @@ def build_command(preset: str, name: str) -> str:
 def _comment(text: str, indent: str = "") -> list[str]:
     # long words (paths) stay whole on a line of their own
     width = WIDTH - len(indent) - 2
-    return [
-        f"{indent}# {line}" for line in textwrap.wrap(text, width, break_on_hyphens=False, break_long_words=False)
-    ]
+    return [f"{indent}# {line}" for line in textwrap.wrap(text, width, break_on_hyphens=False, break_long_words=False)]
 
 
 def _list(values: Iterable[float], digits: int = 4) -> str:
