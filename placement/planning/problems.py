@@ -146,9 +146,18 @@ class StepProblems:
         threshold prefers well-manipulable placements; where the maps give a step none, the best of what
         they reach is verified by IK rather than the step called infeasible)."""
         if i not in self._relaxed:
-            ratios = [float(o.value.max()) / self.threshold(o.arm, o.torso) for o in self.options(i) if o.value.size]
-            best = max(ratios, default=0.0)
-            self._relaxed[i] = 1.0 if best >= 1.0 or best <= 0.0 else RELAX * best
+
+            def best(opts: Sequence[Option]) -> float:
+                ratios = [float(o.value.max()) / self.threshold(o.arm, o.torso) for o in opts if o.value.size]
+                return max(ratios, default=0.0)
+
+            # the options at hand first (a held lift's): one that keeps its threshold settles it, without
+            # the inverse maps of every other setting
+            known = self._options.get(i) or [o for (k, _), opts in self._held.items() if k == i for o in opts]
+            ratio = best(known)
+            if ratio < 1.0:
+                ratio = best(self.options(i))
+            self._relaxed[i] = 1.0 if ratio >= 1.0 or ratio <= 0.0 else RELAX * ratio
         return self._relaxed[i]
 
     def options(self, i: int) -> list[Option]:

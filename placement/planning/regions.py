@@ -54,10 +54,10 @@ def map_regions(ctx: PlanningContext, i: int, hold_lift: bool = False, held: flo
     the maps do not serve at the held value (``optimal`` prices it: :mod:`placement.planning.torso_program`). ``held``: that value [m] already found
     by :func:`held_torso` (the options at it only; None: every setting).
     """
-    ctx = ctx.for_step(i)
     if hold_lift:
         held = held_torso(ctx, i)
-    return _regions(ctx, ctx.problems.options(i) if held is None else ctx.problems.held_options(i, held))
+    opts = ctx.problems.options(i) if held is None else ctx.problems.held_options(i, held)
+    return _regions(ctx.for_step(i), opts)
 
 
 def held_torso(ctx: PlanningContext, i: int) -> float | None:
@@ -66,8 +66,8 @@ def held_torso(ctx: PlanningContext, i: int) -> float | None:
     held = start_torso(ctx)
     if held is None:
         return None
-    ctx = ctx.for_step(i)
-    region = _regions(ctx, ctx.problems.held_options(i, held))
+    opts = ctx.problems.held_options(i, held)
+    region = _regions(ctx.for_step(i), opts)
     return held if region.masks.any() else None
 
 
