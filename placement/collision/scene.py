@@ -6,8 +6,10 @@
 * Polygons (prisms from the floor, unbounded in height in the scene model): :data:`PRISM_HEIGHT` tall;
   a non-convex polygon is cut into triangles (ear clipping), each a convex prism, so a robot shape
   wholly inside the prism still collides (a mesh would only have a surface).
-* Occupancy maps: each occupied (or unknown) cell is a box of :data:`PRISM_HEIGHT` from the floor, made
-  only for the cells near the robot (see :class:`OccupancyCells`).
+* Occupancy maps, only when the scene gives their cells a height (``arm_height``): each occupied (or
+  unknown) cell is a box that tall from the floor, made only for the cells near the robot (see
+  :class:`OccupancyCells`).
+* Point clouds: each run of occupied voxels in a column is a box (see :mod:`placement.scene.cloud`).
 """
 
 from __future__ import annotations
@@ -169,12 +171,20 @@ def obstacle_shapes(name: str, shape: Box | Cylinder | Polygon) -> list[SceneSha
 
 
 def scene_shapes(scene: Scene) -> list[SceneShape]:
-    """Every obstacle (tables included) and object of ``scene`` as convex pieces, in file order."""
+    """Every obstacle (tables included) and object of ``scene`` as convex pieces, in file order, then
+    the boxes of its point cloud (``cloud[i]``, see :mod:`placement.scene.cloud`)."""
     out: list[SceneShape] = []
     for ob in scene.obstacles:
         out += obstacle_shapes(ob.name, ob.shape)
     for obj in scene.objects:
         out.append(box_shape(obj.name, obj, obj.position, obj.size, obj.yaw))
+    cloud = getattr(scene, "cloud", None)
+    if cloud is not None:
+        for i, (x0, y0, z0, x1, y1, z1) in enumerate(cloud.boxes):
+            pose = np.eye(4)
+            pose[:3, 3] = ((x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2)
+            size = (x1 - x0, y1 - y0, z1 - z0)
+            out.append(SceneShape(f"cloud[{i}]", coal.Box(*size), pose, np.array([[x0, y0, z0], [x1, y1, z1]])))
     return out
 
 

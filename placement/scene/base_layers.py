@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from placement.scene.cloud import DEFAULT_VOXEL, CloudError, VoxelCloud, load_cloud
 from placement.scene.masks import SPEED_TYPES, KeepoutMask, SpeedMask, load_keepout_mask, load_speed_mask
 from placement.scene.occupancy import UNKNOWN_POLICIES, OccupancyMap, OccupancyMapError, load_occupancy_map
 from placement.validation import Checker, show
@@ -109,6 +110,23 @@ def parse_base_layers(P: Checker, doc: dict[str, Any], origin: Path) -> BaseLaye
     return BaseLayers(**out)
 
 
+CLOUD_KEYS = {"file": "a PCD point cloud, relative to the scene file", "voxel": "[m] voxel edge, 0.01 .. 1"}
+
+
+def parse_cloud(P: Checker, value: Any, origin: Path, exclude: Any = None) -> tuple[Path | None, VoxelCloud | None]:
+    """The ``obstacle_cloud`` key (a path, or ``{file, voxel}``), loaded without the voxels that meet the
+    ``exclude`` (m, 2, 3) boxes (the scene's objects): see :mod:`placement.scene.cloud`."""
+    if value is None:
+        return None, None
+    spec = _file_or_mapping(P, value, "obstacle_cloud", CLOUD_KEYS)
+    voxel = P.positive(spec.get("voxel", DEFAULT_VOXEL), "obstacle_cloud.voxel")
+    path = resolve(spec["file"], origin)
+    try:
+        return path, load_cloud(path, voxel, exclude)
+    except CloudError as exc:
+        P.fail("obstacle_cloud", str(exc))
+
+
 def base_layers_to_dict(scene: Any, path: Any) -> dict[str, Any]:
     """The scene file keys of ``scene``'s 2D inputs (``path``: how a path is written)."""
     out: dict[str, Any] = {}
@@ -125,4 +143,6 @@ def base_layers_to_dict(scene: Any, path: Any) -> dict[str, Any]:
     if scene.speed_mask is not None:
         s = scene.speed
         out["speed_mask"] = {"file": path(scene.speed_mask), "type": s.type, "base": s.base, "multiplier": s.multiplier}
+    if scene.obstacle_cloud is not None:
+        out["obstacle_cloud"] = {"file": path(scene.obstacle_cloud), "voxel": scene.cloud.voxel}
     return out

@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from placement.errors import PlacementError
+from placement.scene.cloud import VoxelCloud
 from placement.scene.masks import KeepoutMask, SpeedMask
 from placement.scene.navgrid import NavGrid
 from placement.scene.occupancy import OccupancyMap
@@ -263,6 +264,8 @@ class Scene(ArrayEq):
         occupancy: the loaded occupancy map, if any (not compared).
         keepout_mask, speed_mask: absolute paths of Nav2 filter masks, or None.
         keepout, speed: the loaded masks (not compared; see :mod:`placement.scene.masks`).
+        obstacle_cloud: absolute path of a point cloud for the arm's collision model, or None; cloud: it
+            as boxes (not compared; see :mod:`placement.scene.cloud`).
         bounds_given: the file gave ``bounds`` (not compared; without them a scene on an occupancy
             map is planned on a window around its task: :mod:`placement.planning.window`).
     """
@@ -288,6 +291,8 @@ class Scene(ArrayEq):
     keepout: KeepoutMask | None = field(default=None, compare=False, repr=False)
     speed: SpeedMask | None = field(default=None, compare=False, repr=False)
     bounds_given: bool = field(default=False, compare=False)
+    obstacle_cloud: Path | None = None
+    cloud: VoxelCloud | None = field(default=None, compare=False, repr=False)
 
     # -- look-ups ------------------------------------------------------
     def object(self, name: str) -> SceneObject:

@@ -14,6 +14,7 @@ and the file gains grasps, place orientations and reach steps (see v2.py and bel
     occupancy_map: floor.yaml        # optional: ROS map_server map, for the base only (see base_layers.py)
     keepout_mask: keepout.yaml       # optional: Nav2 keepout filter mask
     speed_mask: speed.yaml           # optional: Nav2 speed filter mask
+    obstacle_cloud: room.pcd         # optional: a point cloud, boxes for the arm (see cloud.py)
     obstacles:                       # the base must avoid all of them
       - {name: table_1, box: {center: [x, y, z], size: [sx, sy, sz], yaw: 0.0}, table: true}
       - {name: pillar, cylinder: {center: [x, y, z], radius: r, height: h}}
@@ -55,7 +56,7 @@ from pathlib import Path
 from typing import Any
 
 from placement.robots.preset import builtin_presets
-from placement.scene.base_layers import parse_base_layers, resolve
+from placement.scene.base_layers import parse_base_layers, parse_cloud, resolve
 from placement.scene.consistency import check_scene
 from placement.scene.limits import MAX_OBJECTS, MAX_OBSTACLES, RESOLUTION_RANGE, default_bounds
 from placement.scene.model import Scene, is_path
@@ -78,6 +79,7 @@ TOP_KEYS = (
     "occupancy_map",
     "keepout_mask",
     "speed_mask",
+    "obstacle_cloud",
     "obstacles",
     "objects",
     "place_locations",
@@ -161,6 +163,8 @@ def parse_scene(
         for i, item in enumerate(P.items(doc.get("place_locations"), "place_locations"))
     ]
     trajectories = P.trajectories(doc.get("trajectories"))
+    boxes = [(c.min(axis=0), c.max(axis=0)) for c in (o.corners() for o in objects)]
+    cloud_path, cloud = parse_cloud(P, doc.get("obstacle_cloud"), origin, boxes)
     task = P.task(doc["task"], objects, places, trajectories)
     planner = parse_planner(P, doc.get("planner"))
 
@@ -185,6 +189,8 @@ def parse_scene(
         speed_mask=layers.speed_mask,
         keepout=layers.keepout,
         speed=layers.speed,
+        obstacle_cloud=cloud_path,
+        cloud=cloud,
     )
     if doc.get("bounds") is not None:
         bounds = P.coords(doc["bounds"], "bounds", 4)
