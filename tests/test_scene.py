@@ -131,14 +131,14 @@ ERRORS = [
     ),
     (
         set_key(["robots"], {}),
-        "unknown key 'robots'; allowed: bounds, keepout_mask, maps, objects, obstacles, occupancy_map, place_locations",
+        "unknown key 'robots'; allowed: bounds, keepout_mask, maps, objects, obstacle_cloud, obstacles, occupancy_map",
     ),
     (set_key(["robot", "goal"], [0, 0, 0]), "unknown key 'robot.goal'; allowed: preset, start"),
     (set_key(["task", 0, "arm"], "left"), "unknown key 'task[0].arm'; allowed: pick, place"),
     (set_key(["place_locations", 1, "yaw"], 0.0), "unknown key 'place_locations[1].yaw'; allowed: name, position"),
     (
         set_key(["planner", "speed"], 2.0),
-        "unknown key 'planner.speed'; allowed: collision_padding, d_max, footprint_padding, grasp_yaws, ik_budget_ms, "
+        "unknown key 'planner.speed'; allowed: collision_padding, d_max, face_target, footprint_padding, grasp_yaws, ik_budget_ms, "
         "lambda_m, lambda_n, lambda_nh, threshold, threshold_quantile, time_budget_s, velocity_k, velocity_lambda, yaw_steps",
     ),
     # yaw only, no quaternions
@@ -327,4 +327,5 @@ def test_planner_keys_are_documented():
         "collision_padding",
         "ik_budget_ms",
         "time_budget_s",
+        "face_target",
     }

@@ -8,7 +8,8 @@ step's options do. A collision result depends on the scene, but only on the piec
 :attr:`~placement.collision.CollisionResult.box`: a scene change whose pieces (before and after)
 all lie outside that box leaves it exactly as it was.
 
-:class:`Checks` holds both per (step, held torso value, option index, flat cell); a dynamic update
+:class:`Checks` holds both per (step, held torso value, option index, flat cell, facing yaw or best); a
+dynamic update
 (:meth:`~placement.planning.problems.StepProblems.changed`) keeps the IK answers of the steps whose
 options it keeps and the collision results whose box no moved object touches, so a re-plan after an
 object moved verifies again only near the object, and plans exactly as a fresh planner would.
@@ -25,8 +26,9 @@ from placement.collision import CollisionResult
 from placement.planning.arrays import FloatArray
 from placement.planning.verify import TrajectoryIK
 
-#: (step, the torso value [m] the step is held at or None, option index, flat base cell)
-CheckKey = tuple[int, float | None, int, int]
+#: (step, the torso value [m] the step is held at or None, option index, flat base cell, at the base yaw
+#: facing the target (:mod:`placement.planning.facing`) rather than the cell's best)
+CheckKey = tuple[int, float | None, int, int, bool]
 
 
 @dataclass

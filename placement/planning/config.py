@@ -49,6 +49,8 @@ class PlannerConfig:
         footprint_padding: clearance a polygon base footprint keeps from obstacles [m] (Nav2's
             footprint_padding; round bases have their margin in footprint_radius).
         ik_budget_ms: time the IK search of one step may spend before the step is infeasible [ms].
+        face_target: share of a cell's best map value a base yaw facing the step's target may give up
+            (dimensionless, 0 .. 1; 0: the best yaw), see :mod:`placement.planning.facing`.
         time_budget_s: time planning the whole task may take [s]; a step not verified by then is
             infeasible and says so (:meth:`PlanningContext.out_of_time`).
     Fixed (not in scenes; the stages' tuning constants):
@@ -102,6 +104,7 @@ class PlannerConfig:
     footprint_padding: float = _key("footprint_padding")
     ik_budget_ms: float = _key("ik_budget_ms")
     time_budget_s: float = _key("time_budget_s")
+    face_target: float = _key("face_target")
     ik_tries: int = 25
     ik_cap: int = 2000
     min_region: float = 0.02

@@ -208,3 +208,30 @@ def cells_within(nav: NavGrid, x: float, y: float, radius: float) -> IntArray:
     mask = (xs[None, x0:x1] - x) ** 2 + (ys[y0:y1, None] - y) ** 2 <= radius * radius
     iy, ix = np.nonzero(mask)
     return (iy + y0) * nav.shape[1] + ix + x0
+
+
+def yaw_values(
+    rmap: ReachabilityMap, poses: FloatArray, bx: FloatArray, by: FloatArray, yaws: FloatArray
+) -> Float32Array:
+    """(N, K) map value of the trajectory ``poses`` (P, 4, 4) (its minimum over the poses) for base
+    positions (bx, by) (N,) [m] at each of the base ``yaws`` (K,) [rad]: the arithmetic of the IRM
+    kernel, for every yaw instead of the best one (0 where a pose is off the map)."""
+    g = rmap.grid
+    keys = pose_slices(rmap, poses)
+    out = np.full((bx.size, yaws.size), np.inf, np.float32)
+    if len(keys) < len(poses):
+        return np.zeros_like(out)
+    cs, sn = np.cos(yaws)[None], np.sin(yaws)[None]
+    n_yaw = g.shape[3]
+    for pose, key in zip(poses, keys):
+        sl = rmap.slice(*key)
+        dx, dy = pose[0, 3] - bx[:, None], pose[1, 3] - by[:, None]
+        jx = np.floor((cs * dx + sn * dy - g.origin[0]) / g.resolution).astype(np.int64)
+        jy = np.floor((-sn * dx + cs * dy - g.origin[1]) / g.resolution).astype(np.int64)
+        tcp_yaw = zyx_angles(pose)[0]
+        jb = np.mod(np.floor((tcp_yaw - yaws) * (n_yaw / (2 * math.pi)) + 0.5).astype(np.int64), n_yaw)
+        inside = (jx >= 0) & (jy >= 0) & (jx < sl.shape[0]) & (jy < sl.shape[1])
+        v = np.zeros(out.shape, np.float32)
+        v[inside] = sl[jx[inside], jy[inside], np.broadcast_to(jb[None], jx.shape)[inside]]
+        np.minimum(out, v, out=out)
+    return out

@@ -25,12 +25,11 @@ from typing import Any
 
 import numpy as np
 
-from placement.kernels.grid import zyx_angles
-from placement.maps.rmap import ReachabilityMap
-from placement.planning.arrays import BasePose, Cell, Float32Array, FloatArray
+from placement.planning.arrays import BasePose, Cell, FloatArray
 from placement.planning.config import PlannerConfig
 from placement.planning.context import PlanningContext
-from placement.planning.manipulation import pose_slices
+from placement.planning.facing import facing_yaw
+from placement.planning.manipulation import yaw_values
 from placement.planning.option import Option
 from placement.planning.ranking import Ranked, combined_cost
 from placement.planning.steps import Step
@@ -146,33 +145,6 @@ class Learner:
         return False
 
 
-def yaw_values(
-    rmap: ReachabilityMap, poses: FloatArray, bx: FloatArray, by: FloatArray, yaws: FloatArray
-) -> Float32Array:
-    """(N, K) map value of the trajectory ``poses`` (P, 4, 4) (its minimum over the poses) for base
-    positions (bx, by) (N,) [m] at each of the base ``yaws`` (K,) [rad]: the arithmetic of the IRM
-    kernel, for every yaw instead of the best one (0 where a pose is off the map)."""
-    g = rmap.grid
-    keys = pose_slices(rmap, poses)
-    out = np.full((bx.size, yaws.size), np.inf, np.float32)
-    if len(keys) < len(poses):
-        return np.zeros_like(out)
-    cs, sn = np.cos(yaws)[None], np.sin(yaws)[None]
-    n_yaw = g.shape[3]
-    for pose, key in zip(poses, keys):
-        sl = rmap.slice(*key)
-        dx, dy = pose[0, 3] - bx[:, None], pose[1, 3] - by[:, None]
-        jx = np.floor((cs * dx + sn * dy - g.origin[0]) / g.resolution).astype(np.int64)
-        jy = np.floor((-sn * dx + cs * dy - g.origin[1]) / g.resolution).astype(np.int64)
-        tcp_yaw = zyx_angles(pose)[0]
-        jb = np.mod(np.floor((tcp_yaw - yaws) * (n_yaw / (2 * math.pi)) + 0.5).astype(np.int64), n_yaw)
-        inside = (jx >= 0) & (jy >= 0) & (jx < sl.shape[0]) & (jy < sl.shape[1])
-        v = np.zeros(out.shape, np.float32)
-        v[inside] = sl[jx[inside], jy[inside], np.broadcast_to(jb[None], jx.shape)[inside]]
-        np.minimum(out, v, out=out)
-    return out
-
-
 def other_yaws(
     ctx: PlanningContext, opts: Sequence[Option], nav_cost: FloatArray, heuristic: FloatArray
 ) -> tuple[list[Ranked], dict[tuple[int, int, float], float]]:
@@ -226,13 +198,22 @@ def search_placement(
 
     def attempt(r: Ranked, o: Option, iy: int, ix: int) -> bool:
         tried.add((r.option, r.cell, r.yaw))
-        base = (float(xs[ix]), float(ys[iy]), r.yaw)
+        x, y = float(xs[ix]), float(ys[iy])
+        face = facing_yaw(ctx, o, x, y, r.cell, r.yaw)
+        if face is not None and verify_at(r, o, iy, ix, *face):
+            return True
+        return verify_at(r, o, iy, ix, r.yaw, None)
+
+    def verify_at(r: Ranked, o: Option, iy: int, ix: int, yaw: float, value: float | None) -> bool:
+        """IK and the collision check of ranked placement ``r`` at base yaw ``yaw`` [rad] (``value``: its
+        map value when it is not the ranked yaw)."""
+        base = (float(xs[ix]), float(ys[iy]), yaw)
         witness = getattr(option_map(ctx, o), "witness_q", None)
         t = time.perf_counter()
         ik = trajectory_ik(robot_at(ctx, o.torso), o.arm, o.candidate.poses, base, prev_q[o.arm], witness, cfg)
         out.ik_ms += (time.perf_counter() - t) * 1e3
         if not ik.ok:
-            f = Failure(r.option, (iy, ix), r.yaw, "ik", ik.failed_pose, ik.residual_m, ik.residual_rad)
+            f = Failure(r.option, (iy, ix), yaw, "ik", ik.failed_pose, ik.residual_m, ik.residual_rad)
             out.failures.append(f)
             learn.add(f, o, base, ik)
             return False
@@ -245,11 +226,11 @@ def search_placement(
             out.collision_ms += (time.perf_counter() - t) * 1e3
             clearance = float(check.clearance_m)
             if not check.free:
-                f = Failure(r.option, (iy, ix), r.yaw, "collision", culprit=check.culprit)
+                f = Failure(r.option, (iy, ix), yaw, "collision", culprit=check.culprit)
                 out.failures.append(f)
                 learn.add(f, o, base, None)
                 return False
-        out.found = Found(r, base, ik, clearance)
+        out.found = Found(r, base, ik, clearance, value)
         out.stop = "found"
         return True
 
@@ -313,7 +294,7 @@ def search_placement(
     extra, values = other_yaws(ctx, opts, nav_cost, heuristic)
     if not spread(extra) and time.perf_counter() > deadline:
         out.stop = "budget"
-    if out.found is not None:
+    if out.found is not None and out.found.value is None:
         r = out.found.ranked
         out.found.value = values[(r.option, r.cell, r.yaw)]
     return out

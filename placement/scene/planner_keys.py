@@ -113,6 +113,13 @@ PLANNER_SETTINGS: dict[str, dict[str, Any]] = {
         minimum=1.0,
         maximum=60000.0,
     ),
+    "face_target": dict(
+        default=0.0,
+        help="share of a cell's best map value a base yaw facing the target may give up, 0 .. 1 (default 0: "
+        "the best yaw)",
+        minimum=0.0,
+        maximum=1.0,
+    ),
     "time_budget_s": dict(
         default=10.0,
         help="time planning the whole task may take [s], 0.1 .. 3600 (default 10): a step not verified by "

@@ -12,11 +12,14 @@ import numpy as np
 
 from placement.planning.arrays import Cell
 from placement.planning.bound import Chain, Layer, Program, linked_steps, travel_bound
+from placement.planning.checks import CheckKey
 from placement.planning.context import PlanningContext
+from placement.planning.facing import facing_yaw
 from placement.planning.methods.repair import Verified
 from placement.planning.option import Option
 from placement.planning.regions import Group, Regions, held_torso, map_regions, reweighted
 from placement.planning.search import collision_args
+from placement.planning.steps import Step
 from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first
 from placement.planning.torso_held import HeldFirst
 from placement.planning.torso_program import settings_of, torso_regions, torso_reweighted, torso_term
@@ -120,30 +123,42 @@ class DynamicProgram:
             and (hold is None or opts[k].torso == hold)
         ]
         found = None
-        checks = ctx.problems.checks
         for k in torso_first(opts, order, self.torso):
             o = opts[k]
-            value = o.value_at(iy, ix)
-            base = (float(xs[ix]), float(ys[iy]), float(ctx.yaws[o.yaw_at(iy, ix)]))
-            ck = (i, hold, k, flat)
-            ik = checks.ik.get(ck)
-            if ik is None:
-                ik = checks.ik[ck] = self._ik(o, base)
-            if not ik.ok:
-                continue
-            clearance = None
-            checker = collisions_at(ctx, o.torso)
-            if checker is not None:
-                check = checks.collision.get(ck)
-                if check is None:
-                    check = checks.collision[ck] = checker.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
-                if not check.free:
-                    continue
-                clearance = float(check.clearance_m)
-            found = Verified(k, base, ik, clearance, value)
-            break
+            x, y, best = float(xs[ix]), float(ys[iy]), float(ctx.yaws[o.yaw_at(iy, ix)])
+            face = facing_yaw(ctx, o, x, y, flat, best)
+            tries: list[tuple[CheckKey, float, float]] = [] if face is None else [((i, hold, k, flat, True), *face)]
+            for ck, yaw, value in [*tries, ((i, hold, k, flat, False), best, o.value_at(iy, ix))]:
+                found = self._check(ck, step, o, k, (x, y, yaw), value)
+                if found is not None:
+                    break
+            if found is not None:
+                break
         self.verified[key] = found
         return found
+
+    def _check(
+        self, ck: CheckKey, step: Step, o: Option, k: int, base: tuple[float, float, float], value: float
+    ) -> Verified | None:
+        """IK and the collision check of option ``o`` (index ``k``) at ``base`` (kept in the problems'
+        checks under ``ck``): its :class:`Verified`, or None."""
+        ctx = self.ctx
+        checks = ctx.problems.checks
+        ik = checks.ik.get(ck)
+        if ik is None:
+            ik = checks.ik[ck] = self._ik(o, base)
+        if not ik.ok:
+            return None
+        clearance = None
+        checker = collisions_at(ctx, o.torso)
+        if checker is not None:
+            check = checks.collision.get(ck)
+            if check is None:
+                check = checks.collision[ck] = checker.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
+            if not check.free:
+                return None
+            clearance = float(check.clearance_m)
+        return Verified(k, base, ik, clearance, value)
 
     def _ik(self, o: Option, base: tuple[float, float, float]) -> TrajectoryIK:
         """IK of option ``o``'s poses with the base at ``base``, started from the map's witness, then
