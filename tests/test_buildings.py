@@ -180,3 +180,25 @@ def test_every_method_names_the_same_failing_step_and_keeps_the_steps_before(map
         reasons[method] = failed.reason
     assert len(set(reasons.values())) == 1, reasons
     assert "outside the height range of the maps" in reasons["global"]
+
+
+def test_an_update_on_a_windowed_map_plans_as_a_fresh_planner(maps_dir):
+    """The arena, planned on a window of its map: an object moved 2 cm (the same window), then the start
+    moved to the second room (another window): each re-plan equals a fresh planner's plan."""
+    path = next(p for p in BUILDINGS if p.parent.name == "wrs_arena")
+    live = Planner(path, "global", maps_dir)
+    live.plan()
+    first = live.world.window
+    for change in (
+        {"objects": [{"name": "cracker_box", "position": [1.07, -0.55, 0.705]}]},
+        {"start": [2.2, 3.8, 1.5]},  # the second room's cupboard goal
+    ):
+        live.update(change)
+        got = live.plan()
+        fresh = Planner(live.scene, "global", maps_dir)
+        want = fresh.plan()
+        assert live.world.window == fresh.world.window
+        assert [(s.base, s.arm, s.grasp) for s in got.steps] == [(s.base, s.arm, s.grasp) for s in want.steps]
+        if "objects" in change:
+            assert live.world.window == first
+    assert live.world.window != first

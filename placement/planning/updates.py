@@ -24,7 +24,14 @@ import numpy as np
 
 from placement.planning.context import PlanningContext
 from placement.planning.problems import StepProblems
-from placement.planning.world import add_touched, build_world, changed_occupancy, windowed_world, world_from_occupancy
+from placement.planning.world import (
+    add_touched,
+    build_world,
+    changed_occupancy,
+    windowed_world,
+    world_from_occupancy,
+    world_still_serves,
+)
 from placement.scene import Obstacle, Scene, SceneObject, SceneParser, check_scene
 from placement.scene.parse import OBJECT_KEYS_V1
 from placement.validation import describe
@@ -138,13 +145,12 @@ def apply_update(ctx: PlanningContext, change: Any) -> tuple[PlanningContext, di
     timings: dict[str, float] = {}
     world = ctx.world
     windowed = ctx.world.window is not None or scene.occupancy is not None and not scene.bounds_given
-    if windowed:  # the task's new routes may need another window: the world is made again
+    if windowed and (parsed.obstacles_changed or not world_still_serves(ctx.world, scene)):
+        # the task's new routes need another window, or obstacles changed: the world is made again
         t = time.perf_counter()
         world = windowed_world(scene, world.base, ctx.config, ctx.robot.v_max)
-        if world.window == ctx.world.window and not parsed.obstacles_changed:
-            world = ctx.world  # the same layers: keep what was computed on them
         timings["distance"] = (time.perf_counter() - t) * 1e3
-    elif parsed.obstacles_changed:
+    elif parsed.obstacles_changed and not windowed:
         t = time.perf_counter()
         # ctx.config differs from the scene's configuration in the methods' weights only, which
         # the world does not read

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -169,7 +169,8 @@ class World:
         bases; None for round ones). masks: the allowed yaws of the band cells (None for round bases).
         slowdown: (ny, nx) the speed mask's travel cost multiplier (>= 1), or None without one.
         window: the rows and columns (j0, j1, i0, i1) of the scene's grid that ``nav`` covers, or None
-            for the whole grid (see :mod:`placement.planning.window`).
+            for the whole grid (see :mod:`placement.planning.window`); requested: the map routes'
+            window it was made for (the same as ``window`` unless that one cut the base off a target).
     """
 
     nav: NavGrid
@@ -182,6 +183,7 @@ class World:
     masks: YawMasks | None = None
     slowdown: FloatArray | None = None
     window: Window | None = None
+    requested: Window | None = None
 
     def yaw_masks(self, cells: IntArray) -> MaskArray:
         """(N, W) uint64 packed masks of the base yaws allowed on flat ``cells`` (N,) (bit k of word
@@ -290,10 +292,18 @@ def windowed_world(scene: Scene, base: BaseShape, config: PlannerConfig, v_max: 
     if window is not None:
         world = build_world(scene, base, config, v_max, window)
         if serves(world.feasible, world.nav, scene):
-            return world
+            return replace(world, requested=window)
     full = build_world(scene, base, config, v_max)
     exact = route_window(full.feasible, full.factor, full.nav, scene)
-    return full if exact is None else full.crop(*exact, exact)
+    return replace(full if exact is None else full.crop(*exact, exact), requested=window)
+
+
+def world_still_serves(world: World, scene: Scene) -> bool:
+    """Whether ``world`` (made by :func:`windowed_world`) serves ``scene`` as a new one would: the same
+    map routes' window, and the base still gets near every target (after objects or the start moved)."""
+    return task_window(scene, scene.nav_grid(), world.base) == world.requested and serves(
+        world.feasible, world.nav, scene
+    )
 
 
 def _build(scene: Scene, nav: NavGrid, base: BaseShape, config: PlannerConfig, v_max: float) -> World:
