@@ -33,10 +33,14 @@ def port_option(f: F) -> F:
 def serve(view: View, as_json: bool, what: str, timeout: float | None = None) -> None:
     """Print where the view is, then serve it until Ctrl-C (or ``timeout`` [s])."""
     info = {"url": view.url, "timings_s": {k: round(v, 3) for k, v in view.timings.items()}}
-    click.echo(to_json_line(info) if as_json else f"{what} at {view.url} (Ctrl-C to stop)", err=not as_json)
-    sys.stdout.flush()
     try:
+        # a Ctrl-C as soon as the line is out (a loaded machine may not have reached the wait yet) stops
+        # the server as one in the wait does
+        click.echo(to_json_line(info) if as_json else f"{what} at {view.url} (Ctrl-C to stop)", err=not as_json)
+        sys.stdout.flush()
         view.wait(timeout)
+    except KeyboardInterrupt:
+        pass
     finally:
         view.stop()
 
