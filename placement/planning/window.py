@@ -35,6 +35,7 @@ from placement.planning.arrays import BoolArray
 from placement.planning.footprints import PAD_SLACK, BaseShape
 from placement.planning.navigation import distance_map, extract_path, navigation_cost, reachable_from
 from placement.scene import Scene
+from placement.scene.limits import things_extent
 from placement.scene.navgrid import NavGrid
 
 #: [m] the window reaches this far beyond the task's things and routes.
@@ -55,22 +56,6 @@ def _targets(scene: Scene) -> list[tuple[float, float]]:
     for t in scene.trajectories:
         out += [(float(x), float(y)) for x, y in t.poses[:, :2]]
     return out
-
-
-def _things_extent(scene: Scene) -> tuple[float, float, float, float]:
-    xs, ys = [scene.start[0]], [scene.start[1]]
-    for ob in scene.obstacles:
-        x0, y0, x1, y1 = ob.shape.bounds_xy()
-        xs += [x0, x1]
-        ys += [y0, y1]
-    for o in scene.objects:
-        x0, y0, x1, y1 = o.bounds_xy()
-        xs += [x0, x1]
-        ys += [y0, y1]
-    for x, y in _targets(scene):
-        xs.append(x)
-        ys.append(y)
-    return min(xs), min(ys), max(xs), max(ys)
 
 
 def _route_costs(scene: Scene, clearance: float) -> tuple[np.ndarray, np.ndarray] | None:
@@ -151,7 +136,7 @@ def route_window(feasible: BoolArray, factor: np.ndarray, nav: NavGrid, scene: S
     r = nav.resolution
     ys = nav.origin[1] + (np.arange(nav.shape[0]) + 0.5) * r
     xs = nav.origin[0] + (np.arange(nav.shape[1]) + 0.5) * r
-    x0, y0, x1, y1 = _things_extent(scene)
+    x0, y0, x1, y1 = things_extent(scene)
     for tx, ty in _targets(scene):
         near = ((ys[:, None] - ty) ** 2 + (xs[None, :] - tx) ** 2) <= TARGET_RADIUS**2
         local = np.where(near, cost, np.inf)
@@ -193,6 +178,6 @@ def task_window(scene: Scene, nav: NavGrid, base: BaseShape) -> Window | None:
         return None
     if routes is None:
         return None
-    things = _things_extent(scene)
+    things = things_extent(scene)
     box = (min(routes[0], things[0]), min(routes[1], things[1]), max(routes[2], things[2]), max(routes[3], things[3]))
     return _cells(nav, box)

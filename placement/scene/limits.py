@@ -22,6 +22,7 @@ __all__ = [
     "MAX_TOTAL_VERTICES",
     "RESOLUTION_RANGE",
     "default_bounds",
+    "things_extent",
 ]
 
 BOUNDS_MARGIN = 1.0  # [m]
@@ -51,8 +52,9 @@ def _extend(box: tuple[float, float, float, float] | None, b: Sequence[float]) -
     return (min(box[0], b[0]), min(box[1], b[1]), max(box[2], b[2]), max(box[3], b[3]))
 
 
-def default_bounds(scene: Scene) -> tuple[float, float, float, float]:
-    """The extent of everything in ``scene`` (and its occupancy map), grown by ``BOUNDS_MARGIN``."""
+def things_extent(scene: Scene) -> tuple[float, float, float, float]:
+    """(xmin, ymin, xmax, ymax) [m] of everything the task involves: obstacles, objects, place
+    locations, trajectory poses and the start."""
     extent = None
     for o in scene.obstacles:
         extent = _extend(extent, o.shape.bounds_xy())
@@ -62,7 +64,12 @@ def default_bounds(scene: Scene) -> tuple[float, float, float, float]:
         extent = _extend(extent, (pl.position[0], pl.position[1]) * 2)
     for t in scene.trajectories:
         extent = _extend(extent, (*t.poses[:, :2].min(axis=0), *t.poses[:, :2].max(axis=0)))
-    extent = _extend(extent, (scene.start[0], scene.start[1]) * 2)
+    return _extend(extent, (scene.start[0], scene.start[1]) * 2)
+
+
+def default_bounds(scene: Scene) -> tuple[float, float, float, float]:
+    """The extent of everything in ``scene`` (and its occupancy map), grown by ``BOUNDS_MARGIN``."""
+    extent = things_extent(scene)
     if scene.occupancy is not None:
         extent = _extend(extent, scene.occupancy.extent)
     m = BOUNDS_MARGIN
