@@ -115,7 +115,7 @@ PLANNER_SETTINGS: dict[str, dict[str, Any]] = {
     ),
     "face_target": dict(
         default=0.0,
-        help="share of a cell's best map value a base yaw facing the target may give up, 0 .. 1 (default 0: "
+        help="share of a cell's best map value a base yaw facing the target may give up, 0 .. 1 (default 0; "
         "the best yaw)",
         minimum=0.0,
         maximum=1.0,
