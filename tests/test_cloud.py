@@ -84,6 +84,7 @@ def test_any_bytes_parse_or_fail_in_one_line(data):
         ("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 2\nDATA binary\n" + "x" * 10, "truncated"),
         ("ply\nformat ascii 1.0\n", "not a PCD file"),
         ("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 99999999999\nDATA ascii\n", "more than"),
+        ("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nPOINTS 3000000\nDATA ascii\n", "save the cloud as binary"),
     ],
 )
 def test_bad_files_are_one_line(text, words):

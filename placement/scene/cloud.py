@@ -36,6 +36,8 @@ from placement.validation import read_regular
 #: Bounds checked before the points are read: the file [bytes], the points, the boxes made of them.
 MAX_CLOUD_BYTES = 256 * 2**20
 MAX_CLOUD_POINTS = 20_000_000
+#: An ascii cloud is parsed line by line in Python (about 1 s per 500,000 points): fewer of them.
+MAX_ASCII_POINTS = 2_000_000
 MAX_CLOUD_BOXES = 200_000
 #: [m] the voxel edge's range and default.
 VOXEL_RANGE = (0.01, 1.0)
@@ -134,6 +136,8 @@ def parse_pcd(data: bytes, name: str = "cloud") -> npt.NDArray[np.float64]:
         rec = np.frombuffer(data, dtype=dtype, count=n, offset=pos)
         xyz = np.stack([rec[f"f{fields.index(a)}"].astype(np.float64) for a in ("x", "y", "z")], axis=1)
     elif kind == "ascii":
+        if n > MAX_ASCII_POINTS:
+            raise _fail(name, f"{n} ascii points, more than the {MAX_ASCII_POINTS} allowed: save the cloud as binary")
         width = sum(counts_i)
         columns = [sum(counts_i[:k]) for k in (fields.index("x"), fields.index("y"), fields.index("z"))]
         lines = data[pos:].split(b"\n")
