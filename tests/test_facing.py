@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from placement.planning import Planner
+from placement.planning import Planner, facing
 from placement.planning.facing import facing_yaw
 from placement.planning.manipulation import yaw_values
 from placement.planning.torso import option_map
@@ -20,10 +20,8 @@ LAB = Path(__file__).resolve().parents[1] / "examples" / "buildings" / "brsu_hom
 
 
 def off_heading(step) -> float:
-    x, y, yaw = step.base
-    tx, ty = float(step.tcp[-1][0, 3]), float(step.tcp[-1][1, 3])
-    d = math.atan2(ty - y, tx - x) - yaw
-    return abs(math.degrees(math.atan2(math.sin(d), math.cos(d))))
+    """The angle [deg] between a planned step's base heading and its last TCP position."""
+    return facing.off_heading(step.base, (float(step.tcp[-1][0, 3]), float(step.tcp[-1][1, 3])))
 
 
 def planner(maps_dir, method: str, share: float) -> Planner:

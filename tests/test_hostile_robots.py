@@ -230,4 +230,4 @@ def test_init_bounds_mesh_triangles(tmp_path, monkeypatch):
     monkeypatch.setattr(init_base, "MAX_COLLISION_TRIANGLES", 10)
     with pytest.raises(RobotError) as err:
         propose(urdf)
-    one_line(err.value, "6000 triangles", "10 allowed", "convex hulls")
+    one_line(err.value, "toy.urdf", "6000 triangles", "10 allowed", "convex hulls")

@@ -14,7 +14,6 @@ Writes the table to docs/bench/buildings.md (atomically), which docs/benchmarks.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import platform
 import statistics
@@ -27,15 +26,14 @@ from bench_output import write_atomic
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from placement.planning import facing  # noqa: E402
+
 METHODS = ("global", "sequential", "single-step", "fixed")
 
 
 def off_heading(step) -> float:
-    """|angle| [deg] between the base's heading and the direction to the step's last TCP position."""
-    x, y, yaw = step.base
-    tx, ty = float(step.tcp[-1][0, 3]), float(step.tcp[-1][1, 3])
-    d = math.atan2(ty - y, tx - x) - yaw
-    return abs(math.degrees(math.atan2(math.sin(d), math.cos(d))))
+    """The angle [deg] between a planned step's base heading and its last TCP position."""
+    return facing.off_heading(step.base, (float(step.tcp[-1][0, 3]), float(step.tcp[-1][1, 3])))
 
 
 def main() -> None:

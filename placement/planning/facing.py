@@ -48,3 +48,10 @@ def facing_yaw(
     if abs(float(yaws[j]) - yaw) < 1e-12:
         return None
     return float(yaws[j]), float(values[j])
+
+
+def off_heading(base: tuple[float, float, float], target: tuple[float, float]) -> float:
+    """|angle| [deg] between a base pose's heading (x [m], y [m], yaw [rad]) and the direction from it
+    to ``target`` (x, y) [m]: 0 when the base faces it."""
+    d = math.atan2(target[1] - base[1], target[0] - base[0]) - base[2]
+    return abs(math.degrees(math.atan2(math.sin(d), math.cos(d))))

@@ -31,10 +31,10 @@ import math
 import numpy as np
 
 from placement.errors import PlacementError
-from placement.planning.arrays import BoolArray
+from placement.planning.arrays import BoolArray, FloatArray
 from placement.planning.footprints import PAD_SLACK, BaseShape
 from placement.planning.navigation import distance_map, extract_path, navigation_cost, reachable_from
-from placement.scene import Scene
+from placement.scene import OccupancyMap, Scene
 from placement.scene.limits import things_extent
 from placement.scene.navgrid import NavGrid
 
@@ -58,6 +58,21 @@ def _targets(scene: Scene) -> list[tuple[float, float]]:
     return out
 
 
+#: The distance transforms of the occupancy maps last used (by identity, the map kept with it): a live
+#: planner asks for the window on every update, and the map does not change.
+_DISTANCES: list[tuple[OccupancyMap, FloatArray]] = []
+
+
+def _map_distance(occ: OccupancyMap) -> FloatArray:
+    """The distance [m] from each map cell to the nearest occupied one (cached, see :data:`_DISTANCES`)."""
+    for kept, dist in _DISTANCES:
+        if kept is occ:
+            return dist
+    dist = distance_map(occ.occupied, occ.resolution)
+    _DISTANCES[:] = [(occ, dist), *_DISTANCES[:3]]
+    return dist
+
+
 def _route_costs(scene: Scene, clearance: float) -> tuple[np.ndarray, np.ndarray] | None:
     """Travel costs and predecessors on the map's own grid from the start over the cells at least
     ``clearance`` [m] from an occupied one, or None when the start is off the map or not that clear."""
@@ -65,7 +80,7 @@ def _route_costs(scene: Scene, clearance: float) -> tuple[np.ndarray, np.ndarray
     assert occ is not None
     res = occ.resolution
     rows, cols = occ.occupied.shape
-    clear: BoolArray = distance_map(occ.occupied, res) >= clearance
+    clear: BoolArray = _map_distance(occ) >= clearance
     c0 = math.floor((scene.start[0] - occ.origin[0]) / res)
     r0 = math.floor((scene.start[1] - occ.origin[1]) / res)
     if not (0 <= r0 < rows and 0 <= c0 < cols) or not clear[r0, c0]:
@@ -108,15 +123,27 @@ def routes_extent(scene: Scene, clearances: tuple[float, ...]) -> tuple[float, f
     return min(xs), min(ys), max(xs), max(ys)
 
 
+def _near(nav: NavGrid, x: float, y: float) -> tuple[slice, slice, BoolArray]:
+    """The rows and columns of ``nav`` around (x, y) [m] and the (h, w) mask of the cells there whose
+    centre lies within :data:`TARGET_RADIUS` of it."""
+    r = nav.resolution
+    reach = int(math.ceil(TARGET_RADIUS / r)) + 1
+    j, i = math.floor((y - nav.origin[1]) / r), math.floor((x - nav.origin[0]) / r)
+    j0, j1 = max(j - reach, 0), max(min(j + reach + 1, nav.shape[0]), 0)
+    i0, i1 = max(i - reach, 0), max(min(i + reach + 1, nav.shape[1]), 0)
+    ys = nav.origin[1] + (np.arange(j0, j1) + 0.5) * r
+    xs = nav.origin[0] + (np.arange(i0, i1) + 0.5) * r
+    mask: BoolArray = ((ys[:, None] - y) ** 2 + (xs[None, :] - x) ** 2) <= TARGET_RADIUS**2
+    return slice(j0, j1), slice(i0, i1), mask
+
+
 def serves(feasible: BoolArray, nav: NavGrid, scene: Scene) -> bool:
     """Whether the base, from the start, can get within :data:`TARGET_RADIUS` of every target over the
     ``feasible`` (ny, nx) cells of ``nav`` (a window that cut the only drivable route would not)."""
     reachable = reachable_from(feasible, nav, scene.start[0], scene.start[1])
-    ys = nav.origin[1] + (np.arange(nav.shape[0]) + 0.5) * nav.resolution
-    xs = nav.origin[0] + (np.arange(nav.shape[1]) + 0.5) * nav.resolution
     for tx, ty in _targets(scene):
-        near = ((ys[:, None] - ty) ** 2 + (xs[None, :] - tx) ** 2) <= TARGET_RADIUS**2
-        if not (near & reachable).any():
+        rows, cols, near = _near(nav, tx, ty)
+        if not (near & reachable[rows, cols]).any():
             return False
     return True
 
@@ -138,12 +165,12 @@ def route_window(feasible: BoolArray, factor: np.ndarray, nav: NavGrid, scene: S
     xs = nav.origin[0] + (np.arange(nav.shape[1]) + 0.5) * r
     x0, y0, x1, y1 = things_extent(scene)
     for tx, ty in _targets(scene):
-        near = ((ys[:, None] - ty) ** 2 + (xs[None, :] - tx) ** 2) <= TARGET_RADIUS**2
-        local = np.where(near, cost, np.inf)
-        k = int(np.argmin(local))
-        if not np.isfinite(local.flat[k]):
+        rows, cols, near = _near(nav, tx, ty)
+        local = np.where(near, cost[rows, cols], np.inf)
+        if not local.size or not np.isfinite(local).any():
             continue
-        path = extract_path(pred, divmod(k, nav.shape[1]))
+        k = int(np.argmin(local))
+        path = extract_path(pred, (rows.start + k // local.shape[1], cols.start + k % local.shape[1]))
         x0, x1 = min(x0, float(xs[path[:, 1]].min())), max(x1, float(xs[path[:, 1]].max()))
         y0, y1 = min(y0, float(ys[path[:, 0]].min())), max(y1, float(ys[path[:, 0]].max()))
     return _cells(nav, (x0, y0, x1, y1))

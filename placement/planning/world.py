@@ -5,8 +5,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TypeVar
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.errors import PlacementError
 from placement.planning.arrays import BoolArray, FloatArray, IntArray, MaskArray
@@ -17,6 +19,8 @@ from placement.planning.window import Window, route_window, serves, task_window
 from placement.scene import Box, Cylinder, Obstacle, Polygon, Scene
 from placement.scene.navgrid import NavGrid
 from placement.scene.occupancy import rasterize_occupancy
+
+T = TypeVar("T", bound=np.generic)
 
 #: An obstacle's footprint shape.
 Shape = Box | Cylinder | Polygon
@@ -205,8 +209,8 @@ class World:
         r = self.nav.resolution
         nav = NavGrid((self.nav.origin[0] + i0 * r, self.nav.origin[1] + j0 * r), r, (j1 - j0, i1 - i0))
 
-        def cut(a: np.ndarray | None) -> np.ndarray | None:
-            return None if a is None else np.ascontiguousarray(a[j0:j1, i0:i1])
+        def cut(a: npt.NDArray[T]) -> npt.NDArray[T]:
+            return np.ascontiguousarray(a[j0:j1, i0:i1])
 
         masks = None
         if self.masks is not None:
@@ -215,19 +219,18 @@ class World:
             keep = (rows >= j0) & (rows < j1) & (cols >= i0) & (cols < i1)
             cells = (rows[keep] - j0) * (i1 - i0) + (cols[keep] - i0)
             masks = YawMasks(np.ascontiguousarray(cells), np.ascontiguousarray(self.masks.bits[keep]))
-        out = World(
+        return World(
             nav,
-            cut(self.occupied),  # type: ignore[arg-type]
-            cut(self.distance),  # type: ignore[arg-type]
-            cut(self.feasible),  # type: ignore[arg-type]
-            cut(self.factor),  # type: ignore[arg-type]
+            cut(self.occupied),
+            cut(self.distance),
+            cut(self.feasible),
+            cut(self.factor),
             self.base,
-            cut(self.touched),
+            None if self.touched is None else cut(self.touched),
             masks,
-            cut(self.slowdown),
+            None if self.slowdown is None else cut(self.slowdown),
             window,
         )
-        return out
 
 
 def base_layers(scene: Scene, nav: NavGrid, v_max: float) -> tuple[BoolArray | None, FloatArray | None]:

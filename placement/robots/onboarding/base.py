@@ -181,7 +181,10 @@ def load_collision(model: pin.Model, xml: str, urdf: Path, notes: list[str] | No
         geom = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION, package_dirs=package_dirs(urdf))
     except Exception as exc:  # a mesh that cannot be found or read
         return None, one_line(" ".join(str(exc).split()))[:160]
-    said = simplify_meshes(geom, MAX_COLLISION_TRIANGLES)
+    try:
+        said = simplify_meshes(geom, MAX_COLLISION_TRIANGLES)
+    except RobotError as exc:
+        raise RobotError(f"{urdf}: {exc}") from None
     if said and notes is not None:
         notes.append(said)
     return geom, ""
