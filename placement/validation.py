@@ -16,6 +16,7 @@ syntax errors with their line and column.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import stat
@@ -66,6 +67,15 @@ def describe(value: Any) -> str:
     if isinstance(value, (int, float)):
         return f"{value!r}"
     return type(value).__name__
+
+
+def strict_json(data: Any, error: type[Exception], indent: int | None = 2) -> str:
+    """``data`` as strict JSON text (``indent`` None: one line), as every command writes it; ``error``
+    if it holds NaN or inf (JSON has no such numbers, and they would mean a silent wrong answer)."""
+    try:
+        return json.dumps(data, indent=indent, sort_keys=False, allow_nan=False)
+    except ValueError:
+        raise error("the result holds a non-finite number (NaN or inf); refusing to print invalid JSON") from None
 
 
 def one_line(text: str) -> str:

@@ -111,9 +111,10 @@ ALLOWED: dict[str, set[str] | frozenset[str]] = {
     "placement.evaluation": BELOW_APPS,
     "placement.viewer": BELOW_APPS,
     "placement.robots.onboarding": BELOW_APPS,
+    "placement.ros": {*BELOW_APPS, "placement.evaluation"},
     "placement.warmup": {*BELOW_APPS, "placement.evaluation", "placement.viewer", "placement.robots.onboarding"},
     "placement.cli": {*BELOW_APPS, "placement.evaluation", "placement.viewer", "placement.robots.onboarding"}
-    | {"placement.warmup"},
+    | {"placement.warmup", "placement.ros"},
 }
 #: the only packages that may import plotting, and warmup
 PLOTTING_USERS = {"placement.cli", "placement.evaluation", "placement.viewer", "placement.robots.onboarding"}
@@ -160,6 +161,9 @@ def test_nothing_imports_the_cli_and_algorithms_no_viewer(path):
     for module, _ in _imports(path):
         if not name.startswith("placement.cli"):
             assert not module.startswith("placement.cli"), f"{name} imports the CLI ({module})"
+        if not name.startswith(("placement.cli", "placement.ros")):
+            assert not module.startswith("placement.ros"), f"{name} imports the ROS node ({module})"
+            assert not module.startswith("rclpy"), f"{name} imports rclpy ({module})"
         if not name.startswith(("placement.cli", "placement.plotting", "placement.viewer")):
             assert not module.startswith("viser"), f"{name} imports a viewer ({module})"
         if name.startswith(("placement.planning", "placement.maps", "placement.kernels", "placement.storage")):

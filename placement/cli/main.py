@@ -14,6 +14,7 @@ COMMANDS = {
     "maps": "placement.cli.maps:maps",
     "query": "placement.cli.query:query",
     "robots": "placement.cli.robots:robots",
+    "ros": "placement.cli.ros:ros",
     "scenes": "placement.cli.scenes:scenes",
     "view": "placement.cli.view:view",
 }

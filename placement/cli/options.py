@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import functools
-import json
 import logging
 import re
 import sys
@@ -16,7 +15,7 @@ from typing import Any, TextIO, TypeVar
 import click
 
 from placement.errors import PlacementError
-from placement.validation import one_line
+from placement.validation import one_line, strict_json
 
 log = logging.getLogger("placement")
 
@@ -63,23 +62,14 @@ def _one_line_warning(
     print(one_line(f"warning: {message}"), file=sys.stderr)
 
 
-def _json(data: Any, indent: int | None) -> str:
-    try:
-        return json.dumps(data, indent=indent, sort_keys=False, allow_nan=False)
-    except ValueError:  # NaN or inf: JSON has no such numbers, and they would mean a silent wrong answer
-        raise PlacementError(
-            "the result holds a non-finite number (NaN or inf); refusing to print invalid JSON"
-        ) from None
-
-
 def to_json_line(data: Any) -> str:
     """``data`` as one line of strict JSON (PlacementError if it holds NaN or inf)."""
-    return _json(data, None)
+    return strict_json(data, PlacementError, None)
 
 
 def emit(data: Any, as_json: bool, render: Callable[[Any], str]) -> None:
     """Strict JSON on stdout, or a human-readable rendering."""
-    click.echo(_json(data, 2) if as_json else render(data))
+    click.echo(strict_json(data, PlacementError, 2) if as_json else render(data))
 
 
 def writable_dir(path: str | Path, option: str) -> Path:

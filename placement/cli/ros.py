@@ -1,0 +1,101 @@
+"""`placement ros serve`: the planner as a ROS 2 node on standard messages."""
+
+from __future__ import annotations
+
+import click
+
+from placement.cli.options import one_line_errors, setup_logging, verbosity
+from placement.cli.params import OneLineCommand, OneLineGroup
+from placement.method_names import DEFAULT_METHOD
+from placement.method_names import METHOD_NAMES as METHODS
+
+
+@click.group(cls=OneLineGroup)
+def ros() -> None:
+    """ROS 2: the planner as a node (needs `pip install 'placement[ros]'`)."""
+
+
+@ros.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("scene", required=False, type=click.Path(exists=True, dir_okay=False))
+@click.option(
+    "--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`)."
+)
+@click.option("--robot", default=None, help="Robot preset every scene is planned for (default: each scene's own).")
+@click.option("--method", type=click.Choice(METHODS), default=DEFAULT_METHOD, show_default=True)
+@click.option("--namespace", default="", help="Namespace of the node (topics /NAMESPACE/placement/...).")
+@click.option(
+    "--frame", default="map", show_default=True, help="The map frame until a /map message names its own frame_id."
+)
+@click.option(
+    "--unknown",
+    type=click.Choice(["occupied", "free"]),
+    default="occupied",
+    show_default=True,
+    help="What /map's unknown cells (-1) are for the base, unless the scene's occupancy_map says.",
+)
+@click.option(
+    "--occupied-percent",
+    type=click.IntRange(1, 100),
+    default=65,
+    show_default=True,
+    help="/map cells at or above this value [%] are occupied (map_server's occupied_thresh 0.65).",
+)
+@click.option(
+    "--record",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Record every scene, map and plan to this MCAP file (written when the node stops).",
+)
+@verbosity
+@one_line_errors
+def serve(
+    scene: str | None,
+    maps_path: str | None,
+    robot: str | None,
+    method: str,
+    namespace: str,
+    frame: str,
+    unknown: str,
+    occupied_percent: int,
+    record: str | None,
+    verbose: int,
+    quiet: bool,
+) -> None:
+    """Run the node `placement`: /map, ~/scene, ~/objects/NAME, ~/start, /amcl_pose and ~/reach_goal
+    in; ~/plan, ~/base_poses, ~/markers, ~/status and ~/reach_base out; ~/plan_now (std_srvs/Trigger).
+
+    Every pose is in the map frame (the frame_id of /map, else --frame); a message in another frame
+    is refused on ~/status. Stop it with Ctrl-C (or SIGTERM). The docs' "ROS 2" page tells how to
+    wire it to Nav2 and RViz.
+    """
+    setup_logging(verbose, quiet)
+    from pathlib import Path
+
+    from placement.ros import require_ros
+
+    require_ros("placement ros serve")
+    from placement.ros.live import LivePlanner
+    from placement.ros.node import NodeOptions
+    from placement.ros.node import serve as run
+    from placement.scene import load_scene
+    from placement.warmup import QUERY_COMPILE_S, announce_compilation
+
+    if record is not None:
+        from placement.cli.options import writable_dir
+
+        writable_dir(Path(record).parent if Path(record).parent != Path("") else Path("."), "--record")
+    announce_compilation(QUERY_COMPILE_S)
+    live = LivePlanner(maps_path, method, robot, origin_dir=Path(scene).parent if scene else Path.cwd())
+    if scene is not None:
+        outcome = live.set_scene(load_scene(scene), scene)
+        if not outcome.applied:
+            from placement.errors import PlacementError
+
+            raise PlacementError(outcome.error or "the scene was refused")
+    options = NodeOptions(namespace, frame, unknown, occupied_percent, Path(record) if record else None)
+
+    def ready(name: str) -> None:
+        if not quiet:
+            click.echo(f"node {name} ready (Ctrl-C stops it)", err=True)
+
+    run(live, options, ready)
