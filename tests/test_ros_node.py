@@ -17,6 +17,8 @@ import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import OccupancyGrid
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 from scipy.spatial.transform import Rotation
 from std_msgs.msg import String
 from support.cli import run
@@ -68,9 +70,11 @@ def ros(maps_dir, tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         for k, v in env.items():
             mp.setenv(k, v)
-        node = NodeProcess(["--maps", str(maps_dir), "--record", str(tmp_path_factory.mktemp("rec") / "run.mcap")], env)
+        record = tmp_path_factory.mktemp("rec") / "run.mcap"
+        node = NodeProcess(["--maps", str(maps_dir), "--record", str(record)], env)
         started = node.ready()
         peer = Peer(int(env["ROS_DOMAIN_ID"]))
+        node.record = record
         try:
             yield node, peer, started
         finally:
@@ -225,3 +229,26 @@ def test_a_reach_goal_out_of_any_reach_says_why(ros, first_plan):
     node, peer, _ = ros
     line = peer.publish_and_wait(lambda: peer.reach_goal.publish(pose(1.4, -0.6, 3.0)), f"{NODE}/reach_goal")
     assert line["status"] == "unreachable" and line["error"], line
+
+
+def test_stopped_it_leaves_a_recording_of_every_map_scene_and_plan(ros):
+    """Last in the module: SIGTERM stops the node cleanly, and its MCAP file holds what it published."""
+    node, peer, _ = ros
+    plans = [s for s in peer.statuses("plan") if s["status"] in ("planned", "infeasible")]
+    assert node.stop() == 0, node.lines
+    assert not any("Traceback" in ln for ln in node.lines), node.lines
+    with open(node.record, "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        got: dict[str, list] = {}
+        for schema, channel, _, msg in reader.iter_decoded_messages():
+            got.setdefault(channel.topic, []).append((schema.name, msg))
+    assert {t: {n for n, _ in v} for t, v in got.items()} == {
+        "/map": {"nav_msgs/msg/OccupancyGrid"},
+        f"{NODE}/scene": {"std_msgs/msg/String"},
+        f"{NODE}/plan": {"std_msgs/msg/String"},
+        f"{NODE}/base_poses": {"nav_msgs/msg/Path"},
+        f"{NODE}/markers": {"visualization_msgs/msg/MarkerArray"},
+    }
+    assert len(got[f"{NODE}/plan"]) == len(plans)
+    assert [json.loads(m.data) for _, m in got[f"{NODE}/plan"]][-1] == peer.plans[-1]
+    assert len(got["/map"]) == 2  # the arena's, then with the crate

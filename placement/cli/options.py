@@ -98,6 +98,23 @@ MESSAGE_CHARS = 2000
 _LONG_RUN = re.compile(rf"\S{{{ECHO_CHARS + 1},}}")
 
 
+def writable_file(path: str | Path, option: str) -> Path:
+    """Prove that file ``path`` can be written (its folder exists and takes a file; a folder of that
+    name is refused) before any long work starts; PlacementError naming ``option`` otherwise."""
+    p = Path(path)
+    if p.is_dir():
+        raise PlacementError(f"{option} {path}: is a folder, expected a file name")
+    folder = p.parent
+    if not folder.is_dir():
+        raise PlacementError(f"{option} {path}: the folder {folder} does not exist")
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise PlacementError(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None
+    return p
+
+
 def cut(text: str) -> str:
     """``text`` if it is at most :data:`ECHO_CHARS` long, else its start and its length in characters."""
     if len(text) <= ECHO_CHARS:

@@ -8,7 +8,15 @@ from typing import TYPE_CHECKING, Any, BinaryIO
 
 import click
 
-from placement.cli.options import bounded, emit, setup_logging, standard_options, to_json_line, writable_dir
+from placement.cli.options import (
+    bounded,
+    emit,
+    setup_logging,
+    standard_options,
+    to_json_line,
+    writable_dir,
+    writable_file,
+)
 from placement.cli.params import OneLineCommand
 from placement.method_names import DEFAULT_METHOD
 from placement.method_names import METHOD_NAMES as METHODS
@@ -30,6 +38,14 @@ if TYPE_CHECKING:
     help="After the first plan, read scene updates as JSON lines on stdin and print a new plan "
     "(one JSON line) after each.",
 )
+@click.option(
+    "--mcap",
+    "mcap_path",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Also record the scene and the plan as ROS 2 messages in this MCAP file (Foxglove, ros2 bag play; "
+    "needs `pip install 'placement[ros]'`).",
+)
 @standard_options
 def query(
     scene: str,
@@ -37,6 +53,7 @@ def query(
     method: str,
     plot_dir: str | None,
     stream: bool,
+    mcap_path: str | None,
     as_json: bool,
     verbose: int,
     quiet: bool,
@@ -48,6 +65,13 @@ def query(
 
     if plot_dir:
         writable_dir(plot_dir, "--plot")
+    if mcap_path:
+        from placement.ros import require_ros
+
+        require_ros("--mcap")
+        if stream:
+            raise click.UsageError("--mcap records one plan; it cannot be given with --stream")
+        writable_file(mcap_path, "--mcap")
     announce_compilation(QUERY_COMPILE_S)
     planner = Planner(scene, method, maps_path)
     if stream:
@@ -60,6 +84,14 @@ def query(
         files = plot_steps(planner.world, result, plot_dir, planner.scene.start, planner.robot.footprint_radius)
         if not quiet:
             click.echo(f"plots: {len(files)} PNG file{'' if len(files) == 1 else 's'} in {plot_dir}", err=True)
+    if mcap_path:
+        from pathlib import Path
+
+        from placement.ros.recording import record_plan
+
+        record_plan(mcap_path, Path(scene).read_text(encoding="utf-8"), result, planner)
+        if not quiet:
+            click.echo(f"recorded the scene and the plan in {mcap_path}", err=True)
     emit(result.to_json(), as_json, _table)
     bad = result.failed_step
     if bad is not None:

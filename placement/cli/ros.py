@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from placement.cli.options import one_line_errors, setup_logging, verbosity
+from placement.cli.options import one_line_errors, setup_logging, verbosity, writable_file
 from placement.cli.params import OneLineCommand, OneLineGroup
 from placement.method_names import DEFAULT_METHOD
 from placement.method_names import METHOD_NAMES as METHODS
@@ -81,9 +81,7 @@ def serve(
     from placement.warmup import QUERY_COMPILE_S, announce_compilation
 
     if record is not None:
-        from placement.cli.options import writable_dir
-
-        writable_dir(Path(record).parent if Path(record).parent != Path("") else Path("."), "--record")
+        writable_file(record, "--record")
     announce_compilation(QUERY_COMPILE_S)
     live = LivePlanner(maps_path, method, robot, origin_dir=Path(scene).parent if scene else Path.cwd())
     if scene is not None:

@@ -147,3 +147,24 @@ def recording(path: str | Path) -> Iterator[Recorder]:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+#: The topics of a recorded plan: the node's, with the node at the root namespace.
+PLAN_TOPICS = "/placement"
+
+
+def record_plan(path: str | Path, scene_text: str, result: Any, planner: Any, frame: str = "map") -> Path:
+    """Write an MCAP file of one query: the scene file's text, its occupancy map (if any), and the
+    plan's messages (see :func:`placement.ros.messages.plan_messages`), all stamped now."""
+    from std_msgs.msg import String
+
+    from placement.ros.messages import occupancy_grid, plan_messages
+
+    stamp = now()
+    with recording(path) as rec:
+        rec.write(f"{PLAN_TOPICS}/scene", String(data=scene_text))
+        if planner.scene.occupancy is not None:
+            rec.write("/map", occupancy_grid(planner.scene.occupancy, frame, stamp))
+        for key, msg in plan_messages(result, planner.scene, planner.robot, frame, stamp).items():
+            rec.write(f"{PLAN_TOPICS}/{key}", msg)
+    return Path(path)
