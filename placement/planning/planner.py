@@ -96,7 +96,7 @@ class Planner:
         :class:`~placement.collision.SceneCollision` checker, or None), thresholds (arm -> map
         threshold), setting_thresholds ((arm, torso value) -> map threshold of a map built once per
         torso setting). base_config: the scene's configuration (its ``threshold`` the smallest of them). method: the :class:`~placement.planning.methods.base.Method` strategy
-        (``method.name`` its name).
+        (``method.name`` its name). map_path: the folder of the open maps.
     """
 
     def __init__(
@@ -107,21 +107,35 @@ class Planner:
         collisions: bool = True,
     ):
         scene = scene if isinstance(scene, Scene) else load_scene(scene)
-        where = f"{scene.source}: planner" if scene.source is not None else "planner"
-        cfg = PlannerConfig.from_overrides(scene.planner, where)
+        # the planner block is checked before the maps are opened: its errors come first
+        PlannerConfig.from_overrides(
+            scene.planner, f"{scene.source}: planner" if scene.source is not None else "planner"
+        )
         self.method: Method = method_named(method)
         robot = load_robot(scene.robot_preset)
-        map_path = Path(maps or scene.maps or default_maps_path(scene, robot))
+        self.map_path = map_path = Path(maps or scene.maps or default_maps_path(scene, robot))
         rmaps = {arm: open_map(map_path, arm, robot) for arm in mapped_arms(map_path, robot)}
+        self._collisions = collisions
+        self._contextualise(scene, robot, rmaps)
+        # once per planner: kernels loaded and slices read here, not in the first step
+        warm_kernels(self.context.problems, robot)
+        prefetch_slices(self.context.problems)
+        warm_checks(self.context)
+
+    def _contextualise(self, scene: Scene, robot: Robot, rmaps: dict[str, ReachabilityMap]) -> None:
+        """Make the planning state of ``scene`` over the open ``robot`` and maps ``rmaps``, and swap it in
+        (only once all of it is made)."""
+        where = f"{scene.source}: planner" if scene.source is not None else "planner"
+        cfg = PlannerConfig.from_overrides(scene.planner, where)
         thresholds = resolve_thresholds(cfg, rmaps)
         settings = setting_thresholds(cfg, rmaps)
-        self.base_config = cfg = with_threshold(cfg, thresholds, settings)
-        checker = SceneCollision(robot, scene, padding=cfg.collision_padding) if collisions else None
+        base_config = cfg = with_threshold(cfg, thresholds, settings)
+        checker = SceneCollision(robot, scene, padding=cfg.collision_padding) if self._collisions else None
         yaws = base_yaws(cfg.yaw_steps)
         base = BaseShape.of(robot, cfg.footprint_padding, yaws)
         world = windowed_world(scene, base, cfg, robot.v_max)
         problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening, thresholds, settings)
-        self.context = PlanningContext(
+        context = PlanningContext(
             scene,
             robot,
             rmaps,
@@ -133,10 +147,23 @@ class Planner:
             thresholds,
             setting_thresholds=settings,
         )
-        # once per planner: kernels loaded and slices read here, not in the first step
-        warm_kernels(problems, robot)
-        prefetch_slices(problems)
-        warm_checks(self.context)
+        self.base_config, self.context = base_config, context
+
+    def serves(self, scene: Scene, maps: str | Path | None = None) -> bool:
+        """Whether :meth:`replace_scene` can take ``scene``: it names this planner's robot preset, and its
+        maps (``maps``, else the scene's, else the default) are the ones open here."""
+        if scene.robot_preset != self.scene.robot_preset:
+            return False
+        return Path(maps or scene.maps or default_maps_path(scene, self.robot)) == self.map_path
+
+    def replace_scene(self, scene: Scene) -> None:
+        """Plan ``scene`` from now on, with the robot and the maps open here (see :meth:`serves`):
+        about 10 to 50 ms where a new planner opens its maps again. On error nothing changes."""
+        if scene.robot_preset != self.scene.robot_preset:
+            raise PlacementError(
+                f"scene for robot '{scene.robot_preset}', but this planner's maps are of '{self.scene.robot_preset}'"
+            )
+        self._contextualise(scene, self.robot, dict(self.maps))
 
     # the context's fields, read-only
     @property

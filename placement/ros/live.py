@@ -132,10 +132,15 @@ class LivePlanner:
         self.occupancy: OccupancyMap | None = None  # the live map, once one came
 
     def _planner(self, scene: Scene, occupancy: OccupancyMap | None) -> Planner:
+        """The planner of ``scene`` on ``occupancy``: the live one with the new scene when it serves
+        (same robot and maps, which stay open), else a new one."""
         if self.robot is not None:
             scene = replace(scene, robot_preset=self.robot)
         if occupancy is not None:
             scene = with_occupancy(scene, occupancy)
+        if self.planner is not None and self.planner.serves(scene, self.maps):
+            self.planner.replace_scene(scene)
+            return self.planner
         return Planner(scene, self.method, self.maps)
 
     def _outcome(self, source: str, fn: Any, *args: Any) -> Outcome:

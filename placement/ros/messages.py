@@ -261,13 +261,16 @@ def plan_text(result: PlanResult) -> str:
     return strict_json(result.to_json(), PlacementError, 2)
 
 
-def plan_messages(result: PlanResult, scene: Scene, robot: Robot, frame: str, stamp: Time) -> dict[str, object]:
+def plan_messages(
+    result: PlanResult, scene: Scene, robot: Robot, frame: str, stamp: Time, path: Path | None = None
+) -> dict[str, object]:
     """What the node publishes for a plan, by topic name under the node: ``plan`` (String, the
-    document), ``base_poses`` (Path) and ``markers`` (MarkerArray, labels with each step's time)."""
+    document), ``base_poses`` (Path; ``path`` when it is made already) and ``markers`` (MarkerArray,
+    labels with each step's time)."""
     times = task_time(robot, result, scene.start) if result.ok else None
     step_times = None if times is None else [x["step_s"] for x in times["steps"]]
     return {
         "plan": String(data=plan_text(result)),
-        "base_poses": plan_path(result, frame, stamp),
+        "base_poses": plan_path(result, frame, stamp) if path is None else path,
         "markers": plan_markers(result, scene, robot, frame, stamp, step_times),
     }

@@ -50,7 +50,15 @@ from visualization_msgs.msg import MarkerArray
 from placement.errors import PlacementError
 from placement.planning import PlanResult
 from placement.ros.live import LivePlanner, Outcome, first_line
-from placement.ros.messages import OCCUPIED_PERCENT, base_of, base_pose, occupancy_of, plan_messages, stamped_pose
+from placement.ros.messages import (
+    OCCUPIED_PERCENT,
+    base_of,
+    base_pose,
+    occupancy_of,
+    plan_messages,
+    plan_path,
+    stamped_pose,
+)
 from placement.ros.recording import Recorder, now
 from placement.validation import strict_json
 
@@ -118,6 +126,7 @@ class PlacementNode:
         self._stopping = False
         self._object_subs: dict[str, Any] = {}
         self._last_summary = "nothing planned yet"
+        self._applying_ms = 0.0  # [ms] spent on the changes of the batch being processed
         self.pub_plan = n.create_publisher(String, "~/plan", qos(1, latched=True))
         self.pub_path = n.create_publisher(PathMsg, "~/base_poses", qos(1, latched=True))
         self.pub_markers = n.create_publisher(MarkerArray, "~/markers", qos(1, latched=True))
@@ -217,6 +226,7 @@ class PlacementNode:
         log.info("%s", text)
 
     def _outcome(self, source: str, apply: Callable[[], Outcome]) -> bool:
+        t = time.perf_counter()
         try:
             outcome = apply()
         except PlacementError as exc:  # the message itself was refused before it reached the planner
@@ -225,6 +235,7 @@ class PlacementNode:
             log.exception("unexpected error on %s", source)
             outcome = Outcome(source, "refused", f"internal error: {first_line(exc)}")
         self.status(outcome.to_json())
+        self._applying_ms += (time.perf_counter() - t) * 1e3
         return outcome.applied
 
     def process(self, box: Inbox) -> PlanResult | None:
@@ -232,6 +243,7 @@ class PlacementNode:
         answer a reach question. Returns the new plan, if one was made."""
         with self._lock:
             changed = False
+            self._applying_ms = 0.0
             if box.grid is not None:
                 grid = box.grid
                 changed |= self._outcome("/map", lambda: self._set_map(grid))
@@ -279,19 +291,24 @@ class PlacementNode:
             self.status({"source": "plan", "status": "failed", "error": first_line(exc)})
             return None
         planned = time.perf_counter()
-        scene = self.live.planner.scene if self.live.planner is not None else None
-        assert scene is not None  # it planned
+        planner = self.live.planner
+        assert planner is not None  # it planned
         stamp = now()
-        msgs = plan_messages(result, scene, self.live.planner.robot, self.frame, stamp)  # type: ignore[union-attr]
-        self.pub_path.publish(msgs["base_poses"])
+        path = plan_path(result, self.frame, stamp)  # first: what Nav2 waits for
+        self.pub_path.publish(path)
         published = time.perf_counter()
+        msgs = plan_messages(result, planner.scene, planner.robot, self.frame, stamp, path)
         self.pub_plan.publish(msgs["plan"])
         self.pub_markers.publish(msgs["markers"])
         if self.recorder is not None:
             for key, msg in msgs.items():
                 self.recorder.write(f"{self.base}/{key}", msg)
         self._last_summary = summary(result)
-        timings = {"plan": (planned - t0) * 1e3, "publish": (time.perf_counter() - planned) * 1e3}
+        timings = {
+            "apply": self._applying_ms,
+            "plan": (planned - t0) * 1e3,
+            "publish": (time.perf_counter() - planned) * 1e3,
+        }
         if since is not None:
             timings["message_to_path"] = (published - since) * 1e3
         self.status(
