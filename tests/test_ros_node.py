@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped
-from nav_msgs.msg import OccupancyGrid
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
+from nav_msgs.msg import OccupancyGrid
 from scipy.spatial.transform import Rotation
 from std_msgs.msg import String
 from support.cli import run
