@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -148,14 +149,18 @@ def test_a_moved_object_gives_the_fresh_planners_plan(ros, first_plan, maps_dir)
     assert without_timings(peer.plans[-1]) == without_timings(again)
 
 
+def crate_grid(image):
+    """The arena's map with a crate on the floor beside the long table b: 0.4 m square of occupied cells."""
+    values = image.values.copy()
+    r0 = int((1.35 - image.origin[1]) / image.resolution)
+    c0 = int((1.1 - image.origin[0]) / image.resolution)
+    values[r0 : r0 + 8, c0 : c0 + 8] = 100
+    return grid_message(values, image.resolution, image.origin, "map", now())
+
+
 def test_an_obstacle_added_to_the_map_gives_the_fresh_planners_plan(ros, first_plan, arena_grid, maps_dir):
     node, peer, _ = ros
-    values = arena_grid.values.copy()
-    # a crate on the floor beside the long table b: 0.4 m square of occupied cells
-    r0 = int((1.35 - arena_grid.origin[1]) / arena_grid.resolution)
-    c0 = int((1.1 - arena_grid.origin[0]) / arena_grid.resolution)
-    values[r0 : r0 + 8, c0 : c0 + 8] = 100
-    grid = grid_message(values, arena_grid.resolution, arena_grid.origin, "map", now())
+    grid = crate_grid(arena_grid)
     line = peer.publish_and_wait(lambda: peer.map.publish(grid), "/map")
     assert line["status"] == "applied", line
     live = LivePlanner(maps_dir)
@@ -231,6 +236,50 @@ def test_a_reach_goal_out_of_any_reach_says_why(ros, first_plan):
     assert line["status"] == "unreachable" and line["error"], line
 
 
+def test_messages_that_arrive_while_it_plans_are_coalesced(ros, first_plan, arena_grid, maps_dir):
+    """Ten moves in a burst: fewer plans than moves, and the last plan is the last move's."""
+    node, peer, _ = ros
+    grid = crate_grid(arena_grid)
+    assert peer.publish_and_wait(lambda: peer.map.publish(grid), "/map")["status"] == "applied"
+    mug = peer.object("mug")
+    plans = len(peer.statuses("plan"))
+    moves = len(peer.statuses(f"{NODE}/objects/mug"))
+    xs = [0.80 + 0.02 * i for i in range(10)]
+    for x in xs:
+        mug.publish(pose(x, 1.85, 0.6405))
+    assert peer.spin_until(lambda: len(peer.statuses("plan")) > plans)
+    answer = peer.plan_now()  # after the burst: whatever came last is applied by now
+    assert answer.success, answer.message
+    applied = len(peer.statuses(f"{NODE}/objects/mug")) - moves
+    assert 1 <= applied < len(xs)  # newest wins
+    live = LivePlanner(maps_dir)
+    live.set_map(occupancy_of(grid, None))
+    live.set_scene(scene_text())
+    live.move_object("mug", [xs[-1], 1.85, 0.6405], [0, 0, 0, 1], "test")
+    assert peer.spin_until(
+        lambda: len(peer.plans) == sum(s["status"] in ("planned", "infeasible") for s in peer.statuses("plan"))
+    )
+    assert without_timings(peer.plans[-1]) == without_timings(live.plan().to_json())
+
+
+def test_a_node_started_with_a_scene_in_a_namespace_plans_at_once(ros, maps_dir):
+    node, peer, _ = ros
+    env = {k: os.environ[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOCALHOST_ONLY")}
+    other = NodeProcess([str(ARENA / "tidy_up.yaml"), "--maps", str(maps_dir), "--namespace", "r1"], env)
+    try:
+        other.ready()
+        listener = Peer(int(env["ROS_DOMAIN_ID"]), base="/r1/placement")
+        try:
+            assert listener.spin_until(lambda: listener.plans and listener.paths, 60)  # latched: late joiners get it
+        finally:
+            listener.close()
+    finally:
+        assert other.stop() == 0
+    query = run("query", str(ARENA / "tidy_up.yaml"), "--maps", str(maps_dir), "--json")
+    assert without_timings(listener.plans[-1]) == without_timings(json.loads(query.stdout))
+    assert len(listener.paths[-1].poses) == 8
+
+
 def test_stopped_it_leaves_a_recording_of_every_map_scene_and_plan(ros):
     """Last in the module: SIGTERM stops the node cleanly, and its MCAP file holds what it published."""
     node, peer, _ = ros
@@ -251,4 +300,4 @@ def test_stopped_it_leaves_a_recording_of_every_map_scene_and_plan(ros):
     }
     assert len(got[f"{NODE}/plan"]) == len(plans)
     assert [json.loads(m.data) for _, m in got[f"{NODE}/plan"]][-1] == peer.plans[-1]
-    assert len(got["/map"]) == 2  # the arena's, then with the crate
+    assert len(got["/map"]) == 3  # the arena's, then with the crate (twice)

@@ -61,11 +61,26 @@ def serve(
     verbose: int,
     quiet: bool,
 ) -> None:
-    """Run the node `placement`: /map, ~/scene, ~/objects/NAME, ~/start, /amcl_pose and ~/reach_goal
-    in; ~/plan, ~/base_poses, ~/markers, ~/status and ~/reach_base out; ~/plan_now (std_srvs/Trigger).
+    """Run the ROS 2 node `placement` around one live planner.
+
+    \b
+    in   /map            nav_msgs/OccupancyGrid    reliable, transient local, 1
+         ~/scene         std_msgs/String           reliable, volatile, 10 (a scene file's text)
+         ~/objects/NAME  geometry_msgs/PoseStamped reliable, volatile, 10
+         ~/start         geometry_msgs/PoseStamped reliable, volatile, 10
+         /amcl_pose      geometry_msgs/PoseWithCovarianceStamped  reliable, volatile, 10
+         ~/reach_goal    geometry_msgs/PoseStamped reliable, volatile, 10 (a TCP pose)
+    out  ~/plan          std_msgs/String           reliable, transient local, 1 (query --json's document)
+         ~/base_poses    nav_msgs/Path             reliable, transient local, 1 (for NavigateThroughPoses)
+         ~/markers       visualization_msgs/MarkerArray  reliable, transient local, 1
+         ~/status        std_msgs/String           reliable, volatile, 100 (one JSON line per event)
+         ~/reach_base    geometry_msgs/PoseStamped reliable, volatile, 10
+    srv  ~/plan_now      std_srvs/Trigger
 
     Every pose is in the map frame (the frame_id of /map, else --frame); a message in another frame
-    is refused on ~/status. Stop it with Ctrl-C (or SIGTERM). The docs' "ROS 2" page tells how to
+    is refused on ~/status, as are NaN poses, malformed or huge grids, scenes that do not parse and
+    unknown objects: nothing changes and the node goes on. Messages that arrive while it plans are
+    coalesced (the newest wins). Ctrl-C or SIGTERM stops it. The docs' "ROS 2" page tells how to
     wire it to Nav2 and RViz.
     """
     setup_logging(verbose, quiet)
