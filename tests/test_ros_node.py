@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from nav_msgs.msg import OccupancyGrid
@@ -259,6 +259,27 @@ def test_messages_that_arrive_while_it_plans_are_coalesced(ros, first_plan, aren
     assert peer.spin_until(
         lambda: len(peer.plans) == sum(s["status"] in ("planned", "infeasible") for s in peer.statuses("plan"))
     )
+    assert without_timings(peer.plans[-1]) == without_timings(live.plan().to_json())
+
+
+def test_amcl_and_the_start_topic_move_the_start(ros, first_plan, arena_grid, maps_dir):
+    """After the coalescing test: the crate map, the mug at x = 0.98."""
+    node, peer, _ = ros
+    amcl = PoseWithCovarianceStamped()
+    amcl.header.frame_id = "map"
+    amcl.pose.pose = pose(0.9, 0.6, 0.0, 1.2).pose
+    peer.connected(peer.amcl)
+    line = peer.publish_and_wait(lambda: peer.amcl.publish(amcl), "/amcl_pose")
+    assert line["status"] == "applied" and line["updated"] == ["start"], line
+    live = LivePlanner(maps_dir)
+    live.set_map(occupancy_of(crate_grid(arena_grid), None))
+    live.set_scene(scene_text())
+    live.move_object("mug", [0.98, 1.85, 0.6405], [0, 0, 0, 1], "test")
+    live.move_start(0.9, 0.6, 1.2, "test")
+    assert without_timings(peer.plans[-1]) == without_timings(live.plan().to_json())
+    line = peer.publish_and_wait(lambda: peer.start.publish(pose(0.82, 0.69, 0.0, 1.637)), f"{NODE}/start")
+    assert line["status"] == "applied", line
+    live.move_start(0.82, 0.69, 1.637, "test")
     assert without_timings(peer.plans[-1]) == without_timings(live.plan().to_json())
 
 

@@ -46,6 +46,12 @@ def ros() -> None:
     type=click.Path(dir_okay=False),
     help="Record every scene, map and plan to this MCAP file (written when the node stops).",
 )
+@click.option(
+    "--amcl/--no-amcl",
+    default=True,
+    show_default=True,
+    help="Take the start from /amcl_pose (each pose AMCL publishes re-plans from there).",
+)
 @verbosity
 @one_line_errors
 def serve(
@@ -58,6 +64,7 @@ def serve(
     unknown: str,
     occupied_percent: int,
     record: str | None,
+    amcl: bool,
     verbose: int,
     quiet: bool,
 ) -> None:
@@ -105,7 +112,7 @@ def serve(
             from placement.errors import PlacementError
 
             raise PlacementError(outcome.error or "the scene was refused")
-    options = NodeOptions(namespace, frame, unknown, occupied_percent, Path(record) if record else None)
+    options = NodeOptions(namespace, frame, unknown, occupied_percent, Path(record) if record else None, amcl)
 
     def ready(name: str) -> None:
         if not quiet:

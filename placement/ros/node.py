@@ -100,13 +100,14 @@ class NodeOptions:
     """What ``placement ros serve`` sets: ``namespace``; ``frame`` the map frame until a ``/map``
     names its own; ``unknown`` what unknown map cells are (``occupied`` or ``free``);
     ``occupied_percent`` [%] from which a map cell is occupied; ``record`` an MCAP file that gets
-    every scene and plan (None: none)."""
+    every scene and plan (None: none); ``amcl``: AMCL's pose (``/amcl_pose``) moves the start."""
 
     namespace: str = ""
     frame: str = "map"
     unknown: str = "occupied"
     occupied_percent: int = OCCUPIED_PERCENT
     record: Path | None = None
+    amcl: bool = True
 
 
 class PlacementNode:
@@ -135,7 +136,8 @@ class PlacementNode:
         n.create_subscription(OccupancyGrid, "/map", self._keep("grid"), qos(1, latched=True))
         n.create_subscription(String, "~/scene", self._keep("scene"), qos(10))
         n.create_subscription(PoseStamped, "~/start", self._keep_start("~/start"), qos(10))
-        n.create_subscription(PoseWithCovarianceStamped, "/amcl_pose", self._keep_start("/amcl_pose"), qos(10))
+        if options.amcl:
+            n.create_subscription(PoseWithCovarianceStamped, "/amcl_pose", self._keep_start("/amcl_pose"), qos(10))
         n.create_subscription(PoseStamped, "~/reach_goal", self._keep("reach"), qos(10))
         n.create_service(Trigger, "~/plan_now", self._plan_now)
         n.create_timer(SCAN_PERIOD_S, self._scan_objects)

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from typing import Any
 
 import rclpy
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Path
 from rclpy.executors import SingleThreadedExecutor
 from std_msgs.msg import String
@@ -100,6 +100,7 @@ class Peer:
         self.map = n.create_publisher(OccupancyGrid, "/map", qos(1, True))
         self.scene = n.create_publisher(String, f"{base}/scene", qos(10))
         self.start = n.create_publisher(PoseStamped, f"{base}/start", qos(10))
+        self.amcl = n.create_publisher(PoseWithCovarianceStamped, "/amcl_pose", qos(10))
         self.reach_goal = n.create_publisher(PoseStamped, f"{base}/reach_goal", qos(10))
         self._objects: dict[str, Any] = {}
         self.trigger = n.create_client(Trigger, f"{base}/plan_now")
