@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from placement.evaluation.tasktime import task_time
+from placement.planning.task_time import task_time
 from placement.planning import Planner
 
 BUILDINGS = sorted((Path(__file__).resolve().parents[1] / "examples" / "buildings").glob("*/tidy_up.yaml"))

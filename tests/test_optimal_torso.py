@@ -22,7 +22,7 @@ from support.navigation import grid_graph
 from support.pitch_torso import JOINT, SETTINGS, SPEED, pitch_torso_maps, write_pitch_torso
 
 import placement
-from placement.evaluation.tasktime import task_time
+from placement.planning.task_time import task_time
 from placement.maps.buildspec import parse_torso
 from placement.maps.torso_builds import build_torso_maps
 from placement.planning.bound import travel_bound

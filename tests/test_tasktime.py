@@ -2,7 +2,7 @@ import math
 
 import pytest
 
-from placement.evaluation.tasktime import task_time
+from placement.planning.task_time import task_time
 from placement.planning import PlanResult, StepResult
 
 

@@ -19,7 +19,7 @@ import pytest
 from support.fk import model_fk
 from support.robots import random_configs
 
-from placement.evaluation.tasktime import task_time
+from placement.planning.task_time import task_time
 from placement.planning import PlanResult, StepResult
 from placement.planning.configuration import resting
 from placement.planning.results import Cost, configuration_problems

@@ -12,7 +12,7 @@ import pytest
 from support.planning import SCENE, write_scene
 
 import placement
-from placement.evaluation.tasktime import task_time
+from placement.planning.task_time import task_time
 from placement.maps.buildspec import TorsoSpec
 from placement.planning.option import Option
 from placement.planning.planner import Planner

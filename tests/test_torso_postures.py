@@ -16,7 +16,7 @@ from support.fk import world_tcp
 from support.knee_torso import CROUCH, HIP, KNEE, UPRIGHT, write_knee_torso
 
 import placement
-from placement.evaluation.tasktime import task_time
+from placement.planning.task_time import task_time
 from placement.maps.buildspec import parse_torso
 from placement.maps.torso_builds import build_torso_maps
 from placement.planning.planner import Planner

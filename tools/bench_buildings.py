@@ -44,7 +44,7 @@ def main() -> None:
     ap.add_argument("--out", default=str(ROOT / "docs/bench/buildings.md"))
     args = ap.parse_args()
 
-    from placement.evaluation.tasktime import task_time
+    from placement.planning.task_time import task_time
     from placement.planning import Planner
 
     maps = str(Path(args.maps).resolve())

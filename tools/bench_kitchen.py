@@ -20,7 +20,7 @@ from pathlib import Path
 
 from bench_output import write_atomic
 
-from placement.evaluation.tasktime import task_time
+from placement.planning.task_time import task_time
 from placement.planning.planner import Planner
 from placement.planning.torso import torso_joint
 

@@ -13,7 +13,7 @@ from placement.evaluation.evaluate import (
 from placement.evaluation.generate import generate_scene, write_scenes
 from placement.evaluation.outdir import output_dir, prepare_output_dir
 from placement.evaluation.plots import plot_task_times
-from placement.evaluation.tasktime import task_time
+from placement.planning.task_time import task_time
 
 __all__ = [
     "check_methods",

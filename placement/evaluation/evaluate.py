@@ -12,9 +12,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from placement.errors import PlacementError
-from placement.evaluation.tasktime import task_time
 from placement.planning import METHODS, Planner, PlanResult
 from placement.planning.results import transfer_problems
+from placement.planning.task_time import task_time
 from placement.planning.transfer import UPRIGHT_TOLERANCE
 from placement.scene import load_scene
 

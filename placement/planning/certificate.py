@@ -4,8 +4,9 @@ The bound is the optimum of the forward program of :mod:`placement.planning.boun
 of the plan's method (:meth:`~placement.planning.methods.base.Method.regions`: the cells where the
 maps keep the threshold, or the ``fixed`` baseline's pre-defined placements), ignoring IK and
 collision checks, so no plan of that method can travel less. A step's time is at least its travel
-time (SPEC section 8 runs rotation and arm motion in parallel with it), so the bound is a lower
-bound on the task time too.
+time (the task-time model runs rotation and arm motion in parallel with it), so the bound is a lower
+bound on the task time too: the certificate gives both gaps (the default method trades a little
+travel for less turning where that shortens the task, :mod:`placement.planning.methods.turning`).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from placement.planning.bound import travel_bound
 from placement.planning.context import PlanningContext
 from placement.planning.methods.base import Method
 from placement.planning.results import StepResult
+from placement.planning.task_time import steps_seconds
 
 
 @dataclass(frozen=True)
@@ -33,12 +35,15 @@ class Certificate:
         regions: what the bound ranges over ("maps" or "fixed placements").
         ms: time spent on the bound [ms] (0 when the method's own program gave it); JSON
             ``timings_ms.bound``.
+        task_time_s: the plan's task time [s] (:mod:`placement.planning.task_time`; None unless every
+            step is planned).
     """
 
     lower_bound_s: float
     travel_s: float | None
     regions: str
     ms: float = 0.0
+    task_time_s: float | None = None
 
     @property
     def gap(self) -> float | None:
@@ -49,12 +54,21 @@ class Certificate:
             return 0.0 if self.travel_s <= 1e-9 else None
         return self.travel_s / self.lower_bound_s - 1.0
 
+    @property
+    def task_gap(self) -> float | None:
+        """``task_time_s / lower_bound_s - 1`` (None without both, or for a bound of 0)."""
+        if self.task_time_s is None or not math.isfinite(self.lower_bound_s) or self.lower_bound_s <= 0.0:
+            return None
+        return self.task_time_s / self.lower_bound_s - 1.0
+
     def to_json(self) -> dict[str, Any]:
-        gap = self.gap
+        gap, task_gap = self.gap, self.task_gap
         return {
             "lower_bound_s": round(self.lower_bound_s, 6) if math.isfinite(self.lower_bound_s) else None,
             "travel_s": None if self.travel_s is None else round(self.travel_s, 6),
             "gap": None if gap is None else round(gap, 6),
+            "task_time_s": None if self.task_time_s is None else round(self.task_time_s, 6),
+            "task_gap": None if task_gap is None else round(task_gap, 6),
             "regions": self.regions,
             "timings_ms": {"bound": round(self.ms, 3)},
         }
@@ -71,8 +85,11 @@ def certify(ctx: PlanningContext, method: Method, start: Cell, steps: list[StepR
         ctx.problems.bounds[key] = bound_m
     ok = bool(steps) and len(steps) == len(ctx.problems.steps) and all(s.ok for s in steps)
     travel = sum(float(s.travel_time_s or 0.0) for s in steps) if ok else None
+    task = None
+    if ok:
+        task = sum(x["step_s"] for x in steps_seconds(ctx.robot, steps, float(ctx.scene.start[2])))
     v = ctx.robot.v_max
-    return Certificate(bound_m / v, travel, method.region_kind, (time.perf_counter() - t0) * 1e3)
+    return Certificate(bound_m / v, travel, method.region_kind, (time.perf_counter() - t0) * 1e3, task)
 
 
 __all__ = ["Certificate", "certify"]

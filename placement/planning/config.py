@@ -51,6 +51,9 @@ class PlannerConfig:
         ik_budget_ms: time the IK search of one step may spend before the step is infeasible [ms].
         face_target: share of a cell's best map value a base yaw facing the step's target may give up
             (dimensionless, 0 .. 1; 0: the best yaw), see :mod:`placement.planning.facing`.
+        time_polish: 1: ``global`` moves the verified placements to nearby cells and ``global`` and
+            ``optimal`` turn them where that shortens the task time; 0: the least travel at each cell's
+            best map yaw (see :mod:`placement.planning.methods.turning`).
         time_budget_s: time planning the whole task may take [s]; a step not verified by then is
             infeasible and says so (:meth:`PlanningContext.out_of_time`).
     Fixed (not in scenes; the stages' tuning constants):
@@ -105,6 +108,7 @@ class PlannerConfig:
     ik_budget_ms: float = _key("ik_budget_ms")
     time_budget_s: float = _key("time_budget_s")
     face_target: float = _key("face_target")
+    time_polish: int = _key("time_polish")
     ik_tries: int = 25
     ik_cap: int = 2000
     min_region: float = 0.02

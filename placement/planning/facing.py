@@ -15,11 +15,25 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 from placement.planning.context import PlanningContext
 from placement.planning.manipulation import yaw_values
 from placement.planning.option import Option
 from placement.planning.torso import option_map
+
+
+def cell_yaws(
+    ctx: PlanningContext, o: Option, x: float, y: float, flat: int
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.bool_]]:
+    """Option ``o``'s map value (K,) at (x, y) [m] (grid cell ``flat``) at each of the K base yaws,
+    and whether the footprint fits there at that yaw (K,) bool."""
+    yaws = ctx.yaws
+    values = yaw_values(option_map(ctx, o), o.candidate.poses, np.array([x]), np.array([y]), yaws)[0]
+    masks = ctx.world.yaw_masks(np.array([flat], dtype=np.int64))[0]
+    k = np.arange(len(yaws))
+    fits = ((masks[k >> 6] >> (k & 63).astype(np.uint64)) & np.uint64(1)).astype(bool)
+    return values, fits
 
 
 def facing_yaw(
@@ -31,10 +45,7 @@ def facing_yaw(
     if share <= 0.0:
         return None
     yaws = ctx.yaws
-    values = yaw_values(option_map(ctx, o), o.candidate.poses, np.array([x]), np.array([y]), yaws)[0]
-    masks = ctx.world.yaw_masks(np.array([flat], dtype=np.int64))[0]
-    k = np.arange(len(yaws))
-    fits = ((masks[k >> 6] >> (k & 63).astype(np.uint64)) & np.uint64(1)).astype(bool)
+    values, fits = cell_yaws(ctx, o, x, y, flat)
     if not fits.any():
         return None
     best = float(values[fits].max())  # the cell's best among the yaws the footprint allows

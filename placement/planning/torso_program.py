@@ -19,7 +19,7 @@ of a step are merged per setting first, and a transfer is grouped only where its
 share no arm and grasp: the same optimum.
 
 The approximation: the task-time model runs the base and the torso in parallel (a step lasts
-max(base, torso, arm) [s], :mod:`placement.evaluation.tasktime`); the program adds them. Per step
+max(base, torso, arm) [s], :mod:`placement.planning.task_time`); the program adds them. Per step
 ``travel + T >= v_max * max(travel / v_max, torso_s)`` and ``<= 2 v_max * max(...)``: the objective
 is an upper bound of the (base travel, torso) part of the task time, at most twice it, exact for a
 step that moves only one of them. Base rotation and arm motion stay out, as in the plain program.

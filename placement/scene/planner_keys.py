@@ -120,6 +120,15 @@ PLANNER_SETTINGS: dict[str, dict[str, Any]] = {
         minimum=0.0,
         maximum=1.0,
     ),
+    "time_polish": dict(
+        default=1,
+        help="1 (default): global moves each verified placement to a nearby cell, and global and optimal turn "
+        "it, where that shortens the task time (the turn between placements counts); 0: the least travel, at "
+        "each cell's best map yaw",
+        minimum=0,
+        maximum=1,
+        integer=True,
+    ),
     "time_budget_s": dict(
         default=10.0,
         help="time planning the whole task may take [s], 0.1 .. 3600 (default 10): a step not verified by "

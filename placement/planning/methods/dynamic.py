@@ -137,24 +137,33 @@ class DynamicProgram:
         self.verified[key] = found
         return found
 
+    def check_at(self, i: int, g: int, k: int, base: tuple[float, float, float], value: float) -> Verified | None:
+        """IK and the collision check of step i's option ``k`` of group ``g`` at ``base`` (x [m], y [m],
+        yaw [rad]) of map value ``value``, not cached (any yaw, where :meth:`verify` tries a cell's best)."""
+        return self._check(None, self.ctx.problems.steps[i], self.options(i, g)[k], k, base, value)
+
     def _check(
-        self, ck: CheckKey, step: Step, o: Option, k: int, base: tuple[float, float, float], value: float
+        self, ck: CheckKey | None, step: Step, o: Option, k: int, base: tuple[float, float, float], value: float
     ) -> Verified | None:
         """IK and the collision check of option ``o`` (index ``k``) at ``base`` (kept in the problems'
-        checks under ``ck``): its :class:`Verified`, or None."""
+        checks under ``ck``, unless None): its :class:`Verified`, or None."""
         ctx = self.ctx
         checks = ctx.problems.checks
-        ik = checks.ik.get(ck)
+        ik = None if ck is None else checks.ik.get(ck)
         if ik is None:
-            ik = checks.ik[ck] = self._ik(o, base)
+            ik = self._ik(o, base)
+            if ck is not None:
+                checks.ik[ck] = ik
         if not ik.ok:
             return None
         clearance = None
         checker = collisions_at(ctx, o.torso)
         if checker is not None:
-            check = checks.collision.get(ck)
+            check = None if ck is None else checks.collision.get(ck)
             if check is None:
-                check = checks.collision[ck] = checker.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
+                check = checker.check(o.arm, ik.qs, base, **collision_args(ctx, step, o))
+                if ck is not None:
+                    checks.collision[ck] = check
             if not check.free:
                 return None
             clearance = float(check.clearance_m)

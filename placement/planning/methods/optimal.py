@@ -61,6 +61,7 @@ from placement.planning.methods.base import Method
 from placement.planning.methods.dynamic import DynamicProgram
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
 from placement.planning.methods.repair import Verified, repair
+from placement.planning.methods.turning import polishes, task_seconds, time_cells, time_yaws
 from placement.planning.navigation import extract_path, navigation_cost
 from placement.planning.regions import reweighted
 from placement.planning.results import StepMaps, StepResult
@@ -169,6 +170,8 @@ def plan_dynamic(
         )
         return head if head and not head[-1].ok else [*head, failure]
     out = results(ctx, start, dp, chain, picks, keep_maps)  # the verified steps (all, or before the failure)
+    if failure is None and polishes(dp):
+        out = for_task_time(dp, chain, picks, out, keep_maps, move=local)
     ms = (time.perf_counter() - t0) * 1e3
     log.debug(
         "dynamic program: %d placements checked, %d rejected, %d solves, %d local repairs, %.0f ms",
@@ -181,6 +184,30 @@ def plan_dynamic(
     for s in out:
         s.timings_ms = {"total": ms / len(out)}
     return out if failure is None else [*out, failure]
+
+
+def for_task_time(
+    dp: DynamicProgram, chain: Chain, picks: list[Verified], out: list[StepResult], keep_maps: bool, move: bool
+) -> list[StepResult]:
+    """The plan ``out`` of the verified ``chain`` after the task-time passes of
+    :mod:`~placement.planning.methods.turning` (``move``: the cells too), each kept only when it
+    shortens the task."""
+    ctx, start = dp.ctx, dp.start
+    best = task_seconds(dp, out)
+    if move and not ctx.out_of_time():
+        moved = time_cells(dp, chain, picks, out)
+        if moved is not None:
+            steps = results(ctx, start, dp, *moved, keep_maps)
+            seconds = task_seconds(dp, steps)
+            if seconds < best - 1e-9:
+                (chain, picks), out, best = moved, steps, seconds
+    if not ctx.out_of_time():
+        turned = time_yaws(dp, chain, picks, out)
+        if turned is not None:
+            steps = results(ctx, start, dp, chain, turned, keep_maps)
+            if task_seconds(dp, steps) < best - 1e-9:
+                out = steps
+    return out
 
 
 def prefix_context(ctx: PlanningContext, count: int) -> PlanningContext:

@@ -58,7 +58,8 @@ class DynamicProgram(Protocol):
     def verify(self, i: int, flat: int, g: int) -> Verified | None: ...
 
 
-def _node(dp: DynamicProgram, i: int, g: int, flat: int) -> float:
+def node_cost(dp: DynamicProgram, i: int, g: int, flat: int) -> float:
+    """Step i's node term [m] at cell ``flat`` in group g (0 without one)."""
     node = dp.regions[i].node
     return 0.0 if node is None else float(node[g].flat[flat])
 
@@ -105,10 +106,10 @@ def repair(dp: DynamicProgram, chain: Chain, i: int) -> tuple[Chain, Verified] |
                     break
                 continue
             labels = list(chain.labels)
-            labels[i] = prev_label + float(into.flat[flat]) + _node(dp, i, g, flat)
+            labels[i] = prev_label + float(into.flat[flat]) + node_cost(dp, i, g, flat)
             if i + 1 < n:
                 nxt = chain.cells[i + 1]
-                new_next = labels[i] + float(out_of.flat[flat]) + _node(dp, i + 1, chain.groups[i + 1], nxt)
+                new_next = labels[i] + float(out_of.flat[flat]) + node_cost(dp, i + 1, chain.groups[i + 1], nxt)
                 shift = new_next - chain.labels[i + 1]
                 labels[i + 1 :] = [label + shift for label in chain.labels[i + 1 :]]
             cells, grps = list(chain.cells), list(chain.groups)
@@ -160,4 +161,4 @@ def _best(score: np.ndarray, masks: np.ndarray, groups: list[int], count: int) -
     return [(int(cell[k]), int(group[k])) for k in order]
 
 
-__all__ = ["DynamicProgram", "Verified", "repair"]
+__all__ = ["DynamicProgram", "Verified", "node_cost", "repair"]

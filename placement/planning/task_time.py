@@ -1,15 +1,17 @@
-"""The task time model of SPEC section 8: base, arm and torso move in parallel, steps add up."""
+"""The task time model: base, arm and torso move in parallel, steps add up (the benchmark's objective, and what
+the whole-task methods minimise over base yaws, see :mod:`placement.planning.methods.turning`)."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from placement.errors import PlacementError
 from placement.planning.configuration import joint_limits, velocity_limit
-from placement.planning.results import PlanResult
+from placement.planning.results import PlanResult, StepResult
 from placement.robots import Robot
 
 
@@ -22,15 +24,26 @@ class Move(NamedTuple):
     joints: dict[str, float]  # joint name -> IK solution, and the fixed joints' values [rad or m]
 
 
+def move_of(step: StepResult) -> Move:
+    """A planned step as a move."""
+    return Move(
+        float(step.need(step.base, "base")[2]),
+        float(step.need(step.travel_time_s, "travel")),
+        step.need(step.arm, "arm"),
+        step.joints,
+    )
+
+
 def plan_moves(result: PlanResult | None) -> list[Move] | None:
     """The steps of a plan as moves, or None unless the plan succeeded."""
     if result is None or not result.ok:
         return None
-    moves = []
-    for s in result.steps:
-        assert s.base is not None and s.travel_time_s is not None and s.arm is not None  # a planned step has them
-        moves.append(Move(float(s.base[2]), float(s.travel_time_s), s.arm, s.joints))
-    return moves
+    return [move_of(s) for s in result.steps]
+
+
+def steps_seconds(robot: Robot, steps: Sequence[StepResult], start_yaw: float) -> list[dict[str, float]]:
+    """:func:`step_times` of planned steps from the base yaw ``start_yaw`` [rad]."""
+    return step_times(robot, [move_of(s) for s in steps], start_yaw)
 
 
 def _wrap(a: float) -> float:
@@ -55,7 +68,14 @@ def task_time(robot: Robot, result: PlanResult | None, start: tuple[float, float
     moves = plan_moves(result)
     if moves is None:
         return None
-    prev_yaw = float(start[2])
+    steps = step_times(robot, moves, float(start[2]))
+    return {"total_s": sum(x["step_s"] for x in steps), "steps": steps}
+
+
+def step_times(robot: Robot, moves: list[Move], start_yaw: float) -> list[dict[str, float]]:
+    """``{"base_s", "arm_s", "torso_s", "step_s"}`` [s] of each move from the base yaw ``start_yaw``
+    [rad] (see :func:`task_time`)."""
+    prev_yaw = start_yaw
     prev_q = {arm: robot.arm(arm).home.copy() for arm in robot.arms}
     prev_fixed = dict(robot.fixed_joints)
     steps: list[dict[str, float]] = []
@@ -70,7 +90,7 @@ def task_time(robot: Robot, result: PlanResult | None, start: tuple[float, float
         torso_s = max((_fixed_time(robot, j, prev_fixed[j], v) for j, v in fixed.items()), default=0.0)
         steps.append({"base_s": base_s, "arm_s": arm_s, "torso_s": torso_s, "step_s": max(base_s, arm_s, torso_s)})
         prev_yaw, prev_q[m.arm], prev_fixed = m.yaw, q, fixed
-    return {"total_s": sum(x["step_s"] for x in steps), "steps": steps}
+    return steps
 
 
 def _fixed_time(robot: Robot, joint: str, before: float, after: float) -> float:
