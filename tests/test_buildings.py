@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from placement.planning.task_time import task_time
 from placement.planning import Planner
+from placement.planning.task_time import task_time
 
 BUILDINGS = sorted((Path(__file__).resolve().parents[1] / "examples" / "buildings").glob("*/tidy_up.yaml"))
 

@@ -20,6 +20,7 @@ from support.planning import write_scene
 
 from placement.planning import METHODS, Planner
 from placement.planning.methods.optimal import DynamicProgram, solve_verified
+from placement.planning.task_time import task_time
 
 COARSE = {"resolution": 0.2, "task": [{"pick": "cup", "place": "spot"}]}
 
@@ -106,7 +107,7 @@ def test_every_plan_carries_a_certificate_in_its_json(every_method):
     for m, r in results.items():
         doc = json.loads(json.dumps(r.to_json()))
         cert = doc["certificate"]
-        assert set(cert) == {"lower_bound_s", "travel_s", "gap", "regions", "timings_ms"}, m
+        assert set(cert) == {"lower_bound_s", "travel_s", "gap", "task_time_s", "task_gap", "regions", "timings_ms"}, m
         assert cert["regions"] == ("fixed placements" if m == "fixed" else "maps")
         if r.ok:
             assert cert["travel_s"] == pytest.approx(sum(s["travel_time_s"] for s in doc["steps"]), abs=1e-5)
@@ -120,6 +121,11 @@ def test_the_bound_is_below_every_methods_travel(every_method):
         cert = results[m].certificate
         assert cert["lower_bound_s"] <= cert["travel_s"] + 1e-6, m
         assert cert["gap"] >= -1e-6, m
+        # a step lasts at least its travel: the bound is below the task time too, which the model counts
+        assert cert["task_time_s"] == pytest.approx(
+            task_time(planner.robot, results[m], planner.scene.start)["total_s"], abs=1e-5
+        )
+        assert cert["travel_s"] <= cert["task_time_s"] + 1e-6 and cert["task_gap"] >= cert["gap"] - 1e-6, m
 
 
 def test_optimal_is_never_worse_than_sequential(every_method):

@@ -22,12 +22,12 @@ from support.navigation import grid_graph
 from support.pitch_torso import JOINT, SETTINGS, SPEED, pitch_torso_maps, write_pitch_torso
 
 import placement
-from placement.planning.task_time import task_time
 from placement.maps.buildspec import parse_torso
 from placement.maps.torso_builds import build_torso_maps
 from placement.planning.bound import travel_bound
 from placement.planning.methods.optimal import DynamicProgram, solve_verified
 from placement.planning.planner import Planner
+from placement.planning.task_time import task_time
 from placement.planning.torso_held import HeldFirst
 from placement.planning.torso_program import TorsoProgram, torso_regions, torso_term
 

@@ -2,8 +2,8 @@ import math
 
 import pytest
 
-from placement.planning.task_time import task_time
 from placement.planning import PlanResult, StepResult
+from placement.planning.task_time import task_time
 
 
 def _step(pr2, arm, base, q, travel):

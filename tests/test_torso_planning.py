@@ -12,11 +12,11 @@ import pytest
 from support.planning import SCENE, write_scene
 
 import placement
-from placement.planning.task_time import task_time
 from placement.maps.buildspec import TorsoSpec
 from placement.planning.option import Option
 from placement.planning.planner import Planner
 from placement.planning.ranking import Ranked
+from placement.planning.task_time import task_time
 from placement.planning.torso import torso_first
 
 LIFT = "torso_lift_joint"

@@ -16,10 +16,10 @@ from support.fk import world_tcp
 from support.knee_torso import CROUCH, HIP, KNEE, UPRIGHT, write_knee_torso
 
 import placement
-from placement.planning.task_time import task_time
 from placement.maps.buildspec import parse_torso
 from placement.maps.torso_builds import build_torso_maps
 from placement.planning.planner import Planner
+from placement.planning.task_time import task_time
 from placement.planning.torso import held_setting, robot_at, torso_seconds
 
 SPEC = {"joints": [HIP, KNEE], "postures": [list(UPRIGHT), list(CROUCH)]}

@@ -44,8 +44,8 @@ def main() -> None:
     ap.add_argument("--out", default=str(ROOT / "docs/bench/buildings.md"))
     args = ap.parse_args()
 
-    from placement.planning.task_time import task_time
     from placement.planning import Planner
+    from placement.planning.task_time import task_time
 
     maps = str(Path(args.maps).resolve())
     methods = args.methods.split(",")

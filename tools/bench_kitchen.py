@@ -20,8 +20,8 @@ from pathlib import Path
 
 from bench_output import write_atomic
 
-from placement.planning.task_time import task_time
 from placement.planning.planner import Planner
+from placement.planning.task_time import task_time
 from placement.planning.torso import torso_joint
 
 METHODS = ("global", "optimal", "sequential")

@@ -40,9 +40,9 @@ from kitchen_torso import Found, Ground
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this checkout, not an installed copy
 
-from placement.planning.task_time import task_time  # noqa: E402
 from placement.maps.opening import open_map  # noqa: E402
 from placement.planning.planner import Planner  # noqa: E402
+from placement.planning.task_time import task_time  # noqa: E402
 from placement.scene import Scene  # noqa: E402
 
 SCENE = ROOT / "examples" / "talos_reduced_lean.yaml"

@@ -122,9 +122,9 @@ PLANNER_SETTINGS: dict[str, dict[str, Any]] = {
     ),
     "time_polish": dict(
         default=1,
-        help="1 (default): global moves each verified placement to a nearby cell, and global and optimal turn "
-        "it, where that shortens the task time (the turn between placements counts); 0: the least travel, at "
-        "each cell's best map yaw",
+        help="0 or 1 (default 1): 1 moves (global) and turns (global, optimal) the verified placements where "
+        "that shortens the task time (the turn between placements counts); 0: the least travel, at each "
+        "cell's best map yaw",
         minimum=0,
         maximum=1,
         integer=True,
