@@ -147,16 +147,27 @@ def time_cells(
         if ctx.out_of_time():
             break
         g = groups[i]
+        prev_yaw = float(ctx.scene.start[2]) if i == 0 else chosen[i - 1].base[2]
+        prev_label = 0.0 if i == 0 else labels[i - 1]
+        last = i + 1 == n
+        # legs whose travel outlasts the turn and the arm: the chain's cell already has the least
+        # travel between its neighbours (the program's optimum), so no cell can shorten them
+        here = chosen[i].base[2]
+        into_s = (labels[i] - prev_label - node_cost(dp, i, g, cells[i])) / robot.v_max
+        slack = max(_turn(np.full(1, prev_yaw), np.full(1, here))[0] / robot.omega_max, arm_s[i]) > into_s
+        if not last:
+            out_s = (labels[i + 1] - labels[i] - node_cost(dp, i + 1, groups[i + 1], cells[i + 1])) / robot.v_max
+            turn_out = _turn(np.full(1, here), np.full(1, chosen[i + 1].base[2]))[0] / robot.omega_max
+            slack = slack or max(turn_out, arm_s[i + 1]) > out_s
+        if not slack:
+            continue
         iy0, ix0 = divmod(cells[i], nx)
         targets = np.zeros(nav.shape, bool)
         targets[max(iy0 - r, 0) : iy0 + r + 1, max(ix0 - r, 0) : ix0 + r + 1] = True
         targets &= dp.regions[i].masks[g]
         targets[iy0, ix0] = True
         prev_cell = dp.start if i == 0 else divmod(cells[i - 1], nx)
-        prev_yaw = float(ctx.scene.start[2]) if i == 0 else chosen[i - 1].base[2]
-        prev_label = 0.0 if i == 0 else labels[i - 1]
         into = ctx.problems.legs(prev_cell, targets)
-        last = i + 1 == n
         out_of = None if last else ctx.problems.legs(divmod(cells[i + 1], nx), targets, reverse=True)
 
         def cost(
