@@ -133,7 +133,7 @@ def test_scene_keys_load_the_layers_and_round_trip(tmp_path):
     [
         (
             {"occupancy_map": {"file": "floor.yaml", "unknown": "maybe"}},
-            "occupancy_map.unknown: expected occupied or free",
+            "occupancy_map.unknown: expected occupied or free or cost",
         ),
         ({"occupancy_map": {"unknown": "free"}}, "missing required key 'occupancy_map.file'"),
         ({"occupancy_map": {"file": "floor.yaml", "height": 1}}, "unknown key 'occupancy_map.height'"),
@@ -168,3 +168,29 @@ def test_world_closes_keepout_and_slows_by_the_speed_mask(tmp_path):
     np.testing.assert_allclose(world.factor, eq4 * slowdown)
     far = centre(nav, 3.0, 3.0)
     assert slowdown[far] == 1.0 and not closed[far]
+
+
+def test_unknown_cells_at_a_cost_are_open_and_slower(tmp_path):
+    # the map of support.occupancy: 0.5 m cells from (1, 2); its unknown cells (BETWEEN) are
+    # x in [2, 2.5), y in [2, 2.5) and x in [2.5, 3), y in [3, 3.5)
+    write_map(tmp_path)
+    occ = load_occupancy_map(tmp_path / "floor.yaml", unknown="cost", unknown_cost=4.0)
+    np.testing.assert_array_equal(occ.occupied, load_occupancy_map(tmp_path / "floor.yaml", unknown="free").occupied)
+    assert occ.unknown_cells.tolist() == BETWEEN and occ.unknown_cost == 4.0
+    scene = _scene(tmp_path, occupancy_map={"file": "floor.yaml", "unknown": "cost", "unknown_cost": 4})
+    nav = scene.nav_grid()
+    closed, slowdown = base_layers(scene, nav, 1.0)
+    centre = NavGrid.cell
+    for x, y, want in [(2.25, 2.25, 4.0), (2.75, 3.25, 4.0), (1.25, 2.25, 1.0), (2.25, 2.75, 1.0)]:
+        assert slowdown[centre(nav, x, y)] == want, (x, y)
+        assert not closed[centre(nav, x, y)]
+    assert closed[centre(nav, 1.75, 2.75)]  # certain occupied (100): closed whatever the policy
+    outside = centre(nav, nav.origin[0] + 0.01, nav.origin[1] + 0.01)  # beyond the map: unknown too
+    assert slowdown[outside] == 4.0 and not closed[outside]
+    doc = scene_to_dict(scene, relative_to=tmp_path)
+    assert doc["occupancy_map"] == {"file": "floor.yaml", "unknown": "cost", "unknown_cost": 4.0}
+    assert parse_scene(doc, tmp_path).occupancy.unknown_cost == 4.0
+    with pytest.raises(SceneError, match=r"occupancy_map\.unknown_cost: applies to unknown: cost only"):
+        _scene(tmp_path, occupancy_map={"file": "floor.yaml", "unknown": "free", "unknown_cost": 4})
+    with pytest.raises(SceneError, match=r"occupancy_map\.unknown_cost: must be >= 1"):
+        _scene(tmp_path, occupancy_map={"file": "floor.yaml", "unknown": "cost", "unknown_cost": 0.5})

@@ -48,6 +48,9 @@ def test_a_literal_grid_reads_as_map_server_means_it():
     assert free.occupied.tolist() == [[False, False, True], [True, False, False]]
     strict = occupancy_of(grid(values), "map", occupied_percent=100)
     assert strict.occupied.tolist() == [[False, False, False], [True, True, False]]
+    costly = occupancy_of(grid(values), "map", unknown="cost", unknown_cost=5.0)
+    assert costly.occupied.tolist() == free.occupied.tolist()
+    assert costly.unknown_cells.tolist() == [[False, False, False], [False, True, False]] and costly.unknown_cost == 5.0
 
 
 def test_the_float32_resolution_is_what_the_map_author_wrote():

@@ -28,7 +28,7 @@ from support.ros_peer import NodeProcess, Peer, ros_env
 
 from placement.planning import Planner
 from placement.ros.live import LivePlanner
-from placement.ros.messages import grid_message, occupancy_of
+from placement.ros.messages import grid_message, grid_of
 from placement.ros.recording import now
 from placement.scene import load_scene
 from placement.scene.occupancy import load_map_image
@@ -164,7 +164,7 @@ def test_an_obstacle_added_to_the_map_gives_the_fresh_planners_plan(ros, first_p
     line = peer.publish_and_wait(lambda: peer.map.publish(grid), "/map")
     assert line["status"] == "applied", line
     live = LivePlanner(maps_dir)
-    live.set_map(occupancy_of(grid, None))
+    live.set_map(grid_of(grid, None))
     live.set_scene(scene_text())
     live.move_object("mug", [0.95, 1.85, 0.6405], [0, 0, math.sin(0.15), math.cos(0.15)], "test")
     fresh = live.plan().to_json()
@@ -253,7 +253,7 @@ def test_messages_that_arrive_while_it_plans_are_coalesced(ros, first_plan, aren
     applied = len(peer.statuses(f"{NODE}/objects/mug")) - moves
     assert 1 <= applied < len(xs)  # newest wins
     live = LivePlanner(maps_dir)
-    live.set_map(occupancy_of(grid, None))
+    live.set_map(grid_of(grid, None))
     live.set_scene(scene_text())
     live.move_object("mug", [xs[-1], 1.85, 0.6405], [0, 0, 0, 1], "test")
     assert peer.spin_until(
@@ -272,7 +272,7 @@ def test_amcl_and_the_start_topic_move_the_start(ros, first_plan, arena_grid, ma
     line = peer.publish_and_wait(lambda: peer.amcl.publish(amcl), "/amcl_pose")
     assert line["status"] == "applied" and line["updated"] == ["start"], line
     live = LivePlanner(maps_dir)
-    live.set_map(occupancy_of(crate_grid(arena_grid), None))
+    live.set_map(grid_of(crate_grid(arena_grid), None))
     live.set_scene(scene_text())
     live.move_object("mug", [0.98, 1.85, 0.6405], [0, 0, 0, 1], "test")
     live.move_start(0.9, 0.6, 1.2, "test")

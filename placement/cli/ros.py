@@ -28,10 +28,18 @@ def ros() -> None:
 )
 @click.option(
     "--unknown",
-    type=click.Choice(["occupied", "free"]),
+    type=click.Choice(["occupied", "free", "cost"]),
     default="occupied",
     show_default=True,
-    help="What /map's unknown cells (-1) are for the base, unless the scene's occupancy_map says.",
+    help="What /map's unknown cells (-1) are for the base, unless the scene's occupancy_map says "
+    "(cost: open at --unknown-cost times a free cell's travel cost).",
+)
+@click.option(
+    "--unknown-cost",
+    type=click.FloatRange(1.0, 1000.0),
+    default=3.0,
+    show_default=True,
+    help="Travel cost multiplier of an unknown /map cell under --unknown cost.",
 )
 @click.option(
     "--occupied-percent",
@@ -62,6 +70,7 @@ def serve(
     namespace: str,
     frame: str,
     unknown: str,
+    unknown_cost: float,
     occupied_percent: int,
     record: str | None,
     amcl: bool,
@@ -96,7 +105,7 @@ def serve(
     from placement.ros import require_ros
 
     require_ros("placement ros serve")
-    from placement.ros.live import LivePlanner
+    from placement.ros.live import LivePlanner, MapPolicy
     from placement.ros.node import NodeOptions
     from placement.ros.node import serve as run
     from placement.scene import load_scene
@@ -105,14 +114,15 @@ def serve(
     if record is not None:
         writable_file(record, "--record")
     announce_compilation(QUERY_COMPILE_S)
-    live = LivePlanner(maps_path, method, robot, origin_dir=Path(scene).parent if scene else Path.cwd())
+    policy = MapPolicy(unknown, occupied_percent, unknown_cost)
+    live = LivePlanner(maps_path, method, robot, Path(scene).parent if scene else Path.cwd(), policy)
     if scene is not None:
         outcome = live.set_scene(load_scene(scene), scene)
         if not outcome.applied:
             from placement.errors import PlacementError
 
             raise PlacementError(outcome.error or "the scene was refused")
-    options = NodeOptions(namespace, frame, unknown, occupied_percent, Path(record) if record else None, amcl)
+    options = NodeOptions(namespace, frame, Path(record) if record else None, amcl)
 
     def ready(name: str) -> None:
         if not quiet:

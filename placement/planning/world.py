@@ -235,25 +235,35 @@ class World:
 
 def base_layers(scene: Scene, nav: NavGrid, v_max: float) -> tuple[BoolArray | None, FloatArray | None]:
     """The scene's 2D inputs on ``nav``: the cells closed to the base, conservatively (occupancy map
-    cells that are occupied, or unknown unless the map frees them, cells outside the map likewise,
-    keepout cells, and cells a speed limit of 0 closes), or None without any; and the speed mask's
-    travel cost multiplier (>= 1), or None without one. ``v_max``: the robot's top speed [m/s]."""
+    cells that are occupied, or unknown when the map closes them, cells outside the map likewise,
+    keepout cells, and cells a speed limit of 0 closes), or None without any; and the travel cost
+    multiplier (>= 1) of the speed mask times that of unknown cells under ``unknown: cost``, or None
+    without either. ``v_max``: the robot's top speed [m/s]."""
     closed = None
-    if scene.occupancy is not None:
-        outside = scene.occupancy.unknown == "occupied"
+    slowdown = None
+    occ = scene.occupancy
+    if occ is not None:
+        outside = occ.unknown == "occupied"
         closed = rasterize_occupancy(
-            scene.occupancy, nav.origin, nav.resolution, nav.shape, conservative=True, outside_occupied=outside
+            occ, nav.origin, nav.resolution, nav.shape, conservative=True, outside_occupied=outside
         )
+        if occ.unknown == "cost" and occ.unknown_cells is not None:
+            # a planning cell that overlaps an unknown map cell (or the outside of the map) costs more
+            unknown = replace(occ, occupied=occ.unknown_cells)
+            costly = rasterize_occupancy(
+                unknown, nav.origin, nav.resolution, nav.shape, conservative=True, outside_occupied=True
+            )
+            slowdown = np.where(costly, occ.unknown_cost, 1.0)
     if scene.keepout is not None:
         keep = scene.keepout.closed(nav.origin, nav.resolution, nav.shape)
         closed = keep if closed is None else closed | keep
-    slowdown = None
     if scene.speed is not None:
-        slowdown = scene.speed.slowdown(nav.origin, nav.resolution, nav.shape, v_max)
-        stopped = ~np.isfinite(slowdown)
+        speed = scene.speed.slowdown(nav.origin, nav.resolution, nav.shape, v_max)
+        stopped = ~np.isfinite(speed)
         if stopped.any():
             closed = stopped if closed is None else closed | stopped
-            slowdown = np.where(stopped, 1.0, slowdown)
+            speed = np.where(stopped, 1.0, speed)
+        slowdown = speed if slowdown is None else slowdown * speed  # a speed limit in unknown space: both
     return closed, slowdown
 
 

@@ -4,8 +4,9 @@ What a robot sends becomes a change of the scene, applied all or nothing, each a
 :class:`Outcome` (applied or refused, why, how long it took):
 
 * a whole scene (a scene file's text, or a :class:`~placement.scene.Scene`) replaces the task;
-* the robot's occupancy map (``/map``) replaces the scene's ``occupancy_map`` (the live map wins over
-  the file's from then on, also for later scenes);
+* the robot's occupancy map (``/map``, its values as :class:`~placement.scene.occupancy.GridValues`)
+  replaces the scene's ``occupancy_map`` (the live map wins over the file's from then on, also for
+  later scenes);
 * an object moved, the start moved: the same updates as ``placement query --stream``
   (:mod:`placement.planning.updates`), so a re-plan equals a fresh query of the changed scene.
 
@@ -27,9 +28,10 @@ import numpy.typing as npt
 
 from placement.errors import PlacementError
 from placement.planning import Planner, PlanResult, StepResult
-from placement.scene import OccupancyMap, Scene, SceneError, check_scene, parse_scene
+from placement.scene import Scene, SceneError, check_scene, parse_scene
 from placement.scene.limits import MAX_SCENE_BYTES, default_bounds
 from placement.scene.model import TaskStep, Trajectory
+from placement.scene.occupancy import DEFAULT_UNKNOWN_COST, OCCUPIED_PERCENT, GridValues
 from placement.scene.poses import quaternion_matrix
 from placement.validation import one_line, parse_yaml
 
@@ -83,11 +85,28 @@ def scene_from_text(text: str, origin_dir: str | Path, source: str = "~/scene") 
     return parse_scene(parse_yaml(text, source, SceneError), origin_dir, TEXT_SCENE_NAME, source=source)
 
 
-def with_occupancy(scene: Scene, occupancy: OccupancyMap) -> Scene:
-    """``scene`` on the occupancy map ``occupancy`` instead of its own (bounds made anew unless the
-    scene file gave them); :class:`SceneError` when the scene does not fit it (e.g. its start)."""
-    if scene.occupancy is not None:  # the scene's own choices for its map hold for the live one
-        occupancy = replace(occupancy, unknown=scene.occupancy.unknown, arm_height=scene.occupancy.arm_height)
+@dataclass(frozen=True)
+class MapPolicy:
+    """How a live map's values become occupancy, unless the scene's ``occupancy_map`` says: unknown
+    cells ``occupied``, ``free`` or ``cost`` (``unknown_cost`` times a free cell's travel cost), and
+    cells at or above ``occupied_percent`` occupied."""
+
+    unknown: str = "occupied"
+    occupied_percent: int = OCCUPIED_PERCENT
+    unknown_cost: float = DEFAULT_UNKNOWN_COST
+
+
+def with_occupancy(scene: Scene, grid: GridValues, policy: MapPolicy = MapPolicy()) -> Scene:
+    """``scene`` on the live map ``grid`` instead of its own occupancy map (whose choices for unknown
+    cells and the arm, when it has one, hold for the live map; else ``policy``'s); bounds made anew
+    unless the scene file gave them. :class:`SceneError` when the scene does not fit (e.g. its start)."""
+    own = scene.occupancy
+    if own is not None:
+        occupancy = replace(
+            grid.occupancy(own.unknown, policy.occupied_percent, own.unknown_cost), arm_height=own.arm_height
+        )
+    else:
+        occupancy = grid.occupancy(policy.unknown, policy.occupied_percent, policy.unknown_cost)
     changed = replace(scene, occupancy=occupancy, occupancy_map=None)
     if not scene.bounds_given:
         changed = replace(changed, bounds=default_bounds(changed))
@@ -114,6 +133,7 @@ class LivePlanner:
         method: the planning method.
         robot: the robot preset every scene is planned for (None: each scene's own).
         origin_dir: the folder relative paths in scene texts are resolved against.
+        policy: how the live map's values become occupancy (:class:`MapPolicy`).
     """
 
     def __init__(
@@ -122,22 +142,24 @@ class LivePlanner:
         method: str = "global",
         robot: str | None = None,
         origin_dir: str | Path = ".",
+        policy: MapPolicy = MapPolicy(),
     ):
         self.maps = None if maps is None else Path(maps)
         self.method = method
         self.robot = robot
         self.origin_dir = Path(origin_dir)
+        self.policy = policy
         self.planner: Planner | None = None
         self.scene: Scene | None = None  # as given, without the live map
-        self.occupancy: OccupancyMap | None = None  # the live map, once one came
+        self.grid: GridValues | None = None  # the live map, once one came
 
-    def _planner(self, scene: Scene, occupancy: OccupancyMap | None) -> Planner:
-        """The planner of ``scene`` on ``occupancy``: the live one with the new scene when it serves
+    def _planner(self, scene: Scene, grid: GridValues | None) -> Planner:
+        """The planner of ``scene`` on the live map ``grid``: the live one with the new scene when it serves
         (same robot and maps, which stay open), else a new one."""
         if self.robot is not None:
             scene = replace(scene, robot_preset=self.robot)
-        if occupancy is not None:
-            scene = with_occupancy(scene, occupancy)
+        if grid is not None:
+            scene = with_occupancy(scene, grid, self.policy)
         if self.planner is not None and self.planner.serves(scene, self.maps):
             self.planner.replace_scene(scene)
             return self.planner
@@ -156,19 +178,19 @@ class LivePlanner:
 
         def apply() -> list[str]:
             s = scene_from_text(scene, self.origin_dir, source) if isinstance(scene, str) else scene
-            self.planner = self._planner(s, self.occupancy)
+            self.planner = self._planner(s, self.grid)
             self.scene = s
             return ["scene"]
 
         return self._outcome(source, apply)
 
-    def set_map(self, occupancy: OccupancyMap, source: str = "/map") -> Outcome:
-        """Plan on ``occupancy`` from now on (kept for later scenes too)."""
+    def set_map(self, grid: GridValues, source: str = "/map") -> Outcome:
+        """Plan on the live map ``grid`` from now on (kept for later scenes too)."""
 
         def apply() -> list[str]:
             if self.scene is not None:
-                self.planner = self._planner(self.scene, occupancy)
-            self.occupancy = occupancy
+                self.planner = self._planner(self.scene, grid)
+            self.grid = grid
             return ["map"]
 
         return self._outcome(source, apply)

@@ -30,15 +30,12 @@ from placement.evaluation import task_time
 from placement.planning import PlanResult
 from placement.robots import Robot
 from placement.scene import OccupancyMap, Scene
-from placement.scene.occupancy import MAX_COORD, MAX_IMAGE_PIXELS
+from placement.scene.occupancy import DEFAULT_UNKNOWN_COST, MAX_COORD, MAX_IMAGE_PIXELS, OCCUPIED_PERCENT, GridValues
 from placement.scene.poses import UNIT_TOLERANCE, matrix_yaw, normalised, quaternion_matrix, yaw_quaternion
 from placement.validation import strict_json
 
 #: Most cells an OccupancyGrid may hold (the limit of a map image in a scene file).
 MAX_GRID_CELLS = MAX_IMAGE_PIXELS
-#: OccupancyGrid values at or above this [percent] are occupied (map_server's default
-#: ``occupied_thresh`` 0.65); -1 is unknown; the rest is free.
-OCCUPIED_PERCENT = 65
 #: [m] a map cell may be this small or this large.
 RESOLUTION_RANGE = (1e-3, 10.0)
 #: Points of a round footprint's outline.
@@ -99,15 +96,12 @@ def base_of(msg: PoseStamped | PoseWithCovarianceStamped, frame: str, what: str)
     return float(position[0]), float(position[1]), matrix_yaw(quaternion_matrix(q))
 
 
-def occupancy_of(
-    msg: OccupancyGrid, frame: str | None, unknown: str = "occupied", occupied_percent: int = OCCUPIED_PERCENT
-) -> OccupancyMap:
-    """The occupancy map of a ``nav_msgs/OccupancyGrid`` (``frame`` None: any frame but none).
+def grid_of(msg: OccupancyGrid, frame: str | None) -> GridValues:
+    """The checked values of a ``nav_msgs/OccupancyGrid`` (``frame`` None: any frame but none).
 
-    Cells at or above ``occupied_percent`` are occupied, -1 is unknown (``occupied`` or ``free`` as
-    ``unknown`` says), the rest free. Refused: no frame or another, a size whose cells do not match
-    ``data``, more than :data:`MAX_GRID_CELLS` cells, a resolution outside :data:`RESOLUTION_RANGE`, a
-    rotated or non-finite origin, values outside -1..100.
+    Refused: no frame or another, a size whose cells do not match ``data``, more than
+    :data:`MAX_GRID_CELLS` cells, a resolution outside :data:`RESOLUTION_RANGE`, a rotated or
+    non-finite origin, values outside -1..100.
     """
     what = "/map"
     if frame is None:
@@ -144,11 +138,20 @@ def occupancy_of(
         raise RosInputError(
             f"{what}: values must be -1 (unknown) or 0..100, got {int(values.min())}..{int(values.max())}"
         )
-    occupied = values >= occupied_percent
-    if unknown == "occupied":
-        occupied |= values < 0
-    occupied.setflags(write=False)
-    return OccupancyMap(occupied, res, (float(position[0]), float(position[1]), 0.0), None, unknown, None)
+    return GridValues(values, res, (float(position[0]), float(position[1])), msg.header.frame_id.lstrip("/"))
+
+
+def occupancy_of(
+    msg: OccupancyGrid,
+    frame: str | None,
+    unknown: str = "occupied",
+    occupied_percent: int = OCCUPIED_PERCENT,
+    unknown_cost: float = DEFAULT_UNKNOWN_COST,
+) -> OccupancyMap:
+    """The occupancy map of a checked OccupancyGrid (:func:`grid_of`): cells at or above
+    ``occupied_percent`` occupied, -1 unknown (``occupied``, ``free`` or ``cost`` as ``unknown``
+    says), the rest free."""
+    return grid_of(msg, frame).occupancy(unknown, occupied_percent, unknown_cost)
 
 
 def header(frame: str, stamp: Time) -> Header:

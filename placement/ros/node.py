@@ -50,15 +50,7 @@ from visualization_msgs.msg import MarkerArray
 from placement.errors import PlacementError
 from placement.planning import PlanResult
 from placement.ros.live import LivePlanner, Outcome, first_line
-from placement.ros.messages import (
-    OCCUPIED_PERCENT,
-    base_of,
-    base_pose,
-    occupancy_of,
-    plan_messages,
-    plan_path,
-    stamped_pose,
-)
+from placement.ros.messages import base_of, base_pose, grid_of, plan_messages, plan_path, stamped_pose
 from placement.ros.recording import Recorder, now
 from placement.validation import strict_json
 
@@ -98,14 +90,12 @@ class Inbox:
 @dataclass(frozen=True)
 class NodeOptions:
     """What ``placement ros serve`` sets: ``namespace``; ``frame`` the map frame until a ``/map``
-    names its own; ``unknown`` what unknown map cells are (``occupied`` or ``free``);
-    ``occupied_percent`` [%] from which a map cell is occupied; ``record`` an MCAP file that gets
-    every scene and plan (None: none); ``amcl``: AMCL's pose (``/amcl_pose``) moves the start."""
+    names its own; ``record`` an MCAP file that gets every scene and plan (None: none); ``amcl``:
+    AMCL's pose (``/amcl_pose``) moves the start. (How the map's values become occupancy is the
+    live planner's :class:`~placement.ros.live.MapPolicy`.)"""
 
     namespace: str = ""
     frame: str = "map"
-    unknown: str = "occupied"
-    occupied_percent: int = OCCUPIED_PERCENT
     record: Path | None = None
     amcl: bool = True
 
@@ -271,8 +261,7 @@ class PlacementNode:
             return result
 
     def _set_map(self, grid: OccupancyGrid) -> Outcome:
-        occ = occupancy_of(grid, None, self.options.unknown, self.options.occupied_percent)
-        outcome = self.live.set_map(occ)
+        outcome = self.live.set_map(grid_of(grid, None))
         if outcome.applied:
             self.frame = grid.header.frame_id.lstrip("/")
             if self.recorder is not None:

@@ -6,6 +6,7 @@ user gives its cells a height::
 
     occupancy_map: floor.yaml                      # a map_server map; unknown cells occupied
     occupancy_map: {file: floor.yaml, unknown: free}   # or: unknown cells free for the base
+    occupancy_map: {file: floor.yaml, unknown: cost, unknown_cost: 3}   # or open at 3x the travel cost
     occupancy_map: {file: shelves.yaml, arm_height: 2.0}   # its cells also 2 m tall boxes for the arm
     keepout_mask: keepout.yaml                     # Nav2 keepout filter mask
     speed_mask: speed.yaml                         # Nav2 speed filter mask, percent, base 0, multiplier 1
@@ -24,13 +25,21 @@ from typing import Any
 
 from placement.scene.cloud import DEFAULT_VOXEL, CloudError, VoxelCloud, load_cloud
 from placement.scene.masks import SPEED_TYPES, KeepoutMask, SpeedMask, load_keepout_mask, load_speed_mask
-from placement.scene.occupancy import UNKNOWN_POLICIES, OccupancyMap, OccupancyMapError, load_occupancy_map
+from placement.scene.occupancy import (
+    DEFAULT_UNKNOWN_COST,
+    MAX_UNKNOWN_COST,
+    UNKNOWN_POLICIES,
+    OccupancyMap,
+    OccupancyMapError,
+    load_occupancy_map,
+)
 from placement.validation import Checker, show
 
 OCCUPANCY_KEYS = {
     "file": "the map YAML, relative to the scene file",
     "unknown": " or ".join(UNKNOWN_POLICIES),
     "arm_height": "[m] occupied cells as boxes this tall for the arm (default: not for the arm)",
+    "unknown_cost": "travel cost multiplier of an unknown cell under unknown: cost (>= 1, default 3)",
 }
 #: [m] the tallest ``arm_height``.
 MAX_ARM_HEIGHT = 100.0
@@ -82,9 +91,16 @@ def parse_base_layers(P: Checker, doc: dict[str, Any], origin: Path) -> BaseLaye
             height = P.positive(spec["arm_height"], "occupancy_map.arm_height")
             if height > MAX_ARM_HEIGHT:
                 P.fail("occupancy_map.arm_height", f"must be <= {MAX_ARM_HEIGHT:g} m, got {height:g}")
+        cost = DEFAULT_UNKNOWN_COST
+        if spec.get("unknown_cost") is not None:
+            if unknown != "cost":
+                P.fail("occupancy_map.unknown_cost", f"applies to unknown: cost only (unknown is {unknown})")
+            cost = P.number(spec["unknown_cost"], "occupancy_map.unknown_cost", 1.0)
+            if cost > MAX_UNKNOWN_COST:
+                P.fail("occupancy_map.unknown_cost", f"must be <= {MAX_UNKNOWN_COST:g}, got {cost:g}")
         path = out["occupancy_map"] = resolve(spec["file"], origin)
         try:
-            out["occupancy"] = load_occupancy_map(path, unknown, height)
+            out["occupancy"] = load_occupancy_map(path, unknown, height, cost)
         except OccupancyMapError as exc:
             P.fail("occupancy_map", str(exc))
     if doc.get("keepout_mask") is not None:
@@ -137,6 +153,8 @@ def base_layers_to_dict(scene: Any, path: Any) -> dict[str, Any]:
             spec["unknown"] = occ.unknown
         if occ is not None and occ.arm_height is not None:
             spec["arm_height"] = occ.arm_height
+        if occ is not None and occ.unknown == "cost":
+            spec["unknown_cost"] = occ.unknown_cost
         out["occupancy_map"] = spec if len(spec) > 1 else spec["file"]
     if scene.keepout_mask is not None:
         out["keepout_mask"] = path(scene.keepout_mask)

@@ -55,8 +55,13 @@ DEFAULT_OCCUPIED_THRESH = 0.65
 DEFAULT_FREE_THRESH = 0.196
 _MAP_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh", "mode")
 _MODES = ("trinary", "scale")
-#: What unknown cells of an occupancy map are for the base.
-UNKNOWN_POLICIES = ("occupied", "free")
+#: What unknown cells of an occupancy map are for the base: closed, open, or open at a travel cost
+#: (``unknown_cost`` times a free cell's, as Nav2's costmaps may track unknown space).
+UNKNOWN_POLICIES = ("occupied", "free", "cost")
+#: The default travel cost multiplier of an unknown cell under ``unknown: cost``.
+DEFAULT_UNKNOWN_COST = 3.0
+#: The largest one.
+MAX_UNKNOWN_COST = 1000.0
 #: Bounds checked before anything is allocated: the map YAML's size [bytes], the resolution [m] and
 #: the coordinates of the map's corners [m] (the image's: see placement/scene/pgm.py).
 MAX_MAP_YAML_BYTES = 2**20
@@ -75,7 +80,10 @@ class OccupancyMap:
         resolution: cell size [m].
         origin: (x, y, yaw) of the lower-left corner of cell (0, 0) [m, m, rad]; yaw is 0.
         source: the map YAML it was loaded from, if any.
-        unknown: what the unknown cells (and cells outside the map) were made: ``occupied`` or ``free``.
+        unknown: what the unknown cells (and cells outside the map) are for the base: ``occupied``,
+            ``free`` or ``cost`` (open, at ``unknown_cost`` times a free cell's travel cost).
+        unknown_cells: (rows, cols) bool, the map's unknown cells (kept for ``cost``; None otherwise).
+        unknown_cost: travel cost multiplier of an unknown cell (>= 1) under ``cost``.
         arm_height: None (the default): the map is the base's alone, as a 2D map says nothing about
             height; else the occupied cells are also boxes this tall [m] from the floor in the arm's
             collision model (for a map of things the user knows to be that tall).
@@ -87,6 +95,8 @@ class OccupancyMap:
     source: Path | None = None
     unknown: str = "occupied"
     arm_height: float | None = None
+    unknown_cells: npt.NDArray[np.bool_] | None = None
+    unknown_cost: float = DEFAULT_UNKNOWN_COST
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -182,11 +192,69 @@ def _number(doc: dict[str, Any], key: str, where: str, lo: float | None = None, 
     return v
 
 
-def load_occupancy_map(path: str | Path, unknown: str = "occupied", arm_height: float | None = None) -> OccupancyMap:
+#: OccupancyGrid values at or above this [percent] are occupied (map_server's default ``occupied_thresh``
+#: 0.65); -1 is unknown; the rest is free.
+OCCUPIED_PERCENT = 65
+
+
+def occupancy_from_values(
+    values: npt.NDArray[np.int8],
+    resolution: float,
+    origin: tuple[float, float],
+    unknown: str = "occupied",
+    occupied_percent: int = OCCUPIED_PERCENT,
+    unknown_cost: float = DEFAULT_UNKNOWN_COST,
+    arm_height: float | None = None,
+) -> OccupancyMap:
+    """The occupancy map of an OccupancyGrid's ``values`` (rows, cols) int8, row 0 the lowest y: -1
+    unknown (``occupied``, ``free`` or ``cost`` as ``unknown`` says), at or above ``occupied_percent``
+    occupied, the rest free; cells of ``resolution`` [m], the lower-left corner at ``origin`` (x, y) [m]."""
+    if unknown not in UNKNOWN_POLICIES:
+        raise OccupancyMapError(f"unknown cells may be {', '.join(UNKNOWN_POLICIES)}, got {show(unknown)}")
+    occupied = values >= occupied_percent
+    if unknown == "occupied":
+        occupied |= values < 0
+    occupied.setflags(write=False)
+    cells = None
+    if unknown == "cost":
+        cells = values < 0
+        cells.setflags(write=False)
+    ox, oy = (float(v) for v in origin)
+    return OccupancyMap(occupied, float(resolution), (ox, oy, 0.0), None, unknown, arm_height, cells, unknown_cost)
+
+
+@dataclass(frozen=True)
+class GridValues:
+    """An OccupancyGrid's checked content (as a robot's map server publishes it): ``values`` (rows,
+    cols) int8 (-1 unknown, 0..100), row 0 the lowest y; ``resolution`` [m]; ``origin`` (x, y) [m]
+    of cell (0, 0)'s lower-left corner; ``frame`` its frame_id."""
+
+    values: npt.NDArray[np.int8]
+    resolution: float
+    origin: tuple[float, float]
+    frame: str
+
+    def occupancy(
+        self,
+        unknown: str = "occupied",
+        occupied_percent: int = OCCUPIED_PERCENT,
+        unknown_cost: float = DEFAULT_UNKNOWN_COST,
+    ) -> OccupancyMap:
+        """The grid as an occupancy map (see :func:`~placement.scene.occupancy.occupancy_from_values`)."""
+        return occupancy_from_values(self.values, self.resolution, self.origin, unknown, occupied_percent, unknown_cost)
+
+
+def load_occupancy_map(
+    path: str | Path,
+    unknown: str = "occupied",
+    arm_height: float | None = None,
+    unknown_cost: float = DEFAULT_UNKNOWN_COST,
+) -> OccupancyMap:
     """Load a ROS map_server map (YAML + 8-bit PGM); see the module docstring for the semantics.
 
-    ``unknown``: what unknown cells are for the base, ``occupied`` (default) or ``free``;
-    ``arm_height``: see :class:`OccupancyMap` [m].
+    ``unknown``: what unknown cells are for the base, ``occupied`` (default), ``free`` or ``cost``
+    (open at ``unknown_cost`` times a free cell's travel cost); ``arm_height``: see
+    :class:`OccupancyMap` [m].
     Raises :class:`OccupancyMapError` for a missing or malformed YAML or image, an unsupported
     mode or image format, or a rotated origin (yaw != 0, not supported yet).
     """
@@ -197,7 +265,13 @@ def load_occupancy_map(path: str | Path, unknown: str = "occupied", arm_height: 
     certain = (image.values == 100) & ~image.unknown
     occupied = certain | image.unknown if unknown == "occupied" else certain
     occupied.setflags(write=False)
-    return OccupancyMap(occupied, image.resolution, image.origin, image.source, unknown, arm_height)
+    cells = None
+    if unknown == "cost":
+        cells = image.unknown & ~certain
+        cells.setflags(write=False)
+    return OccupancyMap(
+        occupied, image.resolution, image.origin, image.source, unknown, arm_height, cells, unknown_cost
+    )
 
 
 def load_map_image(path: str | Path) -> MapImage:
