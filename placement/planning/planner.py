@@ -15,6 +15,7 @@ scene change, which the planner swaps in.
 
 from __future__ import annotations
 
+import logging
 import os
 import time
 from collections.abc import Mapping
@@ -42,7 +43,9 @@ from placement.planning.updates import apply_update
 from placement.planning.world import World, windowed_world
 from placement.robots import Robot, load_robot
 from placement.scene import Scene, load_scene
-from placement.storage import open_store
+from placement.storage import map_identity, open_store
+
+log = logging.getLogger(__name__)
 
 
 def default_maps_path(scene: Scene, robot: Robot) -> Path:
@@ -114,7 +117,9 @@ class Planner:
         self.method: Method = method_named(method)
         robot = load_robot(scene.robot_preset)
         self.map_path = map_path = Path(maps or scene.maps or default_maps_path(scene, robot))
+        self._map_identity = map_identity(map_path)
         rmaps = {arm: open_map(map_path, arm, robot) for arm in mapped_arms(map_path, robot)}
+        self.maps_reopened = 0
         self._collisions = collisions
         self._contextualise(scene, robot, rmaps)
         # once per planner: kernels loaded and slices read here, not in the first step
@@ -225,13 +230,39 @@ class Planner:
         self.context = replace(self.context, config=strategy.configure(self.base_config))
         self.method = strategy
 
+    def follow_maps(self) -> bool:
+        """Reopen the maps if they were rebuilt at :attr:`map_path` since this planner opened them (a
+        build renames a new map over the old: the chunks read from now on are the new map's, which
+        the old metadata would call corrupt). True when they were; MapError (naming the path) when
+        the new map cannot be opened, and the planner stays on the maps it had. :meth:`plan` and
+        :meth:`update` call it first."""
+        now = map_identity(self.map_path)
+        if now == self._map_identity:
+            return False
+        robot = self.robot
+        try:
+            rmaps = {arm: open_map(self.map_path, arm, robot) for arm in mapped_arms(self.map_path, robot)}
+        except PlacementError as exc:
+            raise MapError(
+                f"the maps at {self.map_path} changed since this planner opened them and cannot be opened again: {exc}"
+            ) from None
+        self._contextualise(self.scene, robot, rmaps)
+        self._map_identity = now
+        self.maps_reopened += 1
+        log.warning("the maps at %s were rebuilt since this planner opened them: reopened", self.map_path)
+        return True
+
     def update(self, change: Any) -> dict[str, Any]:
         """Apply a scene change, redoing only what it invalidates; on error nothing changes.
 
         See :mod:`placement.planning.updates` for the vocabulary. Returns
-        ``{"updated": [...], "timings_ms": {...}}``.
+        ``{"updated": [...], "timings_ms": {...}}`` (and ``"maps": "reopened"`` when the maps were
+        rebuilt under the planner, see :meth:`follow_maps`).
         """
+        reopened = self.follow_maps()
         self.context, report = apply_update(self.context, change)
+        if reopened:
+            report["maps"] = "reopened"
         return report
 
     def start_cell(self) -> Cell:
@@ -263,6 +294,7 @@ class Planner:
     def plan(self, keep_maps: bool = False) -> PlanResult:
         """Plan every step from the scene's start pose; with ``keep_maps`` each step's layers are
         kept in ``StepResult.maps`` (for plots)."""
+        self.follow_maps()
         start = self.start_cell()
         deadline = time.perf_counter() + self.context.config.time_budget_s
         steps = self.method.plan(replace(self.context, deadline=deadline), start, keep_maps)

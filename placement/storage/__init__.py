@@ -20,6 +20,21 @@ def backend(name: str) -> Backend:
         raise MapError(f"unknown map format '{name}'; choose from {', '.join(BACKENDS)}") from None
 
 
+def map_identity(path: str | Path) -> tuple[tuple[int, int, int], ...] | None:
+    """What tells one stored map from another at ``path`` without reading it: (inode, mtime [ns],
+    size [bytes]) of the path and, for a folder, of its root metadata file; None when it is gone. A
+    build replaces a map by renaming a new one over it, so a rebuilt map has a new identity."""
+    path = Path(path)
+    out = []
+    for p in (path, path / "zarr.json") if path.is_dir() else (path,):
+        try:
+            st = p.stat()
+        except OSError:
+            return None
+        out.append((st.st_ino, st.st_mtime_ns, st.st_size))
+    return tuple(out)
+
+
 def detect(path: str | Path) -> Backend:
     """The backend that wrote ``path``; MapError if it is no map at all."""
     path = Path(path)
@@ -36,4 +51,4 @@ def open_store(path: str | Path) -> StoredMap:
     return detect(path).open(Path(path))
 
 
-__all__ = ["BACKENDS", "Backend", "StoredMap", "atomic_replace", "backend", "detect", "open_store"]
+__all__ = ["BACKENDS", "Backend", "StoredMap", "atomic_replace", "backend", "detect", "map_identity", "open_store"]
