@@ -29,9 +29,10 @@ import numpy.typing as npt
 from placement.errors import PlacementError
 from placement.planning import Planner, PlanResult, StepResult
 from placement.scene import Scene, SceneError, check_scene, parse_scene
+from placement.scene.grid_values import OCCUPIED_PERCENT, GridValues
 from placement.scene.limits import MAX_SCENE_BYTES, default_bounds
 from placement.scene.model import TaskStep, Trajectory
-from placement.scene.occupancy import DEFAULT_UNKNOWN_COST, OCCUPIED_PERCENT, GridValues
+from placement.scene.occupancy import DEFAULT_UNKNOWN_COST
 from placement.scene.poses import quaternion_matrix
 from placement.validation import one_line, parse_yaml
 

@@ -30,7 +30,8 @@ from placement.evaluation import task_time
 from placement.planning import PlanResult
 from placement.robots import Robot
 from placement.scene import OccupancyMap, Scene
-from placement.scene.occupancy import DEFAULT_UNKNOWN_COST, MAX_COORD, MAX_IMAGE_PIXELS, OCCUPIED_PERCENT, GridValues
+from placement.scene.grid_values import OCCUPIED_PERCENT, GridValues
+from placement.scene.occupancy import DEFAULT_UNKNOWN_COST, MAX_COORD, MAX_IMAGE_PIXELS
 from placement.scene.poses import UNIT_TOLERANCE, matrix_yaw, normalised, quaternion_matrix, yaw_quaternion
 from placement.validation import strict_json
 
