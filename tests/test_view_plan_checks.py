@@ -180,3 +180,80 @@ def test_view_refuses_in_one_line_and_serves_the_right_plan(plan_doc, tmp_path):
     p = run("view", str(EXAMPLE), "--plan", str(good), "--port", "0", "--json", "--timeout", "0.5", "-q")
     assert p.returncode == 0, p.stderr
     assert json.loads(p.stdout)["url"].startswith("http://127.0.0.1:")
+
+
+def first_place(d) -> dict:
+    return next(s for s in d["steps"] if s.get("status", "ok") == "ok" and s["action"] == "place")
+
+
+def _conf(d, joint, value):
+    s = first_ok(d)
+    name = joint.format(a=s["arm"][0])
+    s["configuration"]["joints"][name] = value
+
+
+@pytest.mark.parametrize(
+    "mutate, words",
+    [
+        (
+            lambda d: _conf(d, "{a}_elbow_flex_joint", -0.2),
+            ["configuration.joints", "elbow_flex_joint", "but the step's joints give"],
+        ),
+        (
+            lambda d: first_ok(d)["configuration"]["base"].update(y=first_ok(d)["base"][1] + 1.0),
+            ["configuration.base", "is not the step's base"],
+        ),
+        (
+            lambda d: first_ok(d)["configuration"].update(arm="left" if first_ok(d)["arm"] == "right" else "right"),
+            ["configuration.arm"],
+        ),
+        (
+            lambda d: _conf(d, "torso_lift_joint", 0.3),
+            ["configuration.joints.torso_lift_joint", "but the step's joints give"],
+        ),
+        (lambda d: _conf(d, "knee_joint", 0.0), ["configuration.joints", "has no joint 'knee_joint'"]),
+        (
+            lambda d: _conf(d, "r_gripper_l_finger_joint", 50.0),
+            ["r_gripper_l_finger_joint", "50 is outside the URDF limits"],
+        ),
+        (lambda d: _conf(d, "head_tilt_joint", 3.0), ["head_tilt_joint", "outside the URDF limits"]),
+        (lambda d: _conf(d, "head_pan_joint", 1e308), ["head_pan_joint", "outside the URDF limits"]),
+        (lambda d: _conf(d, "head_pan_joint", "0.1"), ["head_pan_joint", "must be a finite number"]),
+        (
+            lambda d: first_place(d)["placed_pose"].__setitem__(0, first_place(d)["placed_pose"][0] + 1.0),
+            ["placed_pose", "100.0 cm"],
+        ),
+        (lambda d: first_place(d).pop("placed_pose"), ["placed_pose", "must say where"]),
+        (
+            lambda d: next(iter(d["robot"]["arms"].values())).update(tcp_offset=[0, 0, 0.1, 0, 0, 0, 1]),
+            ["tcp_offset", "from robot 'pr2''s"],
+        ),
+        (lambda d: first_ok(d).update(trajectory="nowhere"), ["trajectory", "'nowhere' is not one of the scene's"]),
+    ],
+)
+def test_a_plan_that_disagrees_with_itself_is_refused(plan_doc, scene, tmp_path, mutate, words):
+    """What a viewer draws, a user believes: a step's configuration, trajectory and placed pose must be
+    the step's and the scene's."""
+    doc = copy.deepcopy(plan_doc)
+    mutate(doc)
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(PlanFileError) as e:
+        load_checked_plan(path, scene)
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith(str(path)) and len(msg) < 1000, msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+def test_a_plan_for_a_same_named_scene_whose_cup_stood_elsewhere_is_refused(plan_doc, scene, tmp_path):
+    import dataclasses
+
+    moved = tuple(
+        dataclasses.replace(o, position=o.position + [0.3, 0.0, 0.0]) if o.name == "cup_1" else o for o in scene.objects
+    )
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(plan_doc))
+    assert len(load_checked_plan(path, scene)) == 6  # the scene it was made for: shown
+    with pytest.raises(PlanFileError, match=r"steps\[0\]\.tcp\[0\]: 30\.0 cm and 0\.0 deg from trajectory"):
+        load_checked_plan(path, dataclasses.replace(scene, objects=moved))

@@ -19,6 +19,7 @@ from placement.planning.configuration import held, joint_limits, resting
 from placement.planning.results import Cost, StepResult, transfer_problems
 from placement.planning.transfer import UPRIGHT_TOLERANCE
 from placement.robots import Robot, pose_to_matrix
+from placement.viewer.plan_scene import plan_problems
 
 if TYPE_CHECKING:
     from placement.scene import Scene
@@ -230,8 +231,10 @@ def check_plan(doc: dict[str, Any], steps: list[StepResult], scene: Scene, robot
     name and robot name, the arms with the robot's joints and tip frames, every step the scene's task
     step of that index (action and target) up to the first infeasible one, bases inside the scene's
     bounds, only joints of the robot, arm joints within the URDF limits (every pose's), fixed joints
-    within theirs (at the step's values, not necessarily the preset's), and the last TCP pose where
-    the joints put the TCP (with the step's fixed-joint values)."""
+    within theirs (at the step's values, not necessarily the preset's), the last TCP pose where
+    the joints put the TCP (with the step's fixed-joint values); and what
+    :func:`~placement.viewer.plan_scene.plan_problems` checks (each step's configuration, its
+    trajectory one the scene gives, a place's placed pose, the TCP offsets)."""
     from placement.planning.steps import task_steps
 
     name = doc.get("scene")
@@ -281,6 +284,9 @@ def check_plan(doc: dict[str, Any], steps: list[StepResult], scene: Scene, robot
     for i, s in enumerate(steps):  # a place by its pick's arm and grasp, the object upright as picked
         problems = transfer_problems(s, steps, "", rot_tol=UPRIGHT_TOLERANCE) if s.ok else []
         _need(not problems, f"{where}: steps[{i}]", problems[0].lstrip(": ") if problems else "")
+    problems = plan_problems(doc, steps, scene, robot, where)  # the configurations, the scene's trajectories
+    if problems:
+        raise PlanFileError(problems[0])
 
 
 def _check_step(d: dict[str, Any], s: StepResult, scene: Scene, robot: Robot, at: str) -> None:
