@@ -60,7 +60,7 @@ def plans(maps_dir):
 def test_every_step_plans_and_holds(plans, path, method):
     planner, result = plans[path.parent.name, method]
     assert result.ok, result.failed_step
-    assert result.verify(planner.robot) == []
+    assert result.verify(planner.robot, scene=planner.scene) == []
     for step in result.steps:
         assert footprint_on_map(planner, step.base) == [], (step.step, step.base)
 
@@ -128,7 +128,7 @@ def test_sequential_plans_beside_floor_the_base_cannot_reach(maps_dir):
     np.testing.assert_array_equal(problems.reachable, reachable_from(world.feasible, world.nav, 1.0, 1.0))
     result = planner.plan()
     assert result.ok, result.failed_step
-    assert result.verify(planner.robot) == []
+    assert result.verify(planner.robot, scene=planner.scene) == []
     assert np.isfinite(problems.heuristic(1)[world.nav.cell(*result.steps[0].base[:2])])
 
 

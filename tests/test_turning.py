@@ -70,7 +70,7 @@ def plan(path, maps_dir, method, polish):
     planner = Planner(scene, method, maps_dir)
     result = planner.plan()
     assert result.ok, result.failed_step
-    assert result.verify(planner.robot) == []
+    assert result.verify(planner.robot, scene=planner.scene) == []
     return planner, result, task_time(planner.robot, result, planner.scene.start)["total_s"]
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from placement.errors import PlacementError
 from placement.planning.arrays import FloatArray
+from placement.planning.clearance import scene_clearance
 from placement.planning.configuration import (
     Resting,
     actuated_joints,
@@ -28,6 +29,7 @@ from placement.planning.configuration import (
 from placement.planning.transfer import UPRIGHT_TOLERANCE, tilt_between
 from placement.planning.verify import base_matrix
 from placement.robots import Robot, matrix_to_pose
+from placement.scene import Scene
 
 T = TypeVar("T")
 
@@ -290,7 +292,9 @@ class PlanResult:
             out["update"] = self.update
         return out
 
-    def verify(self, robot: Robot, pos_tol: float = 0.01, rot_tol: float = math.radians(3)) -> list[str]:
+    def verify(
+        self, robot: Robot, pos_tol: float = 0.01, rot_tol: float = math.radians(3), scene: Scene | None = None
+    ) -> list[str]:
         """Independent checks of every planned step with pinocchio FK: joints within limits, every
         fixed joint given and within its URDF limits (a step may hold it at another value than the
         preset's: a torso set per step), the TCP at every pose of the trajectory with that pose's
@@ -300,9 +304,10 @@ class PlanResult:
         limits; see :func:`configuration_problems`), else of the arm on the robot ``held`` at the
         step's fixed-joint values (:meth:`Robot.with_fixed`); and
         every transfer: the place by the pick's arm and grasp, the object turned about the vertical
-        only (within :data:`~placement.planning.transfer.UPRIGHT_TOLERANCE`). Returns the problems
-        found (empty: the plan holds)."""
-        problems = []
+        only (within :data:`~placement.planning.transfer.UPRIGHT_TOLERANCE`); with ``scene``, every
+        base footprint's exact clearance from its obstacles (:mod:`placement.planning.clearance`).
+        Returns the problems found (empty: the plan holds)."""
+        problems = [] if scene is None else scene_clearance(robot, scene, self.steps)
         for s in self.steps:
             if not s.ok:
                 continue
