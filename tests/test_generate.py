@@ -30,7 +30,7 @@ from placement.evaluation.generate import (
     generate_scene,
     write_scenes,
 )
-from placement.scene import load_scene
+from placement.scene import load_scene, parse_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -361,3 +361,17 @@ def test_top_grasps_of_generated_objects_are_collision_free():
                 others = [b for b in scene.objects if b is not o]
                 for g in top_grasps(o.position, o.yaw, o.size):
                     assert not gripper_collides(robot, "right", g.poses, others), f"scene {k}: {o.name} {g.name}"
+
+
+@pytest.mark.parametrize("objects, obstacles", [(30, True), (50, False), (50, True)])
+def test_every_documented_count_fits_on_longer_pick_tables(objects, obstacles):
+    """More objects than the default tables hold: the scene is drawn again on longer pick tables (up to
+    2 m) and keeps every invariant; a count that fits keeps the default tables."""
+    doc = generate_scene(4, 0, objects=objects, obstacles=obstacles)
+    scene = parse_scene(doc, ".", "generated")
+    assert len(scene.objects) == objects
+    lengths = {float(o.shape.size[0]) for o in scene.obstacles if o.name.startswith("pick_table")}
+    assert len(lengths) == 1 and 0.8 < lengths.pop() <= 2.0
+    assert_layout(scene)
+    small = parse_scene(generate_scene(4, 0, objects=6, obstacles=obstacles), ".", "generated")
+    assert {float(o.shape.size[0]) for o in small.obstacles if o.name.startswith("pick_table")} == {0.8}

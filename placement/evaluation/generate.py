@@ -24,9 +24,11 @@ half-diagonal, 0.065 m, minus the margin), outside every crate, and outside ever
 ``SHADOW`` on the object's own side; every two objects' footprints are at least ``GRIPPER_CLEARANCE``
 apart (so a top grasp of every object is collision-free, checked with the PR2's gripper shapes in
 tests/test_generate.py); place locations are above their place tables. When 1000
-positions for an object are all shadowed or too close to an earlier object (a short ``table_size``,
-or more objects than fit: up to 12 always fit the PR2's default tables), the generator raises :class:`~placement.errors.PlacementError` naming
-the scene and the object instead of keeping a blocked position.
+positions for an object are all shadowed or too close to an earlier object (more objects than the
+tables hold: up to 12 always fit the PR2's default tables), the scene is drawn again from its seed
+on pick tables 1.25 times as long, up to 2 m (scenes that fit are as they were; a table length the
+caller gives is kept); when the tables cannot hold them, the generator raises :class:`~placement.errors.PlacementError` naming the scene and
+the object instead of keeping a blocked position.
 
 Paths: :func:`write_scenes` takes a preset path and ``maps`` as seen from the current directory
 and records them relative to the scene file (an absolute path stays absolute), so a scene loads
@@ -75,6 +77,8 @@ MAX_SCENES = 1000
 #: pick table length and depth bounds [m]: crates need 0.2 m of length, objects 2 * MARGIN of depth,
 #: and up to 2 m the row stays clear of the walls, the place tables and the start band
 TABLE_LENGTH = (0.2, 2.0)
+#: The pick tables grow by this factor (up to the longest) while the objects do not fit on them.
+GROW = 1.25
 TABLE_DEPTH = (2 * MARGIN, 2.0)
 MAX_SEED = 2**63 - 1  # seeds are 0 .. MAX_SEED (numpy's SeedSequence takes any; YAML/JSON keep int64 exact)
 
@@ -145,15 +149,41 @@ def generate_scene(
 ) -> dict[str, Any]:
     """Scene ``index`` of ``seed`` as a scene-file mapping (validated; paths as given, from the cwd).
 
-    ``table_size``: pick table (length, depth) [m] (default per preset, ``TABLE_SIZES``).
+    ``table_size``: pick table (length, depth) [m] (default per preset, ``TABLE_SIZES``); the
+    preset's length grows (up to 2 m) while the objects do not fit, another length is kept.
     Raises :class:`PlacementError` for out-of-bounds counts or when an object finds no free position.
     """
     check_counts(seed, objects)
-    rng = np.random.default_rng([int(seed), int(index), int(obstacles)])
     length, depth = table_size or TABLE_SIZES.get(preset, (0.8, 0.8))
     for name, value, (lo, hi) in (("length", length, TABLE_LENGTH), ("depth", depth, TABLE_DEPTH)):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
             raise PlacementError(f"table_size: {name} must be from {lo} to {hi} m, got {value!r}")
+    # the preset's length grows when the objects do not fit; a length of the caller's is kept
+    grow = length == TABLE_SIZES.get(preset, (0.8, 0.8))[0]
+    while True:
+        try:
+            return _scene(seed, index, objects, obstacles, preset, float(length), float(depth), maps)
+        except _Crowded as exc:
+            if not grow:
+                raise PlacementError(
+                    f"{exc} (pick tables {length} x {depth} m too short for {objects} objects)"
+                ) from None
+            if length >= TABLE_LENGTH[1]:
+                raise PlacementError(f"{exc} (pick tables {length} x {depth} m, the longest, too short)") from None
+            # more objects than the tables hold: longer pick tables, the scene drawn again from its seed
+            length = min(round(length * GROW, 3), TABLE_LENGTH[1])
+
+
+class _Crowded(Exception):
+    """An object found no free position on the pick tables."""
+
+
+def _scene(
+    seed: int, index: int, objects: int, obstacles: bool, preset: str, length: float, depth: float, maps: str | None
+) -> dict[str, Any]:
+    """The scene of :func:`generate_scene` on pick tables of ``length`` x ``depth`` [m]; _Crowded when
+    an object finds no free position."""
+    rng = np.random.default_rng([int(seed), int(index), int(obstacles)])
     place_edge = place_table_edge(preset)
     w, h = ROOM
     cx, cy = 5.0, 4.0
@@ -214,10 +244,9 @@ def generate_scene(
             if all(footprint_gap(corners, q[2]) >= GRIPPER_CLEARANCE for q in near):
                 break
         else:
-            raise PlacementError(
+            raise _Crowded(
                 f"scene {index} of seed {seed}: object_{k + 1} found no position free of the "
-                f"crates' shadows and {GRIPPER_CLEARANCE} m from the other objects in {TRIES} "
-                f"tries (pick tables {length} x {depth} m too short for {objects} objects)"
+                f"crates' shadows and {GRIPPER_CLEARANCE} m from the other objects in {TRIES} tries"
             )
         placed.append(((x, y), math.hypot(*size[:2]) / 2, corners))
         objs.append(
