@@ -78,6 +78,21 @@ def strict_json(data: Any, error: type[Exception], indent: int | None = 2) -> st
         raise error("the result holds a non-finite number (NaN or inf); refusing to print invalid JSON") from None
 
 
+def _unique_pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in out:
+            raise ValueError(f"duplicate key '{k[:60]}'" + (f" ({len(k):,} characters)" if len(k) > 60 else ""))
+        out[k] = v
+    return out
+
+
+def parse_json(text: str) -> Any:
+    """``text`` as JSON, a key given twice in one object refused (ValueError naming it; ``json.loads``
+    would keep the last silently), as YAML documents are read (:func:`parse_yaml`)."""
+    return json.loads(text, object_pairs_hook=_unique_pairs)
+
+
 def one_line(text: str) -> str:
     """``text`` with every non-printable character (newline, tab, NUL, ...) escaped: an error stays one line."""
     if text.isprintable():

@@ -142,3 +142,11 @@ def test_update_errors_quote_names_briefly(scene_path):
         with pytest.raises(SceneError) as e:
             planner.update(change)
         assert len(str(e.value)) < 1000 and "100,000 characters" in str(e.value)
+
+
+def test_a_key_given_twice_is_refused_not_the_last_kept(scene_path, capsys):
+    planner = Planner(scene_path)
+    answers, err = run_stream(planner, ['{"start": [1.0, 4.0, 0.0], "start": [9.0, 9.0, 0.0]}'], capsys)
+    assert answers[1]["update"]["status"] == "refused"
+    assert "duplicate key 'start'" in answers[1]["error"]
+    assert planner.scene.start == (1.0, 4.0, 0.0)

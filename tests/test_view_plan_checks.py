@@ -257,3 +257,11 @@ def test_a_plan_for_a_same_named_scene_whose_cup_stood_elsewhere_is_refused(plan
     assert len(load_checked_plan(path, scene)) == 6  # the scene it was made for: shown
     with pytest.raises(PlanFileError, match=r"steps\[0\]\.tcp\[0\]: 30\.0 cm and 0\.0 deg from trajectory"):
         load_checked_plan(path, dataclasses.replace(scene, objects=moved))
+
+
+def test_a_plan_file_with_a_key_given_twice_is_refused(plan_doc, scene, tmp_path):
+    text = json.dumps(plan_doc)
+    path = tmp_path / "plan.json"
+    path.write_text(text.replace('"scene": ', '"scene": "other", "scene": ', 1))
+    with pytest.raises(PlanFileError, match="duplicate key 'scene'"):
+        load_checked_plan(path, scene)

@@ -235,11 +235,10 @@ def stream_plans(
     "applied" (``update.updated``, ``update.timings_ms``; the new plan's keys, or none and
     ``plan_error``: why planning failed; ``plan_error`` is null when it planned). Each new
     PlanResult (planned with ``keep_maps``) is also passed to ``on_result`` (the viewer shows it)."""
-    import json
     import time
 
     from placement.errors import PlacementError
-    from placement.validation import one_line
+    from placement.validation import one_line, parse_json
 
     def say(answer: dict[str, Any]) -> None:
         click.echo(to_json_line(answer))
@@ -256,7 +255,7 @@ def stream_plans(
                 raise PlacementError(reason)
             try:
                 assert line is not None  # a line without a reason was read whole
-                change = json.loads(line)
+                change = parse_json(line)
             except (ValueError, RecursionError) as exc:  # RecursionError: absurdly deep nesting
                 raise PlacementError(
                     f"line {number}: not valid JSON ({type(exc).__name__}: {str(exc)[:80] or 'too deeply nested'})"

@@ -19,6 +19,7 @@ from placement.planning.configuration import held, joint_limits, resting
 from placement.planning.results import Cost, StepResult, transfer_problems
 from placement.planning.transfer import UPRIGHT_TOLERANCE
 from placement.robots import Robot, pose_to_matrix
+from placement.validation import parse_json
 from placement.viewer.plan_scene import plan_problems
 
 if TYPE_CHECKING:
@@ -197,7 +198,7 @@ def _read(path: Path | str) -> tuple[Any, str]:
     except (OSError, UnicodeDecodeError) as exc:
         raise PlanFileError(f"--plan {p}: cannot read it ({getattr(exc, 'strerror', None) or exc})") from None
     try:
-        return json.loads(text), str(p)
+        return parse_json(text), str(p)
     except (ValueError, RecursionError) as exc:
         raise PlanFileError(f"--plan {p}: not JSON ({type(exc).__name__}: {str(exc)[:80]})") from None
 
