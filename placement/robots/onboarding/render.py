@@ -30,6 +30,22 @@ def _comment(text: str, indent: str = "") -> list[str]:
     return [f"{indent}# {line}" for line in textwrap.wrap(text, width, break_on_hyphens=False, break_long_words=False)]
 
 
+def quoted(text: str) -> str:
+    """``text`` as a YAML double-quoted scalar that reads back as ``text``: printable ASCII as it is,
+    every other character as a YAML escape (``\\uXXXX``, or ``\\UXXXXXXXX`` beyond the BMP, where JSON's
+    surrogate pairs are no YAML), so an emoji or a control character in a URDF name survives."""
+    out = []
+    for ch in text:
+        code = ord(ch)
+        if ch in '"\\':
+            out.append("\\" + ch)
+        elif 0x20 <= code < 0x7F:
+            out.append(ch)
+        else:
+            out.append(f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}")
+    return '"' + "".join(out) + '"'
+
+
 def _list(values: Iterable[float], digits: int = 4) -> str:
     return json.dumps([round(float(v), digits) for v in values])
 
@@ -52,19 +68,19 @@ def render(p, command: str | None = None, preset: str = "PRESET.yaml") -> str:  
         f"Maps dense enough to plan with (minutes on 2 cores; docs/maps.md for finer ones): "
         f"`{build_command(preset, p.name)}`"
     )
-    lines += [f"name: {json.dumps(p.name)}", f"urdf: {json.dumps(p.urdf)}"]
+    lines += [f"name: {quoted(p.name)}", f"urdf: {quoted(p.urdf)}"]
     for n in p.base.notes:
         lines += _comment(n)
-    lines.append(f"base_frame: {json.dumps(p.base.frame)}")
+    lines.append(f"base_frame: {quoted(p.base.frame)}")
     if p.base.parent is not None and p.base.xyz is not None:
-        lines.append(f"base_frame_parent: {json.dumps(p.base.parent)}")
+        lines.append(f"base_frame_parent: {quoted(p.base.parent)}")
         lines.append(f"base_frame_xyz: {_list(p.base.xyz, 4)}   # [m] in base_frame_parent, its axes")
     torso_notes = [n for n in p.notes if n not in p.base.notes]
     for n in torso_notes:
         lines += _comment(n)
     if p.fixed:
         lines.append("fixed_joints:")
-        lines += [f"  {json.dumps(j)}: {v:g}" for j, v in p.fixed.items()]
+        lines += [f"  {quoted(j)}: {v:g}" for j, v in p.fixed.items()]
     if p.base.footprint is None:
         lines.append(f"footprint_radius: {p.base.radius:g}   # [m]")
     else:
@@ -76,14 +92,14 @@ def render(p, command: str | None = None, preset: str = "PRESET.yaml") -> str:  
     lines += _comment("A URDF does not carry the base's speed limits: defaults, edit them to your robot's.")
     lines += ["v_max: 0.5        # [m/s] base translation", "omega_max: 1.0    # [rad/s] base rotation", "arms:"]
     for a in p.arms:
-        lines.append(f"  {json.dumps(a.name)}:")
+        lines.append(f"  {quoted(a.name)}:")
         lines += textwrap.wrap(
-            "joints: [" + ", ".join(json.dumps(j) for j in a.joints) + "]",
+            "joints: [" + ", ".join(quoted(j) for j in a.joints) + "]",
             WIDTH,
             initial_indent="    ",
             subsequent_indent="             ",
         )
-        lines.append(f"    tip_frame: {json.dumps(a.tcp.tip_frame)}")
+        lines.append(f"    tip_frame: {quoted(a.tcp.tip_frame)}")
         lines += _comment(f"TCP inferred: {a.tcp.how}.", "    ")
         lines.append(f"    tcp_offset: {_list(matrix_to_pose(a.tcp.offset), 7)}")
         lines += _comment("home: mid-range of each joint (0 for continuous joints)", "    ")
@@ -102,5 +118,5 @@ def render(p, command: str | None = None, preset: str = "PRESET.yaml") -> str:  
             "fix their meshes and delete the pair."
         )
         lines.append("ignore_collisions:")
-        lines += [f"  - [{json.dumps(q.links[0])}, {json.dumps(q.links[1])}]" for q in p.ignore]
+        lines += [f"  - [{quoted(q.links[0])}, {quoted(q.links[1])}]" for q in p.ignore]
     return "\n".join(lines) + "\n"
