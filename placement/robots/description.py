@@ -11,6 +11,7 @@ import importlib.util
 import os
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from placement.errors import RobotError
@@ -101,6 +102,56 @@ def expand_xacro(path: Path, where: str) -> bytes:
             )
         raise RobotError(one_line(f"{where}: xacro {path} does not expand: {msg}"))
     return run.stdout
+
+
+#: Bounds of a robot's kinematic tree, checked before pinocchio parses it (urdfdom and pinocchio
+#: recurse once per joint: a 5,000-deep chain of fixed joints overflowed the C++ stack, 20,000 links ran
+#: for minutes). Real robots have tens to a few hundred links.
+MAX_LINKS = 2_000
+MAX_DEPTH = 500
+#: [m] the farthest a joint origin may be from its parent link (a real one is within metres).
+MAX_OFFSET = 1e4
+
+
+def check_tree(root: ET.Element, where: str) -> None:
+    """RobotError (one line naming ``where``) unless the URDF ``root`` (<robot>) has at most
+    :data:`MAX_LINKS` links, no chain deeper than :data:`MAX_DEPTH` joints, and finite joint origins
+    within :data:`MAX_OFFSET` of their parents."""
+    links = root.findall("link")
+    if len(links) > MAX_LINKS:
+        raise RobotError(f"{where}: {len(links):,} links, more than the {MAX_LINKS:,} a robot may have")
+    parent: dict[str, str] = {}
+    for j in root.findall("joint"):
+        name = str(j.get("name", "?"))[:60]
+        p, c = j.find("parent"), j.find("child")
+        if p is not None and c is not None and p.get("link") and c.get("link"):
+            parent[str(c.get("link"))] = str(p.get("link"))
+        origin = j.find("origin")
+        text = origin.get("xyz", "0 0 0") if origin is not None else "0 0 0"
+        try:
+            xyz = [float(v) for v in text.split()]
+        except ValueError:
+            raise RobotError(f"{where}: joint {name!r}: origin xyz {text[:60]!r} is not three numbers") from None
+        if len(xyz) != 3 or not all(abs(v) <= MAX_OFFSET for v in xyz):  # NaN fails too
+            raise RobotError(
+                f"{where}: joint {name!r}: origin xyz {text[:60]!r} is not three finite numbers within "
+                f"+-{MAX_OFFSET:g} m of its parent link"
+            )
+    depth: dict[str, int] = {}
+    for link in parent:
+        chain: list[str] = []
+        node = link
+        while node in parent and node not in depth and len(chain) <= MAX_DEPTH + 1:
+            chain.append(node)
+            node = parent[node]
+        base = depth.get(node, 0)
+        for k, n in enumerate(reversed(chain)):
+            depth[n] = base + k + 1
+        if depth.get(link, len(chain)) > MAX_DEPTH or len(chain) > MAX_DEPTH:
+            raise RobotError(
+                f"{where}: a chain of more than {MAX_DEPTH:,} joints (to link {link[:60]!r}); a robot's tree "
+                "may be at most that deep"
+            )
 
 
 def read_description(path: Path, where: str) -> bytes:

@@ -11,7 +11,7 @@ from pathlib import Path
 import pinocchio as pin
 
 from placement.errors import RobotError
-from placement.robots.description import MAX_URDF_BYTES, expand_xacro, is_xacro
+from placement.robots.description import MAX_URDF_BYTES, check_tree, expand_xacro, is_xacro
 from placement.validation import one_line, read_regular
 
 #: Parsed URDF models kept in memory, keyed by (path, sha256 of the bytes parsed).
@@ -54,6 +54,10 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
         if hit is not None:
             _MODELS.move_to_end(key)
     if hit is None:
+        try:
+            check_tree(ET.fromstring(data), f"{where}: urdf: {path}")
+        except ET.ParseError as exc:
+            raise RobotError(one_line(f"{where}: urdf: URDF {path} is not XML ({exc})")) from None
         try:
             model = pin.buildModelFromXML(data.decode("utf-8"))
         except UnicodeDecodeError as exc:
