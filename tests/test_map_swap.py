@@ -8,6 +8,7 @@ import shutil
 
 import pytest
 from support.planning import write_scene
+from support.plans import strip_timings
 
 import placement
 from placement.errors import MapError
@@ -26,11 +27,7 @@ def build(robot, path, seed):
 
 
 def plain(result):
-    doc = result.to_json()
-    for s in doc["steps"]:
-        s.pop("timings_ms", None)
-    doc["certificate"].pop("timings_ms", None)
-    return doc
+    return strip_timings(result.to_json())
 
 
 @pytest.fixture(scope="module")

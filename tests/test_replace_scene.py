@@ -7,6 +7,7 @@ import dataclasses
 from pathlib import Path
 
 import pytest
+from support.plans import strip_timings
 
 from placement.errors import PlacementError
 from placement.planning import Planner
@@ -16,11 +17,7 @@ ARENA = Path(__file__).resolve().parents[1] / "examples" / "buildings" / "wrs_ar
 
 
 def plain(result):
-    doc = result.to_json()
-    for s in doc["steps"]:
-        s.pop("timings_ms", None)
-    doc["certificate"].pop("timings_ms", None)
-    return doc
+    return strip_timings(result.to_json())
 
 
 def test_a_replaced_scene_plans_as_a_new_planner_of_it(maps_dir):
