@@ -222,3 +222,20 @@ def test_mutated_pr2_spec(key, value, drop):
 @given(st.integers(0, len(PR2_SPEC)), st.integers(0, 20), st.text(max_size=8))
 def test_mutated_pr2_spec_text(at, cut, insert):
     check(parse_build_spec_text, PR2_SPEC[:at] + insert + PR2_SPEC[at + cut :])
+
+
+@pytest.mark.parametrize(
+    "torso, words",
+    [
+        ({"joint": "torso_lift_joint", "values": ["0.1", 0.2]}, "torso.values[0] must be a setting"),
+        ({"joint": "torso_lift_joint", "values": [int("f" * 5000, 16), 0.2]}, "an integer of about 6021 digits"),
+        ({"joints": ["torso_lift_joint"], "postures": [["0.1"], [0.2]]}, "torso.postures[0][0] must be a setting"),
+    ],
+    ids=["string", "hex_5000_digits", "posture_string"],
+)
+def test_torso_settings_are_numbers_in_the_file(torso, words):
+    """A setting written as a string is refused (a spec's numbers are YAML numbers); a 5,000-digit
+    hexadecimal integer is named by its size, never converted (Python refuses to write it)."""
+    with pytest.raises(PlacementError, match=".*") as err:
+        parse_build_spec({"robot": "pr2", "torso": torso}, "spec.yaml")
+    assert words in str(err.value) and "\n" not in str(err.value)

@@ -21,6 +21,7 @@ from placement.errors import PlacementError
 from placement.kinematics.manipulability import INDEX_NAMES
 from placement.storage import BACKENDS
 from placement.storage.files import FileRefused, read_bounded
+from placement.validation import show as plain_show
 
 if TYPE_CHECKING:
     from placement.robots.preset import Robot
@@ -117,7 +118,10 @@ class BuildSpec:
 
 
 def show(value: object) -> str:
-    """A short one-line rendering of a bad value for an error message."""
+    """A short one-line rendering of a bad value for an error message (a huge integer by its size:
+    Python refuses to write one of more than 4300 digits)."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return plain_show(value)
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
@@ -210,8 +214,11 @@ def parse_arms(value: object, where: str) -> tuple[str, ...]:
 
 
 def _setting(value: object, where: str) -> float:
-    """A torso setting: a length [m] (prismatic joint) or an angle [rad] (revolute), within +-MAX_TORSO_ABS."""
+    """A torso setting: a length [m] (prismatic joint) or an angle [rad] (revolute), within +-MAX_TORSO_ABS;
+    a number in the file (a string such as "0.1" is refused: a spec's numbers are YAML numbers)."""
     try:
+        if isinstance(value, str):
+            raise PlacementError(where)
         return parse_length(value, where, -MAX_TORSO_ABS, MAX_TORSO_ABS)
     except PlacementError:
         raise PlacementError(
