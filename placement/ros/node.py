@@ -28,6 +28,7 @@ behind; a bad message changes nothing and the node goes on.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import threading
@@ -51,7 +52,7 @@ from placement.errors import PlacementError
 from placement.planning import PlanResult
 from placement.ros.live import LivePlanner, Outcome, first_line
 from placement.ros.messages import base_of, base_pose, grid_of, plan_messages, plan_path, stamped_pose
-from placement.ros.recording import Recorder, now
+from placement.ros.recording import Recorder, now, recording
 from placement.validation import strict_json
 
 log = logging.getLogger(__name__)
@@ -346,16 +347,18 @@ def summary(result: PlanResult) -> str:
     done = sum(s.ok for s in result.steps)
     if bad is None:
         travel = sum(s.travel_time_s or 0.0 for s in result.steps)
-        return f"planned {done} of {len(result.steps)} steps, base travel {travel:.1f} s"
+        task = (result.certificate or {}).get("task_time_s")
+        head = f"planned {done} of {len(result.steps)} steps"
+        return (
+            f"{head}, task {task:.1f} s, base travel {travel:.1f} s"
+            if task is not None
+            else f"{head}, base travel {travel:.1f} s"
+        )
     return f"planned {done} of {len(result.steps)} steps; step {bad.step} ({bad.action} {bad.target}) is infeasible: {bad.reason}"
 
 
 def serve(live: LivePlanner, options: NodeOptions, ready: Callable[[str], None] | None = None) -> None:
     """Run the node until SIGINT or SIGTERM (rclpy's handlers); ``ready`` gets its name once spinning."""
-    import contextlib
-
-    from placement.ros.recording import recording
-
     rclpy.init()
     try:
         with contextlib.ExitStack() as stack:
