@@ -55,13 +55,15 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
             _MODELS.move_to_end(key)
     if hit is None:
         try:
-            check_tree(ET.fromstring(data), f"{where}: urdf: {path}")
-        except ET.ParseError as exc:
-            raise RobotError(one_line(f"{where}: urdf: URDF {path} is not XML ({exc})")) from None
-        try:
-            model = pin.buildModelFromXML(data.decode("utf-8"))
+            text = data.decode("utf-8")
         except UnicodeDecodeError as exc:
             raise RobotError(one_line(f"{where}: urdf: {path} is not UTF-8 text (byte {exc.start})")) from None
+        try:
+            check_tree(ET.fromstring(text), f"{where}: urdf: {path}")
+        except ET.ParseError as exc:
+            raise RobotError(one_line(f"{where}: urdf: URDF {path} does not load: not XML ({exc})")) from None
+        try:
+            model = pin.buildModelFromXML(text)
         except Exception as exc:  # pinocchio raises plain RuntimeError/ValueError
             msg = " ".join(str(exc).split()) or type(exc).__name__
             raise RobotError(one_line(f"{where}: urdf: URDF {path} does not load: {msg}")) from None
