@@ -44,7 +44,7 @@ def stored(request, built, pr2, tmp_path_factory) -> Path:
 
 
 def test_torso_key_parses_sorted():
-    spec = parse_build_spec({"robot": "pr2", "torso": {"joint": LIFT, "values": [0.2, "0.1", 0, 0.31]}})
+    spec = parse_build_spec({"robot": "pr2", "torso": {"joint": LIFT, "values": [0.2, 0.1, 0, 0.31]}})
     assert spec.torso == TorsoSpec(LIFT, (0.0, 0.1, 0.2, 0.31))
     assert parse_build_spec({"robot": "pr2"}).torso is None
 
