@@ -254,3 +254,25 @@ def test_query_records_the_scene_and_the_plan_as_ros_messages(tmp_path, maps_dir
 def test_a_query_that_cannot_write_its_recording_stops_before_planning(tmp_path):
     proc = run("query", str(ROOT / "examples" / "table_clearing.yaml"), "--mcap", str(tmp_path / "no" / "x.mcap"))
     assert_one_line_error(proc, "--mcap", "does not exist")
+
+
+def test_a_reach_question_leaves_the_live_plan_as_it_was(maps_dir):
+    """The reach answer plans one pose over the live planner's robot and maps (a copy of it): the live
+    planner's scene and plan stay, and a pose out of every reach is answered with why."""
+    from support.plans import strip_timings
+
+    from placement.ros.live import LivePlanner
+
+    arena = ROOT / "examples" / "buildings" / "wrs_arena"
+    live = LivePlanner(maps_dir, origin_dir=arena)
+    assert live.set_scene((arena / "tidy_up.yaml").read_text()).applied
+    before = strip_timings(live.plan().to_json())
+    goal = live.plan().steps[0].tcp[0]  # the first pick's pre-grasp
+    from scipy.spatial.transform import Rotation
+
+    step = live.reach(goal[:3, 3], Rotation.from_matrix(goal[:3, :3]).as_quat())
+    assert step.ok and step.action == "reach"
+    far = live.reach([500.0, 500.0, 1.0], [0.0, 1.0, 0.0, 0.0])
+    assert not far.ok and "no base placement reaches the target" in far.reason
+    assert strip_timings(live.plan().to_json()) == before
+    assert live.planner.scene.task == load_scene(arena / "tidy_up.yaml").task

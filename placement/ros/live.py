@@ -17,6 +17,7 @@ leaves everything as it was.
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -239,7 +240,8 @@ class LivePlanner:
     def reach(self, position: npt.ArrayLike, orientation: npt.ArrayLike) -> StepResult:
         """The best base placement for one TCP pose (``position`` (3,) [m], ``orientation`` (4,)
         [x, y, z, w], world frame) from the live scene's start, IK and collisions verified: the scene's
-        task replaced by one reach of that pose."""
+        task replaced by one reach of that pose, planned over the live planner's open robot and maps
+        (a copy of it: the live planner keeps its scene)."""
         live = self._live()
         scene = live.scene
         names = {t.name for t in scene.trajectories}
@@ -251,5 +253,6 @@ class LivePlanner:
             trajectories=(*scene.trajectories, Trajectory(name, pose)),
             task=(TaskStep(reach=(name,)),),
         )
-        result = Planner(one, live.method.name, self.maps).plan()
-        return result.steps[0]
+        asked = copy.copy(live)
+        asked.replace_scene(one)
+        return asked.plan().steps[0]
