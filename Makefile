@@ -1,8 +1,10 @@
 # All targets use the project's own virtual environment (.venv), created by `make install`.
 PY ?= .venv/bin/python
-# The compiled kernels' cache: placement itself defaults NUMBA_CACHE_DIR to <venv>/numba-cache
-# (placement/__init__.py), so .venv/bin/placement finds what `make install` compiled; same place here.
+# The compiled kernels' cache: placement.kernels reads NUMBA_CACHE_DIR, else <venv>/numba-cache, so
+# .venv/bin/placement finds what `make install` compiled; same place here. The benchmark tools start
+# processes of their own: OpenMP waits passively there too (placement/process_env.py says why).
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
+export OMP_WAIT_POLICY ?= PASSIVE
 
 .PHONY: install constraints lint test coverage maps maps-armar6 maps-tiago demo bench bench-kitchen bench-eval eval robots clean docs
 
@@ -104,8 +106,8 @@ bench-eval: install maps/pr2/zarr.json
 # The scenes record maps/pr2 relative to themselves (the default of `scenes generate` run from here).
 eval: install maps/pr2/zarr.json
 	rm -rf build/eval-scenes
-	.venv/bin/placement scenes generate --seed 1 --count 45 build/eval-scenes/free -q
-	.venv/bin/placement scenes generate --seed 1 --count 30 --obstacles build/eval-scenes/obstacles -q
+	.venv/bin/placement scenes generate --seed 1 --count 45 --out build/eval-scenes/free -q
+	.venv/bin/placement scenes generate --seed 1 --count 30 --obstacles --out build/eval-scenes/obstacles -q
 	.venv/bin/placement evaluate build/eval-scenes/free --out docs/eval/free
 	.venv/bin/placement evaluate build/eval-scenes/obstacles --out docs/eval/obstacles
 

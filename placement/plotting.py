@@ -26,7 +26,7 @@ PANELS = (
     ("navigation", "navigation cost", "navigation cost [m]", "viridis"),
     ("manipulation", "manipulability (IRM)", "manipulability [dimensionless]", "viridis"),
     ("heuristic", "heuristic cost to the next step", "heuristic cost [m]", "cividis"),
-    ("combined", "combined cost (Eq. 6)", "combined cost [dimensionless]", "viridis"),
+    ("combined", "combined cost (Eq. 6 of Reister et al.)", "combined cost [dimensionless]", "viridis"),
 )
 
 

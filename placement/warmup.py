@@ -30,6 +30,8 @@ from pathlib import Path
 from numba.core import event
 from numba.core.registry import CPUDispatcher
 
+from placement.process_env import configure_process
+
 log = logging.getLogger("placement")
 
 # Cold-cache compile times [s] on the 2-core development machine (shared, load 3.5 to 5): the
@@ -160,6 +162,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     ap.add_argument("-q", "--quiet", action="store_true", help="print nothing unless a kernel stays uncompiled")
     args = ap.parse_args(argv)
+    configure_process()
     import numba
 
     import placement.kernels  # noqa: F401  (sets numba's cache directory)

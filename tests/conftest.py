@@ -10,6 +10,7 @@ import tempfile
 from pathlib import Path
 
 os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(__file__).resolve().parents[1] / ".venv" / "numba-cache"))
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # as placement.process_env sets it for every entry point
 # The command-line tests start ~200 Python processes that import placement; with PYTHONDONTWRITEBYTECODE
 # (set in some containers) each compiled the package's sources again (0.2 s a process). Their bytecode
 # goes to a cache outside the working tree instead.

@@ -1,4 +1,4 @@
-"""Map building: reproducible however the work is split, and equal to a slow reference (SPEC section 4)."""
+"""Map building: reproducible however the work is split, and equal to a slow reference (docs/maps.md)."""
 
 from __future__ import annotations
 
@@ -50,7 +50,7 @@ def assert_bitwise_equal(a: np.ndarray, b: np.ndarray):
 
 
 def test_default_resolution_is_5cm(built):
-    """SPEC section 4: 5 cm cells by default (as maps/pr2.yaml; maps/pr2-10cm.yaml chooses 0.1 m)."""
+    """5 cm cells by default (as maps/pr2.yaml; maps/pr2-10cm.yaml chooses 0.1 m)."""
     assert built.grid.resolution == 0.05
 
 

@@ -67,7 +67,7 @@ def test_the_bound_equals_brute_force_over_the_maps_cells(coarse):
     assert all(regions) and sum(len(c) for reg in regions for c in reg.values()) > 10
     want = brute_force(coarse, regions, dist)
     result = coarse.plan()
-    assert result.certificate["lower_bound_s"] == pytest.approx(want / coarse.robot.v_max, rel=1e-6)
+    assert result.certificate.lower_bound_s == pytest.approx(want / coarse.robot.v_max, rel=1e-6)
 
 
 def test_optimal_equals_brute_force_over_the_cells_left_after_its_repairs(coarse):
@@ -119,18 +119,20 @@ def test_the_bound_is_below_every_methods_travel(every_method):
     assert {"sequential", "global", "optimal"} <= set(planned)
     for m in planned:
         cert = results[m].certificate
-        assert cert["lower_bound_s"] <= cert["travel_s"] + 1e-6, m
-        assert cert["gap"] >= -1e-6, m
+        assert cert is not None and cert.travel_s is not None and cert.task_time_s is not None
+        assert cert.lower_bound_s <= cert.travel_s + 1e-6, m
+        assert cert.gap is not None and cert.gap >= -1e-6, m
         # a step lasts at least its travel: the bound is below the task time too, which the model counts
-        assert cert["task_time_s"] == pytest.approx(
+        assert cert.task_time_s == pytest.approx(
             task_time(planner.robot, results[m], planner.scene.start)["total_s"], abs=1e-5
         )
-        assert cert["travel_s"] <= cert["task_time_s"] + 1e-6 and cert["task_gap"] >= cert["gap"] - 1e-6, m
+        assert cert.task_gap is not None
+        assert cert.travel_s <= cert.task_time_s + 1e-6 and cert.task_gap >= cert.gap - 1e-6, m
 
 
 def test_optimal_is_never_worse_than_sequential(every_method):
     _, results = every_method
-    assert results["optimal"].certificate["travel_s"] <= results["sequential"].certificate["travel_s"] + 1e-6
+    assert results["optimal"].certificate.travel_s <= results["sequential"].certificate.travel_s + 1e-6
     assert results["global"].ok and not results["global"].verify(every_method[0].robot)
 
 

@@ -1,4 +1,4 @@
-"""Batch evaluation: the SPEC section 8 document, failures counted, report files written."""
+"""Batch evaluation: the evaluation document, failures counted, report files written."""
 
 from __future__ import annotations
 

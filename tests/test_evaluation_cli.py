@@ -63,7 +63,7 @@ def read_only_dir(tmp_path):
 )
 def test_generate_bad_options(tmp_path, args, words):
     out = tmp_path / "out"
-    assert_one_error(run(["scenes", "generate", *args, out]), *words)
+    assert_one_error(run(["scenes", "generate", *args, "--out", out]), *words)
     assert not out.exists()
 
 
@@ -75,16 +75,16 @@ def test_generate_bounds_are_in_the_help():
 def test_generate_out_dir_below_a_file(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("keep")
-    assert_one_error(run(["scenes", "generate", blocker / "a" / "b"]), "OUT_DIR", str(blocker), "is a file")
-    assert_one_error(run(["scenes", "generate", blocker]), "OUT_DIR", "not a directory")
+    assert_one_error(run(["scenes", "generate", "--out", blocker / "a" / "b"]), "--out", str(blocker), "is a file")
+    assert_one_error(run(["scenes", "generate", "--out", blocker]), "--out", "not a directory")
     assert blocker.read_text() == "keep" and sorted(tmp_path.iterdir()) == [blocker]
 
 
 def test_generate_out_dir_read_only(read_only_dir):
     before = sorted(read_only_dir.iterdir())
-    assert_one_error(run(["scenes", "generate", "--count", 1, read_only_dir]), "OUT_DIR", "cannot write")
+    assert_one_error(run(["scenes", "generate", "--count", 1, "--out", read_only_dir]), "--out", "cannot write")
     assert_one_error(
-        run(["scenes", "generate", "--count", 1, read_only_dir / "new" / "deeper"]), "OUT_DIR", "cannot create"
+        run(["scenes", "generate", "--count", 1, "--out", read_only_dir / "new" / "deeper"]), "--out", "cannot create"
     )
     assert sorted(read_only_dir.iterdir()) == before
 
@@ -94,7 +94,7 @@ def test_generate_failure_after_the_check_leaves_no_directory(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("- 1\n")
     out = tmp_path / "a" / "b"
-    result = run(["scenes", "generate", "--robot", bad, out])
+    result = run(["scenes", "generate", "--robot", bad, "--out", out])
     assert result.exit_code == 2 and result.stderr.startswith("error: ")
     assert not (tmp_path / "a").exists()
 

@@ -1,4 +1,4 @@
-"""Generated benchmark scenes: seeded, valid, laid out as SPEC section 8 says, loadable from anywhere."""
+"""Generated benchmark scenes: seeded, valid, laid out as docs/evaluation.md says, loadable from anywhere."""
 
 from __future__ import annotations
 
@@ -215,6 +215,7 @@ def test_cli_records_default_maps_and_plans_from_another_cwd(tmp_path, maps_dir)
             "1",
             "--obstacles",
             "--json",
+            "--out",
             "build/scenes",
         ],
         capture_output=True,
@@ -294,11 +295,11 @@ def test_place_tables_come_from_the_footprint(tmp_path):
 
 def test_cli_table_depth(tmp_path):
     run = [sys.executable, "-m", "placement.cli.main", "scenes", "generate", "--count", "1", "--table-depth"]
-    p = subprocess.run([*run, "0.45", str(tmp_path / "a"), "-q"], capture_output=True, text=True, cwd=ROOT)
+    p = subprocess.run([*run, "0.45", "--out", str(tmp_path / "a"), "-q"], capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 0, p.stderr
     doc = yaml.safe_load(next((tmp_path / "a").glob("*.yaml")).read_text())
     assert {tuple(o["box"]["size"][:2]) for o in doc["obstacles"] if "pick" in o["name"]} == {(0.8, 0.45)}
-    p = subprocess.run([*run, "3", str(tmp_path / "b")], capture_output=True, text=True, cwd=ROOT)
+    p = subprocess.run([*run, "3", "--out", str(tmp_path / "b")], capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 2 and p.stderr.strip().count("\n") == 0 and "depth" in p.stderr
     assert "Traceback" not in p.stderr and not (tmp_path / "b").exists()
 

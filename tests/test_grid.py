@@ -1,4 +1,4 @@
-"""The 6D grid: yaw-equivariant orientation coordinates and bin conventions (SPEC section 4)."""
+"""The 6D grid: yaw-equivariant orientation coordinates and bin conventions (docs/maps.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The numba FK/Jacobian kernel against pinocchio (SPEC section 2: agree to 1e-9)."""
+"""The numba FK/Jacobian kernel against pinocchio (agree to 1e-9)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Simox's extended manipulability: the fast kernels against a plain-numpy reference (SPEC section 3)."""
+"""Simox's extended manipulability: the fast kernels against a plain-numpy reference (docs/design.md)."""
 
 from __future__ import annotations
 

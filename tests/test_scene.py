@@ -1,4 +1,4 @@
-"""Scene files (SPEC section 6): parsing, strict validation, defaults, round trips."""
+"""Scene files (docs/scenes.md): parsing, strict validation, defaults, round trips."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Optional self-collision rejection (SPEC section 3, item 5): a hard reject while building maps."""
+"""Optional self-collision rejection (docs/maps.md): a hard reject while building maps."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Map storage (Zarr v3 and HDF5): round trip, metadata, validation and atomic writes (SPEC section 4)."""
+"""Map storage (Zarr v3 and HDF5): round trip, metadata, validation and atomic writes (docs/maps.md)."""
 
 from __future__ import annotations
 

@@ -143,7 +143,7 @@ def test_cli_verify(tmp_path, pr2, completed, fmt):
     assert res.exit_code == 0, res.output
     out = json.loads(res.output)["arms"]["right"]
     assert out["mismatches"] == 0 and out["cells_checked"] == np.count_nonzero(completed.values)
-    res = CliRunner().invoke(cli, ["maps", "verify", str(path), "--sample", "50", "-q"])
+    res = CliRunner().invoke(cli, ["maps", "verify", str(path), "--samples", "50", "-q"])
     assert res.exit_code == 0 and "50 of" in res.output and "all equal" in res.output
     # a map whose stored value no longer follows from its witness
     bad = completed.values.copy()

@@ -59,7 +59,7 @@ def main() -> None:
                 t = time.perf_counter()
                 result = planner.plan()
                 # the certificate's bound excluded, as in bench_query and bench_optimum
-                times.append((time.perf_counter() - t) * 1e3 - result.certificate["timings_ms"]["bound"])
+                times.append((time.perf_counter() - t) * 1e3 - result.certificate.ms)
             assert result is not None and planner is not None
             steps = result.steps
             placed = [s for s in steps if s.status == "ok"]

@@ -4,7 +4,7 @@
 
 Per scene and method: the steps planned, the independent check of the whole plan (pinocchio FK of
 every pose with the step's lift value, the transfers, the step configuration: ``PlanResult.verify``),
-the lift value of each step, the task time (SPEC section 8's parallel model, the lift's time
+the lift value of each step, the task time (docs/design.md's parallel model, the lift's time
 included) and the planning time of a fresh planner (median of ``--runs``). Logs on stderr.
 """
 

@@ -14,7 +14,7 @@ import click
 from click.core import ParameterSource
 from tqdm import tqdm
 
-from placement.cli.options import emit, setup_logging, standard_options
+from placement.cli.options import emit, maps_option, setup_logging, standard_options
 from placement.cli.params import Bounded, OneLineCommand
 from placement.errors import PlacementError
 from placement.evaluation.evaluate import MAX_WORKERS, check_methods, check_scenes, summary_rows
@@ -41,7 +41,7 @@ class MethodList(click.ParamType[list[str], Any]):
 
 
 @click.command(cls=OneLineCommand)
-@click.argument("scenes", nargs=-1, required=True, type=click.Path())
+@click.argument("scenes", nargs=-1, required=True, type=click.Path(exists=True))
 @click.option(
     "--methods",
     type=MethodList(),
@@ -49,7 +49,7 @@ class MethodList(click.ParamType[list[str], Any]):
     show_default=True,
     help="Comma-separated methods, each at most once.",
 )
-@click.option("--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: each scene's).")
+@maps_option
 @click.option(
     "--out",
     "out_dir",
@@ -84,7 +84,11 @@ def evaluate(
     verbose: int,
     quiet: bool,
 ) -> None:
-    """Plan every scene with each method and compare task times (SPEC section 8)."""
+    """Plan every scene (files, or folders of them) with each method and compare task times.
+
+    Task times, success and paired reductions (docs/evaluation.md); --out writes summary.md,
+    summary.csv, results.json and task_times.png; --dask spreads the scenes over a Dask cluster (the
+    same document)."""
     setup_logging(verbose, quiet)
     if dask_address and click.get_current_context().get_parameter_source("workers") != ParameterSource.DEFAULT:
         raise PlacementError("--workers and --dask exclude each other: the cluster's workers run the scenes")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from placement.cli.lazy import LazyGroup
+from placement.process_env import configure_process
 from placement.version import __version__
 
 #: command -> where it is defined: imported only when it runs or shows its own help, so that
@@ -27,6 +28,7 @@ def cli() -> None:
 
 
 def main() -> None:
+    configure_process()
     cli(prog_name="placement")
 
 

@@ -112,9 +112,14 @@ def build(
     verbose: int,
     quiet: bool,
 ) -> None:
-    """Sample each arm and write its 6D reachability map atomically.
+    """Sample each arm (every arm without --arm) and write its 6D reachability map atomically.
 
-    Everything (spec, robot, arms, grid, output path) is checked before sampling starts.
+    Everything (spec, robot, arms, grid, output path) is checked before sampling starts. Arms already
+    in a map of the same robot at --out are kept (also those another build saves meanwhile; a second
+    build of an arm being built fails at once). --self-collision rejects samples where the arm hits
+    the robot, --self-distance also penalises motion towards the body; --completion fills empty cells
+    next to reached ones from their witnesses; --dask spreads the sampling over a Dask cluster (the
+    same map as a local build).
     """
     setup_logging(verbose, quiet)
     # the sampler, the robot model and the compiler: loaded once the command runs, not for --help

@@ -15,6 +15,8 @@ from typing import Any, TextIO, TypeVar
 import click
 
 from placement.errors import PlacementError
+from placement.method_names import DEFAULT_METHOD
+from placement.method_names import METHOD_NAMES as METHODS
 from placement.validation import one_line, strict_json
 
 log = logging.getLogger("placement")
@@ -31,6 +33,51 @@ def robot_option(f: F) -> F:
 
 def arm_option(f: F) -> F:
     return click.option("--arm", default=None, metavar="ARM", help="One arm only (default: all arms).")(f)
+
+
+def scene_argument(f: F) -> F:
+    """SCENE: a scene file that exists (click names it when it does not)."""
+    return click.argument("scene", type=click.Path(exists=True, dir_okay=False))(f)
+
+
+def map_argument(f: F) -> F:
+    """PATH: built maps that exist, a Zarr folder or an HDF5 file."""
+    return click.argument("path", type=click.Path(exists=True))(f)
+
+
+def maps_option(f: F) -> F:
+    """``--maps PATH``: the built maps a scene is planned with, instead of the scene's own ``maps``."""
+    return click.option(
+        "--maps",
+        "maps_path",
+        default=None,
+        metavar="PATH",
+        type=click.Path(exists=True),
+        help="Reachability maps, a Zarr folder or an HDF5 file (default: the scene's `maps`).",
+    )(f)
+
+
+def method_option(f: F) -> F:
+    """``--method``: one planning method (the default's name shown)."""
+    return click.option("--method", type=click.Choice(METHODS), default=DEFAULT_METHOD, show_default=True)(f)
+
+
+def samples_option(kind: click.ParamType, default: int | None, what: str) -> Callable[[F], F]:
+    """``--samples N``: how many random draws a command makes (``kind`` bounds it; ``what`` says of what)."""
+
+    def decorate(f: F) -> F:
+        return click.option("--samples", type=kind, default=default, help=what)(f)
+
+    return decorate
+
+
+def out_option(what: str, required: bool = False) -> Callable[[F], F]:
+    """``--out PATH``: where a command writes (``what`` says what; created and checked before work)."""
+
+    def decorate(f: F) -> F:
+        return click.option("--out", "out", required=required, default=None, type=click.Path(), help=what)(f)
+
+    return decorate
 
 
 def json_option(f: F) -> F:

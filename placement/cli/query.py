@@ -11,6 +11,9 @@ import click
 from placement.cli.options import (
     bounded,
     emit,
+    maps_option,
+    method_option,
+    scene_argument,
     setup_logging,
     standard_options,
     to_json_line,
@@ -18,19 +21,15 @@ from placement.cli.options import (
     writable_file,
 )
 from placement.cli.params import OneLineCommand
-from placement.method_names import DEFAULT_METHOD
-from placement.method_names import METHOD_NAMES as METHODS
 
 if TYPE_CHECKING:
     from placement.planning import Planner, PlanResult
 
 
 @click.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
-@click.argument("scene", type=click.Path())
-@click.option(
-    "--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`)."
-)
-@click.option("--method", type=click.Choice(METHODS), default=DEFAULT_METHOD, show_default=True)
+@scene_argument
+@maps_option
+@method_option
 @click.option("--plot", "plot_dir", default=None, type=click.Path(), help="Write PNG cost maps of each step here.")
 @click.option(
     "--stream",
@@ -58,7 +57,12 @@ def query(
     verbose: int,
     quiet: bool,
 ) -> None:
-    """Plan the base placement, arm, grasp and IK solution of every step."""
+    """Plan the base placement, arm, grasp and IK solution of every step of SCENE's task.
+
+    Prints a table (or with --json the plan document: docs/planning.md) with the plan's certificate,
+    a lower bound on its travel time, and the gaps to it. A step that cannot be done gives exit 3,
+    `"status": "infeasible"` and its reason. --mcap also records the scene and the plan as ROS 2
+    messages. `placement-query` is the same command as its own console script."""
     setup_logging(verbose, quiet)
     from placement.planning import Planner
     from placement.warmup import QUERY_COMPILE_S, announce_compilation
@@ -101,6 +105,9 @@ def query(
 
 def main() -> None:
     """The ``placement-query`` console script: the same command as ``placement query``."""
+    from placement.process_env import configure_process
+
+    configure_process()
     query(prog_name="placement-query")
 
 

@@ -46,7 +46,9 @@ def write_atomic(path: Path, text: str) -> None:
 @click.option("--force", is_flag=True, help="Overwrite --out if it exists.")
 @standard_options
 def init(urdf: str, out: str | None, force: bool, as_json: bool, verbose: int, quiet: bool) -> None:
-    """Propose a commented preset for the robot in URDF (a .urdf or .xacro file)."""
+    """Propose a commented preset for the robot in URDF (a .urdf or .xacro file).
+
+    On stdout, or written atomically to --out, never over an existing file without --force."""
     setup_logging(verbose, quiet)
     from placement.robots.onboarding.propose import propose
     from placement.robots.onboarding.render import build_command, render
@@ -87,7 +89,9 @@ def init(urdf: str, out: str | None, force: bool, as_json: bool, verbose: int, q
 )
 @standard_options
 def check(preset: str, plot_dir: str | None, as_json: bool, verbose: int, quiet: bool) -> None:
-    """Load PRESET and show the heights and distances each arm reaches top-down and horizontally."""
+    """Load PRESET and show the heights and distances each arm reaches top-down and horizontally.
+
+    Warnings in plain words; --plot draws a side view with the bands and a TCP close-up per arm."""
     setup_logging(verbose, quiet)
     from placement.robots import load_robot
     from placement.robots.onboarding.check import check_robot, render_table

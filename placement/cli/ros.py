@@ -4,10 +4,8 @@ from __future__ import annotations
 
 import click
 
-from placement.cli.options import one_line_errors, setup_logging, verbosity, writable_file
+from placement.cli.options import maps_option, method_option, one_line_errors, setup_logging, verbosity, writable_file
 from placement.cli.params import OneLineCommand, OneLineGroup
-from placement.method_names import DEFAULT_METHOD
-from placement.method_names import METHOD_NAMES as METHODS
 
 
 @click.group(cls=OneLineGroup)
@@ -17,11 +15,9 @@ def ros() -> None:
 
 @ros.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("scene", required=False, type=click.Path(exists=True, dir_okay=False))
-@click.option(
-    "--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`)."
-)
+@maps_option
 @click.option("--robot", default=None, help="Robot preset every scene is planned for (default: each scene's own).")
-@click.option("--method", type=click.Choice(METHODS), default=DEFAULT_METHOD, show_default=True)
+@method_option
 @click.option("--namespace", default="", help="Namespace of the node (topics /NAMESPACE/placement/...).")
 @click.option(
     "--frame", default="map", show_default=True, help="The map frame until a /map message names its own frame_id."

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from placement.cli.options import emit, log, setup_logging, standard_options
+from placement.cli.options import emit, log, out_option, setup_logging, standard_options
 from placement.cli.params import Bounded, OneLineCommand
 from placement.evaluation.generate import MAX_OBJECTS, MAX_SCENES, MAX_SEED, TABLE_DEPTH, TABLE_SIZES, write_scenes
 
@@ -42,7 +42,7 @@ from placement.evaluation.generate import MAX_OBJECTS, MAX_SCENES, MAX_SEED, TAB
     default=None,
     help=f"Pick table depth [m], {TABLE_DEPTH[0]:g} to {TABLE_DEPTH[1]:g} [default: per robot, 0.6 for the PR2].",
 )
-@click.argument("out_dir", type=click.Path())
+@out_option("Folder the scenes are written to (created; checked before generating).", required=True)
 @standard_options
 def generate(
     seed: int,
@@ -52,23 +52,27 @@ def generate(
     preset: str,
     maps: str | None,
     table_depth: float | None,
-    out_dir: str,
+    out: str,
     as_json: bool,
     verbose: int,
     quiet: bool,
 ) -> None:
-    """Write COUNT table-clearing scenes of SEED to OUT_DIR (created; checked before generating)."""
+    """Write --count seeded table-clearing scenes to the folder --out.
+
+    The paper's layout (three pick tables, two place tables), the pick tables sized for the robot
+    (0.8 x 0.6 m for the PR2); paths are recorded relative to the scenes, so they plan from any
+    directory."""
     setup_logging(verbose, quiet)
     from placement.evaluation.outdir import output_dir
     from placement.robots import load_robot
 
-    with output_dir(out_dir, "OUT_DIR"):
+    with output_dir(out, "--out"):
         if maps is None:
             # the planner's own default, seen from here: the scenes then plan from any directory
             maps = str(Path("maps") / load_robot(preset).name)
         size = None if table_depth is None else (TABLE_SIZES.get(preset, (0.8, 0.8))[0], table_depth)
         paths = write_scenes(
-            out_dir, seed, count, objects=objects, obstacles=obstacles, preset=preset, maps=maps, table_size=size
+            out, seed, count, objects=objects, obstacles=obstacles, preset=preset, maps=maps, table_size=size
         )
     if not Path(maps).exists():
         log.warning("note: %s does not exist (yet); the scenes record it as their maps", maps)

@@ -7,7 +7,15 @@ from typing import TYPE_CHECKING, cast
 
 import click
 
-from placement.cli.options import F, setup_logging, standard_options, to_json_line
+from placement.cli.options import (
+    F,
+    map_argument,
+    maps_option,
+    scene_argument,
+    setup_logging,
+    standard_options,
+    to_json_line,
+)
 from placement.cli.params import Bounded, OneLineCommand, OneLineError
 from placement.method_names import DEFAULT_METHOD
 from placement.method_names import METHOD_NAMES as METHODS
@@ -46,10 +54,8 @@ def serve(view: View, as_json: bool, what: str, timeout: float | None = None) ->
 
 
 @click.command(cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
-@click.argument("scene", type=click.Path())
-@click.option(
-    "--maps", "maps_path", default=None, type=click.Path(), help="Reachability maps (default: the scene's `maps`)."
-)
+@scene_argument
+@maps_option
 @click.option("--method", type=click.Choice(METHODS), default=None, help=f"Planning method (default {DEFAULT_METHOD}).")
 @click.option(
     "--plan",
@@ -79,7 +85,10 @@ def view(
     verbose: int,
     quiet: bool,
 ) -> None:
-    """Serve a 3D view of a scene and its plan: robot, TCP paths, base paths, cost maps per step."""
+    """Serve a 3D view of a scene and its plan on 127.0.0.1: robot, TCP paths, base paths, cost maps.
+
+    Plans SCENE (--method), or shows a plan file (--plan, checked against the scene); prints the URL
+    and serves until Ctrl-C."""
     setup_logging(verbose, quiet)
     if plan_path and (method or stream or maps_path):
         given = [o for o, v in (("--method", method), ("--stream", stream), ("--maps", maps_path)) if v]
@@ -110,7 +119,7 @@ def view(
 
 
 @click.command("view", cls=OneLineCommand, context_settings={"help_option_names": ["-h", "--help"]})
-@click.argument("path", type=click.Path())
+@map_argument
 @click.option("--arm", default=None, metavar="ARM", help="Arm to show (default: the first mapped arm).")
 @click.option(
     "--direction",
@@ -140,7 +149,9 @@ def maps_view(
     verbose: int,
     quiet: bool,
 ) -> None:
-    """Serve a 3D view of a reachability map: reached cells coloured by value, the robot at home."""
+    """Serve a 3D view of a reachability map: reached cells coloured by value, the robot at home.
+
+    A threshold and a section slider; --direction picks the TCP direction shown."""
     setup_logging(verbose, quiet)
     from placement.viewer import view_map
 

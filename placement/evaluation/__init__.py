@@ -1,4 +1,4 @@
-"""Evaluation (SPEC section 8): generated benchmark scenes, the task time model, batch
+"""Evaluation (docs/design.md, How it is measured): generated benchmark scenes, the task time model, batch
 evaluation of the planning methods against each other, and its figures."""
 
 from placement.evaluation.evaluate import (

@@ -1,4 +1,4 @@
-"""Batch evaluation of methods on many scenes (SPEC section 8): task times, success, reductions."""
+"""Batch evaluation of methods on many scenes (docs/evaluation.md): task times, success, reductions."""
 
 from __future__ import annotations
 
@@ -80,7 +80,7 @@ def evaluate_scene(path: str, methods: list[str], maps: str | None = None) -> Sc
         except PlacementError as exc:
             result, error = None, str(exc)
         ms = (time.perf_counter() - t) * 1e3
-        cert = result.certificate if result is not None and result.certificate is not None else {}
+        cert = result.certificate.to_json() if result is not None and result.certificate is not None else {}
         ms -= float(cert.get("timings_ms", {}).get("bound", 0.0))  # the certificate is reported, not part of planning
         tt = task_time(planner.robot, result, planner.scene.start)
         steps, reason = plan_outcome(result, error)
@@ -184,7 +184,7 @@ def evaluate(
 ) -> dict[str, Any]:
     """Evaluate ``methods`` on every scene; ``progress(done, total)`` after each scene.
 
-    Returns the document of SPEC section 8: scenes, per-method lists, and ``reductions``:
+    Returns the evaluation document (docs/evaluation.md): scenes, per-method lists, and ``reductions``:
     for method M and baseline B, ``1 - sum(T_M) / sum(T_B)`` over the scenes both solved.
     Methods and every scene file are checked before the first scene is planned.
 

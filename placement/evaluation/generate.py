@@ -1,4 +1,4 @@
-"""Seeded table-clearing benchmark scenes (SPEC section 8), written in the scene format.
+"""Seeded table-clearing benchmark scenes (docs/evaluation.md), written in the scene format.
 
 Layout (metres): a 10 x 8 room with walls; three pick tables in a row centred at
 (5, 4), each ``table_size`` = (length along the row, depth); two square place
@@ -56,7 +56,7 @@ from placement.scene import parse_scene
 
 ROOM = (10.0, 8.0)
 TABLE_HEIGHT = 0.75
-#: pick table (length, depth) per robot preset [m]; the PR2 reaches ~0.37 m into a table (SPEC section 8)
+#: pick table (length, depth) per robot preset [m]; the PR2 reaches ~0.37 m into a table
 TABLE_SIZES = {"pr2": (0.8, 0.6), "armar6": (0.8, 0.8)}
 #: horizontal distance [m] from the base origin to a place location the arm reaches comfortably,
 #: per robot: the place table's centre is put there when the base parks facing its side (the

@@ -1,4 +1,4 @@
-"""Figures of an evaluation document (SPEC section 8), readable at a glance (150 dpi, labelled, with a
+"""Figures of an evaluation document (docs/evaluation.md), readable at a glance (150 dpi, labelled, with a
 legend). Never imported by algorithms."""
 
 from __future__ import annotations

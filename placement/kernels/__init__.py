@@ -8,23 +8,29 @@ sources: any change to any kernel starts a fresh cache.
 
 import hashlib
 import os
+import sys
 from pathlib import Path
 
 import numba
 
-# numba's OpenMP threading layer (GNU libgomp) spins while it waits for work by default. With another
-# process on the cores (a map build, a test suite, a browser) a parallel inverse map then took 4-8x
-# longer than on one thread; waiting passively costs a wake-up per parallel region and nothing under
-# load. libgomp reads the variable when it loads, at the first parallel kernel; a value set by the
-# user is kept.
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+
+def _cache_base() -> str:
+    """Where compiled kernels live: ``NUMBA_CACHE_DIR`` if set, else ``<venv>/numba-cache`` inside a
+    virtual environment (where ``make install`` compiles them, so every entry point of the environment
+    finds them), else ``~/.cache/placement/numba``. Read only: the environment is not changed."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return os.environ["NUMBA_CACHE_DIR"]
+    if sys.prefix != sys.base_prefix:
+        return os.path.join(sys.prefix, "numba-cache")
+    return str(Path.home() / ".cache" / "placement" / "numba")
 
 
 def _cache_dir() -> str:
     digest = hashlib.sha256()
     for f in sorted(Path(__file__).parent.glob("*.py")):
         digest.update(f.read_bytes())
-    base = os.environ.get("NUMBA_CACHE_DIR") or str(Path.home() / ".cache" / "placement" / "numba")
+    base = _cache_base()
     return str(Path(base) / f"kernels-{digest.hexdigest()[:12]}-numba{numba.__version__}")
 
 

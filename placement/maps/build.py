@@ -226,7 +226,7 @@ def build_map(
         arm: arm name.
         samples: number of uniform joint samples, 1 .. MAX_SAMPLES (1e11).
         seed: sampling seed, 0 .. 2^64 - 1; same seed and samples give a bitwise-identical map.
-        resolution: position cell edge [m] (default 0.05, SPEC's 5 cm).
+        resolution: position cell edge [m] (default 0.05, the paper's 5 cm).
         bins: orientation bin counts (n_yaw even, n_pitch odd, n_roll even).
         index: "isotropy" (Simox default) or "volume".
         block: samples per parallel block (memory vs. pruning freshness; does not change the result).

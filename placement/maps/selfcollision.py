@@ -1,4 +1,4 @@
-"""Optional self-collision rejection and self-distance penalty while building a map (SPEC section 3, item 5).
+"""Optional self-collision rejection and self-distance penalty while building a map (docs/maps.md).
 
 Geometry: the URDF's ``<collision>`` shapes (meshes and primitives) loaded by
 pinocchio (:func:`placement.collision.robot.load_geometry`, strict: a missing mesh is an error), tested by coal (hpp-fcl) exactly as ``pinocchio.computeCollisions``

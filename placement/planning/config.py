@@ -27,7 +27,7 @@ def _key(name: str) -> Any:
 
 @dataclass(frozen=True)
 class PlannerConfig:
-    """Weights, thresholds and sizes of the planner (paper section IV, SPEC section 5).
+    """Weights, thresholds and sizes of the planner (paper section IV; docs/design.md, Online).
 
     Scene-settable (``planner:`` block, see :data:`PLANNER_KEYS`):
         lambda_n: weight of the navigation cost [1/m].

@@ -300,13 +300,14 @@ class Planner:
         steps = self.method.plan(replace(self.context, deadline=deadline), start, keep_maps)
         cert = certify(self.context, self.method, start, steps)
         return PlanResult(
-            self.scene.name, self.method.name, robot_info(self.robot, self.maps), steps, None, cert.to_json()
+            self.scene.name, self.method.name, robot_info(self.robot, self.maps), steps, None, cert
         )
 
 
-def plan(scene: Scene | str | Path, method: str = DEFAULT_METHOD, maps: str | Path | None = None) -> dict[str, Any]:
-    """Plan a scene's whole task (SPEC section 9): the JSON document of SPEC section 7 as a dict."""
-    return Planner(scene, method, maps).plan().to_json()
+def plan(scene: Scene | str | Path, method: str = DEFAULT_METHOD, maps: str | Path | None = None) -> PlanResult:
+    """Plan a scene's whole task once: what ``Planner(scene, method, maps).plan()`` returns (its
+    ``to_json()`` is the document of ``placement query --json``, :doc:`design`)."""
+    return Planner(scene, method, maps).plan()
 
 
 __all__ = ["DEFAULT_METHOD", "METHODS", "Planner", "default_maps_path", "mapped_arms", "plan"]

@@ -1,6 +1,6 @@
 """Typed results of planning: one :class:`StepResult` per step, a :class:`PlanResult` per task.
 
-``to_json()`` gives the documents of SPEC section 7 (the only place they are assembled);
+``to_json()`` gives the plan document of docs/planning.md (the only place they are assembled);
 ``verify(robot)`` re-checks a plan with pinocchio's forward kinematics, independently of the
 planner's own kernels.
 """
@@ -32,6 +32,56 @@ from placement.robots import Robot, matrix_to_pose
 from placement.scene import Scene
 
 T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """A plan's lower bound and its gap.
+
+    Attributes:
+        lower_bound_s: least travel time [s] of any plan on the method's regions (inf: no such
+            plan exists; the task is infeasible for the method whatever IK does).
+        travel_s: the plan's travel time [s] (None unless every step is planned).
+        regions: what the bound ranges over ("maps" or "fixed placements").
+        ms: time spent on the bound [ms] (0 when the method's own program gave it); JSON
+            ``timings_ms.bound``.
+        task_time_s: the plan's task time [s] (:mod:`placement.planning.task_time`; None unless every
+            step is planned).
+    """
+
+    lower_bound_s: float
+    travel_s: float | None
+    regions: str
+    ms: float = 0.0
+    task_time_s: float | None = None
+
+    @property
+    def gap(self) -> float | None:
+        """``travel_s / lower_bound_s - 1`` (0 for a plan that travels 0; None without both)."""
+        if self.travel_s is None or not math.isfinite(self.lower_bound_s):
+            return None
+        if self.lower_bound_s <= 0.0:
+            return 0.0 if self.travel_s <= 1e-9 else None
+        return self.travel_s / self.lower_bound_s - 1.0
+
+    @property
+    def task_gap(self) -> float | None:
+        """``task_time_s / lower_bound_s - 1`` (None without both, or for a bound of 0)."""
+        if self.task_time_s is None or not math.isfinite(self.lower_bound_s) or self.lower_bound_s <= 0.0:
+            return None
+        return self.task_time_s / self.lower_bound_s - 1.0
+
+    def to_json(self) -> dict[str, Any]:
+        gap, task_gap = self.gap, self.task_gap
+        return {
+            "lower_bound_s": round(self.lower_bound_s, 6) if math.isfinite(self.lower_bound_s) else None,
+            "travel_s": None if self.travel_s is None else round(self.travel_s, 6),
+            "gap": None if gap is None else round(gap, 6),
+            "task_time_s": None if self.task_time_s is None else round(self.task_time_s, 6),
+            "task_gap": None if task_gap is None else round(task_gap, 6),
+            "regions": self.regions,
+            "timings_ms": {"bound": round(self.ms, 3)},
+        }
 
 
 @dataclass
@@ -261,9 +311,8 @@ class PlanResult:
     robot: dict[str, Any]
     steps: list[StepResult]
     update: dict[str, Any] | None = None
-    #: the plan's lower bound and gap (a :class:`~placement.planning.certificate.Certificate`'s
-    #: ``to_json()``), None when not computed
-    certificate: dict[str, Any] | None = None
+    #: the plan's lower bound and gaps, None when not computed
+    certificate: Certificate | None = None
 
     @property
     def status(self) -> str:
@@ -287,7 +336,7 @@ class PlanResult:
             "steps": [s.to_json() for s in self.steps],
         }
         if self.certificate is not None:
-            out["certificate"] = self.certificate
+            out["certificate"] = self.certificate.to_json()
         if self.update is not None:
             out["update"] = self.update
         return out

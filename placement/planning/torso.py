@@ -6,7 +6,7 @@ grid moved with the lift. Every step gets options at every setting (:class:`~pla
 ``torso``), so each step chooses its base pose, arm, grasp and torso value; IK and the collision
 check of an option run on the robot with the lift at the option's value.
 
-The torso moves while the base drives (the parallel model of the task time, SPEC section 8), so a
+The torso moves while the base drives (the parallel model of the task time, docs/design.md), so a
 torso change costs time only where it takes longer than the base's move. ``global`` holds the lift
 at the preset's value on every step the maps serve there (its program prices travel, not the lift;
 see :func:`placement.planning.regions.map_regions`); ``optimal`` prices the torso's time per step

@@ -347,7 +347,7 @@ def summary(result: PlanResult) -> str:
     done = sum(s.ok for s in result.steps)
     if bad is None:
         travel = sum(s.travel_time_s or 0.0 for s in result.steps)
-        task = (result.certificate or {}).get("task_time_s")
+        task = None if result.certificate is None else result.certificate.task_time_s
         head = f"planned {done} of {len(result.steps)} steps"
         return (
             f"{head}, task {task:.1f} s, base travel {travel:.1f} s"

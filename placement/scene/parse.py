@@ -1,4 +1,4 @@
-"""The scene file (SPEC section 6, contract versions 1 and 2): what the robot must do, and where.
+"""The scene file (docs/scenes.md, versions 1 and 2): what the robot must do, and where.
 
 Units are metres and radians; the world frame has z up (ROS REP-103) and yaws turn counter-clockwise
 about z. Shapes rotate about z only (a ``yaw``); in version 2 objects may have a full orientation
@@ -29,7 +29,7 @@ and the file gains grasps, place orientations and reach steps (see v2.py and bel
 
 Version 2 adds keys (6D objects, grasps, place orientations, trajectories, reach steps): see v2.py.
 
-Decisions (where the SPEC is silent):
+Decisions (where the paper is silent):
 
 * Validation is strict: unknown keys anywhere, wrong types, non-finite numbers, non-positive sizes,
   duplicate YAML keys all raise :class:`SceneError`, one line naming the file and the key path.

@@ -1,4 +1,4 @@
-"""Plan files for the viewer: a plan document (the JSON of ``placement query --json``, SPEC section 7)
+"""Plan files for the viewer: a plan document (the JSON of ``placement query --json``, docs/planning.md)
 read and checked into :class:`~placement.planning.StepResult` objects, as the planner makes them.
 
 A step may hold the preset's fixed joints (the PR2's torso lift) at its own values within their

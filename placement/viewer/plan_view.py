@@ -33,7 +33,7 @@ LAYERS = (
     ("navigation", "navigation cost", "m", "viridis"),
     ("manipulation", "IRM manipulability", "dimensionless", "viridis"),
     ("heuristic", "heuristic cost", "m", "cividis"),
-    ("combined", "combined cost (Eq. 6)", "dimensionless", "viridis"),
+    ("combined", "combined cost (Eq. 6 of Reister et al.)", "dimensionless", "viridis"),
 )
 DISTANCE_CAP = 2.0  # [m] farther than this is all the same to the velocity model's look
 

@@ -1,4 +1,4 @@
-"""Extended manipulability written from SPEC section 3 in plain numpy (slow, obviously correct).
+"""Extended manipulability written from its definition (docs/design.md) in plain numpy (slow, obviously correct).
 
 The reference the kernels are tested against, and the kernels' inputs for one configuration batch.
 """
@@ -19,7 +19,7 @@ assert SIGNS.shape == (64, 6)
 
 
 # --------------------------------------------------------------------------------------------
-# Reference implementation, written from SPEC section 3 (slow, obviously correct)
+# Reference implementation, written from the definition (slow, obviously correct)
 # --------------------------------------------------------------------------------------------
 
 

@@ -63,7 +63,7 @@ def rank_fixed(ctx: PlanningContext, options: Sequence[Option]) -> list[Ranked]:
     """Fixed placements by decreasing manipulability of each (arm, candidate) at the placement's yaw
     (``cost`` = minus that value).
 
-    SPEC: "choose the one with the best manipulability that reaches the grasp": every fixed placement
+    the paper's baseline chooses "the one with the best manipulability that reaches the grasp": every fixed placement
     the map marks reached (value > 0) is ranked, and IK decides which reaches. The map threshold is
     not applied here: it prunes the continuous search of the other methods, but a fixed placement at a
     table's side is often at the edge of reach, where the manipulability is low (at 5 cm cells the

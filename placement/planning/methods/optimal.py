@@ -12,7 +12,7 @@ again from that step on, and the loop ends when every step of the chain verifies
 The objective is the task's base travel [m] (``travel_time_s`` times ``v_max``), plus, with
 ``optimal_manipulability_weight`` > 0, that weight times ``1 / m`` per step (Eq. 6's manipulation
 term) as a tie-breaker between cells of similar travel. The model's approximations: base rotation
-and arm motion run in parallel with the travel (SPEC section 8) and are not in the objective (they
+and arm motion run in parallel with the travel (docs/design.md) and are not in the objective (they
 add time only where a step's rotation or arm motion outlasts its travel: see ``task_time``); a cell
 stands for its centre, at the best yaw of the option.
 
