@@ -15,7 +15,7 @@ DEFAULTS = {
     # another process on the cores (a map build, a test suite, a browser) a parallel inverse map then
     # took 4-8x longer than on one thread; waiting passively costs a wake-up per parallel region and
     # nothing under load. libgomp reads it once, when it loads (at the first parallel kernel).
-    "OMP_WAIT_POLICY": "PASSIVE",
+    "OMP_WAIT_POLICY": "PASSIVE"
 }
 
 

@@ -216,7 +216,7 @@ def find_transfer(planner, pick_index: int, samples: int = 300, collisions: bool
     """((arm, grasp), pick base, place base) of a transfer that an independent search verifies: the
     pick with one grasp and arm and its place (step ``pick_index + 1``) with the same, the carried
     object checked; None when no (arm, grasp) pair has both."""
-    from placement.planning.steps import step_candidates
+    from placement.planning.problems.steps import step_candidates
 
     steps = planner.problems.steps
     picks = step_candidates(planner.scene, steps[pick_index], planner.config)

@@ -214,10 +214,7 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 
 def test_no_import_cycle_between_modules():
-    graph = {
-        name: {t for t in _targets(path) if (name, t) not in PENDING}
-        for name, path in MODULES.items()
-    }
+    graph = {name: {t for t in _targets(path) if (name, t) not in PENDING} for name, path in MODULES.items()}
     assert _cycles(graph) == []
 
 
@@ -264,3 +261,77 @@ def _private_uses(path: Path) -> list[str]:
 @pytest.mark.parametrize("path", _modules("placement", "tools"), ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_private_member_is_used_from_another_module(path):
     assert _private_uses(path) == []
+
+
+# -- the planning concepts -----------------------------------------------------------------------------------
+#: the concept packages of placement.planning, each used from outside through its front (its __init__)
+CONCEPTS = ("world", "verification", "problems", "program", "methods")
+
+
+def _concept(module: str) -> str:
+    """The node of ``module`` in planning's own graph: its concept package, or the module itself."""
+    parts = module.split(".")
+    if len(parts) >= 3 and parts[:2] == ["placement", "planning"] and parts[2] in CONCEPTS:
+        return ".".join(parts[:3])
+    return module
+
+
+@pytest.mark.parametrize("path", _modules("placement"), ids=lambda p: str(p.relative_to(ROOT)))
+def test_a_planning_concept_is_used_through_its_front(path):
+    name = _module_name(path)
+    for module, _ in _imports(path):
+        parts = module.split(".")
+        if len(parts) > 3 and parts[:2] == ["placement", "planning"] and parts[2] in CONCEPTS:
+            front = ".".join(parts[:3])
+            assert _concept(name) == front, f"{name} imports {module}: use its front {front}"
+
+
+def test_no_cycle_between_planning_concepts():
+    graph: dict[str, set[str]] = {}
+    for name, path in MODULES.items():
+        if not name.startswith("placement.planning"):
+            continue
+        own = _concept(name)
+        graph.setdefault(own, set())
+        for t in _targets(path):
+            if t.startswith("placement.planning") and _concept(t) != own and t != "placement.planning":
+                graph[own].add(_concept(t))
+    assert _cycles(graph) == []
+
+
+def _windows(path: Path, size: int) -> set[tuple[str, ...]]:
+    """Every run of ``size`` consecutive code lines of ``path`` (stripped; blank lines, comments,
+    imports and docstrings left out), as tuples."""
+    tree = ast.parse(path.read_text())
+    skip: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            skip.update(range(node.lineno, (node.end_lineno or node.lineno) + 1))
+        body = getattr(node, "body", None)
+        if isinstance(body, list) and body and isinstance(body[0], ast.Expr):
+            doc = body[0]
+            if isinstance(doc.value, ast.Constant) and isinstance(doc.value.value, str):
+                skip.update(range(doc.lineno, (doc.end_lineno or doc.lineno) + 1))
+    lines = [
+        ln.strip()
+        for i, ln in enumerate(path.read_text().splitlines(), 1)
+        if i not in skip and ln.strip() and not ln.strip().startswith("#")
+    ]
+    # a closing bracket or a lone keyword says nothing of its own
+    lines = [ln for ln in lines if len(ln) > 3]
+    return {tuple(lines[i : i + size]) for i in range(len(lines) - size + 1)}
+
+
+def test_no_code_is_copied_between_planning_modules():
+    """Six consecutive code lines in two modules of placement.planning are one concept in two places:
+    keep it once (a base class, a function) and use it from both."""
+    seen: dict[tuple[str, ...], str] = {}
+    copies = []
+    for name, path in MODULES.items():
+        if not name.startswith("placement.planning"):
+            continue
+        for window in _windows(path, 6):
+            other = seen.setdefault(window, name)
+            if other != name:
+                copies.append(f"{other} and {name}: {window[0]!r} ...")
+    assert copies == []

@@ -9,10 +9,10 @@ import yaml
 from support.occupancy import write_map, write_pgm
 from support.scenes import base_doc
 
-from placement.planning.config import PlannerConfig
-from placement.planning.footprints import BaseShape
-from placement.planning.navigation import speed_factor
-from placement.planning.world import base_layers, build_world
+from placement.planning.settings import PlannerConfig
+from placement.planning.world.footprints import BaseShape
+from placement.planning.world.layers import base_layers, build_world
+from placement.planning.world.navigation import speed_factor
 from placement.scene import SceneError, parse_scene
 from placement.scene.io import scene_to_dict
 from placement.scene.masks import KeepoutMask, SpeedMask

@@ -1,4 +1,4 @@
-"""The forward dynamic program of placement.planning.bound against enumeration of every sequence.
+"""The forward dynamic program of placement.planning.program.forward against enumeration of every sequence.
 
 Oracle: all-pairs shortest paths by scipy's Dijkstra on an independently built graph, then every
 sequence of (cell, group) of small random tasks enumerated, keeping each place's group equal to
@@ -15,7 +15,7 @@ import pytest
 from scipy.sparse.csgraph import dijkstra
 from support.navigation import grid_graph
 
-from placement.planning.bound import Program, Regions, backtrack, cheapest, forward
+from placement.planning.program.forward import Program, Regions, backtrack, cheapest, forward
 
 RES = 0.1
 GROUPS = (("left", "top"), ("right", "top"), ("right", "side"))

@@ -118,7 +118,7 @@ def pocket_scene():
 def test_sequential_plans_beside_floor_the_base_cannot_reach(maps_dir):
     """The next-step heuristic weighs only regions the base can reach: with the pocket's region in
     it, every cost was infinite and `sequential` called the pick infeasible."""
-    from placement.planning.navigation import reachable_from
+    from placement.planning.world.navigation import reachable_from
 
     planner = Planner(pocket_scene(), "sequential", maps_dir)
     world, problems = planner.world, planner.problems

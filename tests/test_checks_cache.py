@@ -9,9 +9,9 @@ from support.planning import write_scene
 from placement.collision import CollisionResult, SceneCollision
 from placement.collision.scene import scene_shapes
 from placement.planning import Planner
-from placement.planning.checks import Checks
 from placement.planning.updates import parse_update
-from placement.planning.verify import TrajectoryIK
+from placement.planning.verification.ik import TrajectoryIK
+from placement.planning.verification.verdicts import Checks
 from placement.scene import load_scene
 
 

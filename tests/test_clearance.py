@@ -1,4 +1,4 @@
-"""The exact footprint clearance of placement.planning.clearance, against coal's distance between boxes
+"""The exact footprint clearance of placement.planning.verification.clearance, against coal's distance between boxes
 (an independent reference: two boxes of one height standing on the floor are as far apart as their
 rectangles), and PlanResult.verify(scene=...) catching a base moved into a table."""
 
@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from placement.planning import Planner
-from placement.planning.clearance import outline, polygon_distance
+from placement.planning.verification.clearance import outline, polygon_distance
 from placement.scene.model import Box
 
 boxes = st.builds(

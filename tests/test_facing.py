@@ -12,7 +12,7 @@ import pytest
 
 from placement.planning import Planner, facing
 from placement.planning.facing import facing_yaw
-from placement.planning.manipulation import yaw_values
+from placement.planning.problems.manipulation import yaw_values
 from placement.planning.torso import option_map
 from placement.scene import load_scene
 

@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from placement.planning.config import PlannerConfig
-from placement.planning.footprints import BaseShape
-from placement.planning.manipulation import base_yaws
-from placement.planning.navigation import distance_map
-from placement.planning.world import add_shape, add_touched, world_from_occupancy
+from placement.planning.problems.manipulation import base_yaws
+from placement.planning.settings import PlannerConfig
+from placement.planning.world.footprints import BaseShape
+from placement.planning.world.layers import add_shape, add_touched, world_from_occupancy
+from placement.planning.world.navigation import distance_map
 from placement.scene import Box, Cylinder, Polygon
 from placement.scene.navgrid import NavGrid
 
@@ -266,7 +266,7 @@ def test_fixed_parks_at_the_footprints_half_depth(maps_dir, preset, gap):
 def test_an_obstacle_change_gives_the_world_built_anew(seed):
     """After obstacles are added or removed, the yaw masks taken from the previous world far from the
     change and recomputed near it equal a world computed from scratch, bit for bit."""
-    from placement.planning.world import changed_occupancy
+    from placement.planning.world.layers import changed_occupancy
 
     rng = np.random.default_rng(200 + seed)
     res = 0.05 if seed % 2 else 0.1

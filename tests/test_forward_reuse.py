@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from test_bound import RES, random_task
 
-import placement.planning.bound as bound
-from placement.planning.bound import Regions, backtrack, forward
+import placement.planning.program.forward as bound
+from placement.planning.program.forward import Regions, backtrack, forward
 
 
 @pytest.mark.parametrize("seed", range(10))

@@ -343,7 +343,7 @@ def test_top_grasps_of_generated_objects_are_collision_free():
     """Every top grasp (pre-grasp and grasp pose) of every object of 2 x 15 scenes of 12 objects: the
     PR2 gripper clears every other object by the planner's 5 mm padding. The oracle finds the
     collision of the old generator's object_1/object_3 (centres 5 cm apart, regression scene)."""
-    from placement.planning.grasps import top_grasps
+    from placement.planning.problems.grasps import top_grasps
     from placement.robots import load_robot
 
     robot = load_robot("pr2")

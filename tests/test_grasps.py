@@ -4,7 +4,7 @@ import numpy as np
 
 from placement.kernels.grid import zyx_angles
 from placement.maps.grid import pose_from_zyx
-from placement.planning.grasps import place_candidates, top_grasps
+from placement.planning.problems.grasps import place_candidates, top_grasps
 
 
 def test_top_grasp_literal():

@@ -12,10 +12,10 @@ from support.scenes import ON_SIDE, v2_doc
 
 from placement.kernels.grid import zyx_angles
 from placement.kinematics.ik import solve_ik
-from placement.planning.config import PlannerConfig
-from placement.planning.grasps import GRIPPER_OPENING, SIDE_TILT, box_grasps, top_grasps
-from placement.planning.steps import object_grasps, step_candidates, task_steps
-from placement.planning.verify import base_matrix
+from placement.planning.problems.grasps import GRIPPER_OPENING, SIDE_TILT, box_grasps, top_grasps
+from placement.planning.problems.steps import object_grasps, step_candidates, task_steps
+from placement.planning.settings import PlannerConfig
+from placement.planning.verification.ik import base_matrix
 from placement.scene import SceneObject, Trajectory, parse_scene
 
 

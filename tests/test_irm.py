@@ -9,7 +9,7 @@ import pytest
 
 import placement
 from placement.maps.grid import pose_from_zyx
-from placement.planning.manipulation import base_yaws, manipulation_map
+from placement.planning.problems.manipulation import base_yaws, manipulation_map
 from placement.scene.navgrid import NavGrid
 
 
@@ -60,8 +60,8 @@ def test_sliced_irm_equals_direct_lookup(coarse_map):
 def test_candidates_evaluated_together_equal_each_alone(coarse_map):
     """Place candidates (8 gripper yaws, one slice) and grasps at other heights, all in one call:
     each result is bitwise the one-trajectory result (which the test above checks against 6D lookups)."""
-    from placement.planning.grasps import place_candidates, top_grasps
-    from placement.planning.manipulation import manipulation_maps
+    from placement.planning.problems.grasps import place_candidates, top_grasps
+    from placement.planning.problems.manipulation import manipulation_maps
     from placement.scene.navgrid import Window
 
     nav = NavGrid((-1.5, -1.5), 0.1, (30, 30))
@@ -82,8 +82,8 @@ def test_candidates_evaluated_together_equal_each_alone(coarse_map):
 def test_cells_beyond_the_slice_reach_are_zero(coarse_map):
     """Skipping base cells farther than the target slice's reach changes nothing: evaluated on every
     cell, those are exactly the cells left at 0 / -1."""
-    from placement.planning.grasps import top_grasps
-    from placement.planning.manipulation import cells_within, pose_reach
+    from placement.planning.problems.grasps import top_grasps
+    from placement.planning.problems.manipulation import cells_within, pose_reach
 
     nav = NavGrid((-2.0, -2.0), 0.05, (80, 80))
     yaws = base_yaws(40)

@@ -9,7 +9,7 @@ from scipy.sparse.csgraph import dijkstra
 from support.navigation import S2, grid_graph
 
 from placement.errors import PlacementError
-from placement.planning.navigation import distance_map, extract_path, navigation_cost, speed_factor
+from placement.planning.world.navigation import distance_map, extract_path, navigation_cost, speed_factor
 
 
 @pytest.mark.parametrize("seed", range(5))

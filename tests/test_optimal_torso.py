@@ -24,12 +24,12 @@ from support.pitch_torso import JOINT, SETTINGS, SPEED, pitch_torso_maps, write_
 import placement
 from placement.maps.buildspec import parse_torso
 from placement.maps.torso_builds import build_torso_maps
-from placement.planning.bound import travel_bound
 from placement.planning.methods.optimal import DynamicProgram, solve_verified
 from placement.planning.planner import Planner
+from placement.planning.program.forward import travel_bound
+from placement.planning.program.held_first import HeldFirst
+from placement.planning.program.priced_torso import TorsoProgram, torso_regions, torso_term
 from placement.planning.task_time import task_time
-from placement.planning.torso_held import HeldFirst
-from placement.planning.torso_program import TorsoProgram, torso_regions, torso_term
 
 ROOT = Path(__file__).resolve().parents[1]
 TIAGO_SCENE = ROOT / "examples" / "kitchen_torso_tiago.yaml"

@@ -21,8 +21,8 @@ from support.cli import run
 from support.fk import model_fk
 
 from placement.planning import Planner
-from placement.planning.config import PlannerConfig
-from placement.planning.steps import task_steps
+from placement.planning.problems.steps import task_steps
+from placement.planning.settings import PlannerConfig
 from placement.robots import pose_to_matrix
 from placement.scene import load_scene
 

@@ -8,8 +8,8 @@ import pytest
 import yaml
 
 from placement.errors import PresetError
-from placement.planning.grasps import GRIPPER_OPENING
-from placement.planning.steps import object_grasps
+from placement.planning.problems.grasps import GRIPPER_OPENING
+from placement.planning.problems.steps import object_grasps
 from placement.robots import load_robot
 from placement.robots.preset import PRESET_DIR
 from placement.scene import SceneObject

@@ -6,8 +6,8 @@ from __future__ import annotations
 import re
 from dataclasses import fields
 
-from placement.planning import config
-from placement.planning.config import PlannerConfig
+from placement.planning import settings
+from placement.planning.settings import PlannerConfig
 from placement.scene import planner_keys
 
 
@@ -33,7 +33,7 @@ def test_every_default_is_within_its_bounds():
 
 
 def test_the_planner_config_re_exports_the_table():
-    assert config.PLANNER_KEYS is planner_keys.PLANNER_KEYS
-    assert config.PLANNER_BOUNDS is planner_keys.PLANNER_BOUNDS
-    assert config.MAX_WEIGHT == planner_keys.MAX_WEIGHT
+    assert settings.PLANNER_KEYS is planner_keys.PLANNER_KEYS
+    assert settings.PLANNER_BOUNDS is planner_keys.PLANNER_BOUNDS
+    assert settings.MAX_WEIGHT == planner_keys.MAX_WEIGHT
     assert PlannerConfig.from_overrides({"lambda_n": 0.5}).lambda_n == 0.5

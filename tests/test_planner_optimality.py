@@ -19,7 +19,7 @@ from support.navigation import grid_graph
 from support.planning import SCENE
 
 from placement.planning import Planner as AnyPlanner
-from placement.planning.verify import trajectory_ik
+from placement.planning.verification.ik import trajectory_ik
 
 # these tests are about the step-by-step search (the paper's method), not the default
 Planner = functools.partial(AnyPlanner, method="sequential")

@@ -41,7 +41,19 @@ def test_evaluate_says_what_it_runs_and_its_bar_moves_during_the_first_scene(tmp
     runner = CliRunner()
     made = runner.invoke(
         cli,
-        ["scenes", "generate", "--seed", "3", "--count", "1", "--maps", str(maps_dir), "--out", str(tmp_path / "scenes"), "-q"],
+        [
+            "scenes",
+            "generate",
+            "--seed",
+            "3",
+            "--count",
+            "1",
+            "--maps",
+            str(maps_dir),
+            "--out",
+            str(tmp_path / "scenes"),
+            "-q",
+        ],
     )
     assert made.exit_code == 0, made.output
     with caplog.at_level(logging.INFO, logger="placement"):  # the CLI's log lines (stderr outside pytest)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from placement.planning import Planner
-from placement.planning.problems import RELAX
+from placement.planning.problems.cache import RELAX
 from placement.scene import load_scene
 
 TABLE_CLEARING = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yaml"

@@ -8,7 +8,7 @@ import pytest
 from scipy.sparse.csgraph import dijkstra
 from support.navigation import grid_graph
 
-from placement.planning.navigation import navigation_cost
+from placement.planning.world.navigation import navigation_cost
 
 
 def test_a_row_to_its_first_cell():

@@ -12,7 +12,7 @@ from support.occupancy import EXPECTED, write_map
 from support.scenes import FULL_SCENE, base_doc, set_key
 
 from placement.errors import PlacementError
-from placement.planning.config import PLANNER_KEYS
+from placement.planning.settings import PLANNER_KEYS
 from placement.scene import (
     Box,
     Cylinder,

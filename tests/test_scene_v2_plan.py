@@ -10,9 +10,9 @@ from support.scenes import KITCHEN
 
 from placement.maps.opening import open_map
 from placement.planning import Planner
-from placement.planning.grasps import box_grasps
-from placement.planning.manipulation import base_yaws, manipulation_map
-from placement.planning.verify import base_matrix, trajectory_ik
+from placement.planning.problems.grasps import box_grasps
+from placement.planning.problems.manipulation import base_yaws, manipulation_map
+from placement.planning.verification.ik import base_matrix, trajectory_ik
 from placement.scene import SceneObject, load_scene
 from placement.scene.navgrid import NavGrid
 

@@ -1,4 +1,4 @@
-"""The IK search (placement/planning/search.py), trajectory IK (verify.py) and the explanations of
+"""The IK search (placement/planning/methods/search.py), trajectory IK (verify.py) and the explanations of
 infeasible steps (explain.py), against real maps, real IK and an independent pinocchio oracle."""
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from support.planning import write_scene
 
 from placement.errors import PlacementError
 from placement.planning.planner import Planner as AnyPlanner
-from placement.planning.steps import step_candidates
-from placement.planning.verify import base_matrix, trajectory_ik
+from placement.planning.problems.steps import step_candidates
+from placement.planning.verification.ik import base_matrix, trajectory_ik
 
 # these tests are about the step-by-step search (the paper's method), not the default
 Planner = functools.partial(AnyPlanner, method="sequential")

@@ -24,13 +24,13 @@ from placement.maps.accuracy import check_map
 from placement.maps.buildspec import TorsoSpec
 from placement.maps.opening import open_map
 from placement.maps.torso_builds import build_torso_maps
-from placement.planning.config import PlannerConfig
-from placement.planning.methods.eq6 import rank_eq6
-from placement.planning.navigation import navigation_cost
+from placement.planning.methods.weighted import rank_eq6
 from placement.planning.planner import Planner
-from placement.planning.regions import map_regions
-from placement.planning.thresholds import setting_thresholds
-from placement.planning.variants import map_variants
+from placement.planning.problems.thresholds import setting_thresholds
+from placement.planning.problems.torso_maps import map_variants
+from placement.planning.program.regions import map_regions
+from placement.planning.settings import PlannerConfig
+from placement.planning.world.navigation import navigation_cost
 
 SETTINGS = (0.0, 0.6)  # [rad]: upright (the preset's, the arm's own array) and leaning forward
 #: threshold_quantile: the settings' quantiles differ by 3 % here, and the scene's options (and their

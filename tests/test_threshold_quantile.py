@@ -21,13 +21,13 @@ import placement
 from placement.errors import MapError
 from placement.maps.opening import open_map
 from placement.maps.quantiles import ESTIMATE_STRIDE, estimate_quantiles, levels
-from placement.planning.config import PlannerConfig
-from placement.planning.methods.eq6 import rank_eq6
-from placement.planning.navigation import navigation_cost
+from placement.planning.methods.ranking import rank_by_cost
+from placement.planning.methods.search import other_yaws
+from placement.planning.methods.weighted import rank_eq6
 from placement.planning.planner import Planner
-from placement.planning.problems import StepProblems
-from placement.planning.ranking import rank_by_cost
-from placement.planning.search import other_yaws
+from placement.planning.problems.cache import StepProblems
+from placement.planning.settings import PlannerConfig
+from placement.planning.world.navigation import navigation_cost
 from placement.robots.preset import PRESET_DIR
 from placement.scene import SceneError
 

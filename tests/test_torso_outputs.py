@@ -20,9 +20,9 @@ from support.fk import model_fk
 from support.robots import random_configs
 
 from placement.planning import PlanResult, StepResult
-from placement.planning.configuration import resting
 from placement.planning.results import Cost, configuration_problems
 from placement.planning.task_time import task_time
+from placement.planning.verification.configuration import resting
 from placement.viewer.plan_file import PlanFileError, parse_plan
 from placement.viewer.robot_view import step_config
 

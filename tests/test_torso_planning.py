@@ -13,9 +13,9 @@ from support.planning import SCENE, write_scene
 
 import placement
 from placement.maps.buildspec import TorsoSpec
-from placement.planning.option import Option
+from placement.planning.methods.ranking import Ranked
 from placement.planning.planner import Planner
-from placement.planning.ranking import Ranked
+from placement.planning.problems.option import Option
 from placement.planning.task_time import task_time
 from placement.planning.torso import torso_first
 

@@ -14,9 +14,8 @@ from oracle_collision import IndependentCheck
 
 from placement.collision import SceneCollision
 from placement.planning import Planner
-from placement.planning.config import PlannerConfig
-from placement.planning.steps import object_grasps, step_candidates, task_steps
-from placement.planning.transfer import (
+from placement.planning.problems.steps import object_grasps, step_candidates, task_steps
+from placement.planning.problems.transfer import (
     Held,
     held_object,
     place_orientations,
@@ -25,6 +24,7 @@ from placement.planning.transfer import (
     tilt_between,
     transfer_places,
 )
+from placement.planning.settings import PlannerConfig
 from placement.scene import SceneError, load_scene, parse_scene
 from placement.scene.poses import quaternion_matrix, yaw_quaternion
 

@@ -1,4 +1,4 @@
-"""The task-time passes of the whole-task methods (placement.planning.methods.turning): the yaw
+"""The task-time passes of the whole-task methods (placement.planning.program.turning): the yaw
 sequence is exact against brute force, and on the real building maps the default's task time with
 them is never longer than without, every plan still verifies, `optimal` keeps its travel, and the
 certificate's bound stays below the task time."""
@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from placement.planning import Planner
-from placement.planning.methods.turning import CHANGE_COST_S, best_yaws
+from placement.planning.program.turning import CHANGE_COST_S, best_yaws
 from placement.planning.task_time import task_time
 from placement.scene import load_scene
 

@@ -280,13 +280,13 @@ def test_an_update_of_obstacles_and_start_together_lists_both(pr2, tmp_path):
     """The report of one update names each kind of change: obstacles drawn into the old grid and a
     new start pose. (The obstacle diff once reused the name of the update's dict, so "start" was
     checked in the diff tuple and went missing.) The update returns a new state; the old is kept."""
-    from placement.planning.config import PlannerConfig
     from placement.planning.context import PlanningContext
-    from placement.planning.footprints import BaseShape
-    from placement.planning.manipulation import base_yaws
-    from placement.planning.problems import StepProblems
+    from placement.planning.problems.cache import StepProblems
+    from placement.planning.problems.manipulation import base_yaws
+    from placement.planning.settings import PlannerConfig
     from placement.planning.updates import apply_update
-    from placement.planning.world import build_world
+    from placement.planning.world.footprints import BaseShape
+    from placement.planning.world.layers import build_world
     from placement.scene import load_scene
 
     scene = load_scene(write_scene(tmp_path, tmp_path / "maps"))  # no maps: nothing here reads one

@@ -8,12 +8,12 @@ import pytest
 import yaml
 from support.occupancy import write_pgm
 
-from placement.planning.config import PlannerConfig
-from placement.planning.footprints import BaseShape
-from placement.planning.manipulation import base_yaws
-from placement.planning.navigation import reachable_from
-from placement.planning.window import serves, task_window
-from placement.planning.world import build_world, windowed_world
+from placement.planning.problems.manipulation import base_yaws
+from placement.planning.settings import PlannerConfig
+from placement.planning.world.footprints import BaseShape
+from placement.planning.world.layers import build_world, windowed_world
+from placement.planning.world.navigation import reachable_from
+from placement.planning.world.window import serves, task_window
 from placement.scene import parse_scene
 
 RES = 0.1  # [m] map cells

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from placement.planning.world import add_shape
+from placement.planning.world.layers import add_shape
 from placement.scene import Box, Cylinder, Polygon
 from placement.scene.navgrid import NavGrid
 

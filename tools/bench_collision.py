@@ -33,7 +33,7 @@ def real_placements(scene_path: Path, maps: Path) -> list[tuple]:
     """(arm, qs (P, n), base, grasped) of the planned steps of every method."""
     from placement.kinematics.ik import solve_ik
     from placement.planning import Planner
-    from placement.planning.verify import base_matrix
+    from placement.planning.verification.ik import base_matrix
 
     planner = Planner(scene_path, maps=maps)
     out = []

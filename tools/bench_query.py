@@ -72,9 +72,7 @@ def child(scene: str, maps: str, runs: int, mode: str) -> dict:
             planner = Planner(scene, "global", maps=maps)
             t = time.perf_counter()
             result = planner.plan()
-            per.append(
-                ((time.perf_counter() - t) * 1e3 - result.certificate.ms) / len(result.steps)
-            )
+            per.append(((time.perf_counter() - t) * 1e3 - result.certificate.ms) / len(result.steps))
         name = planner.scene.objects[0].name
         x, y, z = (float(v) for v in planner.scene.objects[0].position)
         ups = []
@@ -82,9 +80,7 @@ def child(scene: str, maps: str, runs: int, mode: str) -> dict:
             t = time.perf_counter()
             planner.update({"objects": [{"name": name, "position": [x + 0.02 * (k % 2 == 0), y, z]}]})
             result = planner.plan()
-            ups.append(
-                ((time.perf_counter() - t) * 1e3 - result.certificate.ms) / len(result.steps)
-            )
+            ups.append(((time.perf_counter() - t) * 1e3 - result.certificate.ms) / len(result.steps))
         return {"global": statistics.median(per), "global_update": statistics.median(ups)}
     planner = Planner(scene, "sequential", maps=maps)
     first = _steps(planner.plan())[0]

@@ -2,7 +2,7 @@
 
 For each value of the torso joint (a fine sweep over its limits) and each step of the scene's task,
 it decides whether SOME base placement does the step with SOME grasp the planner would try
-(``placement.planning.steps.step_candidates``) and arm: every TCP pose of the trajectory solved by
+(``placement.planning.problems.steps.step_candidates``) and arm: every TCP pose of the trajectory solved by
 the planner's IK (``trajectory_ik``) on ``robot.with_fixed({joint: value})``, the arm (and a place's
 held object) free of collisions (``SceneCollision`` on the same variant, with the planner's
 collision arguments) and the base footprint clear of obstacles (the planner's footprint test).
@@ -39,14 +39,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this checkout, not an installed copy
 
 from placement.collision import SceneCollision  # noqa: E402
-from placement.planning.config import PlannerConfig  # noqa: E402
-from placement.planning.footprints import BaseShape  # noqa: E402
-from placement.planning.grasps import Candidate  # noqa: E402
-from placement.planning.manipulation import base_yaws  # noqa: E402
-from placement.planning.steps import Step, step_candidates, task_steps  # noqa: E402
-from placement.planning.transfer import held_object  # noqa: E402
-from placement.planning.verify import trajectory_ik  # noqa: E402
-from placement.planning.world import build_world  # noqa: E402
+from placement.planning.problems.grasps import Candidate  # noqa: E402
+from placement.planning.problems.manipulation import base_yaws  # noqa: E402
+from placement.planning.problems.steps import Step, step_candidates, task_steps  # noqa: E402
+from placement.planning.problems.transfer import held_object  # noqa: E402
+from placement.planning.settings import PlannerConfig  # noqa: E402
+from placement.planning.verification.ik import trajectory_ik  # noqa: E402
+from placement.planning.world.footprints import BaseShape  # noqa: E402
+from placement.planning.world.layers import build_world  # noqa: E402
 from placement.robots import Robot, load_robot  # noqa: E402
 from placement.scene import Scene, load_scene  # noqa: E402
 
@@ -146,7 +146,7 @@ class Ground:
         return self._floor[key]
 
     def collision_args(self, step: Step, cand: Candidate) -> dict[str, Any]:
-        """As the planner's search builds them (placement/planning/search.py)."""
+        """As the planner's search builds them (placement/planning/methods/search.py)."""
         gone = [s.target for s in self.steps[: step.index] if s.action == "pick"]
         if step.action == "pick":
             return {"grasped": step.target, "gone": [g for g in gone if g != step.target]}

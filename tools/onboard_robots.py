@@ -181,7 +181,7 @@ def independent_search(robot, scene: Path, step, tries: int = 3000, seed: int = 
     every obstacle box by the base's circumscribed radius, each tried with IK (1 cm, 0.05 rad, 4 seeds)
     on every candidate trajectory and arm. Returns 'N of M base poses work'."""
     from placement.kinematics.ik import solve_ik
-    from placement.planning.grasps import place_candidates, top_grasps
+    from placement.planning.problems.grasps import place_candidates, top_grasps
 
     doc = yaml.safe_load(scene.read_text())
     if step.action == "pick":

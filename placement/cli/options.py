@@ -62,7 +62,7 @@ def method_option(f: F) -> F:
     return click.option("--method", type=click.Choice(METHODS), default=DEFAULT_METHOD, show_default=True)(f)
 
 
-def samples_option(kind: click.ParamType, default: int | None, what: str) -> Callable[[F], F]:
+def samples_option(kind: click.ParamType[Any, Any], default: int | None, what: str) -> Callable[[F], F]:
     """``--samples N``: how many random draws a command makes (``kind`` bounds it; ``what`` says of what)."""
 
     def decorate(f: F) -> F:

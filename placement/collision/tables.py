@@ -80,7 +80,7 @@ class CollisionResult:
         box: the world-frame box (x0, y0, z0, x1, y1, z1) [m] outside which no scene piece can change
             this result (every checked shape's bounding sphere, and the held object's, grown by the
             larger of padding and cap); None when not computed. A scene change whose pieces all lie
-            outside it leaves the result as it is (see :mod:`placement.planning.checks`).
+            outside it leaves the result as it is (see :mod:`placement.planning.verification.verdicts`).
     """
 
     free: bool

@@ -13,9 +13,9 @@ import numpy as np
 
 from placement.errors import PlacementError
 from placement.planning import METHODS, Planner, PlanResult
+from placement.planning.problems import UPRIGHT_TOLERANCE
 from placement.planning.results import transfer_problems
 from placement.planning.task_time import task_time
-from placement.planning.transfer import UPRIGHT_TOLERANCE
 from placement.scene import load_scene
 
 if TYPE_CHECKING:

@@ -49,7 +49,7 @@ import yaml
 
 from placement.errors import PlacementError
 from placement.evaluation.outdir import output_dir
-from placement.planning.config import PlannerConfig
+from placement.planning.settings import PlannerConfig
 from placement.robots import load_robot
 from placement.robots.preset import builtin_presets
 from placement.scene import parse_scene

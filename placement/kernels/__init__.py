@@ -14,7 +14,6 @@ from pathlib import Path
 import numba
 
 
-
 def _cache_base() -> str:
     """Where compiled kernels live: ``NUMBA_CACHE_DIR`` if set, else ``<venv>/numba-cache`` inside a
     virtual environment (where ``make install`` compiles them, so every entry point of the environment

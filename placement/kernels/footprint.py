@@ -1,7 +1,7 @@
 """Polygon base footprints against occupied grid cells: which base yaws a cell allows.
 
 An occupied cell stands for its whole closed square (the layer marks every cell an obstacle
-reaches into, see ``planning/footprints.py``), so a footprint that keeps ``pad`` [m] from every
+reaches into, see ``planning/world/footprints.py``), so a footprint that keeps ``pad`` [m] from every
 occupied square keeps ``pad`` from the obstacles themselves. Yaw masks are packed bits: word
 ``k >> 6``, bit ``k & 63`` is base yaw k.
 """

@@ -1,10 +1,9 @@
 """Planning: from a scene to verified base placements (see planner.py for the stages)."""
 
-from placement.planning.certificate import Certificate
-from placement.planning.config import PLANNER_KEYS, PlannerConfig
-from placement.planning.methods.registry import DEFAULT_METHOD, METHODS
+from placement.planning.methods import DEFAULT_METHOD, METHODS
 from placement.planning.planner import Planner, plan
-from placement.planning.results import PlanResult, StepResult
+from placement.planning.results import Certificate, PlanResult, StepResult
+from placement.planning.settings import PLANNER_KEYS, PlannerConfig
 from placement.scene import Scene, SceneError, load_scene, parse_scene, save_scene
 
 __all__ = [

@@ -11,13 +11,13 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 from placement.collision import SceneCollision
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import FloatArray
-from placement.planning.config import PlannerConfig
-from placement.planning.problems import StepProblems
-from placement.planning.thresholds import threshold_at
+from placement.planning.problems import Option, Step, StepProblems, held_object, threshold_at
+from placement.planning.settings import PlannerConfig
 from placement.planning.world import World
 from placement.robots import Robot
 from placement.scene import Scene
@@ -35,7 +35,7 @@ class PlanningContext:
         yaws: (K,) base yaws tried per cell [rad].
         collisions: the scene collision checker, or None (planning without collision checks).
         thresholds: arm -> its map threshold (map value), resolved at load (see
-            :mod:`placement.planning.thresholds`; the arm's own map's, the reference torso setting's);
+            :mod:`placement.planning.problems.thresholds`; the arm's own map's, the reference torso setting's);
             an arm not in it uses ``config.threshold``.
         torso_checks: torso value [m] -> the collision check of the robot with its lift there
             (built on first use, see :mod:`placement.planning.torso`; updated with ``collisions``).
@@ -94,6 +94,19 @@ class PlanningContext:
         if not own:
             return f"{self.threshold(arm):.4g}"
         return ", ".join(f"{v:.4g} at torso {t:g}" for t, v in own)
+
+    def collision_args(self, step: Step, o: Option) -> dict[str, Any]:
+        """Keyword arguments of the collision check of option ``o`` of ``step``: a pick's gripper may
+        touch the object it grasps; a place carries its object (``held``: it moves with the gripper and
+        is no longer where the scene has it); objects picked before are ``gone`` (where earlier places
+        set them down is not modelled as an obstacle)."""
+        gone = [s.target for s in self.problems.steps[: step.index] if s.action == "pick"]
+        if step.action == "pick":
+            return {"grasped": step.target, "gone": [g for g in gone if g != step.target]}
+        if step.action == "place" and step.carries is not None and o.candidate.object_pose is not None:
+            held = held_object(self.scene.object(step.carries), o.candidate)
+            return {"grasped": None, "gone": gone, "held": held}
+        return {"grasped": None, "gone": gone}
 
 
 __all__ = ["PlanningContext"]

@@ -18,8 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from placement.planning.context import PlanningContext
-from placement.planning.manipulation import yaw_values
-from placement.planning.option import Option
+from placement.planning.problems import Option, yaw_values
 from placement.planning.torso import option_map
 
 

@@ -1,16 +1,27 @@
-"""The planner of a scene: its robot, maps, world layers and per-step cache, and the methods over them.
+"""The planner of a scene: its robot, maps, world and per-step problems, and the methods over them.
 
-The stages, in the order a query runs them (one module each)::
+The default path (``placement query SCENE``, method ``global``), one concept package each::
 
-    scene/ (parse) -> world.py (rasterise) -> problems.py (candidates, IRMs, cache)
-      -> navigation.py / heuristic.py (cost maps) -> ranking.py (Eq. 6)
-      -> search.py / verify.py (IK) -> results.py (typed results, JSON)
+    Planner(scene)               robot and maps opened, thresholds resolved (problems.thresholds)
+      world/                     the scene on the base grid: occupancy, distance, feasible cells per
+                                 base yaw, the speed model (Eq. 4); the window on a building's map
+      problems/                  per step: TCP trajectories (grasps, transfers), an Option per
+                                 (arm, candidate, torso setting) with its manipulation map, cached
+    Planner.plan()
+      methods/optimal.py         ``global``: the whole task at once, over
+        program/                 the regions of every step -> the forward program (exact least
+                                 travel, Eq. 5 Dijkstras) -> verification of the chosen chain, a
+                                 rejected placement repaired locally -> turns polished for the
+                                 task time -> the certificate (lower bound on the travel)
+        verification/            IK of every pose, collision verdicts, the robot's configuration
+      results.py                 StepResult per step, PlanResult (its to_json() is the plan document)
 
-The planner owns the state the stages read, one frozen
-:class:`~placement.planning.context.PlanningContext`, and passes it to them; no stage sees the
-planner. ``methods/`` holds the methods as strategy objects over the stages (by name in
-:data:`~placement.planning.methods.registry.METHODS`); ``updates.py`` computes the state after a
-scene change, which the planner swaps in.
+The step-by-step methods (the paper's ``sequential``, ``single-step``, ``irm`` and ``fixed``,
+``methods/stepwise.py``) rank each step's cells by Eq. 6 (``methods/ranking.py``, with the heuristic
+towards the next step, ``world/heuristic.py``) and search them with IK (``methods/search.py``). The
+planner owns the state the stages read, one frozen :class:`~placement.planning.context.PlanningContext`,
+and passes it to them; no stage sees the planner. ``updates.py`` computes the state after a scene
+change, which the planner swaps in.
 """
 
 from __future__ import annotations
@@ -28,19 +39,15 @@ from placement.errors import MapError, PlacementError
 from placement.maps.opening import open_map
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import Cell, FloatArray
-from placement.planning.certificate import certify
-from placement.planning.config import PlannerConfig
 from placement.planning.context import PlanningContext
-from placement.planning.footprints import BaseShape
-from placement.planning.manipulation import base_yaws
-from placement.planning.methods.base import Method
-from placement.planning.methods.registry import DEFAULT_METHOD, METHODS, method_named
+from placement.planning.methods import DEFAULT_METHOD, METHODS, Method, method_named
 from placement.planning.prepare import prefetch_slices, warm_checks, warm_kernels
-from placement.planning.problems import StepProblems
+from placement.planning.problems import StepProblems, base_yaws, resolve_thresholds, setting_thresholds, with_threshold
+from placement.planning.program import certify
 from placement.planning.results import PlanResult, robot_info
-from placement.planning.thresholds import resolve_thresholds, setting_thresholds, with_threshold
+from placement.planning.settings import PlannerConfig
 from placement.planning.updates import apply_update
-from placement.planning.world import World, windowed_world
+from placement.planning.world import BaseShape, World, windowed_world
 from placement.robots import Robot, load_robot
 from placement.scene import Scene, load_scene
 from placement.storage import map_identity, open_store
@@ -198,7 +205,7 @@ class Planner:
     @property
     def thresholds(self) -> Mapping[str, float]:
         """arm -> its map threshold (map value), resolved at load from the scene's ``threshold`` or
-        ``threshold_quantile`` (see :mod:`placement.planning.thresholds`): the arm's own map's, which for
+        ``threshold_quantile`` (see :mod:`placement.planning.problems.thresholds`): the arm's own map's, which for
         a map with torso settings is the reference setting's (the preset's held value). A map built once
         per torso setting has one per setting (:attr:`setting_thresholds`); a shifted map's settings all
         keep the arm's. ``context.threshold(arm, torso)`` gives an option's."""
@@ -299,9 +306,7 @@ class Planner:
         deadline = time.perf_counter() + self.context.config.time_budget_s
         steps = self.method.plan(replace(self.context, deadline=deadline), start, keep_maps)
         cert = certify(self.context, self.method, start, steps)
-        return PlanResult(
-            self.scene.name, self.method.name, robot_info(self.robot, self.maps), steps, None, cert
-        )
+        return PlanResult(self.scene.name, self.method.name, robot_info(self.robot, self.maps), steps, None, cert)
 
 
 def plan(scene: Scene | str | Path, method: str = DEFAULT_METHOD, maps: str | Path | None = None) -> PlanResult:

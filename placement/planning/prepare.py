@@ -10,15 +10,12 @@ from __future__ import annotations
 import numpy as np
 
 from placement.kinematics.ik import solve_ik
-from placement.planning.config import PlannerConfig
 from placement.planning.context import PlanningContext
-from placement.planning.manipulation import manipulation_maps, pose_slices
-from placement.planning.navigation import navigation_cost
-from placement.planning.option import Option
-from placement.planning.problems import StepProblems
-from placement.planning.ranking import rank_by_cost
-from placement.planning.steps import step_candidates
+from placement.planning.methods import rank_by_cost
+from placement.planning.problems import Option, StepProblems, manipulation_maps, pose_slices, step_candidates
+from placement.planning.settings import PlannerConfig
 from placement.planning.torso import collisions_at, torso_value
+from placement.planning.world import navigation_cost
 from placement.robots import Robot
 from placement.scene.navgrid import NavGrid, Window
 

@@ -16,18 +16,18 @@ import numpy as np
 
 from placement.errors import PlacementError
 from placement.planning.arrays import FloatArray
-from placement.planning.clearance import scene_clearance
-from placement.planning.configuration import (
+from placement.planning.problems import UPRIGHT_TOLERANCE, tilt_between
+from placement.planning.verification import (
     Resting,
     actuated_joints,
+    base_matrix,
     fixed_problems,
     held,
     out_of_limits,
     pinocchio_q,
+    scene_clearance,
     world_tcp,
 )
-from placement.planning.transfer import UPRIGHT_TOLERANCE, tilt_between
-from placement.planning.verify import base_matrix
 from placement.robots import Robot, matrix_to_pose
 from placement.scene import Scene
 
@@ -127,14 +127,14 @@ class StepResult:
             the planner's collision check (None without one).
         manipulability: the IRM value at the placement (dimensionless). cost: Eq. 6's terms.
         travel_time_s: navigation cost / v_max [s]. timings_ms: per stage [ms].
-        diagnosis: of an infeasible step, why (see :func:`placement.planning.explain.explain`).
+        diagnosis: of an infeasible step, why (see :func:`placement.planning.methods.explain.explain`).
         trajectory: the chosen TCP trajectory's name (a place's: ``GRASP@yawDEG``, see
-            :mod:`placement.planning.transfer`; default ``grasp``).
+            :mod:`placement.planning.problems.transfer`; default ``grasp``).
         object: the object a pick takes or a place sets down (None for a reach).
         placed_pose: a place's (4, 4) world pose of the object set down; support: the obstacle it
             stands on (None: none under it).
         resting: what the step assumes of the rest of the robot (base frame, idle arms, other
-            joints; :mod:`placement.planning.configuration`), None for results made without it
+            joints; :mod:`placement.planning.verification.configuration`), None for results made without it
             (then the JSON has no ``configuration``).
         tried: placements the IK search tried; not part of the JSON.
         maps: the step's layers when they were kept (plots); not part of the JSON.
@@ -353,8 +353,8 @@ class PlanResult:
         limits; see :func:`configuration_problems`), else of the arm on the robot ``held`` at the
         step's fixed-joint values (:meth:`Robot.with_fixed`); and
         every transfer: the place by the pick's arm and grasp, the object turned about the vertical
-        only (within :data:`~placement.planning.transfer.UPRIGHT_TOLERANCE`); with ``scene``, every
-        base footprint's exact clearance from its obstacles (:mod:`placement.planning.clearance`).
+        only (within :data:`~placement.planning.problems.transfer.UPRIGHT_TOLERANCE`); with ``scene``, every
+        base footprint's exact clearance from its obstacles (:mod:`placement.planning.verification.clearance`).
         Returns the problems found (empty: the plan holds)."""
         problems = [] if scene is None else scene_clearance(robot, scene, self.steps)
         for s in self.steps:

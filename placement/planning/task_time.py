@@ -1,5 +1,5 @@
 """The task time model: base, arm and torso move in parallel, steps add up (the benchmark's objective, and what
-the whole-task methods minimise over base yaws, see :mod:`placement.planning.methods.turning`)."""
+the whole-task methods minimise over base yaws, see :mod:`placement.planning.program.turning`)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from placement.errors import PlacementError
-from placement.planning.configuration import joint_limits, velocity_limit
 from placement.planning.results import PlanResult, StepResult
+from placement.planning.verification import joint_limits, velocity_limit
 from placement.robots import Robot
 
 

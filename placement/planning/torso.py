@@ -2,15 +2,15 @@
 
 A robot whose maps carry a torso record (a lift such as the PR2's ``torso_lift_joint``, see
 :mod:`placement.maps.torso`) has, per arm, one map view per torso setting: the same values with the
-grid moved with the lift. Every step gets options at every setting (:class:`~placement.planning.option.Option`'s
+grid moved with the lift. Every step gets options at every setting (:class:`~placement.planning.problems.option.Option`'s
 ``torso``), so each step chooses its base pose, arm, grasp and torso value; IK and the collision
 check of an option run on the robot with the lift at the option's value.
 
 The torso moves while the base drives (the parallel model of the task time, docs/design.md), so a
 torso change costs time only where it takes longer than the base's move. ``global`` holds the lift
 at the preset's value on every step the maps serve there (its program prices travel, not the lift;
-see :func:`placement.planning.regions.map_regions`); ``optimal`` prices the torso's time per step
-(:mod:`placement.planning.torso_program`); the step-by-step methods add the lift's time to Eq. 6
+see :func:`placement.planning.program.regions.map_regions`); ``optimal`` prices the torso's time per step
+(:mod:`placement.planning.program.priced_torso`); the step-by-step methods add the lift's time to Eq. 6
 (:func:`placement.planning.methods.stepwise.torso_ranked`). Verification tries the options at the
 torso value the robot holds first (no motion), then the others, nearest first.
 
@@ -26,13 +26,13 @@ from typing import TYPE_CHECKING
 
 from placement.maps.rmap import ReachabilityMap
 from placement.maps.torso import TorsoSettings
-from placement.planning.variants import map_variants, torso_record, torso_value
+from placement.planning.problems import map_variants, torso_record, torso_value
 from placement.robots import Robot
 
 if TYPE_CHECKING:
     from placement.collision import SceneCollision
     from placement.planning.context import PlanningContext
-    from placement.planning.option import Option
+    from placement.planning.problems import Option
 
 
 def _record(maps: Mapping[str, ReachabilityMap]) -> TorsoSettings | None:

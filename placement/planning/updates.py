@@ -33,7 +33,7 @@ from placement.planning.world import (
     world_still_serves,
 )
 from placement.scene import Obstacle, Scene, SceneObject, SceneParser, check_scene
-from placement.scene.parse import OBJECT_KEYS_V1
+from placement.scene.document import OBJECT_KEYS_V1
 from placement.validation import describe
 
 UPDATE_KEYS = ("objects", "obstacles", "start")

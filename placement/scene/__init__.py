@@ -1,5 +1,6 @@
 """The scene: its model, the strict parser of scene files (versions 1 and 2), and reading and writing them."""
 
+from placement.scene.document import SCENE_VERSION, SCENE_VERSIONS, SceneParser, check_scene, parse_scene
 from placement.scene.io import load_scene, obstacle_to_dict, save_scene, scene_to_dict
 from placement.scene.limits import MAX_GRID_CELLS
 from placement.scene.model import (
@@ -16,7 +17,6 @@ from placement.scene.model import (
     Trajectory,
 )
 from placement.scene.occupancy import OccupancyMap, OccupancyMapError, load_occupancy_map
-from placement.scene.parse import SCENE_VERSION, SCENE_VERSIONS, SceneParser, check_scene, parse_scene
 
 __all__ = [
     "Box",

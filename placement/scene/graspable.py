@@ -46,7 +46,7 @@ class Candidate:
 
     ``grasp``: the grasp the object is held by (a pick's own name, a place's pick grasp; None for
     a ``reach``); a place also has the object's pose there, ``object_pose`` (4, 4), and the name of
-    the obstacle it is set on, ``support`` (see :mod:`placement.planning.transfer`)."""
+    the obstacle it is set on, ``support`` (see :mod:`placement.planning.problems.transfer`)."""
 
     name: str
     poses: FloatArray

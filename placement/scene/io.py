@@ -11,9 +11,9 @@ import numpy.typing as npt
 import yaml
 
 from placement.scene.base_layers import base_layers_to_dict
+from placement.scene.document import parse_scene
 from placement.scene.limits import MAX_SCENE_BYTES
 from placement.scene.model import Box, Cylinder, Obstacle, Scene, SceneError, SceneObject, Trajectory, is_path
-from placement.scene.parse import parse_scene
 from placement.scene.poses import yaw_quaternion
 from placement.validation import parse_yaml, read_text
 

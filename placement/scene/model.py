@@ -222,7 +222,7 @@ class PlaceLocation(ArrayEq):
     obstacle top at most 0.25 m below its z (else with its lowest point at z; a version 1 file's
     TCP target 0.1 m above a table finds the table), and optionally the object's allowed world
     ``orientations`` (k, 4) [x, y, z, w], each its picked orientation turned about z (None: turned
-    by the planner's ``grasp_yaws``). See :mod:`placement.planning.transfer`."""
+    by the planner's ``grasp_yaws``). See :mod:`placement.planning.problems.transfer`."""
 
     name: str
     position: npt.NDArray[np.float64]
@@ -267,7 +267,7 @@ class Scene(ArrayEq):
         obstacle_cloud: absolute path of a point cloud for the arm's collision model, or None; cloud: it
             as boxes (not compared; see :mod:`placement.scene.cloud`).
         bounds_given: the file gave ``bounds`` (not compared; without them a scene on an occupancy
-            map is planned on a window around its task: :mod:`placement.planning.window`).
+            map is planned on a window around its task: :mod:`placement.planning.world.window`).
     """
 
     version: int

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from placement.scene.parser import SceneParser
+from placement.scene.parts import SceneParser
 from placement.scene.planner_keys import PLANNER_BOUNDS, PLANNER_KEYS
 
 

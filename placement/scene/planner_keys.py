@@ -2,7 +2,7 @@
 bounds.
 
 This table is the single source of those settings: the scene parser checks a block against it (it sits below
-the planner, so the scene need not import the planner), and :class:`placement.planning.config.PlannerConfig`
+the planner, so the scene need not import the planner), and :class:`placement.planning.settings.PlannerConfig`
 builds its scene-settable fields from it, so the parser, the docs and the defaults cannot drift apart.
 """
 

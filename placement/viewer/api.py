@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from placement.errors import MapError, ViewerError
-from placement.planning.methods.registry import DEFAULT_METHOD
+from placement.planning.methods import DEFAULT_METHOD
 from placement.viewer.server import View, start_server
 
 if TYPE_CHECKING:

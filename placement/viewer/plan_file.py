@@ -15,9 +15,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from placement.errors import ViewerError
-from placement.planning.configuration import held, joint_limits, resting
+from placement.planning.problems import UPRIGHT_TOLERANCE
 from placement.planning.results import Cost, StepResult, transfer_problems
-from placement.planning.transfer import UPRIGHT_TOLERANCE
+from placement.planning.verification import held, joint_limits, resting
 from placement.robots import Robot, pose_to_matrix
 from placement.validation import parse_json
 from placement.viewer.plan_scene import plan_problems
@@ -236,7 +236,7 @@ def check_plan(doc: dict[str, Any], steps: list[StepResult], scene: Scene, robot
     the joints put the TCP (with the step's fixed-joint values); and what
     :func:`~placement.viewer.plan_scene.plan_problems` checks (each step's configuration, its
     trajectory one the scene gives, a place's placed pose, the TCP offsets)."""
-    from placement.planning.steps import task_steps
+    from placement.planning.problems import task_steps
 
     name = doc.get("scene")
     _need(

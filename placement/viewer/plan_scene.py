@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from placement.errors import PlacementError
-from placement.planning.config import PlannerConfig
+from placement.planning.problems import step_candidates, task_steps
 from placement.planning.results import StepResult, configuration_problems, configuration_tcp
-from placement.planning.steps import step_candidates, task_steps
+from placement.planning.settings import PlannerConfig
 from placement.robots import Robot, pose_to_matrix
 from placement.scene import Scene
 

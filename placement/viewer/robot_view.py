@@ -11,7 +11,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from placement.planning.configuration import pinocchio_q, resting
+from placement.planning.verification import pinocchio_q, resting
 from placement.viewer.geometry import pose_matrix
 
 if TYPE_CHECKING:

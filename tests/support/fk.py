@@ -1,5 +1,5 @@
 """Pinocchio FK of a whole configuration given joint by joint: the tests' reference, independent of
-the package's own helpers (placement.planning.configuration), which it checks."""
+the package's own helpers (placement.planning.verification.configuration), which it checks."""
 
 from __future__ import annotations
 

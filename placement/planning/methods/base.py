@@ -14,10 +14,10 @@ from dataclasses import replace
 from typing import ClassVar
 
 from placement.planning.arrays import Cell
-from placement.planning.bound import Regions, map_regions
-from placement.planning.config import PlannerConfig
 from placement.planning.context import PlanningContext
+from placement.planning.program import Regions, map_regions
 from placement.planning.results import StepResult
+from placement.planning.settings import PlannerConfig
 
 
 class Method(ABC):

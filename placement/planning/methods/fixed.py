@@ -9,12 +9,11 @@ import numpy as np
 
 from placement.errors import PlacementError
 from placement.planning.arrays import FloatArray
-from placement.planning.bound import Regions
 from placement.planning.context import PlanningContext
-from placement.planning.manipulation import manipulation_map
+from placement.planning.methods.ranking import Ranked
 from placement.planning.methods.stepwise import StepwiseMethod
-from placement.planning.option import Option
-from placement.planning.ranking import Ranked
+from placement.planning.problems import Option, manipulation_map
+from placement.planning.program import Regions
 from placement.planning.torso import option_map
 from placement.scene import Box, Cylinder
 from placement.scene.navgrid import Window

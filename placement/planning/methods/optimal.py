@@ -1,10 +1,10 @@
 """Whole-task planning by dynamic programming over every feasible base cell: ``optimal`` and ``global``.
 
-Both solve the forward program of :mod:`placement.planning.bound` over the regions of the maps (every
+Both solve the forward program of :mod:`placement.planning.program.forward` over the regions of the maps (every
 cell where some (arm, grasp) keeps the threshold, per group; a place keeps its pick's group) and
 verify the cheapest chain lazily: each step's placement along the chain, in task order, gets IK of
 every pose (started from the map's witness, then the arm's home: a placement's answer is its own,
-kept by :mod:`placement.planning.checks` across re-plans) and the collision
+kept by :mod:`placement.planning.verification.verdicts` across re-plans) and the collision
 check, trying the group's options that keep the threshold there by decreasing map value, each at
 its best base yaw. A rejected (cell, group) is removed from its step's region, the program is solved
 again from that step on, and the loop ends when every step of the chain verifies.
@@ -18,7 +18,7 @@ stands for its centre, at the best yaw of the option.
 
 ``optimal`` removes exactly the rejected (cell, group) and solves again (``optimal_probe`` > 0:
 it verifies the rejected cell's neighbours at once, removing those that fail too; IK and the
-collision check cost more than a solve of :class:`~placement.planning.bound.Program`, so the
+collision check cost more than a solve of :class:`~placement.planning.program.forward.Program`, so the
 default is 0); its result is the best verified plan of the discretisation, up to IK being a local
 search (a placement is answered once, from the witness, the home and the seeded restarts), as long as at most
 ``optimal_max_repairs`` placements are rejected; past that (maps far more optimistic than IK, e.g.
@@ -31,16 +31,16 @@ transfer whose cheapest cells share no group is given its pick's group and repai
 only what local repair cannot fix is removed and solved again (as ``optimal`` does). Its plans
 are within a few tenths of a percent of ``optimal``'s on the held-out scenes (docs/bench/optimum.md),
 for one solve instead of several. The first program's optimum (when exact) is the plan's lower
-bound (:mod:`placement.planning.bound`), kept for the certificate.
+bound (:mod:`placement.planning.program.forward`), kept for the certificate.
 
 With torso settings (:mod:`placement.planning.torso`) the two differ in how they choose them.
 ``global`` holds the torso at the preset's value on every step the maps serve there (the hold rule,
 ``DynamicProgram.hold``; released only where no chain is left). ``optimal`` prices it: its program
 has a group per (arm, grasp, setting), and a move between steps costs the travel plus
-``v_max * torso_s`` [m] (:mod:`placement.planning.torso_program`: the sum bounds the task time's
+``v_max * torso_s`` [m] (:mod:`placement.planning.program.priced_torso`: the sum bounds the task time's
 max(base, torso) of a step from above, by at most twice it), each step verified at its group's
 setting; the plain program at the preset's setting answers while it provably is that optimum
-(:mod:`placement.planning.torso_held`), so a task that never moves the torso costs what it did.
+(:mod:`placement.planning.program.held_first`), so a task that never moves the torso costs what it did.
 """
 
 from __future__ import annotations
@@ -54,18 +54,24 @@ from dataclasses import replace
 import numpy as np
 
 from placement.planning.arrays import Cell
-from placement.planning.bound import Chain
 from placement.planning.context import PlanningContext
-from placement.planning.explain import explain
 from placement.planning.methods.base import Method
-from placement.planning.methods.dynamic import DynamicProgram
+from placement.planning.methods.explain import explain
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
-from placement.planning.methods.repair import Verified, repair
-from placement.planning.methods.turning import polishes, task_seconds, time_cells, time_yaws
-from placement.planning.navigation import extract_path, navigation_cost
-from placement.planning.regions import reweighted
+from placement.planning.program import (
+    Chain,
+    DynamicProgram,
+    Verified,
+    polishes,
+    repair,
+    reweighted,
+    task_seconds,
+    time_cells,
+    time_yaws,
+)
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.torso import start_torso, torso_joint
+from placement.planning.world import extract_path, navigation_cost
 
 log = logging.getLogger(__name__)
 
@@ -142,7 +148,7 @@ def plan_dynamic(
     """The verified cheapest chain's steps; when none is left, the plan of the steps before the first
     one no chain reaches and that step, saying why; when the time budget runs out, the steps verified
     so far and the first one not verified
-    (``priced``: the torso priced per step, :mod:`placement.planning.torso_program`)."""
+    (``priced``: the torso priced per step, :mod:`placement.planning.program.priced_torso`)."""
     t0 = time.perf_counter()
     if not ctx.problems.steps:
         return []
@@ -190,7 +196,7 @@ def for_task_time(
     dp: DynamicProgram, chain: Chain, picks: list[Verified], out: list[StepResult], keep_maps: bool, move: bool
 ) -> list[StepResult]:
     """The plan ``out`` of the verified ``chain`` after the task-time passes of
-    :mod:`~placement.planning.methods.turning` (``move``: the cells too), each kept only when it
+    :mod:`~placement.planning.program.turning` (``move``: the cells too), each kept only when it
     shortens the task."""
     ctx, start = dp.ctx, dp.start
     best = task_seconds(dp, out)

@@ -6,12 +6,11 @@ from collections.abc import Sequence
 from typing import Any
 
 from placement.planning.arrays import BasePose, FloatArray
-from placement.planning.configuration import resting
 from placement.planning.context import PlanningContext
-from placement.planning.option import Option, height_range
+from placement.planning.problems import Option, Step, height_range
 from placement.planning.results import Cost, StepResult
-from placement.planning.steps import Step
 from placement.planning.torso import robot_at
+from placement.planning.verification import resting
 
 
 def infeasible(step: Step, reason: str, diagnosis: dict[str, Any] | None = None) -> StepResult:
@@ -50,7 +49,7 @@ def placed(
     """The result of a verified placement: weighted Eq. 6 terms, joints by name (``qs`` (P, n): the
     arm at every pose of the trajectory), travel time [s], clearance [m] (None without a collision
     check), and the rest of the robot's configuration as the collision check assumed it (the other
-    arms idle, see :mod:`placement.planning.configuration`)."""
+    arms idle, see :mod:`placement.planning.verification.configuration`)."""
     cfg = ctx.config
     arm = ctx.robot.arm(o.arm)
     q = qs[-1]

@@ -5,9 +5,9 @@ from __future__ import annotations
 from placement.errors import PlacementError
 from placement.method_names import DEFAULT_METHOD
 from placement.planning.methods.base import Method
-from placement.planning.methods.eq6 import Irm, Sequential, SingleStep
 from placement.planning.methods.fixed import Fixed
 from placement.planning.methods.optimal import Global, Optimal
+from placement.planning.methods.weighted import Irm, Sequential, SingleStep
 
 #: Method name -> strategy class, in the order the CLI and the evaluation list them.
 METHODS: dict[str, type[Method]] = {m.name: m for m in (Global, Sequential, SingleStep, Irm, Fixed, Optimal)}

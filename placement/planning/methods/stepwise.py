@@ -15,17 +15,15 @@ import numpy as np
 
 from placement.planning.arrays import Cell, FloatArray
 from placement.planning.context import PlanningContext
-from placement.planning.explain import explain
 from placement.planning.methods.base import Method
+from placement.planning.methods.explain import explain
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
-from placement.planning.navigation import extract_path, navigation_cost
-from placement.planning.option import Option
-from placement.planning.ranking import Ranked, combined_map
+from placement.planning.methods.ranking import Ranked, combined_map
+from placement.planning.methods.search import search_placement
+from placement.planning.problems import Option, Step, per_arm_values
 from placement.planning.results import StepMaps, StepResult
-from placement.planning.search import search_placement
-from placement.planning.steps import Step
-from placement.planning.thresholds import per_arm_values
 from placement.planning.torso import held_setting, start_torso, torso_seconds
+from placement.planning.world import extract_path, navigation_cost
 
 #: An (arm, grasp) pair a transfer commits to.
 Pair = tuple[str, str | None]

@@ -1,0 +1,299 @@
+"""Per-step problems: each step's manipulation maps (IRMs) and heuristic, in one explicit cache.
+
+What a scene change invalidates (used by dynamic updates, paper Table III):
+
+* a moved object: the IRMs of the steps that pick and place it, and every heuristic (they read those IRMs);
+  the verification checks of those steps, and the collision results near the object (:mod:`.checks`);
+* added or removed obstacles: everything (the feasible base cells and their allowed yaws changed);
+* a new start pose: nothing.
+
+Nothing here depends on the start pose or on the method's weights, so one cache serves all
+methods of a scene (evaluation plans each scene with every method).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from placement.collision.scene import object_aabb
+from placement.maps.rmap import ReachabilityMap
+from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray, MaskArray
+from placement.planning.problems.grasps import GRIPPER_OPENING, Candidate
+from placement.planning.problems.manipulation import cells_within, manipulation_maps, pose_reach
+from placement.planning.problems.option import Option, height_range
+from placement.planning.problems.refresh import refreshed_options
+from placement.planning.problems.steps import Step, step_candidates, task_steps
+from placement.planning.problems.thresholds import threshold_at
+from placement.planning.problems.torso_maps import map_variants, torso_value
+from placement.planning.settings import PlannerConfig
+from placement.planning.verification import Checks
+from placement.planning.world import World, navigation_cost, reachable_from, region_heuristic
+from placement.scene import Scene
+from placement.scene.navgrid import Window
+
+#: Legs kept at most (each holds the costs on its targets only): past it the cache starts again.
+MAX_LEGS = 4096
+#: A step none of whose options keeps its threshold anywhere is planned with its thresholds lowered to
+#: this share of its best map value (relative to its threshold): see :meth:`StepProblems.relaxed`.
+RELAX = 0.5
+#: Where a candidate's target is and how far the map reaches it: (x [m], y [m], reach [m]).
+Reach = tuple[float, float, float]
+
+
+class StepProblems:
+    """The cache of a scene's per-step IRMs and heuristics (see the module docstring).
+
+    Args:
+        scene, world: the scene and its rasterised layers.
+        maps: arm -> reachability map. config: the planner configuration (threshold, grasp yaws).
+        yaws: (K,) base yaws tried per cell [rad].
+        opening_m: the gripper's widest opening [m] (generated grasps close across chords up to it).
+        thresholds: arm -> its map threshold (see :mod:`placement.planning.problems.thresholds`); an arm not
+            in it uses ``config.threshold``. setting_thresholds: (arm, torso value [rad]) -> the
+            threshold of that setting of a map built once per setting (else its arm's).
+    """
+
+    def __init__(
+        self,
+        scene: Scene,
+        world: World,
+        maps: Mapping[str, ReachabilityMap],
+        config: PlannerConfig,
+        yaws: FloatArray,
+        opening_m: float = GRIPPER_OPENING,
+        thresholds: Mapping[str, float] | None = None,
+        setting_thresholds: Mapping[tuple[str, float], float] | None = None,
+    ):
+        self.scene, self.world, self.maps, self.config, self.yaws = scene, world, maps, config, yaws
+        self.opening_m = opening_m
+        self.thresholds: Mapping[str, float] = dict(thresholds or {})
+        self.setting_thresholds: Mapping[tuple[str, float], float] = dict(setting_thresholds or {})
+        self.steps: list[Step] = task_steps(scene)
+        #: arm -> its map at each torso setting (one map without a torso record)
+        self.variants = map_variants(maps)
+        #: the torso values [m] of the maps' settings, ascending ([None] without torso records)
+        self.settings: list[float | None] = sorted(
+            {torso_value(m) for ms in self.variants.values() for m in ms}, key=lambda t: -1.0 if t is None else t
+        )
+        self._options: dict[int, list[Option]] = {}
+        # (step, torso value [m]) -> the options at that lift setting alone (see held_options)
+        self._held: dict[tuple[int, float], list[Option]] = {}
+        # options computed for another world (obstacles changed since): refreshed when used
+        self._stale: dict[int, tuple[list[Option], World]] = {}
+        self._heuristic: dict[tuple[int, bool], FloatArray] = {}
+        self._reachable: BoolArray | None = None
+        self._relaxed: dict[int, float] = {}
+        #: id(options list) -> (that list, its region by the maps): see placement.planning.program.forward
+        self.regions: dict[int, tuple[Sequence[Option], Any]] = {}
+        # step -> its grasp or place candidates (the options of each torso setting share them)
+        self._candidates: dict[int, list[Candidate]] = {}
+        #: (region kind, start cell) -> the task's least travel [m] (see placement.planning.program.forward)
+        self.bounds: dict[tuple[str, tuple[int, int]], float] = {}
+        #: (step, flat cell, (arm, grasp), torso value held or None) -> what the whole-task methods'
+        #: verification found there (a ``Verified``, or None: rejected)
+        self.verdicts: dict[tuple[int, int, tuple[str, str | None], float | None], Any] = {}
+        #: the IK answers and collision results behind the verdicts (kept by an update where valid)
+        self.checks = Checks()
+        #: (cell (iy, ix), reversed, packed targets) -> the travel costs [m] on the targets between the
+        #: cell and each of them (see :meth:`legs`); they read the world only
+        self._legs: dict[tuple[tuple[int, int], bool, bytes], FloatArray] = {}
+
+    def legs(self, cell: tuple[int, int], targets: BoolArray, reverse: bool = False) -> FloatArray:
+        """(ny, nx) travel cost [m] from ``cell`` to every cell of ``targets`` (``reverse``: from each of
+        them to ``cell``), inf elsewhere (cached: a re-plan after an update that left the world as it
+        was repairs the same chains again)."""
+        cell = (int(cell[0]), int(cell[1]))
+        key = (cell, reverse, np.packbits(targets).tobytes())
+        hit = self._legs.get(key)
+        w = self.world
+        if hit is None:
+            cost, _ = navigation_cost(w.factor, w.feasible, cell, w.nav.resolution, targets=targets, reverse=reverse)
+            if len(self._legs) >= MAX_LEGS:
+                self._legs.clear()
+            hit = self._legs[key] = cost[targets]
+        out: FloatArray = np.full(targets.shape, np.inf)
+        out[targets] = hit
+        return out
+
+    def candidates(self, i: int) -> list[Candidate]:
+        """Step i's grasp or place candidates (cached: the options of every arm and torso setting, and
+        the planner's prefetch of map slices, share them)."""
+        hit = self._candidates.get(i)
+        if hit is None:
+            hit = self._candidates[i] = step_candidates(self.scene, self.steps[i], self.config, self.opening_m)
+        return hit
+
+    def map_for(self, arm: str, torso: float | None) -> ReachabilityMap:
+        """``arm``'s map (view) at torso value ``torso`` [m] (None: the map without a torso record)."""
+        for rmap in self.variants[arm]:
+            if torso_value(rmap) == torso:
+                return rmap
+        raise KeyError(f"arm '{arm}' has no map at torso value {torso}")
+
+    def threshold(self, arm: str, torso: float | None = None) -> float:
+        """The map value below which a placement of ``arm`` with the torso at ``torso`` [m or rad] is
+        infeasible (dimensionless)."""
+        return threshold_at(self.thresholds, self.setting_thresholds, self.config.threshold, arm, torso)
+
+    def relaxed(self, i: int) -> float:
+        """The factor (0, 1] step i's thresholds are multiplied by: 1 when some option keeps its threshold
+        on some base cell, else :data:`RELAX` times the best ratio of a map value to its threshold (the
+        threshold prefers well-manipulable placements; where the maps give a step none, the best of what
+        they reach is verified by IK rather than the step called infeasible)."""
+        if i not in self._relaxed:
+
+            def best(opts: Sequence[Option]) -> float:
+                ratios = [float(o.value.max()) / self.threshold(o.arm, o.torso) for o in opts if o.value.size]
+                return max(ratios, default=0.0)
+
+            # the options at hand first (a held lift's): one that keeps its threshold settles it, without
+            # the inverse maps of every other setting
+            known = self._options.get(i) or [o for (k, _), opts in self._held.items() if k == i for o in opts]
+            ratio = best(known)
+            if ratio < 1.0:
+                ratio = best(self.options(i))
+            self._relaxed[i] = 1.0 if ratio >= 1.0 or ratio <= 0.0 else RELAX * ratio
+        return self._relaxed[i]
+
+    def options(self, i: int) -> list[Option]:
+        """Manipulation maps of step i for every arm and candidate (cached)."""
+        if i not in self._options:
+            if i in self._stale:
+                opts, was = self._stale.pop(i)
+                self._options[i] = refreshed_options(opts, self.map_for, self.yaws, was, self.world)
+            elif self.settings == [None]:
+                self._options[i] = self._compute_options(self.steps[i])
+            else:  # setting by setting: the blocks already given by held_options are reused
+                self._options[i] = [o for t in self.settings if t is not None for o in self.held_options(i, t)]
+        return self._options[i]
+
+    def held_options(self, i: int, torso: float) -> list[Option]:
+        """Step i's options at torso value ``torso`` [m] alone (cached; the whole-task methods plan a
+        step with the lift held without the inverse maps of the other settings). Once given, the same
+        list is given again (verdicts index into it)."""
+        key = (i, torso)
+        if key not in self._held:
+            if i in self._options or i in self._stale:
+                self._held[key] = [o for o in self.options(i) if o.torso == torso]
+            else:
+                self._held[key] = self._compute_options(self.steps[i], torso)
+        return self._held[key]
+
+    def _compute_options(self, step: Step, torso: float | None = None) -> list[Option]:
+        """The options of ``step`` for every arm and candidate, at every lift setting (``torso``: at
+        that torso value [m] only)."""
+        nav = self.world.nav
+        opts = []
+        near: dict[Reach, tuple[IntArray, MaskArray]] = {}  # candidates of a step share their target position
+        candidates = self.candidates(step.index)
+        views = ((a, m) for a, ms in self.variants.items() for m in ms)
+        for arm, rmap in ((a, m) for a, m in views if torso is None or torso_value(m) == torso):
+            lo, hi = height_range(rmap)
+            by_cells: dict[Reach, list[Candidate]] = {}  # candidates of a step share their target position
+            for cand in candidates:
+                # base cells farther from the target than the target slice's reach get 0 from
+                # the kernel anyway: they are not evaluated (the results are the same)
+                key = (float(cand.poses[-1, 0, 3]), float(cand.poses[-1, 1, 3]), pose_reach(rmap, cand.poses[-1]))
+                if key not in near:
+                    cells = cells_within(nav, *key)
+                    cells = cells[self.world.feasible.flat[cells]]
+                    near[key] = (cells, self.world.yaw_masks(cells))
+                by_cells.setdefault(key, []).append(cand)
+            results: dict[bytes, tuple[Window, Float32Array, IntArray]] = {}
+            for key, cands in by_cells.items():
+                cells, masks = near[key]
+                window = Window.around(cells, nav.shape)
+                # a place of one grasp turned by a half turn is often another grasp's place: one IRM
+                distinct = list({c.poses.tobytes(): c for c in cands}.values())
+                maps = manipulation_maps(rmap, [c.poses for c in distinct], nav, self.yaws, cells, window, masks)
+                results.update({c.poses.tobytes(): (window, *m) for c, m in zip(distinct, maps)})
+            for cand in candidates:
+                z = cand.poses[:, 2, 3]
+                out = bool(np.any((z < lo) | (z >= hi)))
+                opts.append(Option(arm, cand, *results[cand.poses.tobytes()], out, torso_value(rmap)))
+        return opts
+
+    def pairs(self, i: int) -> set[tuple[str, str | None]]:
+        """The (arm, grasp) pairs of step i's options that keep the threshold somewhere: for a place,
+        the arms and grasps with which the object picked before can be set down."""
+        return {
+            (o.arm, o.candidate.grasp)
+            for o in self.options(i)
+            if o.value.size and float(o.value.max()) >= self.threshold(o.arm, o.torso) * self.relaxed(i)
+        }
+
+    def feasible_region(self, i: int, options: Sequence[Option] | None = None) -> BoolArray:
+        """(ny, nx) bool: base cells from which some arm and candidate of step i (of ``options``,
+        default all of the step's) reach their arm's threshold."""
+        mask = np.zeros(self.world.nav.shape, dtype=bool)
+        for o in self.options(i) if options is None else options:
+            mask[o.window.slices] |= o.value >= self.threshold(o.arm, o.torso) * self.relaxed(i)
+        return mask
+
+    @property
+    def reachable(self) -> BoolArray:
+        """(ny, nx) bool: the cells the base can drive to from the scene's start (cached)."""
+        if self._reachable is None:
+            self._reachable = reachable_from(self.world.feasible, self.world.nav, *self.scene.start[:2])
+        return self._reachable
+
+    def heuristic(self, i: int, at: BoolArray | None = None) -> FloatArray:
+        """Navigation cost [m] towards step i's feasible regions that the base can reach (cached);
+        ``at``: optional (ny, nx) bool of the cells that will be read (see :func:`region_heuristic`)."""
+        key = (i, at is None)
+        if key not in self._heuristic:
+            region = self.feasible_region(i)
+            self._heuristic[key] = region_heuristic(region, self.world, self.config.min_region, at, self.reachable)
+        return self._heuristic[key]
+
+    def changed(self, scene: Scene, world: World, moved_objects: set[str]) -> StepProblems:
+        """A cache for the changed ``scene`` (and ``world``) that keeps what the change left valid.
+
+        The IRMs of steps that do not pick or place a moved object (or place on a changed obstacle) are kept; with a new ``world`` (obstacles
+        changed) they are refreshed on the cells whose allowed yaws changed (see refresh.py) when a
+        step first needs them, and the heuristics are dropped. ``self`` is not modified.
+        """
+        new = StepProblems(
+            scene, world, self.maps, self.config, self.yaws, self.opening_m, self.thresholds, self.setting_thresholds
+        )
+        # a moved object's place poses follow its orientation when picked: its place too
+        moved = {i for i, s in enumerate(self.steps) if s.carries is not None and s.carries in moved_objects}
+        if world is not self.world:  # a place rests on the obstacles: one added or removed may move it
+            moved |= {
+                i
+                for i, s in enumerate(self.steps)
+                if s.action == "place"
+                and i in self._options | self._stale
+                and not _same_places(self._candidates_of(i), step_candidates(scene, s, self.config, self.opening_m))
+            }
+        kept = {i: o for i, o in self._options.items() if i not in moved}
+        new._stale = {i: v for i, v in self._stale.items() if i not in moved}
+        if world is not self.world:  # refreshed on first use: an update touches only what it re-plans
+            new._stale.update({i: (o, self.world) for i, o in kept.items()})
+        else:
+            new._options = kept
+            new._held = {k: v for k, v in self._held.items() if k[0] not in moved}
+            # the same options and base grid: their checks stand, but near a moved object (its
+            # pieces before and after the move)
+            boxes = [object_aabb(o) for sc in (self.scene, scene) for o in sc.objects if o.name in moved_objects]
+            new.checks = self.checks.kept(moved, boxes)
+            new._legs = self._legs
+            # step i's heuristic reads step i's regions and stops once step i - 1's cells are settled
+            stale = moved | {i + 1 for i in moved}
+            # ... and only the cells the start reaches: a start moved to another part of the floor changes them
+            if self._reachable is not None and np.array_equal(new.reachable, self._reachable):
+                new._heuristic = {k: h for k, h in self._heuristic.items() if k[0] not in stale}
+        return new
+
+    def _candidates_of(self, i: int) -> list[Candidate]:
+        """The candidates step i's cached options were computed for (one per option of the first arm)."""
+        opts = self._options[i] if i in self._options else self._stale[i][0]
+        per_map = sum(len(v) for v in self.variants.values())
+        return [o.candidate for o in opts[: len(opts) // max(per_map, 1)]]
+
+
+def _same_places(a: Sequence[Candidate], b: Sequence[Candidate]) -> bool:
+    return len(a) == len(b) and all(np.array_equal(x.poses, y.poses) for x, y in zip(a, b))

@@ -1,0 +1,56 @@
+"""The certificate of a plan: the least travel any plan could have on the cells its method may use.
+
+The bound is the optimum of the forward program of :mod:`placement.planning.program.forward` over the regions
+of the plan's method (:meth:`~placement.planning.methods.base.Method.regions`: the cells where the
+maps keep the threshold, or the ``fixed`` baseline's pre-defined placements), ignoring IK and
+collision checks, so no plan of that method can travel less. A step's time is at least its travel
+time (the task-time model runs rotation and arm motion in parallel with it), so the bound is a lower
+bound on the task time too: the certificate gives both gaps (the default method trades a little
+travel for less turning where that shortens the task, :mod:`placement.planning.program.turning`).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Protocol
+
+from placement.planning.arrays import Cell
+from placement.planning.context import PlanningContext
+from placement.planning.program.forward import travel_bound
+from placement.planning.program.regions import Regions
+from placement.planning.results import Certificate, StepResult
+from placement.planning.task_time import steps_seconds
+
+
+class RegionSource(Protocol):
+    """What a certificate needs of a method: the cells it may stand on per step, and their name."""
+
+    @property
+    def region_kind(self) -> str:
+        """What :meth:`regions` ranges over ("maps" or "fixed placements")."""
+        ...
+
+    def regions(self, ctx: PlanningContext, i: int) -> Regions:
+        """Step ``i``'s regions."""
+        ...
+
+
+def certify(ctx: PlanningContext, method: RegionSource, start: Cell, steps: list[StepResult]) -> Certificate:
+    """The certificate of the plan ``steps`` that ``method`` made from ``start``."""
+    t0 = time.perf_counter()
+    key = (method.region_kind, start)
+    bound_m = ctx.problems.bounds.get(key)
+    if bound_m is None:
+        n = len(ctx.problems.steps)
+        bound_m = travel_bound(ctx, start, [method.regions(ctx, i) for i in range(n)])
+        ctx.problems.bounds[key] = bound_m
+    ok = bool(steps) and len(steps) == len(ctx.problems.steps) and all(s.ok for s in steps)
+    travel = sum(float(s.travel_time_s or 0.0) for s in steps) if ok else None
+    task = None
+    if ok:
+        task = sum(x["step_s"] for x in steps_seconds(ctx.robot, steps, float(ctx.scene.start[2])))
+    v = ctx.robot.v_max
+    return Certificate(bound_m / v, travel, method.region_kind, (time.perf_counter() - t0) * 1e3, task)
+
+
+__all__ = ["Certificate", "RegionSource", "certify"]

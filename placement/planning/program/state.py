@@ -1,0 +1,258 @@
+"""One whole-task plan's dynamic program: :class:`DynamicProgram`, the state ``optimal`` and ``global``
+(:mod:`placement.planning.methods.optimal`) solve and verify: the regions (changed by rejections),
+the program and its layers, what verification found.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from placement.planning.arrays import Cell
+from placement.planning.context import PlanningContext
+from placement.planning.facing import facing_yaw
+from placement.planning.problems import Option, Step
+from placement.planning.program.forward import Chain, Layer, Program, WholeTaskProgram, linked_steps, travel_bound
+from placement.planning.program.held_first import HeldFirst
+from placement.planning.program.priced_torso import settings_of, torso_regions, torso_reweighted, torso_term
+from placement.planning.program.regions import Group, Regions, held_torso, map_regions, reweighted
+from placement.planning.program.repair import Verified
+from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first
+from placement.planning.verification import CheckKey, TrajectoryIK, trajectory_ik
+
+
+class DynamicProgram:
+    """One plan's program: regions (changed by repairs), layers, the verified and rejected placements.
+
+    ``priced`` (with torso settings): the regions have a group per (arm, grasp, setting), each
+    verified at its setting, and the program prices the torso
+    (:class:`~placement.planning.program.held_first.HeldFirst`); otherwise the hold rule (:attr:`hold`)."""
+
+    def __init__(
+        self,
+        ctx: PlanningContext,
+        start: Cell,
+        neighbourhood: int = 0,
+        exact_repairs: int | None = None,
+        priced: bool = False,
+    ):
+        self.ctx, self.start, self.neighbourhood = ctx, start, neighbourhood
+        #: rejections removed one (cell, group) at a time before ``neighbourhood`` applies (None: always)
+        self.exact_repairs = exact_repairs
+        steps = ctx.problems.steps
+        self.linked = linked_steps(ctx)
+        w = ctx.world
+        held = start_torso(ctx)
+        self.program: WholeTaskProgram
+        if priced and held is not None:
+            # the torso priced (:mod:`placement.planning.program.priced_torso`): a group per (arm, grasp,
+            # setting), no hold rule; the plain program at the start setting while provably optimal
+            self.hold: list[float | None] = [None] * len(steps)
+            self.full = [torso_regions(ctx, i) for i in range(len(steps))]
+            grid = (w.factor, w.feasible, w.nav.resolution, start)
+            floor = ctx.problems.bounds.get(("maps", start))
+            if floor is None:  # the certificate's bound of the maps' regions: computed once, kept for it
+                floor = ctx.problems.bounds["maps", start] = travel_bound(ctx, start)
+            settings = [t for t in ctx.problems.settings if t is not None]
+            self.program = HeldFirst(grid, self.linked, held, settings, torso_term(ctx), floor)
+        else:
+            #: per step, the torso value [m] its region and verification hold the lift at (None: any)
+            self.hold = [held_torso(ctx, i) for i in range(len(steps))]
+            self.full = [map_regions(ctx, i, held=h) for i, h in enumerate(self.hold)]
+            self.program = Program(w.factor, w.feasible, w.nav.resolution, start, self.linked)
+        self.regions = self.weighted()
+        # what verification found, kept by the planner's per-step cache: a later plan of the same
+        # scene replays the same program with the IK answers looked up (same plan, without the IK
+        # time); the cache of a changed scene starts empty
+        #: (step, flat cell, group, the torso value held or None) -> what verification found
+        self.verified: dict[tuple[int, int, Group, float | None], Verified | None] = ctx.problems.verdicts
+        self.repairs = 0
+        self.rejected = [0] * len(steps)
+        #: a rejection took its neighbours with it (see :meth:`exact_again`)
+        self.coarse = False
+        self.solves = 0
+        self.first_total = math.inf  # the first solve's optimum [m]
+        #: a rejected placement is first moved to the least detour that verifies (:mod:`.repair`)
+        self.local = False
+        self.repairs_local = 0
+        #: the torso value [m] the robot holds at the step being verified (None: no torso settings)
+        self.torso: float | None = start_torso(ctx)
+
+    def solve(self, first: int = 0) -> Chain | None:
+        """The cheapest chain over the current regions, recomputing the layers from step ``first``
+        (the transfer rule applied where it binds: :class:`~placement.planning.program.forward.Program`)."""
+        self.solves += 1
+        chain = self.program.solve(self.regions, first)
+        if self.solves == 1 and not self.program.loose:  # a chain with loose transfers is no bound
+            self.first_total = chain.total if chain is not None else math.inf
+        return chain
+
+    @property
+    def layers(self) -> list[Layer]:
+        """The layers of the last solve."""
+        return list(self.program.layers)
+
+    def verify(self, i: int, flat: int, g: int) -> Verified | None:
+        """The first of step i's options of group g at ``flat`` that passes IK and the collision check
+        (by map value; with torso settings, those at the torso value the robot holds (:attr:`torso`)
+        first, see :mod:`placement.planning.torso`)."""
+        hold = self.setting(i, g)
+        key = (i, flat, self.regions[i].groups[g], hold)
+        if key in self.verified:
+            return self.verified[key]
+        ctx = self.ctx.for_step(i)
+        nav = ctx.world.nav
+        iy, ix = divmod(flat, nav.shape[1])
+        xs, ys = nav.centres()
+        step = ctx.problems.steps[i]
+        group = self.regions[i].groups[g]
+        opts = self.options(i, g)
+        order = sorted(
+            (k for k, o in enumerate(opts) if (o.arm, o.candidate.grasp) == group),
+            key=lambda k: -opts[k].value_at(iy, ix),
+        )
+        order = [
+            k
+            for k in order
+            if opts[k].value_at(iy, ix) >= ctx.threshold(opts[k].arm, opts[k].torso)
+            and (hold is None or opts[k].torso == hold)
+        ]
+        found = None
+        for k in torso_first(opts, order, self.torso):
+            o = opts[k]
+            x, y, best = float(xs[ix]), float(ys[iy]), float(ctx.yaws[o.yaw_at(iy, ix)])
+            face = facing_yaw(ctx, o, x, y, flat, best)
+            tries: list[tuple[CheckKey, float, float]] = [] if face is None else [((i, hold, k, flat, True), *face)]
+            for ck, yaw, value in [*tries, ((i, hold, k, flat, False), best, o.value_at(iy, ix))]:
+                found = self._check(ck, step, o, k, (x, y, yaw), value)
+                if found is not None:
+                    break
+            if found is not None:
+                break
+        self.verified[key] = found
+        return found
+
+    def check_at(self, i: int, g: int, k: int, base: tuple[float, float, float], value: float) -> Verified | None:
+        """IK and the collision check of step i's option ``k`` of group ``g`` at ``base`` (x [m], y [m],
+        yaw [rad]) of map value ``value``, not cached (any yaw, where :meth:`verify` tries a cell's best)."""
+        return self._check(None, self.ctx.problems.steps[i], self.options(i, g)[k], k, base, value)
+
+    def _check(
+        self, ck: CheckKey | None, step: Step, o: Option, k: int, base: tuple[float, float, float], value: float
+    ) -> Verified | None:
+        """IK and the collision check of option ``o`` (index ``k``) at ``base`` (kept in the problems'
+        checks under ``ck``, unless None): its :class:`Verified`, or None."""
+        ctx = self.ctx
+        checks = ctx.problems.checks
+        ik = None if ck is None else checks.ik.get(ck)
+        if ik is None:
+            ik = self._ik(o, base)
+            if ck is not None:
+                checks.ik[ck] = ik
+        if not ik.ok:
+            return None
+        clearance = None
+        checker = collisions_at(ctx, o.torso)
+        if checker is not None:
+            check = None if ck is None else checks.collision.get(ck)
+            if check is None:
+                check = checker.check(o.arm, ik.qs, base, **ctx.collision_args(step, o))
+                if ck is not None:
+                    checks.collision[ck] = check
+            if not check.free:
+                return None
+            clearance = float(check.clearance_m)
+        return Verified(k, base, ik, clearance, value)
+
+    def _ik(self, o: Option, base: tuple[float, float, float]) -> TrajectoryIK:
+        """IK of option ``o``'s poses with the base at ``base``, started from the map's witness, then
+        the arm's home and random restarts: not from the arm's configuration after the step before,
+        so that the answer is the placement's alone and stays valid when earlier steps change (see
+        :mod:`placement.planning.verification.verdicts`)."""
+        witness = getattr(option_map(self.ctx, o), "witness_q", None)
+        robot = robot_at(self.ctx, o.torso)
+        home = self.ctx.robot.arm(o.arm).home
+        return trajectory_ik(robot, o.arm, o.candidate.poses, base, home, witness, self.ctx.config)
+
+    def remove(self, i: int, flat: int, g: int, count: bool = True) -> None:
+        """Take the rejected (cell, group) (and its neighbourhood, for ``global``) out of step i's region."""
+        reg = self.regions[i]
+        masks = reg.masks.copy()
+        iy, ix = divmod(flat, masks.shape[2])
+        late = count and self.exact_repairs is not None and self.repairs >= self.exact_repairs
+        r = self.neighbourhood if late else 0
+        self.coarse = self.coarse or r > 0
+        masks[g, max(iy - r, 0) : iy + r + 1, max(ix - r, 0) : ix + r + 1] = False
+        self.regions[i] = replace(reg, masks=masks)
+        if count:
+            self.rejected[i] += 1
+            self.repairs += 1
+
+    def setting(self, i: int, g: int) -> float | None:
+        """The torso setting step i's group g is verified at: the group's own (the priced program),
+        the held lift value, or None (any)."""
+        sets = self.regions[i].settings
+        return sets[g] if sets is not None else self.hold[i]
+
+    def options(self, i: int, g: int) -> list[Option]:
+        """The options step i's group g is verified with (a ``Verified``'s index is into them): those
+        at :meth:`setting`, or all of them."""
+        hold = self.setting(i, g)
+        return self.ctx.problems.options(i) if hold is None else self.ctx.problems.held_options(i, hold)
+
+    def torso_m(self, chain: Chain, i: int) -> float:
+        """The torso term [m] in step i's label of ``chain`` (0 unless the program prices the torso)."""
+        if not isinstance(self.program, HeldFirst):
+            return 0.0
+        before = self.program.start_torso if i == 0 else settings_of(self.regions[i - 1])[chain.groups[i - 1]]
+        return self.program.term(before, settings_of(self.regions[i])[chain.groups[i]])
+
+    def release_lift(self) -> Chain | None:
+        """Solve again with the lift free (every torso setting, see
+        :func:`~placement.planning.program.forward.map_regions`) at the first step no chain reaches when that
+        step held it, else at every step; the rejections made with the lift held stay removed."""
+        i = next((k for k, layer in enumerate(self.layers) if not np.isfinite(layer.labels).any()), None)
+        free = [i] if i is not None and self.hold[i] is not None else range(len(self.hold))
+        for k in free:
+            self.hold[k] = None
+            self.full[k] = map_regions(self.ctx, k)
+        return self.exact_again()
+
+    def exact_again(self) -> Chain | None:
+        """Solve again over the maps' regions less only the placements verification rejected, never
+        removing neighbours again (when removing them left no chain)."""
+        self.exact_repairs, self.coarse = None, False
+        self.regions = self.weighted()
+        for (i, flat, group, hold), v in self.verified.items():
+            if v is not None or i >= len(self.full):
+                continue
+            reg = self.full[i]
+            sets = reg.settings if reg.settings is not None else (self.hold[i],) * len(reg.groups)
+            k = next((k for k, gt in enumerate(zip(reg.groups, sets)) if gt == (group, hold)), None)
+            if k is not None:
+                self.remove(i, flat, k, count=False)
+        return self.solve()
+
+    def weighted(self) -> list[Regions]:
+        """The maps' regions (:attr:`full`) with their node costs (``optimal_manipulability_weight``)."""
+        weigh = torso_reweighted if isinstance(self.program, HeldFirst) else reweighted
+        return [weigh(self.ctx, i, r) for i, r in enumerate(self.full)]
+
+    def reject_around(self, i: int, flat: int, g: int) -> None:
+        """Verify the cells around a rejected one (``ctx.config.optimal_probe`` cells each way) now and
+        remove those that fail too: rejections cluster (at the frontier of reach, beside an
+        obstacle), and an IK call costs less than solving the program again for each of them."""
+        r = self.ctx.config.optimal_probe
+        masks = self.regions[i].masks
+        ny, nx = masks.shape[1:]
+        iy, ix = divmod(flat, nx)
+        for y in range(max(iy - r, 0), min(iy + r + 1, ny)):
+            for x in range(max(ix - r, 0), min(ix + r + 1, nx)):
+                f = y * nx + x
+                if self.regions[i].masks[g, y, x] and self.verify(i, f, g) is None:
+                    self.remove(i, f, g)
+
+
+__all__ = ["DynamicProgram"]

@@ -1,0 +1,45 @@
+"""The heuristic towards the next step (paper section IV-C): area-weighted costs to its regions."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from placement.planning.world.layers import World
+from placement.planning.world.navigation import EIGHT, navigation_cost
+
+
+def region_heuristic(
+    region: np.ndarray,
+    world: World,
+    min_region: float,
+    targets: np.ndarray | None = None,
+    reachable: np.ndarray | None = None,
+) -> np.ndarray:
+    """Navigation cost [m] towards the connected regions of ``region`` (ny, nx) bool.
+
+    ``reachable``: optional (ny, nx) bool, the cells the base can get to
+    (:func:`~placement.planning.world.navigation.reachable_from`); the
+    region's other cells are left out, since a region in a pocket of floor the base cannot reach
+    would make the cost infinite everywhere. Each 8-connected region contributes the cost map from its centre cell (the region cell nearest
+    its centroid), weighted by its share of the area. Regions under ``min_region`` of the total
+    area would add a full cost map each for a negligible weight: they are dropped and the weights
+    renormalised. ``targets``: optional (ny, nx) bool of the cells that will be read (the cost maps
+    then stop once those are settled; other cells are inf). All zeros when ``region`` is empty.
+    """
+    if reachable is not None:
+        region = region & reachable
+    labels, n = ndimage.label(region, structure=EIGHT)
+    total = np.zeros(world.nav.shape)
+    if n == 0:
+        return total
+    sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
+    keep = [lab + 1 for lab in range(n) if sizes[lab] >= min_region * sizes.sum()]
+    area = sum(sizes[lab - 1] for lab in keep)
+    for lab in keep:
+        cells = np.argwhere(labels == lab)
+        centroid = cells.mean(axis=0)
+        centre = cells[np.argmin(((cells - centroid) ** 2).sum(axis=1))]
+        cost, _ = navigation_cost(world.factor, world.feasible, centre, world.nav.resolution, targets=targets)
+        total += (len(cells) / area) * cost
+    return total

@@ -1,0 +1,118 @@
+"""Navigation cost maps (paper section IV-A): distance to obstacles, velocity model, shortest paths.
+
+All maps are (ny, nx) arrays over a :class:`~placement.scene.navgrid.NavGrid`; row index = y, column = x.
+Distances and costs are in metres; ``cost / v_max`` is travel time in seconds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+
+from placement.errors import PlacementError
+from placement.kernels.navigation import distance_transform, shortest_costs
+from placement.planning.arrays import BoolArray, FloatArray, IntArray
+from placement.scene.navgrid import NavGrid
+
+#: 8-connected, as the base moves (placement.kernels.navigation)
+EIGHT = np.ones((3, 3), dtype=bool)
+
+
+def reachable_from(feasible: BoolArray, nav: NavGrid, x: float, y: float) -> BoolArray:
+    """(ny, nx) bool: the ``feasible`` cells the base can drive to from (x, y) [m] on ``nav``: its
+    8-connected component (every feasible cell when (x, y) is not on one: nothing narrower can be said)."""
+    try:
+        cell = nav.cell(x, y)
+    except PlacementError:
+        return feasible.copy()
+    if not feasible[cell]:
+        return feasible.copy()
+    labels, _ = ndimage.label(feasible, structure=EIGHT)
+    out: BoolArray = labels == labels[cell]
+    return out
+
+
+def distance_map(occupied: BoolArray, resolution: float) -> FloatArray:
+    """Exact Euclidean distance [m] from each cell centre to the nearest occupied cell centre.
+
+    occupied: (ny, nx) bool. Returns (ny, nx) float64 (inf if nothing is occupied).
+    """
+    occ = np.ascontiguousarray(occupied, dtype=np.bool_)
+    if occ.ndim != 2:
+        raise PlacementError(f"occupancy must be a 2D grid, got shape {occ.shape}")
+    out: FloatArray = distance_transform(occ, float(resolution))
+    return out
+
+
+def speed_factor(d_o: FloatArray, lam: float, k: float, d_max: float) -> FloatArray:
+    """The slowdown ``1 + lam * d_s`` of Eq. 4: ``v = v_max / factor``.
+
+    ``d_s = (1 - d_o / d_max) ** k`` where ``d_o < d_max`` [m], else 0 (defaults in
+    :class:`~placement.planning.settings.PlannerConfig`).
+    """
+    d_o = np.asarray(d_o, dtype=np.float64)
+    d_s = np.where(d_o < d_max, np.clip(1.0 - d_o / d_max, 0.0, 1.0) ** k, 0.0)
+    out: FloatArray = 1.0 + lam * d_s
+    return out
+
+
+def navigation_cost(
+    factor: FloatArray,
+    feasible: BoolArray,
+    starts: npt.ArrayLike,
+    resolution: float,
+    start_costs: npt.ArrayLike | None = None,
+    targets: BoolArray | None = None,
+    reverse: bool = False,
+) -> tuple[FloatArray, IntArray]:
+    """Minimal travel cost [m] from the start cells to every cell (Eq. 5, exact, Dijkstra); with
+    ``reverse``, from every cell to the start cells (``pred``: the next cell towards them).
+
+    Args:
+        factor: (ny, nx) slowdown per cell (>= 1), from :func:`speed_factor`.
+        feasible: (ny, nx) bool, cells the base may occupy.
+        starts: (k, 2) or (2,) integer (iy, ix) start cells.
+        resolution: cell size [m].
+        start_costs: optional (k,) initial costs [m] (0 by default).
+        targets: optional (ny, nx) bool: only these cells are needed; the search stops when
+            they are all settled and every other cell is returned as inf (same costs on the
+            targets, less work).
+    Returns:
+        cost (ny, nx) [m] (inf where unreachable), pred (ny, nx) flat predecessor index.
+    """
+    cells = np.ascontiguousarray(np.atleast_2d(np.asarray(starts, dtype=np.int64)))
+    feas = np.ascontiguousarray(feasible, dtype=np.bool_)
+    fac = np.ascontiguousarray(factor, dtype=np.float64)
+    if fac.shape != feas.shape:
+        raise PlacementError(f"factor {fac.shape} and feasible {feas.shape} grids differ")
+    ny, nx = feas.shape
+    if 9 * (ny + 2) * (nx + 2) + len(cells) >= 2**31:
+        raise PlacementError(f"the {ny} x {nx} grid is too large for the shortest-path kernel (int32 queue)")
+    outside = (cells[:, 0] < 0) | (cells[:, 0] >= ny) | (cells[:, 1] < 0) | (cells[:, 1] >= nx)
+    if outside.any():
+        iy, ix = cells[int(np.argmax(outside))]
+        raise PlacementError(f"start cell ({iy}, {ix}) is outside the {ny} x {nx} grid")
+    if not feas[cells[:, 0], cells[:, 1]].any():
+        iy, ix = cells[0]
+        raise PlacementError(f"start cell ({iy}, {ix}) is inside an obstacle or too close to one for the base")
+    costs = np.zeros(len(cells)) if start_costs is None else np.asarray(start_costs, dtype=float)
+    tgt = np.zeros(feas.shape, dtype=np.bool_) if targets is None else np.ascontiguousarray(targets, dtype=np.bool_)
+    if tgt.shape != feas.shape:
+        raise PlacementError(f"targets {tgt.shape} and feasible {feas.shape} grids differ")
+    cost, pred = shortest_costs(fac, feas, cells, costs, float(resolution), tgt, bool(reverse))
+    return np.asarray(cost, dtype=np.float64), np.asarray(pred, dtype=np.int64)
+
+
+def extract_path(pred: IntArray, goal: tuple[int, int] | IntArray) -> IntArray:
+    """Cells (m, 2) (iy, ix) from the source to ``goal`` (iy, ix) along the predecessor map."""
+    ny, nx = pred.shape
+    u = int(goal[0]) * nx + int(goal[1])
+    path = [u]
+    while pred.flat[u] >= 0:
+        u = int(pred.flat[u])
+        path.append(u)
+        if len(path) > pred.size:
+            raise PlacementError("predecessor map has a cycle")
+    path.reverse()
+    return np.array([(p // nx, p % nx) for p in path], dtype=np.int64)
