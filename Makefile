@@ -6,7 +6,7 @@ PY ?= .venv/bin/python
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 export OMP_WAIT_POLICY ?= PASSIVE
 
-.PHONY: install constraints lint test coverage maps maps-armar6 maps-tiago demo bench bench-kitchen bench-eval eval robots clean docs
+.PHONY: install constraints lint test test-all coverage maps maps-armar6 maps-tiago demo bench bench-kitchen bench-eval eval robots clean docs
 
 install: .venv/installed $(NUMBA_CACHE_DIR)/warm
 
@@ -35,10 +35,15 @@ lint: install
 	.venv/bin/ruff format --check placement tools tests
 	.venv/bin/mypy
 
-# Two pytest workers (pytest-xdist), a test file on one worker (--dist loadfile: pyproject.toml): 9.1 minutes
-# on the 2-core machine in a clean clone (CI, Chromium installed), 8.4 with the built maps and no Chromium;
-# the browser tests last (one headless Chromium for every picture, about 1.5 minutes).
+# The fast tier: everything not marked `slow` (kernels against their references, the programs against
+# enumeration, parsers, the CLI through click's runner), two pytest-xdist workers, a test file on one
+# worker (--dist loadfile: pyproject.toml). Run it while editing.
 test: install
+	$(PY) -m pytest -q -n 2 -m "not slow"
+
+# Both tiers: the fast one and the integration tier marked `slow` (map builds, the docs build, Chromium,
+# the warm-up, the ROS 2 node, commands as subprocesses, whole scenes); what CI runs.
+test-all: install
 	$(PY) -m pytest -q -n 2
 
 # Line coverage of placement/ (pytest-cov, .coveragerc): the suite, then the kernel reference tests again
@@ -46,9 +51,11 @@ test: install
 # enough in pure Python), the runs combined into one report with its total. Data in build/coverage.
 KERNEL_TESTS = tests/test_linalg6.py tests/test_grid.py tests/test_kinematics.py tests/test_ranking.py \
 	tests/test_navigation.py tests/test_isotropy_kernels.py tests/test_ik.py
+# `make coverage TIER=fast`: the fast tier alone.
+TIER ?= all
 coverage: install
 	rm -rf build/coverage && mkdir -p build/coverage
-	$(PY) -m pytest -q -n 2 --cov=placement --cov-config=.coveragerc --cov-report=
+	$(PY) -m pytest -q -n 2 $(if $(filter fast,$(TIER)),-m "not slow") --cov=placement --cov-config=.coveragerc --cov-report=
 	NUMBA_DISABLE_JIT=1 $(PY) -m pytest -q -n 2 --cov=placement --cov-config=.coveragerc --cov-append --cov-report= \
 		$(KERNEL_TESTS) -k "not batched_kernel_proves and not row_penalties"
 	$(PY) -m coverage report --rcfile=.coveragerc

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from typing import Any
+from typing import Any, cast
 
 from tqdm import tqdm
 
@@ -70,14 +70,14 @@ class Eta:
         # noise cannot promise a speed-up the build will not have (no slowdown is extrapolated)
         p = math.log(tau_before / tau) / math.log(mid / ((half[0] + quarter[0]) / 2)) if tau > 0 else 0.0
         p = min(max(p, 0.0), self.max_exponent)
-        return tau * mid**p * (total ** (1 - p) - done ** (1 - p)) / (1 - p)
+        return cast(float, tau * mid**p * (total ** (1 - p) - done ** (1 - p)) / (1 - p))  # (float ** float: Any)
 
     def latest_at(self, done: float) -> tuple[float, float]:
         """The latest (done, time) update with at most ``done`` units done."""
         return next(pt for pt in reversed(self.points) if pt[0] <= done)
 
 
-class EtaBar(tqdm):
+class EtaBar(tqdm):  # type: ignore[misc]  # tqdm ships no type hints: it is Any to mypy
     """A tqdm bar whose ETA ("<?" until it can be estimated) comes from :class:`Eta`."""
 
     def __init__(self, *args: Any, eta: Eta | None = None, **kwargs: Any) -> None:
@@ -89,11 +89,11 @@ class EtaBar(tqdm):
     def update(self, n: float = 1) -> bool | None:
         if not self.disable:  # recorded first: the update below redraws the bar
             self.eta.add(self.n + n, time.monotonic())
-        return super().update(n)
+        return cast("bool | None", super().update(n))
 
     @property
     def format_dict(self) -> dict[str, Any]:
-        d = super().format_dict
+        d: dict[str, Any] = super().format_dict
         left = self.eta.remaining(d.get("total"))
         d["eta"] = "?" if left is None else self.format_interval(left)
         return d

@@ -26,6 +26,7 @@ import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import cast
 
 from numba.core import event
 from numba.core.registry import CPUDispatcher
@@ -67,7 +68,8 @@ def announce_compilation(seconds: float) -> None:
     NOTICE.seconds = float(seconds)
     if not NOTICE.listening:
         NOTICE.listening = True
-        event.register("numba:compile", NOTICE)
+        # (numba leaves event.register unannotated)
+        cast("Callable[[str, event.Listener], None]", event.register)("numba:compile", NOTICE)
 
 
 def kernel_dispatchers() -> dict[str, CPUDispatcher]:
@@ -167,7 +169,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     import placement.kernels  # noqa: F401  (sets numba's cache directory)
 
-    say = (lambda *a: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
+    say: Callable[[str], None] = (lambda *a: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     # numba sets its config attributes at run time (from the environment): mypy cannot see them
     say(f"warming the numba cache in {numba.config.CACHE_DIR}")  # type: ignore[attr-defined]
     with tempfile.TemporaryDirectory() as tmp:

@@ -81,7 +81,34 @@ FIRST = (
 LAST = ("test_viewer_browser.py",)
 
 
+#: fixtures that build maps, a docs site or whole plans: a test that uses one is in the integration tier
+#: (``slow``; `make test` leaves it out, `make test-all` runs it)
+SLOW_FIXTURES = frozenset(
+    {
+        "maps_dir",  # the planning maps (700 k samples per arm)
+        "proposed",  # robots init of every example-robot-data robot
+        "torso_maps",
+        "stored",
+        "built",
+        "built_small",
+        "knee",
+        "pitch",
+        "figures",
+        "planned",
+        "site",  # the docs site
+        "saved",
+        "completed",
+        "small_map",
+        "coarse_map",
+    }
+)
+
+
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if SLOW_FIXTURES.intersection(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
     rank = {name: k for k, name in enumerate(FIRST)} | {name: len(FIRST) + 1 + k for k, name in enumerate(LAST)}
     items.sort(key=lambda item: rank.get(Path(item.nodeid.partition("::")[0]).name, len(FIRST)))  # stable
     if ARMAR6_SOURCE != "package":

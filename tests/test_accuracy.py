@@ -27,6 +27,7 @@ def report(pr2, small_map):
     return out
 
 
+@pytest.mark.slow
 def test_counts_consistent(report):
     r = report
     assert r["positives_drawn"] == SAMPLES and r["negatives_drawn"] == SAMPLES
@@ -72,6 +73,7 @@ def test_drawn_cells_are_in_their_class(pr2, report, small_map):
     assert np.all(np.linalg.norm(pos - centre, axis=1) <= reach + 1e-9)
 
 
+@pytest.mark.slow
 def test_deterministic_and_threshold(pr2, small_map, report):
     again = check_map(pr2, small_map, samples=SAMPLES, seed=0)
     for key in ("positive_cells", "negative_cells", "true_positives", "false_negatives"):
@@ -88,6 +90,7 @@ def test_wrong_robot_is_rejected(pr2, small_map):
         check_map(pr2, other, samples=5)
 
 
+@pytest.mark.slow
 def test_opened_map(pr2, tmp_path):
     """The same check on a map saved and opened lazily (coarse grid to keep it quick)."""
     built = placement.build_map(pr2, "right", samples=5000, resolution=0.1, bins=(10, 5, 10), progress=False)
@@ -130,6 +133,7 @@ def test_pose_level_metrics(pr2, report, small_map):
     assert p["recall_draws"] >= p["recall_cells"]
 
 
+@pytest.mark.slow
 def test_pose_level_recall_and_precision_can_fail(pr2, small_map):
     """A map that marks every cell reachable has recall 1 and a poor precision; an empty one recall 0."""
     from placement.maps.accuracy import pose_metrics

@@ -147,6 +147,7 @@ def test_dependencies_follow_the_layers(path):
             assert own in WARMUP_USERS, f"{name} imports warmup ({target})"
 
 
+@pytest.mark.slow
 def test_pending_exceptions_are_still_needed():
     """An exception whose import is gone is taken out of PENDING, so the list only shrinks."""
     edges = {(name, t) for name, path in MODULES.items() for t in _targets(path)}
@@ -213,11 +214,13 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     return found
 
 
+@pytest.mark.slow
 def test_no_import_cycle_between_modules():
     graph = {name: {t for t in _targets(path) if (name, t) not in PENDING} for name, path in MODULES.items()}
     assert _cycles(graph) == []
 
 
+@pytest.mark.slow
 def test_no_import_cycle_between_packages():
     graph: dict[str, set[str]] = {}
     for name, path in MODULES.items():
@@ -229,6 +232,7 @@ def test_no_import_cycle_between_packages():
     assert _cycles(graph) == []
 
 
+@pytest.mark.slow
 def test_opening_a_map_does_not_import_the_builder():
     import subprocess
     import sys
@@ -258,6 +262,7 @@ def _private_uses(path: Path) -> list[str]:
     return found
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", _modules("placement", "tools"), ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_private_member_is_used_from_another_module(path):
     assert _private_uses(path) == []

@@ -49,6 +49,7 @@ def assert_bitwise_equal(a: np.ndarray, b: np.ndarray):
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_default_resolution_is_5cm(built):
     """5 cm cells by default (as maps/pr2.yaml; maps/pr2-10cm.yaml chooses 0.1 m)."""
     assert built.grid.resolution == 0.05
@@ -66,6 +67,7 @@ def test_map_is_not_trivial(built, built_small):
     assert np.count_nonzero(built_small.values) < 0.6 * N_SMALL
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("grid", ["default", "small"])
 def test_thread_count_does_not_change_the_map(pr2, built, built_small, grid):
     kw = dict(samples=N_SMALL, **SMALL) if grid == "small" else {}
@@ -79,6 +81,7 @@ def test_thread_count_does_not_change_the_map(pr2, built, built_small, grid):
     assert_bitwise_equal(two.values, ref.values)
 
 
+@pytest.mark.slow
 def test_block_size_does_not_change_the_map(pr2, built):
     """``built`` ran as one block of 30000 (the default block is larger than the sample count)."""
     assert_bitwise_equal(build(pr2, block=4096).values, built.values)
@@ -127,14 +130,17 @@ def _check_samples_under_map(robot, arm_name, m, n):
     assert_bitwise_equal(best.reshape(m.values.shape), m.values)
 
 
+@pytest.mark.slow
 def test_every_sample_is_below_its_cell(pr2, built):
     _check_samples_under_map(pr2, "right", built, N)
 
 
+@pytest.mark.slow
 def test_every_sample_is_below_its_cell_small_grid(pr2, built_small):
     _check_samples_under_map(pr2, "right", built_small, N_SMALL)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "kw,index",
     [({}, "isotropy"), (SMALL, "isotropy"), (SMALL, "volume")],
@@ -174,6 +180,7 @@ def test_samples_are_uniform_within_limits(pr2):
     np.testing.assert_array_equal(sample_configs(np.uint64(1), 500, 100, arm.lower, arm.upper), Q[500:600])
 
 
+@pytest.mark.slow
 def test_armar6_map_both_arms(armar6):
     maps = {arm: build(armar6, arm, samples=4000, seed=3, **SMALL) for arm in armar6.arms}
     assert set(maps) == {"left", "right"}

@@ -50,6 +50,7 @@ def hidden(folder: Path) -> list[str]:
     return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
 
 
+@pytest.mark.slow
 def test_two_builds_of_different_arms_into_one_map_both_land(tmp_path):
     out = tmp_path / "m"
     builds = [start(*BUILD, "--arm", arm, "--out", str(out)) for arm in ("right", "left")]
@@ -61,6 +62,7 @@ def test_two_builds_of_different_arms_into_one_map_both_land(tmp_path):
     assert hidden(tmp_path) == [], "lock or partial files left behind"
 
 
+@pytest.mark.slow
 def test_a_second_build_of_an_arm_being_built_fails_at_once(tmp_path, pr2, left_map):
     """The first build holds its arms while it samples; the second fails in seconds naming it; the first,
     interrupted, leaves the old map as it was (nothing lost) and no lock behind."""
@@ -95,6 +97,7 @@ def test_a_second_build_of_an_arm_being_built_fails_at_once(tmp_path, pr2, left_
     assert hidden(tmp_path) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["zarr", "hdf5"])
 def test_concurrent_saves_in_threads_keep_every_arm(tmp_path, pr2, right_map, left_map, fmt):
     """save_maps from two threads at once (one arm each), again and again: the map always holds both."""

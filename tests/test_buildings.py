@@ -55,6 +55,7 @@ def plans(maps_dir):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", BUILDINGS, ids=lambda p: p.parent.name)
 @pytest.mark.parametrize("method", ["global", "sequential"])
 def test_every_step_plans_and_holds(plans, path, method):
@@ -132,6 +133,7 @@ def test_sequential_plans_beside_floor_the_base_cannot_reach(maps_dir):
     assert np.isfinite(problems.heuristic(1)[world.nav.cell(*result.steps[0].base[:2])])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["global", "optimal", "sequential"])
 def test_a_spent_time_budget_keeps_the_verified_steps_and_says_why(maps_dir, method):
     """With 0.1 s for the whole task, the plan stops soon after: the steps verified by then are kept,
@@ -182,6 +184,7 @@ def test_every_method_names_the_same_failing_step_and_keeps_the_steps_before(map
     assert "outside the height range of the maps" in reasons["global"]
 
 
+@pytest.mark.slow
 def test_an_update_on_a_windowed_map_plans_as_a_fresh_planner(maps_dir):
     """The arena, planned on a window of its map: an object moved 2 cm (the same window), then the start
     moved to the second room (another window): each re-plan equals a fresh planner's plan."""

@@ -102,6 +102,7 @@ def every_method(maps_dir, tmp_path_factory):
     return planner, out
 
 
+@pytest.mark.slow
 def test_every_plan_carries_a_certificate_in_its_json(every_method):
     planner, results = every_method
     for m, r in results.items():
@@ -136,6 +137,7 @@ def test_optimal_is_never_worse_than_sequential(every_method):
     assert results["global"].ok and not results["global"].verify(every_method[0].robot)
 
 
+@pytest.mark.slow
 def test_each_step_of_the_whole_task_methods_travels_the_shortest_path_from_the_last(every_method):
     """A chain repaired locally (``global``) keeps exact legs: each step's travel is scipy's shortest
     path from the previous base cell (the start for the first)."""

@@ -11,6 +11,7 @@ import pytest
 from support.cli import ROOT, assert_one_line_error, run
 
 
+@pytest.mark.slow
 def test_build_info_json(tmp_path):
     out = tmp_path / "m"
     p = run(
@@ -44,6 +45,7 @@ def test_build_info_json(tmp_path):
     assert arm["meta"]["robot"] == "pr2" and arm["meta"]["seed"] == 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "args,words",
     [
@@ -60,6 +62,7 @@ def test_bad_input_is_one_line(tmp_path, args, words):
     assert_one_line_error(run(*args, cwd=tmp_path), *words)
 
 
+@pytest.mark.slow
 def test_build_refuses_to_overwrite_non_map(tmp_path):
     target = tmp_path / "precious"
     target.mkdir()
@@ -68,6 +71,7 @@ def test_build_refuses_to_overwrite_non_map(tmp_path):
     assert (target / "thesis.txt").read_text() == "do not delete"
 
 
+@pytest.mark.slow
 def test_bad_preset_names_the_key(tmp_path):
     preset = tmp_path / "r.yaml"
     preset.write_text("name: r\nurdf: x.urdf\nbase_frame: b\narms: {}\nwheels: 4\n")
@@ -81,6 +85,7 @@ def test_bad_preset_names_the_key(tmp_path):
     assert_one_line_error(run("maps", "build", "--robot", str(preset), "--out", str(tmp_path / "m")), "URDF")
 
 
+@pytest.mark.slow
 def test_bad_frame_names_the_frame(tmp_path):
     from placement.robots.preset import PRESET_DIR
 
@@ -106,6 +111,7 @@ def _readme_blocks(lang):
     return re.findall(rf"```{lang}\n(.*?)```", text[start:end], re.S)
 
 
+@pytest.mark.slow
 def test_readme_quick_start(tmp_path):
     """Every `placement` command of the quick start runs as written (paths moved into tmp)."""
     (bash,) = _readme_blocks("bash")
@@ -130,6 +136,7 @@ def test_readme_quick_start(tmp_path):
         os.chdir(cwd)
 
 
+@pytest.mark.slow
 def test_unreachable_dask_scheduler_is_one_line(tmp_path):
     pytest.importorskip("dask.distributed")
     assert_one_line_error(

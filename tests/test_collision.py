@@ -180,6 +180,7 @@ def pr2_scene():
     return with_occupancy(parse_scene(scene_doc("pr2", 1.0)))
 
 
+@pytest.mark.slow
 def test_pr2_decisions_and_clearances_equal_plain_coal(pr2, pr2_scene):
     """Random arm configurations at bases in front of a table: same verdicts, same clearance below the cap."""
     checker = SceneCollision(pr2, pr2_scene)
@@ -200,6 +201,7 @@ def test_pr2_decisions_and_clearances_equal_plain_coal(pr2, pr2_scene):
     assert any(c.endswith("_link") for c in culprits)
 
 
+@pytest.mark.slow
 def test_pr2_padding_equals_coal_security_margin(pr2, pr2_scene):
     checker = SceneCollision(pr2, pr2_scene, padding=0.05)
     oracle = Oracle(pr2, "right", [str(p) for p in Path(pr2.urdf_path).resolve().parents])
@@ -251,6 +253,7 @@ def armar6_meshes(urdf: Path, folder: Path, skip=()) -> list[str]:
     return written
 
 
+@pytest.mark.slow
 def test_armar6_decisions_and_clearances_equal_plain_coal(armar6, tmp_path):
     armar6_meshes(armar6.urdf_path, tmp_path)
     scene = with_occupancy(parse_scene(scene_doc(str(armar6.source), 1.1)))

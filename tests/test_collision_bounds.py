@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import coal
 import numpy as np
+import pytest
 from support.planning import write_scene
 
 from placement.collision import SceneCollision
@@ -30,6 +31,7 @@ def test_boxes_distance_is_coals_box_distance():
         assert got == np.float64(0.0) if want <= 0 else abs(got - want) < 1e-9
 
 
+@pytest.mark.slow
 def test_every_pairs_bound_is_below_its_distance(tmp_path, maps_dir, pr2):
     scene = load_scene(write_scene(tmp_path, maps_dir))
     c = SceneCollision(pr2, scene)

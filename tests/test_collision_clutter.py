@@ -105,6 +105,7 @@ def _base(base):
     return base_matrix(*base)
 
 
+@pytest.mark.slow
 def test_prefiltered_pairs_equal_the_brute_force_pair_list(pr2):
     """The candidate pairs themselves (robot instance, scene piece, lower bound) are the same, with
     dense small clutter (every piece near the edge of the robot's window counts)."""
@@ -192,6 +193,7 @@ def test_reach_squares_hold_the_checks_bound():
     assert PieceGrid(aabb, 0.0).hi[0, 0] - c[0, 0] < PieceGrid(aabb, None).hi[0, 0] - c[0, 0]
 
 
+@pytest.mark.slow
 def test_far_clutter_costs_nothing_per_check(pr2):
     """10,000 one-centimetre boxes 4 m and more from the robot: each check looks at the pieces of the
     clutter-free scene only, and takes about the time it takes there (today's brute force: ~20x)."""

@@ -48,6 +48,7 @@ def empty_scene():
     )
 
 
+@pytest.mark.slow
 def test_romeo_init_writes_the_wrist_pairs(tmp_path):
     out = tmp_path / "romeo.yaml"
     p = propose(romeo_urdf(), out)

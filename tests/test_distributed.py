@@ -7,6 +7,8 @@ import pytest
 
 import placement
 
+pytestmark = pytest.mark.slow
+
 distributed = pytest.importorskip("dask.distributed")
 
 

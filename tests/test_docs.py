@@ -62,6 +62,7 @@ def site(tmp_path_factory) -> Path:
     return out_dir
 
 
+@pytest.mark.slow
 def test_the_site_builds_with_warnings_as_errors(site):
     assert (site / "api/planning/index.html").is_file()
 

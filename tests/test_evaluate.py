@@ -48,6 +48,7 @@ def test_evaluate_document(tmp_path, maps_dir):
     assert red == 1 - sum(seq) / sum(irm)
 
 
+@pytest.mark.slow
 def test_cli_evaluate_writes_report(tmp_path, maps_dir):
     paths = _scenes(tmp_path, maps_dir, n=2)
     out = tmp_path / "report"

@@ -59,6 +59,7 @@ def without_timings(doc: dict) -> dict:
     return doc
 
 
+@pytest.mark.slow
 def test_dask_document_equals_local(client, scenes):
     local = evaluate(scenes, METHODS, workers=1)
     seen = []
@@ -78,6 +79,7 @@ def test_dask_error_in_a_scene_is_raised_here(client, scenes, tmp_path):
         evaluate(scenes[:2], ["sequential"], maps=tmp_path / "no-maps-here", client=client)
 
 
+@pytest.mark.slow
 def test_cli_dask_equals_local(client, scenes):
     args = ["evaluate", *map(str, scenes), "--methods", ",".join(METHODS), "--json", "-q"]
     local = CliRunner().invoke(cli, [*args, "--workers", "1"])

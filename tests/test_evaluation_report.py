@@ -24,6 +24,7 @@ def small_doc():
     }
 
 
+@pytest.mark.slow
 def test_every_report_file_is_renamed_into_place(tmp_path, monkeypatch):
     moves = []
     real = os.replace

@@ -112,6 +112,7 @@ def _bits(masks, K):
     return np.array([[(int(m[k >> 6]) >> (k & 63)) & 1 for k in range(K)] for m in masks], bool).reshape(-1, K)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(8))
 def test_no_feasible_pose_comes_near_an_obstacle_shape(seed):
     rng = np.random.default_rng(seed)
@@ -140,6 +141,7 @@ def test_no_feasible_pose_comes_near_an_obstacle_shape(seed):
     assert n_ok > 0.05 * allowed.size  # not everything rejected
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(6))
 def test_band_masks_equal_a_brute_force_reference(seed):
     """Every cell and yaw: blocked iff the placed footprint comes within the padding of a touched square."""
@@ -171,6 +173,7 @@ def test_band_masks_equal_a_brute_force_reference(seed):
     assert 0 < allowed.sum() < allowed.size
 
 
+@pytest.mark.slow
 def test_touched_squares_cover_the_shapes_and_spare_shared_edges():
     rng = np.random.default_rng(5)
     nav = NavGrid((0.0, 0.0), 0.05, (60, 60))
@@ -201,6 +204,7 @@ def test_round_base_is_the_distance_test_at_every_yaw():
     assert not masks[~world.feasible.ravel()].any()
 
 
+@pytest.mark.slow
 def test_the_square_base_parks_flush_facing_a_table_but_not_across():
     """An aligned 0.67 m square fits 0.375 m from a table edge facing it (0.335 + 0.02 padding, the
     next cell centre), but not diagonally: its corner would reach the table."""

@@ -134,6 +134,7 @@ def test_layout(tmp_path, obstacles):
     assert_layout(scene)
 
 
+@pytest.mark.slow
 def test_invariants_over_many_seeds(tmp_path):
     """2 x 100 scenes of 12 objects: every object on its table, off and out of the shadow of the crates."""
     for obstacles in (False, True):
@@ -193,6 +194,7 @@ def test_paths_recorded_relative_to_the_scene(tmp_path, monkeypatch):
     assert doc["robot"]["preset"] == str(work / "robots/mine.yaml") and doc["maps"] == "/m/pr2"
 
 
+@pytest.mark.slow
 def test_cli_records_default_maps_and_plans_from_another_cwd(tmp_path, maps_dir):
     """Without --maps the scenes record maps/<robot> of the generating directory, relative to themselves;
     a scene planned from another directory finds them."""
@@ -241,6 +243,7 @@ def test_cli_records_default_maps_and_plans_from_another_cwd(tmp_path, maps_dir)
     assert json.loads(q.stdout)["status"] == "ok"
 
 
+@pytest.mark.slow
 @settings(deadline=None)
 @given(
     seed=st.integers(0, 2**63 - 1),
@@ -293,6 +296,7 @@ def test_place_tables_come_from_the_footprint(tmp_path):
     assert sizes == {"place_table_a": [0.69, 0.69, TABLE_HEIGHT], "place_table_b": [0.69, 0.69, TABLE_HEIGHT]}
 
 
+@pytest.mark.slow
 def test_cli_table_depth(tmp_path):
     run = [sys.executable, "-m", "placement.cli.main", "scenes", "generate", "--count", "1", "--table-depth"]
     p = subprocess.run([*run, "0.45", "--out", str(tmp_path / "a"), "-q"], capture_output=True, text=True, cwd=ROOT)
@@ -339,6 +343,7 @@ def gripper_collides(robot, arm: str, tcp_poses, boxes, padding: float = 0.005) 
     return False
 
 
+@pytest.mark.slow
 def test_top_grasps_of_generated_objects_are_collision_free():
     """Every top grasp (pre-grasp and grasp pose) of every object of 2 x 15 scenes of 12 objects: the
     PR2 gripper clears every other object by the planner's 5 mm padding. The oracle finds the
@@ -364,6 +369,7 @@ def test_top_grasps_of_generated_objects_are_collision_free():
                     assert not gripper_collides(robot, "right", g.poses, others), f"scene {k}: {o.name} {g.name}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("objects, obstacles", [(30, True), (50, False), (50, True)])
 def test_every_documented_count_fits_on_longer_pick_tables(objects, obstacles):
     """More objects than the default tables hold: the scene is drawn again on longer pick tables (up to

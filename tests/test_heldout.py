@@ -48,6 +48,7 @@ def write(tmp_path, doc: dict, name: str) -> Path:
     return path
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed,obstacles", [(21, False), (22, True)])
 def test_generated_table_clearing(tmp_path, maps_dir, pr2, seed, obstacles):
     from placement.evaluation.generate import generate_scene
@@ -83,6 +84,7 @@ def kitchen_variant(maps) -> dict:
     return doc
 
 
+@pytest.mark.slow
 def test_v2_side_grasps_lying_object_and_reach(tmp_path, maps_dir, pr2):
     planner = Planner(write(tmp_path, kitchen_variant(maps_dir), "kitchen2"))
     result = planner.plan()
@@ -111,6 +113,7 @@ def test_the_checker_sees_a_base_in_the_table_and_an_arm_in_it(tmp_path, maps_di
     assert c.footprint_m <= 0 and any("pick_table" in h for h in c.scene_hits) and not c.free
 
 
+@pytest.mark.slow
 def test_the_checker_agrees_with_the_planners_check_on_random_arms(tmp_path, maps_dir, pr2):
     """Two implementations of the same rules (padding 0): the same verdict on random configurations
     of the right arm next to a table, including self-collisions."""

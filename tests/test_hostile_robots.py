@@ -133,6 +133,7 @@ def test_a_round_footprint_of_the_most_points_loads(tmp_path):
 XACRO_HEAD = '<?xml version="1.0"?>\n<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="r">\n'
 
 
+@pytest.mark.slow
 def test_xacro_expansions_are_bounded(tmp_path, monkeypatch):
     monkeypatch.setattr(description, "XACRO_TIMEOUT", 3.0)
     monkeypatch.setattr(description, "XACRO_MEMORY", 512 * 2**20)

@@ -27,6 +27,7 @@ def _planar(x, y, a):
     return T
 
 
+@pytest.mark.slow
 def test_sliced_irm_equals_direct_lookup(coarse_map):
     rng = np.random.default_rng(3)
     nav = NavGrid((-1.5, -1.5), 0.1, (30, 30))
@@ -180,6 +181,7 @@ def test_lowest_is_the_elementwise_minimum_of_the_slices(coarse_map):
     assert np.array_equal(coarse_map.lowest((3,), ip, ir), coarse_map.slice(3, ip, ir))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("poses, candidates", [(1, 1), (1, 8), (2, 2), (3, 5)])
 def test_column_skip_changes_no_result(poses, candidates):
     """The kernel skips a base yaw whose first pose lands on a map column no higher than every

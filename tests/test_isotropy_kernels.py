@@ -63,6 +63,7 @@ def test_batched_kernel_proves_or_matches(robot_name, arm_name, request):
     assert proven > 50 and exact_count > 50  # the thresholds exercise both outcomes
 
 
+@pytest.mark.slow
 def test_octant_bounds_against_numpy():
     """The vectorised 64-octant kernels: rho <= lambda_max, mu >= lambda_min, pd_flags = eigvalsh > 0."""
     from placement.kernels import manipulability as km

@@ -50,6 +50,7 @@ def step_of(ground: Ground, action: str, target: str) -> int:
 
 # the sweeps (docs/bench/kitchen_torso.md) serve the shelf pick from 0.24 m (PR2) and 0.25 m (TIAGo),
 # only with side grasps (they clear the board), and the low-table place up to 0.20 m
+@pytest.mark.slow
 @pytest.mark.parametrize(("which", "up"), [("pr2", 0.31), ("tiago", 0.30)])
 def test_a_shelf_pick_needs_the_torso_up(which, up, request):
     ground = request.getfixturevalue(which)
@@ -60,6 +61,7 @@ def test_a_shelf_pick_needs_the_torso_up(which, up, request):
 
 
 # (scene, the lift's upper limit [m], the grasps tried at 0 (None: all))
+@pytest.mark.slow
 @pytest.mark.parametrize(("which", "top", "grasps"), [("pr2", 0.31, ["top"]), ("tiago", 0.35, None)])
 def test_a_low_table_place_needs_the_torso_down(which, top, grasps, request):
     ground = request.getfixturevalue(which)

@@ -63,6 +63,7 @@ def test_reference_measure_literal():
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("index", ["isotropy", "volume"])
 @pytest.mark.parametrize("robot,arm_name", ROBOT_ARMS, indirect=["robot"])
 def test_random_configurations(robot, arm_name, index):
@@ -138,6 +139,7 @@ def test_near_joint_limits_isotropy(robot, arm_name, eps, several):
     assert_matches(robot, arm_name, Q, "isotropy")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("several", [False, True], ids=["one-joint", "several-joints"])
 @pytest.mark.parametrize("eps", [1e-3, 1e-8, 0.0], ids=["1e-3", "1e-8", "at-limit"])
 @pytest.mark.parametrize("robot,arm_name", [("pr2", "right"), ("armar6", "left")], indirect=["robot"])

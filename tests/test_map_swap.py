@@ -15,6 +15,8 @@ from placement.errors import MapError
 from placement.planning import Planner
 from placement.storage import map_identity
 
+pytestmark = pytest.mark.slow
+
 
 def build(robot, path, seed):
     built = {

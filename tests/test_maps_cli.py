@@ -147,6 +147,7 @@ def test_out_is_an_existing_non_map(work):
     assert snapshot(work) == before
 
 
+@pytest.mark.slow
 def test_out_is_a_map_of_another_robot_or_format(work, armar6, pr2):
     m = placement.build_map(armar6, "left", samples=300, seed=1, progress=False, **SMALL)
     placement.save_maps(work / "armar6", armar6, {"left": m})
@@ -195,6 +196,7 @@ def test_bad_check_options(work, args, words):
     assert_one_line_error(run(["maps", "check", "m", *args], work), *words)
 
 
+@pytest.mark.slow
 def test_info_and_check_on_a_sound_map(work, pr2):
     m = placement.build_map(pr2, "right", samples=2000, seed=1, progress=False, **SMALL)
     placement.save_maps(work / "m", pr2, {"right": m})

@@ -110,6 +110,7 @@ def copy(src, tmp_path):
     return dst
 
 
+@pytest.mark.slow
 def test_saved_maps_store_the_statistics_of_their_arrays(saved):
     _, path = saved
     for arm in ("right", "left"):
@@ -138,6 +139,7 @@ def test_full_reads_every_chunk_and_agrees(saved):
         assert_matches(entry, reference(placement.open_map(path, arm).values))
 
 
+@pytest.mark.slow
 def test_a_map_saved_without_statistics_is_read_with_a_note(saved, tmp_path):
     fmt, src = saved
     path = copy(src, tmp_path)
@@ -192,6 +194,7 @@ def test_saving_beside_an_arm_without_statistics_gives_it_them(pr2, right_map, l
         assert_matches(stored_meta(path, arm)[KEY], reference(m.values))
 
 
+@pytest.mark.slow
 def test_every_torso_setting_array_stores_its_own_statistics(tmp_path):
     robot = placement.load_robot(write_pitch_torso(tmp_path / "robot"))
     built = build_torso_maps(

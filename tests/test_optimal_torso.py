@@ -135,6 +135,7 @@ def coarse(pitch):
     return {n: Planner(_scene(folder, maps, r, n == 4), "optimal", collisions=False) for n, r in ((2, 0.2), (4, 0.25))}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("held", [0.0, 0.6], ids=["upright start", "leaning start"])
 @pytest.mark.parametrize("n", [2, 4], ids=["2 steps", "4 steps"])
 @pytest.mark.parametrize("kind", ["urdf", "cheap", "lean dearer"])
@@ -259,6 +260,7 @@ def test_tiago_kitchen_optimal_plans_every_step_no_dearer_than_global():
     assert _model_m(robot, result, joint, start) <= _model_m(robot, other, joint, start) + 1e-9
 
 
+@pytest.mark.slow
 def test_postures_are_priced_by_their_slowest_joint(tmp_path):
     """The hip-and-knee torso (support/knee_torso.py) at two postures: the deep table's cup only
     crouched; ``optimal`` crouches for it, and the chain's torso terms are v_max times the slowest

@@ -73,6 +73,7 @@ def world_tcp(robot, doc_robot, arm, joints, base) -> np.ndarray:
     return root @ data.oMf[model.getFrameId(info["tip_frame"])].homogeneous @ pose_to_matrix(info["tcp_offset"])
 
 
+@pytest.mark.slow
 def test_every_step_gives_every_actuated_joint(doc, pr2):
     assert doc["status"] == "ok" and len(doc["steps"]) == 6
     json.dumps(doc, allow_nan=False)  # strict JSON

@@ -83,6 +83,7 @@ def _run(*args):
     return subprocess.run([sys.executable, "-m", "placement.cli.main", *args], capture_output=True, text=True, env=env)
 
 
+@pytest.mark.slow
 def test_cli_json_and_plots(tmp_path, maps_dir):
     path = write_scene(tmp_path, maps_dir)
     p = _run("query", str(path), "--json", "-q", "--plot", str(tmp_path / "plots"))
@@ -109,6 +110,7 @@ def test_cli_json_and_plots(tmp_path, maps_dir):
     assert len(list((tmp_path / "plots").glob("*.png"))) == 4
 
 
+@pytest.mark.slow
 def test_unreachable_object_is_reported_not_placed(tmp_path, maps_dir):
     scene = json.loads(json.dumps(SCENE))["objects"]
     scene[0]["position"] = [3.0, 2.55, 2.6]  # far above any reach
@@ -121,6 +123,7 @@ def test_unreachable_object_is_reported_not_placed(tmp_path, maps_dir):
     assert "infeasible" in p.stderr and "Traceback" not in p.stderr
 
 
+@pytest.mark.slow
 def test_start_inside_obstacle_is_one_line(tmp_path, maps_dir):
     robot = {"preset": "pr2", "start": [3.0, 2.5, 0.0]}
     p = _run("query", str(write_scene(tmp_path, maps_dir, robot=robot)))
@@ -161,6 +164,7 @@ def test_optimal_names_the_step_that_fails(tmp_path, maps_dir):
     assert (result.failed_step.step, result.failed_step.target) == (2, "box")
 
 
+@pytest.mark.slow
 def test_optimal_writes_plots(tmp_path, maps_dir):
     path = write_scene(tmp_path, maps_dir)
     p = _run("query", str(path), "--method", "optimal", "-q", "--plot", str(tmp_path / "plots"))

@@ -46,6 +46,7 @@ def figures(planned, tmp_path_factory):
     return files, made
 
 
+@pytest.mark.slow
 def test_one_readable_png_per_step(planned, figures):
     from PIL import Image
 

@@ -85,6 +85,7 @@ def test_fixed_joint_outside_its_limits(tmp_path):
     assert placement.load_robot(write(tmp_path, changed(pr2_mapping(), fixed_joints={"torso_lift_joint": 0.0})))
 
 
+@pytest.mark.slow
 def test_cli_prints_one_error_line(tmp_path):
     """Through the command line: exit 2, one `error:` line, nothing written."""
     path = write(tmp_path, changed(pr2_mapping(), arms__right__home=[0, 0, math.nan, 0, 0, 0, 0]))

@@ -8,6 +8,7 @@ import logging
 import re
 import time
 
+import pytest
 from click.testing import CliRunner
 from tqdm import tqdm
 
@@ -109,6 +110,7 @@ def _on_a_terminal(*args: str, timeout: float = 600) -> tuple[int, str, str]:
     return proc.returncode, out.decode(), b"".join(drawn).decode(errors="replace")
 
 
+@pytest.mark.slow
 def test_maps_info_full_shows_the_layers_it_reads_per_arm_on_a_terminal(maps_dir):
     import json
 
@@ -129,6 +131,7 @@ def test_maps_info_full_shows_the_layers_it_reads_per_arm_on_a_terminal(maps_dir
     assert plain.exit_code == 0 and json.loads(plain.output)
 
 
+@pytest.mark.slow
 def test_maps_check_shows_its_ik_solves_and_reports_as_check_map_does(maps_dir, pr2):
     import json
 

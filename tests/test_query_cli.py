@@ -15,6 +15,7 @@ from support.planning import SCENE, write_scene
 from support.plans import strip_timings
 
 
+@pytest.mark.slow
 def test_placement_query_console_script_equals_placement_query(tmp_path, maps_dir):
     exe = shutil.which("placement-query", path=str(Path(sys.executable).parent))
     assert exe, "the placement-query console script is not installed (pip install -e .)"
@@ -27,6 +28,7 @@ def test_placement_query_console_script_equals_placement_query(tmp_path, maps_di
     assert h.returncode == 0 and "--method" in h.stdout and "--stream" in h.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "changes, words",
     [
@@ -55,6 +57,7 @@ def test_bad_scenes_are_one_line(tmp_path, maps_dir, changes, words):
     assert_one_line_error(run("query", str(write_scene(tmp_path, maps_dir, **changes)), "--json", "-q"), *words)
 
 
+@pytest.mark.slow
 def test_plot_dir_below_a_file_fails_before_planning(tmp_path, maps_dir):
     (tmp_path / "file").write_text("x")
     p = run("query", str(write_scene(tmp_path, maps_dir)), "--plot", str(tmp_path / "file" / "plots"), "-q")
@@ -62,6 +65,7 @@ def test_plot_dir_below_a_file_fails_before_planning(tmp_path, maps_dir):
     assert p.stdout == ""  # nothing planned, nothing printed
 
 
+@pytest.mark.slow
 def test_missing_maps_name_where_they_were_looked_for(tmp_path):
     doc = json.loads(json.dumps(SCENE))
     path = tmp_path / "deep" / "scene.yaml"
@@ -71,6 +75,7 @@ def test_missing_maps_name_where_they_were_looked_for(tmp_path):
     assert_one_line_error(p, "no maps for robot 'pr2'", str(tmp_path / "deep" / "maps" / "pr2"))
 
 
+@pytest.mark.slow
 def test_maps_are_found_beside_the_scene_from_any_directory(tmp_path, maps_dir):
     """A scene without ``maps:`` finds ``maps/<robot>`` in its folder or a parent, wherever it is run."""
     root = tmp_path / "project"

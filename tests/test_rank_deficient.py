@@ -162,6 +162,7 @@ def test_rank_argument_is_checked(pr2):
         placement.extended_manipulability(pr2, "right", np.zeros(7), rank=7)
 
 
+@pytest.mark.slow
 def test_telescoping_map(tmp_path):
     """A small map of the telescoping arm: values > 0 where it reaches, in (0, 1]; rank 5 recorded;
     the grid about the arm's reach, not the link-length cube; a map that says rank 6 does not open."""

@@ -3,15 +3,9 @@
 The scenes of ``tests/data/regression`` are planned with every method, with the PR2 as a 0.47 m circle
 (``tests/data/pr2_round.yaml``; plans in ``plans.json``) and with the built-in PR2 and its square
 footprint (``plans_footprint.json``), collisions checked, and compared field by field (timings
-excluded). Where they came from: the first plans were the planner's before its planning layer was
-restructured; collision checks then changed 7 steps (each a placement the check rejects); transfers
-(a place keeps its pick's arm and grasp, the object set down upright as held, the carried object
-checked) changed the places and, through them, the picks. ``scene_obstacles_s7_001`` had three
-overlapping objects (object_1, object_3, object_6), which scenes may no longer have: object_3 and
-object_6 were moved apart. ``placements_v1.json`` holds the placements of the planner before
-transfers (base, arm, grasp), for the round PR2 without collision checks: half of its pick/place pairs
-changed hands, which a robot cannot execute. When a plan is meant to change, regenerate them with
-``PLACEMENT_REGEN_PLANS=1 pytest tests/test_regression.py`` and say why in the commit.
+excluded); every place keeps its pick's arm and grasp. When a plan is meant to change, regenerate
+them with ``PLACEMENT_REGEN_PLANS=1 pytest tests/test_regression.py`` and say why in the commit (the
+git history of the two files says how the plans came to be).
 """
 
 from __future__ import annotations
@@ -27,6 +21,8 @@ from support.plans import strip_timings
 
 from placement.planning.planner import Planner
 from placement.scene import load_scene
+
+pytestmark = pytest.mark.slow
 
 DATA = Path(__file__).parent / "data" / "regression"
 #: stored plans per robot preset (None: the scenes' own, the built-in PR2)
@@ -85,18 +81,11 @@ def test_plans_match_the_stored_plans(maps_dir, preset):
         _compare(got[key], want[key], key)
 
 
-def test_the_old_plans_changed_hands_and_the_new_ones_do_not(maps_dir):
-    """``placements_v1.json`` keeps the placements (status, base, arm, grasp per step) of the planner
-    before transfers, for the round PR2 without collision checks: 47 of its 94 planned pick/place
-    pairs placed the object with the other arm than the one that picked it. The same scenes planned
-    now keep the arm (and the grasp) of every pick in its place, with every method."""
-    old = json.loads((DATA / "placements_v1.json").read_text())
-    changes = sum(
-        a[2] != b[2] for steps in old.values() for a, b in zip(steps[::2], steps[1::2]) if a[0] == b[0] == "ok"
-    )
-    assert changes == 47
+def test_every_place_keeps_the_arm_and_grasp_of_its_pick(maps_dir):
+    """A robot cannot hand an object from one gripper to the other between its pick and its place: on
+    the regression scenes (round PR2, no collision checks), every method's places keep the arm and the
+    grasp of their picks."""
     got = _plans(maps_dir, str(DATA.parent / "pr2_round.yaml"), collisions=False)
-    assert set(old) <= set(got)  # the methods of that planner, and the ones added since
     pairs = 0
     for key, plan in got.items():
         done = {s["target"]: s for s in plan["steps"] if s["action"] == "pick" and s.get("status", "ok") == "ok"}

@@ -54,6 +54,7 @@ def pinocchio_band(robot, arm: str, approach: str, n: int, seed: int) -> tuple[f
     return (*np.quantile(zs, q), *np.quantile(rs, q))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("approach", ["down", "horizontal"])
 def test_bands_agree_with_pinocchio_fk(pr2, approach):
     band = reach_band(pr2, "right", approach)
@@ -79,6 +80,7 @@ def test_chain_fk_is_pinocchio(pr2, armar6):
             assert np.allclose(t, robot.tcp_pose(arm, q), atol=1e-9)
 
 
+@pytest.mark.slow
 def test_raising_the_torso_raises_the_band(tmp_path):
     heights = []
     for lift in (0.0, 0.31):
@@ -103,6 +105,7 @@ def toy_preset(tmp_path, lift_tcp: str = "[0, 0, 0, 0, 0.7071068, 0, 0.7071068]"
     return str(path)
 
 
+@pytest.mark.slow
 def test_check_json_and_warnings(tmp_path):
     p = run("robots", "check", toy_preset(tmp_path), "--json")
     assert p.returncode == 0, p.stderr
@@ -130,6 +133,7 @@ def test_pr2_at_mid_torso_has_no_table_warning(pr2):
     assert not [w for w in doc["warnings"] if "top-down" in w]
 
 
+@pytest.mark.slow
 def test_plots(tmp_path):
     out = tmp_path / "plots"
     p = run("robots", "check", toy_preset(tmp_path), "--plot", str(out), "--json")

@@ -84,6 +84,7 @@ def test_full_arms_get_no_rank_warning(pr2):
     assert not any("pose directions" in w for w in doc["warnings"])
 
 
+@pytest.mark.slow
 def test_wheeled_torso_gets_the_floor_projected_root_and_an_upright_low_torso(tmp_path):
     r, p, _ = written(tmp_path, "wheeled", wheeled_torso_urdf())
     assert (r.base_frame, r.base_frame_parent) == ("base_floor", "base_link")
@@ -111,6 +112,7 @@ def test_wheeled_torso_gets_the_floor_projected_root_and_an_upright_low_torso(tm
     assert "upright" in text and "base_frame_xyz: [0.0, 0.0, -0.25]" in text
 
 
+@pytest.mark.slow
 def test_check_names_the_torso_values_that_fix_a_warning(tmp_path):
     r, _, _ = written(tmp_path, "wheeled", wheeled_torso_urdf())
     straight = tmp_path / "straight.yaml"
@@ -127,6 +129,7 @@ def test_check_names_the_torso_values_that_fix_a_warning(tmp_path):
     assert fixes and "(upright)" in fixes[0]
 
 
+@pytest.mark.slow
 def test_a_defined_base_frame_is_checked(tmp_path):
     _, _, _ = written(tmp_path, "wheeled", wheeled_torso_urdf())
     text = (tmp_path / "wheeled.yaml").read_text()
@@ -172,6 +175,7 @@ def test_presets_base_frames_are_still_and_on_the_floor(preset, parent):
         assert min(f.translation[2] for f in data.oMf) - z0 > -0.02
 
 
+@pytest.mark.slow
 def test_centauro(tmp_path):
     urdf = share_dir() / CENTAURO
     if not urdf.is_file():

@@ -8,6 +8,7 @@ import tempfile
 from pathlib import Path
 
 import pinocchio as pin
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from support.toy_robot import arm_urdf, arm_xacro
@@ -85,6 +86,7 @@ def test_mutated_urdf(text):
     check("m.urdf", text.encode("utf-8", "surrogatepass"))
 
 
+@pytest.mark.slow
 @settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated(VALID_XACRO))
 def test_mutated_xacro(text):

@@ -206,6 +206,7 @@ def test_a_schema_holds_each_type_it_uses_once():
         assert f"MSG: {needed}" in heads
 
 
+@pytest.mark.slow
 def test_without_the_ros_extra_the_commands_say_how_to_install_it(tmp_path):
     """rclpy hidden (a package of that name that cannot be imported first on the path)."""
     fake = tmp_path / "rclpy"
@@ -221,6 +222,7 @@ def test_without_the_ros_extra_the_commands_say_how_to_install_it(tmp_path):
         assert "Traceback" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_query_records_the_scene_and_the_plan_as_ros_messages(tmp_path, maps_dir):
     scene = ROOT / "examples" / "buildings" / "wrs_arena" / "tidy_up.yaml"
     out = tmp_path / "plan.mcap"
@@ -251,6 +253,7 @@ def test_query_records_the_scene_and_the_plan_as_ros_messages(tmp_path, maps_dir
     assert not list(tmp_path.glob(".*tmp"))  # written whole, nothing left beside it
 
 
+@pytest.mark.slow
 def test_a_query_that_cannot_write_its_recording_stops_before_planning(tmp_path):
     proc = run("query", str(ROOT / "examples" / "table_clearing.yaml"), "--mcap", str(tmp_path / "no" / "x.mcap"))
     assert_one_line_error(proc, "--mcap", "does not exist")

@@ -33,6 +33,8 @@ from placement.ros.recording import now
 from placement.scene import load_scene
 from placement.scene.occupancy import load_map_image
 
+pytestmark = pytest.mark.slow
+
 ARENA = Path(__file__).resolve().parents[1] / "examples" / "buildings" / "wrs_arena"
 NODE = "/placement"
 

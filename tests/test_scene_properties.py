@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from support.mutations import documents, mutated
@@ -81,6 +82,7 @@ def test_random_documents(doc):
     _check(doc)
 
 
+@pytest.mark.slow
 @settings(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(doc=mutated(BASE_V2, KEYS))
 def test_mutated_v2_scenes(doc):

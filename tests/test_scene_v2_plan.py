@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from support.scenes import KITCHEN
 
 from placement.maps.opening import open_map
@@ -17,6 +18,7 @@ from placement.scene import SceneObject, load_scene
 from placement.scene.navgrid import NavGrid
 
 
+@pytest.mark.slow
 def test_kitchen_plans_with_reach_side_grasps_and_orientations(maps_dir, pr2):
     # no time budget: the plan must not depend on the machine's load
     scene = load_scene(KITCHEN)

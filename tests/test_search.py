@@ -101,6 +101,7 @@ def _trajectory(pr2, base, q):
     return np.stack([pre, T])
 
 
+@pytest.mark.slow
 def test_trajectory_ik_gives_every_pose_and_the_failing_one(pr2):
     arm = pr2.arm("right")
     q = arm.home + np.array([0.2, 0.1, 0.0, -0.3, 0.0, -0.4, 0.0])
@@ -162,6 +163,7 @@ class XLimit:
         return r
 
 
+@pytest.mark.slow
 def test_collision_hook_rejects_and_the_search_goes_on(tmp_path, maps_dir, pr2):
     path = write_scene(tmp_path, maps_dir)
     free = Planner(path, collisions=False).plan()
@@ -238,6 +240,7 @@ def test_a_pose_above_the_band_says_above(tmp_path, maps_dir):
     assert d["orientation"] == "top-down" and d["residual_m"] is None
 
 
+@pytest.mark.slow
 def test_a_pose_out_of_reach_says_by_how_much(tmp_path, maps_dir):
     planner = Planner(edge_scene(tmp_path, maps_dir, 0.75, 0.62))
     bad = planner.plan().failed_step
@@ -333,11 +336,13 @@ ORACLE_CASES = (
 )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ORACLE_CASES)
 def test_no_false_infeasible_with_the_test_maps(held_out_plans, name):
     _no_false_infeasible(*held_out_plans(name), name)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (PR2_MAPS / "zarr.json").exists(), reason="the built PR2 maps are not there")
 @pytest.mark.parametrize("name", HELD_OUT)
 def test_no_false_infeasible_with_the_pr2_maps(tmp_path, name):

@@ -52,6 +52,7 @@ def test_home_is_free_and_hand_in_torso_collides(checker, pr2):
     assert hits[inside].mean() > hits[~inside].mean() + 0.2
 
 
+@pytest.mark.slow
 def test_map_with_self_collision_is_the_max_over_free_samples(pr2, checker):
     """Equal, cell by cell, to a brute-force max over the collision-free samples (direct measure)."""
     from placement.kernels.grid import cell_indices
@@ -93,6 +94,7 @@ def test_distance_penalty_literal():
     assert distance_penalty(0.2) == pytest.approx(np.exp(-8.0) / 0.2, rel=1e-15)
 
 
+@pytest.mark.slow
 def test_row_factors_against_pinocchio_distances(checker, pr2):
     """Rotation rows untouched; translational rows penalised towards the body only, by P(d) |n_r|."""
     from placement.maps.selfcollision import distance_penalty
@@ -122,6 +124,7 @@ def test_row_factors_against_pinocchio_distances(checker, pr2):
         assert np.sqrt(np.sum(pn**2)) == pytest.approx(distance_penalty(d), rel=1e-9, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_map_with_self_distance_is_the_max_over_penalised_samples(pr2, checker):
     """A build with the self-distance penalty equals the brute-force per-cell max of penalised values."""
     from placement.kernels.grid import cell_indices

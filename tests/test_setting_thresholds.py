@@ -79,6 +79,7 @@ def _scene(tmp_path, preset, maps, planner: dict) -> str:
     return str(path)
 
 
+@pytest.mark.slow
 def test_each_setting_gets_its_own_quantile(tmp_path, pitch):
     _, preset, maps = pitch
     own = _own(maps)
@@ -157,6 +158,7 @@ def test_a_shifted_maps_settings_keep_the_arms_threshold():
     assert setting_thresholds(PlannerConfig(), {"arm": rmap}) == {}
 
 
+@pytest.mark.slow
 def test_maps_check_checks_every_setting_with_the_robot_held_there(pitch):
     robot, preset, maps = pitch
     proc = run("maps", "check", str(maps), "--robot", str(preset), "--samples", "4", "--json", "-q")

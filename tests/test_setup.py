@@ -73,6 +73,7 @@ def _owners(modules) -> dict[str, list[str]]:
     return owners
 
 
+@pytest.mark.slow
 def test_every_imported_third_party_module_is_declared():
     local = {p.stem for p in (ROOT / "tests").glob("*.py")} | {p.stem for p in (ROOT / "tools").glob("*.py")}
     local |= {"placement", "support"}  # tests/support: the helpers the test files share

@@ -102,6 +102,7 @@ def test_orientation_is_exact_where_floats_round():
     assert orient((0.5, 0.5 - eps), (12.0, 12.0), (24.0, 24.0)) == -1
 
 
+@pytest.mark.slow
 def test_a_100000_vertex_circle_is_simple_in_seconds():
     """Neighbouring edges turn by 6e-5 rad: nearly collinear, never touching."""
     for n, centre, radius in ((100_000, 0.0, 1.0), (20_000, 1e5, 0.3)):

@@ -108,6 +108,7 @@ def test_chunking_one_chunk_per_irm_slice(tmp_path, pr2, right_map, fmt):
     np.testing.assert_array_equal(rmap.slice(2, 1, 3), right_map.values[:, :, 2, :, 1, 3])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", FORMATS)
 def test_saving_another_arm_keeps_the_first(tmp_path, pr2, right_map, left_map, fmt):
     path = map_path(tmp_path, fmt)
@@ -213,6 +214,7 @@ def test_map_of_another_urdf(saved, pr2):
         placement.open_map(path, "right", robot=pr2)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("version", [0, 1, 2, 99, None, "3"])
 def test_wrong_format_version(saved, version):
     fmt, path = saved

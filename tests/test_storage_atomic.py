@@ -35,6 +35,7 @@ class FailingZarr(ZarrBackend):
         raise self.exc
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("exc", [Interrupted("disk full"), KeyboardInterrupt()], ids=["error", "ctrl-c"])
 def test_atomic_replace_keeps_old_map(tmp_path, pr2, right_map, left_map, exc):
     path = placement.save_maps(tmp_path / "pr2", pr2, {"right": right_map}, "zarr")

@@ -153,6 +153,7 @@ def cells_of_chunk(built, iz, ip, ir) -> np.ndarray:
     return flat
 
 
+@pytest.mark.slow
 def test_value_of_a_damaged_chunk_raises(damaged, right_map):
     path, (iz, ip, ir), _ = damaged
     poses = right_map.grid.centre(cells_of_chunk(right_map, iz, ip, ir))
@@ -165,6 +166,7 @@ def test_value_of_a_damaged_chunk_raises(damaged, right_map):
         placement.open_map(path, "right").slice(iz, ip, ir)
 
 
+@pytest.mark.slow
 def test_a_z_layer_read_finds_the_damage_too(damaged, right_map):
     """read_slab (the map viewer's layer-wise read) checks every chunk of the layer; other layers read exactly."""
     path, (iz, ip, ir), name = damaged
@@ -180,6 +182,7 @@ def test_a_z_layer_read_finds_the_damage_too(damaged, right_map):
     np.testing.assert_array_equal(rmap.store.read_slab("right", other), right_map.values[:, :, other])
 
 
+@pytest.mark.slow
 def test_damage_is_named_as_such(damaged):
     """Decoded-data damage names the chunk; byte damage is caught by the backend's checksum or codec."""
     path, (iz, ip, ir), name = damaged
@@ -196,6 +199,7 @@ def test_damage_is_named_as_such(damaged):
     assert "\n" not in str(exc.value)
 
 
+@pytest.mark.slow
 def test_maps_info_full_fails_with_one_line(damaged):
     path, _, _ = damaged
     p = subprocess.run(
@@ -210,6 +214,7 @@ def test_maps_info_full_fails_with_one_line(damaged):
     assert len(lines) == 1 and lines[0].startswith("error: ") and "corrupt" in lines[0], p.stderr[:3000]
 
 
+@pytest.mark.slow
 def test_sound_chunks_still_read_beside_a_damaged_one(damaged, right_map):
     """Reading is per chunk: a chunk that is intact and was not moved onto reads exactly."""
     path, (iz, ip, ir), name = damaged

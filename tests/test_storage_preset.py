@@ -90,6 +90,7 @@ def test_joint_order_differs(saved, tmp_path, pr2):
         placement.open_map(other, "right", robot=pr2)
 
 
+@pytest.mark.slow
 def test_stored_arm_metadata_damaged(tmp_path, pr2):
     """Missing or malformed arm fields and chunk checksums in the file: a MapError, not a traceback."""
     m = placement.build_map(pr2, "right", samples=500, seed=2, progress=False, **SMALL)

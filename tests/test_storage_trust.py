@@ -133,6 +133,7 @@ ARM_EDITS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", FORMATS)
 @pytest.mark.parametrize("edit", list(ARM_EDITS), ids=lambda e: e.__name__)
 def test_changed_arm_metadata_is_named(sources, tmp_path, fmt, edit):
@@ -244,6 +245,7 @@ def hdf5_truth(sources):
     return src.read_bytes(), doc, {a: (m.values, m.witness) for a, m in rmaps.items()}
 
 
+@pytest.mark.slow
 @settings(deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(where=st.floats(0.0, 0.9999), flip=st.integers(1, 255))
 @example(where=0.3, flip=0x10).via("30-40 %")
@@ -346,6 +348,7 @@ def test_hostile_chunk_files(sources, tmp_path, replace, words, name):
     one_line_error(verify, "rebuild the map", words)
 
 
+@pytest.mark.slow
 def test_fifo_chunk_from_the_command_line(sources, tmp_path):
     """The same in a fresh process, as a user runs it: exit 2 and one line within the timeout."""
     path = copy_map(sources["zarr"], tmp_path)

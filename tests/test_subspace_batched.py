@@ -63,6 +63,7 @@ def agree(J, plo, phi, rank, rng, rowfac=None):
     return exact
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [5, 6, 8])
 def test_random_rank5_jacobians(n):
     rng = np.random.default_rng(n)

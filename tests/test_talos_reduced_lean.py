@@ -106,6 +106,7 @@ def test_a_low_table_step_needs_the_lean(ground):
     assert ground.placement(0, 0.0) is not None  # the ordinary table's pick, upright
 
 
+@pytest.mark.slow
 def test_maps_info_reports_each_settings_own_array(tmp_path):
     preset = write_pitch_torso(tmp_path / "robot")
     robot = placement.load_robot(preset)

@@ -95,6 +95,7 @@ def test_the_default_on_the_default_pr2_maps_stays_at_or_just_under_the_papers_t
         assert PAPER * 0.995 <= value <= PAPER, arm
 
 
+@pytest.mark.slow
 def test_both_keys_are_one_error_naming_both(tmp_path, maps_dir):
     path = write_scene(tmp_path, maps_dir, planner={"threshold": 0.02, "threshold_quantile": 0.3})
     with pytest.raises(SceneError, match="both threshold and threshold_quantile") as err:
@@ -103,12 +104,14 @@ def test_both_keys_are_one_error_naming_both(tmp_path, maps_dir):
     assert_one_line_error(run("query", str(path), "--json", "-q"), "threshold", "threshold_quantile")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", [-0.1, 1.5])
 def test_threshold_quantile_out_of_range_is_one_line(tmp_path, maps_dir, value):
     path = write_scene(tmp_path, maps_dir, planner={"threshold_quantile": value})
     assert_one_line_error(run("query", str(path), "--json", "-q"), "planner.threshold_quantile")
 
 
+@pytest.mark.slow
 def test_every_stage_applies_each_arms_own_threshold(tmp_path, maps_dir):
     """Arms with thresholds far apart: the feasible region, the pairs, the whole-task regions, the Eq. 6
     ranking and the search's other yaws keep exactly the cells each arm's threshold keeps."""
@@ -149,6 +152,7 @@ def test_every_stage_applies_each_arms_own_threshold(tmp_path, maps_dir):
     assert between > 0
 
 
+@pytest.mark.slow
 def test_a_map_without_recorded_quantiles_estimates_them_from_every_8th_chunk(tmp_path, maps_dir):
     import shutil
 

@@ -44,6 +44,7 @@ def stored(request, built, robot, tmp_path_factory) -> Path:
     return placement.save_maps(tmp_path_factory.mktemp("builds") / name, robot, built, fmt=request.param)
 
 
+@pytest.mark.slow
 def test_each_setting_is_the_build_of_the_robot_at_it(built, robot):
     assert sorted(built) == ["arm", LEAN]
     leaning = robot.with_fixed({JOINT: 0.6})
@@ -71,6 +72,7 @@ def _fk(robot, arm: str, torso: float, q: np.ndarray) -> np.ndarray:
     return (base.inverse() * tip).homogeneous @ a.tcp_offset
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", VALUES)
 def test_views_are_the_settings_maps_and_their_witnesses_land_in_their_cells(stored, robot, value):
     rmap = placement.open_map(stored, "arm", robot)
@@ -102,6 +104,7 @@ def test_an_unknown_setting_is_refused(stored, robot):
         rmap.at_torso(0.3)
 
 
+@pytest.mark.slow
 def test_a_missing_setting_map_is_refused(built, robot, tmp_path):
     path = placement.save_maps(tmp_path / "m", robot, {"arm": built["arm"]})
     with pytest.raises(MapError, match=rf"names the array '{LEAN}'.*torso.arrays.*rebuild"):
@@ -142,6 +145,7 @@ def test_build_map_alone_refuses_a_per_setting_joint(robot):
         placement.build_map(robot, "arm", torso=TorsoSpec(JOINT, VALUES), **OPTIONS)
 
 
+@pytest.mark.slow
 def test_cli_builds_each_setting_and_info_shows_them(tmp_path):
     preset = write_pitch_torso(tmp_path / "robot")
     spec = tmp_path / "s.yaml"

@@ -132,6 +132,7 @@ def test_a_lift_that_does_not_carry_the_arm_is_refused(tmp_path):
     assert np.allclose(s.shift, (0, 0, 1), atol=1e-12)
 
 
+@pytest.mark.slow
 def test_cli_refuses_a_bad_torso_before_sampling(tmp_path):
     spec = tmp_path / "s.yaml"
     spec.write_text(f"robot: pr2\narms: right\nsamples: 1e11\ntorso: {{joint: {LIFT}, values: [0.1, 0.5]}}\n")
@@ -143,6 +144,7 @@ def test_cli_refuses_a_bad_torso_before_sampling(tmp_path):
 # -- the stored record -------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_the_record_is_stored_and_read_back(stored, pr2):
     rmap = placement.open_map(stored, "right", pr2)
     t = rmap.torso
@@ -152,6 +154,7 @@ def test_the_record_is_stored_and_read_back(stored, pr2):
     assert rmap.torso_value == 0.15 and t.allowed == (0.0, 0.1, 0.15, 0.2, 0.31)
 
 
+@pytest.mark.slow
 def test_a_map_without_the_key_loads_as_before(pr2, tmp_path):
     m = placement.build_map(pr2, "right", samples=1000, seed=4, **TINY)
     assert "torso" not in m.meta
@@ -170,6 +173,7 @@ def test_a_record_naming_a_joint_the_preset_does_not_hold_is_refused(pr2, tmp_pa
         placement.open_map(path, "right", pr2)
 
 
+@pytest.mark.slow
 def test_info_shows_the_record(stored):
     proc = run("maps", "info", str(stored))
     assert proc.returncode == 0, proc.stderr
@@ -191,6 +195,7 @@ def test_views_share_the_arrays(stored, pr2):
         rmap.at_torso(0.25)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", VALUES)
 def test_views_match_fk_with_the_lift_moved(stored, pr2, value):
     rmap = placement.open_map(stored, "right", pr2)

@@ -14,6 +14,8 @@ from support.pitch_torso import JOINT, SETTINGS, pitch_torso_maps
 
 from placement.planning.planner import Planner
 
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def pitch(tmp_path_factory):

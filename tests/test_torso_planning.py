@@ -64,6 +64,7 @@ def _fk_at_step_torso(result, pr2) -> None:
         assert math.degrees(math.acos(cos)) < 3
 
 
+@pytest.mark.slow
 def test_every_step_has_options_at_every_setting(tmp_path, torso_maps):
     planner = Planner(write_scene(tmp_path, torso_maps))
     problems = planner.context.problems

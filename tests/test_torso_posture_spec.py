@@ -54,6 +54,7 @@ def test_bad_postures_are_one_line_naming_the_key(torso, message):
     assert "\n" not in str(err.value) and str(err.value).startswith("build spec s.yaml: torso")
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @given(
     st.dictionaries(
@@ -118,6 +119,7 @@ def test_the_preset_posture_is_built_when_not_asked_for(robot):
     assert t.array("arm", 1.0) == "arm"
 
 
+@pytest.mark.slow
 def test_cli_builds_each_posture_and_info_shows_them(tmp_path):
     preset = write_knee_torso(tmp_path / "robot")
     spec = tmp_path / "s.yaml"

@@ -37,6 +37,7 @@ def knee(tmp_path_factory):
     return robot, preset, built, placement.save_maps(folder / "maps", robot, built)
 
 
+@pytest.mark.slow
 def test_each_posture_is_the_build_of_the_robot_held_there(knee):
     robot, _, built, _ = knee
     assert sorted(built) == ["arm", CROUCHED]

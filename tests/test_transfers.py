@@ -181,6 +181,7 @@ def test_place_orientations_that_turn_the_object_over_are_refused():
 # -- plans --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["table_clearing.yaml", "table_clearing_obstacles.yaml"])
 def test_every_method_keeps_arm_and_grasp_and_sets_objects_upright(maps_dir, pr2, name):
     scene = unbudgeted(load_scene(EXAMPLES / name))
@@ -201,6 +202,7 @@ def test_every_method_keeps_arm_and_grasp_and_sets_objects_upright(maps_dir, pr2
                 assert s["trajectory"].startswith(s["grasp"] + "@yaw")
 
 
+@pytest.mark.slow
 def test_generated_scenes_keep_transfers_with_every_method(maps_dir, pr2, tmp_path):
     from placement.evaluation.generate import generate_scene
 
@@ -241,6 +243,7 @@ def shelf_scene(gap: float):
     return unbudgeted(parse_scene(doc, name=f"shelf{gap}"))
 
 
+@pytest.mark.slow
 def test_a_bottle_goes_into_a_low_shelf_upright_through_the_gap(maps_dir, pr2):
     """Between the boards 0.26 m apart a top grasp (its pre-place 0.1 m above the bottle's top) cannot
     set the 0.2 m bottle down; a side grasp slides it in upright, clear of both boards, and the

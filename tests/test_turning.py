@@ -74,6 +74,7 @@ def plan(path, maps_dir, method, polish):
     return planner, result, task_time(planner.robot, result, planner.scene.start)["total_s"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", BUILDINGS, ids=lambda p: p.parent.name)
 def test_the_default_with_the_passes_takes_no_longer(path, maps_dir):
     planner, polished, t1 = plan(path, maps_dir, "global", 1)
@@ -86,6 +87,7 @@ def test_the_default_with_the_passes_takes_no_longer(path, maps_dir):
     assert cert.task_gap == pytest.approx(t1 / cert.lower_bound_s - 1, abs=1e-5)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", BUILDINGS, ids=lambda p: p.parent.name)
 def test_optimal_turns_but_keeps_its_cells(path, maps_dir):
     _, turned, t1 = plan(path, maps_dir, "optimal", 1)

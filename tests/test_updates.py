@@ -172,6 +172,7 @@ def test_any_update_is_a_clean_error_or_a_valid_scene(planner, change):
     assert {o.name for o in scene.objects} == {"cup", "box"}
 
 
+@pytest.mark.slow
 def test_stream_mode(tmp_path, maps_dir):
     deep = "[" * 100_000 + "]" * 100_000
     lines = (
@@ -203,6 +204,7 @@ def test_stream_mode(tmp_path, maps_dir):
     assert "Traceback" not in p.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "change",
     [

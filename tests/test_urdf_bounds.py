@@ -9,6 +9,8 @@ from support.cli import assert_one_line_error, run
 
 from placement.robots.description import MAX_DEPTH, MAX_LINKS
 
+pytestmark = pytest.mark.slow
+
 
 def chain(n: int, xyz: str = "0 0 0.01", boxes: bool = False) -> str:
     body = '<collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>' if boxes else ""

@@ -171,6 +171,7 @@ def run(*args, timeout: float = 300) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.slow
 def test_view_refuses_in_one_line_and_serves_the_right_plan(plan_doc, tmp_path):
     doc = copy.deepcopy(plan_doc)
     _elbow_100(doc)

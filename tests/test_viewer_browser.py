@@ -23,9 +23,10 @@ BROWSER_S = 120
 PAGE_S = 240
 #: [s] for a drawn page to show a change sent by the server (5 s on the busy development machine)
 UPDATE_S = 120
-pytestmark = pytest.mark.skipif(
-    find_browser() is None, reason="no chromium on PATH (.ci/run installs Debian's chromium)"
-)
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(find_browser() is None, reason="no chromium on PATH (.ci/run installs Debian's chromium)"),
+]
 
 
 def pixels(path: Path) -> np.ndarray:

@@ -67,6 +67,7 @@ def one_line_error(p, *words):
         assert w in lines[0], (w, lines[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "args, words",
     [
@@ -81,6 +82,7 @@ def test_bad_options_are_one_line(args, words):
     one_line_error(run("view", str(EXAMPLE), *args), *words)
 
 
+@pytest.mark.slow
 def test_bad_plan_files_are_one_line(tmp_path, plan_doc):
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
@@ -92,6 +94,7 @@ def test_bad_plan_files_are_one_line(tmp_path, plan_doc):
     one_line_error(run("maps", "view", str(tmp_path / "nomap")), "nomap")
 
 
+@pytest.mark.slow
 def test_view_serves_until_stopped_and_prints_its_url(maps_dir):
     p = subprocess.Popen(
         [
@@ -126,6 +129,7 @@ def test_view_serves_until_stopped_and_prints_its_url(maps_dir):
         urllib.request.urlopen(info["url"], timeout=5)
 
 
+@pytest.mark.slow
 def test_stream_applies_updates_live(maps_dir):
     updates = "\n".join([json.dumps({"start": [1.5, 6.0, 0.0]}), "{oops", json.dumps({"start": [-50, 0, 0]})]) + "\n"
     p = run(
@@ -148,6 +152,7 @@ def test_stream_applies_updates_live(maps_dir):
     assert lines[1]["steps"][0]["base"] != lines[0]["steps"][0]["base"] or lines[1]["update"]["updated"]
 
 
+@pytest.mark.slow
 def test_maps_view_runs(maps_dir):
     p = run(
         "maps",

@@ -12,6 +12,8 @@ import yaml
 
 from placement.evaluation.generate import generate_scene
 
+pytestmark = pytest.mark.slow
+
 NOTICE = "compiling kernels (first run only, about"
 
 

@@ -28,6 +28,7 @@ def saved(tmp_path_factory, pr2, completed):
     return placement.save_maps(tmp_path_factory.mktemp("w") / "pr2", pr2, {"right": completed})
 
 
+@pytest.mark.slow
 def test_witness_marks_exactly_the_reached_cells(completed):
     empty = empty_value(completed.witness.dtype)
     assert completed.witness.dtype == np.uint32 and completed.witness.shape == completed.values.shape
@@ -37,6 +38,7 @@ def test_witness_marks_exactly_the_reached_cells(completed):
     assert np.any(w >= N), "completion added no sample"
 
 
+@pytest.mark.slow
 def test_completion_adds_cells_and_is_block_independent(pr2, completed):
     plain = placement.build_map(pr2, "right", samples=N, seed=3, progress=False, **SMALL)
     c = completed.meta["completion"]
@@ -78,6 +80,7 @@ def fk_pinocchio(robot, arm_name, q):
     return (base.inverse() * data.oMf[tcp]).homogeneous
 
 
+@pytest.mark.slow
 def test_witness_q_lies_in_the_cell_of_the_pose(pr2, saved, completed):
     rmap = placement.open_map(saved, "right")
     g = rmap.grid
@@ -113,6 +116,7 @@ def test_witness_q_is_fast(saved):
     assert (time.perf_counter() - t) / 200 < 2e-3  # tens of microseconds on a quiet machine
 
 
+@pytest.mark.slow
 def test_verify_recomputes_every_value_bitwise(pr2, completed):
     r = verify_witnesses(pr2, completed)
     assert r["mismatches"] == 0 and r["cells_checked"] == r["cells_reached"] == np.count_nonzero(completed.values)
@@ -120,6 +124,7 @@ def test_verify_recomputes_every_value_bitwise(pr2, completed):
     assert part["cells_checked"] == 100 and part["mismatches"] == 0
 
 
+@pytest.mark.slow
 def test_verify_finds_a_changed_value_or_witness(pr2, completed):
     values, wit = completed.values.copy(), completed.witness.copy()
     cells = np.flatnonzero(values.reshape(-1) > 0)
@@ -136,6 +141,7 @@ def test_witness_configs_rejects_empty_witness(pr2, completed):
         witness_configs(pr2.arm("right"), completed.grid, 3, N, np.array([empty_value(np.uint32)]))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["zarr", "hdf5"])
 def test_cli_verify(tmp_path, pr2, completed, fmt):
     path = placement.save_maps(tmp_path / ("m.h5" if fmt == "hdf5" else "m"), pr2, {"right": completed}, fmt)
@@ -161,6 +167,7 @@ def test_cli_verify(tmp_path, pr2, completed, fmt):
     assert len(lines) == 1 and "1 MISMATCH" in lines[0] and f"cell {cell}" in lines[0]
 
 
+@pytest.mark.slow
 def test_saved_witnesses_are_checked(tmp_path, pr2, completed):
     """A changed witness chunk on disk is a one-line MapError, like a changed value chunk."""
     path = placement.save_maps(tmp_path / "m.h5", pr2, {"right": completed}, "hdf5")
@@ -182,6 +189,7 @@ def test_map_without_witnesses_cannot_be_saved(tmp_path, pr2, completed):
         placement.save_maps(tmp_path / "x", pr2, {"right": placement.BuiltMap(completed.values, completed.meta)})
 
 
+@pytest.mark.slow
 def test_completion_from_spec_and_cli(tmp_path):
     from placement.errors import PlacementError
     from placement.maps.buildspec import parse_build_spec
@@ -254,6 +262,7 @@ def _sources_reference(grid, witness, plain, shape):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(4))
 def test_completion_sources_equal_a_plain_reference(seed):
     """The parallel scan (fixed cell ranges, count then fill) gives the serial definition's candidates in

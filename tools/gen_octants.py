@@ -134,7 +134,7 @@ def generate() -> str:
     fill = '''
 
 @njit(cache=True)
-def fill_grams(G, A):
+def fill_grams(G: npt.NDArray[np.float64], A: npt.NDArray[np.float64]) -> None:
     """A[p(r, c), s] <- G[r, c, s_r, s_c] for all 64 octants s (bit r set = sign -); A (21, 64)."""
     for r in range(6):
         for c in range(r + 1):
@@ -164,6 +164,8 @@ from ``manipulability.octant_value``. Factorisations are LDL^T (no square roots)
 
 from __future__ import annotations
 
+import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 # contracted multiply-adds only; error_model="numpy": a zero pivot gives inf, not an exception
@@ -171,14 +173,16 @@ _FM = {{"contract"}}
 {fill}
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def pd_flags(A, alpha, beta, out):
+def pd_flags(
+    A: npt.NDArray[np.float64], alpha: float, beta: npt.NDArray[np.float64], out: npt.NDArray[np.float64]
+) -> None:
     """out[s] <- 1.0 if alpha * A_s + beta[s] * I is positive definite (Cholesky pivots > 0), else 0.0."""
     for s in range(64):
 {pd}
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def lambda_max_lower(A, top, rho):
+def lambda_max_lower(A: npt.NDArray[np.float64], top: npt.NDArray[np.float64], rho: npt.NDArray[np.float64]) -> None:
     """rho[s] <- a lower bound of lambda_max(A_s): Rayleigh quotient after {POWER_STEPS} power steps from top (6,).
 
     Any start vector gives a valid bound; an eigenvector of a neighbouring
@@ -189,7 +193,7 @@ def lambda_max_lower(A, top, rho):
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def traces(A, trace):
+def traces(A: npt.NDArray[np.float64], trace: npt.NDArray[np.float64]) -> None:
     """trace[s] <- trace(A_s) >= lambda_max(A_s) for positive semi-definite A_s."""
     for s in range(64):
 {tr}
@@ -197,14 +201,14 @@ def traces(A, trace):
 
 
 REFINE_TEMPLATE = '''@njit(cache=True, fastmath=_FM, error_model="numpy")
-def lambda_max_tight(A, top, rho):
+def lambda_max_tight(A: npt.NDArray[np.float64], top: npt.NDArray[np.float64], rho: npt.NDArray[np.float64]) -> None:
     """rho[s] <- as :func:`lambda_max_lower` with {power_total} power steps: tighter, for exact values."""
     for s in range(64):
 {refine_body}
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def lambda_min_upper(A, bottom, mu):
+def lambda_min_upper(A: npt.NDArray[np.float64], bottom: npt.NDArray[np.float64], mu: npt.NDArray[np.float64]) -> None:
     """mu[s] <- an upper bound of lambda_min(A_s): Rayleigh quotient after {INVERSE_STEPS} inverse steps from bottom (6,).
 
     0 where A_s is not numerically positive definite (the caller then
@@ -228,6 +232,8 @@ as :mod:`placement.kernels.octants`.
 
 from __future__ import annotations
 
+import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 # contracted multiply-adds only; error_model="numpy": a zero pivot gives inf, not an exception

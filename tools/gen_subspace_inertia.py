@@ -33,6 +33,8 @@ Packed Gram matrices as :mod:`placement.kernels.octants` (``A`` (21, 64), entry 
 
 from __future__ import annotations
 
+import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 __all__ = ["ERROR_FACTOR", "inertia"]
@@ -43,7 +45,12 @@ ERROR_FACTOR = 1e-13
 
 # contracted multiply-adds only (within the error bound); error_model="numpy": a zero pivot gives inf
 @njit(cache=True, fastmath={"contract"}, error_model="numpy")
-def inertia(A, beta, neg, err):
+def inertia(
+    A: npt.NDArray[np.float64],
+    beta: npt.NDArray[np.float64],
+    neg: npt.NDArray[np.float64],
+    err: npt.NDArray[np.float64],
+) -> None:
     """neg[s] <- the number of negative pivots of ``A_s + beta[s] I`` = L D L^T, err[s] <- the infinity norm
     of ``|L| |D| |L^T|`` (inf or nan when a pivot is zero); A (21, 64), beta, neg, err (64,)."""
     for s in range(64):

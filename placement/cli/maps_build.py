@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import click
 
@@ -234,6 +235,6 @@ def dask_client(address: str) -> Client:
     except ImportError:
         raise PlacementError("--dask needs dask.distributed: pip install 'placement[dask]'") from None
     try:
-        return Client(address, timeout="10s")
+        return cast("Callable[..., Client]", Client)(address, timeout="10s")  # (Client.__init__ is unannotated)
     except Exception as exc:  # OSError / TimeoutError from the comm layer
         raise PlacementError(f"cannot reach Dask scheduler at {address}: {str(exc).splitlines()[0]}") from None

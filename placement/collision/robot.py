@@ -26,7 +26,7 @@ from collections import OrderedDict
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import coal
 import numpy as np
@@ -225,7 +225,7 @@ class RobotGeometry:
         ).reshape(-1, 3)
         q = robot.reference_q()
         for name in robot.arms:
-            q = robot.full_q(name, robot.arm(name).idle, q)
+            q = robot.full_q(name, cast(np.ndarray, robot.arm(name).idle), q)  # (never None: Arm.__post_init__)
         self.home_q = q
         self.data = model.createData()
         self.gdata = pin.GeometryData(self.geom)

@@ -5,9 +5,9 @@ from __future__ import annotations
 import concurrent.futures as cf
 import multiprocessing as mp
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from placement.planning.task_time import task_time
 from placement.scene import load_scene
 
 if TYPE_CHECKING:
-    from dask.distributed import Client
+    from dask.distributed import Client, Future
 
 #: ``progress(done, total)``: called with the number of scenes evaluated so far.
 Progress = Callable[[int, int], object]
@@ -163,13 +163,16 @@ def _on_dask(
     maps = None if maps is None else str(Path(maps).resolve())
     futures = {client.submit(scene_task, str(f.resolve()), methods, maps, pure=False): k for k, f in enumerate(files)}
     results: list[SceneResults | None] = [None] * len(files)
+    # (dask.distributed leaves as_completed and Client.cancel unannotated)
+    completed = cast("Callable[[Iterable[Future[SceneResults]]], Iterator[Future[SceneResults]]]", as_completed)
+    cancel = cast("Callable[[list[Future[SceneResults]]], None]", client.cancel)
     try:
-        for done, fut in enumerate(as_completed(futures), 1):
+        for done, fut in enumerate(completed(futures), 1):
             results[futures[fut]] = fut.result()
             if progress:
                 progress(done, len(files))
     except BaseException:
-        client.cancel(list(futures))  # an error stops the run instead of waiting for every scene
+        cancel(list(futures))  # an error stops the run instead of waiting for every scene
         raise
     return [r for r in results if r is not None]  # every one, as every future completed
 

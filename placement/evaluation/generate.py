@@ -41,7 +41,7 @@ import math
 import os
 from functools import cache
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -100,7 +100,7 @@ def footprint(x: float, y: float, yaw: float, size: tuple[float, ...]) -> npt.ND
     ``size`` (length, width, ...) [m] along its own axes."""
     c, s = math.cos(yaw), math.sin(yaw)
     local = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * (size[0] / 2, size[1] / 2)
-    return local @ np.array([[c, s], [-s, c]]) + (x, y)
+    return cast("npt.NDArray[np.float64]", local @ np.array([[c, s], [-s, c]]) + (x, y))
 
 
 def footprint_gap(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> float:

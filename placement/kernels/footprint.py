@@ -11,11 +11,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit, prange
 
 
 @njit(cache=True)
-def _point_segment(px, py, ax, ay, bx, by):
+def _point_segment(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> float:
     dx, dy = bx - ax, by - ay
     dd = dx * dx + dy * dy
     t = 0.0 if dd == 0.0 else ((px - ax) * dx + (py - ay) * dy) / dd
@@ -24,7 +25,7 @@ def _point_segment(px, py, ax, ay, bx, by):
 
 
 @njit(cache=True)
-def _inside(px, py, poly):
+def _inside(px: float, py: float, poly: npt.NDArray[np.float64]) -> bool:
     """Even-odd rule: whether (px, py) lies inside polygon ``poly`` (k, 2)."""
     k = poly.shape[0]
     inside = False
@@ -37,12 +38,12 @@ def _inside(px, py, poly):
 
 
 @njit(cache=True)
-def _orient(ax, ay, bx, by, cx, cy):
+def _orient(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
 @njit(cache=True)
-def polygon_square_distance(poly, cx, cy, half):
+def polygon_square_distance(poly: npt.NDArray[np.float64], cx: float, cy: float, half: float) -> float:
     """Distance [m] between polygon ``poly`` (k, 2) and the closed axis-aligned square of centre
     (cx, cy) and half-size ``half`` [m]; 0 when they overlap."""
     sq = np.array([[cx - half, cy - half], [cx + half, cy - half], [cx + half, cy + half], [cx - half, cy + half]])
@@ -72,7 +73,7 @@ def polygon_square_distance(poly, cx, cy, half):
 
 
 @njit(cache=True)
-def _rotated(poly, yaw):
+def _rotated(poly: npt.NDArray[np.float64], yaw: float) -> npt.NDArray[np.float64]:
     c, s = math.cos(yaw), math.sin(yaw)
     out = np.empty_like(poly)
     for i in range(poly.shape[0]):
@@ -82,7 +83,9 @@ def _rotated(poly, yaw):
 
 
 @njit(cache=True, parallel=True)
-def block_table(poly, yaws, pad, res, radius):
+def block_table(
+    poly: npt.NDArray[np.float64], yaws: npt.NDArray[np.float64], pad: float, res: float, radius: int
+) -> npt.NDArray[np.uint64]:
     """Which yaws an occupied cell at each offset blocks: (2R + 1, 2R + 1, W) uint64 with R =
     ``radius`` cells and W = ceil(K / 64); entry [R + dy, R + dx] has bit k set when the footprint
     ``poly`` (k, 2) [m], rotated by ``yaws[k]`` [rad], comes within ``pad`` [m] of the cell square
@@ -103,7 +106,14 @@ def block_table(poly, yaws, pad, res, radius):
 
 
 @njit(cache=True, parallel=True)
-def band_masks(touched, cells, off_y, off_x, off_bits, full):
+def band_masks(
+    touched: npt.NDArray[np.bool_],
+    cells: npt.NDArray[np.int64],
+    off_y: npt.NDArray[np.int64],
+    off_x: npt.NDArray[np.int64],
+    off_bits: npt.NDArray[np.uint64],
+    full: npt.NDArray[np.uint64],
+) -> npt.NDArray[np.uint64]:
     """Allowed-yaw masks (M, W) uint64 of base ``cells`` (M,) flat indices into ``touched``
     (ny, nx) bool: ``full`` (W,) minus the bits ``off_bits`` (L, W) of every offset (off_y, off_x)
     (L,) whose cell is occupied (cells outside the grid are free)."""
@@ -132,7 +142,9 @@ def band_masks(touched, cells, off_y, off_x, off_bits, full):
 
 
 @njit(cache=True)
-def pose_blocked(touched, ox, oy, res, poly, pad):
+def pose_blocked(
+    touched: npt.NDArray[np.bool_], ox: float, oy: float, res: float, poly: npt.NDArray[np.float64], pad: float
+) -> bool:
     """Whether polygon ``poly`` (k, 2) in world coordinates [m] comes within ``pad`` [m] of an
     occupied cell square of ``touched`` (ny, nx), grid corner (ox, oy), cell ``res`` [m]."""
     ny, nx = touched.shape

@@ -12,11 +12,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 
 @njit(cache=True, inline="always")
-def zyx_angles(T):
+def zyx_angles(T: npt.NDArray[np.float64]) -> tuple[float, float, float]:
     """(yaw, pitch, roll) [rad] of the rotation part of T (4, 4), R = Rz Ry Rx."""
     sp = -T[2, 0]
     if sp > 1.0:
@@ -30,7 +31,7 @@ def zyx_angles(T):
 
 
 @njit(cache=True, inline="always")
-def wrap_bin(angle, n):
+def wrap_bin(angle: float, n: int) -> int:
     """Bin of a periodic angle [rad] with n bins centred on multiples of 2 pi / n."""
     k = int(math.floor(angle * (n / (2.0 * math.pi)) + 0.5))
     k %= n
@@ -38,7 +39,7 @@ def wrap_bin(angle, n):
 
 
 @njit(cache=True, inline="always")
-def pitch_bin(pitch, n):
+def pitch_bin(pitch: float, n: int) -> int:
     """Bin of pitch in [-pi/2, pi/2] [rad] with n bins of width pi / n."""
     k = int(math.floor((pitch + 0.5 * math.pi) * (n / math.pi)))
     if k < 0:
@@ -49,7 +50,9 @@ def pitch_bin(pitch, n):
 
 
 @njit(cache=True)
-def cell_index(T, origin, res, shape):
+def cell_index(
+    T: npt.NDArray[np.float64], origin: npt.NDArray[np.float64], res: float, shape: npt.NDArray[np.int64]
+) -> int:
     """Flat index of pose T (4, 4) in a grid (x, y, z, yaw, pitch, roll), or -1 outside.
 
     origin: (3,) lower corner [m]; res: cell edge [m]; shape: (6,) int64 bin counts.
@@ -63,11 +66,14 @@ def cell_index(T, origin, res, shape):
     iyaw = wrap_bin(yaw, shape[3])
     ip = pitch_bin(pitch, shape[4])
     ir = wrap_bin(roll, shape[5])
-    return ((((ix * shape[1] + iy) * shape[2] + iz) * shape[3] + iyaw) * shape[4] + ip) * shape[5] + ir
+    # (numpy's stubs type an element of ``shape`` as Any, and typing.cast does not compile in a kernel)
+    return ((((ix * shape[1] + iy) * shape[2] + iz) * shape[3] + iyaw) * shape[4] + ip) * shape[5] + ir  # type: ignore[no-any-return]
 
 
 @njit(cache=True)
-def cell_indices(T, origin, res, shape):
+def cell_indices(
+    T: npt.NDArray[np.float64], origin: npt.NDArray[np.float64], res: float, shape: npt.NDArray[np.int64]
+) -> npt.NDArray[np.int64]:
     """Flat indices (N,) int64 of poses T (N, 4, 4); -1 outside the grid."""
     out = np.empty(T.shape[0], dtype=np.int64)
     for i in range(T.shape[0]):

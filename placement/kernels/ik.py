@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 from placement.kernels.kinematics import fk_jacobian
@@ -14,7 +15,7 @@ _TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True)
-def log3(R, out):
+def log3(R: npt.NDArray[np.float64], out: npt.NDArray[np.float64]) -> None:
     """Rotation vector (3,) of the rotation matrix R (3, 3) [rad]."""
     c = (R[0, 0] + R[1, 1] + R[2, 2] - 1.0) * 0.5
     c = min(1.0, max(-1.0, c))
@@ -58,22 +59,22 @@ def log3(R, out):
 
 @njit(cache=True)
 def dls_attempt(
-    q0,
-    target,
-    lower,
-    upper,
-    continuous,
-    link_T,
-    axis,
-    kind,
-    tip_T,
-    pos_tol,
-    rot_tol,
-    max_iter,
-    damping,
-    max_step,
-    stall,
-):
+    q0: npt.NDArray[np.float64],
+    target: npt.NDArray[np.float64],
+    lower: npt.NDArray[np.float64],
+    upper: npt.NDArray[np.float64],
+    continuous: npt.NDArray[np.bool_],
+    link_T: npt.NDArray[np.float64],
+    axis: npt.NDArray[np.float64],
+    kind: npt.NDArray[np.int64],
+    tip_T: npt.NDArray[np.float64],
+    pos_tol: float,
+    rot_tol: float,
+    max_iter: int,
+    damping: float,
+    max_step: float,
+    stall: int,
+) -> tuple[bool, npt.NDArray[np.float64], float, float, int]:
     """One DLS descent of the TCP to ``target`` (4, 4) (base frame) from q0 (n,).
 
     Error: position in the TCP frame and the rotation vector of R^T R_target;

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit, prange
 
 from placement.kernels.grid import wrap_bin
@@ -20,25 +21,25 @@ CHUNK = 64  # cells per parallel task: per-task scratch, no allocation per cell
 
 @njit(cache=True, parallel=True)
 def trajectory_maps(
-    slices,
-    column_max,
-    tcp_x,
-    tcp_y,
-    tcp_yaw,
-    rm_origin,
-    rm_res,
-    base_yaws,
-    grid_origin,
-    grid_res,
-    ny,
-    nx,
-    cells,
-    masks,
-    out_val,
-    out_yaw,
-    out_y0=0,
-    out_x0=0,
-):
+    slices: npt.NDArray[np.float32],
+    column_max: npt.NDArray[np.float32],
+    tcp_x: npt.NDArray[np.float64],
+    tcp_y: npt.NDArray[np.float64],
+    tcp_yaw: npt.NDArray[np.float64],
+    rm_origin: npt.NDArray[np.float64],
+    rm_res: float,
+    base_yaws: npt.NDArray[np.float64],
+    grid_origin: npt.NDArray[np.float64],
+    grid_res: float,
+    ny: int,
+    nx: int,
+    cells: npt.NDArray[np.int64],
+    masks: npt.NDArray[np.uint64],
+    out_val: npt.NDArray[np.float32],
+    out_yaw: npt.NDArray[np.int64],
+    out_y0: int = 0,
+    out_x0: int = 0,
+) -> None:
     """Min over the trajectory, max over the cell's allowed base yaws, of the map value, per base cell, for C
     trajectories at once that share their positions and map slices and differ only in yaw.
 

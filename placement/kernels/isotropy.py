@@ -23,6 +23,8 @@ exact arithmetic.
 
 from __future__ import annotations
 
+import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 from placement.kernels.linalg6 import cho_solve6, cholesky6
@@ -46,7 +48,7 @@ _U_SLACKS = (1.001, 1.03)  # U_s = rho_s * slack, certified by Cholesky
 
 
 @njit(cache=True, inline="always")
-def proof_margin(v):
+def proof_margin(v: float) -> float:
     """Relative margin of a proof at isotropy v.
 
     A Cholesky that succeeds proves positive definiteness of A + E with
@@ -57,7 +59,7 @@ def proof_margin(v):
 
 
 @njit(cache=True, inline="always")
-def _largest_column(A, x):
+def _largest_column(A: npt.NDArray[np.float64], x: npt.NDArray[np.float64]) -> int:
     """x[:6] <- the column of A (6, 6) with the largest diagonal entry; returns its index."""
     k = 0
     for r in range(1, 6):
@@ -69,7 +71,14 @@ def _largest_column(A, x):
 
 
 @njit(cache=True)
-def _below(P, s, t2, A, L, z):
+def _below(
+    P: npt.NDArray[np.float64],
+    s: int,
+    t2: float,
+    A: npt.NDArray[np.float64],
+    L: npt.NDArray[np.float64],
+    z: npt.NDArray[np.float64],
+) -> bool:
     """Proof that octant s's isotropy is below t: A_s - t2 rho I is not positive definite, t2 = t^2 (1 - margin).
 
     rho <= lambda_max(A_s) is the Rayleigh quotient after two power steps from
@@ -96,7 +105,9 @@ def _below(P, s, t2, A, L, z):
 
 
 @njit(cache=True)
-def top_start(G, A, top, z):
+def top_start(
+    G: npt.NDArray[np.float64], A: npt.NDArray[np.float64], top: npt.NDArray[np.float64], z: npt.NDArray[np.float64]
+) -> None:
     """An approximate top eigenvector (6,) of octant 0 (A (6, 6), z (6,) scratch): the common power-step start."""
     octant_gram(G, 0, A)
     _largest_column(A, top)
@@ -115,7 +126,14 @@ def top_start(G, A, top, z):
 
 
 @njit(cache=True)
-def _bottom_start(G, s, A, L, bottom, z):
+def _bottom_start(
+    G: npt.NDArray[np.float64],
+    s: int,
+    A: npt.NDArray[np.float64],
+    L: npt.NDArray[np.float64],
+    bottom: npt.NDArray[np.float64],
+    z: npt.NDArray[np.float64],
+) -> None:
     """An approximate bottom eigenvector (6,) of octant s: three inverse steps (A, L (6, 6), z (6,) scratch)."""
     octant_gram(G, s, A)
     for r in range(6):
@@ -132,7 +150,20 @@ def _bottom_start(G, s, A, L, bottom, z):
 
 
 @njit(cache=True)
-def isotropy_batched(J, pen_lo, pen_hi, rowfac, threshold, P, G, Ag, W, A, B, de):
+def isotropy_batched(
+    J: npt.NDArray[np.float64],
+    pen_lo: npt.NDArray[np.float64],
+    pen_hi: npt.NDArray[np.float64],
+    rowfac: npt.NDArray[np.float64],
+    threshold: float,
+    P: npt.NDArray[np.float64],
+    G: npt.NDArray[np.float64],
+    Ag: npt.NDArray[np.float64],
+    W: npt.NDArray[np.float64],
+    A: npt.NDArray[np.float64],
+    B: npt.NDArray[np.float64],
+    de: npt.NDArray[np.float64],
+) -> float:
     """Isotropy index (min over octants of sigma_min/sigma_max), or -1.0 if proven <= threshold.
 
     Args:

@@ -5,11 +5,21 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 
 @njit(cache=True)
-def fk_jacobian(q, link_T, axis, kind, tip_T, T_out, J_out, work):
+def fk_jacobian(
+    q: npt.NDArray[np.float64],
+    link_T: npt.NDArray[np.float64],
+    axis: npt.NDArray[np.float64],
+    kind: npt.NDArray[np.int64],
+    tip_T: npt.NDArray[np.float64],
+    T_out: npt.NDArray[np.float64],
+    J_out: npt.NDArray[np.float64],
+    work: npt.NDArray[np.float64],
+) -> None:
     """TCP pose and its LOCAL geometric Jacobian for one configuration.
 
     Args:
@@ -104,7 +114,13 @@ def fk_jacobian(q, link_T, axis, kind, tip_T, T_out, J_out, work):
 
 
 @njit(cache=True)
-def fk_jacobian_batch(Q, link_T, axis, kind, tip_T):
+def fk_jacobian_batch(
+    Q: npt.NDArray[np.float64],
+    link_T: npt.NDArray[np.float64],
+    axis: npt.NDArray[np.float64],
+    kind: npt.NDArray[np.int64],
+    tip_T: npt.NDArray[np.float64],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Vectorised :func:`fk_jacobian`: Q (N, n) -> poses (N, 4, 4), Jacobians (N, 6, n)."""
     N, n = Q.shape
     T = np.empty((N, 4, 4))

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 
 @njit(cache=True)
-def cholesky6(A, alpha, beta, L):
+def cholesky6(A: npt.NDArray[np.float64], alpha: float, beta: float, L: npt.NDArray[np.float64]) -> bool:
     """Whether alpha * A + beta * I (symmetric (6, 6)) is positive definite; its factor goes into L.
 
     Only the lower triangles of A and L are used. Stops at the first pivot <= 0.
@@ -30,7 +32,9 @@ def cholesky6(A, alpha, beta, L):
 
 
 @njit(cache=True)
-def cho_solve6(L, b, z, x):
+def cho_solve6(
+    L: npt.NDArray[np.float64], b: npt.NDArray[np.float64], z: npt.NDArray[np.float64], x: npt.NDArray[np.float64]
+) -> None:
     """x (6,) <- (L L^T)^-1 b through z (6,); x may be b or z."""
     for r in range(6):
         acc = b[r]

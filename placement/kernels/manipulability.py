@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 ISOTROPY = 0
@@ -38,7 +39,14 @@ N_OCTANTS = 64
 
 
 @njit(cache=True)
-def joint_penalties(q, lower, upper, continuous, pen_lo, pen_hi):
+def joint_penalties(
+    q: npt.NDArray[np.float64],
+    lower: npt.NDArray[np.float64],
+    upper: npt.NDArray[np.float64],
+    continuous: npt.NDArray[np.bool_],
+    pen_lo: npt.NDArray[np.float64],
+    pen_hi: npt.NDArray[np.float64],
+) -> None:
     """Simox joint-limit penalty factors, written into pen_lo / pen_hi (n,).
 
     Motion towards the nearer limit is scaled by 1/sqrt(1+w), away from it by 1;
@@ -62,7 +70,13 @@ def joint_penalties(q, lower, upper, continuous, pen_lo, pen_hi):
 
 
 @njit(cache=True)
-def penalised_rows(J, pen_lo, pen_hi, rowfac, P):
+def penalised_rows(
+    J: npt.NDArray[np.float64],
+    pen_lo: npt.NDArray[np.float64],
+    pen_hi: npt.NDArray[np.float64],
+    rowfac: npt.NDArray[np.float64],
+    P: npt.NDArray[np.float64],
+) -> None:
     """P (6, n, 2) <- each Jacobian entry times its penalties for either sign of its row (0 = +, 1 = -).
 
     pen_lo, pen_hi (n,): joint-limit factors; rowfac (6, 2): a factor per row
@@ -80,7 +94,7 @@ def penalised_rows(J, pen_lo, pen_hi, rowfac, P):
 
 
 @njit(cache=True)
-def gram_from(P, G):
+def gram_from(P: npt.NDArray[np.float64], G: npt.NDArray[np.float64]) -> None:
     """G (6, 6, 2, 2) <- all row products of P: the entries of every octant's Gram matrix."""
     n = P.shape[1]
     for r in range(6):
@@ -95,7 +109,7 @@ def gram_from(P, G):
 
 
 @njit(cache=True)
-def most_penalised_octant(P):
+def most_penalised_octant(P: npt.NDArray[np.float64]) -> int:
     """The octant whose rows take the more penalised sign each (smaller row norm in P (6, n, 2)).
 
     Usually the worst octant or close to it: trying it first settles most samples that cannot raise
@@ -115,14 +129,21 @@ def most_penalised_octant(P):
 
 
 @njit(cache=True)
-def gram_table(J, pen_lo, pen_hi, rowfac, P, G):
+def gram_table(
+    J: npt.NDArray[np.float64],
+    pen_lo: npt.NDArray[np.float64],
+    pen_hi: npt.NDArray[np.float64],
+    rowfac: npt.NDArray[np.float64],
+    P: npt.NDArray[np.float64],
+    G: npt.NDArray[np.float64],
+) -> None:
     """Fill P (6, n, 2) and G (6, 6, 2, 2) for the octant Gram matrices (sign index 0 = +, 1 = -)."""
     penalised_rows(J, pen_lo, pen_hi, rowfac, P)
     gram_from(P, G)
 
 
 @njit(cache=True)
-def octant_gram_direct(P, s, A):
+def octant_gram_direct(P: npt.NDArray[np.float64], s: int, A: npt.NDArray[np.float64]) -> None:
     """A (6, 6) <- the Gram matrix of octant s straight from P (bitwise equal to :func:`octant_gram`)."""
     n = P.shape[1]
     for r in range(6):
@@ -137,7 +158,7 @@ def octant_gram_direct(P, s, A):
 
 
 @njit(cache=True, inline="always")
-def octant_gram(G, s, A):
+def octant_gram(G: npt.NDArray[np.float64], s: int, A: npt.NDArray[np.float64]) -> None:
     """A (6, 6) <- the Gram matrix of octant s (bit r of s set = negative sign of row r)."""
     for r in range(6):
         a = (s >> r) & 1
@@ -148,7 +169,7 @@ def octant_gram(G, s, A):
 
 
 @njit(cache=True)
-def sym_eig_extremes(A, de):
+def sym_eig_extremes(A: npt.NDArray[np.float64], de: npt.NDArray[np.float64]) -> tuple[float, float]:
     """Smallest and largest eigenvalue of a symmetric (6, 6) matrix (A and de (2, 6) are overwritten).
 
     Householder tridiagonalisation, then implicit QL with Wilkinson shifts
@@ -254,7 +275,7 @@ ACCURATE_BELOW = 1e-4
 
 
 @njit(cache=True)
-def octant_r(P, s, R):
+def octant_r(P: npt.NDArray[np.float64], s: int, R: npt.NDArray[np.float64]) -> None:
     """R (6, 6) upper triangular with J_s^T = Q R (Householder QR of the (n, 6) J_s^T)."""
     n = P.shape[1]
     M = np.empty((n, 6))
@@ -292,7 +313,7 @@ def octant_r(P, s, R):
 
 
 @njit(cache=True)
-def jacobi_columns(R):
+def jacobi_columns(R: npt.NDArray[np.float64]) -> None:
     """One-sided Jacobi on a (6, 6) matrix, in place: afterwards the column norms of R are its singular values."""
     for _sweep in range(60):
         rotated = False
@@ -322,7 +343,7 @@ def jacobi_columns(R):
 
 
 @njit(cache=True)
-def _singular_extremes(R):
+def _singular_extremes(R: npt.NDArray[np.float64]) -> tuple[float, float]:
     """Smallest and largest singular value of a (6, 6) matrix by one-sided Jacobi (R is overwritten)."""
     jacobi_columns(R)
     smin = np.inf
@@ -338,7 +359,7 @@ def _singular_extremes(R):
 
 
 @njit(cache=True)
-def _isotropy_from(lmin, lmax, P, s, R):
+def _isotropy_from(lmin: float, lmax: float, P: npt.NDArray[np.float64], s: int, R: npt.NDArray[np.float64]) -> float:
     """sigma_min/sigma_max of octant s from its Gram eigenvalues, refined from J_s when small."""
     v = math.sqrt(lmin / lmax) if lmin > 0.0 and lmax > 0.0 else 0.0
     if v < ACCURATE_BELOW:
@@ -349,7 +370,14 @@ def _isotropy_from(lmin, lmax, P, s, R):
 
 
 @njit(cache=True)
-def octant_value(G, s, index, A, P, de):
+def octant_value(
+    G: npt.NDArray[np.float64],
+    s: int,
+    index: int,
+    A: npt.NDArray[np.float64],
+    P: npt.NDArray[np.float64],
+    de: npt.NDArray[np.float64],
+) -> float:
     """The index value of one octant: sigma_min/sigma_max (isotropy) or prod sigma (volume)."""
     if index == VOLUME:
         octant_r(P, s, A)
@@ -363,7 +391,18 @@ def octant_value(G, s, index, A, P, de):
 
 
 @njit(cache=True)
-def extended_manipulability(J, pen_lo, pen_hi, rowfac, index, threshold, P, G, A, de):
+def extended_manipulability(
+    J: npt.NDArray[np.float64],
+    pen_lo: npt.NDArray[np.float64],
+    pen_hi: npt.NDArray[np.float64],
+    rowfac: npt.NDArray[np.float64],
+    index: int,
+    threshold: float,
+    P: npt.NDArray[np.float64],
+    G: npt.NDArray[np.float64],
+    A: npt.NDArray[np.float64],
+    de: npt.NDArray[np.float64],
+) -> float:
     """Worst case over the 64 octants, or -1.0 as soon as it is proven <= threshold.
 
     ``threshold`` < 0 computes the exact value always. Returning early is exact:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 _INF = np.inf
@@ -18,7 +19,9 @@ GUIDE = 0.9
 
 
 @njit(cache=True)
-def _dt_1d(f, n, d, v, z):
+def _dt_1d(
+    f: npt.NDArray[np.float64], n: int, d: npt.NDArray[np.float64], v: npt.NDArray[np.int64], z: npt.NDArray[np.float64]
+) -> None:
     """Felzenszwalb-Huttenlocher 1D squared distance transform of f (n,) into d (n,)."""
     k = 0
     v[0] = 0
@@ -53,7 +56,7 @@ def _dt_1d(f, n, d, v, z):
 
 
 @njit(cache=True)
-def distance_transform(occupied, res):
+def distance_transform(occupied: npt.NDArray[np.bool_], res: float) -> npt.NDArray[np.float64]:
     """Exact Euclidean distance [m] from each cell centre to the nearest occupied cell centre.
 
     occupied: (ny, nx) bool. Returns (ny, nx) float64; inf everywhere if nothing is occupied.
@@ -82,7 +85,15 @@ def distance_transform(occupied, res):
 
 
 @njit(cache=True)
-def shortest_costs(factor, feasible, sources, source_costs, res, targets, reverse=False):
+def shortest_costs(
+    factor: npt.NDArray[np.float64],
+    feasible: npt.NDArray[np.bool_],
+    sources: npt.NDArray[np.int64],
+    source_costs: npt.NDArray[np.float64],
+    res: float,
+    targets: npt.NDArray[np.bool_],
+    reverse: bool = False,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
     """Minimal path cost from the sources to every cell of an 8-connected grid (Dijkstra).
 
     The edge from cell i to its neighbour j costs ``|p_i - p_j| * factor[j]`` (res or

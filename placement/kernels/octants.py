@@ -13,6 +13,8 @@ from ``manipulability.octant_value``. Factorisations are LDL^T (no square roots)
 
 from __future__ import annotations
 
+import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 # contracted multiply-adds only; error_model="numpy": a zero pivot gives inf, not an exception
@@ -20,7 +22,7 @@ _FM = {"contract"}
 
 
 @njit(cache=True)
-def fill_grams(G, A):
+def fill_grams(G: npt.NDArray[np.float64], A: npt.NDArray[np.float64]) -> None:
     """A[p(r, c), s] <- G[r, c, s_r, s_c] for all 64 octants s (bit r set = sign -); A (21, 64)."""
     for r in range(6):
         for c in range(r + 1):
@@ -37,7 +39,9 @@ def fill_grams(G, A):
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def pd_flags(A, alpha, beta, out):
+def pd_flags(
+    A: npt.NDArray[np.float64], alpha: float, beta: npt.NDArray[np.float64], out: npt.NDArray[np.float64]
+) -> None:
     """out[s] <- 1.0 if alpha * A_s + beta[s] * I is positive definite (Cholesky pivots > 0), else 0.0."""
     for s in range(64):
         b = beta[s]
@@ -109,7 +113,7 @@ def pd_flags(A, alpha, beta, out):
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def lambda_max_lower(A, top, rho):
+def lambda_max_lower(A: npt.NDArray[np.float64], top: npt.NDArray[np.float64], rho: npt.NDArray[np.float64]) -> None:
     """rho[s] <- a lower bound of lambda_max(A_s): Rayleigh quotient after 3 power steps from top (6,).
 
     Any start vector gives a valid bound; an eigenvector of a neighbouring
@@ -191,7 +195,7 @@ def lambda_max_lower(A, top, rho):
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def traces(A, trace):
+def traces(A: npt.NDArray[np.float64], trace: npt.NDArray[np.float64]) -> None:
     """trace[s] <- trace(A_s) >= lambda_max(A_s) for positive semi-definite A_s."""
     for s in range(64):
         trace[s] = A[0, s] + A[2, s] + A[5, s] + A[9, s] + A[14, s] + A[20, s]

@@ -6,6 +6,8 @@ as :mod:`placement.kernels.octants`.
 
 from __future__ import annotations
 
+import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 # contracted multiply-adds only; error_model="numpy": a zero pivot gives inf, not an exception
@@ -13,7 +15,7 @@ _FM = {"contract"}
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def lambda_max_tight(A, top, rho):
+def lambda_max_tight(A: npt.NDArray[np.float64], top: npt.NDArray[np.float64], rho: npt.NDArray[np.float64]) -> None:
     """rho[s] <- as :func:`lambda_max_lower` with 8 power steps: tighter, for exact values."""
     for s in range(64):
         x0 = top[0]
@@ -167,7 +169,7 @@ def lambda_max_tight(A, top, rho):
 
 
 @njit(cache=True, fastmath=_FM, error_model="numpy")
-def lambda_min_upper(A, bottom, mu):
+def lambda_min_upper(A: npt.NDArray[np.float64], bottom: npt.NDArray[np.float64], mu: npt.NDArray[np.float64]) -> None:
     """mu[s] <- an upper bound of lambda_min(A_s): Rayleigh quotient after 2 inverse steps from bottom (6,).
 
     0 where A_s is not numerically positive definite (the caller then

@@ -3,11 +3,21 @@
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 
 @njit(cache=True)
-def rank_window(value, nav, heur, thr32, lam_n, lam_m32, lam_nh, k):
+def rank_window(
+    value: npt.NDArray[np.float32],
+    nav: npt.NDArray[np.float64],
+    heur: npt.NDArray[np.float64],
+    thr32: np.float32,
+    lam_n: float,
+    lam_m32: np.float32,
+    lam_nh: float,
+    k: int,
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.float64]]:
     """Costs ``lam_n nav + lam_m / value + lam_nh heur`` of the cells that keep the threshold, and
     the ``k`` cheapest of each tier.
 

@@ -15,7 +15,7 @@ _M2 = np.uint64(0x94D049BB133111EB)
 
 
 @njit(cache=True, inline="always")
-def splitmix64(x):
+def splitmix64(x: np.uint64) -> np.uint64:
     """The splitmix64 finaliser of x + golden ratio (a 64-bit bijective hash)."""
     z = x + _GOLDEN
     z = (z ^ (z >> uint64(30))) * _M1
@@ -24,7 +24,7 @@ def splitmix64(x):
 
 
 @njit(cache=True, inline="always")
-def uniform(seed, counter):
+def uniform(seed: np.uint64, counter: int) -> float:
     """A float64 in [0, 1) from 53 hashed bits of (seed, counter)."""
     h = splitmix64(splitmix64(uint64(seed)) ^ uint64(counter))
     return float(h >> uint64(11)) * (1.0 / 9007199254740992.0)

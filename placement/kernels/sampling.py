@@ -18,6 +18,7 @@ witnesses are as deterministic as the values.
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit, prange
 
 from placement.kernels.grid import cell_index
@@ -34,28 +35,28 @@ CHUNK = 256  # samples per parallel task; its buffers (q, J) stay in the L2 cach
 
 @njit(cache=True, parallel=True)
 def sample_block(
-    seed,
-    start,
-    count,
-    given,
-    lower,
-    upper,
-    continuous,
-    link_T,
-    axis,
-    kind,
-    tip_T,
-    index,
-    rot_scale,
-    origin,
-    res,
-    shape,
-    grid,
-    rowfac,
-    out_cell,
-    out_val,
-    rank=0,
-):
+    seed: np.uint64,
+    start: int,
+    count: int,
+    given: npt.NDArray[np.float64],
+    lower: npt.NDArray[np.float64],
+    upper: npt.NDArray[np.float64],
+    continuous: npt.NDArray[np.bool_],
+    link_T: npt.NDArray[np.float64],
+    axis: npt.NDArray[np.float64],
+    kind: npt.NDArray[np.int64],
+    tip_T: npt.NDArray[np.float64],
+    index: int,
+    rot_scale: float,
+    origin: npt.NDArray[np.float64],
+    res: float,
+    shape: npt.NDArray[np.int64],
+    grid: npt.NDArray[np.float32],
+    rowfac: npt.NDArray[np.float64],
+    out_cell: npt.NDArray[np.int64],
+    out_val: npt.NDArray[np.float64],
+    rank: int = 0,
+) -> None:
     """Evaluate samples start .. start+count-1 into out_cell (count,) and out_val (count,).
 
     ``given`` (count, n) holds the configurations [rad or m] to evaluate (the
@@ -135,7 +136,13 @@ def sample_block(
 
 
 @njit(cache=True)
-def reduce_max(grid, witness, cells, vals, ids):
+def reduce_max(
+    grid: npt.NDArray[np.float32],
+    witness: npt.NDArray[np.uint32 | np.int64],
+    cells: npt.NDArray[np.int64],
+    vals: npt.NDArray[np.float64],
+    ids: npt.NDArray[np.int64],
+) -> int:
     """grid[cells[i]] = max(grid[cells[i]], vals[i]) for valid samples, witness[cell] = ids[i] of the
     winner (the smallest id among equal values); returns how many cells changed."""
     raised = 0
@@ -151,7 +158,9 @@ def reduce_max(grid, witness, cells, vals, ids):
 
 
 @njit(cache=True)
-def configs_at(seed, ids, lower, upper):
+def configs_at(
+    seed: np.uint64, ids: npt.NDArray[np.int64], lower: npt.NDArray[np.float64], upper: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]:
     """The joint configurations (len(ids), n) [rad/m] of the samples numbered ``ids``."""
     n = lower.shape[0]
     out = np.empty((ids.shape[0], n))
@@ -162,7 +171,9 @@ def configs_at(seed, ids, lower, upper):
 
 
 @njit(cache=True)
-def sample_configs(seed, start, count, lower, upper):
+def sample_configs(
+    seed: np.uint64, start: int, count: int, lower: npt.NDArray[np.float64], upper: npt.NDArray[np.float64]
+) -> npt.NDArray[np.float64]:
     """The joint configurations (count, n) [rad/m] of samples start .. start+count-1."""
     return configs_at(seed, np.arange(start, start + count), lower, upper)
 
@@ -176,7 +187,7 @@ COMPLETION_MAX_STEP = 0.2
 
 
 @njit(cache=True)
-def neighbour_cell(cell, k, shape):
+def neighbour_cell(cell: int, k: int, shape: npt.NDArray[np.int64]) -> int:
     """Flat index of the k-th face neighbour (NEIGHBOURS[k]) of flat ``cell``; yaw and roll wrap; -1 outside."""
     a = NEIGHBOURS[k, 0]
     stride = 1  # of axis a in the C-order flat index (no index array: this runs ~1e9 times per build)
@@ -188,11 +199,14 @@ def neighbour_cell(cell, k, shape):
         v %= shape[a]
     elif v < 0 or v >= shape[a]:
         return -1
-    return cell + (v - i) * stride
+    # (numpy's stubs type an element of ``shape`` as Any, and typing.cast does not compile in a kernel)
+    return cell + (v - i) * stride  # type: ignore[no-any-return]
 
 
 @njit(cache=True)
-def cell_centre(cell, origin, res, shape, T):
+def cell_centre(
+    cell: int, origin: npt.NDArray[np.float64], res: float, shape: npt.NDArray[np.int64], T: npt.NDArray[np.float64]
+) -> None:
     """The pose T (4, 4) at the centre of flat ``cell`` (the grid's bin convention, see kernels/grid.py)."""
     idx = np.empty(6, dtype=np.int64)
     rest = cell
@@ -213,8 +227,21 @@ def cell_centre(cell, origin, res, shape, T):
 
 @njit(cache=True)
 def refined_config(
-    seed, source, direction, lower, upper, continuous, link_T, axis, kind, tip_T, origin, res, shape, out
-):
+    seed: np.uint64,
+    source: int,
+    direction: int,
+    lower: npt.NDArray[np.float64],
+    upper: npt.NDArray[np.float64],
+    continuous: npt.NDArray[np.bool_],
+    link_T: npt.NDArray[np.float64],
+    axis: npt.NDArray[np.float64],
+    kind: npt.NDArray[np.int64],
+    tip_T: npt.NDArray[np.float64],
+    origin: npt.NDArray[np.float64],
+    res: float,
+    shape: npt.NDArray[np.int64],
+    out: npt.NDArray[np.float64],
+) -> bool:
     """Completion sample into ``out`` (n,) [rad or m]: from sample ``source`` of ``seed``, a few DLS steps
     towards the centre of the ``direction``-th face neighbour of the cell that sample lies in.
 
@@ -256,7 +283,21 @@ def refined_config(
 
 
 @njit(cache=True, parallel=True)
-def refined_configs(seed, sources, dirs, lower, upper, continuous, link_T, axis, kind, tip_T, origin, res, shape):
+def refined_configs(
+    seed: np.uint64,
+    sources: npt.NDArray[np.int64],
+    dirs: npt.NDArray[np.int64],
+    lower: npt.NDArray[np.float64],
+    upper: npt.NDArray[np.float64],
+    continuous: npt.NDArray[np.bool_],
+    link_T: npt.NDArray[np.float64],
+    axis: npt.NDArray[np.float64],
+    kind: npt.NDArray[np.int64],
+    tip_T: npt.NDArray[np.float64],
+    origin: npt.NDArray[np.float64],
+    res: float,
+    shape: npt.NDArray[np.int64],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
     """:func:`refined_config` of many (source, direction) pairs -> (configs (m, n), ok (m,) bool)."""
     m = sources.shape[0]
     out = np.empty((m, lower.shape[0]))
@@ -269,7 +310,13 @@ def refined_configs(seed, sources, dirs, lower, upper, continuous, link_T, axis,
 
 
 @njit(cache=True)
-def first_source(t, grid, witness, plain, shape):
+def first_source(
+    t: int,
+    grid: npt.NDArray[np.float32],
+    witness: npt.NDArray[np.uint32 | np.int64],
+    plain: int,
+    shape: npt.NDArray[np.int64],
+) -> int:
     """The first face neighbour of cell ``t`` (NEIGHBOURS order) that is reached with a plain witness, or -1."""
     for d in range(NEIGHBOURS.shape[0]):
         c = neighbour_cell(t, d, shape)
@@ -283,7 +330,17 @@ SCAN_PARTS = 256
 
 
 @njit(cache=True)
-def _scan_part(lo, hi, grid, witness, plain, shape, sources, dirs, m):
+def _scan_part(
+    lo: int,
+    hi: int,
+    grid: npt.NDArray[np.float32],
+    witness: npt.NDArray[np.uint32 | np.int64],
+    plain: int,
+    shape: npt.NDArray[np.int64],
+    sources: npt.NDArray[np.int64],
+    dirs: npt.NDArray[np.int64],
+    m: int,
+) -> int:
     """Completion candidates whose source cell is in [lo, hi): counted (``sources`` empty) or written
     from position ``m`` on; returns the position after them."""
     k = NEIGHBOURS.shape[0]
@@ -301,7 +358,13 @@ def _scan_part(lo, hi, grid, witness, plain, shape, sources, dirs, m):
 
 
 @njit(cache=True, parallel=True)
-def _count_parts(edges, grid, witness, plain, shape):
+def _count_parts(
+    edges: npt.NDArray[np.int64],
+    grid: npt.NDArray[np.float32],
+    witness: npt.NDArray[np.uint32 | np.int64],
+    plain: int,
+    shape: npt.NDArray[np.int64],
+) -> npt.NDArray[np.int64]:
     counts = np.zeros(edges.shape[0] - 1, dtype=np.int64)
     for p in prange(counts.shape[0]):
         counts[p] = _scan_part(
@@ -319,12 +382,23 @@ def _count_parts(edges, grid, witness, plain, shape):
 
 
 @njit(cache=True, parallel=True)
-def _fill_parts(edges, offsets, grid, witness, plain, shape, sources, dirs):
+def _fill_parts(
+    edges: npt.NDArray[np.int64],
+    offsets: npt.NDArray[np.int64],
+    grid: npt.NDArray[np.float32],
+    witness: npt.NDArray[np.uint32 | np.int64],
+    plain: int,
+    shape: npt.NDArray[np.int64],
+    sources: npt.NDArray[np.int64],
+    dirs: npt.NDArray[np.int64],
+) -> None:
     for p in prange(edges.shape[0] - 1):
         _scan_part(edges[p], edges[p + 1], grid, witness, plain, shape, sources, dirs, offsets[p])
 
 
-def completion_sources(grid, witness, plain, shape):
+def completion_sources(
+    grid: npt.NDArray[np.float32], witness: npt.NDArray[np.uint32 | np.int64], plain: int, shape: npt.NDArray[np.int64]
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
     """(sources, dirs): one completion candidate per empty cell next to a reached one, from its first
     (in NEIGHBOURS order) face neighbour that is reached with a plain-sample witness (< ``plain``);
     in increasing source cell, then direction order. One per empty cell, not one per pair: the

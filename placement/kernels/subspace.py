@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 from placement.kernels.kinematics import fk_jacobian
@@ -50,7 +51,7 @@ RANK_SEED = np.uint64(0x7A4B)
 
 
 @njit(cache=True, inline="always")
-def _sort_descending(d):
+def _sort_descending(d: npt.NDArray[np.float64]) -> None:
     """Insertion sort of the 6 values in d, largest first, in place."""
     for i in range(1, 6):
         v = d[i]
@@ -62,7 +63,7 @@ def _sort_descending(d):
 
 
 @njit(cache=True)
-def _column_norms(R, out):
+def _column_norms(R: npt.NDArray[np.float64], out: npt.NDArray[np.float64]) -> None:
     """out (6,) <- the column norms of R (6, 6), largest first (after :func:`jacobi_columns`: its singular values)."""
     for c in range(6):
         acc = 0.0
@@ -73,7 +74,15 @@ def _column_norms(R, out):
 
 
 @njit(cache=True)
-def octant_value_rank(G, s, index, rank, A, P, de):
+def octant_value_rank(
+    G: npt.NDArray[np.float64],
+    s: int,
+    index: int,
+    rank: int,
+    A: npt.NDArray[np.float64],
+    P: npt.NDArray[np.float64],
+    de: npt.NDArray[np.float64],
+) -> float:
     """One octant's index on the arm's ``rank``-dimensional subspace (rank 6: :func:`octant_value`).
 
     Isotropy ``sigma_rank/sigma_1``, volume the product of the ``rank`` largest singular values
@@ -109,7 +118,19 @@ def octant_value_rank(G, s, index, rank, A, P, de):
 
 
 @njit(cache=True)
-def subspace_manipulability(J, pen_lo, pen_hi, rowfac, index, rank, threshold, P, G, A, de):
+def subspace_manipulability(
+    J: npt.NDArray[np.float64],
+    pen_lo: npt.NDArray[np.float64],
+    pen_hi: npt.NDArray[np.float64],
+    rowfac: npt.NDArray[np.float64],
+    index: int,
+    rank: int,
+    threshold: float,
+    P: npt.NDArray[np.float64],
+    G: npt.NDArray[np.float64],
+    A: npt.NDArray[np.float64],
+    de: npt.NDArray[np.float64],
+) -> float:
     """Worst case over the 64 octants of :func:`octant_value_rank`, or -1.0 as soon as it is proven <= threshold.
 
     Arguments as :func:`~placement.kernels.manipulability.extended_manipulability`, plus ``rank``
@@ -132,7 +153,15 @@ def subspace_manipulability(J, pen_lo, pen_hi, rowfac, index, rank, threshold, P
 
 
 @njit(cache=True)
-def generic_rank(lower, upper, link_T, axis, kind, tip_T, rot_scale):
+def generic_rank(
+    lower: npt.NDArray[np.float64],
+    upper: npt.NDArray[np.float64],
+    link_T: npt.NDArray[np.float64],
+    axis: npt.NDArray[np.float64],
+    kind: npt.NDArray[np.int64],
+    tip_T: npt.NDArray[np.float64],
+    rot_scale: float,
+) -> int:
     """The arm's generic rank: the largest numerical rank of its TCP Jacobian (rotation rows scaled by
     ``rot_scale``) over :data:`RANK_SAMPLES` configurations uniform within ``lower`` .. ``upper`` (n,)."""
     n = lower.shape[0]

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+import numpy.typing as npt
 from numba import njit
 
 from placement.kernels.isotropy import proof_margin, top_start
@@ -43,7 +45,15 @@ RANK_STEPS = 3
 
 
 @njit(cache=True)
-def _some_below(Ag, rho, t2, rank, beta, neg, err):
+def _some_below(
+    Ag: npt.NDArray[np.float64],
+    rho: npt.NDArray[np.float64],
+    t2: float,
+    rank: int,
+    beta: npt.NDArray[np.float64],
+    neg: npt.NDArray[np.float64],
+    err: npt.NDArray[np.float64],
+) -> bool:
     """True when some octant's lambda_rank(A_s) < t2 rho_s (rho_s <= lambda_1(A_s)): by its inertia at
     ``t2 rho_s (1 - m)``, where the factorisation's error bound stays below the margin m."""
     m = proof_margin(math.sqrt(t2))
@@ -57,7 +67,16 @@ def _some_below(Ag, rho, t2, rank, beta, neg, err):
 
 
 @njit(cache=True)
-def _prove_not_below(Ag, upper, best, rank, beta, neg, err, done):
+def _prove_not_below(
+    Ag: npt.NDArray[np.float64],
+    upper: npt.NDArray[np.float64],
+    best: float,
+    rank: int,
+    beta: npt.NDArray[np.float64],
+    neg: npt.NDArray[np.float64],
+    err: npt.NDArray[np.float64],
+    done: npt.NDArray[np.float64],
+) -> int:
     """done[s] <- 1.0 where lambda_rank(A_s) > best^2 (1 + m) upper_s (upper_s >= lambda_1(A_s)): octant s is
     not below ``best``; by its inertia at best^2 (1 + 2 m) upper_s, the error bound below the margin.
     Returns how many octants are left open."""
@@ -77,7 +96,17 @@ def _prove_not_below(Ag, upper, best, rank, beta, neg, err, done):
 
 
 @njit(cache=True)
-def _rank_open(Ag, rho, rank, done, lo, hi, beta, neg, err):
+def _rank_open(
+    Ag: npt.NDArray[np.float64],
+    rho: npt.NDArray[np.float64],
+    rank: int,
+    done: npt.NDArray[np.float64],
+    lo: npt.NDArray[np.float64],
+    hi: npt.NDArray[np.float64],
+    beta: npt.NDArray[np.float64],
+    neg: npt.NDArray[np.float64],
+    err: npt.NDArray[np.float64],
+) -> None:
     """Narrow [lo_s, hi_s], a bracket of lambda_rank(A_s) / rho_s, for the open octants (done 0.0) by
     :data:`RANK_STEPS` inertia counts (a ranking only: no error bound needed)."""
     for _step in range(RANK_STEPS):
@@ -95,7 +124,24 @@ def _rank_open(Ag, rho, rank, done, lo, hi, beta, neg, err):
 
 
 @njit(cache=True)
-def subspace_isotropy_batched(J, pen_lo, pen_hi, rowfac, rank, threshold, P, G, Ag, Rg, W, A, B, S, C, de):
+def subspace_isotropy_batched(
+    J: npt.NDArray[np.float64],
+    pen_lo: npt.NDArray[np.float64],
+    pen_hi: npt.NDArray[np.float64],
+    rowfac: npt.NDArray[np.float64],
+    rank: int,
+    threshold: float,
+    P: npt.NDArray[np.float64],
+    G: npt.NDArray[np.float64],
+    Ag: npt.NDArray[np.float64],
+    Rg: npt.NDArray[np.float64],
+    W: npt.NDArray[np.float64],
+    A: npt.NDArray[np.float64],
+    B: npt.NDArray[np.float64],
+    S: npt.NDArray[np.float64],
+    C: npt.NDArray[np.float64],
+    de: npt.NDArray[np.float64],
+) -> float:
     """The rank-``rank`` isotropy index (min over octants of sigma_rank/sigma_1), or -1.0 if proven <= threshold.
 
     Args:

@@ -190,7 +190,7 @@ def _rotation(R: np.ndarray) -> np.ndarray:
     return R
 
 
-_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_CACHE: weakref.WeakKeyDictionary[Robot, dict[str, _ArmIK]] = weakref.WeakKeyDictionary()
 #: solvers by content (see :func:`_content`), for robot objects made again from the same files: a
 #: fresh planner then skips the model copy (1-2 ms per arm)
 _BY_CONTENT: dict[tuple[object, ...], _ArmIK] = {}

@@ -3,7 +3,8 @@ private grid on a worker, the reached cells merged here (bitwise equal to the lo
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Iterable, Iterator
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -16,9 +17,12 @@ from placement.maps.witness import empty_witnesses
 from placement.robots import Robot, load_robot
 
 if TYPE_CHECKING:
-    from dask.distributed import Client
+    from dask.distributed import Client, Future
 
     from placement.progress import EtaBar
+
+#: What a task returns: reached cells (flat indices), their values and witnesses, samples outside the grid.
+_Part = tuple[npt.NDArray[np.intp], npt.NDArray[np.float32], np.ndarray, int]
 
 
 def sample_distributed(
@@ -42,7 +46,9 @@ def sample_distributed(
     from dask.distributed import as_completed
 
     if tasks is None:
-        threads = sum(client.nthreads().values()) or 1
+        # (dask.distributed leaves Client.nthreads unannotated: {worker address: threads})
+        nthreads = cast("Callable[[], dict[str, int]]", client.nthreads)
+        threads = sum(nthreads().values()) or 1
         tasks = 4 * threads
     tasks = int(max(1, min(tasks, samples)))
     edges = np.linspace(0, samples, tasks + 1).astype(np.int64)
@@ -66,7 +72,9 @@ def sample_distributed(
         if hi > lo
     }
     outside = 0
-    for fut in as_completed(futures):
+    # (and as_completed: it yields the futures as they finish)
+    completed = cast("Callable[[Iterable[Future[_Part]]], Iterator[Future[_Part]]]", as_completed)
+    for fut in completed(futures):
         idx, vals, wit, out = fut.result()
         # the witness tie rule makes the merge independent of the order the tasks finish in
         reduce_max(values, witness, idx, vals.astype(np.float64), wit.astype(np.int64))
@@ -86,7 +94,7 @@ def _remote_range(
     self_collision: bool = False,
     self_distance: bool = False,
     total: int = 0,
-) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float32], np.ndarray, int]:
+) -> _Part:
     """Dask task: a sub-range into a private grid, returned sparse (flat indices int64, values float32,
     witnesses)."""
     robot = load_robot(preset)

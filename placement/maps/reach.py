@@ -16,6 +16,7 @@ provable cube (see :func:`placement.maps.build.build_map`).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 
@@ -114,7 +115,7 @@ def reach_box(robot: Robot, arm: str) -> tuple[np.ndarray, np.ndarray]:
 
 def grid_margin(lo: np.ndarray, hi: np.ndarray, resolution: float) -> np.ndarray:
     """The margin (3,) [m] a grid adds on each side of the box lo .. hi: a cell plus 5 % of its extent."""
-    return MARGIN_CELLS * resolution + MARGIN_FRACTION * (np.asarray(hi) - np.asarray(lo))
+    return cast(np.ndarray, MARGIN_CELLS * resolution + MARGIN_FRACTION * (np.asarray(hi) - np.asarray(lo)))
 
 
 def box_grid(lo: np.ndarray, hi: np.ndarray, resolution: float, bins: Sequence[int]) -> Grid:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -255,7 +255,10 @@ class ReachabilityMap:
         if w == self._empty:
             return None
         # the witness stands for joints sampled on the stored grid (a view only moves where they land)
-        return witness_configs(self.robot.arm(self.arm), self.stored_grid, self._seed, self._plain, np.array([w]))[0]
+        return cast(
+            "npt.NDArray[np.float64]",
+            witness_configs(self.robot.arm(self.arm), self.stored_grid, self._seed, self._plain, np.array([w]))[0],
+        )
 
     def slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
         """Values (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -144,7 +144,7 @@ def one_witness_config(arm: Arm, grid: Grid, seed: int, plain: int, w: int) -> n
     """The configuration (n,) [rad or m] of one valid witness ``w`` (no checks, serial: microseconds)."""
     lo, hi = arm.lower, arm.upper
     if w < plain:
-        return configs_at(np.uint64(seed), np.array([w], dtype=np.int64), lo, hi)[0]
+        return cast("npt.NDArray[np.float64]", configs_at(np.uint64(seed), np.array([w], dtype=np.int64), lo, hi)[0])
     c = w - plain
     ch = arm.chain
     out = np.empty(arm.dof)

@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import difflib
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
+import numpy.typing as npt
 import pinocchio as pin
 
 from placement.errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
@@ -37,7 +39,7 @@ def builtin_presets() -> list[str]:
     return sorted(p.stem for p in PRESET_DIR.glob("*.yaml"))
 
 
-def pose_to_matrix(pose) -> np.ndarray:
+def pose_to_matrix(pose: Iterable[float]) -> np.ndarray:
     """``[x, y, z, qx, qy, qz, qw]`` (metres, unit quaternion) -> (4, 4) homogeneous matrix."""
     x, y, z, qx, qy, qz, qw = (float(v) for v in pose)
     norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
@@ -93,7 +95,7 @@ class Arm:
     joint_ids: list[int] = field(repr=False)
     idle: np.ndarray | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.idle is None:
             self.idle = self.home
 
@@ -162,7 +164,7 @@ class Robot:
             names = [f.name for f in self.model.frames]
             exc = FrameNotFound(name, self.name, difflib.get_close_matches(name, names, 5, 0.4))
             raise (exc if key is None else _located(exc, self._check.where, key))
-        return self.model.getFrameId(name)
+        return cast(int, self.model.getFrameId(name))
 
     def _link(self, name: str, key: str) -> str:
         """``name`` if the URDF has a link of that name (a BODY frame in pinocchio)."""
@@ -186,7 +188,7 @@ class Robot:
             self._check.fail(
                 key, f"'{name}' is a mimic joint (it follows '{self._mimic[name]}'); arm joints must move independently"
             )
-        jid = m.getJointId(name)
+        jid: int = m.getJointId(name)
         nv = m.joints[jid].nv
         if nv != 1:
             self._check.fail(
@@ -231,7 +233,7 @@ class Robot:
 
     def reference_q(self) -> np.ndarray:
         """Pinocchio configuration: neutral, with the preset's fixed joints set."""
-        q = pin.neutral(self.model)
+        q: np.ndarray = pin.neutral(self.model)
         for jname, value in self.fixed_joints.items():
             self._set(q, self.model.getJointId(jname), value)
         return q
@@ -288,7 +290,7 @@ class Robot:
         except KeyError:
             raise ArmNotFound(name, self.name, self.arms) from None
 
-    def full_q(self, arm: str, q, reference: np.ndarray | None = None) -> np.ndarray:
+    def full_q(self, arm: str, q: npt.ArrayLike, reference: np.ndarray | None = None) -> np.ndarray:
         """Pinocchio configuration with ``q`` (n,) [rad/m] on ``arm`` and fixed joints set.
 
         ``reference``: a :meth:`reference_q` computed once, for callers in a loop.
@@ -323,17 +325,17 @@ class Robot:
                 found = self._variants.setdefault(key, found)
         return found
 
-    def tcp_pose(self, arm: str, q) -> np.ndarray:
+    def tcp_pose(self, arm: str, q: npt.ArrayLike) -> np.ndarray:
         """(4, 4) TCP pose in the base frame computed by pinocchio (the reference FK)."""
         a = self.arm(arm)
         data = fk_data(self.model)
         pin.framesForwardKinematics(self.model, data, self.full_q(arm, q))
         base = data.oMf[self.base_frame_id]
         tip = data.oMf[self._frame_id(a.tip_frame)]
-        return (base.inverse() * tip).homogeneous @ a.tcp_offset
+        return cast(np.ndarray, (base.inverse() * tip).homogeneous @ a.tcp_offset)
 
     @cached_property
-    def fingerprint(self) -> dict:
+    def fingerprint(self) -> dict[str, Any]:
         """What a map must match to be used with this robot."""
         return {
             "robot": self.name,

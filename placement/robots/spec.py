@@ -237,7 +237,7 @@ def _gripper(c: Checker, value: Any) -> GripperSpec:
     return GripperSpec(opening)
 
 
-def _base_shape(c: Checker, d: dict) -> tuple[float, tuple | None]:
+def _base_shape(c: Checker, d: dict[str, Any]) -> tuple[float, tuple[tuple[float, float], ...] | None]:
     """(radius [m], polygon or None) from exactly one of ``footprint_radius`` and ``footprint``."""
     if ("footprint" in d) == ("footprint_radius" in d):
         c.fail(
@@ -255,7 +255,7 @@ def _base_shape(c: Checker, d: dict) -> tuple[float, tuple | None]:
     return circumradius(polygon), polygon
 
 
-def _base_definition(c: Checker, d: dict) -> tuple[str | None, tuple[float, float, float] | None]:
+def _base_definition(c: Checker, d: dict[str, Any]) -> tuple[str | None, tuple[float, float, float] | None]:
     """(base_frame_parent, base_frame_xyz [m]): both or neither."""
     if ("base_frame_parent" in d) != ("base_frame_xyz" in d):
         missing = "base_frame_xyz" if "base_frame_parent" in d else "base_frame_parent"

@@ -16,9 +16,9 @@ import re
 import secrets
 import sysconfig
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, cast
 
 from builtin_interfaces.msg import Time
 from mcap.writer import Writer
@@ -124,7 +124,7 @@ class Recorder:
         )
 
     def close(self) -> None:
-        self._writer.finish()
+        cast("Callable[[], None]", self._writer.finish)()  # (mcap leaves Writer.finish unannotated)
 
 
 @contextlib.contextmanager

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -186,6 +187,7 @@ def _postures(v: dict[str, Any], k: int) -> None:
     if not isinstance(joints, list) or not joints or not all(isinstance(j, str) and j for j in joints):
         raise _Bad("torso.joints", "a list of joint names", joints)
     n = len(joints)
+    ok: Callable[[Any], bool]
     for key, ok in (("units", lambda u: u in ("m", "rad")), ("velocities", lambda x: _real(x, "torso.velocities") > 0)):
         items = v.get(key)
         if not isinstance(items, list) or len(items) != n or not all(ok(x) for x in items):

@@ -4,6 +4,7 @@ the footprint ring. Vertices (n, 3) float32 [m], faces (m, 3) int32."""
 from __future__ import annotations
 
 import math
+from typing import cast
 
 import numpy as np
 import numpy.typing as npt
@@ -93,7 +94,7 @@ def prism(points: npt.ArrayLike, z0: float, z1: float) -> tuple[npt.NDArray[np.f
 def circle(radius: float, n: int = 48) -> npt.NDArray[np.float64]:
     """(n, 2) points on a circle of ``radius`` [m] around the origin, counter-clockwise."""
     a = np.linspace(0, 2 * math.pi, n, endpoint=False)
-    return radius * np.c_[np.cos(a), np.sin(a)]
+    return cast("npt.NDArray[np.float64]", radius * np.c_[np.cos(a), np.sin(a)])
 
 
 def footprint_segments(radius: float, polygon: npt.ArrayLike | None = None, z: float = 0.0) -> npt.NDArray[np.float32]:

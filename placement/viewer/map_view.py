@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -74,7 +74,7 @@ def approach_bins(grid: Grid, direction: Direction) -> npt.NDArray[np.bool_]:
     )
     z = pose_from_zyx(np.zeros((y.size, 3)), y.ravel(), p.ravel(), r.ravel())[:, :3, 2]
     angle = np.arccos(np.clip(z @ np.asarray(direction, dtype=float), -1, 1)).reshape(y.shape)
-    return angle <= max(DIRECTION_TOLERANCE, float(angle.min()) + 1e-9)
+    return cast("npt.NDArray[np.bool_]", angle <= max(DIRECTION_TOLERANCE, float(angle.min()) + 1e-9))
 
 
 def best_values(values: npt.NDArray[np.floating], bins: npt.NDArray[np.bool_]) -> npt.NDArray[np.float32]:

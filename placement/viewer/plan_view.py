@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -238,4 +238,4 @@ class PlanView:
             prev = next((p.base for p in reversed(self.steps[:index]) if p.ok), None)
             start = prev if prev is not None else self.start
             pts = np.array([start[:2], s.base[:2]]) if start is not None else np.array([s.base[:2]])
-        return np.c_[pts, np.full(len(pts), 0.02)]
+        return cast("npt.NDArray[np.float64]", np.c_[pts, np.full(len(pts), 0.02)])

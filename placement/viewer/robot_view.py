@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -15,6 +15,8 @@ from placement.planning.verification import pinocchio_q, resting
 from placement.viewer.geometry import pose_matrix
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     import viser
 
     from placement.planning.results import StepResult
@@ -47,7 +49,8 @@ def geometry_mesh(obj: pin.GeometryObject) -> tuple[npt.NDArray[np.float32], npt
         m = trimesh.creation.cylinder(radius=g.radius, height=2.0 * g.halfLength, sections=24)
     elif obj.meshPath and Path(obj.meshPath).is_file():
         m = trimesh.load(obj.meshPath, force="mesh")
-        m.apply_scale(np.asarray(obj.meshScale))
+        # (trimesh leaves apply_scale unannotated)
+        cast("Callable[[npt.ArrayLike], object]", m.apply_scale)(np.asarray(obj.meshScale))
     else:
         return None
     return np.asarray(m.vertices, dtype=np.float32), np.asarray(m.faces, dtype=np.int32)

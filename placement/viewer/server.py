@@ -8,12 +8,13 @@ import logging
 import threading
 import time
 from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from placement.errors import ViewerError
 
 if TYPE_CHECKING:
     import viser
+    from viser import ViserServer
 
     from placement.planning import Planner
     from placement.viewer.map_view import MapView
@@ -48,7 +49,7 @@ def start_server(port: int = 0, label: str = "placement") -> viser.ViserServer:
     with contextlib.redirect_stdout(io.StringIO()):
         server = viser.ViserServer(host=HOST, port=port, label=label, verbose=False)
     server.gui.configure_theme(control_width="medium", show_share_button=False)
-    return server
+    return cast("ViserServer", server)  # (require_viser gives a plain ModuleType)
 
 
 class View:

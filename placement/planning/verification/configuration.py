@@ -23,6 +23,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import pinocchio as pin
@@ -88,7 +89,7 @@ def resting(robot: Robot, arm: str) -> Resting:
     q = robot.reference_q()
     for a in robot.arms:
         if a != arm:
-            q = robot.full_q(a, robot.arm(a).idle, q)
+            q = robot.full_q(a, cast(np.ndarray, robot.arm(a).idle), q)  # (never None: Arm.__post_init__)
     order = actuated_joints(robot)
     values = joint_values(robot, q, order)
     arms = {a: list(robot.arm(a).joints) for a in robot.arms}

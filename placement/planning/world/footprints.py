@@ -100,7 +100,7 @@ class YawMasks:
 
 
 #: (band limits lo, hi [m], offsets dy, dx (L,) [cells], blocked yaws (L, W)) of a footprint on a grid
-Offsets = tuple[float, float, IntArray, IntArray, BoolArray]
+Offsets = tuple[float, float, IntArray, IntArray, MaskArray]
 _OFFSETS: dict[tuple[bytes, bytes, float, float], Offsets] = {}
 
 

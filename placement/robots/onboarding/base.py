@@ -19,6 +19,7 @@ import math
 import os
 import stat
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -102,7 +103,7 @@ def _numbers(text: str | None, n: int) -> list[float] | None:
     return v if len(v) in (n, 1 if n == 3 else n) else None
 
 
-def _shape_problem(geometry, urdf: Path) -> str:
+def _shape_problem(geometry: ET.Element, urdf: Path) -> str:
     """Why a collision ``<geometry>`` cannot be used ("" when it can)."""
     for kind, attrs in (
         ("box", {"size": 3}),
@@ -172,7 +173,9 @@ def screen_collisions(xml: str, urdf: Path) -> tuple[str, list[str]]:
     return ET.tostring(root, encoding="unicode"), warnings
 
 
-def load_collision(model: pin.Model, xml: str, urdf: Path, notes: list[str] | None = None):
+def load_collision(
+    model: pin.Model, xml: str, urdf: Path, notes: list[str] | None = None
+) -> tuple[pin.GeometryModel | None, str]:
     """(pinocchio GeometryModel of the usable ``<collision>`` shapes (see :func:`screen_collisions`),
     "") or (None, reason). Meshes holding more than :data:`MAX_COLLISION_TRIANGLES` triangles in all
     are made lighter by :func:`simplify_meshes`; what it did is appended to ``notes`` (a warning)."""
@@ -228,12 +231,14 @@ def simplify_meshes(geom: pin.GeometryModel, limit: int) -> str:
     )
 
 
-def shape_corners(model: pin.Model, geom, q: np.ndarray, skip: set[int]) -> list[tuple[str, np.ndarray]]:
+def shape_corners(
+    model: pin.Model, geom: pin.GeometryModel, q: np.ndarray, skip: set[int]
+) -> list[tuple[str, np.ndarray]]:
     """[(shape name, (8, 3) corners [m] of its local bounding box in the root frame at ``q``)] of the
     collision shapes of ``geom`` not on the joints ``skip``."""
     gdata, data = geom.createData(), model.createData()
     pin.updateGeometryPlacements(model, data, geom, gdata, q)
-    out = []
+    out: list[tuple[str, np.ndarray]] = []
     for k, obj in enumerate(geom.geometryObjects):
         if obj.parentJoint in skip:
             continue
@@ -244,7 +249,9 @@ def shape_corners(model: pin.Model, geom, q: np.ndarray, skip: set[int]) -> list
     return out
 
 
-def collision_boxes(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip: set[int]):
+def collision_boxes(
+    model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip: set[int]
+) -> tuple[np.ndarray | None, str]:
     """((m, 8, 3) corners [m] of the bounding boxes of collision shapes not on joints ``skip``, in the
     root frame at ``q``) or (None, reason)."""
     geom, why = load_collision(model, xml, urdf)
@@ -260,7 +267,7 @@ def collision_boxes(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, skip:
     return np.array(boxes), why
 
 
-def _turn(a, b, c) -> float:
+def _turn(a: Sequence[float], b: Sequence[float], c: Sequence[float]) -> float:
     """z of (b - a) x (c - a): positive for a left turn."""
     return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 
@@ -271,8 +278,8 @@ def hull(points: np.ndarray) -> np.ndarray:
     if len(pts) < 3:
         return np.array(pts)
 
-    def half(seq):
-        out = []
+    def half(seq: list[tuple[float, ...]]) -> list[tuple[float, ...]]:
+        out: list[tuple[float, ...]] = []
         for p in seq:
             while len(out) >= 2 and _turn(out[-2], out[-1], p) <= 0:
                 out.pop()

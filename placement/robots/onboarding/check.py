@@ -9,6 +9,7 @@ where an arm spans fewer than the 6 pose directions (:mod:`.rank`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -189,14 +190,14 @@ def check_robot(robot: Robot, samples: int = SAMPLES, seed: int = 0) -> dict[str
     return out
 
 
-def render_table(doc: dict) -> str:
+def render_table(doc: dict[str, Any]) -> str:
     """The terminal table of :func:`check_robot`'s result."""
     lines = [
         f"robot {doc['robot']} ({doc['preset']}), base frame {doc['base_frame']}, held: "
         + (", ".join(f"{k}={v:g}" for k, v in doc["fixed_joints"].items()) or "nothing"),
         f"{'arm':<8} {'approach':<11} {'height [m]':>13} {'distance [m]':>13} {'matched':>9}",
     ]
-    fmt = lambda lo, hi: "-" if lo is None else f"{lo:.2f} - {hi:.2f}"  # noqa: E731
+    fmt: Callable[[float | None, float | None], str] = lambda lo, hi: "-" if lo is None else f"{lo:.2f} - {hi:.2f}"  # noqa: E731
     for arm, v in doc["arms"].items():
         for ap, b in v["bands"].items():
             lines.append(

@@ -18,8 +18,9 @@ slices of :data:`SLICE` [m]. The planner uses it to say why a pose is out of rea
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -46,7 +47,7 @@ def rotations(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     x, y, z = axis
     K = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
     s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
-    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
+    return cast(np.ndarray, np.eye(3) + s * K + (1.0 - c) * (K @ K))
 
 
 def chain_fk(chain: Chain, Q: np.ndarray, base_T: np.ndarray | None = None) -> np.ndarray:
@@ -65,13 +66,13 @@ def chain_fk(chain: Chain, Q: np.ndarray, base_T: np.ndarray | None = None) -> n
         else:
             M[:, :3, :3] = rotations(chain.axis[i], Q[:, i])
         T = T @ M
-    return T @ chain.tip_T
+    return cast(np.ndarray, T @ chain.tip_T)
 
 
 def sample_configs(lower: np.ndarray, upper: np.ndarray, n: int, seed: int = 0) -> np.ndarray:
     """(n, dof) joint values drawn uniformly within [lower, upper] by ``default_rng(seed)``."""
     rng = np.random.default_rng(seed)
-    return rng.uniform(lower, upper, size=(n, len(lower)))
+    return cast(np.ndarray, rng.uniform(lower, upper, size=(n, len(lower))))
 
 
 def approach_mask(T: np.ndarray, approach: str, tolerance: float = APPROACH_TOLERANCE) -> np.ndarray:
@@ -84,7 +85,7 @@ def approach_mask(T: np.ndarray, approach: str, tolerance: float = APPROACH_TOLE
         radial = T[:, :2, 3]
         norm = np.linalg.norm(radial, axis=1)
         outward = np.einsum("ij,ij->i", z[:, :2], radial) > 0.5 * norm * np.linalg.norm(z[:, :2], axis=1)
-        return (np.abs(z[:, 2]) <= math.sin(tolerance)) & outward
+        return cast(np.ndarray, (np.abs(z[:, 2]) <= math.sin(tolerance)) & outward)
     raise ValueError(f"approach must be one of {', '.join(APPROACHES)}, got {approach!r}")
 
 
@@ -111,7 +112,7 @@ class Band:
     r_max: float
     samples: int
     matched: int
-    profile: list[dict] = field(default_factory=list)
+    profile: list[dict[str, Any]] = field(default_factory=list)
     held: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -122,8 +123,8 @@ class Band:
         """Whether height ``z`` [m] lies inside [z_min, z_max]."""
         return not self.empty and self.z_min <= z <= self.z_max
 
-    def to_json(self) -> dict:
-        num = lambda v: None if not math.isfinite(v) else round(float(v), 4)  # noqa: E731
+    def to_json(self) -> dict[str, Any]:
+        num: Callable[[float], float | None] = lambda v: None if not math.isfinite(v) else round(float(v), 4)  # noqa: E731
         return {
             "arm": self.arm,
             "approach": self.approach,
@@ -138,7 +139,9 @@ class Band:
         }
 
 
-def band_of(T: np.ndarray, approach: str, arm: str = "", held: dict | None = None, min_distance: float = 0.0) -> Band:
+def band_of(
+    T: np.ndarray, approach: str, arm: str = "", held: dict[str, float] | None = None, min_distance: float = 0.0
+) -> Band:
     """The :class:`Band` of the TCP poses ``T`` (m, 4, 4) [m] in the base frame that are at least
     ``min_distance`` [m] from the base frame's vertical axis."""
     keep = T[approach_mask(T, approach) & (np.hypot(T[:, 0, 3], T[:, 1, 3]) >= min_distance)]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import textwrap
 from collections.abc import Iterable
+from typing import Any
 
 from placement.robots.onboarding.selfpairs import SAMPLES, THRESHOLD
 from placement.robots.preset import matrix_to_pose
@@ -50,7 +51,8 @@ def _list(values: Iterable[float], digits: int = 4) -> str:
     return json.dumps([round(float(v), digits) for v in values])
 
 
-def render(p, command: str | None = None, preset: str = "PRESET.yaml") -> str:  # p: a Proposal
+# p: a propose.Proposal (Any: propose.py imports this module, so importing the class back would make a cycle)
+def render(p: Any, command: str | None = None, preset: str = "PRESET.yaml") -> str:
     """YAML of the proposal ``p`` with comments saying how each value was found and what was guessed;
     ``command``: the command line that made it (first comment line); ``preset``: where it is written
     (for the map build command it proposes)."""

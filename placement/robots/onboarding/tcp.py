@@ -33,11 +33,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from placement.robots.onboarding.tree import named_like, words
+
+if TYPE_CHECKING:
+    import coal
 
 #: A frame named ``tip`` (a ball hand's end, ``ball1_tip``) ranks last: used when nothing else is named.
 TIP_WORDS = ("tcp", "grasp", "tool", "gripper", "tip")
@@ -232,7 +236,7 @@ def _joint_axis(model: pin.Model, jid: int) -> np.ndarray:
     return _unit(ang if np.linalg.norm(ang) > 0.5 else lin)
 
 
-def _points(geometry) -> np.ndarray:
+def _points(geometry: coal.CollisionGeometry) -> np.ndarray:
     """(k, 3) points [m] in the shape's frame that bound it: a mesh's vertices, else its local box's corners."""
     try:
         V = np.asarray(geometry.vertices(), dtype=float).reshape(-1, 3)

@@ -19,7 +19,9 @@ lifts, 0 for revolute joints).
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -28,6 +30,9 @@ from placement.robots.chain import PRISMATIC, ancestors, extract_chain
 from placement.robots.onboarding.base import shape_corners
 from placement.robots.onboarding.reach import QUANTILE, approach_mask, chain_fk, sample_configs, table_cells
 from placement.robots.onboarding.tree import named_like
+
+if TYPE_CHECKING:
+    from placement.robots.onboarding.tcp import TCP
 
 #: Heights [m] of a table top and a pre-grasp 10-15 cm above it: what the torso is tuned for.
 TABLE_BAND = (0.70, 0.90)
@@ -179,7 +184,9 @@ def change(model: pin.Model, posture: dict[int, float]) -> float:
     return total
 
 
-def lowest_point(model: pin.Model, data: pin.Data, geom, q: np.ndarray, skip: set[int]) -> float:
+def lowest_point(
+    model: pin.Model, data: pin.Data, geom: pin.GeometryModel | None, q: np.ndarray, skip: set[int]
+) -> float:
     """Lowest z [m] in the root frame at ``q`` of the frame origins and the bounding-box corners of the
     collision shapes (``geom``, a pinocchio GeometryModel or None) not on the joints ``skip`` (the arms)."""
     pin.framesForwardKinematics(model, data, q)
@@ -194,7 +201,7 @@ def lowest_point(model: pin.Model, data: pin.Data, geom, q: np.ndarray, skip: se
 
 def words_of(model: pin.Model, posture: dict[int, float]) -> str:
     """'torso_1 0.4 rad, lift 0.25 m' for a posture."""
-    unit = lambda j: "m" if joint_axes_kind(model, j) == PRISMATIC else "rad"  # noqa: E731
+    unit: Callable[[int], str] = lambda j: "m" if joint_axes_kind(model, j) == PRISMATIC else "rad"  # noqa: E731
     return ", ".join(f"{model.names[j]} {v:g} {unit(j)}" for j, v in posture.items())
 
 
@@ -205,7 +212,14 @@ def joint_axes_kind(model: pin.Model, jid: int) -> int:
 
 
 def score(
-    model, q, arms, tcps, root_frame: int, floor: float, seed: int = 0, samples: int = TUNE_SAMPLES
+    model: pin.Model,
+    q: np.ndarray,
+    arms: list[list[int]],
+    tcps: list[TCP],
+    root_frame: int,
+    floor: float,
+    seed: int = 0,
+    samples: int = TUNE_SAMPLES,
 ) -> tuple[bool, int]:
     """(whether every arm's top-down band, :data:`~.reach.QUANTILE` to 1 - it, spans :data:`TABLE_BAND`;
     5 cm cells at :data:`TABLE_BAND` above ``floor`` [m, root frame] that the arms' (joint id chains
@@ -232,7 +246,15 @@ def score(
     return spans, total
 
 
-def tune(model, q, families: list[Family], arms, tcps, geom, skip: set[int]):
+def tune(
+    model: pin.Model,
+    q: np.ndarray,
+    families: list[Family],
+    arms: list[list[int]],
+    tcps: list[TCP],
+    geom: pin.GeometryModel | None,
+    skip: set[int],
+) -> tuple[dict[str, float], np.ndarray, list[str]]:
     """(held {joint name: value}, the configuration with them set, notes) for the joint ``families``
     (torso, wheeled legs): see the module docstring. ``skip``: arm and hand joints (not the floor)."""
     grids = [family_grid(model, q, f) for f in families]

@@ -157,7 +157,7 @@ def analyse(model: pin.Model, mimic: dict[str, str], q: np.ndarray) -> Tree:
             hand.update(subtree(model, j))
     body = {j for j in actuated - hand if not named_like(model.names[j], LEG_WORDS)}
 
-    def up(j):  # nearest body joint above j, 0 for none
+    def up(j: int) -> int:  # nearest body joint above j, 0 for none
         j = model.parents[j]
         while j > 0 and j not in body:
             j = model.parents[j]

@@ -1,6 +1,6 @@
-"""What a newcomer met: labels that floated away from their objects, a map view opening on a dark
-blob, a "footprint circle" for a square base, a comma in a figure's file name, a result table whose
-columns broke on long names, and --plot not saying where it wrote."""
+"""Labels and figures read right: a label sits on its object, the map view's colour scale starts at the
+threshold, the legend names the footprint drawn, figure file names are plain and bounded, the result
+table's columns fit long names, and --plot says where it wrote."""
 
 from __future__ import annotations
 
@@ -85,6 +85,7 @@ def test_the_map_colour_scale_starts_at_the_planner_threshold_not_at_a_tiny_valu
     assert (low.lo, low.hi) == (1e-5, pytest.approx(np.percentile([1e-5, 0.01, 0.02], 99)))
 
 
+@pytest.mark.slow
 def test_the_map_view_draws_weak_cells_small_and_cells_under_the_threshold_grey(maps_dir):
     from placement.viewer.api import view_map
     from placement.viewer.map_view import BELOW, BELOW_SIZE, SIZES
@@ -163,6 +164,7 @@ def _kitchen_reach(tmp_path, maps_dir) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_query_table_columns_fit_long_names_and_plot_says_where_it_wrote(tmp_path, maps_dir):
     from placement.cli.query import query
 
