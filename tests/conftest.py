@@ -54,6 +54,7 @@ PYCRAM_ONLY = (
 # --dist loadfile (pyproject.toml) a file is one unit of work, handed out in collection order, so the long
 # ones start early and the two workers end together. Speed only: a file not listed runs after these.
 FIRST = (
+    "test_plans_on_tiny_maps.py",
     "test_search.py",
     "test_cli.py",
     "test_regression.py",
@@ -159,6 +160,19 @@ def maps_dir(pr2, tmp_path_factory, worker_id):
 
     # not ".../maps/pr2": scenes without a 'maps' key look for maps/pr2 in every parent of their folder
     return built_once(run_dir(tmp_path_factory, worker_id), "planning-maps", build) / "pr2"
+
+
+@pytest.fixture(scope="session")
+def tiny_maps(pr2, tmp_path_factory):
+    """Tiny PR2 maps (both arms; 150 k samples, 0.15 m cells, 10 x 5 x 10 bins: 3 s) for the fast
+    tier's whole plans: coarse, but every example scene plans on them."""
+    built = {
+        arm: placement.build_map(pr2, arm, samples=150_000, seed=1, resolution=0.15, bins=(10, 5, 10), progress=False)
+        for arm in ("right", "left")
+    }
+    folder = tmp_path_factory.mktemp("tiny-maps") / "pr2"
+    placement.save_maps(folder, pr2, built)
+    return folder
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""`placement scenes generate`: seeded benchmark scenes."""
+"""`placement scenes`: check a scene file, generate seeded benchmark scenes."""
 
 from __future__ import annotations
 
@@ -7,6 +7,9 @@ import click
 from placement.cli.lazy import LazyGroup
 
 
-@click.group(cls=LazyGroup, lazy={"generate": "placement.cli.scenes_generate:generate"})
+@click.group(
+    cls=LazyGroup,
+    lazy={"check": "placement.cli.scenes_check:check", "generate": "placement.cli.scenes_generate:generate"},
+)
 def scenes() -> None:
-    """Benchmark scenes."""
+    """Scene files: check one, generate benchmark ones."""

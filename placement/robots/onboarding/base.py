@@ -354,10 +354,14 @@ def find_base(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, arm_joints:
             f"link origin + {RADIUS_MARGIN} m: measure the base"
         )
         return Base(base, None, round(radius, 3), notes, warnings, parent, xyz)
-    flat = boxes.reshape(-1, 3) @ B.rotation.T + B.translation
-    poly = hull(flat[:, :2])
-    poly = np.sign(poly) * np.ceil(np.abs(poly) * 1000) / 1000
-    if len(poly) < 3 or not contains_origin(poly):
+    # a shape of 1e300 m (a URDF typo) overflows to inf here: the outline is then refused by the
+    # preset's own check, which names the footprint; numpy need not warn on the way
+    with np.errstate(over="ignore", invalid="ignore"):
+        flat = boxes.reshape(-1, 3) @ B.rotation.T + B.translation
+        poly = hull(flat[:, :2])
+        poly = np.sign(poly) * np.ceil(np.abs(poly) * 1000) / 1000
+        encloses = len(poly) >= 3 and contains_origin(poly)
+    if not encloses:
         radius = float(np.max(np.hypot(flat[:, 0], flat[:, 1])))
         warnings.append(
             "the collision shapes' outline does not surround the base frame's origin; footprint_radius "
