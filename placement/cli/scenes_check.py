@@ -16,7 +16,7 @@ def summary(path: str) -> dict[str, Any]:
     from placement.scene import load_scene
 
     scene = load_scene(path)
-    steps = []
+    steps: list[dict[str, Any]] = []
     for t in scene.task:
         if t.reach:
             steps.append({"reach": list(t.reach)})
