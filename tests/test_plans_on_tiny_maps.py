@@ -101,3 +101,11 @@ def test_a_moved_object_replans_as_a_fresh_planner(tiny_maps, tmp_path):
     fresh = Planner(save_scene(planner.scene, tmp_path / "moved.yaml"), "global", tiny_maps).plan()
     assert [s.base for s in moved.steps] == [s.base for s in fresh.steps]
     assert [(s.arm, s.grasp) for s in moved.steps] == [(s.arm, s.grasp) for s in fresh.steps]
+
+
+def test_a_planner_built_without_warming_plans_the_same(tiny_maps):
+    cold = Planner(SCENES["table_clearing"], "global", tiny_maps, warm=False)
+    warmed = Planner(SCENES["table_clearing"], "global", tiny_maps)
+    assert _without_timings(cold.plan().to_json()) == _without_timings(warmed.plan().to_json())
+    cold.warm()  # idempotent: the planner plans the same afterwards
+    assert _without_timings(cold.plan().to_json()) == _without_timings(warmed.plan().to_json())

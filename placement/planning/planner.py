@@ -98,6 +98,7 @@ class Planner:
         maps: reachability map path (default: the scene's ``maps``, else :func:`default_maps_path`).
         collisions: check every IK solution against the scene and the robot itself (URDF collision
             shapes, see :mod:`placement.collision`); False plans as the paper does, without.
+        warm: call :meth:`warm` now (False: build only, e.g. to inspect the problems).
 
     Attributes (read them; change them through :meth:`set_method` and :meth:`update`):
         context: the :class:`~placement.planning.context.PlanningContext` the stages read; its
@@ -115,6 +116,7 @@ class Planner:
         method: str = DEFAULT_METHOD,
         maps: str | Path | None = None,
         collisions: bool = True,
+        warm: bool = True,
     ):
         scene = scene if isinstance(scene, Scene) else load_scene(scene)
         # the planner block is checked before the maps are opened: its errors come first
@@ -129,8 +131,15 @@ class Planner:
         self.maps_reopened = 0
         self._collisions = collisions
         self._contextualise(scene, robot, rmaps)
-        # once per planner: kernels loaded and slices read here, not in the first step
-        warm_kernels(self.context.problems, robot)
+        if warm:
+            self.warm()
+
+    def warm(self) -> None:
+        """Ready the planner for a fast first step: the kernels loaded (once per process), every map
+        slice and witness slice the task's candidates use read, one witness lookup and one collision
+        check per arm. The constructor calls it unless given ``warm=False``; planning without it
+        gives the same plans, its first step paying for what this does."""
+        warm_kernels(self.context.problems, self.robot)
         prefetch_slices(self.context.problems)
         warm_checks(self.context)
 

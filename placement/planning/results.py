@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from dataclasses import KW_ONLY, dataclass, field
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 
@@ -32,6 +32,10 @@ from placement.robots import Robot, matrix_to_pose
 from placement.scene import Scene
 
 T = TypeVar("T")
+
+
+#: a step's status: "ok" (planned and verified) or "infeasible" (with a ``reason`` and a ``diagnosis``)
+StepStatus = Literal["ok", "infeasible"]
 
 
 @dataclass(frozen=True)
@@ -143,7 +147,8 @@ class StepResult:
     step: int
     action: str
     target: str
-    status: str = "ok"
+    _: KW_ONLY  # the rest by name: their order is not part of the interface
+    status: StepStatus = "ok"
     reason: str | None = None
     arm: str | None = None
     grasp: str | None = None

@@ -95,7 +95,9 @@ def parse_step(d: Any, where: str, robot: Robot) -> StepResult:
     if d.get("status", "ok") != "ok":
         _need(d.get("status") == "infeasible", f"{where}.status", "must be 'ok' or 'infeasible'")
         reason = d.get("reason")
-        return StepResult(step, action, target, "infeasible", reason if isinstance(reason, str) else "no reason given")
+        return StepResult(
+            step, action, target, status="infeasible", reason=reason if isinstance(reason, str) else "no reason given"
+        )
     arm = _text(d, "arm", where)
     _need(arm in robot.arms, f"{where}.arm", f"no arm '{arm}' on robot '{robot.name}'; arms: {', '.join(robot.arms)}")
     bx, by, byaw = _numbers(d.get("base"), 3, f"{where}.base")
@@ -130,17 +132,15 @@ def parse_step(d: Any, where: str, robot: Robot) -> StepResult:
         step,
         action,
         target,
-        "ok",
-        None,
-        arm,
-        grasp,
-        (bx, by, byaw),
-        np.stack(poses),
-        q,
-        {j: float(v) for j, v in zip(names, q)} | fixed,
-        extra["manipulability"],
-        cost,
-        extra["travel_time_s"],
+        arm=arm,
+        grasp=grasp,
+        base=(bx, by, byaw),
+        tcp=np.stack(poses),
+        q=q,
+        joints={j: float(v) for j, v in zip(names, q)} | fixed,
+        manipulability=extra["manipulability"],
+        cost=cost,
+        travel_time_s=extra["travel_time_s"],
     )
     # the transfer: the object a pick takes or a place sets down (plans made before transfers have none)
     out.object = d.get("object") if isinstance(d.get("object"), str) else None
