@@ -28,9 +28,9 @@ def arm_rank(robot: Robot, arm: str) -> int:
     """
     a = robot.arm(arm)
     ch = a.chain
-    key = b"".join(np.ascontiguousarray(x).tobytes() for x in (a.lower, a.upper, ch.link_T, ch.axis, ch.kind, ch.tip_T))
+    key = b"".join(np.ascontiguousarray(x).tobytes() for x in (a.lower, a.upper, *ch.arrays))
     if key not in _RANKS:
-        _RANKS[key] = int(generic_rank(a.lower, a.upper, ch.link_T, ch.axis, ch.kind, ch.tip_T, ROTATION_SCALE))
+        _RANKS[key] = int(generic_rank(a.lower, a.upper, *ch.arrays, ROTATION_SCALE))
     return _RANKS[key]
 
 
@@ -88,7 +88,7 @@ def extended_manipulability(
             raise PlacementError(f"row_factors must have shape (6, 2) or ({len(Q)}, 6, 2), got {rf.shape}") from None
     out = np.empty(len(Q))
     for i, qi in enumerate(Q):
-        fk_jacobian(qi, ch.link_T, ch.axis, ch.kind, ch.tip_T, T, J, work)
+        fk_jacobian(qi, *ch.arrays, T, J, work)
         J[3:] *= ROTATION_SCALE
         joint_penalties(qi, a.lower, a.upper, cont, plo, phi)
         rfi = np.ascontiguousarray(rf[i])

@@ -61,7 +61,7 @@ def arm_reach(robot: Robot, arm: str) -> tuple[np.ndarray, float]:
 def _positions(robot: Robot, arm: str, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """TCP positions (N, 3) [m] and their translational Jacobians in the base frame (N, 3, n)."""
     ch = robot.arm(arm).chain
-    T, J = fk_jacobian_batch(np.ascontiguousarray(Q), ch.link_T, ch.axis, ch.kind, ch.tip_T)
+    T, J = fk_jacobian_batch(np.ascontiguousarray(Q), *ch.arrays)
     # the kernel's Jacobian is in the TCP frame: v_base = R v_tcp
     return T[:, :3, 3], np.einsum("nij,njk->nik", T[:, :3, :3], J[:, :3])
 

@@ -36,6 +36,12 @@ class Chain:
     kind: np.ndarray
     tip_T: np.ndarray
 
+    @property
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(link_T, axis, kind, tip_T)``: the chain as every chain kernel takes it, in that order
+        (``kernel(q, *chain.arrays, ...)``), so that no caller spells the argument list out."""
+        return self.link_T, self.axis, self.kind, self.tip_T
+
 
 def ancestors(model: pin.Model, joint_id: int) -> list[int]:
     """Joint ids from ``joint_id`` up to (excluding) the universe, nearest first."""
