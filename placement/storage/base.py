@@ -296,6 +296,40 @@ def partial_path(target: Path) -> Path:
     return target.with_name(f".{target.name}.partial-{os.getpid()}-{threading.get_native_id()}")
 
 
+def process_alive(pid: int) -> bool:
+    """Whether process ``pid`` runs (one of another user counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def clear_leftovers(target: Path) -> list[str]:
+    """Remove what a save into ``target`` killed midway left beside it (its partial copy, the old map
+    it had moved aside), and restore the old map when the kill came between the two renames.
+
+    Call it holding ``target``'s save lock: no save into ``target`` runs then, so a partial or old
+    sibling of a process that is gone is a leftover. Returns one line per thing done.
+    """
+    done: list[str] = []
+    siblings = sorted(target.parent.glob(f".{target.name}.*-*-*")) if target.parent.is_dir() else []
+    for path in siblings:
+        kind, _, rest = path.name[len(target.name) + 2 :].partition("-")
+        pid = rest.split("-")[0]
+        if kind not in ("partial", "old") or not pid.isdigit() or process_alive(int(pid)):
+            continue
+        if kind == "old" and not target.exists() and not target.is_symlink():
+            os.replace(path, target)
+            done.append(f"restored {target} from {path.name}, moved aside by a save that was killed (pid {pid})")
+        else:
+            _remove(path)
+            done.append(f"removed {path.name}, left by a save that was killed (pid {pid})")
+    return done
+
+
 def atomic_replace(backend: Backend, target: Path | str, root: dict[str, Any], arms: dict[str, ArmArrays]) -> None:
     """Write via a sibling partial path, then swap it in; the old map survives a failure."""
     target = Path(target)

@@ -3,18 +3,28 @@
 A lock file is created beside the map, locked, checked to still be the file at that path (a
 holder that released it unlinks it first), and unlinked by its holder on release: no lock files
 stay behind after a normal exit, and one left by a killed process is unlocked (the kernel drops
-an flock with its holder) and simply taken over.
+an flock with its holder) and taken over, which is said on the ``placement`` logger. A wait for a
+live holder is said too: once after a second, naming the holder, then every :data:`WAIT_NOTE_S`.
 """
 
 from __future__ import annotations
 
 import errno
 import fcntl
+import logging
 import os
+import re
 import time
 from pathlib import Path
 
 from placement.errors import MapError
+
+log = logging.getLogger("placement")
+
+#: [s] between the notes of a long wait for a lock
+WAIT_NOTE_S = 30.0
+#: [s] of waiting before the first note (a lock released at once is not worth a line)
+FIRST_NOTE_S = 1.0
 
 
 def lock_path(target: Path, what: str) -> Path:
@@ -31,8 +41,11 @@ class FileLock:
         self.fd: int | None = None
 
     def acquire(self, wait_s: float = 0.0) -> FileLock:
-        """Take the lock, waiting up to ``wait_s`` seconds for another holder; MapError naming it if still held."""
-        deadline = time.monotonic() + wait_s
+        """Take the lock, waiting up to ``wait_s`` seconds for another holder (said on the log, naming
+        it); MapError naming it if still held."""
+        start = time.monotonic()
+        deadline = start + wait_s
+        next_note = start + FIRST_NOTE_S
         while True:
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW, 0o644)
             try:
@@ -42,8 +55,19 @@ class FileLock:
                 os.close(fd)
                 if exc.errno not in (errno.EAGAIN, errno.EACCES):
                     raise
-                if time.monotonic() >= deadline:
-                    raise MapError(f"{other or 'another process'} holds {self.path}") from None
+                now = time.monotonic()
+                if now >= deadline:
+                    waited = f" (waited {now - start:.0f} s)" if wait_s >= FIRST_NOTE_S else ""
+                    raise MapError(f"{other or 'another process'} holds {self.path}{waited}") from None
+                if now >= next_note:
+                    log.info(
+                        "waiting for %s to release %s (%.0f s so far, at most %.0f s)",
+                        other or "another process",
+                        self.path,
+                        now - start,
+                        wait_s,
+                    )
+                    next_note = now + WAIT_NOTE_S
                 time.sleep(0.05)
                 continue
             try:
@@ -53,6 +77,9 @@ class FileLock:
             if same:
                 break
             os.close(fd)  # the previous holder unlinked it after we opened it: take the new file
+        left = _text(fd)
+        if left:  # a holder that releases unlinks the file: text in it is a killed holder's
+            log.warning("took over %s, left by %s, which ended without releasing it", self.path, left)
         os.ftruncate(fd, 0)
         os.write(fd, self.holder.encode())
         self.fd = fd
@@ -79,3 +106,9 @@ def _text(fd: int) -> str:
         return os.pread(fd, 200, 0).decode(errors="replace").strip()
     except OSError:
         return ""
+
+
+def holder_pid(text: str) -> int | None:
+    """The process id a lock's holder text names (``... (pid 123)``), if any."""
+    m = re.search(r"\(pid (\d+)\)", text)
+    return int(m.group(1)) if m else None

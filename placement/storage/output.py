@@ -12,6 +12,7 @@ concurrent builds of different arms both end complete, and no arm is ever lost.
 from __future__ import annotations
 
 import hashlib
+import logging
 import os
 import re
 import shutil
@@ -22,7 +23,7 @@ from typing import TYPE_CHECKING
 
 from placement.errors import MapError
 from placement.storage import backend, detect, open_store
-from placement.storage.base import ArmArrays, atomic_replace, partial_path
+from placement.storage.base import ArmArrays, atomic_replace, clear_leftovers, partial_path
 from placement.storage.format import CRC_KEY, FORMAT_VERSION, READABLE_VERSIONS, WITNESS_CRC_KEY, BuiltMap, chunk_crcs
 from placement.storage.lock import FileLock, lock_path
 from placement.storage.stats import STATS_KEY, array_stats
@@ -32,6 +33,8 @@ if TYPE_CHECKING:
     import numpy as np
 
     from placement.robots.preset import Robot
+
+log = logging.getLogger("placement")
 
 #: how long a save waits for another build's save into the same map to finish [s]
 SAVE_WAIT_S = 1800.0
@@ -196,6 +199,8 @@ class MapOutput:
         }
         holder = f"a save into {self.path} (pid {os.getpid()})"
         with FileLock(lock_path(self.path, "save"), holder).acquire(wait_s=SAVE_WAIT_S):
+            for line in clear_leftovers(self.path):
+                log.warning("%s", line)
             check_target(self.path, self.robot, self.fmt)
             self._check_kept()
             if self.path.exists():
