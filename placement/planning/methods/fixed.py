@@ -3,23 +3,42 @@
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Sequence
 
 import numpy as np
 
 from placement.errors import PlacementError
+from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.methods.ranking import Ranked
 from placement.planning.methods.stepwise import StepwiseMethod
-from placement.planning.problems import Option, manipulation_map
+from placement.planning.problems import Option, manipulation_maps
 from placement.planning.program import Regions
 from placement.planning.torso import option_map
 from placement.scene import Box, Cylinder
 from placement.scene.navgrid import Window
 
+#: id of a world (the scene on the grid) -> (the world, weakly; (fixed_margin, fixed_steps_out) -> its
+#: fixed placements), so that every step and the certificate share one computation
+_PLACEMENTS: dict[int, tuple[weakref.ref[object], dict[tuple[float, int], list[tuple[int, float]]]]] = {}
+
 
 def fixed_placements(ctx: PlanningContext) -> list[tuple[int, float]]:
+    """:func:`placements_of` ``ctx``, computed once per world and settings."""
+    for k in [k for k, (ref, _) in _PLACEMENTS.items() if ref() is None]:
+        del _PLACEMENTS[k]
+    entry = _PLACEMENTS.get(id(ctx.world))
+    if entry is None or entry[0]() is not ctx.world:
+        entry = _PLACEMENTS[id(ctx.world)] = (weakref.ref(ctx.world), {})
+    key = (float(ctx.config.fixed_margin), int(ctx.config.fixed_steps_out))
+    if key not in entry[1]:
+        entry[1][key] = placements_of(ctx)
+    return list(entry[1][key])
+
+
+def placements_of(ctx: PlanningContext) -> list[tuple[int, float]]:
     """(flat cell, yaw [rad]) centred on each side of each ``table: true`` obstacle, facing it, the base
     centre the footprint's half-depth (a round base's radius) plus ``fixed_margin`` [m] from the side.
 
@@ -68,24 +87,45 @@ def rank_fixed(ctx: PlanningContext, options: Sequence[Option]) -> list[Ranked]:
     table's side is often at the edge of reach, where the manipulability is low (at 5 cm cells the
     PR2's placements 0.75 m from a 0.69 m table's centre score 0.014-0.016 against its threshold's
     0.0235, and IK reaches them)."""
-    nav = ctx.world.nav
+    placements = fixed_placements(ctx)
+    values = placement_values(ctx, options, placements)
     ranked = []
-    for flat, yaw in fixed_placements(ctx):
-        for k, o in enumerate(options):
-            cell = np.array([flat], dtype=np.int64)
-            v, _ = manipulation_map(
-                option_map(ctx, o),
-                o.candidate.poses,
-                nav,
-                np.array([yaw]),
-                cell,
-                Window.around(cell, nav.shape, margin=0),
-            )
-            value = float(v[0, 0])
+    for flat, yaw in placements:
+        for k in range(len(options)):
+            value = values[k, flat, yaw]
             if value > 0.0:
                 ranked.append((-value, k, flat, yaw))
     ranked.sort(key=lambda r: (r[0], r[1], r[2]))
     return [Ranked(*r) for r in ranked]
+
+
+def placement_values(
+    ctx: PlanningContext, options: Sequence[Option], placements: Sequence[tuple[int, float]]
+) -> dict[tuple[int, int, float], float]:
+    """(option index, flat cell, yaw [rad]) -> the option's map value with the base there at that yaw
+    (dimensionless), for every placement: one pass per (map, yaw) over every option of that map and
+    every placement at that yaw (the value of each is the same as its own evaluation's)."""
+    nav = ctx.world.nav
+    by_yaw: dict[float, list[int]] = {}
+    for flat, yaw in placements:
+        by_yaw.setdefault(yaw, []).append(flat)
+    by_map: dict[int, tuple[ReachabilityMap, list[int]]] = {}
+    for k, o in enumerate(options):
+        rmap = option_map(ctx, o)
+        by_map.setdefault(id(rmap), (rmap, []))[1].append(k)
+    out: dict[tuple[int, int, float], float] = {}
+    for yaw, flats in by_yaw.items():
+        cells = np.array(sorted(set(flats)), dtype=np.int64)
+        window = Window.around(cells, nav.shape, margin=0)
+        iy, ix = np.divmod(cells, nav.shape[1])
+        for rmap, ks in by_map.values():
+            irms = manipulation_maps(
+                rmap, [options[k].candidate.poses for k in ks], nav, np.array([yaw]), cells, window
+            )
+            for k, (v, _) in zip(ks, irms):
+                for flat, y, x in zip(cells.tolist(), iy.tolist(), ix.tolist()):
+                    out[k, flat, yaw] = float(v[y - window.y0, x - window.x0])
+    return out
 
 
 def fixed_regions(ctx: PlanningContext, i: int) -> Regions:
@@ -118,4 +158,4 @@ class Fixed(StepwiseMethod):
         return rank_fixed(ctx, options)
 
 
-__all__ = ["Fixed", "fixed_placements", "fixed_regions", "rank_fixed"]
+__all__ = ["Fixed", "fixed_placements", "fixed_regions", "placement_values", "placements_of", "rank_fixed"]
