@@ -50,3 +50,14 @@ def test_an_unknown_key_is_one_line_naming_it(tmp_path):
 def test_a_missing_file_is_one_line(tmp_path):
     result = run(str(tmp_path / "nope.yaml"))
     assert result.exit_code == 2 and result.stderr.startswith("error: ") and "does not exist" in result.stderr
+
+
+def test_a_task_over_the_documented_limit_is_refused_before_parsing(tmp_path):
+    from placement.scene.limits import MAX_TASK
+
+    bad = tmp_path / "long.yaml"
+    task = "\n".join(f"  - {{pick: o{i}, place: p}}" for i in range(MAX_TASK + 1))
+    bad.write_text(f"version: 1\nrobot: {{preset: pr2, start: [0, 0, 0]}}\ntask:\n{task}\n")
+    result = run(str(bad))
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1
+    assert f"{MAX_TASK + 1} entries, more than the {MAX_TASK} allowed" in result.stderr and "task" in result.stderr

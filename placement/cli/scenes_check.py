@@ -51,9 +51,14 @@ def summary(path: str) -> dict[str, Any]:
     }
 
 
+#: task entries the table shows (--json gives all)
+SHOWN = 8
+
+
 def _render(d: dict[str, Any]) -> str:
-    task = ", ".join(
-        f"reach {'|'.join(s['reach'])}" if "reach" in s else f"{s['pick']} -> {s['place']}" for s in d["task"]
+    words = [f"reach {'|'.join(s['reach'])}" if "reach" in s else f"{s['pick']} -> {s['place']}" for s in d["task"]]
+    task = ", ".join(words[:SHOWN]) + (
+        f", ... ({len(words) - SHOWN} more: --json lists them)" if len(words) > SHOWN else ""
     )
     lines = [
         f"{d['scene']} (version {d['version']}): robot {d['robot']}, maps {d['maps'] or '(default)'}",

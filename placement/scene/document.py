@@ -58,7 +58,7 @@ from typing import Any
 from placement.robots.preset import builtin_presets
 from placement.scene.base_layers import parse_base_layers, parse_cloud, resolve
 from placement.scene.consistency import check_scene
-from placement.scene.limits import MAX_OBJECTS, MAX_OBSTACLES, RESOLUTION_RANGE, default_bounds
+from placement.scene.limits import MAX_OBJECTS, MAX_OBSTACLES, MAX_TASK, RESOLUTION_RANGE, default_bounds
 from placement.scene.model import Scene, is_path
 from placement.scene.parts import OBJECT_KEYS_V1, SCENE_VERSION, SCENE_VERSIONS, SceneParser
 from placement.scene.planner_block import parse_planner
@@ -150,7 +150,7 @@ def parse_scene(
         ("objects", MAX_OBJECTS),
         ("place_locations", MAX_OBJECTS),
         ("trajectories", MAX_OBJECTS),
-        ("task", MAX_OBJECTS),
+        ("task", MAX_TASK),
     ):
         if isinstance(doc.get(key), list) and len(doc[key]) > most:
             P.fail(key, f"{len(doc[key])} entries, more than the {most} allowed")
