@@ -61,3 +61,18 @@ def test_a_task_over_the_documented_limit_is_refused_before_parsing(tmp_path):
     result = run(str(bad))
     assert result.exit_code == 2 and result.stderr.count("\n") == 1
     assert f"{MAX_TASK + 1} entries, more than the {MAX_TASK} allowed" in result.stderr and "task" in result.stderr
+
+
+def test_out_of_memory_names_only_options_the_command_has(monkeypatch, tmp_path):
+    """A command that runs out of memory says what of its own would shrink the work; one without such
+    options says the input is too large (robots init has no --resolution)."""
+    import placement.cli.scenes_check as scenes_check
+
+    def exhausted(path):
+        raise MemoryError
+
+    monkeypatch.setattr(scenes_check, "summary", exhausted)
+    result = run(str(ROOT / "examples" / "kitchen.yaml"))
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1
+    assert "out of memory in" in result.stderr and "scenes check" in result.stderr
+    assert "--resolution" not in result.stderr and "--samples" not in result.stderr

@@ -202,6 +202,20 @@ def bounded(message: str, data: Any = None) -> str:
     return message
 
 
+def out_of_memory_hint() -> str:
+    """What to say when the running command ran out of memory: the options of its own that shrink
+    the work, else that the input is too large for this machine."""
+    ctx = click.get_current_context(silent=True)
+    names = {p.name for p in ctx.command.params} if ctx is not None else set()
+    command = ctx.command_path if ctx is not None else "the command"
+    shrink = [
+        opt for name, opt in (("resolution", "a coarser --resolution"), ("samples", "fewer --samples")) if name in names
+    ]
+    if shrink:
+        return f"out of memory; use {' or '.join(shrink)}"
+    return f"out of memory in {command}: the input is too large for this machine's memory"
+
+
 def one_line_errors(f: Callable[..., Any]) -> Callable[..., Any]:
     """Turn package errors into `error: ...` on stderr and exit code 2, never a traceback."""
 
@@ -222,7 +236,7 @@ def one_line_errors(f: Callable[..., Any]) -> Callable[..., Any]:
             click.echo("interrupted; nothing was written", err=True)
             sys.exit(130)
         except MemoryError:
-            click.echo("error: out of memory; use a coarser --resolution or fewer --samples", err=True)
+            click.echo(f"error: {out_of_memory_hint()}", err=True)
             sys.exit(2)
 
     return wrapper
