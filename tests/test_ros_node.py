@@ -307,7 +307,8 @@ def test_stopped_it_leaves_a_recording_of_every_map_scene_and_plan(ros):
     """Last in the module: SIGTERM stops the node cleanly, and its MCAP file holds what it published."""
     node, peer, _ = ros
     plans = [s for s in peer.statuses("plan") if s["status"] in ("planned", "infeasible")]
-    assert node.stop() == 0, node.lines
+    code = node.stop()
+    assert code == 0, "\n".join(node.lines[-20:])
     assert not any("Traceback" in ln for ln in node.lines), node.lines
     with open(node.record, "rb") as fh:
         reader = make_reader(fh, decoder_factories=[DecoderFactory()])

@@ -210,6 +210,8 @@ class PlacementNode:
             try:
                 self.process(box)
             except Exception as exc:  # never let one bad event stop the node
+                if self._stopping:  # the context is going away under the event: nothing to say it on
+                    return
                 log.exception("unexpected error")
                 self.status({"source": "node", "status": "error", "error": first_line(exc)})
 
@@ -371,7 +373,12 @@ def serve(live: LivePlanner, options: NodeOptions, ready: Callable[[str], None] 
                 ready(node.base)
             try:
                 rclpy.spin(node.node)
-            except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+            except (
+                KeyboardInterrupt,
+                rclpy.executors.ExternalShutdownException,
+                # a SIGTERM that lands while the executor waits on a busy machine: shut down the same
+                rclpy.executors.ShutdownException,
+            ):
                 pass
             finally:
                 node.stop()
