@@ -53,6 +53,7 @@ def test_torso_key_parses_sorted():
     "torso,words",
     [
         ({"joint": LIFT, "values": [0.1, 0.2, 0.1]}, ["torso.values[2]", "twice"]),
+        ({"joint": LIFT, "values": [0.1, 0.2, 0.1 + 2**-55]}, ["torso.values[2]", "twice", "within 1e-09"]),
         ({"joint": LIFT, "values": [0.1, "high"]}, ["torso.values[1]", "length"]),
         ({"joint": LIFT, "values": [0.1, float("nan")]}, ["torso.values[1]"]),
         ({"joint": LIFT, "values": []}, ["torso.values", "1 to 16"]),

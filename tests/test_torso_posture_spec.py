@@ -5,6 +5,7 @@ parser; the CLI builds both postures and ``maps info`` shows them."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 import yaml
 from hypothesis import given, settings
@@ -35,7 +36,12 @@ def test_a_posture_spec_keeps_the_spec_order():
         ({**GOOD, "joints": [HIP, HIP]}, r"torso\.joints\[1\]: 'hip_pitch' is given twice \(joints\[0\]\)"),
         ({**GOOD, "postures": [[0.0, 0.0], [0.7]]}, r"torso\.postures\[1\] must be a list of 2 values"),
         ({**GOOD, "postures": [[0.0, 0.0, 0.1]]}, r"torso\.postures\[0\] must be a list of 2 values"),
-        ({**GOOD, "postures": [[0.1, 0.2], [0.1, 0.2]]}, r"torso\.postures\[1\] is given twice \(postures\[0\]\)"),
+        ({**GOOD, "postures": [[0.1, 0.2], [0.1, 0.2]]}, r"torso\.postures\[1\] is given twice \(postures\[0\]"),
+        # 1 ulp apart: the same posture, which would be built twice
+        (
+            {**GOOD, "postures": [[0.1, 0.2], [0.1, float(np.nextafter(0.2, 1))]]},
+            r"torso\.postures\[1\] is given twice \(postures\[0\]; postures within 1e-09",
+        ),
         ({**GOOD, "postures": [[0.0, "x"]]}, r"torso\.postures\[0\]\[1\] must be a setting"),
         ({**GOOD, "postures": [[0.0, 11.0]]}, r"torso\.postures\[0\]\[1\] must be a setting .* from -10 to 10"),
         ({**GOOD, "postures": []}, r"torso\.postures must be a list of 1 to 16 postures"),

@@ -237,6 +237,11 @@ def _exact_keys(value: dict[Any, Any], where: str, keys: tuple[str, ...]) -> Non
             raise PlacementError(f"{where}.{key} is missing")
 
 
+#: Torso settings (or postures, joint by joint) closer than this [m or rad] are one setting: a map per
+#: setting would be built twice (1 ulp apart) for the same robot
+SAME_SETTING = 1e-9
+
+
 def parse_torso(value: object, where: str) -> TorsoSpec:
     """``{joint: name, values: [v1, ...]}`` [m or rad]: 1 .. MAX_TORSO_VALUES distinct finite values,
     returned ascending; or ``{joints: [j1, ...], postures: [[v11, ...], ...]}`` (:func:`parse_postures`).
@@ -257,8 +262,12 @@ def parse_torso(value: object, where: str) -> TorsoSpec:
         )
     values = [_setting(v, f"{where}.values[{i}]") for i, v in enumerate(items)]
     for i, v in enumerate(values):
-        if v in values[:i]:
-            raise PlacementError(f"{where}.values[{i}]: {v:g} is given twice (values[{values.index(v)}])")
+        same = next((k for k, u in enumerate(values[:i]) if abs(u - v) <= SAME_SETTING), None)
+        if same is not None:
+            raise PlacementError(
+                f"{where}.values[{i}]: {v:.17g} is given twice (values[{same}]: {values[same]:.17g}; settings "
+                f"within {SAME_SETTING:g} m or rad are one)"
+            )
     return TorsoSpec(joint, tuple(sorted(values)))
 
 
@@ -293,8 +302,14 @@ def parse_postures(value: dict[Any, Any], where: str) -> TorsoSpec:
                 f"{where}.joints), got {show(p)}"
             )
         posture = tuple(_setting(v, f"{where}.postures[{i}][{k}]") for k, v in enumerate(p))
-        if posture in postures:
-            raise PlacementError(f"{where}.postures[{i}] is given twice (postures[{postures.index(posture)}])")
+        same = next(
+            (k for k, q in enumerate(postures) if max(abs(a - b) for a, b in zip(q, posture)) <= SAME_SETTING), None
+        )
+        if same is not None:
+            raise PlacementError(
+                f"{where}.postures[{i}] is given twice (postures[{same}]; postures within {SAME_SETTING:g} m or "
+                "rad in every joint are one)"
+            )
         postures.append(posture)
     return TorsoSpec(joints[0], tuple(float(i) for i in range(len(postures))), joints, tuple(postures))
 

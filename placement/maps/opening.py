@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from placement.errors import GridError, MapError
 from placement.maps.array_checks import check_arrays
 from placement.maps.rmap import ReachabilityMap
+from placement.maps.torso import VALUE_TOLERANCE, TorsoSettings
 from placement.robots import Robot, load_robot
 from placement.storage import open_store
 from placement.storage.schema import arm_arrays
@@ -42,6 +44,8 @@ def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> Re
     validate_arm(path, rmap.meta, robot, arm)
     check_arrays(rmap, robot)
     t = rmap.torso
+    if t is not None:
+        check_settings(path, arm, t, robot)
     if t is not None and t.shift is None:
         missing = [a for a in t.arrays if a not in arms]
         if missing:
@@ -52,4 +56,34 @@ def open_map(path: str | Path, arm: str, robot: Robot | str | None = None) -> Re
     return rmap
 
 
-__all__ = ["open_map"]
+def check_settings(path: Path, arm: str, t: TorsoSettings, robot: Robot) -> None:
+    """MapError naming the map and the record's key unless every torso setting the map holds is one
+    the robot can take: its joints fixed joints of the preset, every value within their URDF limits
+    (the settings are read from the map, so a bad one is the map's, not the preset's)."""
+    joints = t.joints or (t.joint,)
+    for j in joints:
+        if j not in robot.fixed_joints:
+            raise MapError(
+                f"{path}: the map of arm '{arm}' holds torso settings of '{j}', which is no fixed joint of "
+                f"preset '{robot.name}' (fixed: {', '.join(robot.fixed_joints) or 'none'}); rebuild the map"
+            )
+    if t.joints:
+        values = [
+            (f"torso.postures[{i}][{k}]", j, float(v))
+            for i, p in enumerate(t.postures)
+            for k, (j, v) in enumerate(zip(t.joints, p))
+        ]
+    else:
+        values = [(f"torso.values[{i}]", t.joint, float(v)) for i, v in enumerate(t.values)]
+    model = robot.model
+    for key, j, v in values:
+        q = model.joints[model.getJointId(j)].idx_q
+        lo, hi = float(model.lowerPositionLimit[q]), float(model.upperPositionLimit[q])
+        if not (math.isfinite(v) and lo - VALUE_TOLERANCE <= v <= hi + VALUE_TOLERANCE):
+            raise MapError(
+                f"{path}: the map of arm '{arm}' holds {key} = {v:g} for '{j}', outside its URDF limits "
+                f"[{lo:g}, {hi:g}]; rebuild the map"
+            )
+
+
+__all__ = ["check_settings", "open_map"]

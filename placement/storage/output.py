@@ -40,14 +40,31 @@ log = logging.getLogger("placement")
 SAVE_WAIT_S = 1800.0
 
 
-def check_target(path: str | Path, robot: Robot, fmt: str, what: str = "") -> None:
-    """Fail now, before a build, if the map could not be saved to ``path`` (``what`` names the option).
+def followed(path: str | Path) -> Path:
+    """Where a map at ``path`` is written: ``path``, or where it points when it is a symbolic link
+    (followed to the end, also when that does not exist yet), so that a save replaces the real map
+    and leaves the link as it was."""
+    p = Path(path)
+    return Path(os.path.realpath(p)) if p.is_symlink() else p
+
+
+def shown(path: str | Path, what: str = "") -> str:
+    """``path`` as a message names it: the user's path (with ``what``, the option), and where it leads
+    when it is a symbolic link."""
+    p = Path(path)
+    name = f"{what} {p}" if what else str(p)
+    return f"{name} (a link to {followed(p)})" if p.is_symlink() else name
+
+
+def check_target(path: str | Path, robot: Robot, fmt: str, what: str = "", name: str | None = None) -> None:
+    """Fail now, before a build, if the map could not be saved to ``path`` (``what`` names the option;
+    ``name``, when given, is how messages name the path).
 
     The nearest existing ancestor must be a writable directory; an existing
     ``path`` must be a map of the same format whose root metadata matches ``robot``.
     """
-    path = Path(path)
-    name = f"{what} {path}" if what else str(path)
+    path = followed(path)
+    name = name or (f"{what} {path}" if what else str(path))
     be = backend(fmt)
     parent = path.absolute().parent
     while not parent.exists():
@@ -99,18 +116,18 @@ class MapOutput:
     """
 
     def __init__(self, path: str | Path, robot: Robot, fmt: str, arms: Iterable[str], what: str = "") -> None:
-        self.path = Path(path)
+        self.path = followed(path)  # a link is followed: the real map is replaced, the link kept
         self.robot = robot
         self.fmt = fmt
         self.arms = list(arms)
         self.what = what
-        self.name = f"{what} {self.path}" if what else str(self.path)
+        self.name = shown(path, what)
         self.locks: list[FileLock] = []
 
     def __enter__(self) -> MapOutput:
         if not self.arms:
             raise MapError(f"{self.name}: no arm to save")
-        check_target(self.path, self.robot, self.fmt, self.what)
+        check_target(self.path, self.robot, self.fmt, self.what, self.name)
         self._check_kept()
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -201,7 +218,7 @@ class MapOutput:
         with FileLock(lock_path(self.path, "save"), holder).acquire(wait_s=SAVE_WAIT_S):
             for line in clear_leftovers(self.path):
                 log.warning("%s", line)
-            check_target(self.path, self.robot, self.fmt)
+            check_target(self.path, self.robot, self.fmt, name=self.name)
             self._check_kept()
             if self.path.exists():
                 old = open_store(self.path)
