@@ -4,9 +4,12 @@ The held object is its bounding box, rigidly attached to the TCP (``tcp_to_objec
 :class:`Held`). At every pose of the trajectory it is checked against
 
 * every scene piece (obstacles, tables, objects still where the scene has them, occupancy cells)
-  with the checker's ``padding``, except its support (the obstacle it is set on): the object
-  rests on that one, so against it the box is checked with its lowest face raised by
-  :data:`SUPPORT_TOLERANCE` and no padding (it may touch the surface, not pass through it);
+  with the checker's ``padding``, except its support (the obstacle it is set on) and every piece
+  that continues its surface (its top level with the support's, within :data:`LEVEL_TOLERANCE`,
+  its outline touching the support's: tables pushed together are one surface, and an object on
+  their seam rests on both; see :func:`extends`): against those the box is checked
+  with its lowest face raised by :data:`SUPPORT_TOLERANCE` and no padding (it may touch the
+  surface, not pass through it);
 * every robot shape except the gripper of the arm that holds it (the fingers close on the object).
 
 Only pieces whose bounds come within reach are given to coal; a free trajectory measures the
@@ -28,6 +31,8 @@ from placement.collision.tables import Instances, Operand
 #: [m] how far the held object may sink into the surface it is set on (its lowest face is raised
 #: by this much against the support): the place puts it exactly on the surface.
 SUPPORT_TOLERANCE = 0.01
+#: [m] a piece whose top is this close to the support's top is part of the same surface
+LEVEL_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,6 +60,14 @@ def support_box(
     return trimmed, offset
 
 
+def extends(support: npt.NDArray[np.float64], aabb: npt.NDArray[np.float64]) -> bool:
+    """Whether a piece with bounds ``aabb`` (2, 3) [m] continues the surface of a support with bounds
+    ``support``: its top level with the support's and its outline touching the support's."""
+    level = abs(float(aabb[1][2]) - float(support[1][2])) <= LEVEL_TOLERANCE
+    touch = bool(np.all(aabb[0][:2] <= support[1][:2] + LEVEL_TOLERANCE))
+    return level and touch and bool(np.all(aabb[1][:2] >= support[0][:2] - LEVEL_TOLERANCE))
+
+
 def _tf(T: npt.NDArray[np.float64]) -> coal.Transform3s:
     return coal.Transform3s(T[:3, :3], T[:3, 3])
 
@@ -77,6 +90,8 @@ class HeldCheck:
         self.req.security_margin = padding
         self.touch = coal.CollisionRequest()
         self.radius = 0.5 * float(np.linalg.norm(held.size))
+        #: the support and the pieces level with it (set by :meth:`scene`)
+        self.surface: set[str] = {held.support} if held.support is not None else set()
 
     def scene(self, pieces: list[SceneShape], skip: set[str]) -> tuple[tuple[float, str, int] | None, float]:
         """First collision with the scene ``pieces`` (:class:`~.scene.SceneShape`, named ``skip``
@@ -86,6 +101,9 @@ class HeldCheck:
         skipping pieces whose bounds are already farther than the best distance."""
         near: list[tuple[float, int, SceneShape]] = []  # (bounds gap [m], pose index, piece)
         kept = [piece for piece in pieces if piece.name not in skip]
+        support = [piece.aabb for piece in pieces if piece.name == self.held.support]
+        self.surface = {piece.name for piece in kept if piece.name == self.held.support}
+        self.surface |= {piece.name for piece in kept if support and extends(support[0], piece.aabb)}
         bounds = np.array([piece.aabb for piece in kept]).reshape(len(kept), 2, 3)
         for p, T in enumerate(self.world):
             lo, hi = box_aabb(T, self.held.size)
@@ -98,7 +116,7 @@ class HeldCheck:
             ):
                 return (self._distance(g, Tg, piece.geometry, piece.pose), piece.name, p), 0.0
         best = self.cap
-        for gap, p, piece in sorted((n for n in near if n[2].name != self.held.support), key=lambda n: n[0]):
+        for gap, p, piece in sorted((n for n in near if n[2].name not in self.surface), key=lambda n: n[0]):
             if gap >= best:
                 break
             g, Tg, _ = self._operand(p, piece)
@@ -111,7 +129,7 @@ class HeldCheck:
         """(geometry, world pose, request) of the held object at pose ``p`` against ``piece``: the
         box with its lowest face raised against its support, the whole box with padding otherwise."""
         T = self.world[p]
-        if piece.name == self.held.support:
+        if piece.name in self.surface:
             return self.trimmed, T @ self.offset, self.touch
         return self.box, T, self.req
 
