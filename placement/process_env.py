@@ -1,8 +1,9 @@
 """The process environment the compiled kernels want, set where a process starts, never on import.
 
 Importing :mod:`placement` changes no environment variable. The entry points (the ``placement``
-command, ``python -m placement.warmup``, the benchmark tools, the test suite) call
-:func:`configure_process` first; a library user may call it too, before the first parallel kernel.
+command, ``python -m placement.warmup``, the Dask tasks of a distributed build or evaluation, the
+``make`` targets, the test suite) set it first; a library user may call :func:`configure_process`
+too, before the first parallel kernel.
 """
 
 from __future__ import annotations

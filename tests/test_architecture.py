@@ -80,6 +80,7 @@ HELPERS = {
     "placement.simplicity",
     "placement.version",
     "placement.method_names",
+    "placement.process_env",
 }
 BELOW_ROBOTS = {"placement.kernels", *HELPERS}
 BELOW_KINEMATICS = {"placement.robots", "placement.storage", *BELOW_ROBOTS}
@@ -95,6 +96,7 @@ ALLOWED: dict[str, set[str] | frozenset[str]] = {
     "placement.validation": NOTHING,
     "placement.simplicity": NOTHING,
     "placement.method_names": NOTHING,
+    "placement.process_env": NOTHING,
     "placement.progress": {"placement.errors"},
     "placement.kernels": {"placement.errors"},
     "placement.robots": BELOW_ROBOTS,

@@ -121,6 +121,9 @@ def scene_task(path: str, methods: list[str], maps: str | None = None) -> SceneR
     workers already run one scene per core and more threads would only compete for it."""
     import numba
 
+    from placement.process_env import configure_process
+
+    configure_process()  # a Dask worker is a process of its own (a pool's inherits the command's)
     numba.set_num_threads(1)
     return evaluate_scene(path, methods, maps)
 

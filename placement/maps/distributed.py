@@ -14,6 +14,7 @@ from placement.maps.grid import Grid
 from placement.maps.sampling import sample_range
 from placement.maps.selfcollision import SelfCollision
 from placement.maps.witness import empty_witnesses
+from placement.process_env import configure_process
 from placement.robots import Robot, load_robot
 
 if TYPE_CHECKING:
@@ -97,6 +98,7 @@ def _remote_range(
 ) -> _Part:
     """Dask task: a sub-range into a private grid, returned sparse (flat indices int64, values float32,
     witnesses)."""
+    configure_process()  # a worker is a process of its own: its kernels wait passively too
     robot = load_robot(preset)
     grid = Grid.from_dict(grid_dict)
     values = np.zeros(grid.size, dtype=np.float32)
