@@ -194,12 +194,18 @@ def test_init_cli_exits_2_and_writes_nothing(tmp_path):
 
 
 @pytest.mark.parametrize("scale", ["0 0 0", "nan nan nan"])
-def test_init_warns_on_a_mesh_it_leaves_out(tmp_path, scale):
+def test_init_warns_on_a_mesh_it_leaves_out(tmp_path, scale, capfd):
+    """One warning line of ours, and no C++ parser errors on the process's stderr (urdfdom prints
+    one for every shape it cannot parse; the kinematic model is built without the shapes)."""
     _stl(tmp_path / "base.stl", 12)
     urdf = tmp_path / "toy.urdf"
     urdf.write_text(arm_urdf().replace('<box size="0.6 0.5 0.3"/>', f'<mesh filename="base.stl" scale="{scale}"/>'))
     p = propose(urdf)
     assert any("base_link" in w and "left out" in w for w in p.warnings), p.warnings
+    preset = tmp_path / "toy.yaml"
+    preset.write_text(render(p))
+    load_robot(preset)
+    assert capfd.readouterr().err == ""
 
 
 def test_init_bounds_mesh_triangles(tmp_path, monkeypatch):

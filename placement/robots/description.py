@@ -160,3 +160,16 @@ def read_description(path: Path, where: str) -> bytes:
     if is_xacro(path):
         return expand_xacro(path, where)
     return read_regular(path, RobotError, where, MAX_URDF_BYTES, "URDF")
+
+
+def kinematic_xml(root: ET.Element) -> str:
+    """The URDF ``root`` (<robot>) as text without its ``<visual>`` and ``<collision>`` elements: what
+    the kinematic model is built from. The shapes are read (and screened) on their own; urdfdom
+    prints a C++ error on stderr for every shape it cannot parse (a NaN mesh scale), which the
+    model does not need."""
+    bare = ET.fromstring(ET.tostring(root))
+    for link in bare.iter("link"):
+        for tag in ("visual", "collision"):
+            for element in link.findall(tag):
+                link.remove(element)
+    return ET.tostring(bare, encoding="unicode")

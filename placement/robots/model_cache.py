@@ -11,7 +11,7 @@ from pathlib import Path
 import pinocchio as pin
 
 from placement.errors import RobotError
-from placement.robots.description import MAX_URDF_BYTES, check_tree, expand_xacro, is_xacro
+from placement.robots.description import MAX_URDF_BYTES, check_tree, expand_xacro, is_xacro, kinematic_xml
 from placement.validation import one_line, read_regular
 
 #: Parsed URDF models kept in memory, keyed by (path, sha256 of the bytes parsed).
@@ -59,11 +59,12 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
         except UnicodeDecodeError as exc:
             raise RobotError(one_line(f"{where}: urdf: {path} is not UTF-8 text (byte {exc.start})")) from None
         try:
-            check_tree(ET.fromstring(text), f"{where}: urdf: {path}")
+            root = ET.fromstring(text)
+            check_tree(root, f"{where}: urdf: {path}")
         except ET.ParseError as exc:
             raise RobotError(one_line(f"{where}: urdf: URDF {path} does not load: not XML ({exc})")) from None
         try:
-            model = pin.buildModelFromXML(text)
+            model = pin.buildModelFromXML(kinematic_xml(root))
         except Exception as exc:  # pinocchio raises plain RuntimeError/ValueError
             msg = " ".join(str(exc).split()) or type(exc).__name__
             raise RobotError(one_line(f"{where}: urdf: URDF {path} does not load: {msg}")) from None

@@ -14,7 +14,7 @@ from pathlib import Path
 import pinocchio as pin
 
 from placement.errors import RobotError
-from placement.robots.description import check_tree, read_description
+from placement.robots.description import check_tree, kinematic_xml, read_description
 from placement.robots.model_cache import mimic_joints
 from placement.validation import one_line
 
@@ -66,7 +66,7 @@ def load_description(path: str | Path) -> Description:
         raise RobotError(f"{where}: not a URDF: the root element is <{root.tag}>, not <robot>")
     check_tree(root, where)
     try:
-        model = pin.buildModelFromXML(text)
+        model = pin.buildModelFromXML(kinematic_xml(root))
     except Exception as exc:  # pinocchio raises plain RuntimeError/ValueError
         msg = " ".join(str(exc).split()) or type(exc).__name__
         raise RobotError(one_line(f"{where}: URDF does not load: {msg}")) from None
