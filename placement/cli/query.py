@@ -195,6 +195,8 @@ def certificate_words(cert: dict[str, Any] | None) -> str:
     if not cert:
         return ""
     bound = cert.get("lower_bound_s")
+    if bound is None and cert.get("stopped"):
+        return f"  bound: {cert['stopped']}"
     if bound is None:
         return f"  bound: no sequence of {cert['regions']} cells reaches every step"
     travel, gap = cert.get("travel_s"), cert.get("gap")

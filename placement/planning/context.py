@@ -23,6 +23,12 @@ from placement.robots import Robot
 from placement.scene import Scene
 
 
+class BudgetSpent(Exception):
+    """The task's time budget ran out inside a computation that has no partial result (a whole-task
+    program's solve, the regions of every step): raised by :meth:`PlanningContext.check_time`, caught
+    by the method, which keeps the steps verified before."""
+
+
 @dataclass(frozen=True)
 class PlanningContext:
     """What planning a scene reads.
@@ -75,6 +81,11 @@ class PlanningContext:
         """Whether the plan's time budget has run out (``deadline``: a ``time.perf_counter()`` value)."""
         return self.deadline is not None and time.perf_counter() > self.deadline
 
+    def check_time(self) -> None:
+        """Raise :class:`BudgetSpent` when the plan's time budget has run out."""
+        if self.out_of_time():
+            raise BudgetSpent(self.budget_words())
+
     def budget_words(self) -> str:
         """Why a step was not planned when :meth:`out_of_time`."""
         return (
@@ -109,4 +120,4 @@ class PlanningContext:
         return {"grasped": None, "gone": gone}
 
 
-__all__ = ["PlanningContext"]
+__all__ = ["BudgetSpent", "PlanningContext"]

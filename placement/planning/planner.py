@@ -41,7 +41,7 @@ from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import Cell, FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.methods import DEFAULT_METHOD, METHODS, Method, method_named
-from placement.planning.prepare import prefetch_slices, warm_checks, warm_kernels
+from placement.planning.prepare import PREFETCH_SHARE, prefetch_slices, warm_checks, warm_kernels
 from placement.planning.problems import StepProblems, base_yaws, resolve_thresholds, setting_thresholds, with_threshold
 from placement.planning.program import certify
 from placement.planning.results import PlanResult, robot_info
@@ -140,7 +140,7 @@ class Planner:
         check per arm. The constructor calls it unless given ``warm=False``; planning without it
         gives the same plans, its first step paying for what this does."""
         warm_kernels(self.context.problems, self.robot)
-        prefetch_slices(self.context.problems)
+        prefetch_slices(self.context.problems, PREFETCH_SHARE * self.context.config.time_budget_s)
         warm_checks(self.context)
 
     def _contextualise(self, scene: Scene, robot: Robot, rmaps: dict[str, ReachabilityMap]) -> None:
@@ -313,8 +313,9 @@ class Planner:
         self.follow_maps()
         start = self.start_cell()
         deadline = time.perf_counter() + self.context.config.time_budget_s
-        steps = self.method.plan(replace(self.context, deadline=deadline), start, keep_maps)
-        cert = certify(self.context, self.method, start, steps)
+        timed = replace(self.context, deadline=deadline)
+        steps = self.method.plan(timed, start, keep_maps)
+        cert = certify(timed, self.method, start, steps)
         return PlanResult(self.scene.name, self.method.name, robot_info(self.robot, self.maps), steps, None, cert)
 
 

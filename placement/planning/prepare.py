@@ -2,10 +2,15 @@
 
 A fresh process pays once for loading each numba kernel from the disk cache and for starting the
 thread pool (about 20 ms each), and every map slice is read and checked on first use. Doing that
-when the planner is built keeps it out of the first step's time; the work is the same.
+when the planner is built keeps it out of the first step's time; the work is the same. Reading the
+slices takes at most :data:`PREFETCH_SHARE` of the task's time budget (a task of hundreds of place
+yaws per step reads for seconds; its later steps read their own slices).
 """
 
 from __future__ import annotations
+
+import math
+import time
 
 import numpy as np
 
@@ -20,6 +25,8 @@ from placement.robots import Robot
 from placement.scene.navgrid import NavGrid, Window
 
 _warm = False
+#: Share of the task's ``time_budget_s`` the slices may be read for when a planner is built.
+PREFETCH_SHARE = 0.2
 
 
 def warm_kernels(problems: StepProblems, robot: Robot) -> None:
@@ -44,15 +51,24 @@ def warm_kernels(problems: StepProblems, robot: Robot) -> None:
     _warm = True
 
 
-def prefetch_slices(problems: StepProblems) -> None:
+def prefetch_slices(problems: StepProblems, seconds: float = math.inf) -> bool:
     """Read (and check) every map slice the task's candidates will use, and the witnesses of those
-    slices (the IK starts there)."""
+    slices (the IK starts there), for at most about ``seconds`` [s] (checked between steps; the
+    slices not read then are read on first use, the plans are the same); True when all were read."""
+    end = time.perf_counter() + seconds
+    views = [m for maps in problems.variants.values() for m in maps]
+    read: set[tuple[int, tuple[int, int, int]]] = set()
     for i in range(len(problems.steps)):
+        if time.perf_counter() > end:
+            return False
         for cand in problems.candidates(i):
-            for rmap in (m for views in problems.variants.values() for m in views):
+            for k, rmap in enumerate(views):
                 for key in pose_slices(rmap, cand.poses):
-                    rmap.slice(*key)
-                    rmap.witness_slice(*key)
+                    if (k, key) not in read:  # a place's hundreds of yaws share slices
+                        read.add((k, key))
+                        rmap.slice(*key)
+                        rmap.witness_slice(*key)
+    return True
 
 
 def warm_checks(ctx: PlanningContext) -> None:

@@ -51,6 +51,8 @@ class Certificate:
             ``timings_ms.bound``.
         task_time_s: the plan's task time [s] (:mod:`placement.planning.task_time`; None unless every
             step is planned).
+        stopped: why the bound was not computed (``lower_bound_s`` is NaN then; JSON ``stopped``,
+            present only then), e.g. the task's time budget ran out; None when it was.
     """
 
     lower_bound_s: float
@@ -58,6 +60,7 @@ class Certificate:
     regions: str
     ms: float = 0.0
     task_time_s: float | None = None
+    stopped: str | None = None
 
     @property
     def gap(self) -> float | None:
@@ -85,7 +88,7 @@ class Certificate:
             "task_gap": None if task_gap is None else round(task_gap, 6),
             "regions": self.regions,
             "timings_ms": {"bound": round(self.ms, 3)},
-        }
+        } | ({} if self.stopped is None else {"stopped": self.stopped})
 
 
 @dataclass

@@ -54,7 +54,7 @@ from dataclasses import replace
 import numpy as np
 
 from placement.planning.arrays import Cell
-from placement.planning.context import PlanningContext
+from placement.planning.context import BudgetSpent, PlanningContext
 from placement.planning.methods.base import Method
 from placement.planning.methods.explain import explain
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
@@ -80,6 +80,15 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
     """Solve ``dp`` until its cheapest chain verifies: (the chain, each step's verified placement,
     None), or (None, [], the infeasible result saying why); when the time budget runs out, (the
     chain, the placements verified along it so far, the first step not verified)."""
+    try:
+        return _solve_verified(dp)
+    except BudgetSpent:  # inside a solve or a repair: the last verified prefix stands
+        chain, picks = dp.verified_prefix
+        step = dp.ctx.problems.steps[len(picks)]
+        return (chain if picks else None), picks, infeasible(step, dp.ctx.budget_words())
+
+
+def _solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], StepResult | None]:
     ctx = dp.ctx
     steps = ctx.problems.steps
     chain = dp.solve()
@@ -100,7 +109,9 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
         picks: list[Verified] = []
         for i in range(len(chain.cells)):
             if ctx.out_of_time():  # the steps verified so far stand: a partial plan
-                return chain, picks, infeasible(steps[i], ctx.budget_words())
+                # up to the first step this pass rejected: ``picks`` skips the rejected ones
+                k = failed[0][0] if failed else i
+                return chain, picks[:k], infeasible(steps[k], ctx.budget_words())
             flat, g = chain.cells[i], chain.groups[i]
             v = dp.verify(i, flat, g)
             if v is None and dp.local:
@@ -112,6 +123,8 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
                 failed.append((i, flat, g))
                 continue
             picks.append(v)
+            if not failed:
+                dp.verified_prefix = (chain, list(picks))
             chosen = dp.options(i, chain.groups[i])[v.option]
             dp.torso = chosen.torso if chosen.torso is not None else dp.torso
         if not failed:
@@ -152,7 +165,12 @@ def plan_dynamic(
     t0 = time.perf_counter()
     if not ctx.problems.steps:
         return []
-    dp = DynamicProgram(ctx, start, neighbourhood, exact_repairs, priced)
+    try:
+        dp = DynamicProgram(ctx, start, neighbourhood, exact_repairs, priced)
+    except BudgetSpent:  # the regions of every step took the whole budget
+        spent = infeasible(ctx.problems.steps[0], ctx.budget_words())
+        spent.timings_ms = {"total": (time.perf_counter() - t0) * 1e3}
+        return [spent]
     dp.local = dp.program.lazy = local
     chain, picks, failure = solve_verified(dp)
     if (
@@ -177,7 +195,10 @@ def plan_dynamic(
         return head if head and not head[-1].ok else [*head, failure]
     out = results(ctx, start, dp, chain, picks, keep_maps)  # the verified steps (all, or before the failure)
     if failure is None and polishes(dp):
-        out = for_task_time(dp, chain, picks, out, keep_maps, move=local)
+        try:
+            out = for_task_time(dp, chain, picks, out, keep_maps, move=local)
+        except BudgetSpent:  # the verified plan stands without the task-time passes
+            pass
     ms = (time.perf_counter() - t0) * 1e3
     log.debug(
         "dynamic program: %d placements checked, %d rejected, %d solves, %d local repairs, %.0f ms",

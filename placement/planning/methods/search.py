@@ -9,8 +9,8 @@ the groups, best first within each, so the tries spread over options, regions, y
 It learns from failures: a placement next to a failed one of the same option and a similar yaw is
 deferred to the end, and one whose target lies in the same direction but farther than a failure whose
 TCP fell short along its reach is dropped (reaching farther cannot help). It stops at the first
-verified placement, when the ``ik_budget_ms`` time budget or the ``ik_cap`` tries are used up, or
-when every candidate was tried. The constants (``search_*``, ``ik_*``) come from the
+verified placement, when the ``ik_budget_ms`` time budget, the task's ``time_budget_s`` or the
+``ik_cap`` tries are used up, or when every candidate was tried. The constants (``search_*``, ``ik_*``) come from the
 :class:`~placement.planning.settings.PlannerConfig` of the context.
 """
 
@@ -64,7 +64,8 @@ class Found:
 @dataclass
 class Search:
     """What the search did: the placement found (or None), the failures, and why it stopped
-    ("found", "all" candidates tried, "budget" spent, "cap" of tries reached)."""
+    ("found", "all" candidates tried, the "budget" of IK time spent, the "task"'s time budget spent,
+    "cap" of tries reached)."""
 
     found: Found | None = None
     failures: list[Failure] = field(default_factory=list)
@@ -222,6 +223,8 @@ def search_placement(
             out.stop = "cap"
         elif time.perf_counter() > deadline:
             out.stop = "budget"
+        elif ctx.out_of_time():
+            out.stop = "task"
         else:
             return False
         return True
@@ -269,13 +272,13 @@ def search_placement(
             continue
         if attempt(r, opts[r.option], *cell):
             return out
-    if out.stop in ("budget", "cap"):
+    if out.stop in ("budget", "cap", "task"):
         return out
     out.stop = "all"
     if spread(more() if more is not None else ranked) or more is None:
         return out
     extra, values = other_yaws(ctx, opts, nav_cost, heuristic)
-    if not spread(extra) and time.perf_counter() > deadline:
+    if not spread(extra) and out.stop == "all" and time.perf_counter() > deadline:
         out.stop = "budget"
     if out.found is not None and out.found.value is None:
         r = out.found.ranked

@@ -11,11 +11,12 @@ travel for less turning where that shortens the task, :mod:`placement.planning.p
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Protocol
 
 from placement.planning.arrays import Cell
-from placement.planning.context import PlanningContext
+from placement.planning.context import BudgetSpent, PlanningContext
 from placement.planning.program.forward import travel_bound
 from placement.planning.program.regions import Regions
 from placement.planning.results import Certificate, StepResult
@@ -40,17 +41,27 @@ def certify(ctx: PlanningContext, method: RegionSource, start: Cell, steps: list
     t0 = time.perf_counter()
     key = (method.region_kind, start)
     bound_m = ctx.problems.bounds.get(key)
+    stopped = None
     if bound_m is None:
-        n = len(ctx.problems.steps)
-        bound_m = travel_bound(ctx, start, [method.regions(ctx, i) for i in range(n)])
-        ctx.problems.bounds[key] = bound_m
+        try:
+            regions = []
+            for i in range(len(ctx.problems.steps)):
+                ctx.check_time()
+                regions.append(method.regions(ctx, i))
+            bound_m = travel_bound(ctx, start, regions)
+            ctx.problems.bounds[key] = bound_m
+        except BudgetSpent:
+            bound_m, stopped = (
+                math.nan,
+                f"not computed: the task's time budget of {ctx.config.time_budget_s:g} s ran out",
+            )
     ok = bool(steps) and len(steps) == len(ctx.problems.steps) and all(s.ok for s in steps)
     travel = sum(float(s.travel_time_s or 0.0) for s in steps) if ok else None
     task = None
     if ok:
         task = sum(x["step_s"] for x in steps_seconds(ctx.robot, steps, float(ctx.scene.start[2])))
     v = ctx.robot.v_max
-    return Certificate(bound_m / v, travel, method.region_kind, (time.perf_counter() - t0) * 1e3, task)
+    return Certificate(bound_m / v, travel, method.region_kind, (time.perf_counter() - t0) * 1e3, task, stopped)
 
 
 __all__ = ["Certificate", "RegionSource", "certify"]

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
 
@@ -38,6 +38,8 @@ from placement.planning.world import extract_path, navigation_cost
 
 #: a layer type (:class:`Layer` or the priced program's)
 L = TypeVar("L")
+#: what a solve calls before each step; it raises to end the solve
+Stop = Callable[[], None]
 
 
 @dataclass
@@ -113,6 +115,14 @@ def kept_layers(
     return out
 
 
+def pending(done: int, total: int, stop: Stop | None) -> Iterator[int]:
+    """The steps ``done`` .. ``total - 1`` a forward pass computes, calling ``stop`` before each."""
+    for i in range(done, total):
+        if stop is not None:
+            stop()
+        yield i
+
+
 def search_from(
     factor: FloatArray,
     feasible: BoolArray,
@@ -129,7 +139,10 @@ def search_from(
     np.any(reg.masks[list(members)], axis=0, out=targets)
     if cells.shape[0] == 0 or not targets.any():
         return None
-    return navigation_cost(factor, feasible, cells, resolution, costs, targets)
+    cost, pred = navigation_cost(factor, feasible, cells, resolution, costs, targets)
+    # a program keeps one predecessor map per Dijkstra of every step (hundreds on long tasks): the
+    # flat indices of a grid of at most MAX_GRID_CELLS fit 32 bits, half the memory
+    return cost, pred.astype(np.int32)
 
 
 def forward(
@@ -142,6 +155,7 @@ def forward(
     layers: list[Layer] | None = None,
     first: int = 0,
     before: Sequence[Regions] | None = None,
+    stop: Stop | None = None,
 ) -> list[Layer]:
     """The labels of every step (see the module docstring).
 
@@ -156,13 +170,15 @@ def forward(
         before: the regions ``layers`` were computed with: when step ``first`` only lost cells
             (same groups and node costs, masks a subset), its layer is the old one with those cells
             set to inf (its Dijkstras' costs do not depend on their targets), no Dijkstra.
+        stop: called before each step's searches; it raises to end the solve (the task's time
+            budget, :meth:`~placement.planning.context.PlanningContext.check_time`).
     Returns:
         one :class:`Layer` per step; a step no cell reaches has all labels inf, and so do the
         steps after it.
     """
     out = kept_layers(layers, first, before, regions, _narrowed)
     shape = feasible.shape
-    for i in range(len(out), len(regions)):
+    for i in pending(len(out), len(regions), stop):
         reg = regions[i]
         G = len(reg.groups)
         labels = np.full((G, *shape), math.inf)
@@ -289,10 +305,12 @@ class WholeTaskProgram(Protocol):
             grouping them (only :class:`Program` honours it; the others keep ``loose`` empty).
         loose: the places of the last chain's conflicts left to the caller.
         layers: the last solve's layers, one per step.
+        stop: called before each step of a solve; it raises to end it (see :func:`forward`).
     """
 
     lazy: bool
     loose: list[int]
+    stop: Stop | None
 
     @property
     def layers(self) -> Sequence[Layer]:
@@ -329,6 +347,8 @@ class GroupedProgram(ABC):
         #: return a chain with conflicts (their places in :attr:`loose`) instead of grouping them
         self.lazy = False
         self.loose: list[int] = []
+        #: called before each step of a solve (see :func:`forward`'s ``stop``)
+        self.stop: Stop | None = None
 
     @abstractmethod
     def merge(self, reg: Regions) -> Regions:
@@ -386,7 +406,7 @@ class Program(GroupedProgram):
         before it unchanged since the last solve)."""
         while True:
             view, linked = self.view(regions)
-            self.layers = forward(*self.grid, view, linked, self.layers, first, self.before(linked))
+            self.layers = forward(*self.grid, view, linked, self.layers, first, self.before(linked), self.stop)
             self.views, self.linked_view = view, linked
             chain = backtrack(self.layers, view, linked)
             if chain is None:
@@ -406,10 +426,12 @@ def cheapest(
     start: Cell,
     regions: Sequence[Regions],
     linked: Sequence[bool],
+    stop: Stop | None = None,
 ) -> tuple[Chain | None, list[Layer]]:
     """The cheapest chain over ``regions`` keeping each transfer's group, and the layers of the
-    :class:`Program` that found it."""
+    :class:`Program` that found it (``stop``: see :func:`forward`)."""
     program = Program(factor, feasible, resolution, start, linked)
+    program.stop = stop
     return program.solve(regions), program.layers
 
 
@@ -421,13 +443,18 @@ def linked_steps(ctx: PlanningContext) -> list[bool]:
 def travel_bound(ctx: PlanningContext, start: Cell, regions: Sequence[Regions] | None = None) -> float:
     """The least travel [m] of any plan standing, at every step, on a cell of its region (default
     :func:`map_regions`), keeping each object's arm and grasp from its pick to its place; inf when
-    no such plan exists."""
-    steps = ctx.problems.steps
-    regs = list(regions) if regions is not None else [map_regions(ctx, i) for i in range(len(steps))]
+    no such plan exists. Raises :class:`~placement.planning.context.BudgetSpent` when the task's
+    time budget runs out first."""
+    if regions is None:
+        regions = []
+        for i in range(len(ctx.problems.steps)):
+            ctx.check_time()
+            regions.append(map_regions(ctx, i))
+    regs = list(regions)
     if not regs:
         return 0.0
     w = ctx.world
-    chain, _ = cheapest(w.factor, w.feasible, w.nav.resolution, start, regs, linked_steps(ctx))
+    chain, _ = cheapest(w.factor, w.feasible, w.nav.resolution, start, regs, linked_steps(ctx), ctx.check_time)
     return chain.total if chain is not None else math.inf
 
 
@@ -447,6 +474,7 @@ __all__ = [
     "kept_layers",
     "linked_steps",
     "map_regions",
+    "pending",
     "regroup",
     "relaxed",
     "search_from",

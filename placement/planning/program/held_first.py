@@ -19,7 +19,7 @@ import math
 from collections.abc import Sequence
 
 from placement.planning.arrays import BoolArray, Cell, FloatArray
-from placement.planning.program.forward import Chain, Layer, Program
+from placement.planning.program.forward import Chain, Layer, Program, Stop
 from placement.planning.program.priced_torso import Term, TorsoProgram, settings_of
 from placement.planning.program.regions import Regions
 
@@ -62,6 +62,16 @@ class HeldFirst:
         self.lazy = False
         self.loose: list[int] = []
         self.layers: Sequence[Layer] = []
+
+    @property
+    def stop(self) -> Stop | None:
+        """Called before each step of a solve (both programs'; see
+        :func:`~placement.planning.program.forward.forward`)."""
+        return self.held.stop
+
+    @stop.setter
+    def stop(self, stop: Stop | None) -> None:
+        self.held.stop = self.priced.stop = stop
 
     def group(self, places: Sequence[int]) -> int:
         """Not used (``lazy`` is False): the programs group their own transfers."""

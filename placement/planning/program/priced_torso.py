@@ -35,7 +35,16 @@ import numpy as np
 
 from placement.planning.arrays import BoolArray, Cell, FloatArray, IntArray
 from placement.planning.context import PlanningContext
-from placement.planning.program.forward import RELAXED, Chain, GroupedProgram, Layer, kept_layers, search_from
+from placement.planning.program.forward import (
+    RELAXED,
+    Chain,
+    GroupedProgram,
+    Layer,
+    Stop,
+    kept_layers,
+    pending,
+    search_from,
+)
 from placement.planning.program.regions import Group, Regions, map_regions
 from placement.planning.torso import torso_seconds
 from placement.planning.world import extract_path
@@ -157,6 +166,7 @@ def forward(
     layers: list[TorsoLayer] | None = None,
     first: int = 0,
     before: Sequence[Regions] | None = None,
+    stop: Stop | None = None,
 ) -> list[TorsoLayer]:
     """The labels of every step (the module docstring's program).
 
@@ -169,13 +179,14 @@ def forward(
             and grasp only.
         layers, first, before: recompute from step ``first`` on (see
             :func:`~placement.planning.program.forward.forward`).
+        stop: called before each step's searches; it raises to end the solve.
     Returns:
         one :class:`TorsoLayer` per step (all inf from the first step no cell reaches).
     """
     factor, feasible, resolution, start = grid
     out = kept_layers(layers, first, before, regions, _narrowed)
     shape = feasible.shape
-    for i in range(len(out), len(regions)):
+    for i in pending(len(out), len(regions), stop):
         reg = regions[i]
         sets = settings_of(reg)
         G = len(reg.groups)
@@ -270,7 +281,9 @@ class TorsoProgram(GroupedProgram):
         while True:
             view, linked = self.view(regions)
             before = self.before(linked)
-            self.layers = forward(self.grid, self.start_torso, self.term, view, linked, self.layers, first, before)
+            self.layers = forward(
+                self.grid, self.start_torso, self.term, view, linked, self.layers, first, before, self.stop
+            )
             self.views, self.linked_view = view, linked
             chain = backtrack(self.layers)
             if chain is None:

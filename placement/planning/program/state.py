@@ -50,7 +50,10 @@ class DynamicProgram:
             # the torso priced (:mod:`placement.planning.program.priced_torso`): a group per (arm, grasp,
             # setting), no hold rule; the plain program at the start setting while provably optimal
             self.hold: list[float | None] = [None] * len(steps)
-            self.full = [torso_regions(ctx, i) for i in range(len(steps))]
+            self.full = []
+            for i in range(len(steps)):
+                ctx.check_time()
+                self.full.append(torso_regions(ctx, i))
             grid = (w.factor, w.feasible, w.nav.resolution, start)
             floor = ctx.problems.bounds.get(("maps", start))
             if floor is None:  # the certificate's bound of the maps' regions: computed once, kept for it
@@ -59,9 +62,15 @@ class DynamicProgram:
             self.program = HeldFirst(grid, self.linked, held, settings, torso_term(ctx), floor)
         else:
             #: per step, the torso value [m] its region and verification hold the lift at (None: any)
-            self.hold = [held_torso(ctx, i) for i in range(len(steps))]
-            self.full = [map_regions(ctx, i, held=h) for i, h in enumerate(self.hold)]
+            self.hold = []
+            self.full = []
+            for i in range(len(steps)):
+                ctx.check_time()
+                self.hold.append(held_torso(ctx, i))
+                self.full.append(map_regions(ctx, i, held=self.hold[-1]))
             self.program = Program(w.factor, w.feasible, w.nav.resolution, start, self.linked)
+        # the task's time budget ends a solve between two steps (BudgetSpent, caught by the method)
+        self.program.stop = ctx.check_time
         self.regions = self.weighted()
         # what verification found, kept by the planner's per-step cache: a later plan of the same
         # scene replays the same program with the IK answers looked up (same plan, without the IK
@@ -79,6 +88,9 @@ class DynamicProgram:
         self.repairs_local = 0
         #: the torso value [m] the robot holds at the step being verified (None: no torso settings)
         self.torso: float | None = start_torso(ctx)
+        #: a chain and the placements verified along it from its first step on (the partial plan
+        #: a method keeps when the time budget runs out)
+        self.verified_prefix: tuple[Chain | None, list[Verified]] = (None, [])
 
     def solve(self, first: int = 0) -> Chain | None:
         """The cheapest chain over the current regions, recomputing the layers from step ``first``

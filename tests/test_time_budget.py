@@ -1,0 +1,94 @@
+"""The task's time budget, run out at every point a method checks it (a clock that counts the checks,
+not seconds, so the test does not depend on the machine): each method returns the steps it verified
+before (each one verifying independently) and then the first step not verified, saying which budget
+ran out and how to raise it; never a traceback, never a step without its placement. The certificate
+is cut by the same budget and says so."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from placement.planning import Planner, load_scene
+from placement.planning.context import PlanningContext
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT / "examples" / "table_clearing_obstacles.yaml"
+
+
+class CountingClock:
+    """``out_of_time`` that answers True from its ``after``-th call on (0: at once)."""
+
+    def __init__(self, after: int):
+        self.after, self.calls = after, 0
+
+    def __call__(self, ctx: PlanningContext) -> bool:
+        self.calls += 1
+        return ctx.deadline is not None and self.calls > self.after
+
+
+def install(monkeypatch, clock: CountingClock) -> None:
+    monkeypatch.setattr(PlanningContext, "out_of_time", lambda ctx: clock(ctx))
+
+
+@pytest.fixture(scope="module")
+def planners(tiny_maps):
+    scene = load_scene(SCENE)
+    scene = replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0, "time_budget_s": 3600.0})
+    return {m: Planner(scene, m, tiny_maps) for m in ("global", "optimal", "sequential", "irm")}
+
+
+def _checks(planner, monkeypatch) -> int:
+    clock = CountingClock(10**9)
+    install(monkeypatch, clock)
+    assert planner.plan().ok
+    return clock.calls
+
+
+@pytest.mark.parametrize("method", ["global", pytest.param("optimal", marks=pytest.mark.slow), "sequential", "irm"])
+def test_the_budget_spent_at_any_check_keeps_a_verified_partial_plan(planners, method, monkeypatch):
+    planner = planners[method]
+    calls = _checks(planner, monkeypatch)
+    assert calls > 0
+    # check points spread over a whole plan, the first and the last
+    for after in sorted({round(k * calls / 24) for k in range(24)} | {0, 1, calls - 1}):
+        install(monkeypatch, CountingClock(after))
+        result = planner.plan()
+        problems = result.verify(planner.robot, scene=planner.scene)
+        assert problems == [], (after, problems)
+        if result.ok:
+            continue
+        failed = result.failed_step
+        assert failed is result.steps[-1] and all(s.ok for s in result.steps[:-1]), after
+        assert [s.step for s in result.steps] == list(range(len(result.steps))), after
+        assert "time budget of 3600 s ran out" in failed.reason and "planner.time_budget_s" in failed.reason, (
+            after,
+            failed.reason,
+        )
+        doc = json.loads(json.dumps(result.to_json()))
+        assert doc["steps"][-1]["status"] == "infeasible"
+
+
+def test_a_certificate_cut_by_the_budget_says_so(planners, monkeypatch):
+    """``sequential``'s bound is a program of its own after the plan: with the budget spent there, the
+    plan stands and the certificate has no bound and says why (JSON ``stopped``)."""
+    planner = planners["sequential"]
+    start = planner.start_cell()
+    planner.plan()
+    bound = planner.problems.bounds[("maps", start)]
+    clock = CountingClock(10**9)
+    install(monkeypatch, clock)
+    planner.plan()  # the bound kept from the first plan: only the plan's own checks
+    plan_checks = clock.calls
+    del planner.problems.bounds[("maps", start)]
+    install(monkeypatch, CountingClock(plan_checks))
+    result = planner.plan()
+    assert result.ok
+    cert = result.to_json()["certificate"]
+    assert cert["lower_bound_s"] is None and cert["gap"] is None and cert["task_gap"] is None
+    assert "time budget of 3600 s ran out" in cert["stopped"]
+    monkeypatch.undo()
+    assert planner.plan().certificate.lower_bound_s * planner.robot.v_max == pytest.approx(bound)
