@@ -103,6 +103,7 @@ bench: install maps/pr2/zarr.json maps/armar6/zarr.json
 	$(PY) tools/bench_collision.py --maps maps/pr2
 	$(PY) tools/bench_optimum.py --maps maps/pr2
 	$(PY) tools/bench_buildings.py --maps maps/pr2
+	$(PY) tools/bench_limits.py --maps maps/pr2
 	$(PY) tools/bench_ros.py --maps maps/pr2
 
 # The 45 free scenes of `make eval`: serial, 2 local processes and a 2-worker Dask LocalCluster.

@@ -44,11 +44,10 @@ MAX_OBSTACLES = 10_000
 MAX_POLYGON_VERTICES = 1_000
 MAX_TOTAL_VERTICES = 4_000
 MAX_OBJECTS = 1_000  # objects, and likewise place locations and trajectories
-#: Entries of a task (a pick/place pair is one entry and two steps): 100 pairs on two generated rooms
-#: (27 m x 10 m, 5 cm cells, the 555 MB PR2 maps) plan in 10 s and 1.4 GB with `global`, 12 s and
-#: 1.0 GB with `sequential`, 13 s with `fixed`; `optimal` stops at the default 10 s time budget with
-#: 3.9 GB. Memory grows with the steps (every step's layers are kept): 200 pairs took 3.9 GB with
-#: `global`, and the 1,000 allowed before ran out of memory.
+#: Entries of a task (a pick/place pair is one entry and two steps). Memory grows with the steps
+#: (every step's layers are kept): 200 pairs took 3.9 GB with `global`, and 1,000 ran out of memory;
+#: 100 pairs on two generated rooms stay within 60 s and 4 GB end to end with every method
+#: (tools/bench_limits.py, docs/benchmarks.md).
 MAX_TASK = 100
 
 
