@@ -26,6 +26,7 @@ from placement.planning.methods.search import other_yaws
 from placement.planning.methods.weighted import rank_eq6
 from placement.planning.planner import Planner
 from placement.planning.problems.cache import StepProblems
+from placement.planning.problems.thresholds import Thresholds
 from placement.planning.settings import PlannerConfig
 from placement.planning.world.navigation import navigation_cost
 from placement.robots.preset import PRESET_DIR
@@ -119,8 +120,9 @@ def test_every_stage_applies_each_arms_own_threshold(tmp_path, maps_dir):
     nz = {arm: _nonzero(open_map(maps_dir, arm)) for arm in ("right", "left")}
     own = {"right": float(np.quantile(nz["right"], 0.2)), "left": float(np.quantile(nz["left"], 0.8))}
     cfg = replace(p.config, threshold=min(own.values()))
-    problems = StepProblems(p.scene, p.world, p.maps, cfg, p.yaws, p.robot.gripper.max_opening, own)
-    ctx = replace(p.context, config=cfg, thresholds=own, problems=problems)
+    thresholds = Thresholds(own, {}, cfg.threshold)
+    problems = StepProblems(p.scene, p.world, p.maps, cfg, p.yaws, p.robot.gripper.max_opening, thresholds)
+    ctx = replace(p.context, config=cfg, thresholds=thresholds, problems=problems)
     shape = p.world.nav.shape
     between = 0
     for i in range(len(problems.steps)):

@@ -16,7 +16,7 @@ from typing import Any
 from placement.collision import SceneCollision
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import FloatArray
-from placement.planning.problems import Option, Step, StepProblems, held_object, threshold_at
+from placement.planning.problems import Option, Step, StepProblems, Thresholds, held_object
 from placement.planning.settings import PlannerConfig
 from placement.planning.world import World
 from placement.robots import Robot
@@ -40,15 +40,13 @@ class PlanningContext:
         config: the method's configuration (its weights over the scene's ``planner:`` block).
         yaws: (K,) base yaws tried per cell [rad].
         collisions: the scene collision checker, or None (planning without collision checks).
-        thresholds: arm -> its map threshold (map value), resolved at load (see
-            :mod:`placement.planning.problems.thresholds`; the arm's own map's, the reference torso setting's);
-            an arm not in it uses ``config.threshold``.
+        thresholds: the map thresholds (map values) per arm and torso setting, resolved at load (see
+            :mod:`placement.planning.problems.thresholds`); the same value as ``problems.thresholds``
+            unless :meth:`for_step` lowered them.
         torso_checks: torso value [m] -> the collision check of the robot with its lift there
             (built on first use, see :mod:`placement.planning.torso`; updated with ``collisions``).
         deadline: ``time.perf_counter()`` after which the running plan stops (None: none); set by
             :meth:`Planner.plan <placement.planning.planner.Planner.plan>` from ``time_budget_s``.
-        setting_thresholds: (arm, torso value [rad]) -> the threshold of that setting of a map built
-            once per torso setting (its own distribution); a setting not in it uses its arm's.
     """
 
     scene: Scene
@@ -59,9 +57,8 @@ class PlanningContext:
     config: PlannerConfig
     yaws: FloatArray
     collisions: SceneCollision | None = None
-    thresholds: Mapping[str, float] = field(default_factory=dict)
+    thresholds: Thresholds = field(default_factory=Thresholds)
     torso_checks: dict[float, SceneCollision] = field(default_factory=dict)
-    setting_thresholds: Mapping[tuple[str, float], float] = field(default_factory=dict)
     deadline: float | None = None
 
     def for_step(self, i: int) -> PlanningContext:
@@ -71,10 +68,7 @@ class PlanningContext:
         if r >= 1.0:
             return self
         return replace(
-            self,
-            config=replace(self.config, threshold=self.config.threshold * r),
-            thresholds={a: t * r for a, t in self.thresholds.items()},
-            setting_thresholds={k: t * r for k, t in self.setting_thresholds.items()},
+            self, config=replace(self.config, threshold=self.config.threshold * r), thresholds=self.thresholds.scaled(r)
         )
 
     def out_of_time(self) -> bool:
@@ -96,15 +90,12 @@ class PlanningContext:
     def threshold(self, arm: str, torso: float | None = None) -> float:
         """The map value below which a placement of ``arm`` with the torso at ``torso`` [m or rad] (an
         option's ``torso``; None: the arm's own map) is infeasible (dimensionless)."""
-        return threshold_at(self.thresholds, self.setting_thresholds, self.config.threshold, arm, torso)
+        return self.thresholds.at(arm, torso)
 
     def threshold_words(self, arm: str) -> str:
         """``arm``'s threshold in words: one value, or one per torso setting of a map built once per
         setting ("0.0123 at torso 0, 0.0151 at torso 0.4")."""
-        own = sorted((t, v) for (a, t), v in self.setting_thresholds.items() if a == arm)
-        if not own:
-            return f"{self.threshold(arm):.4g}"
-        return ", ".join(f"{v:.4g} at torso {t:g}" for t, v in own)
+        return self.thresholds.words(arm)
 
     def collision_args(self, step: Step, o: Option) -> dict[str, Any]:
         """Keyword arguments of the collision check of option ``o`` of ``step``: a pick's gripper may

@@ -42,7 +42,7 @@ from placement.planning.arrays import Cell, FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.methods import DEFAULT_METHOD, METHODS, Method, method_named
 from placement.planning.prepare import PREFETCH_SHARE, prefetch_slices, warm_checks, warm_kernels
-from placement.planning.problems import StepProblems, base_yaws, resolve_thresholds, setting_thresholds, with_threshold
+from placement.planning.problems import StepProblems, Thresholds, base_yaws
 from placement.planning.program import certify
 from placement.planning.results import PlanResult, robot_info
 from placement.planning.settings import PlannerConfig
@@ -105,8 +105,9 @@ class Planner:
         fields are also attributes of the planner: scene, robot, maps (arm -> map), world, problems
         (the per-step cache), config (the method's), yaws ((K,) base yaws [rad]), collisions (the
         :class:`~placement.collision.SceneCollision` checker, or None), thresholds (arm -> map
-        threshold), setting_thresholds ((arm, torso value) -> map threshold of a map built once per
-        torso setting). base_config: the scene's configuration (its ``threshold`` the smallest of them). method: the :class:`~placement.planning.methods.base.Method` strategy
+        threshold) and setting_thresholds ((arm, torso value) -> map threshold of a map built once per
+        torso setting), both views of the context's one
+        :class:`~placement.planning.problems.thresholds.Thresholds`. base_config: the scene's configuration (its ``threshold`` the smallest of them). method: the :class:`~placement.planning.methods.base.Method` strategy
         (``method.name`` its name). map_path: the folder of the open maps.
     """
 
@@ -148,25 +149,15 @@ class Planner:
         (only once all of it is made)."""
         where = f"{scene.source}: planner" if scene.source is not None else "planner"
         cfg = PlannerConfig.from_overrides(scene.planner, where)
-        thresholds = resolve_thresholds(cfg, rmaps)
-        settings = setting_thresholds(cfg, rmaps)
-        base_config = cfg = with_threshold(cfg, thresholds, settings)
+        thresholds, cfg = Thresholds.resolve(cfg, rmaps)
+        base_config = cfg
         checker = SceneCollision(robot, scene, padding=cfg.collision_padding) if self._collisions else None
         yaws = base_yaws(cfg.yaw_steps)
         base = BaseShape.of(robot, cfg.footprint_padding, yaws)
         world = windowed_world(scene, base, cfg, robot.v_max)
-        problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening, thresholds, settings)
+        problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening, thresholds)
         context = PlanningContext(
-            scene,
-            robot,
-            rmaps,
-            world,
-            problems,
-            self.method.configure(cfg),
-            yaws,
-            checker,
-            thresholds,
-            setting_thresholds=settings,
+            scene, robot, rmaps, world, problems, self.method.configure(cfg), yaws, checker, thresholds
         )
         self.base_config, self.context = base_config, context
 
@@ -218,14 +209,14 @@ class Planner:
         a map with torso settings is the reference setting's (the preset's held value). A map built once
         per torso setting has one per setting (:attr:`setting_thresholds`); a shifted map's settings all
         keep the arm's. ``context.threshold(arm, torso)`` gives an option's."""
-        return self.context.thresholds
+        return self.context.thresholds.arms
 
     @property
     def setting_thresholds(self) -> Mapping[tuple[str, float], float]:
         """(arm, torso value [rad]) -> the map threshold of that setting of a map built once per torso
         setting: the quantile of that setting's own map (empty when the scene gave ``threshold``, and
         for maps without torso settings or shifted ones)."""
-        return self.context.setting_thresholds
+        return self.context.thresholds.settings
 
     @property
     def yaws(self) -> FloatArray:

@@ -37,8 +37,8 @@ class PlannerConfig:
         threshold: map value below which a placement is infeasible (dimensionless, > 0). Given in
             the scene, the same value on every arm; otherwise the planner resolves
             ``threshold_quantile`` per arm (and per torso setting of a map built once per setting) at
-            load and sets this to the smallest of those values (they are kept on the planning context:
-            ``PlanningContext.thresholds``, ``setting_thresholds``).
+            load and sets this to the smallest of those values (they are kept once, as a
+            :class:`~placement.planning.problems.thresholds.Thresholds`: ``PlanningContext.thresholds``).
         threshold_quantile: fraction of each arm's reached map cells, the lowest-valued, that are
             infeasible (dimensionless, 0 .. 1): each arm's threshold is this quantile of its map's
             non-zero values (see :mod:`placement.maps.quantiles`); None when ``threshold`` is given.

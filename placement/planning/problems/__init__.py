@@ -19,6 +19,7 @@ from placement.planning.problems.manipulation import (
 from placement.planning.problems.option import Option, height_range
 from placement.planning.problems.steps import Step, step_candidates, task_steps
 from placement.planning.problems.thresholds import (
+    Thresholds,
     per_arm_values,
     resolve_thresholds,
     setting_thresholds,
@@ -33,6 +34,7 @@ __all__ = [
     "Option",
     "Step",
     "StepProblems",
+    "Thresholds",
     "base_yaws",
     "height_range",
     "held_object",

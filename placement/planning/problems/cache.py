@@ -26,7 +26,7 @@ from placement.planning.problems.manipulation import cells_within, manipulation_
 from placement.planning.problems.option import Option, height_range
 from placement.planning.problems.refresh import refreshed_options
 from placement.planning.problems.steps import Step, step_candidates, task_steps
-from placement.planning.problems.thresholds import threshold_at
+from placement.planning.problems.thresholds import Thresholds
 from placement.planning.problems.torso_maps import map_variants, torso_value
 from placement.planning.settings import PlannerConfig
 from placement.planning.verification import Checks
@@ -51,9 +51,8 @@ class StepProblems:
         maps: arm -> reachability map. config: the planner configuration (threshold, grasp yaws).
         yaws: (K,) base yaws tried per cell [rad].
         opening_m: the gripper's widest opening [m] (generated grasps close across chords up to it).
-        thresholds: arm -> its map threshold (see :mod:`placement.planning.problems.thresholds`); an arm not
-            in it uses ``config.threshold``. setting_thresholds: (arm, torso value [rad]) -> the
-            threshold of that setting of a map built once per setting (else its arm's).
+        thresholds: the map thresholds (:class:`~placement.planning.problems.thresholds.Thresholds`, the
+            planner's; default: ``config.threshold`` on every arm).
     """
 
     def __init__(
@@ -64,13 +63,11 @@ class StepProblems:
         config: PlannerConfig,
         yaws: FloatArray,
         opening_m: float = GRIPPER_OPENING,
-        thresholds: Mapping[str, float] | None = None,
-        setting_thresholds: Mapping[tuple[str, float], float] | None = None,
+        thresholds: Thresholds | None = None,
     ):
         self.scene, self.world, self.maps, self.config, self.yaws = scene, world, maps, config, yaws
         self.opening_m = opening_m
-        self.thresholds: Mapping[str, float] = dict(thresholds or {})
-        self.setting_thresholds: Mapping[tuple[str, float], float] = dict(setting_thresholds or {})
+        self.thresholds = thresholds if thresholds is not None else Thresholds(default=float(config.threshold))
         self.steps: list[Step] = task_steps(scene)
         #: arm -> its map at each torso setting (one map without a torso record)
         self.variants = map_variants(maps)
@@ -136,7 +133,7 @@ class StepProblems:
     def threshold(self, arm: str, torso: float | None = None) -> float:
         """The map value below which a placement of ``arm`` with the torso at ``torso`` [m or rad] is
         infeasible (dimensionless)."""
-        return threshold_at(self.thresholds, self.setting_thresholds, self.config.threshold, arm, torso)
+        return self.thresholds.at(arm, torso)
 
     def relaxed(self, i: int) -> float:
         """The factor (0, 1] step i's thresholds are multiplied by: 1 when some option keeps its threshold
@@ -256,9 +253,7 @@ class StepProblems:
         changed) they are refreshed on the cells whose allowed yaws changed (see refresh.py) when a
         step first needs them, and the heuristics are dropped. ``self`` is not modified.
         """
-        new = StepProblems(
-            scene, world, self.maps, self.config, self.yaws, self.opening_m, self.thresholds, self.setting_thresholds
-        )
+        new = StepProblems(scene, world, self.maps, self.config, self.yaws, self.opening_m, self.thresholds)
         # a moved object's place poses follow its orientation when picked: its place too
         moved = {i for i, s in enumerate(self.steps) if s.carries is not None and s.carries in moved_objects}
         if world is not self.world:  # a place rests on the obstacles: one added or removed may move it

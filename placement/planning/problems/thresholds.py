@@ -7,8 +7,9 @@ setting. The planner resolves either into one value per arm (:func:`resolve_thre
 own map: the reference torso setting's) and, for a map built once per torso setting (a revolute torso,
 ``kind: per_setting`` in :mod:`placement.maps.torso`), one per (arm, setting) from that setting's own
 distribution (:func:`setting_thresholds`); a shifted map (a prismatic lift: the same array moved) has
-one distribution, so all its settings keep the arm's threshold. Both are kept on the planning context
-(:func:`threshold_at` picks an option's); ``PlannerConfig.threshold`` then holds the smallest of them
+one distribution, so all its settings keep the arm's threshold. Both are one :class:`Thresholds`
+value, held once by a planner and shared by its planning context and per-step cache
+(:meth:`Thresholds.at` picks an option's); ``PlannerConfig.threshold`` then holds the smallest of them
 all, for the code that needs one number (messages) and for :func:`per_arm_values`, which lets a
 single-threshold ranking apply every option's own.
 """
@@ -16,7 +17,7 @@ single-threshold ranking apply every option's own.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -72,6 +73,51 @@ def threshold_at(
     return thresholds.get(arm, default)
 
 
+@dataclass(frozen=True)
+class Thresholds:
+    """The map thresholds a plan applies (map values, dimensionless).
+
+    Attributes:
+        arms: arm -> its threshold (:func:`resolve_thresholds`).
+        settings: (arm, torso value [rad]) -> the threshold of that setting of a map built once per
+            setting (:func:`setting_thresholds`; else its arm's).
+        default: the threshold of an arm in neither (``PlannerConfig.threshold``).
+    """
+
+    arms: Mapping[str, float] = field(default_factory=dict)
+    settings: SettingThresholds = field(default_factory=dict)
+    default: float = 0.0
+
+    @classmethod
+    def resolve(cls, config: PlannerConfig, maps: Mapping[str, ReachabilityMap]) -> tuple[Thresholds, PlannerConfig]:
+        """The thresholds of ``maps`` under ``config``, and ``config`` with ``threshold`` the smallest of
+        them (:func:`with_threshold`), which is also their ``default``."""
+        arms = resolve_thresholds(config, maps)
+        settings = setting_thresholds(config, maps)
+        config = with_threshold(config, arms, settings)
+        return cls(arms, settings, float(config.threshold)), config
+
+    def at(self, arm: str, torso: float | None = None) -> float:
+        """The threshold of ``arm`` at torso value ``torso`` [m or rad] (None: its own map's)."""
+        return threshold_at(self.arms, self.settings, self.default, arm, torso)
+
+    def scaled(self, factor: float) -> Thresholds:
+        """Every threshold multiplied by ``factor``."""
+        return Thresholds(
+            {a: t * factor for a, t in self.arms.items()},
+            {k: t * factor for k, t in self.settings.items()},
+            self.default * factor,
+        )
+
+    def words(self, arm: str) -> str:
+        """``arm``'s threshold in words: one value, or one per torso setting of a map built once per
+        setting ("0.0123 at torso 0, 0.0151 at torso 0.4")."""
+        own = sorted((t, v) for (a, t), v in self.settings.items() if a == arm)
+        if not own:
+            return f"{self.at(arm):.4g}"
+        return ", ".join(f"{v:.4g} at torso {t:g}" for t, v in own)
+
+
 def with_threshold(
     config: PlannerConfig, thresholds: Mapping[str, float], settings: SettingThresholds | None = None
 ) -> PlannerConfig:
@@ -98,6 +144,7 @@ def per_arm_values(
 
 __all__ = [
     "SettingThresholds",
+    "Thresholds",
     "per_arm_values",
     "resolve_thresholds",
     "setting_thresholds",
