@@ -201,7 +201,7 @@ def run(scene: Path, maps: str, method: str, limit: float) -> dict[str, Any]:
         doc = json.loads(out)
         steps = doc.get("steps", [])
         planned = f"{sum(s.get('status', 'ok') == 'ok' for s in steps)}/{len(steps)}"
-        first_bad = next((s.get("reason", "") for s in steps if s.get("status") != "ok"), "")
+        first_bad = next((s.get("reason") or "" for s in steps if s.get("status", "ok") != "ok"), "")
     except (json.JSONDecodeError, AttributeError):
         planned, first_bad = "-", (lines or [""])[-1]
     return {"rc": p.returncode, "wall": wall, "planned": planned, "said": first_bad[:110], "rss": rss}
