@@ -17,7 +17,6 @@ does) and pairs already in contact with every arm idle.
 
 from __future__ import annotations
 
-import os
 import threading
 import warnings
 import weakref
@@ -35,17 +34,11 @@ import pinocchio as pin
 
 from placement.errors import PlacementError
 from placement.robots import Robot
-from placement.robots.description import read_description
+from placement.robots.description import package_dirs, read_description, readable_urdf
 
 
 class CollisionGeometryWarning(UserWarning):
     """Some (or all) of a robot's collision shapes could not be loaded; the check uses the rest."""
-
-
-def package_dirs(urdf: Path, extra: Sequence[Path | str] = ()) -> list[str]:
-    """Folders searched for ``package://name/...``: ``extra``, ``ROS_PACKAGE_PATH``, the URDF's ancestors."""
-    ros = [p for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
-    return [str(p) for p in extra] + ros + [str(p) for p in Path(urdf).resolve().parents]
 
 
 def resolve_mesh(filename: str, urdf: Path, dirs: list[str]) -> Path | None:
@@ -67,7 +60,8 @@ def resolve_mesh(filename: str, urdf: Path, dirs: list[str]) -> Path | None:
 def usable_urdf(urdf: Path, dirs: list[str]) -> tuple[str, list[str], list[str]]:
     """(URDF text with every mesh path made absolute and the ``<collision>`` elements of unfound meshes
     and degenerate shapes removed, links that lost a shape, what was removed in words)."""
-    root = ET.fromstring(read_description(Path(urdf), "collision geometry"))
+    text, _ = readable_urdf(read_description(Path(urdf), "collision geometry").decode("utf-8", "replace"))
+    root = ET.fromstring(text)
     lost: list[str] = []
     missing: list[str] = []
     for link in root.iter("link"):

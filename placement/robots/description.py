@@ -9,9 +9,11 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from pathlib import Path
 
 from placement.errors import RobotError
@@ -117,10 +119,28 @@ MAX_MOVING_JOINTS = 256
 MAX_OFFSET = 1e4
 
 
+def _check_numbers(element: ET.Element, where: str, fields: tuple[tuple[str, str, int], ...]) -> None:
+    """RobotError unless each (child tag, attribute, count) of ``element`` that is present holds that
+    many numbers (urdfdom refuses the whole file otherwise, with C++ errors naming no file)."""
+    for tag, attr, count in fields:
+        child = element.find(tag)
+        text = None if child is None else child.get(attr)
+        if text is None:
+            continue
+        try:
+            ok = len([float(v) for v in text.split()]) == count
+        except ValueError:
+            ok = False
+        if not ok:
+            what = "a number" if count == 1 else f"{count} numbers"
+            raise RobotError(f"{where}: {tag} {attr} {text[:60]!r} is not {what}")
+
+
 def check_tree(root: ET.Element, where: str) -> None:
     """RobotError (one line naming ``where``) unless the URDF ``root`` (<robot>) has at most
     :data:`MAX_LINKS` links and :data:`MAX_MOVING_JOINTS` moving joints, no chain deeper than
-    :data:`MAX_DEPTH` joints, and finite joint origins within :data:`MAX_OFFSET` of their parents."""
+    :data:`MAX_DEPTH` joints, finite joint origins within :data:`MAX_OFFSET` of their parents, and
+    numbers where the URDF format has them (joint origins, axes and limits, inertials)."""
     links = root.findall("link")
     if len(links) > MAX_LINKS:
         raise RobotError(f"{where}: {len(links):,} links, more than the {MAX_LINKS:,} a robot may have")
@@ -145,6 +165,19 @@ def check_tree(root: ET.Element, where: str) -> None:
             raise RobotError(
                 f"{where}: joint {name!r}: origin xyz {text[:60]!r} is not three finite numbers within "
                 f"+-{MAX_OFFSET:g} m of its parent link"
+            )
+        _check_numbers(j, f"{where}: joint {name!r}", (("origin", "rpy", 3), ("axis", "xyz", 3)))
+        limit = j.find("limit")
+        for attr in ("lower", "upper", "effort", "velocity"):
+            if limit is not None and limit.get(attr) is not None:
+                _check_numbers(j, f"{where}: joint {name!r}", (("limit", attr, 1),))
+    for element in links:
+        inertial = element.find("inertial")
+        if inertial is not None:
+            lname = f"{where}: link {str(element.get('name', '?'))[:60]!r}: inertial"
+            _check_numbers(inertial, lname, (("origin", "xyz", 3), ("origin", "rpy", 3), ("mass", "value", 1)))
+            _check_numbers(
+                inertial, lname, tuple(("inertia", a, 1) for a in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
             )
     depth: dict[str, int] = {}
     for link in parent:
@@ -182,3 +215,48 @@ def kinematic_xml(root: ET.Element) -> str:
             for element in link.findall(tag):
                 link.remove(element)
     return ET.tostring(bare, encoding="unicode")
+
+
+def package_dirs(urdf: Path | str, extra: Sequence[Path | str] = ()) -> list[str]:
+    """The folders where a ``package://NAME/...`` path of ``urdf`` may resolve (as ``FOLDER/NAME/...``),
+    in the order they are searched: ``extra``; every folder of ``ROS_PACKAGE_PATH`` and its parent;
+    the ``share`` folder of every prefix of ``AMENT_PREFIX_PATH`` (a sourced ROS 2 workspace);
+    example-robot-data's ``share`` (when installed); every ancestor of the URDF's folder (a package's
+    own folder sits a few levels above its URDF, in a ROS package and in a Python package alike)."""
+    out: list[str] = [str(p) for p in extra]
+    for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep):
+        if entry:
+            out += [entry, str(Path(entry).parent)]
+    out += [str(Path(p) / "share") for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    try:
+        from placement.robots.spec import share_dir
+
+        out.append(str(share_dir()))
+    except Exception:  # example-robot-data is not installed
+        pass
+    out += [str(p) for p in Path(urdf).resolve().parents]
+    return list(dict.fromkeys(out))
+
+
+#: A vector attribute written with commas: ``rpy="1.5707963, 1.3089969 1.5707963"`` (in the ARMAR-6
+#: URDF of its maker's ``armar`` package). urdfdom refuses the whole file over it; read as meant.
+_COMMA_VECTOR = re.compile(r'\b(xyz|rpy)="([^"]*,[^"]*)"')
+
+
+def readable_urdf(text: str) -> tuple[str, list[str]]:
+    """(``text`` with each ``xyz``/``rpy`` vector written with commas rewritten with spaces when it then
+    holds three numbers, one note per rewrite naming it); every other byte as it was."""
+    notes: list[str] = []
+
+    def fix(m: re.Match[str]) -> str:
+        spaced = " ".join(m.group(2).replace(",", " ").split())
+        try:
+            ok = len([float(v) for v in spaced.split()]) == 3
+        except ValueError:
+            ok = False
+        if not ok:
+            return m.group(0)
+        notes.append(f"{m.group(1)} {m.group(2)[:60]!r} is read as '{spaced}' (a URDF vector is separated by spaces)")
+        return f'{m.group(1)}="{spaced}"'
+
+    return _COMMA_VECTOR.sub(fix, text), notes

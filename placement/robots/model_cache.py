@@ -11,7 +11,14 @@ from pathlib import Path
 import pinocchio as pin
 
 from placement.errors import RobotError
-from placement.robots.description import MAX_URDF_BYTES, check_tree, expand_xacro, is_xacro, kinematic_xml
+from placement.robots.description import (
+    MAX_URDF_BYTES,
+    check_tree,
+    expand_xacro,
+    is_xacro,
+    kinematic_xml,
+    readable_urdf,
+)
 from placement.validation import one_line, read_regular
 
 #: Parsed URDF models kept in memory, keyed by (path, sha256 of the bytes parsed).
@@ -58,6 +65,7 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
             text = data.decode("utf-8")
         except UnicodeDecodeError as exc:
             raise RobotError(one_line(f"{where}: urdf: {path} is not UTF-8 text (byte {exc.start})")) from None
+        text, _ = readable_urdf(text)
         try:
             root = ET.fromstring(text)
             check_tree(root, f"{where}: urdf: {path}")

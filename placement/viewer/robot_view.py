@@ -11,7 +11,9 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from placement.errors import RobotError
 from placement.planning.verification import pinocchio_q, resting
+from placement.robots.description import package_dirs, read_description, readable_urdf
 from placement.viewer.geometry import pose_matrix
 
 if TYPE_CHECKING:
@@ -25,13 +27,6 @@ if TYPE_CHECKING:
 log = logging.getLogger("placement")
 
 ROBOT = (70, 130, 225)  # one colour for every part: the robot stands out from the scene's greys and browns
-
-
-def package_dirs(urdf: Path) -> list[str]:
-    """Folders where ``package://NAME/...`` mesh paths of ``urdf`` may resolve: its folder and parents
-    (a package's own folder sits a few levels above its URDF)."""
-    urdf = Path(urdf).resolve()
-    return [str(p) for p in list(urdf.parents)[:6]]
 
 
 def geometry_mesh(obj: pin.GeometryObject) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]] | None:
@@ -78,10 +73,11 @@ class RobotDrawing:
         self.nodes: list[tuple[int, viser.MeshHandle]] = []
         self.geom = None
         try:
-            self.geom = pin.buildGeomFromUrdf(
-                robot.model, str(robot.urdf_path), pin.GeometryType.VISUAL, package_dirs=package_dirs(robot.urdf_path)
+            text, _ = readable_urdf(read_description(robot.urdf_path, str(robot.urdf_path)).decode("utf-8", "replace"))
+            self.geom = pin.buildGeomFromUrdfString(
+                robot.model, text, pin.GeometryType.VISUAL, package_dirs=package_dirs(robot.urdf_path)
             )
-        except (ValueError, RuntimeError) as exc:
+        except (ValueError, RuntimeError, RobotError) as exc:
             log.warning(
                 "robot %s: visual meshes not loaded (%s); drawing its joints only",
                 robot.name,

@@ -28,8 +28,8 @@ import pinocchio as pin
 
 from placement.collision.robot import convex_hull
 from placement.errors import RobotError
+from placement.robots.description import package_dirs
 from placement.robots.footprint import contains_origin
-from placement.robots.spec import share_dir
 from placement.validation import one_line
 
 #: A root link whose origin is this close to the floor [m] is on the floor.
@@ -63,16 +63,6 @@ class Base:
     warnings: list[str] = field(default_factory=list)
     parent: str | None = None
     xyz: tuple[float, float, float] | None = None
-
-
-def package_dirs(urdf: Path) -> list[str]:
-    """Folders to resolve ``package://`` mesh paths: example-robot-data's and the URDF's parents."""
-    out = [str(p) for p in list(Path(urdf).resolve().parents)[:3]]
-    try:
-        out.insert(0, str(share_dir()))
-    except Exception:  # example-robot-data not installed: only the URDF's own folders
-        pass
-    return out
 
 
 def _mesh_path(name: str, urdf: Path) -> Path | None:

@@ -155,7 +155,7 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
         lim = [limits(model, j) for j in chain]
         home = [0.0 if c else round((lo + hi) / 2, 4) for lo, hi, c in lim]
         arms.append(ArmProposal(name, [model.names[j] for j in chain], tcp, home, [c for _, _, c in lim]))
-    warnings = mesh_notes + list(base.warnings) + rank_warnings
+    warnings = d.notes + mesh_notes + list(base.warnings) + rank_warnings
     warnings += [f"arm '{a.name}': {a.tcp.how}" for a in arms if a.tcp.guessed]
     others = [n for names_, why in tree.rejected for n in names_ if n not in fixed]
     notes = base.notes + side_notes + reach_notes + torso_notes

@@ -8,13 +8,13 @@ URDF XML, a xacro error (undefined macro or property, ``$(find ...)`` without RO
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pinocchio as pin
 
 from placement.errors import RobotError
-from placement.robots.description import check_tree, kinematic_xml, read_description
+from placement.robots.description import check_tree, kinematic_xml, read_description, readable_urdf
 from placement.robots.model_cache import mimic_joints
 from placement.validation import one_line
 
@@ -29,12 +29,15 @@ class Description:
         xml: the URDF text (expanded for xacro).
         model: its pinocchio model (fixed base).
         mimic: {mimic joint: leader}.
+        notes: what was read other than as written (see
+            :func:`~placement.robots.description.readable_urdf`), for warnings.
     """
 
     path: Path
     xml: str
     model: pin.Model
     mimic: dict[str, str]
+    notes: list[str] = field(default_factory=list)
 
 
 def load_description(path: str | Path) -> Description:
@@ -58,8 +61,9 @@ def load_description(path: str | Path) -> Description:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise RobotError(f"{where}: not a URDF: not UTF-8 text (byte {exc.start})") from None
+    text, notes = readable_urdf(text)
     try:
-        root = ET.fromstring(data)
+        root = ET.fromstring(text)
     except ET.ParseError as exc:
         raise RobotError(one_line(f"{where}: not a URDF: not XML ({exc})")) from None
     if root.tag != "robot":
@@ -70,4 +74,4 @@ def load_description(path: str | Path) -> Description:
     except Exception as exc:  # pinocchio raises plain RuntimeError/ValueError
         msg = " ".join(str(exc).split()) or type(exc).__name__
         raise RobotError(one_line(f"{where}: URDF does not load: {msg}")) from None
-    return Description(path, text, model, mimic_joints(data))
+    return Description(path, text, model, mimic_joints(data), [f"{where}: {n}" for n in notes])
