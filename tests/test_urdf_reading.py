@@ -1,6 +1,7 @@
 """URDF vectors written with commas are read as meant, with a warning (the maker's ARMAR-6 in the
 ``armar`` package writes ``rpy="1.5707963, 1.3089969 1.5707963"``, which urdfdom refuses whole); a
-malformed number elsewhere is one line naming the joint or link, never urdfdom's C++ errors."""
+malformed number elsewhere is one line naming the joint or link, never urdfdom's C++ errors. The
+maker's ARMAR-6 (a fixed hand, no fingers) gets its TCP out in its hand."""
 
 from __future__ import annotations
 
@@ -74,3 +75,9 @@ def test_the_makers_armar6_initialises_first_try(capfd):
     assert sum("is read as '1.5707963 1.3089969 1.5707963'" in w for w in p.warnings) == 2, p.warnings
     assert p.base.footprint is not None  # the platform's meshes resolve through package://armar/...
     assert "Error" not in capfd.readouterr().err
+    for arm in p.arms:
+        # no fingers, no tool frame: the approach points to the fixed hand ('hand_fixed_r*', mounted
+        # 0.26 m out along the wrist's z), not along the last joint's axis (its y: 90 degrees off)
+        assert arm.tcp.tip_frame.startswith("arm_t8_r") and "fixed hand" in arm.tcp.how, arm.tcp.how
+        assert float(arm.tcp.offset[:3, 2] @ [0.0, 0.0, 1.0]) > 0.99, arm.tcp.offset
+        assert 0.2 < arm.tcp.offset[2, 3] < 0.45  # near the hand's far end, where the fingertips are

@@ -6,8 +6,9 @@ at the reference configuration (fingers as the URDF's neutral pose has them):
 1. *finger points*: origins of the frames below the arm's last joint named like fingers (the frames of
    the hand's moving joints included); the ones named ``tip`` when there are such;
 2. approach: from the wrist (the last arm joint's origin) to the finger points' centroid; with no
-   finger points, from the wrist to a named tool frame, else the last joint's axis pointing away
-   from the joint before it. A hand with *one moving jaw* (every finger frame on one hand joint, the
+   finger points, from the wrist to a named tool frame, else to the link rigid with the wrist
+   farthest from it when that is more than :data:`HAND_OFFSET` away (a fixed hand), else the last
+   joint's axis pointing away from the joint before it. A hand with *one moving jaw* (every finger frame on one hand joint, the
    other jaw part of the last link: the SO-101) has its finger frame on the jaw's hinge, off to one
    side (50 deg off the SO-101's ``gripper_frame_link``): its approach points from the wrist to the
    named tool frame when there is one;
@@ -57,6 +58,8 @@ SNAP = math.radians(20)
 HAND_REACH_MAX = 0.04
 #: How far the fingertips reach past a moved TCP [m] (the PR2's: 0.019 m).
 GRASP_DEPTH = 0.02
+#: A link rigid with the last arm joint this far from it [m] is a fixed hand the approach points to.
+HAND_OFFSET = 0.05
 
 
 @dataclass
@@ -158,6 +161,12 @@ def infer_tcp(model: pin.Model, data: pin.Data, chain: list[int], hand: list[int
     elif named and np.linalg.norm(data.oMf[named[0][1]].translation - wrist) > 0.01:
         z = _unit(data.oMf[named[0][1]].translation - wrist)
         how = f"no fingers found; approach from the wrist towards the frame '{model.frames[named[0][1]].name}'"
+    elif (hand_link := _far_rigid_body(model, data, rigid, wrist)) is not None:
+        z = _unit(data.oMf[hand_link].translation - wrist)
+        how = (
+            f"no fingers and no tool frame found; approach from the wrist towards the link "
+            f"'{model.frames[hand_link].name}' rigid with it (a fixed hand)"
+        )
     else:
         axis = data.oMi[last].rotation @ _joint_axis(model, last)
         before = data.oMi[model.parents[last]].translation
@@ -198,6 +207,16 @@ def infer_tcp(model: pin.Model, data: pin.Data, chain: list[int], hand: list[int
     offset = np.linalg.inv(data.oMf[tip].homogeneous) @ world
     offset[:3, 3] = np.round(offset[:3, 3], 4) + 0.0  # no -0.0 in the preset
     return TCP(model.frames[tip].name, offset, how, guessed, P)
+
+
+def _far_rigid_body(model: pin.Model, data: pin.Data, rigid: list[int], wrist: np.ndarray) -> int | None:
+    """The link (body frame) rigid with the last arm joint farthest from the wrist, when it is more
+    than :data:`HAND_OFFSET` away (a fixed hand or tool mounted on the wrist: ARMAR-6's
+    ``hand_fixed_r0``, 0.26 m out), else None."""
+    far = max(rigid, key=lambda i: float(np.linalg.norm(data.oMf[i].translation - wrist)), default=None)
+    if far is None or np.linalg.norm(data.oMf[far].translation - wrist) <= HAND_OFFSET:
+        return None
+    return far
 
 
 def _jaw_motion(model: pin.Model, data: pin.Data, jaw: int, z: np.ndarray) -> np.ndarray:
