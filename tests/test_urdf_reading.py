@@ -51,7 +51,10 @@ def test_any_text_without_commas_is_unchanged(text):
 @pytest.mark.parametrize(
     "change, words",
     [
-        (('<axis xyz="0 1 0"/>', '<axis xyz="0 1 zero"/>'), ["toy.urdf: joint 'joint_", "axis xyz '0 1 zero' is not 3 numbers"]),
+        (
+            ('<axis xyz="0 1 0"/>', '<axis xyz="0 1 zero"/>'),
+            ["toy.urdf: joint 'joint_", "axis xyz '0 1 zero' is not 3 numbers"],
+        ),
         (('<limit lower="-2"', '<limit lower="-2deg"'), ["joint 'joint_1'", "limit lower '-2deg' is not a number"]),
     ],
 )
