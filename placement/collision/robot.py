@@ -35,6 +35,7 @@ import pinocchio as pin
 from placement.errors import PlacementError
 from placement.robots import Robot
 from placement.robots.description import package_dirs, read_description, readable_urdf
+from placement.robots.model_cache import frame_id
 
 
 class CollisionGeometryWarning(UserWarning):
@@ -250,7 +251,7 @@ class RobotGeometry:
         robot, model, geom = self.robot, self.robot.model, self.geom
         a = robot.arm(arm)
         moved = moved_joints(model, a.joint_ids)
-        tip_joint = model.frames[model.getFrameId(a.tip_frame)].parentJoint
+        tip_joint = model.frames[frame_id(model, a.tip_frame)].parentJoint
         hand = moved_joints(model, [a.joint_ids[-1], tip_joint])
         moving = np.array([g for g in range(geom.ngeoms) if int(self.joint[g]) in moved], dtype=int)
         gripper = np.array([g for g in range(geom.ngeoms) if int(self.joint[g]) in hand], dtype=int)

@@ -39,6 +39,7 @@ import pinocchio as pin
 from placement.errors import PlacementError, RobotError
 from placement.kernels.ik import dls_attempt
 from placement.robots import Robot
+from placement.robots.model_cache import frame_id
 from placement.validation import finite_array
 
 #: Damping lambda^2 of the least-squares step [m^2, rad^2].
@@ -82,7 +83,7 @@ class _ArmIK:
         a = robot.arm(arm)
         self.arm = a
         model = pin.Model(robot.model)
-        tip_id = model.getFrameId(a.tip_frame)
+        tip_id = frame_id(model, a.tip_frame)
         tip = model.frames[tip_id]
         name = f"placement_tcp_{arm}"
         while model.existFrame(name):

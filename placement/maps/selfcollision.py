@@ -30,6 +30,7 @@ import pinocchio as pin
 from placement.collision.robot import adjacent, load_geometry, moved_joints
 from placement.errors import PlacementError
 from placement.robots import Robot
+from placement.robots.model_cache import frame_id
 
 ALPHA = 40.0  # [1/m] self-distance penalty decay
 BETA = 1.0  # self-distance penalty exponent
@@ -82,7 +83,7 @@ class SelfCollision:
         self.geom = geom
         self.pairs = len(keep)
         self._moved = moved
-        self._tip_id = robot.model.getFrameId(a.tip_frame)
+        self._tip_id = frame_id(robot.model, a.tip_frame)
         self._tcp = pin.SE3(a.tcp_offset)
         # bounding spheres (local frame) of the shapes, for lower bounds of pair distances
         for go in geom.geometryObjects:

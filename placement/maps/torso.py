@@ -51,6 +51,7 @@ from placement.errors import MapError, PlacementError
 from placement.maps.buildspec import TorsoSpec
 from placement.robots import Robot
 from placement.robots.chain import ancestors
+from placement.robots.model_cache import frame_id
 from placement.storage.schema import posture_array, setting_array
 
 #: the lift step [m] at which the axis is measured
@@ -210,7 +211,7 @@ def _frames(robot: Robot, arm: str, q: npt.NDArray[np.float64]) -> list[pin.SE3]
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
     base = data.oMf[robot.base_frame_id].inverse()
-    return [base * data.oMi[a.joint_ids[0]], base * data.oMf[model.getFrameId(a.tip_frame)]]
+    return [base * data.oMi[a.joint_ids[0]], base * data.oMf[frame_id(model, a.tip_frame)]]
 
 
 def measured_shift(robot: Robot, arm: str, joint: str, values: Sequence[float], where: str = "torso") -> np.ndarray:

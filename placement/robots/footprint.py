@@ -71,7 +71,7 @@ def parse_footprint(c: Checker, value: Any, key: str) -> tuple[tuple[float, floa
         )
     for i in range(len(pts)):
         if np.array_equal(pts[i], pts[i - 1]):
-            c.fail(f"{key}[{i}]", f"repeats the point before it {list(pts[i])}")
+            c.fail(f"{key}[{i}]", f"repeats the point before it {[float(v) for v in pts[i]]}")
     crossing = first_self_crossing(pts)
     if crossing is not None:
         i, j = crossing

@@ -84,7 +84,19 @@ def urdf_model(path: Path, where: str) -> tuple[pin.Model, dict[str, str], str]:
     return pin.Model(hit[0]), dict(hit[1]), sha
 
 
-__all__ = ["MODELS_LOCK", "MODEL_CACHE_SIZE", "mimic_joints", "urdf_model"]
+def frame_id(model: pin.Model, name: str) -> int:
+    """The id of the frame ``name``: its link's (BODY) frame when other frames share the name (the
+    Unitree Z1's URDF names a link and its joint ``gripperStator``, and pinocchio's own lookup then
+    raises), else the first frame of that name (``model.nframes`` when there is none)."""
+    if model.existFrame(name, pin.FrameType.BODY):
+        return int(model.getFrameId(name, pin.FrameType.BODY))
+    for i, f in enumerate(model.frames):
+        if f.name == name:
+            return i
+    return int(model.nframes)
+
+
+__all__ = ["MODELS_LOCK", "MODEL_CACHE_SIZE", "frame_id", "mimic_joints", "urdf_model"]
 
 
 _FK_DATA = threading.local()

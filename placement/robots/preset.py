@@ -27,7 +27,7 @@ import pinocchio as pin
 
 from placement.errors import ArmNotFound, FrameNotFound, JointNotFound, PresetError, RobotError
 from placement.robots.chain import Chain, ancestors, extract_chain
-from placement.robots.model_cache import MODELS_LOCK, fk_data, urdf_model
+from placement.robots.model_cache import MODELS_LOCK, fk_data, frame_id, urdf_model
 from placement.robots.spec import MAX_PRESET_BYTES, QUATERNION_TOLERANCE, ArmSpec, GripperSpec, PresetSpec, parse_preset
 from placement.validation import Checker, one_line, read_yaml
 
@@ -164,7 +164,7 @@ class Robot:
             names = [f.name for f in self.model.frames]
             exc = FrameNotFound(name, self.name, difflib.get_close_matches(name, names, 5, 0.4))
             raise (exc if key is None else _located(exc, self._check.where, key))
-        return cast(int, self.model.getFrameId(name))
+        return frame_id(self.model, name)
 
     def _link(self, name: str, key: str) -> str:
         """``name`` if the URDF has a link of that name (a BODY frame in pinocchio)."""

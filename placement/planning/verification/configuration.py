@@ -31,7 +31,7 @@ import pinocchio as pin
 from placement.planning.arrays import FloatArray
 from placement.robots import Robot
 from placement.robots.description import expand_xacro, is_xacro
-from placement.robots.model_cache import fk_data, mimic_joints
+from placement.robots.model_cache import fk_data, frame_id, mimic_joints
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,7 @@ def world_tcp(robot: Robot, arm: str, q: FloatArray, base: FloatArray) -> FloatA
     pin.framesForwardKinematics(robot.model, data, q)
     a = robot.arm(arm)
     root = base @ data.oMf[robot.base_frame_id].inverse().homogeneous
-    tip = data.oMf[robot.model.getFrameId(a.tip_frame)].homogeneous
+    tip = data.oMf[frame_id(robot.model, a.tip_frame)].homogeneous
     out: FloatArray = root @ tip @ a.tcp_offset
     return out
 

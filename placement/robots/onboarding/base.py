@@ -349,7 +349,9 @@ def find_base(model: pin.Model, xml: str, urdf: Path, q: np.ndarray, arm_joints:
     with np.errstate(over="ignore", invalid="ignore"):
         flat = boxes.reshape(-1, 3) @ B.rotation.T + B.translation
         poly = hull(flat[:, :2])
-        poly = np.sign(poly) * np.ceil(np.abs(poly) * 1000) / 1000
+        # rounded outwards to the millimetre, then the hull again: two corners within a millimetre
+        # become one point (iCub's did: a footprint that repeats a point does not load)
+        poly = hull(np.sign(poly) * np.ceil(np.abs(poly) * 1000) / 1000)
         encloses = len(poly) >= 3 and contains_origin(poly)
     if not encloses:
         radius = float(np.max(np.hypot(flat[:, 0], flat[:, 1])))

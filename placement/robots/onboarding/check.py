@@ -16,6 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from placement.robots.chain import PRISMATIC, ancestors, extract_chain
+from placement.robots.model_cache import frame_id
 from placement.robots.onboarding.rank import pose_rank, rank_warning
 from placement.robots.onboarding.reach import (
     APPROACHES,
@@ -136,7 +137,7 @@ def torso_fix(robot: Robot, band: Band, seed: int = 0) -> str | None:
             set_joint(model, qc, j, v)
         for j in a.joint_ids:
             set_joint(model, qc, j, 0.0)
-        tip = model.getFrameId(a.tip_frame)
+        tip = frame_id(model, a.tip_frame)
         chain = extract_chain(model, qc, robot.base_frame_id, a.joint_ids, tip, a.tcp_offset, (robot.name, a.name))
         T = chain_fk(chain, sample_configs(a.lower, a.upper, FIX_SAMPLES, seed))
         b = band_of(T, band.approach, band.arm, robot.fixed_joints, base_clearance(robot))

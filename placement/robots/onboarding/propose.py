@@ -23,6 +23,7 @@ import pinocchio as pin
 
 from placement.errors import PlacementError, RobotError
 from placement.robots.chain import extract_chain
+from placement.robots.model_cache import frame_id
 from placement.robots.onboarding.base import Base, find_base, load_collision, screen_collisions
 from placement.robots.onboarding.rank import pose_rank, rank_warning
 from placement.robots.onboarding.selfpairs import ArtefactPair, artefact_pairs
@@ -123,7 +124,7 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
     geom, _ = load_collision(model, d.xml, d.path, mesh_notes)
     if geom is not None:  # fingers reaching far beyond a palm-centred grasp frame: a deeper TCP
         for k, c in enumerate(tree.arms):
-            tip = data.oMf[model.getFrameId(tcps[k].tip_frame)].homogeneous
+            tip = data.oMf[frame_id(model, tcps[k].tip_frame)].homogeneous
             reach, link = hand_reach(model, q, geom, set(subtree(model, c[-1])), tip @ tcps[k].offset)
             tcps[k] = deepen(tcps[k], reach, link)
     names, side_notes = arm_names(model, tree.arms, [float(data.oMi[c[-1]].translation[1]) for c in tree.arms])
@@ -145,7 +146,7 @@ def propose(path: str | Path, out: str | Path | None = None) -> Proposal:
         qc = q_held.copy()
         for j in chain:
             set_joint(model, qc, j, 0.0)
-        ch = extract_chain(model, qc, root, chain, model.getFrameId(tcp.tip_frame), tcp.offset, ("init", name), data)
+        ch = extract_chain(model, qc, root, chain, frame_id(model, tcp.tip_frame), tcp.offset, ("init", name), data)
         bounds = np.array([limits(model, j)[:2] for j in chain])
         w = rank_warning(name, pose_rank(ch, bounds[:, 0], bounds[:, 1]))
         if w:

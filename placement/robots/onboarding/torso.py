@@ -27,6 +27,7 @@ import numpy as np
 import pinocchio as pin
 
 from placement.robots.chain import PRISMATIC, ancestors, extract_chain
+from placement.robots.model_cache import frame_id
 from placement.robots.onboarding.base import shape_corners
 from placement.robots.onboarding.reach import QUANTILE, approach_mask, chain_fk, sample_configs, table_cells
 from placement.robots.onboarding.tree import named_like
@@ -234,7 +235,7 @@ def score(
         for jid in chain:
             set_joint(model, qc, jid, 0.0)
         ch = extract_chain(
-            model, qc, root_frame, chain, model.getFrameId(tcp.tip_frame), tcp.offset, ("init", str(k)), data
+            model, qc, root_frame, chain, frame_id(model, tcp.tip_frame), tcp.offset, ("init", str(k)), data
         )
         lower = np.array([limits(model, j)[0] for j in chain])
         upper = np.array([limits(model, j)[1] for j in chain])
