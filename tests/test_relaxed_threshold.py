@@ -35,7 +35,7 @@ def test_relaxed_is_half_the_best_ratio_only_where_nothing_keeps_the_threshold(s
         # the step's context holds the lowered thresholds; the others are untouched
         ctx = high.context.for_step(i)
         assert ctx.config.threshold == pytest.approx(RELAX * best)
-        assert all(t == pytest.approx(RELAX * best) for t in ctx.thresholds.values())
+        assert all(t == pytest.approx(RELAX * best) for t in ctx.thresholds.arms.values())
         assert high.context.config.threshold == 1.0
 
 
