@@ -84,6 +84,19 @@ def distance_transform(occupied: npt.NDArray[np.bool_], res: float) -> npt.NDArr
     return out
 
 
+@njit(cache=True, inline="always")
+def _guide(i: int, W: int, ty0: int, ty1: int, tx0: int, tx1: int, hs: float) -> float:
+    """The goal-directed search's heuristic [m] of padded cell ``i`` (row width ``W``): ``hs`` times
+    its octile distance [cells] to the targets' box (rows ty0..ty1, columns tx0..tx1); 0 when hs is."""
+    if hs == 0.0:
+        return 0.0
+    y = i // W
+    x = i - y * W
+    dy = max(ty0 - y, y - ty1, 0)
+    dx = max(tx0 - x, x - tx1, 0)
+    return hs * (max(dx, dy) + (math.sqrt(2.0) - 1.0) * min(dx, dy))
+
+
 @njit(cache=True)
 def shortest_costs(
     factor: npt.NDArray[np.float64],
@@ -151,14 +164,7 @@ def shortest_costs(
                     tx0, tx1 = min(tx0, x + 1), max(tx1, x + 1)
     early = remaining > 0
     hs = GUIDE * res * fmin if early else 0.0  # heuristic per unit of octile distance [m]
-    h = np.zeros(N)
-    if early:
-        r2 = math.sqrt(2.0) - 1.0
-        for y in range(1, ny + 1):
-            dy = max(ty0 - y, y - ty1, 0)
-            for x in range(1, nx + 1):
-                dx = max(tx0 - x, x - tx1, 0)
-                h[y * W + x] = hs * (max(dx, dy) + r2 * min(dx, dy))
+    # (computed where a cell is queued, not for every cell: a search near its targets touches few)
     open_ = feas.copy()  # feasible and not settled: one read per neighbour
     cost = np.full(N, _INF)
     prev = np.full(N, -1, dtype=np.int64)
@@ -169,6 +175,8 @@ def shortest_costs(
     # entries: (cell, next entry in its bucket); a cell is entered again when its cost drops; int32
     # halves their memory traffic (the wrapper refuses grids whose 9 N entries would not fit)
     cap = 9 * N + sources.shape[0] + 1
+    settled = np.empty(N, dtype=np.int32)  # in the order they were settled
+    n_settled = 0
     ent_cell = np.empty(cap, dtype=np.int32)
     ent_next = np.empty(cap, dtype=np.int32)
     n_ent = 0
@@ -181,8 +189,9 @@ def shortest_costs(
     for s in range(sources.shape[0]):
         i = (sources[s, 0] + 1) * W + sources[s, 1] + 1
         if feas[i] and cost[i] == source_costs[s]:
-            lo = min(lo, cost[i] + h[i])
-            hi = max(hi, cost[i] + h[i])
+            hi_ = _guide(i, W, ty0, ty1, tx0, tx1, hs)
+            lo = min(lo, cost[i] + hi_)
+            hi = max(hi, cost[i] + hi_)
     if lo == _INF:
         return np.full((ny, nx), _INF), np.full((ny, nx), -1, dtype=np.int64)
     # live keys span at most (sources' spread + the largest key increase along an edge): a ring of
@@ -194,7 +203,7 @@ def shortest_costs(
     for s in range(sources.shape[0]):
         i = (sources[s, 0] + 1) * W + sources[s, 1] + 1
         if feas[i] and cost[i] == source_costs[s] and not done[i]:
-            b = int((cost[i] + h[i] - base) / delta) % nb
+            b = int((cost[i] + _guide(i, W, ty0, ty1, tx0, tx1, hs) - base) / delta) % nb
             ent_cell[n_ent] = i
             ent_next[n_ent] = head[b]
             head[b] = n_ent
@@ -215,6 +224,8 @@ def shortest_costs(
                 continue
             done[u] = True
             open_[u] = False
+            settled[n_settled] = u
+            n_settled += 1
             if early and tgt[u]:
                 remaining -= 1
                 if remaining == 0:
@@ -230,7 +241,7 @@ def shortest_costs(
                 if nc < cost[v]:
                     cost[v] = nc
                     prev[v] = u
-                    kb = int((nc + h[v] - base) / delta)
+                    kb = int((nc + _guide(v, W, ty0, ty1, tx0, tx1, hs) - base) / delta)
                     if kb <= k:  # cannot happen (edges are longer than a bucket): never lose a cell
                         kb = k + 1
                     bb = kb % nb
@@ -242,12 +253,20 @@ def shortest_costs(
         k += 1
     out = np.full((ny, nx), _INF)
     pred = np.full((ny, nx), -1, dtype=np.int64)
+    if early:  # only the settled cells have their costs (a search near its targets settles few)
+        for k in range(n_settled):
+            i = settled[k]
+            y, x = i // W - 1, i % W - 1
+            out[y, x] = cost[i]
+            p = prev[i]
+            if p >= 0:
+                pred[y, x] = (p // W - 1) * nx + (p % W - 1)
+        return out, pred
     for y in range(ny):
         for x in range(nx):
             i = (y + 1) * W + x + 1
-            if done[i] or not early:
-                out[y, x] = cost[i]
-                p = prev[i]
-                if p >= 0:
-                    pred[y, x] = (p // W - 1) * nx + (p % W - 1)
+            out[y, x] = cost[i]
+            p = prev[i]
+            if p >= 0:
+                pred[y, x] = (p // W - 1) * nx + (p % W - 1)
     return out, pred
