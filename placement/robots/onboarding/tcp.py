@@ -165,8 +165,9 @@ def infer_tcp(model: pin.Model, data: pin.Data, chain: list[int], hand: list[int
         z = _unit(data.oMf[hand_link].translation - wrist)
         how = (
             f"no fingers and no tool frame found; approach from the wrist towards the link "
-            f"'{model.frames[hand_link].name}' rigid with it (a fixed hand)"
+            f"'{model.frames[hand_link].name}' rigid with it (a fixed hand? check it)"
         )
+        guessed = True  # a wrist camera would look the same: said as a warning
     else:
         axis = data.oMi[last].rotation @ _joint_axis(model, last)
         before = data.oMi[model.parents[last]].translation
