@@ -10,6 +10,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from support.plans import strip_timings
 
 import placement
 from placement.planning import METHODS, Planner, PlanResult, load_scene, save_scene
@@ -31,14 +32,6 @@ def unhurried(path: Path):
     depend on how busy it is)."""
     scene = load_scene(path)
     return replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0, "time_budget_s": 3600.0})
-
-
-def _without_timings(doc):
-    if isinstance(doc, dict):
-        return {k: _without_timings(v) for k, v in doc.items() if k not in ("timings_ms", "planning_ms")}
-    if isinstance(doc, list):
-        return [_without_timings(v) for v in doc]
-    return doc
 
 
 @pytest.fixture(scope="module")
@@ -96,7 +89,7 @@ def test_plan_returns_what_the_planner_returns(tiny_maps):
     result = placement.plan(unhurried(SCENES["table_clearing"]), "sequential", tiny_maps)
     assert isinstance(result, PlanResult)
     again = Planner(unhurried(SCENES["table_clearing"]), "sequential", tiny_maps).plan()
-    assert _without_timings(result.to_json()) == _without_timings(again.to_json())
+    assert strip_timings(result.to_json()) == strip_timings(again.to_json())
 
 
 def test_a_moved_object_replans_as_a_fresh_planner(tiny_maps, tmp_path):
@@ -114,6 +107,6 @@ def test_a_moved_object_replans_as_a_fresh_planner(tiny_maps, tmp_path):
 def test_a_planner_built_without_warming_plans_the_same(tiny_maps):
     cold = Planner(unhurried(SCENES["table_clearing"]), "global", tiny_maps, warm=False)
     warmed = Planner(unhurried(SCENES["table_clearing"]), "global", tiny_maps)
-    assert _without_timings(cold.plan().to_json()) == _without_timings(warmed.plan().to_json())
+    assert strip_timings(cold.plan().to_json()) == strip_timings(warmed.plan().to_json())
     cold.warm()  # idempotent: the planner plans the same afterwards
-    assert _without_timings(cold.plan().to_json()) == _without_timings(warmed.plan().to_json())
+    assert strip_timings(cold.plan().to_json()) == strip_timings(warmed.plan().to_json())
