@@ -270,3 +270,39 @@ def shortest_costs(
             if p >= 0:
                 pred[y, x] = (p // W - 1) * nx + (p % W - 1)
     return out, pred
+
+
+@njit(cache=True)
+def path_sources(pred: npt.NDArray[np.int64], cells: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """The source each cell's shortest path starts from: for every flat cell of ``cells``, the cell
+    reached by following ``pred`` until a cell without predecessor (a source, or the cell itself
+    when unreached). Each predecessor is followed once over all cells (the sources found are kept),
+    so the cost is linear in the cells the paths cover.
+
+    Args:
+        pred: (N,) int64 flat predecessor index (-1: none), as :func:`shortest_costs` returns it
+            (flattened).
+        cells: (n,) int64 flat cells.
+    Returns:
+        (n,) int64 flat source cells; -1 for every cell when ``pred`` has a cycle (not a predecessor map).
+    """
+    size = pred.size
+    source = np.full(size, -2, np.int64)  # -2: not known yet
+    trail = np.empty(size, np.int64)
+    out = np.empty(cells.size, np.int64)
+    for j in range(cells.size):
+        u = cells[j]
+        depth = 0
+        while source[u] == -2 and pred[u] >= 0:
+            if depth == size:
+                out[:] = -1
+                return out
+            trail[depth] = u
+            depth += 1
+            u = pred[u]
+        s = source[u] if source[u] != -2 else u
+        source[u] = s
+        for d in range(depth):
+            source[trail[d]] = s
+        out[j] = s
+    return out

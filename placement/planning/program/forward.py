@@ -34,7 +34,7 @@ import numpy as np
 from placement.planning.arrays import BoolArray, Cell, FloatArray, IntArray
 from placement.planning.context import PlanningContext
 from placement.planning.program.regions import Group, Regions, held_torso, map_regions
-from placement.planning.world import extract_path, navigation_cost
+from placement.planning.world import navigation_cost, path_starts
 
 #: a layer type (:class:`Layer` or the priced program's)
 L = TypeVar("L")
@@ -44,15 +44,51 @@ Stop = Callable[[], None]
 
 @dataclass
 class Layer:
-    """One step's labels: ``labels`` (G, ny, nx) [m] (inf off the region); ``pred[k]`` the
-    predecessor map of the k-th Dijkstra of the step and ``dijkstra[g]`` which one labelled group g
-    (-1: none); ``seed_group`` (ny, nx) int, for a step seeded by the minimum over the previous
-    step's groups, the group that gave each seed (None for a place or the first step)."""
+    """One step's labels, kept on its region's cells only.
 
+    Attributes:
+        cells: (n,) int64 the flat cells of the step's region (the union of its groups' masks),
+            ascending.
+        labels: (G, n) [m] each group's label on ``cells`` (inf where its mask is off or no path
+            reaches).
+        roots: per Dijkstra of the step, (n,) int64 the flat cell each cell's shortest path starts
+            from (a seed: a cell of the previous step's region, or the start cell).
+        dijkstra: (G,) which Dijkstra labelled each group (-1: none).
+        seed_group: for a step seeded by the minimum over the previous step's groups, (n_prev,) int64
+            the group that gave each seed, on the previous layer's ``cells`` (None for a place or the
+            first step).
+
+    A program keeps a layer per step for hundreds of steps: on the region's cells a layer costs
+    O(G n), not O(G ny nx) and a (ny, nx) predecessor map per Dijkstra.
+    """
+
+    cells: IntArray
     labels: FloatArray
-    pred: list[IntArray]
+    roots: list[IntArray]
     dijkstra: IntArray
     seed_group: IntArray | None
+
+    def index(self, flat: int) -> int:
+        """The position of the flat cell ``flat`` in :attr:`cells` (a cell of the region)."""
+        return int(np.searchsorted(self.cells, flat))
+
+    def dense(self, shape: tuple[int, int]) -> FloatArray:
+        """(G, ny, nx) the labels on the whole grid of ``shape`` (inf off the region) [m]."""
+        out = np.full((self.labels.shape[0], shape[0] * shape[1]), math.inf)
+        out[:, self.cells] = self.labels
+        return out.reshape(self.labels.shape[0], *shape)
+
+
+def region_cells(reg: Regions) -> IntArray:
+    """(n,) int64 the flat cells of ``reg``'s region (any group's mask), ascending."""
+    return np.flatnonzero(reg.masks.reshape(reg.masks.shape[0], -1).any(axis=0)).astype(np.int64)
+
+
+def on_cells(reg: Regions, cells: IntArray) -> tuple[BoolArray, FloatArray | None]:
+    """``reg``'s (G, n) masks and node costs [m] (None without) on the flat ``cells``."""
+    G = reg.masks.shape[0]
+    node = None if reg.node is None else reg.node.reshape(G, -1)[:, cells]
+    return reg.masks.reshape(G, -1)[:, cells], node
 
 
 @dataclass(frozen=True)
@@ -74,28 +110,33 @@ def _narrowed(layer: Layer, old: Regions, new: Regions) -> Layer | None:
         return None
     if np.any(new.masks & ~old.masks):
         return None
-    return Layer(np.where(new.masks, layer.labels, math.inf), layer.pred, layer.dijkstra, layer.seed_group)
+    cells, at = narrowed_cells(layer.cells, new)
+    masks, _ = on_cells(new, cells)
+    labels = np.where(masks, layer.labels[:, at], math.inf)
+    return Layer(cells, labels, [r[at] for r in layer.roots], layer.dijkstra, layer.seed_group)
 
 
-def _lowest(labels: FloatArray, shape: tuple[int, ...]) -> tuple[FloatArray, IntArray | None]:
-    """(ny, nx) the minimum over the groups of (G, ny, nx) ``labels`` and the first group that has it
-    (``min`` and ``argmin`` over axis 0, one pass per group: numpy's strided argmin is slower);
+def narrowed_cells(cells: IntArray, new: Regions) -> tuple[IntArray, IntArray]:
+    """The cells of the region ``new`` (a subset of the flat ``cells``) and their positions in ``cells``."""
+    kept = region_cells(new)
+    return kept, np.searchsorted(cells, kept)
+
+
+def lowest(labels: FloatArray) -> tuple[FloatArray, IntArray | None]:
+    """(n,) the minimum over the groups of (G, n) ``labels`` and (n,) the first group that has it;
     all inf and None without groups."""
     if labels.shape[0] == 0:
-        return np.full(shape, math.inf), None
-    low = labels[0].copy()
-    group = np.zeros(shape, dtype=np.int64)
-    for g in range(1, labels.shape[0]):
-        better = labels[g] < low
-        low[better] = labels[g][better]
-        group[better] = g
-    return low, group
+        return np.full(labels.shape[1:], math.inf), None
+    group = np.argmin(labels, axis=0)  # the first of equal minima, as a strict < over the groups
+    return np.take_along_axis(labels, group[None], axis=0)[0], group.astype(np.int64)
 
 
-def _seeds(labels: FloatArray) -> tuple[IntArray, FloatArray]:
-    """(k, 2) cells and (k,) costs of the finite entries of a (ny, nx) label map."""
-    cells = np.argwhere(np.isfinite(labels))
-    return cells.astype(np.int64), labels[cells[:, 0], cells[:, 1]]
+def seeds_of(cells: IntArray, labels: FloatArray, width: int) -> tuple[IntArray, FloatArray]:
+    """(k, 2) (iy, ix) cells and (k,) costs [m] of the finite ``labels`` (n,) on the flat ``cells`` (n,)
+    of a grid ``width`` cells wide, in ascending flat order."""
+    finite = np.isfinite(labels)
+    flat = cells[finite]
+    return np.stack([flat // width, flat % width], axis=1).astype(np.int64), labels[finite]
 
 
 def kept_layers(
@@ -123,26 +164,45 @@ def pending(done: int, total: int, stop: Stop | None) -> Iterator[int]:
         yield i
 
 
-def search_from(
-    factor: FloatArray,
-    feasible: BoolArray,
-    resolution: float,
-    seeds: tuple[IntArray, FloatArray],
-    reg: Regions,
-    members: Sequence[int],
-) -> tuple[FloatArray, IntArray] | None:
-    """One Dijkstra of a step: from ``seeds`` ((k, 2) cells, (k,) costs [m]) until every cell of the
-    groups ``members`` of ``reg`` is settled; (cost (ny, nx) [m], predecessors), or None when there
-    is no seed or no such cell."""
-    cells, costs = seeds
-    targets: BoolArray = np.zeros(feasible.shape, bool)
-    np.any(reg.masks[list(members)], axis=0, out=targets)
-    if cells.shape[0] == 0 or not targets.any():
-        return None
-    cost, pred = navigation_cost(factor, feasible, cells, resolution, costs, targets)
-    # a program keeps one predecessor map per Dijkstra of every step (hundreds on long tasks): the
-    # flat indices of a grid of at most MAX_GRID_CELLS fit 32 bits, half the memory
-    return cost, pred.astype(np.int32)
+class StepLabels:
+    """A step's labels as its Dijkstras write them (the arrays of its :class:`Layer`).
+
+    Args:
+        reg: the step's regions; grid: (factor (ny, nx), feasible (ny, nx) bool, cell size [m]), as
+            :func:`forward` takes them.
+    """
+
+    def __init__(self, reg: Regions, grid: tuple[FloatArray, BoolArray, float]):
+        self.grid = grid
+        self.cells = region_cells(reg)
+        #: (G, n) each group's mask on :attr:`cells`; its node costs [m] (None without)
+        self.masks, self.node = on_cells(reg, self.cells)
+        self.labels = np.full((len(reg.groups), self.cells.size), math.inf)
+        self.dijkstra = np.full(len(reg.groups), -1, dtype=np.int64)
+        self.roots: list[IntArray] = []
+
+    def search(
+        self, seeds: tuple[IntArray, FloatArray], members: Sequence[int], extra: Sequence[float] | None = None
+    ) -> bool:
+        """One Dijkstra from ``seeds`` ((k, 2) cells, (k,) costs [m]) labelling the groups ``members``
+        (their cost plus, per member, ``extra`` [m] (default 0) and their node costs); False when it
+        found nothing to label (no seed, no cell), and no Dijkstra is counted."""
+        cells, masks = self.cells, self.masks
+        seed_cells, costs = seeds
+        wanted = np.any(masks[list(members)], axis=0)
+        if seed_cells.shape[0] == 0 or not wanted.any():
+            return False
+        factor, feasible, resolution = self.grid
+        targets: BoolArray = np.zeros(feasible.size, bool)
+        targets[cells[wanted]] = True
+        cost, pred = navigation_cost(factor, feasible, seed_cells, resolution, costs, targets.reshape(feasible.shape))
+        here = cost.reshape(-1)[cells]
+        self.roots.append(path_starts(pred, cells))
+        for m, k in enumerate(members):
+            plus = (0.0 if extra is None else extra[m]) + (0.0 if self.node is None else self.node[k])
+            self.labels[k] = np.where(masks[k], here + plus, math.inf)
+            self.dijkstra[k] = len(self.roots) - 1
+        return True
 
 
 def forward(
@@ -177,70 +237,67 @@ def forward(
         steps after it.
     """
     out = kept_layers(layers, first, before, regions, _narrowed)
-    shape = feasible.shape
+    grid, width = (factor, feasible, resolution), feasible.shape[1]
     for i in pending(len(out), len(regions), stop):
         reg = regions[i]
         G = len(reg.groups)
-        labels = np.full((G, *shape), math.inf)
-        dijkstra = np.full(G, -1, dtype=np.int64)
-        preds: list[IntArray] = []
+        step = StepLabels(reg, grid)
         seed_group: IntArray | None = None
         if i == 0:
             seedings = [((np.array([start], dtype=np.int64), np.zeros(1)), list(range(G)))]
         elif linked[i]:
-            prev = out[i - 1].labels
+            prev = out[i - 1]
             same = {g: k for k, g in enumerate(regions[i - 1].groups)}
-            seedings = [(_seeds(prev[same[g]]), [k]) for k, g in enumerate(reg.groups) if g in same]
+            seedings = [
+                (seeds_of(prev.cells, prev.labels[same[g]], width), [k]) for k, g in enumerate(reg.groups) if g in same
+            ]
         else:
-            low, seed_group = _lowest(out[i - 1].labels, shape)
-            seedings = [(_seeds(low), list(range(G)))]
+            low, seed_group = lowest(out[i - 1].labels)
+            seedings = [(seeds_of(out[i - 1].cells, low, width), list(range(G)))]
         for seeds, members in seedings:
-            found = search_from(factor, feasible, resolution, seeds, reg, members)
-            if found is None:
-                continue
-            cost, pred = found
-            preds.append(pred)
-            for k in members:
-                node = 0.0 if reg.node is None else reg.node[k]
-                labels[k] = np.where(reg.masks[k], cost + node, math.inf)
-                dijkstra[k] = len(preds) - 1
-        out.append(Layer(labels, preds, dijkstra, seed_group))
+            step.search(seeds, members)
+        out.append(Layer(step.cells, step.labels, step.roots, step.dijkstra, seed_group))
     return out
 
 
-def _root(pred: IntArray, flat: int) -> int:
-    """The source cell (flat) of the shortest path that ends at ``flat``."""
-    iy, ix = extract_path(pred, divmod(flat, pred.shape[1]))[0]
-    return int(iy) * int(pred.shape[1]) + int(ix)
-
-
-def backtrack(layers: Sequence[Layer], regions: Sequence[Regions], linked: Sequence[bool]) -> Chain | None:
-    """The cheapest chain through ``layers`` (None when the last step has no finite label)."""
+def walk(layers: Sequence[Layer], before: Callable[[int, int, int], int]) -> Chain | None:
+    """The cheapest chain through ``layers``, from its last step's least label back along each
+    Dijkstra's roots (None when the last step has no finite label). ``before(i, g, at)``: the group of
+    step i - 1 that seeded step i's group g at the previous layer's cell ``at`` (an index into its
+    ``cells``)."""
     if not layers:
         return Chain([], [], [])
-    last = layers[-1].labels
-    if last.size == 0 or not np.isfinite(last).any():
+    last = layers[-1]
+    if last.labels.size == 0 or not np.isfinite(last.labels).any():
         return None
-    k = int(np.argmin(last.reshape(-1)))
-    g, flat = divmod(k, last.shape[1] * last.shape[2])
-    cells, groups, labels = [flat], [g], [float(last.reshape(last.shape[0], -1)[g, flat])]
+    g, j = divmod(int(np.argmin(last.labels.reshape(-1))), last.cells.size)
+    flat = int(last.cells[j])
+    cells, groups, labels = [flat], [g], [float(last.labels[g, j])]
     for i in range(len(layers) - 1, 0, -1):
-        layer = layers[i]
-        root = _root(layer.pred[int(layer.dijkstra[g])], flat)
-        if linked[i]:
-            g = regions[i - 1].groups.index(regions[i].groups[g])
-        else:
-            assert layer.seed_group is not None
-            g = int(layer.seed_group.flat[root])
-        flat = root
-        prev = layers[i - 1].labels
+        layer, prev = layers[i], layers[i - 1]
+        flat = int(layer.roots[int(layer.dijkstra[g])][layer.index(flat)])
+        at = prev.index(flat)
+        g = before(i, g, at)
         cells.append(flat)
         groups.append(g)
-        labels.append(float(prev.reshape(prev.shape[0], -1)[g, flat]))
+        labels.append(float(prev.labels[g, at]))
     cells.reverse()
     groups.reverse()
     labels.reverse()
     return Chain(cells, groups, labels)
+
+
+def backtrack(layers: Sequence[Layer], regions: Sequence[Regions], linked: Sequence[bool]) -> Chain | None:
+    """The cheapest chain through ``layers`` (None when the last step has no finite label)."""
+
+    def before(i: int, g: int, at: int) -> int:
+        if linked[i]:  # a place keeps its pick's group
+            return regions[i - 1].groups.index(regions[i].groups[g])
+        seed_group = layers[i].seed_group
+        assert seed_group is not None
+        return int(seed_group[at])
+
+    return walk(layers, before)
 
 
 def relaxed(reg: Regions) -> Regions:
@@ -461,6 +518,7 @@ def travel_bound(ctx: PlanningContext, start: Cell, regions: Sequence[Regions] |
 __all__ = [
     "RELAXED",
     "Chain",
+    "StepLabels",
     "Group",
     "GroupedProgram",
     "Program",
@@ -473,11 +531,16 @@ __all__ = [
     "held_torso",
     "kept_layers",
     "linked_steps",
+    "lowest",
     "map_regions",
+    "narrowed_cells",
+    "on_cells",
     "pending",
+    "region_cells",
     "regroup",
     "relaxed",
-    "search_from",
+    "seeds_of",
+    "walk",
     "travel_bound",
     "WholeTaskProgram",
 ]

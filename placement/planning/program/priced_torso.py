@@ -40,14 +40,18 @@ from placement.planning.program.forward import (
     Chain,
     GroupedProgram,
     Layer,
+    StepLabels,
     Stop,
     kept_layers,
+    lowest,
+    narrowed_cells,
+    on_cells,
     pending,
-    search_from,
+    seeds_of,
+    walk,
 )
 from placement.planning.program.regions import Group, Regions, map_regions
 from placement.planning.torso import torso_seconds
-from placement.planning.world import extract_path
 
 #: (setting before, setting after) -> the torso term [m]
 Term = Callable[[float, float], float]
@@ -55,9 +59,10 @@ Term = Callable[[float, float], float]
 
 @dataclass
 class TorsoLayer(Layer):
-    """A :class:`~placement.planning.program.forward.Layer` of the priced program: ``seed_from[k]`` (ny, nx)
-    int, for the k-th Dijkstra, the previous step's group (index into its view) whose label gave
-    each seed (None for the first step); ``seed_group`` is unused (None)."""
+    """A :class:`~placement.planning.program.forward.Layer` of the priced program: ``seed_from[k]`` (n_prev,)
+    int64, for the k-th Dijkstra, the previous step's group (index into its view) whose label gave
+    each seed, on the previous layer's ``cells`` (None for the first step); ``seed_group`` is unused
+    (None)."""
 
     seed_from: list[IntArray | None] = field(default_factory=list)
 
@@ -120,32 +125,32 @@ def _narrowed(layer: TorsoLayer, old: Regions, new: Regions) -> TorsoLayer | Non
         return None
     if new.masks.shape != old.masks.shape or np.any(new.masks & ~old.masks):
         return None
-    labels = np.where(new.masks, layer.labels, math.inf)
-    return TorsoLayer(labels, layer.pred, layer.dijkstra, None, layer.seed_from)
+    cells, at = narrowed_cells(layer.cells, new)
+    masks, _ = on_cells(new, cells)
+    labels = np.where(masks, layer.labels[:, at], math.inf)
+    return TorsoLayer(cells, labels, [r[at] for r in layer.roots], layer.dijkstra, None, layer.seed_from)
 
 
 def _per_setting(
     prev: FloatArray, before: Sequence[float], sources: Sequence[int]
 ) -> list[tuple[float, FloatArray, IntArray]]:
-    """Per setting of the groups ``sources``: (the setting, (ny, nx) the minimum of (G, ny, nx)
-    ``prev`` over its groups, the first group that has it)."""
+    """Per setting of the groups ``sources``: (the setting, (n,) the minimum of (G, n) ``prev`` over its
+    groups, the first group that has it)."""
     out = []
     for s in sorted({before[j] for j in sources}):
-        members = [j for j in sources if before[j] == s]
-        low, frm = prev[members[0]].copy(), np.full(prev.shape[1:], members[0], np.int64)
-        for j in members[1:]:
-            better = prev[j] < low
-            low[better] = prev[j][better]
-            frm[better] = j
-        out.append((s, low, frm))
+        members = np.array([j for j in sources if before[j] == s], dtype=np.int64)
+        low, k = lowest(prev[members])
+        assert k is not None
+        out.append((s, low, members[k]))
     return out
 
 
 def _seeded(
-    lows: Sequence[tuple[float, FloatArray, IntArray]], t: float, term: Term
+    lows: Sequence[tuple[float, FloatArray, IntArray]], t: float, term: Term, cells: IntArray, width: int
 ) -> tuple[IntArray, FloatArray, IntArray]:
     """The seeds of a Dijkstra towards setting t: (k, 2) cells, (k,) costs min over the settings s of
-    ``lows`` of low_s + T(s, t) [m], and (ny, nx) the group that gave each cell's cost."""
+    ``lows`` (on the previous step's flat ``cells``) of low_s + T(s, t) [m], and (n_prev,) the group
+    that gave each cell's cost."""
     s, low, frm = lows[0]
     low, frm = low + term(s, t), frm.copy()
     for s, other, came in lows[1:]:
@@ -153,8 +158,8 @@ def _seeded(
         better = cand < low
         low[better] = cand[better]
         frm[better] = came[better]
-    iy, ix = np.nonzero(np.isfinite(low))
-    return np.stack([iy, ix], axis=1).astype(np.int64), low[iy, ix], frm
+    seed_cells, costs = seeds_of(cells, low, width)
+    return seed_cells, costs, frm
 
 
 def forward(
@@ -185,78 +190,54 @@ def forward(
     """
     factor, feasible, resolution, start = grid
     out = kept_layers(layers, first, before, regions, _narrowed)
-    shape = feasible.shape
+    grid3, width = (factor, feasible, resolution), feasible.shape[1]
     for i in pending(len(out), len(regions), stop):
         reg = regions[i]
         sets = settings_of(reg)
         G = len(reg.groups)
-        labels = np.full((G, *shape), math.inf)
-        dijkstra = np.full(G, -1, dtype=np.int64)
-        preds: list[IntArray] = []
+        step = StepLabels(reg, grid3)
         froms: list[IntArray | None] = []
         # (seed cells (k, 2), seed costs (k,), their source groups, the groups labelled)
         seedings: list[tuple[IntArray, FloatArray, IntArray | None, list[int]]] = []
         if i == 0:
             seedings.append((np.array([start], dtype=np.int64), np.zeros(1), None, list(range(G))))
         else:
-            prev, prev_reg = out[i - 1].labels, regions[i - 1]
+            prev, prev_reg = out[i - 1], regions[i - 1]
             before_sets = settings_of(prev_reg)
             everyone = list(range(len(prev_reg.groups)))
-            wanted = [k for k in range(G) if reg.masks[k].any()]  # a group without cells needs no search
+            wanted = [k for k in range(G) if step.masks[k].any()]  # a group without cells needs no search
             if linked[i]:  # a place: its pick's groups of the same arm and grasp, any setting
                 lows_of: dict[Group, list[tuple[float, FloatArray, IntArray]]] = {}
                 for k in wanted:
                     g = reg.groups[k]
                     if g not in lows_of:
                         sources = [j for j in everyone if prev_reg.groups[j] == g]
-                        lows_of[g] = _per_setting(prev, before_sets, sources) if sources else []
+                        lows_of[g] = _per_setting(prev.labels, before_sets, sources) if sources else []
                     if lows_of[g]:
-                        seedings.append((*_seeded(lows_of[g], sets[k], term), [k]))
+                        seedings.append((*_seeded(lows_of[g], sets[k], term, prev.cells, width), [k]))
             elif everyone and wanted:
-                lows = _per_setting(prev, before_sets, everyone)
+                lows = _per_setting(prev.labels, before_sets, everyone)
                 for t in sorted({sets[k] for k in wanted}):
-                    seedings.append((*_seeded(lows, t, term), [k for k in range(G) if sets[k] == t]))
-        for cells, costs, frm, members in seedings:
-            found = search_from(factor, feasible, resolution, (cells, costs), reg, members)
-            if found is None:
-                continue
-            cost, pred = found
-            preds.append(pred)
-            froms.append(frm)
-            for k in members:
-                extra = term(start_torso, sets[k]) if i == 0 else 0.0  # the first step's settings share its search
-                node = 0.0 if reg.node is None else reg.node[k]
-                labels[k] = np.where(reg.masks[k], cost + extra + node, math.inf)
-                dijkstra[k] = len(preds) - 1
-        out.append(TorsoLayer(labels, preds, dijkstra, None, froms))
+                    seedings.append((*_seeded(lows, t, term, prev.cells, width), [k for k in range(G) if sets[k] == t]))
+        for seed_cells, costs, frm, members in seedings:
+            # the first step's settings share its search, each offset by the torso's move to it
+            extra = [term(start_torso, sets[k]) for k in members] if i == 0 else None
+            if step.search((seed_cells, costs), members, extra):
+                froms.append(frm)
+        out.append(TorsoLayer(step.cells, step.labels, step.roots, step.dijkstra, None, froms))
     return out
 
 
 def backtrack(layers: Sequence[TorsoLayer]) -> Chain | None:
     """The cheapest chain through ``layers``, its groups indices into each step's view (None when
     the last step has no finite label)."""
-    if not layers:
-        return Chain([], [], [])
-    last = layers[-1].labels
-    if last.size == 0 or not np.isfinite(last).any():
-        return None
-    g, flat = divmod(int(np.argmin(last.reshape(-1))), last.shape[1] * last.shape[2])
-    cells, groups, labels = [flat], [g], [float(last[g].flat[flat])]
-    for i in range(len(layers) - 1, 0, -1):
-        layer = layers[i]
-        d = int(layer.dijkstra[g])
-        iy, ix = extract_path(layer.pred[d], divmod(flat, last.shape[2]))[0]
-        flat = int(iy) * last.shape[2] + int(ix)
-        frm = layer.seed_from[d]
+
+    def before(i: int, g: int, at: int) -> int:
+        frm = layers[i].seed_from[int(layers[i].dijkstra[g])]
         assert frm is not None
-        g = int(frm.flat[flat])
-        cells.append(flat)
-        groups.append(g)
-        labels.append(float(layers[i - 1].labels[g].flat[flat]))
-    cells.reverse()
-    groups.reverse()
-    labels.reverse()
-    return Chain(cells, groups, labels)
+        return int(frm[at])
+
+    return walk(layers, before)
 
 
 class TorsoProgram(GroupedProgram):

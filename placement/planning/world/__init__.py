@@ -17,7 +17,7 @@ from placement.planning.world.layers import (
     world_from_occupancy,
     world_still_serves,
 )
-from placement.planning.world.navigation import extract_path, navigation_cost, reachable_from
+from placement.planning.world.navigation import extract_path, navigation_cost, path_starts, reachable_from
 
 __all__ = [
     "BaseShape",
@@ -27,6 +27,7 @@ __all__ = [
     "changed_occupancy",
     "extract_path",
     "navigation_cost",
+    "path_starts",
     "reachable_from",
     "region_heuristic",
     "windowed_world",
