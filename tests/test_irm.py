@@ -202,7 +202,7 @@ def test_column_skip_changes_no_result(poses, candidates):
     out = []
     for bound in (np.ascontiguousarray(slices[0].max(axis=2)), np.full((12, 14), np.inf, np.float32)):
         val = np.zeros((candidates, ny, nx), np.float32)
-        arg = np.full((candidates, ny, nx), -1, np.int64)
+        arg = np.full((candidates, ny, nx), -1, np.int16)
         args = (tcp[0], tcp[1], tcp_yaw, np.array([-0.6, -0.7]), 0.1, yaws, np.array([-0.75, -0.8]), 0.1)
         trajectory_maps(slices, bound, *args, ny, nx, cells, masks, val, arg, 0, 0)
         out.append((val, arg))

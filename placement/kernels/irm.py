@@ -36,7 +36,7 @@ def trajectory_maps(
     cells: npt.NDArray[np.int64],
     masks: npt.NDArray[np.uint64],
     out_val: npt.NDArray[np.float32],
-    out_yaw: npt.NDArray[np.int64],
+    out_yaw: npt.NDArray[np.int16],
     out_y0: int = 0,
     out_x0: int = 0,
 ) -> None:
@@ -63,7 +63,7 @@ def trajectory_maps(
         cells: (N,) int64 flat indices of the base cells to evaluate (others untouched).
         masks: (N, W) uint64, the base yaws allowed on each cell (bit k & 63 of word k >> 6 is yaw
             k; a polygon footprint fits only at some yaws); a cell allowing none gets 0.
-        out_val: (C, h, w) float32, best value (0 = unreachable); out_yaw: (C, h, w) int64,
+        out_val: (C, h, w) float32, best value (0 = unreachable); out_yaw: (C, h, w) int16,
             index into base_yaws of the best yaw (-1 if unreachable): a window of the grid whose
             cell (0, 0) is grid cell (out_y0, out_x0); it must contain every cell of ``cells``.
     """

@@ -20,7 +20,7 @@ import numpy as np
 
 from placement.collision.scene import object_aabb
 from placement.maps.rmap import ReachabilityMap
-from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray, MaskArray
+from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray, MaskArray, YawIndexArray
 from placement.planning.problems.grasps import GRIPPER_OPENING, Candidate
 from placement.planning.problems.manipulation import cells_within, manipulation_maps, pose_reach
 from placement.planning.problems.option import Option, height_range
@@ -199,7 +199,7 @@ class StepProblems:
                     cells = cells[self.world.feasible.flat[cells]]
                     near[key] = (cells, self.world.yaw_masks(cells))
                 by_cells.setdefault(key, []).append(cand)
-            results: dict[bytes, tuple[Window, Float32Array, IntArray]] = {}
+            results: dict[bytes, tuple[Window, Float32Array, YawIndexArray]] = {}
             for key, cands in by_cells.items():
                 cells, masks = near[key]
                 window = Window.around(cells, nav.shape)

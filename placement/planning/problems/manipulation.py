@@ -12,13 +12,13 @@ from placement.kernels.grid import pitch_bin, wrap_bin, zyx_angles
 from placement.kernels.irm import trajectory_maps
 from placement.maps.grid import Grid
 from placement.maps.rmap import ReachabilityMap
-from placement.planning.arrays import Float32Array, FloatArray, IntArray, MaskArray
+from placement.planning.arrays import YAW_INDEX, Float32Array, FloatArray, IntArray, MaskArray, YawIndexArray
 from placement.scene.navgrid import NavGrid, Window
 
 #: A pose's map lookup: (x [m], y [m], z bin, pitch bin, roll bin).
 PoseKey = tuple[float, float, int, int, int]
 #: An inverse reachability map over a window: value (h, w) float32, best yaw's index (h, w) int64.
-IRM = tuple[Float32Array, IntArray]
+IRM = tuple[Float32Array, YawIndexArray]
 
 
 def base_yaws(count: int) -> FloatArray:
@@ -54,7 +54,7 @@ def manipulation_map(
         masks: optional (N, W) uint64 packed base yaws allowed per cell (see
             ``World.yaw_masks``); default every yaw (needs ``cells``).
     Returns:
-        value (h, w) float32 (0 = unreachable), yaw_index (h, w) int64 into ``yaws`` (-1), over
+        value (h, w) float32 (0 = unreachable), yaw_index (h, w) int16 into ``yaws`` (-1), over
         ``window`` ((ny, nx) by default).
     """
     T = np.asarray(tcp_world, dtype=float).reshape(-1, 4, 4)
@@ -121,7 +121,7 @@ def manipulation_maps(
     for i, T in enumerate(trajectories):
         keyed = _pose_keys(rmap, np.asarray(T, dtype=float).reshape(-1, 4, 4))
         if keyed is None:
-            out[i] = (np.zeros(window.shape, np.float32), np.full(window.shape, -1, np.int64))
+            out[i] = (np.zeros(window.shape, np.float32), np.full(window.shape, -1, YAW_INDEX))
         else:
             groups.setdefault(keyed[0], []).append((i, keyed[1]))
     for keys, members in groups.items():
@@ -129,7 +129,7 @@ def manipulation_maps(
         stacked = _stacked(keys, yaws_of)
         slices = np.ascontiguousarray(np.stack([rmap.lowest(zs, ip, ir) for _, _, zs, ip, ir, _ in stacked]))
         vals = np.zeros((len(members), *window.shape), np.float32)
-        args = np.full((len(members), *window.shape), -1, np.int64)
+        args = np.full((len(members), *window.shape), -1, YAW_INDEX)
         trajectory_maps(
             slices,
             rmap.column_max(*stacked[0][2:5]),

@@ -23,7 +23,7 @@ class Option:
         arm: arm name. candidate: the TCP trajectory (world frame).
         window: where the map is kept.
         value: (h, w) float32 over ``window``, the IRM value of the best base yaw (0 = unreachable).
-        yaw_index: (h, w) int64, that yaw's index into the planner's base yaws (-1 if none).
+        yaw_index: (h, w) int16, that yaw's index into the planner's base yaws (-1 if none).
         out_of_range: True when a pose of the trajectory is outside the map's height range.
         torso: the torso value [m] the option's map and IK hold the lift at (None: the preset's,
             for maps without a torso record; see :mod:`placement.planning.torso`).

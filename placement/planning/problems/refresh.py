@@ -14,14 +14,14 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from placement.maps.rmap import ReachabilityMap
-from placement.planning.arrays import Float32Array, FloatArray, IntArray
+from placement.planning.arrays import YAW_INDEX, Float32Array, FloatArray, IntArray, YawIndexArray
 from placement.planning.problems.manipulation import cells_within, manipulation_maps, pose_reach
 from placement.planning.problems.option import Option
 from placement.planning.world import World
 from placement.scene.navgrid import Window
 
 
-def _moved(src: Option, dst_window: Window, cells: IntArray, nx: int, value: Float32Array, yaw: IntArray) -> None:
+def _moved(src: Option, dst_window: Window, cells: IntArray, nx: int, value: Float32Array, yaw: YawIndexArray) -> None:
     """Copy ``src``'s values at flat ``cells`` into ``value``/``yaw`` over ``dst_window``."""
     iy, ix = np.divmod(cells, nx)
     value[iy - dst_window.y0, ix - dst_window.x0] = src.value[iy - src.window.y0, ix - src.window.x0]
@@ -74,7 +74,7 @@ def refreshed_options(
         for n, j in enumerate(members):
             o = options[j]
             value = np.zeros(window.shape, np.float32)
-            yaw = np.full(window.shape, -1, np.int64)
+            yaw = np.full(window.shape, -1, YAW_INDEX)
             _moved(o, window, kept, nx, value, yaw)
             if computed is not None:
                 fy, fx = np.divmod(fresh, nx)
