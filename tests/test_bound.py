@@ -30,7 +30,7 @@ def random_task(rng, ny, nx, steps, linked):
         groups = GROUPS if not (i > 0 and linked[i]) else GROUPS[::-1]  # another order: groups match by name
         masks = (rng.random((len(groups), ny, nx)) > 0.85) & feasible
         node = rng.random((len(groups), ny, nx)) * 0.3 if i % 2 else None
-        regions.append(Regions(groups, masks, node))
+        regions.append(Regions.of(groups, masks, node))
     return factor, feasible, start, regions
 
 
@@ -42,9 +42,9 @@ def enumerate_best(factor, feasible, start, regions, linked):
     for reg in regions:
         choices.append(
             [
-                (reg.groups[g], int(f), 0.0 if reg.node is None else float(reg.node[g].flat[f]))
+                (reg.groups[g], int(f), reg.node_at(g, int(f)))
                 for g in range(len(reg.groups))
-                for f in np.flatnonzero(reg.masks[g])
+                for f in np.flatnonzero(reg.dense()[g])
             ]
         )
     best = math.inf
@@ -79,10 +79,10 @@ def test_the_program_equals_enumeration_of_every_sequence(seed):
     nx = feasible.shape[1]
     at, total = start[0] * nx + start[1], 0.0
     for i, (f, g) in enumerate(zip(chain.cells, chain.groups)):
-        assert regions[i].masks[g].flat[f]
+        assert regions[i].dense()[g].flat[f]
         if linked[i]:
             assert regions[i].groups[g] == regions[i - 1].groups[chain.groups[i - 1]]
-        total += dist[at, f] + (0.0 if regions[i].node is None else regions[i].node[g].flat[f])
+        total += dist[at, f] + regions[i].node_at(g, f)
         assert chain.labels[i] == pytest.approx(total, rel=1e-9)
         at = f
 
@@ -92,9 +92,9 @@ def test_recomputing_from_a_step_equals_a_fresh_program():
     linked = [False, True, False, True]
     factor, feasible, start, regions = random_task(rng, 8, 8, 4, linked)
     layers = forward(factor, feasible, RES, start, regions, linked)
-    masks = regions[2].masks.copy()
+    masks = regions[2].dense()
     masks[:, :4] = False  # a repair removes cells of step 2
-    changed = [*regions[:2], Regions(regions[2].groups, masks), regions[3]]
+    changed = [*regions[:2], Regions.of(regions[2].groups, masks), regions[3]]
     again = forward(factor, feasible, RES, start, changed, linked, layers, first=2)
     fresh = forward(factor, feasible, RES, start, changed, linked)
     for a, b in zip(again, fresh):
@@ -104,8 +104,8 @@ def test_recomputing_from_a_step_equals_a_fresh_program():
 def test_a_place_with_no_group_of_its_pick_is_unreachable():
     #   a 1 x 5 corridor: the pick only by the left arm, the place only by the right
     factor, feasible = np.ones((1, 5)), np.ones((1, 5), bool)
-    pick = Regions((("left", "top"),), np.array([[[0, 1, 0, 0, 0]]], bool))
-    place = Regions((("right", "top"),), np.array([[[0, 0, 0, 1, 0]]], bool))
+    pick = Regions.of((("left", "top"),), np.array([[[0, 1, 0, 0, 0]]], bool))
+    place = Regions.of((("right", "top"),), np.array([[[0, 0, 0, 1, 0]]], bool))
     layers = forward(factor, feasible, RES, (0, 0), [pick, place], [False, True])
     assert np.isinf(layers[-1].labels).all()
     # unlinked, the same cells cost 0.1 m then 0.2 m more
@@ -120,7 +120,7 @@ def test_the_relaxed_program_gives_the_grouped_optimum_or_defers_to_it(seed):
     rng = np.random.default_rng(100 + seed)
     linked = [False, True, False, True]
     factor, feasible, start, regions = random_task(rng, 6, 6, 4, linked)
-    regions = [Regions(r.groups, r.masks) for r in regions]  # no node costs: the relaxation applies
+    regions = [Regions.of(r.groups, r.dense()) for r in regions]  # no node costs: the relaxation applies
     want, dist = enumerate_best(factor, feasible, start, regions, linked)
     chain, _ = cheapest(factor, feasible, RES, start, regions, linked)
     if math.isinf(want):
@@ -130,7 +130,7 @@ def test_the_relaxed_program_gives_the_grouped_optimum_or_defers_to_it(seed):
     nx = feasible.shape[1]
     at, total = start[0] * nx + start[1], 0.0
     for i, (f, g) in enumerate(zip(chain.cells, chain.groups)):
-        assert regions[i].masks[g].flat[f]
+        assert regions[i].dense()[g].flat[f]
         if linked[i]:
             assert regions[i].groups[g] == regions[i - 1].groups[chain.groups[i - 1]]
         total += dist[at, f]
@@ -143,14 +143,14 @@ def test_the_relaxed_chain_that_breaks_a_transfer_is_not_taken():
     #   is the right arm's: the relaxed chain (1, 2) costs 0.2 m but breaks the transfer, the
     #   grouped optimum is (4, 2): 0.4 m + 0.2 m with the right arm
     factor, feasible = np.ones((1, 5)), np.ones((1, 5), bool)
-    pick = Regions((("left", "top"), ("right", "top")), np.array([[[0, 1, 0, 0, 0]], [[0, 0, 0, 0, 1]]], bool))
-    place = Regions((("right", "top"),), np.array([[[0, 0, 1, 0, 0]]], bool))
+    pick = Regions.of((("left", "top"), ("right", "top")), np.array([[[0, 1, 0, 0, 0]], [[0, 0, 0, 0, 1]]], bool))
+    place = Regions.of((("right", "top"),), np.array([[[0, 0, 1, 0, 0]]], bool))
     chain, _ = cheapest(factor, feasible, RES, (0, 0), [pick, place], [False, True])
     assert chain is not None and chain.total == pytest.approx(0.6)
     assert pick.groups[chain.groups[0]] == ("right", "top") and chain.cells == [4, 2]
     #   the place at 0 after a pick at 1 only by the left arm: no chain keeps the rule
-    place = Regions((("right", "top"),), np.array([[[1, 0, 0, 0, 0]]], bool))
-    pick = Regions((("left", "top"),), np.array([[[0, 1, 0, 0, 0]]], bool))
+    place = Regions.of((("right", "top"),), np.array([[[1, 0, 0, 0, 0]]], bool))
+    pick = Regions.of((("left", "top"),), np.array([[[0, 1, 0, 0, 0]]], bool))
     assert cheapest(factor, feasible, RES, (0, 0), [pick, place], [False, True])[0] is None
 
 
@@ -159,8 +159,8 @@ def test_a_lazy_program_groups_a_transfer_whose_pick_cell_has_no_group_of_the_pl
     #   the right arm's only. The relaxed chain (1, 2) conflicts and its pick cell has no group the
     #   place has, so even the lazy program (global's) groups the transfer: (3, 2), 0.3 + 0.1 m
     factor, feasible = np.ones((1, 5)), np.ones((1, 5), bool)
-    pick = Regions((("left", "top"), ("right", "top")), np.array([[[0, 1, 0, 0, 0]], [[0, 0, 0, 1, 0]]], bool))
-    place = Regions((("right", "top"),), np.array([[[0, 0, 1, 0, 0]]], bool))
+    pick = Regions.of((("left", "top"), ("right", "top")), np.array([[[0, 1, 0, 0, 0]], [[0, 0, 0, 1, 0]]], bool))
+    place = Regions.of((("right", "top"),), np.array([[[0, 0, 1, 0, 0]]], bool))
     program = Program(factor, feasible, RES, (0, 0), [False, True])
     program.lazy = True
     chain = program.solve([pick, place])
@@ -170,7 +170,7 @@ def test_a_lazy_program_groups_a_transfer_whose_pick_cell_has_no_group_of_the_pl
     #   the place also by the left arm, at 4: the conflict's pick cell (1, left) has a group the
     #   place has, so the lazy program keeps the cheap cells and marks the place loose with the
     #   left arm (global then moves it to the left arm's cell); the grouped one solves it exactly
-    place = Regions((("left", "top"), ("right", "top")), np.array([[[0, 0, 0, 0, 1]], [[0, 0, 1, 0, 0]]], bool))
+    place = Regions.of((("left", "top"), ("right", "top")), np.array([[[0, 0, 0, 0, 1]], [[0, 0, 1, 0, 0]]], bool))
     program = Program(factor, feasible, RES, (0, 0), [False, True])
     program.lazy = True
     chain = program.solve([pick, place])

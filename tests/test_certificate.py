@@ -81,7 +81,7 @@ def test_optimal_equals_brute_force_over_the_cells_left_after_its_repairs(coarse
     left = oracle_regions(coarse)
     for i, reg in enumerate(left):
         for k, g in enumerate(dp.regions[i].groups):
-            reg[g] = {c for c in reg[g] if dp.regions[i].masks[k].flat[c]}
+            reg[g] = {c for c in reg[g] if dp.regions[i].has(k, c)}
         assert sum(map(len, reg.values())) == int(dp.regions[i].masks.sum())
     assert chain.total == pytest.approx(brute_force(coarse, left, dist), rel=1e-9)
     result = coarse.plan()

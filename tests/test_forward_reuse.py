@@ -3,6 +3,8 @@ program solved from scratch, on random tasks."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from test_bound import RES, random_task
@@ -19,7 +21,7 @@ def test_a_narrowed_step_keeps_its_layer_and_the_result(seed, monkeypatch):
     layers = forward(factor, feasible, RES, start, regions, linked)
     i = int(rng.integers(0, 5))
     masks = regions[i].masks & (rng.random(regions[i].masks.shape) > 0.3)  # a few cells rejected
-    changed = [*regions[:i], Regions(regions[i].groups, masks, regions[i].node), *regions[i + 1 :]]
+    changed = [*regions[:i], replace(regions[i], masks=masks), *regions[i + 1 :]]
     calls = []
     real = bound.navigation_cost
     monkeypatch.setattr(bound, "navigation_cost", lambda *a, **k: calls.append(1) or real(*a, **k))
@@ -44,9 +46,10 @@ def test_a_step_that_gained_cells_is_computed_again():
     linked = [False, False, False]
     factor, feasible, start, regions = random_task(rng, 8, 8, 3, linked)
     layers = forward(factor, feasible, RES, start, regions, linked)
-    grown = Regions(regions[1].groups, regions[1].masks | feasible[None], regions[1].node)
-    changed = [regions[0], grown, regions[2]]
-    again = forward(factor, feasible, RES, start, changed, linked, layers, first=1, before=regions)
+    assert regions[2].node is None  # the same node costs (none): only the cells differ
+    grown = Regions.of(regions[2].groups, regions[2].dense() | feasible[None])
+    changed = [regions[0], regions[1], grown]
+    again = forward(factor, feasible, RES, start, changed, linked, layers, first=2, before=regions)
     fresh = forward(factor, feasible, RES, start, changed, linked)
     for a, b in zip(again, fresh):
         np.testing.assert_array_equal(a.labels, b.labels)

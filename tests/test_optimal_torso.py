@@ -172,7 +172,7 @@ def test_the_priced_program_equals_every_sequence_enumerated(coarse, held, n, ki
     dist = dijkstra(grid_graph(w.factor, w.feasible, w.nav.resolution))
     at, t, cost = grid[3][0] * w.nav.shape[1] + grid[3][1], held, 0.0
     for i, (c, g) in enumerate(zip(chain.cells, chain.groups)):
-        assert regions[i].masks[g].flat[c]
+        assert regions[i].has(g, c)
         assert regions[i].settings is not None
         s = regions[i].settings[g]
         cost += dist[at, c] + float(term(t, s))
@@ -203,7 +203,7 @@ def test_optimal_is_the_enumerated_optimum_of_the_cells_verification_left(pitch)
     for i, reg in enumerate(dp.regions):
         assert reg.settings is not None
         for k, (g, t) in enumerate(zip(reg.groups, reg.settings)):
-            kept[(i, g, t)] = reg.masks[k]
+            kept[(i, g, t)] = reg.dense()[k]
     want = _enumerated(planner, _oracle_states(planner, kept), held)
     assert chain.total == pytest.approx(want, rel=1e-9)
     # the plan: every step verified, its travel + torso term (from the steps' joints) the optimum
@@ -323,7 +323,7 @@ def test_solving_again_keeps_each_settings_node_costs(coarse):
                     ],
                     axis=0,
                 )
-                cells = reg.masks[k]
-                assert np.allclose(reg.node[k][cells], 0.05 / best[cells], rtol=1e-6)
+                on = reg.masks[k]
+                assert np.allclose(reg.node[k][on], 0.05 / best.flat[reg.cells[on]], rtol=1e-6)
     finally:
         object.__setattr__(config, "optimal_manipulability_weight", 0.0)

@@ -135,7 +135,7 @@ def test_whole_task_regions_use_each_settings_threshold(tmp_path, pitch):
         for v in SETTINGS:
             opts = p.problems.held_options(i, v)
             regions = map_regions(p.context, i, held=v)
-            for g, mask in zip(regions.groups, regions.masks):
+            for g, mask in zip(regions.groups, regions.dense()):
                 keeps = [o.full_value(mask.shape) >= own[v] for o in opts if (o.arm, o.candidate.grasp) == g]
                 assert (mask == np.logical_or.reduce(keeps) & p.world.feasible).all(), (i, v, g)
 

@@ -131,7 +131,7 @@ def test_every_stage_applies_each_arms_own_threshold(tmp_path, maps_dir):
         assert (problems.feasible_region(i) == np.logical_or.reduce(keeps)).all()
         assert problems.pairs(i) == {(o.arm, o.candidate.grasp) for o, k in zip(opts, keeps) if k.any()}
         regions = p.method.regions(ctx, i)
-        for g, mask in zip(regions.groups, regions.masks):
+        for g, mask in zip(regions.groups, regions.dense()):
             want = np.logical_or.reduce([k for o, k in zip(opts, keeps) if (o.arm, o.candidate.grasp) == g])
             assert (mask == want & p.world.feasible).all(), g
         nav, _ = navigation_cost(p.world.factor, p.world.feasible, p.start_cell(), p.world.nav.resolution)

@@ -137,7 +137,7 @@ def fixed_regions(ctx: PlanningContext, i: int) -> Regions:
     for r in rank_fixed(ctx, opts):
         o = opts[r.option]
         masks[index[(o.arm, o.candidate.grasp)]].flat[r.cell] = True
-    return Regions(tuple(groups), masks)
+    return Regions.of(tuple(groups), masks)
 
 
 class Fixed(StepwiseMethod):

@@ -258,8 +258,7 @@ def results(
         step = ctx.problems.steps[i]
         o = dp.options(i, g)[v.option]
         iy, ix = divmod(flat, nav.shape[1])
-        nodes = dp.regions[i].node
-        node = 0.0 if nodes is None else float(nodes[g].flat[flat])
+        node = dp.regions[i].node_at(g, flat)
         travel = max(chain.labels[i] - prev_label - node - dp.torso_m(chain, i), 0.0)
         r = placed(ctx, step, o, v.base, v.ik.qs, travel, 0.0, v.value, {}, v.clearance_m)
         if keep_maps:
@@ -278,10 +277,10 @@ def why_not(ctx: PlanningContext, dp: DynamicProgram) -> StepResult:
     step = steps[i]
     opts = ctx.problems.options(i)
     ctx = ctx.for_step(i)
-    if not dp.full[i].masks.any():
+    if not dp.full[i].any():
         reason, diagnosis = explain(ctx, False, step, opts, None, unreachable_reason(ctx, opts))
         return infeasible(step, reason, diagnosis)
-    if dp.rejected[i] and not dp.regions[i].masks.any():
+    if dp.rejected[i] and not dp.regions[i].any():
         return infeasible(step, f"IK or the collision check rejected all {dp.rejected[i]} placements the maps allow")
     if dp.linked[i]:
         return infeasible(

@@ -17,8 +17,9 @@ every plan whose cells lie in them, whichever IK or collision check rejects some
 :class:`Program` solves it with the groups merged first (one Dijkstra per step) and groups only
 the transfers whose cheapest cells break the rule: the same optimum, at a fraction of the cost.
 
-Regions and node costs are (G, ny, nx) stacks; every label is in metres of free-space travel (divide
-by the robot's ``v_max`` for seconds).
+Regions, node costs and labels are kept on each step's cells only ((G, n) over the n cells its
+options reach, not (G, ny, nx): a program holds every step's, see :class:`Layer`); every label is in
+metres of free-space travel (divide by the robot's ``v_max`` for seconds).
 """
 
 from __future__ import annotations
@@ -80,15 +81,15 @@ class Layer:
 
 
 def region_cells(reg: Regions) -> IntArray:
-    """(n,) int64 the flat cells of ``reg``'s region (any group's mask), ascending."""
-    return np.flatnonzero(reg.masks.reshape(reg.masks.shape[0], -1).any(axis=0)).astype(np.int64)
+    """(n,) int64 the flat cells some group of ``reg`` holds, ascending."""
+    cells: IntArray = reg.cells[reg.masks.any(axis=0)]
+    return cells
 
 
 def on_cells(reg: Regions, cells: IntArray) -> tuple[BoolArray, FloatArray | None]:
-    """``reg``'s (G, n) masks and node costs [m] (None without) on the flat ``cells``."""
-    G = reg.masks.shape[0]
-    node = None if reg.node is None else reg.node.reshape(G, -1)[:, cells]
-    return reg.masks.reshape(G, -1)[:, cells], node
+    """``reg``'s (G, n) masks and node costs [m] (None without) on the flat ``cells`` (some of its own)."""
+    at = np.searchsorted(reg.cells, cells)
+    return reg.masks[:, at], None if reg.node is None else reg.node[:, at]
 
 
 @dataclass(frozen=True)
@@ -106,9 +107,7 @@ class Chain:
 
 def _narrowed(layer: Layer, old: Regions, new: Regions) -> Layer | None:
     """``layer`` (computed over ``old``) for ``new`` when ``new`` only lost cells, else None."""
-    if new.groups != old.groups or new.node is not old.node or new.masks.shape != old.masks.shape:
-        return None
-    if np.any(new.masks & ~old.masks):
+    if new.node is not old.node or not new.within(old):
         return None
     cells, at = narrowed_cells(layer.cells, new)
     masks, _ = on_cells(new, cells)
@@ -304,7 +303,7 @@ def relaxed(reg: Regions) -> Regions:
     """``reg`` with its groups merged into one (the transfer rule dropped): one Dijkstra per step.
 
     Only for regions without node costs (a merged group has no single node cost)."""
-    return Regions((RELAXED,), reg.union()[None])
+    return Regions((RELAXED,), reg.cells, np.any(reg.masks, axis=0, keepdims=True), reg.shape)
 
 
 #: The one group of a :func:`relaxed` region.
@@ -319,8 +318,8 @@ def conflicts(cells: Sequence[int], regions: Sequence[Regions], linked: Sequence
         if not linked[i]:
             continue
         reg, before = regions[i], regions[i - 1]
-        picks = {before.groups[k] for k in range(len(before.groups)) if before.masks[k].flat[cells[i - 1]]}
-        if not any(reg.masks[k].flat[cells[i]] and reg.groups[k] in picks for k in range(len(reg.groups))):
+        picks = {before.groups[k] for k in range(len(before.groups)) if before.has(k, cells[i - 1])}
+        if not any(reg.has(k, cells[i]) and reg.groups[k] in picks for k in range(len(reg.groups))):
             out.append(i)
     return out
 
@@ -336,10 +335,10 @@ def regroup(chain: Chain, regions: Sequence[Regions], linked: Sequence[bool], lo
         if groups[i] >= 0:
             continue
         reg = regions[i]
-        here = [k for k in range(len(reg.groups)) if reg.masks[k].flat[chain.cells[i]]]
+        here = [k for k in range(len(reg.groups)) if reg.has(k, chain.cells[i])]
         if i > 0 and linked[i]:
             before = regions[i - 1]
-            at_pick = [k for k in range(len(before.groups)) if before.masks[k].flat[chain.cells[i - 1]]]
+            at_pick = [k for k in range(len(before.groups)) if before.has(k, chain.cells[i - 1])]
             if i in loose:
                 shared = [reg.groups.index(before.groups[k]) for k in at_pick if before.groups[k] in reg.groups]
             else:
@@ -454,8 +453,7 @@ class Program(GroupedProgram):
         """Whether a group of the pick's cell (step i - 1) is one the place (step i) has at all."""
         before = regions[i - 1]
         return any(
-            before.masks[k].flat[cells[i - 1]] and before.groups[k] in regions[i].groups
-            for k in range(len(before.groups))
+            before.has(k, cells[i - 1]) and before.groups[k] in regions[i].groups for k in range(len(before.groups))
         )
 
     def solve(self, regions: Sequence[Regions], first: int = 0) -> Chain | None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 
 from placement.planning.arrays import BoolArray, Cell, FloatArray
 from placement.planning.program.forward import Chain, Layer, Program, Stop
@@ -27,8 +28,7 @@ from placement.planning.program.regions import Regions
 def held_view(reg: Regions, setting: float) -> tuple[Regions, list[int]]:
     """``reg``'s groups at ``setting`` as a plain region (settings dropped), and their indices in ``reg``."""
     index = [k for k, s in enumerate(settings_of(reg)) if s == setting]
-    node = None if reg.node is None else reg.node[index]
-    return Regions(tuple(reg.groups[k] for k in index), reg.masks[index], node), index
+    return replace(reg.take(index), settings=None), index
 
 
 class HeldFirst:

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -50,7 +50,7 @@ from placement.planning.program.forward import (
     seeds_of,
     walk,
 )
-from placement.planning.program.regions import Group, Regions, map_regions
+from placement.planning.program.regions import Group, Regions, best_values, map_regions, node_costs
 from placement.planning.torso import torso_seconds
 
 #: (setting before, setting after) -> the torso term [m]
@@ -76,11 +76,10 @@ def torso_term(ctx: PlanningContext) -> Term:
 def torso_regions(ctx: PlanningContext, i: int) -> Regions:
     """Step i's region per (arm, grasp, setting): each setting's :func:`map_regions` (its options
     only, each at its setting's threshold), stacked in the order of ``ctx.problems.settings``."""
-    parts = [(t, map_regions(ctx, i, held=t)) for t in ctx.problems.settings if t is not None]
-    shape = ctx.world.nav.shape
-    masks = np.concatenate([r.masks for _, r in parts]) if parts else np.zeros((0, *shape), bool)
-    groups = tuple(g for _, r in parts for g in r.groups)
-    return Regions(groups, masks, None, tuple(t for t, r in parts for _ in r.groups))
+    parts = [map_regions(ctx, i, held=t) for t in ctx.problems.settings if t is not None]
+    reg = Regions.stacked(parts, ctx.world.nav.shape)
+    sets = [t for t in ctx.problems.settings if t is not None]
+    return replace(reg, settings=tuple(t for t, r in zip(sets, parts) for _ in r.groups))
 
 
 def torso_reweighted(ctx: PlanningContext, i: int, reg: Regions) -> Regions:
@@ -89,15 +88,16 @@ def torso_reweighted(ctx: PlanningContext, i: int, reg: Regions) -> Regions:
     weight = ctx.config.optimal_manipulability_weight
     if weight <= 0 or not reg.groups or reg.settings is None:
         return reg
-    best = np.zeros(reg.masks.shape, np.float32)
     index = {(g, t): k for k, (g, t) in enumerate(zip(reg.groups, reg.settings))}
-    for t in sorted(set(reg.settings)):
-        for o in ctx.problems.held_options(i, t):
-            k = index[((o.arm, o.candidate.grasp), t)]
-            np.maximum(best[k][o.window.slices], o.value, out=best[k][o.window.slices])
-    with np.errstate(divide="ignore"):
-        node = np.where(reg.masks, weight / np.maximum(best, 1e-12), 0.0)
-    return Regions(reg.groups, reg.masks, node, reg.settings)
+    best = best_values(
+        reg,
+        [
+            (index[((o.arm, o.candidate.grasp), t)], o)
+            for t in sorted(set(reg.settings))
+            for o in ctx.problems.held_options(i, t)
+        ],
+    )
+    return replace(reg, node=node_costs(reg, weight, best))
 
 
 def settings_of(reg: Regions) -> tuple[float, ...]:
@@ -112,18 +112,16 @@ def merged(reg: Regions) -> Regions:
     one group per setting, in ascending order."""
     sets = settings_of(reg)
     order = sorted(set(sets))
-    masks = np.zeros((len(order), *reg.masks.shape[1:]), bool)
+    masks = np.zeros((len(order), reg.cells.size), bool)
     for k, t in enumerate(order):
         members = [j for j, s in enumerate(sets) if s == t]
         np.any(reg.masks[members], axis=0, out=masks[k])
-    return Regions((RELAXED,) * len(order), masks, None, tuple(order))
+    return Regions((RELAXED,) * len(order), reg.cells, masks, reg.shape, None, tuple(order))
 
 
 def _narrowed(layer: TorsoLayer, old: Regions, new: Regions) -> TorsoLayer | None:
     """``layer`` (computed over ``old``) for ``new`` when ``new`` only lost cells, else None."""
-    if new.groups != old.groups or new.settings != old.settings or new.node is not old.node:
-        return None
-    if new.masks.shape != old.masks.shape or np.any(new.masks & ~old.masks):
+    if new.settings != old.settings or new.node is not old.node or not new.within(old):
         return None
     cells, at = narrowed_cells(layer.cells, new)
     masks, _ = on_cells(new, cells)
@@ -307,7 +305,7 @@ def _at(reg: Regions, view: Regions, chain: Chain, i: int) -> list[int]:
     """The groups of ``reg`` at the setting of the chain's step i (merged in ``view``) that hold its cell."""
     t = settings_of(view)[chain.groups[i]]
     sets = settings_of(reg)
-    return [k for k in range(len(reg.groups)) if sets[k] == t and reg.masks[k].flat[chain.cells[i]]]
+    return [k for k in range(len(reg.groups)) if sets[k] == t and reg.has(k, chain.cells[i])]
 
 
 __all__ = [

@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from placement.planning.arrays import BoolArray, FloatArray
+from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray
 from placement.planning.context import PlanningContext
 from placement.planning.problems import Option
 from placement.planning.torso import start_torso
@@ -20,28 +20,125 @@ Group = tuple[str, str | None]
 
 @dataclass(frozen=True)
 class Regions:
-    """Where the base may stand for one step, per (arm, grasp) group.
+    """Where the base may stand for one step, per (arm, grasp) group, kept on the step's cells only.
+
+    A whole-task program keeps every step's regions (hundreds of steps, up to a group per arm and
+    grasp each): on the cells a step's options reach, not on the whole grid.
 
     Attributes:
         groups: (G,) the groups, in a fixed order.
-        masks: (G, ny, nx) bool, the cells of each group.
-        node: (G, ny, nx) float [m] cost of standing there (added to the label), or None (all 0).
+        cells: (n,) int64 flat cells of the grid, ascending: those any group holds (after removals a
+            cell may be held by none).
+        masks: (G, n) bool, each group's cells among ``cells``.
+        shape: (ny, nx) the grid's shape.
+        node: (G, n) float [m] cost of standing there (added to the label), or None (all 0).
         settings: (G,) the torso setting [m or rad; a posture's index] each group's options hold, for
             the program that prices the torso (:mod:`placement.planning.program.priced_torso`: a group per
             (arm, grasp, setting), so a (arm, grasp) may repeat); None: any setting.
     """
 
     groups: tuple[Group, ...]
+    cells: IntArray
     masks: BoolArray
+    shape: tuple[int, int]
     node: FloatArray | None = None
     settings: tuple[float, ...] | None = None
 
+    @classmethod
+    def of(
+        cls,
+        groups: tuple[Group, ...],
+        masks: BoolArray,
+        node: FloatArray | None = None,
+        settings: tuple[float, ...] | None = None,
+    ) -> Regions:
+        """The regions of (G, ny, nx) ``masks`` (and (G, ny, nx) ``node`` [m]) on the whole grid."""
+        G, ny, nx = masks.shape
+        flat = masks.reshape(G, ny * nx)
+        cells = np.flatnonzero(flat.any(axis=0)).astype(np.int64)
+        kept = None if node is None else node.reshape(G, ny * nx)[:, cells]
+        return cls(groups, cells, flat[:, cells], (ny, nx), kept, settings)
+
+    @classmethod
+    def stacked(cls, parts: Sequence[Regions], shape: tuple[int, int]) -> Regions:
+        """The groups of ``parts`` (without node costs) one after the other, on the union of their cells;
+        their settings concatenated when every part has them."""
+        cells = np.unique(np.concatenate([p.cells for p in parts])) if parts else np.zeros(0, np.int64)
+        masks = np.zeros((sum(len(p.groups) for p in parts), cells.size), bool)
+        row = 0
+        for p in parts:
+            masks[row : row + len(p.groups), np.searchsorted(cells, p.cells)] = p.masks
+            row += len(p.groups)
+        sets = [p.settings for p in parts]
+        settings = tuple(t for s in sets if s is not None for t in s) if all(s is not None for s in sets) else None
+        groups = tuple(g for p in parts for g in p.groups)
+        return cls(groups, cells.astype(np.int64), masks, shape, None, settings)
+
+    def any(self) -> bool:
+        """Whether some group holds a cell."""
+        return bool(self.masks.any())
+
+    def mask(self, groups: Sequence[int] | None = None) -> BoolArray:
+        """(ny, nx) bool: the cells of any of ``groups`` (indices; default all)."""
+        out: BoolArray = np.zeros(self.shape[0] * self.shape[1], bool)
+        rows = self.masks if groups is None else self.masks[list(groups)]
+        out[self.cells[rows.any(axis=0)]] = True
+        return out.reshape(self.shape)
+
     def union(self) -> BoolArray:
         """(ny, nx) bool: the cells of any group."""
-        out: BoolArray = np.zeros(self.masks.shape[1:], bool)
-        if len(self.groups):
-            np.any(self.masks, axis=0, out=out)
-        return out
+        return self.mask()
+
+    def dense(self) -> BoolArray:
+        """(G, ny, nx) bool: each group's cells on the whole grid."""
+        out = np.zeros((len(self.groups), self.shape[0] * self.shape[1]), bool)
+        out[:, self.cells] = self.masks
+        return out.reshape(len(self.groups), *self.shape)
+
+    def where(self, flat: int) -> int | None:
+        """The position of the flat cell ``flat`` in :attr:`cells` (None: not one of them)."""
+        k = int(np.searchsorted(self.cells, flat))
+        return k if k < self.cells.size and int(self.cells[k]) == flat else None
+
+    def has(self, g: int, flat: int) -> bool:
+        """Whether group g holds the flat cell ``flat``."""
+        k = self.where(flat)
+        return k is not None and bool(self.masks[g, k])
+
+    def node_at(self, g: int, flat: int) -> float:
+        """Group g's node cost [m] at the flat cell ``flat`` (0 without node costs or off its cells)."""
+        k = self.where(flat)
+        return 0.0 if self.node is None or k is None else float(self.node[g, k])
+
+    def take(self, index: Sequence[int]) -> Regions:
+        """The groups ``index`` (indices, in that order) alone, on the same cells."""
+        rows = list(index)
+        node = None if self.node is None else self.node[rows]
+        sets = None if self.settings is None else tuple(self.settings[k] for k in rows)
+        return Regions(tuple(self.groups[k] for k in rows), self.cells, self.masks[rows], self.shape, node, sets)
+
+    def without(self, g: int, around: int, r: int = 0) -> Regions:
+        """These regions with group g off at the flat cell ``around`` and the cells within ``r`` cells of it
+        (a square)."""
+        iy, ix = divmod(around, self.shape[1])
+        ys, xs = np.divmod(self.cells, self.shape[1])
+        near = (np.abs(ys - iy) <= r) & (np.abs(xs - ix) <= r)
+        masks = self.masks.copy()
+        masks[g, near] = False
+        return replace(self, masks=masks)
+
+    def within(self, other: Regions) -> bool:
+        """Whether every (group, cell) of these regions is one of ``other``'s (same groups and grid)."""
+        if self.groups != other.groups or self.shape != other.shape:
+            return False
+        held = self.masks.any(axis=0)
+        at = np.searchsorted(other.cells, self.cells[held])
+        at = np.minimum(at, max(other.cells.size - 1, 0))
+        if other.cells.size == 0:
+            return not held.any()
+        if not np.array_equal(other.cells[at], self.cells[held]):
+            return False
+        return not np.any(self.masks[:, held] & ~other.masks[:, at])
 
 
 def map_regions(ctx: PlanningContext, i: int, hold_lift: bool = False, held: float | None = None) -> Regions:
@@ -68,7 +165,7 @@ def held_torso(ctx: PlanningContext, i: int) -> float | None:
         return None
     opts = ctx.problems.held_options(i, held)
     region = _regions(ctx.for_step(i), opts)
-    return held if region.masks.any() else None
+    return held if region.any() else None
 
 
 def _regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
@@ -83,13 +180,41 @@ def _regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
 
 def _compute_regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
     nav = ctx.world.nav
+    nx = nav.shape[1]
     groups = sorted({(o.arm, o.candidate.grasp) for o in opts}, key=lambda g: (g[0], str(g[1])))
     index = {g: k for k, g in enumerate(groups)}
-    masks = np.zeros((len(groups), *nav.shape), dtype=bool)
+    held: list[list[IntArray]] = [[] for _ in groups]
     for o in opts:
-        masks[index[(o.arm, o.candidate.grasp)]][o.window.slices] |= o.value >= ctx.threshold(o.arm, o.torso)
-    masks &= ctx.world.feasible
-    return Regions(tuple(groups), masks)
+        ly, lx = np.nonzero(o.value >= ctx.threshold(o.arm, o.torso))
+        if ly.size:
+            held[index[(o.arm, o.candidate.grasp)]].append((ly + o.window.y0) * nx + lx + o.window.x0)
+    per_group = [np.unique(np.concatenate(f)) if f else np.zeros(0, np.int64) for f in held]
+    per_group = [f[ctx.world.feasible.flat[f]] for f in per_group]
+    cells = np.unique(np.concatenate(per_group)) if per_group else np.zeros(0, np.int64)
+    masks = np.zeros((len(groups), cells.size), dtype=bool)
+    for k, f in enumerate(per_group):
+        masks[k, np.searchsorted(cells, f)] = True
+    return Regions(tuple(groups), cells.astype(np.int64), masks, nav.shape)
+
+
+def best_values(reg: Regions, opts: Sequence[tuple[int, Option]]) -> Float32Array:
+    """(G, n) the best map value of the options ``opts`` ((group index, option) pairs) on each group's
+    cells of ``reg`` (0 where none reaches)."""
+    best = np.zeros(reg.masks.shape, np.float32)
+    ys, xs = np.divmod(reg.cells, reg.shape[1])
+    for k, o in opts:
+        w = o.window
+        inside = np.flatnonzero((ys >= w.y0) & (ys < w.y1) & (xs >= w.x0) & (xs < w.x1))
+        best[k, inside] = np.maximum(best[k, inside], o.value[ys[inside] - w.y0, xs[inside] - w.x0])
+    return best
+
+
+def node_costs(reg: Regions, weight: float, best: Float32Array) -> FloatArray:
+    """(G, n) the node cost ``weight / m`` [m] on each group's cells of ``reg`` (m: ``best``, its best
+    map value there), 0 off them."""
+    with np.errstate(divide="ignore"):
+        out: FloatArray = np.where(reg.masks, weight / np.maximum(best, 1e-12), 0.0)
+    return out
 
 
 def reweighted(ctx: PlanningContext, i: int, reg: Regions) -> Regions:
@@ -98,14 +223,9 @@ def reweighted(ctx: PlanningContext, i: int, reg: Regions) -> Regions:
     weight = ctx.config.optimal_manipulability_weight
     if weight <= 0 or not reg.groups:
         return reg
-    best = np.zeros(reg.masks.shape, np.float32)
     index = {gr: k for k, gr in enumerate(reg.groups)}
-    for o in ctx.problems.options(i):
-        k = index[(o.arm, o.candidate.grasp)]
-        np.maximum(best[k][o.window.slices], o.value, out=best[k][o.window.slices])
-    with np.errstate(divide="ignore"):
-        node = np.where(reg.masks, weight / np.maximum(best, 1e-12), 0.0)
-    return replace(reg, node=node)
+    best = best_values(reg, [(index[(o.arm, o.candidate.grasp)], o) for o in ctx.problems.options(i)])
+    return replace(reg, node=node_costs(reg, weight, best))
 
 
-__all__ = ["Group", "Regions", "held_torso", "map_regions", "reweighted"]
+__all__ = ["Group", "Regions", "best_values", "held_torso", "map_regions", "node_costs", "reweighted"]

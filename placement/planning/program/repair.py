@@ -60,8 +60,7 @@ class RepairView(Protocol):
 
 def node_cost(dp: RepairView, i: int, g: int, flat: int) -> float:
     """Step i's node term [m] at cell ``flat`` in group g (0 without one)."""
-    node = dp.regions[i].node
-    return 0.0 if node is None else float(node[g].flat[flat])
+    return dp.regions[i].node_at(g, flat)
 
 
 def repair(dp: RepairView, chain: Chain, i: int) -> tuple[Chain, Verified] | None:
@@ -74,7 +73,7 @@ def repair(dp: RepairView, chain: Chain, i: int) -> tuple[Chain, Verified] | Non
     g0 = chain.groups[i]
     fixed = dp.linked[i] or (i + 1 < n and dp.linked[i + 1])
     groups = [g0] if fixed else list(range(len(reg.groups)))
-    targets = np.any(reg.masks[groups], axis=0)
+    targets = reg.mask(groups)
     if not targets.any():
         return None
     prev_cell = dp.start if i == 0 else divmod(chain.cells[i - 1], nx)
@@ -96,7 +95,7 @@ def repair(dp: RepairView, chain: Chain, i: int) -> tuple[Chain, Verified] | Non
             score += out_of
         if not whole:
             score[score > reach] = np.inf
-        for flat, g in _best(score, reg.masks, groups, count):
+        for flat, g in _best(score, reg, groups, count):
             if (flat, g) in tried:
                 continue
             tried.add((flat, g))
@@ -144,13 +143,13 @@ def _detour_bound(
     return out
 
 
-def _best(score: np.ndarray, masks: np.ndarray, groups: list[int], count: int) -> list[tuple[int, int]]:
+def _best(score: np.ndarray, reg: Regions, groups: list[int], count: int) -> list[tuple[int, int]]:
     """The ``count`` (flat cell, group) of ``groups`` with the lowest finite ``score`` (ny, nx) on their
-    masks (G, ny, nx), by (score, cell, group) ascending."""
+    cells of ``reg``, by (score, cell, group) ascending."""
     flats, grps, vals = [], [], []
-    finite = np.isfinite(score)
+    finite = np.isfinite(score).reshape(-1)[reg.cells]
     for g in groups:
-        f = np.flatnonzero(masks[g] & finite)
+        f = reg.cells[reg.masks[g] & finite]
         flats.append(f)
         grps.append(np.full(f.size, g))
         vals.append(score.flat[f])

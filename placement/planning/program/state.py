@@ -6,7 +6,6 @@ the program and its layers, what verification found.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 
@@ -190,14 +189,10 @@ class DynamicProgram:
 
     def remove(self, i: int, flat: int, g: int, count: bool = True) -> None:
         """Take the rejected (cell, group) (and its neighbourhood, for ``global``) out of step i's region."""
-        reg = self.regions[i]
-        masks = reg.masks.copy()
-        iy, ix = divmod(flat, masks.shape[2])
         late = count and self.exact_repairs is not None and self.repairs >= self.exact_repairs
         r = self.neighbourhood if late else 0
         self.coarse = self.coarse or r > 0
-        masks[g, max(iy - r, 0) : iy + r + 1, max(ix - r, 0) : ix + r + 1] = False
-        self.regions[i] = replace(reg, masks=masks)
+        self.regions[i] = self.regions[i].without(g, flat, r)
         if count:
             self.rejected[i] += 1
             self.repairs += 1
@@ -257,14 +252,13 @@ class DynamicProgram:
         remove those that fail too: rejections cluster (at the frontier of reach, beside an
         obstacle), and an IK call costs less than solving the program again for each of them."""
         r = self.ctx.config.optimal_probe
-        masks = self.regions[i].masks
-        ny, nx = masks.shape[1:]
-        iy, ix = divmod(flat, nx)
-        for y in range(max(iy - r, 0), min(iy + r + 1, ny)):
-            for x in range(max(ix - r, 0), min(ix + r + 1, nx)):
-                f = y * nx + x
-                if self.regions[i].masks[g, y, x] and self.verify(i, f, g) is None:
-                    self.remove(i, f, g)
+        reg = self.regions[i]
+        iy, ix = divmod(flat, reg.shape[1])
+        ys, xs = np.divmod(reg.cells, reg.shape[1])
+        near = reg.cells[reg.masks[g] & (np.abs(ys - iy) <= r) & (np.abs(xs - ix) <= r)]
+        for f in near.tolist():  # row by row, as the grid is laid out
+            if self.regions[i].has(g, f) and self.verify(i, f, g) is None:
+                self.remove(i, f, g)
 
 
 __all__ = ["DynamicProgram"]

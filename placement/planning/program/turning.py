@@ -164,7 +164,7 @@ def time_cells(
         iy0, ix0 = divmod(cells[i], nx)
         targets = np.zeros(nav.shape, bool)
         targets[max(iy0 - r, 0) : iy0 + r + 1, max(ix0 - r, 0) : ix0 + r + 1] = True
-        targets &= dp.regions[i].masks[g]
+        targets &= dp.regions[i].mask([g])
         targets[iy0, ix0] = True
         prev_cell = dp.start if i == 0 else divmod(cells[i - 1], nx)
         into = ctx.problems.legs(prev_cell, targets)
