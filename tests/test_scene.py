@@ -139,7 +139,8 @@ ERRORS = [
     (
         set_key(["planner", "speed"], 2.0),
         "unknown key 'planner.speed'; allowed: collision_padding, d_max, face_target, footprint_padding, grasp_yaws, ik_budget_ms, "
-        "lambda_m, lambda_n, lambda_nh, threshold, threshold_quantile, time_budget_s, time_polish, velocity_k, velocity_lambda, yaw_steps",
+        "lambda_m, lambda_n, lambda_nh, memory_budget_gib, threshold, threshold_quantile, time_budget_s, time_polish, velocity_k, "
+        "velocity_lambda, yaw_steps",
     ),
     # yaw only, no quaternions
     (
@@ -327,6 +328,7 @@ def test_planner_keys_are_documented():
         "collision_padding",
         "ik_budget_ms",
         "time_budget_s",
+        "memory_budget_gib",
         "time_polish",
         "face_target",
     }

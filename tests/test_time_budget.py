@@ -20,7 +20,7 @@ SCENE = ROOT / "examples" / "table_clearing_obstacles.yaml"
 
 
 class CountingClock:
-    """``out_of_time`` that answers True from its ``after``-th call on (0: at once)."""
+    """``out_of_budget`` that answers True from its ``after``-th call on (0: at once)."""
 
     def __init__(self, after: int):
         self.after, self.calls = after, 0
@@ -31,7 +31,7 @@ class CountingClock:
 
 
 def install(monkeypatch, clock: CountingClock) -> None:
-    monkeypatch.setattr(PlanningContext, "out_of_time", lambda ctx: clock(ctx))
+    monkeypatch.setattr(PlanningContext, "out_of_budget", lambda ctx: clock(ctx))
 
 
 @pytest.fixture(scope="module")
@@ -92,3 +92,59 @@ def test_a_certificate_cut_by_the_budget_says_so(planners, monkeypatch):
     assert "time budget of 3600 s ran out" in cert["stopped"]
     monkeypatch.undo()
     assert planner.plan().certificate.lower_bound_s * planner.robot.v_max == pytest.approx(bound)
+
+
+class GrowingMemory:
+    """``resident_gib`` that reports the process as grown by 1 TiB from its ``after``-th reading on."""
+
+    def __init__(self, after: int):
+        self.after, self.calls = after, 0
+
+    def __call__(self) -> float:
+        self.calls += 1
+        return 1.0 if self.calls <= self.after else 1024.0
+
+
+@pytest.mark.parametrize("method", ["global", "sequential"])
+def test_the_memory_budget_spent_at_any_check_keeps_a_verified_partial_plan(planners, method, monkeypatch):
+    """The memory budget (``memory_budget_gib`` added to the resident memory at the plan's start) is
+    checked where the time budget is: run out at readings spread over a plan, the method keeps the
+    steps verified before and says which budget ran out and how to raise it."""
+    import placement.planning.context as context
+    import placement.planning.planner as planner_module
+
+    planner = planners[method]
+    meter = GrowingMemory(10**9)
+    monkeypatch.setattr(context, "resident_gib", meter)
+    monkeypatch.setattr(planner_module, "resident_gib", meter)
+    assert planner.plan().ok
+    readings = meter.calls
+    assert readings > 1  # the plan's start, then its checks
+    for after in sorted({1 + round(k * (readings - 1) / 8) for k in range(8)}):
+        meter = GrowingMemory(after)
+        monkeypatch.setattr(context, "resident_gib", meter)
+        monkeypatch.setattr(planner_module, "resident_gib", meter)
+        result = planner.plan()
+        assert result.verify(planner.robot, scene=planner.scene) == [], after
+        if result.ok:
+            continue
+        failed = result.failed_step
+        assert failed is result.steps[-1] and all(s.ok for s in result.steps[:-1]), after
+        assert "memory budget of 3 GiB ran out" in failed.reason and "planner.memory_budget_gib" in failed.reason, (
+            after,
+            failed.reason,
+        )
+
+
+def test_a_plan_past_its_memory_budget_at_once_stops_at_its_first_step(planners):
+    """The process's real resident memory (``/proc/self/statm``) against a limit below it: the first
+    step is not planned, saying the memory budget ran out."""
+    import placement.planning.context as context
+
+    if context.resident_gib() is None:
+        pytest.skip("no /proc/self/statm here: the memory budget does not apply")
+    planner = planners["sequential"]
+    ctx = replace(planner.context, memory_limit=0.001, spent=[])
+    steps = planner.method.plan(ctx, planner.start_cell(), False)
+    assert len(steps) == 1 and not steps[0].ok
+    assert "memory budget of 3 GiB ran out" in steps[0].reason

@@ -8,6 +8,7 @@ the planner, so they depend on what they read and never on the planner.
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -24,9 +25,26 @@ from placement.scene import Scene
 
 
 class BudgetSpent(Exception):
-    """The task's time budget ran out inside a computation that has no partial result (a whole-task
-    program's solve, the regions of every step): raised by :meth:`PlanningContext.check_time`, caught
-    by the method, which keeps the steps verified before."""
+    """The task's time or memory budget ran out inside a computation that has no partial result (a
+    whole-task program's solve, the regions of every step): raised by
+    :meth:`PlanningContext.check_budget`, caught by the method, which keeps the steps verified before."""
+
+
+def resident_gib() -> float | None:
+    """The process's resident memory [GiB] now (``/proc/self/statm``), or None where it cannot be read
+    (not Linux): the memory budget then does not apply."""
+    try:
+        with open("/proc/self/statm", "rb") as f:
+            pages = int(f.read().split()[1])
+    except (OSError, ValueError, IndexError):
+        return None
+    return pages * _PAGE / 2**30
+
+
+try:
+    _PAGE = os.sysconf("SC_PAGE_SIZE")
+except (AttributeError, OSError, ValueError):  # not POSIX
+    _PAGE = 4096
 
 
 @dataclass(frozen=True)
@@ -47,6 +65,11 @@ class PlanningContext:
             (built on first use, see :mod:`placement.planning.torso`; updated with ``collisions``).
         deadline: ``time.perf_counter()`` after which the running plan stops (None: none); set by
             :meth:`Planner.plan <placement.planning.planner.Planner.plan>` from ``time_budget_s``.
+        memory_limit: the process's resident memory [GiB] past which the running plan stops (None:
+            none); set by :meth:`Planner.plan <placement.planning.planner.Planner.plan>` to the memory at
+            its start plus ``memory_budget_gib``.
+        spent: the budget that ran out, once one did (:meth:`spent_budget`; one list per plan, shared by
+            the contexts :meth:`for_step` derives, so that every later check says the same budget).
     """
 
     scene: Scene
@@ -60,6 +83,8 @@ class PlanningContext:
     thresholds: Thresholds = field(default_factory=Thresholds)
     torso_checks: dict[float, SceneCollision] = field(default_factory=dict)
     deadline: float | None = None
+    memory_limit: float | None = None
+    spent: list[tuple[str, str]] = field(default_factory=list)
 
     def for_step(self, i: int) -> PlanningContext:
         """The context step i is planned in: this one, or with every threshold multiplied by
@@ -71,21 +96,50 @@ class PlanningContext:
             self, config=replace(self.config, threshold=self.config.threshold * r), thresholds=self.thresholds.scaled(r)
         )
 
-    def out_of_time(self) -> bool:
-        """Whether the plan's time budget has run out (``deadline``: a ``time.perf_counter()`` value)."""
-        return self.deadline is not None and time.perf_counter() > self.deadline
+    def spent_budget(self) -> tuple[str, str] | None:
+        """The budget that has run out, (what it is, how to raise it) in words, or None: the time
+        (``deadline``) or the memory (``memory_limit``); once one has run out, that one."""
+        if self.spent:
+            return self.spent[0]
+        if self.deadline is not None and time.perf_counter() > self.deadline:
+            self.spent.append(
+                (
+                    f"the task's time budget of {self.config.time_budget_s:g} s",
+                    "raise planner.time_budget_s to plan longer",
+                )
+            )
+        elif self.memory_limit is not None:
+            now = resident_gib()
+            if now is not None and now > self.memory_limit:
+                self.spent.append(
+                    (
+                        f"the task's memory budget of {self.config.memory_budget_gib:g} GiB",
+                        "raise planner.memory_budget_gib to plan further",
+                    )
+                )
+        return self.spent[0] if self.spent else None
 
-    def check_time(self) -> None:
-        """Raise :class:`BudgetSpent` when the plan's time budget has run out."""
-        if self.out_of_time():
+    def out_of_budget(self) -> bool:
+        """Whether the plan's time or memory budget has run out (:meth:`spent_budget`)."""
+        return self.spent_budget() is not None
+
+    def check_budget(self) -> None:
+        """Raise :class:`BudgetSpent` when the plan's time or memory budget has run out."""
+        if self.out_of_budget():
             raise BudgetSpent(self.budget_words())
 
-    def budget_words(self) -> str:
-        """Why a step was not planned when :meth:`out_of_time`."""
-        return (
-            f"the task's time budget of {self.config.time_budget_s:g} s ran out before this step was verified "
-            "(raise planner.time_budget_s to plan longer)"
+    def budget(self) -> tuple[str, str]:
+        """The budget that ran out, (what it is, how to raise it) in words: :meth:`spent_budget`'s, or the
+        time budget's while none has."""
+        return self.spent_budget() or (
+            f"the task's time budget of {self.config.time_budget_s:g} s",
+            "raise planner.time_budget_s to plan longer",
         )
+
+    def budget_words(self) -> str:
+        """Why a step was not planned when :meth:`out_of_budget`."""
+        what, how = self.budget()
+        return f"{what} ran out before this step was verified ({how})"
 
     def threshold(self, arm: str, torso: float | None = None) -> float:
         """The map value below which a placement of ``arm`` with the torso at ``torso`` [m or rad] (an
@@ -111,4 +165,4 @@ class PlanningContext:
         return {"grasped": None, "gone": gone}
 
 
-__all__ = ["BudgetSpent", "PlanningContext"]
+__all__ = ["BudgetSpent", "PlanningContext", "resident_gib"]

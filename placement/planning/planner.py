@@ -39,7 +39,7 @@ from placement.errors import MapError, PlacementError
 from placement.maps.opening import open_map
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import Cell, FloatArray
-from placement.planning.context import PlanningContext
+from placement.planning.context import PlanningContext, resident_gib
 from placement.planning.methods import DEFAULT_METHOD, METHODS, Method, method_named
 from placement.planning.prepare import PREFETCH_SHARE, prefetch_slices, warm_checks, warm_kernels
 from placement.planning.problems import StepProblems, Thresholds, base_yaws
@@ -304,7 +304,9 @@ class Planner:
         self.follow_maps()
         start = self.start_cell()
         deadline = time.perf_counter() + self.context.config.time_budget_s
-        timed = replace(self.context, deadline=deadline)
+        now = resident_gib()
+        limit = None if now is None else now + self.context.config.memory_budget_gib
+        timed = replace(self.context, deadline=deadline, memory_limit=limit, spent=[])
         steps = self.method.plan(timed, start, keep_maps)
         cert = certify(timed, self.method, start, steps)
         return PlanResult(self.scene.name, self.method.name, robot_info(self.robot, self.maps), steps, None, cert)

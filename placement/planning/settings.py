@@ -55,7 +55,9 @@ class PlannerConfig:
             ``optimal`` turn them where that shortens the task time; 0: the least travel at each cell's
             best map yaw (see :mod:`placement.planning.program.turning`).
         time_budget_s: time planning the whole task may take [s]; a step not verified by then is
-            infeasible and says so (:meth:`PlanningContext.out_of_time`).
+            infeasible and says so (:meth:`PlanningContext.out_of_budget`).
+        memory_budget_gib: resident memory planning the whole task may add to the process [GiB]; a
+            step not verified by then is infeasible and says so (as ``time_budget_s``).
     Fixed (not in scenes; the stages' tuning constants):
         ik_tries: placements tried best-first (per option and tier in the ranking) before the search
             spreads over every ranked placement [count] (see placement/planning/methods/search.py).
@@ -107,6 +109,7 @@ class PlannerConfig:
     footprint_padding: float = _key("footprint_padding")
     ik_budget_ms: float = _key("ik_budget_ms")
     time_budget_s: float = _key("time_budget_s")
+    memory_budget_gib: float = _key("memory_budget_gib")
     face_target: float = _key("face_target")
     time_polish: int = _key("time_polish")
     ik_tries: int = 25

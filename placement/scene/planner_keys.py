@@ -136,6 +136,13 @@ PLANNER_SETTINGS: dict[str, dict[str, Any]] = {
         minimum=0.1,
         maximum=3600.0,
     ),
+    "memory_budget_gib": dict(
+        default=3.0,
+        help="memory planning the whole task may add to the process [GiB], 0.01 .. 1024 (default 3): a step "
+        "not verified by then is infeasible, saying so",
+        minimum=0.01,
+        maximum=1024.0,
+    ),
 }
 
 #: Keys allowed in a scene's ``planner:`` block: name -> help text with unit and default.

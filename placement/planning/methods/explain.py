@@ -170,8 +170,7 @@ def explain(
         return ctx.budget_words(), d
     stop = {
         "budget": f", when the {ctx.config.ik_budget_ms:g} ms IK budget ran out",
-        "task": f", when the task's time budget of {ctx.config.time_budget_s:g} s ran out (raise "
-        "planner.time_budget_s to plan longer)",
+        "task": ", when " + ctx.budget_words().replace(" before this step was verified", ""),
         "cap": f", the most the search tries ({ctx.config.ik_cap})",
     }.get(search.stop, ", every candidate")
     if search.tried == 0:

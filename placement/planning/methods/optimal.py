@@ -108,7 +108,7 @@ def _solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], S
         failed: list[tuple[int, int, int]] = []
         picks: list[Verified] = []
         for i in range(len(chain.cells)):
-            if ctx.out_of_time():  # the steps verified so far stand: a partial plan
+            if ctx.out_of_budget():  # the steps verified so far stand: a partial plan
                 # up to the first step this pass rejected: ``picks`` skips the rejected ones
                 k = failed[0][0] if failed else i
                 return chain, picks[:k], infeasible(steps[k], ctx.budget_words())
@@ -221,14 +221,14 @@ def for_task_time(
     shortens the task."""
     ctx, start = dp.ctx, dp.start
     best = task_seconds(dp, out)
-    if move and not ctx.out_of_time():
+    if move and not ctx.out_of_budget():
         moved = time_cells(dp, chain, picks, out)
         if moved is not None:
             steps = results(ctx, start, dp, *moved, keep_maps)
             seconds = task_seconds(dp, steps)
             if seconds < best - 1e-9:
                 (chain, picks), out, best = moved, steps, seconds
-    if not ctx.out_of_time():
+    if not ctx.out_of_budget():
         turned = time_yaws(dp, chain, picks, out)
         if turned is not None:
             steps = results(ctx, start, dp, chain, turned, keep_maps)

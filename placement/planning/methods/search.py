@@ -223,7 +223,7 @@ def search_placement(
             out.stop = "cap"
         elif time.perf_counter() > deadline:
             out.stop = "budget"
-        elif ctx.out_of_time():
+        elif ctx.out_of_budget():
             out.stop = "task"
         else:
             return False

@@ -61,7 +61,7 @@ def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell
     i = 0
     while i < len(steps):
         step = steps[i]
-        if ctx.out_of_time():
+        if ctx.out_of_budget():
             out.append(infeasible(step, ctx.budget_words()))
             break
         if step.action == "pick" and i + 1 < len(steps) and steps[i + 1].pick == i:
@@ -121,7 +121,7 @@ def plan_transfer(
         return [first, infeasible(place, reason, diagnosis)], None
     while True:
         allowed = picks - failed.keys()
-        if failed and ctx.out_of_time():
+        if failed and ctx.out_of_budget():
             return [infeasible(pick, ctx.budget_words())], None
         if not allowed:
             result = StepResult(

@@ -46,15 +46,12 @@ def certify(ctx: PlanningContext, method: RegionSource, start: Cell, steps: list
         try:
             regions = []
             for i in range(len(ctx.problems.steps)):
-                ctx.check_time()
+                ctx.check_budget()
                 regions.append(method.regions(ctx, i))
             bound_m = travel_bound(ctx, start, regions)
             ctx.problems.bounds[key] = bound_m
         except BudgetSpent:
-            bound_m, stopped = (
-                math.nan,
-                f"not computed: the task's time budget of {ctx.config.time_budget_s:g} s ran out",
-            )
+            bound_m, stopped = math.nan, f"not computed: {ctx.budget()[0]} ran out"
     ok = bool(steps) and len(steps) == len(ctx.problems.steps) and all(s.ok for s in steps)
     travel = sum(float(s.travel_time_s or 0.0) for s in steps) if ok else None
     task = None

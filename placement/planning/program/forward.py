@@ -230,7 +230,7 @@ def forward(
             (same groups and node costs, masks a subset), its layer is the old one with those cells
             set to inf (its Dijkstras' costs do not depend on their targets), no Dijkstra.
         stop: called before each step's searches; it raises to end the solve (the task's time
-            budget, :meth:`~placement.planning.context.PlanningContext.check_time`).
+            budget, :meth:`~placement.planning.context.PlanningContext.check_budget`).
     Returns:
         one :class:`Layer` per step; a step no cell reaches has all labels inf, and so do the
         steps after it.
@@ -503,13 +503,13 @@ def travel_bound(ctx: PlanningContext, start: Cell, regions: Sequence[Regions] |
     if regions is None:
         regions = []
         for i in range(len(ctx.problems.steps)):
-            ctx.check_time()
+            ctx.check_budget()
             regions.append(map_regions(ctx, i))
     regs = list(regions)
     if not regs:
         return 0.0
     w = ctx.world
-    chain, _ = cheapest(w.factor, w.feasible, w.nav.resolution, start, regs, linked_steps(ctx), ctx.check_time)
+    chain, _ = cheapest(w.factor, w.feasible, w.nav.resolution, start, regs, linked_steps(ctx), ctx.check_budget)
     return chain.total if chain is not None else math.inf
 
 

@@ -51,7 +51,7 @@ class DynamicProgram:
             self.hold: list[float | None] = [None] * len(steps)
             self.full = []
             for i in range(len(steps)):
-                ctx.check_time()
+                ctx.check_budget()
                 self.full.append(torso_regions(ctx, i))
             grid = (w.factor, w.feasible, w.nav.resolution, start)
             floor = ctx.problems.bounds.get(("maps", start))
@@ -64,12 +64,12 @@ class DynamicProgram:
             self.hold = []
             self.full = []
             for i in range(len(steps)):
-                ctx.check_time()
+                ctx.check_budget()
                 self.hold.append(held_torso(ctx, i))
                 self.full.append(map_regions(ctx, i, held=self.hold[-1]))
             self.program = Program(w.factor, w.feasible, w.nav.resolution, start, self.linked)
         # the task's time budget ends a solve between two steps (BudgetSpent, caught by the method)
-        self.program.stop = ctx.check_time
+        self.program.stop = ctx.check_budget
         self.regions = self.weighted()
         # what verification found, kept by the planner's per-step cache: a later plan of the same
         # scene replays the same program with the IK answers looked up (same plan, without the IK

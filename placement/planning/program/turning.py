@@ -144,7 +144,7 @@ def time_cells(
     r = int(round(CELL_WINDOW_M / nav.resolution))
     moved = False
     for i in range(n):
-        if ctx.out_of_time():
+        if ctx.out_of_budget():
             break
         g = groups[i]
         prev_yaw = float(ctx.scene.start[2]) if i == 0 else chosen[i - 1].base[2]
@@ -241,7 +241,7 @@ def time_yaws(
             if j == 0:
                 chosen.append(v)
                 continue
-            if ctx.out_of_time():
+            if ctx.out_of_budget():
                 return None
             if (i, j) not in tried:
                 base = (v.base[0], v.base[1], float(yaws[i][j]))
