@@ -180,21 +180,26 @@ def _regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
 
 def _compute_regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
     nav = ctx.world.nav
-    nx = nav.shape[1]
+    ny, nx = nav.shape
     groups = sorted({(o.arm, o.candidate.grasp) for o in opts}, key=lambda g: (g[0], str(g[1])))
     index = {g: k for k, g in enumerate(groups)}
-    held: list[list[IntArray]] = [[] for _ in groups]
+    if not opts:
+        return Regions(tuple(groups), np.zeros(0, np.int64), np.zeros((0, 0), bool), nav.shape)
+    # the options' windows overlap (one target): their bounding box, dense, then its cells kept
+    y0, x0 = min(o.window.y0 for o in opts), min(o.window.x0 for o in opts)
+    y1, x1 = max(o.window.y1 for o in opts), max(o.window.x1 for o in opts)
+    box = np.zeros((len(groups), y1 - y0, x1 - x0), dtype=bool)
     for o in opts:
-        ly, lx = np.nonzero(o.value >= ctx.threshold(o.arm, o.torso))
-        if ly.size:
-            held[index[(o.arm, o.candidate.grasp)]].append((ly + o.window.y0) * nx + lx + o.window.x0)
-    per_group = [np.unique(np.concatenate(f)) if f else np.zeros(0, np.int64) for f in held]
-    per_group = [f[ctx.world.feasible.flat[f]] for f in per_group]
-    cells = np.unique(np.concatenate(per_group)) if per_group else np.zeros(0, np.int64)
-    masks = np.zeros((len(groups), cells.size), dtype=bool)
-    for k, f in enumerate(per_group):
-        masks[k, np.searchsorted(cells, f)] = True
-    return Regions(tuple(groups), cells.astype(np.int64), masks, nav.shape)
+        w = o.window
+        box[index[(o.arm, o.candidate.grasp)], w.y0 - y0 : w.y1 - y0, w.x0 - x0 : w.x1 - x0] |= (
+            o.value >= ctx.threshold(o.arm, o.torso)
+        )
+    box &= ctx.world.feasible[y0:y1, x0:x1]
+    flat = box.reshape(len(groups), -1)
+    local = np.flatnonzero(flat.any(axis=0))
+    ly, lx = np.divmod(local, x1 - x0)
+    cells = ((ly + y0) * nx + lx + x0).astype(np.int64)  # ascending: row by row in the box and the grid
+    return Regions(tuple(groups), cells, flat[:, local], (ny, nx))
 
 
 def best_values(reg: Regions, opts: Sequence[tuple[int, Option]]) -> Float32Array:
