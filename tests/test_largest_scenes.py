@@ -49,3 +49,15 @@ def test_a_largest_scene_ends_within_its_budget(maps_dir, tmp_path, case, method
         assert got["said"], got
         if "budget" in got["said"]:
             assert "time budget of 2 s ran out" in got["said"] or "IK budget" in got["said"], got
+
+
+def test_a_query_past_its_memory_budget_stops_saying_so(maps_dir, tmp_path):
+    """The memory budget in a real process: 100 pick/place pairs may add only 10 MiB to the query's
+    resident memory (far less than their options take): the query stops at that budget, saying so,
+    long before its time budget."""
+    doc = bench_limits.with_planner(bench_limits.two_rooms(str(maps_dir)), time_budget_s=60.0, memory_budget_gib=0.01)
+    path = tmp_path / "pairs.yaml"
+    path.write_text(bench_limits.dumped(doc))
+    got = bench_limits.run(path, str(maps_dir), "global", limit=60.0)
+    assert got["rc"] == 3 and got["wall"] < 60.0, got
+    assert "memory budget of 0.01 GiB ran out" in got["said"] and "planner.memory_budget_gib" in got["said"], got
