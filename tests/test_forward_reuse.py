@@ -23,8 +23,8 @@ def test_a_narrowed_step_keeps_its_layer_and_the_result(seed, monkeypatch):
     masks = regions[i].masks & (rng.random(regions[i].masks.shape) > 0.3)  # a few cells rejected
     changed = [*regions[:i], replace(regions[i], masks=masks), *regions[i + 1 :]]
     calls = []
-    real = bound.navigation_cost
-    monkeypatch.setattr(bound, "navigation_cost", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = bound.costs_at
+    monkeypatch.setattr(bound, "costs_at", lambda *a, **k: calls.append(1) or real(*a, **k))
     again = forward(factor, feasible, RES, start, changed, linked, layers, first=i, before=regions)
     monkeypatch.undo()
     fresh = forward(factor, feasible, RES, start, changed, linked)
@@ -36,7 +36,7 @@ def test_a_narrowed_step_keeps_its_layer_and_the_result(seed, monkeypatch):
         assert a.total == b.total
     # step i cost no Dijkstra: only the later steps did, as many as they do on their own
     later = []
-    monkeypatch.setattr(bound, "navigation_cost", lambda *a, **k: later.append(1) or real(*a, **k))
+    monkeypatch.setattr(bound, "costs_at", lambda *a, **k: later.append(1) or real(*a, **k))
     forward(factor, feasible, RES, start, changed, linked, again, first=i + 1)
     assert len(calls) == len(later)
 

@@ -9,7 +9,14 @@ from scipy.sparse.csgraph import dijkstra
 from support.navigation import S2, grid_graph
 
 from placement.errors import PlacementError
-from placement.planning.world.navigation import distance_map, extract_path, navigation_cost, path_starts, speed_factor
+from placement.planning.world.navigation import (
+    costs_at,
+    distance_map,
+    extract_path,
+    navigation_cost,
+    path_starts,
+    speed_factor,
+)
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -198,3 +205,65 @@ def test_directed_search_leaves_the_far_side_unsearched():
     cost, _ = navigation_cost(np.ones((40, 40)), feas, (20, 20), 0.1, targets=targets)
     assert cost[20, 39] == pytest.approx(1.9, abs=1e-12)
     assert np.isfinite(cost[:, :20]).sum() < 60  # a plain search settles all 800 west-side cells
+
+
+def _frozen_copy(a):
+    a = a.copy()
+    a.flags.writeable = False
+    return a
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_costs_at_targets_equal_the_whole_maps_in_any_order_of_searches(seed):
+    """costs_at (the targets' costs and path sources only, on kept work arrays for read-only grids)
+    against navigation_cost's (ny, nx) maps and scipy's Dijkstra, over a random sequence of searches
+    (sources, targets, reverse) on the same grids: a search leaves nothing behind for the next one,
+    and the kept work arrays come back as they were."""
+    from placement.planning.world import navigation as nav
+
+    rng = np.random.default_rng(1200 + seed)
+    ny, nx = (int(v) for v in rng.integers(4, 30, size=2))
+    feas = rng.random((ny, nx)) > 0.25
+    fac = speed_factor(distance_map(~feas, 0.05), 1.3, 4, 1.0)
+    grids = [(fac, feas), (_frozen_copy(fac), _frozen_copy(feas))]  # made per search / kept
+    dist = dijkstra(grid_graph(fac, feas, 0.05))
+    for _ in range(12):
+        k = int(rng.integers(1, 4))
+        starts = np.argwhere(feas)[rng.choice(feas.sum(), size=k, replace=False)]
+        at = rng.choice(ny * nx, size=int(rng.integers(1, 12)), replace=False)
+        reverse = bool(rng.integers(0, 2))
+        targets = np.zeros((ny, nx), bool)
+        targets.flat[at] = True
+        want, pred = navigation_cost(fac, feas, starts, 0.05, targets=targets, reverse=reverse)
+        for f, m in grids:
+            cost, source = costs_at(f, m, starts, 0.05, at, reverse=reverse)
+            np.testing.assert_array_equal(cost, want.flat[at])
+            ref = [
+                int(extract_path(pred, divmod(int(c), nx))[0] @ [nx, 1]) if np.isfinite(want.flat[c]) else int(c)
+                for c in at
+            ]
+            assert source.tolist() == ref
+        flat_starts = starts[:, 0] * nx + starts[:, 1]
+        oracle = dist[flat_starts][:, at].min(axis=0) if not reverse else dist[at][:, flat_starts].min(axis=1)
+        finite = np.isfinite(oracle)
+        assert np.array_equal(np.isfinite(want.flat[at]), finite)
+        np.testing.assert_allclose(want.flat[at][finite], oracle[finite], rtol=1e-12)
+    assert nav._kept.grids
+    for _, _, grid, work in nav._kept.grids.values():
+        cost, prev, open_, tgt, root = work
+        assert np.isinf(cost).all() and (prev == -1).all() and np.array_equal(open_, grid[1])
+        assert not tgt.any() and (root == -1).all()
+
+
+def test_costs_at_literal_corridor():
+    #   a 1 x 5 corridor searched from cell 1 towards cells 4 and 0; cell 3 blocked in the second grid
+    cost, source = costs_at(np.ones((1, 5)), np.ones((1, 5), bool), [(0, 1)], 0.1, np.array([4, 0]))
+    np.testing.assert_allclose(cost, [0.3, 0.1])
+    assert source.tolist() == [1, 1]
+    blocked = np.array([[True, True, True, False, True]])
+    cost, source = costs_at(np.ones((1, 5)), blocked, [(0, 1)], 0.1, np.array([4, 2]))
+    assert np.isinf(cost[0]) and cost[1] == pytest.approx(0.1)
+    assert source.tolist() == [4, 1]  # unreached: the cell itself
+    assert costs_at(np.ones((1, 5)), blocked, [(0, 1)], 0.1, np.zeros(0, np.int64))[0].size == 0
+    with pytest.raises(PlacementError, match="outside"):
+        costs_at(np.ones((1, 5)), blocked, [(0, 1)], 0.1, np.array([5]))

@@ -98,6 +98,31 @@ def _guide(i: int, W: int, ty0: int, ty1: int, tx0: int, tx1: int, hs: float) ->
 
 
 @njit(cache=True)
+def padded_grid(
+    factor: npt.NDArray[np.float64], feasible: npt.NDArray[np.bool_]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_], float, float]:
+    """The grid as :func:`padded_costs` reads it: (fac (N,), feas (N,)) with a border of infeasible cells
+    (N = (ny + 2) (nx + 2), row-major: no bounds checks in the search), and the least and largest
+    factor of a feasible cell (inf and 0 when none is)."""
+    ny, nx = factor.shape
+    W = nx + 2
+    N = (ny + 2) * W
+    feas = np.zeros(N, dtype=np.bool_)
+    fac = np.ones(N)
+    fmin = _INF
+    fmax = 0.0
+    for y in range(ny):
+        for x in range(nx):
+            i = (y + 1) * W + x + 1
+            feas[i] = feasible[y, x]
+            fac[i] = factor[y, x]
+            if feasible[y, x]:
+                fmin = min(fmin, factor[y, x])
+                fmax = max(fmax, factor[y, x])
+    return fac, feas, fmin, fmax
+
+
+@njit(cache=True)
 def shortest_costs(
     factor: npt.NDArray[np.float64],
     feasible: npt.NDArray[np.bool_],
@@ -107,6 +132,37 @@ def shortest_costs(
     targets: npt.NDArray[np.bool_],
     reverse: bool = False,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """:func:`padded_costs` of a (ny, nx) grid, its work arrays made for this search alone: ``targets``
+    (ny, nx) bool (no True cell: settle everything); the rest as there."""
+    ny, nx = factor.shape
+    fac, feas, fmin, fmax = padded_grid(factor, feasible)
+    N = feas.size
+    work = (np.full(N, _INF), np.full(N, -1, dtype=np.int64), feas.copy(), np.zeros(N, dtype=np.bool_), np.full(N, -1))
+    out = padded_costs(
+        (fac, feas, fmin, fmax), work, ny, nx, sources, source_costs, res, np.flatnonzero(targets), reverse
+    )
+    return out[0], out[1]
+
+
+@njit(cache=True)
+def padded_costs(
+    grid: tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_], float, float],
+    work: tuple[
+        npt.NDArray[np.float64],
+        npt.NDArray[np.int64],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.bool_],
+        npt.NDArray[np.int64],
+    ],
+    ny: int,
+    nx: int,
+    sources: npt.NDArray[np.int64],
+    source_costs: npt.NDArray[np.float64],
+    res: float,
+    targets: npt.NDArray[np.int64],
+    reverse: bool = False,
+    sparse: bool = False,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.int64]]:
     """Minimal path cost from the sources to every cell of an 8-connected grid (Dijkstra).
 
     The edge from cell i to its neighbour j costs ``|p_i - p_j| * factor[j]`` (res or
@@ -117,16 +173,25 @@ def shortest_costs(
     towards the sources.
 
     Args:
-        factor: (ny, nx) float64 >= 1, the slowdown ``1 + lambda d_s``.
-        feasible: (ny, nx) bool.
+        grid: (fac, feas, fmin, fmax) of :func:`padded_grid`: the (ny, nx) grid's slowdown ``1 + lambda
+            d_s`` (>= 1) and its feasible cells, padded; made once per grid (a search near its targets
+            touches few cells: making them, or its work arrays, took most of its time).
+        work: (cost (N,) all inf, prev (N,) all -1, open (N,) equal to feas, tgt (N,) all False, root (N,)
+            all -1): the search's work arrays, given back as they came (only the cells the search
+            touched are written back), so that the next search on the grid reuses them.
+        ny, nx: the grid's shape.
         sources: (k, 2) int64 (iy, ix) start cells; source_costs: (k,) their initial costs.
         res: cell size [m].
-        targets: (ny, nx) bool; the search stops once every feasible target cell is settled
-            (exact for them; cells not settled by then are returned as inf) and is directed at them
-            (see below). An array with no True cell means: settle everything.
+        targets: (t,) int64 flat cells of the (ny, nx) grid; the search stops once every feasible
+            target cell is settled (exact for them; cells not settled by then are returned as inf) and
+            is directed at them (see below). No target means: settle everything.
+        sparse: return the targets' costs and sources only, not the (ny, nx) maps (which, made anew
+            for every search, cost more than a search near its targets).
     Returns:
         cost (ny, nx) float64 [m of free-space travel], pred (ny, nx) int64 flat index of the
-        predecessor (-1 at sources and unreached cells).
+        predecessor (-1 at sources and unreached cells) (both (0, 0) when ``sparse``); and when
+        ``sparse``, (t,) each target's cost and (t,) the flat source its shortest path starts from
+        (the target itself where unreached), else both empty.
     """
     # Dijkstra with a bucket queue instead of a heap (Dial's algorithm with buckets narrower than
     # the shortest edge): every edge costs at least ``res * min(factor)``, so no cell of the lowest
@@ -139,36 +204,23 @@ def shortest_costs(
     # least cost (the octile distance to a box is 1-Lipschitz), so an edge raises a key by at least
     # (1 - GUIDE) * res * min(factor), the bucket width: a key's bucket is still final when reached,
     # and a target's cost is exact once settled; cells farther from the targets are never reached.
-    ny, nx = factor.shape
+    fac, feas, fmin, fmax = grid
+    cost, prev, open_, tgt, root = work
     W = nx + 2
     N = (ny + 2) * W
-    feas = np.zeros(N, dtype=np.bool_)  # padded: a border of infeasible cells, no bounds checks
-    fac = np.empty(N)
-    tgt = np.zeros(N, dtype=np.bool_)
     remaining = 0
-    fmin = _INF
-    fmax = 0.0
     ty0, ty1, tx0, tx1 = N, -1, N, -1  # the feasible targets' box (padded indices)
-    for y in range(ny):
-        for x in range(nx):
-            i = (y + 1) * W + x + 1
-            feas[i] = feasible[y, x]
-            fac[i] = factor[y, x]
-            if feasible[y, x]:
-                fmin = min(fmin, factor[y, x])
-                fmax = max(fmax, factor[y, x])
-                if targets[y, x]:
-                    tgt[i] = True
-                    remaining += 1
-                    ty0, ty1 = min(ty0, y + 1), max(ty1, y + 1)
-                    tx0, tx1 = min(tx0, x + 1), max(tx1, x + 1)
+    for t in range(targets.shape[0]):
+        y, x = targets[t] // nx, targets[t] % nx
+        i = (y + 1) * W + x + 1
+        if feas[i] and not tgt[i]:
+            tgt[i] = True
+            remaining += 1
+            ty0, ty1 = min(ty0, y + 1), max(ty1, y + 1)
+            tx0, tx1 = min(tx0, x + 1), max(tx1, x + 1)
     early = remaining > 0
     hs = GUIDE * res * fmin if early else 0.0  # heuristic per unit of octile distance [m]
     # (computed where a cell is queued, not for every cell: a search near its targets touches few)
-    open_ = feas.copy()  # feasible and not settled: one read per neighbour
-    cost = np.full(N, _INF)
-    prev = np.full(N, -1, dtype=np.int64)
-    done = np.zeros(N, dtype=np.bool_)
     diag = res * math.sqrt(2.0)
     # a hair below the least key increase along an edge, against rounding
     delta = (res * fmin - hs) / (1.0 + 1e-9)
@@ -193,7 +245,18 @@ def shortest_costs(
             lo = min(lo, cost[i] + hi_)
             hi = max(hi, cost[i] + hi_)
     if lo == _INF:
-        return np.full((ny, nx), _INF), np.full((ny, nx), -1, dtype=np.int64)
+        for t in range(targets.shape[0]):
+            tgt[(targets[t] // nx + 1) * W + targets[t] % nx + 1] = False
+        if sparse:
+            at = np.empty(targets.shape[0], dtype=np.int64)
+            at[:] = targets
+            return np.full((0, 0), _INF), np.full((0, 0), -1, dtype=np.int64), np.full(targets.shape[0], _INF), at
+        return (
+            np.full((ny, nx), _INF),
+            np.full((ny, nx), -1, dtype=np.int64),
+            np.empty(0),
+            np.empty(0, dtype=np.int64),
+        )
     # live keys span at most (sources' spread + the largest key increase along an edge): a ring of
     # buckets that wide
     nb = int((hi - lo + diag * fmax + math.sqrt(2.0) * hs) / delta) + 3
@@ -202,7 +265,7 @@ def shortest_costs(
     live = 0
     for s in range(sources.shape[0]):
         i = (sources[s, 0] + 1) * W + sources[s, 1] + 1
-        if feas[i] and cost[i] == source_costs[s] and not done[i]:
+        if open_[i] and cost[i] == source_costs[s]:
             b = int((cost[i] + _guide(i, W, ty0, ty1, tx0, tx1, hs) - base) / delta) % nb
             ent_cell[n_ent] = i
             ent_next[n_ent] = head[b]
@@ -220,9 +283,8 @@ def shortest_costs(
             head[b] = ent_next[e]
             live -= 1
             u = ent_cell[e]
-            if done[u]:
+            if not open_[u]:  # settled already (entered again at a lower cost before)
                 continue
-            done[u] = True
             open_[u] = False
             settled[n_settled] = u
             n_settled += 1
@@ -251,9 +313,35 @@ def shortest_costs(
                     n_ent += 1
                     live += 1
         k += 1
-    out = np.full((ny, nx), _INF)
-    pred = np.full((ny, nx), -1, dtype=np.int64)
-    if early:  # only the settled cells have their costs (a search near its targets settles few)
+    cost_at = np.empty(targets.shape[0] if sparse else 0)
+    source_at = np.empty(targets.shape[0] if sparse else 0, dtype=np.int64)
+    if sparse:
+        out = np.full((0, 0), _INF)
+        pred = np.full((0, 0), -1, dtype=np.int64)
+        trail = np.empty(n_settled + 1, dtype=np.int64)
+        for t in range(targets.shape[0]):
+            i = (targets[t] // nx + 1) * W + targets[t] % nx + 1
+            cost_at[t] = cost[i]
+            if cost[i] == _INF or open_[i]:  # not reached (a settled cell's path is final)
+                source_at[t] = targets[t]
+                continue
+            # the path back to its source, every cell on it given that source (each followed once)
+            u = i
+            depth = 0
+            while root[u] < 0 and prev[u] >= 0:
+                trail[depth] = u
+                depth += 1
+                u = prev[u]
+            r = root[u] if root[u] >= 0 else u
+            root[u] = r
+            for d in range(depth):
+                root[trail[d]] = r
+            source_at[t] = (r // W - 1) * nx + (r % W - 1)
+        for k in range(n_settled):
+            root[settled[k]] = -1
+    elif early:  # only the settled cells have their costs (a search near its targets settles few)
+        out = np.full((ny, nx), _INF)
+        pred = np.full((ny, nx), -1, dtype=np.int64)
         for k in range(n_settled):
             i = settled[k]
             y, x = i // W - 1, i % W - 1
@@ -261,15 +349,25 @@ def shortest_costs(
             p = prev[i]
             if p >= 0:
                 pred[y, x] = (p // W - 1) * nx + (p % W - 1)
-        return out, pred
-    for y in range(ny):
-        for x in range(nx):
-            i = (y + 1) * W + x + 1
-            out[y, x] = cost[i]
-            p = prev[i]
-            if p >= 0:
-                pred[y, x] = (p // W - 1) * nx + (p % W - 1)
-    return out, pred
+    else:
+        out = np.full((ny, nx), _INF)
+        pred = np.full((ny, nx), -1, dtype=np.int64)
+        for y in range(ny):
+            for x in range(nx):
+                i = (y + 1) * W + x + 1
+                out[y, x] = cost[i]
+                p = prev[i]
+                if p >= 0:
+                    pred[y, x] = (p // W - 1) * nx + (p % W - 1)
+    # the work arrays as they came (what the search touched only: every cell it queued and the targets)
+    for e in range(n_ent):
+        i = ent_cell[e]
+        cost[i] = _INF
+        prev[i] = -1
+        open_[i] = feas[i]
+    for t in range(targets.shape[0]):
+        tgt[(targets[t] // nx + 1) * W + targets[t] % nx + 1] = False
+    return out, pred, cost_at, source_at
 
 
 @njit(cache=True)

@@ -30,7 +30,7 @@ from placement.planning.problems.thresholds import Thresholds
 from placement.planning.problems.torso_maps import map_variants, torso_value
 from placement.planning.settings import PlannerConfig
 from placement.planning.verification import Checks
-from placement.planning.world import World, navigation_cost, reachable_from, region_heuristic
+from placement.planning.world import World, costs_at, reachable_from, region_heuristic
 from placement.scene import Scene
 from placement.scene.navgrid import Window
 
@@ -107,10 +107,10 @@ class StepProblems:
         hit = self._legs.get(key)
         w = self.world
         if hit is None:
-            cost, _ = navigation_cost(w.factor, w.feasible, cell, w.nav.resolution, targets=targets, reverse=reverse)
+            cost, _ = costs_at(w.factor, w.feasible, cell, w.nav.resolution, np.flatnonzero(targets), reverse=reverse)
             if len(self._legs) >= MAX_LEGS:
                 self._legs.clear()
-            hit = self._legs[key] = cost[targets]
+            hit = self._legs[key] = cost
         out: FloatArray = np.full(targets.shape, np.inf)
         out[targets] = hit
         return out

@@ -35,7 +35,7 @@ import numpy as np
 from placement.planning.arrays import BoolArray, Cell, FloatArray, IntArray
 from placement.planning.context import PlanningContext
 from placement.planning.program.regions import Group, Regions, held_torso, map_regions
-from placement.planning.world import navigation_cost, path_starts
+from placement.planning.world import costs_at
 
 #: a layer type (:class:`Layer` or the priced program's)
 L = TypeVar("L")
@@ -192,11 +192,10 @@ class StepLabels:
         if seed_cells.shape[0] == 0 or not wanted.any():
             return False
         factor, feasible, resolution = self.grid
-        targets: BoolArray = np.zeros(feasible.size, bool)
-        targets[cells[wanted]] = True
-        cost, pred = navigation_cost(factor, feasible, seed_cells, resolution, costs, targets.reshape(feasible.shape))
-        here = cost.reshape(-1)[cells]
-        self.roots.append(path_starts(pred, cells))
+        here = np.full(cells.size, math.inf)
+        root = cells.copy()
+        here[wanted], root[wanted] = costs_at(factor, feasible, seed_cells, resolution, cells[wanted], costs)
+        self.roots.append(root)
         for m, k in enumerate(members):
             plus = (0.0 if extra is None else extra[m]) + (0.0 if self.node is None else self.node[k])
             self.labels[k] = np.where(masks[k], here + plus, math.inf)

@@ -17,7 +17,7 @@ from placement.planning.world.layers import (
     world_from_occupancy,
     world_still_serves,
 )
-from placement.planning.world.navigation import extract_path, navigation_cost, path_starts, reachable_from
+from placement.planning.world.navigation import costs_at, extract_path, navigation_cost, path_starts, reachable_from
 
 __all__ = [
     "BaseShape",
@@ -25,6 +25,7 @@ __all__ = [
     "add_touched",
     "build_world",
     "changed_occupancy",
+    "costs_at",
     "extract_path",
     "navigation_cost",
     "path_starts",

@@ -189,6 +189,12 @@ class World:
     window: Window | None = None
     requested: Window | None = None
 
+    def __post_init__(self) -> None:
+        # the layers a search reads are never written: read-only, a shortest-path search may keep
+        # their padded copy and its work arrays for the next one (placement.planning.world.navigation)
+        for layer in (self.feasible, self.factor):
+            layer.flags.writeable = False
+
     def yaw_masks(self, cells: IntArray) -> MaskArray:
         """(N, W) uint64 packed masks of the base yaws allowed on flat ``cells`` (N,) (bit k of word
         k >> 6 is yaw k; a round base allows every yaw on feasible cells)."""

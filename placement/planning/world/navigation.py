@@ -6,12 +6,17 @@ Distances and costs are in metres; ``cost / v_max`` is travel time in seconds.
 
 from __future__ import annotations
 
+import threading
+import weakref
+from collections import OrderedDict
+from typing import Any
+
 import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 
 from placement.errors import PlacementError
-from placement.kernels.navigation import distance_transform, path_sources, shortest_costs
+from placement.kernels.navigation import distance_transform, padded_costs, padded_grid, path_sources
 from placement.planning.arrays import BoolArray, FloatArray, IntArray
 from placement.scene.navgrid import NavGrid
 
@@ -81,6 +86,48 @@ def navigation_cost(
     Returns:
         cost (ny, nx) [m] (inf where unreachable), pred (ny, nx) flat predecessor index.
     """
+    fac, feas, cells, costs = _checked(factor, feasible, starts, start_costs)
+    ny, nx = feas.shape
+    tgt = np.zeros(feas.shape, dtype=np.bool_) if targets is None else np.ascontiguousarray(targets, dtype=np.bool_)
+    if tgt.shape != feas.shape:
+        raise PlacementError(f"targets {tgt.shape} and feasible {feas.shape} grids differ")
+    grid, work = _prepared(fac, feas)
+    cost, pred, _, _ = padded_costs(
+        grid, work, ny, nx, cells, costs, float(resolution), np.flatnonzero(tgt), bool(reverse)
+    )
+    return np.asarray(cost, dtype=np.float64), np.asarray(pred, dtype=np.int64)
+
+
+def costs_at(
+    factor: FloatArray,
+    feasible: BoolArray,
+    starts: npt.ArrayLike,
+    resolution: float,
+    at: IntArray,
+    start_costs: npt.ArrayLike | None = None,
+    reverse: bool = False,
+) -> tuple[FloatArray, IntArray]:
+    """:func:`navigation_cost` with ``targets`` the flat cells ``at`` (n,), on them only: (n,) their
+    costs [m] (inf where unreachable) and (n,) the flat start cell each one's shortest path starts from
+    (the cell itself where unreachable; ``extract_path(pred, cell)[0]``). Without the (ny, nx) maps,
+    which a search near its targets spends most of its time making."""
+    fac, feas, cells, costs = _checked(factor, feasible, starts, start_costs)
+    ny, nx = feas.shape
+    flat = np.ascontiguousarray(at, dtype=np.int64).reshape(-1)
+    if flat.size == 0:
+        return np.zeros(0), np.zeros(0, np.int64)
+    if flat.min() < 0 or flat.max() >= ny * nx:
+        raise PlacementError(f"target cells outside the {ny} x {nx} grid")
+    grid, work = _prepared(fac, feas)
+    _, _, cost, source = padded_costs(grid, work, ny, nx, cells, costs, float(resolution), flat, bool(reverse), True)
+    return np.asarray(cost, dtype=np.float64), np.asarray(source, dtype=np.int64)
+
+
+def _checked(
+    factor: FloatArray, feasible: BoolArray, starts: npt.ArrayLike, start_costs: npt.ArrayLike | None
+) -> tuple[FloatArray, BoolArray, IntArray, FloatArray]:
+    """The search's inputs as the kernel reads them (contiguous, typed), checked: (factor, feasible,
+    (k, 2) start cells, (k,) their costs [m])."""
     cells = np.ascontiguousarray(np.atleast_2d(np.asarray(starts, dtype=np.int64)))
     feas = np.ascontiguousarray(feasible, dtype=np.bool_)
     fac = np.ascontiguousarray(factor, dtype=np.float64)
@@ -97,11 +144,58 @@ def navigation_cost(
         iy, ix = cells[0]
         raise PlacementError(f"start cell ({iy}, {ix}) is inside an obstacle or too close to one for the base")
     costs = np.zeros(len(cells)) if start_costs is None else np.asarray(start_costs, dtype=float)
-    tgt = np.zeros(feas.shape, dtype=np.bool_) if targets is None else np.ascontiguousarray(targets, dtype=np.bool_)
-    if tgt.shape != feas.shape:
-        raise PlacementError(f"targets {tgt.shape} and feasible {feas.shape} grids differ")
-    cost, pred = shortest_costs(fac, feas, cells, costs, float(resolution), tgt, bool(reverse))
-    return np.asarray(cost, dtype=np.float64), np.asarray(pred, dtype=np.int64)
+    return fac, feas, cells, np.ascontiguousarray(costs, dtype=np.float64)
+
+
+#: The padded grid (:func:`~placement.kernels.navigation.padded_grid`) and the work arrays of a search
+#: (see :func:`~placement.kernels.navigation.padded_costs`).
+Grid = tuple[FloatArray, BoolArray, float, float]
+Work = tuple[FloatArray, IntArray, BoolArray, BoolArray, IntArray]
+#: Grids kept per thread (a planner searches one world at a time; an update brings another)
+GRIDS_KEPT = 2
+_kept = threading.local()
+
+
+def _frozen(a: Any) -> bool:
+    """Whether ``a``'s data cannot change: read-only, and so is every array it is a view of."""
+    while isinstance(a, np.ndarray):
+        if a.flags.writeable:
+            return False
+        a = a.base
+    return a is None or isinstance(a, bytes)
+
+
+def _fresh(fac: FloatArray, feas: BoolArray) -> tuple[Grid, Work]:
+    grid: Grid = padded_grid(fac, feas)
+    n = grid[1].size
+    return grid, (
+        np.full(n, np.inf),
+        np.full(n, -1, dtype=np.int64),
+        grid[1].copy(),
+        np.zeros(n, dtype=bool),
+        np.full(n, -1, dtype=np.int64),
+    )
+
+
+def _prepared(fac: FloatArray, feas: BoolArray) -> tuple[Grid, Work]:
+    """The padded grid of (``fac``, ``feas``) and a search's work arrays. For arrays that cannot change (a
+    world's layers are read-only) both are made once and kept, per thread, for the next search on
+    them: a search near its targets touches few cells, and making its (ny + 2) (nx + 2) arrays (with
+    the page faults of fresh memory) took most of its time on building-sized grids."""
+    if not (_frozen(fac) and _frozen(feas)):
+        return _fresh(fac, feas)
+    kept: OrderedDict[tuple[int, int], tuple[Any, Any, Grid, Work]] = getattr(_kept, "grids", None) or OrderedDict()
+    _kept.grids = kept
+    key = (id(fac), id(feas))
+    hit = kept.get(key)
+    if hit is not None and hit[0]() is fac and hit[1]() is feas:
+        kept.move_to_end(key)
+        return hit[2], hit[3]
+    grid, work = _fresh(fac, feas)
+    kept[key] = (weakref.ref(fac), weakref.ref(feas), grid, work)
+    while len(kept) > GRIDS_KEPT:
+        kept.popitem(last=False)
+    return grid, work
 
 
 def path_starts(pred: IntArray, cells: IntArray) -> IntArray:
