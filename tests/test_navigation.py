@@ -9,14 +9,7 @@ from scipy.sparse.csgraph import dijkstra
 from support.navigation import S2, grid_graph
 
 from placement.errors import PlacementError
-from placement.planning.world.navigation import (
-    costs_at,
-    distance_map,
-    extract_path,
-    navigation_cost,
-    path_starts,
-    speed_factor,
-)
+from placement.planning.world.navigation import costs_at, distance_map, extract_path, navigation_cost, speed_factor
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -130,35 +123,6 @@ def test_start_costs_and_predecessors(seed):
         step = 0.05 * (S2 if vy != uy and vx != ux else 1.0)
         assert max(abs(vy - uy), abs(vx - ux)) == 1
         assert cost.flat[v] == cost.flat[u] + step * fac[vy, vx]
-
-
-@pytest.mark.parametrize("seed", range(6))
-def test_path_starts_are_the_first_cells_of_the_extracted_paths(seed):
-    """path_starts (one pass over the paths, the sources found kept) against walking each path
-    with extract_path: from several sources, on every cell of random grids, in a random order
-    (repeated cells included); an unreached cell starts at itself."""
-    rng = np.random.default_rng(900 + seed)
-    ny, nx = rng.integers(3, 30, size=2)
-    feas = rng.random((ny, nx)) > 0.3
-    feas[0, 0] = True
-    starts = np.argwhere(feas)[rng.choice(feas.sum(), size=min(4, int(feas.sum())), replace=False)]
-    _, pred = navigation_cost(np.ones((ny, nx)), feas, starts, 0.1, start_costs=rng.uniform(0, 1, len(starts)))
-    cells = rng.integers(0, ny * nx, size=3 * ny * nx)
-    got = path_starts(pred, cells)
-    want = [(lambda p: int(p[0] * nx + p[1]))(extract_path(pred, divmod(int(c), nx))[0]) for c in cells]
-    assert got.tolist() == want
-    assert {int(s) for s, c in zip(got, cells) if pred.flat[c] >= 0} <= {int(y * nx + x) for y, x in starts}
-
-
-def test_path_starts_literal_and_a_cycle():
-    #   a 1 x 5 corridor searched from cell 1: 0 <- 1 -> 2 -> 3 -> 4
-    _, pred = navigation_cost(np.ones((1, 5)), np.ones((1, 5), bool), [(0, 1)], 0.1)
-    assert pred.ravel().tolist() == [1, -1, 1, 2, 3]
-    assert path_starts(pred, np.array([4, 0, 1, 3])).tolist() == [1, 1, 1, 1]
-    with pytest.raises(PlacementError, match="cycle"):
-        path_starts(np.array([[1, 0, -1]]), np.array([0]))
-    with pytest.raises(PlacementError, match="outside"):
-        path_starts(pred, np.array([5]))
 
 
 @pytest.mark.parametrize("seed", range(6))

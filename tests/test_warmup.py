@@ -126,7 +126,7 @@ def test_kernel_list_is_what_python_calls():
     assert {
         "placement.kernels.sampling.sample_block",
         "placement.kernels.irm.trajectory_maps",
-        "placement.kernels.navigation.shortest_costs",
+        "placement.kernels.navigation.padded_costs",
         "placement.kernels.ik.dls_attempt",
     } <= set(names)
     # called only from other kernels: compiled into them, never on their own

@@ -123,28 +123,6 @@ def padded_grid(
 
 
 @njit(cache=True)
-def shortest_costs(
-    factor: npt.NDArray[np.float64],
-    feasible: npt.NDArray[np.bool_],
-    sources: npt.NDArray[np.int64],
-    source_costs: npt.NDArray[np.float64],
-    res: float,
-    targets: npt.NDArray[np.bool_],
-    reverse: bool = False,
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
-    """:func:`padded_costs` of a (ny, nx) grid, its work arrays made for this search alone: ``targets``
-    (ny, nx) bool (no True cell: settle everything); the rest as there."""
-    ny, nx = factor.shape
-    fac, feas, fmin, fmax = padded_grid(factor, feasible)
-    N = feas.size
-    work = (np.full(N, _INF), np.full(N, -1, dtype=np.int64), feas.copy(), np.zeros(N, dtype=np.bool_), np.full(N, -1))
-    out = padded_costs(
-        (fac, feas, fmin, fmax), work, ny, nx, sources, source_costs, res, np.flatnonzero(targets), reverse
-    )
-    return out[0], out[1]
-
-
-@njit(cache=True)
 def padded_costs(
     grid: tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_], float, float],
     work: tuple[
@@ -368,39 +346,3 @@ def padded_costs(
     for t in range(targets.shape[0]):
         tgt[(targets[t] // nx + 1) * W + targets[t] % nx + 1] = False
     return out, pred, cost_at, source_at
-
-
-@njit(cache=True)
-def path_sources(pred: npt.NDArray[np.int64], cells: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
-    """The source each cell's shortest path starts from: for every flat cell of ``cells``, the cell
-    reached by following ``pred`` until a cell without predecessor (a source, or the cell itself
-    when unreached). Each predecessor is followed once over all cells (the sources found are kept),
-    so the cost is linear in the cells the paths cover.
-
-    Args:
-        pred: (N,) int64 flat predecessor index (-1: none), as :func:`shortest_costs` returns it
-            (flattened).
-        cells: (n,) int64 flat cells.
-    Returns:
-        (n,) int64 flat source cells; -1 for every cell when ``pred`` has a cycle (not a predecessor map).
-    """
-    size = pred.size
-    source = np.full(size, -2, np.int64)  # -2: not known yet
-    trail = np.empty(size, np.int64)
-    out = np.empty(cells.size, np.int64)
-    for j in range(cells.size):
-        u = cells[j]
-        depth = 0
-        while source[u] == -2 and pred[u] >= 0:
-            if depth == size:
-                out[:] = -1
-                return out
-            trail[depth] = u
-            depth += 1
-            u = pred[u]
-        s = source[u] if source[u] != -2 else u
-        source[u] = s
-        for d in range(depth):
-            source[trail[d]] = s
-        out[j] = s
-    return out

@@ -23,7 +23,7 @@ from placement.planning.methods.search import search_placement
 from placement.planning.problems import Option, Step, per_arm_values
 from placement.planning.results import StepMaps, StepResult
 from placement.planning.torso import held_setting, start_torso, torso_seconds
-from placement.planning.world import extract_path, navigation_cost
+from placement.planning.world import costs_at, extract_path, navigation_cost
 
 #: An (arm, grasp) pair a transfer commits to.
 Pair = tuple[str, str | None]
@@ -220,7 +220,13 @@ def plan_step(
     fixed = method.ranks_fixed_placements
     needed = None if keep_maps or fixed else problems.feasible_region(step.index, opts)
     t = time.perf_counter()
-    nav_cost, pred = navigation_cost(world.factor, world.feasible, prev_cell, nav.resolution, targets=needed)
+    if needed is None:
+        nav_cost, pred = navigation_cost(world.factor, world.feasible, prev_cell, nav.resolution)
+    else:  # the candidate cells' costs only (inf elsewhere, as the search leaves them)
+        at = np.flatnonzero(needed)
+        nav_cost = np.full(nav.shape, np.inf)
+        nav_cost.flat[at] = costs_at(world.factor, world.feasible, prev_cell, nav.resolution, at)[0]
+        pred = None
     timings["navigation"] = (time.perf_counter() - t) * 1e3
     t = time.perf_counter()
     heur = problems.heuristic(step.index + 1, needed) if steer else np.zeros(nav.shape)
@@ -247,7 +253,7 @@ def plan_step(
         r = found.ranked
         o = opts[r.option]
         iy, ix = divmod(r.cell, nav.shape[1])
-        if maps is not None:
+        if maps is not None and pred is not None:
             maps.path = extract_path(pred, (iy, ix))
         value = found.value or (-r.cost if fixed else o.value_at(iy, ix))
         result = placed(

@@ -17,7 +17,7 @@ from placement.planning.world.layers import (
     world_from_occupancy,
     world_still_serves,
 )
-from placement.planning.world.navigation import costs_at, extract_path, navigation_cost, path_starts, reachable_from
+from placement.planning.world.navigation import costs_at, extract_path, navigation_cost, reachable_from
 
 __all__ = [
     "BaseShape",
@@ -28,7 +28,6 @@ __all__ = [
     "costs_at",
     "extract_path",
     "navigation_cost",
-    "path_starts",
     "reachable_from",
     "region_heuristic",
     "windowed_world",

@@ -6,7 +6,7 @@ import numpy as np
 from scipy import ndimage
 
 from placement.planning.world.layers import World
-from placement.planning.world.navigation import EIGHT, navigation_cost
+from placement.planning.world.navigation import EIGHT, costs_at, navigation_cost
 
 
 def region_heuristic(
@@ -36,10 +36,19 @@ def region_heuristic(
     sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
     keep = [lab + 1 for lab in range(n) if sizes[lab] >= min_region * sizes.sum()]
     area = sum(sizes[lab - 1] for lab in keep)
+    at = None if targets is None else np.flatnonzero(targets)
     for lab in keep:
         cells = np.argwhere(labels == lab)
         centroid = cells.mean(axis=0)
         centre = cells[np.argmin(((cells - centroid) ** 2).sum(axis=1))]
-        cost, _ = navigation_cost(world.factor, world.feasible, centre, world.nav.resolution, targets=targets)
-        total += (len(cells) / area) * cost
+        if at is None:
+            cost, _ = navigation_cost(world.factor, world.feasible, centre, world.nav.resolution)
+            total += (len(cells) / area) * cost
+        else:  # the cells read only (the rest stays 0: never read)
+            cost, _ = costs_at(world.factor, world.feasible, centre, world.nav.resolution, at)
+            total.flat[at] += (len(cells) / area) * cost
+    if at is not None:  # as the whole maps have it: inf off the cells read
+        outside = np.ones(total.size, bool)
+        outside[at] = False
+        total.flat[outside] = np.inf
     return total

@@ -16,7 +16,7 @@ import numpy.typing as npt
 from scipy import ndimage
 
 from placement.errors import PlacementError
-from placement.kernels.navigation import distance_transform, padded_costs, padded_grid, path_sources
+from placement.kernels.navigation import distance_transform, padded_costs, padded_grid
 from placement.planning.arrays import BoolArray, FloatArray, IntArray
 from placement.scene.navgrid import NavGrid
 
@@ -196,20 +196,6 @@ def _prepared(fac: FloatArray, feas: BoolArray) -> tuple[Grid, Work]:
     while len(kept) > GRIDS_KEPT:
         kept.popitem(last=False)
     return grid, work
-
-
-def path_starts(pred: IntArray, cells: IntArray) -> IntArray:
-    """(n,) int64 the flat cell each shortest path of ``pred`` ((ny, nx) flat predecessor index, -1 at
-    sources) that ends at the flat ``cells`` (n,) starts from (a cell without predecessor: itself).
-    ``extract_path(pred, c)[0]`` for each cell, in one pass over the paths."""
-    flat = np.ascontiguousarray(np.asarray(pred).reshape(-1), dtype=np.int64)
-    at = np.ascontiguousarray(cells, dtype=np.int64)
-    if at.size and (at.min() < 0 or at.max() >= flat.size):
-        raise PlacementError(f"cells outside the {pred.shape} grid")
-    out: IntArray = path_sources(flat, at)
-    if at.size and out[0] < 0:
-        raise PlacementError("predecessor map has a cycle")
-    return out
 
 
 def extract_path(pred: IntArray, goal: tuple[int, int] | IntArray) -> IntArray:
