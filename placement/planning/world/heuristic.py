@@ -29,26 +29,31 @@ def region_heuristic(
     """
     if reachable is not None:
         region = region & reachable
-    labels, n = ndimage.label(region, structure=EIGHT)
     total = np.zeros(world.nav.shape)
-    if n == 0:
+    ys, xs = np.nonzero(region)
+    if ys.size == 0:
         return total
+    # the regions are labelled within their bounding box (a step's regions lie near its target): the
+    # same components, numbered in the same raster order, without passes over the whole grid
+    y0, x0 = int(ys.min()), int(xs.min())
+    labels, n = ndimage.label(region[y0 : int(ys.max()) + 1, x0 : int(xs.max()) + 1], structure=EIGHT)
     sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
     keep = [lab + 1 for lab in range(n) if sizes[lab] >= min_region * sizes.sum()]
     area = sum(sizes[lab - 1] for lab in keep)
+    boxes = ndimage.find_objects(labels)
     at = None if targets is None else np.flatnonzero(targets)
+    if at is not None:  # as the whole maps have it: inf off the cells read
+        total = np.full(world.nav.shape, np.inf)
+        total.flat[at] = 0.0
     for lab in keep:
-        cells = np.argwhere(labels == lab)
+        rows, cols = boxes[lab - 1]
+        cells = np.argwhere(labels[rows, cols] == lab) + (y0 + rows.start, x0 + cols.start)
         centroid = cells.mean(axis=0)
         centre = cells[np.argmin(((cells - centroid) ** 2).sum(axis=1))]
         if at is None:
             cost, _ = navigation_cost(world.factor, world.feasible, centre, world.nav.resolution)
             total += (len(cells) / area) * cost
-        else:  # the cells read only (the rest stays 0: never read)
+        else:  # the cells read only
             cost, _ = costs_at(world.factor, world.feasible, centre, world.nav.resolution, at)
             total.flat[at] += (len(cells) / area) * cost
-    if at is not None:  # as the whole maps have it: inf off the cells read
-        outside = np.ones(total.size, bool)
-        outside[at] = False
-        total.flat[outside] = np.inf
     return total
