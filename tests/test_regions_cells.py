@@ -40,7 +40,7 @@ def test_cells_agree_with_whole_grid_masks(seed):
     masks, node = random_dense(rng, ny, nx, density=float(rng.uniform(0.0, 0.5)))
     reg = Regions.of(GROUPS, masks, node)
     assert np.array_equal(reg.dense(), masks)
-    assert np.array_equal(reg.union(), masks.any(axis=0))
+    assert np.array_equal(reg.mask(), masks.any(axis=0))
     assert reg.any() == bool(masks.any())
     for groups in ([0], [2, 1], [0, 1, 2]):
         assert np.array_equal(reg.mask(groups), masks[groups].any(axis=0))

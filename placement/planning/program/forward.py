@@ -73,12 +73,6 @@ class Layer:
         """The position of the flat cell ``flat`` in :attr:`cells` (a cell of the region)."""
         return int(np.searchsorted(self.cells, flat))
 
-    def dense(self, shape: tuple[int, int]) -> FloatArray:
-        """(G, ny, nx) the labels on the whole grid of ``shape`` (inf off the region) [m]."""
-        out = np.full((self.labels.shape[0], shape[0] * shape[1]), math.inf)
-        out[:, self.cells] = self.labels
-        return out.reshape(self.labels.shape[0], *shape)
-
 
 def region_cells(reg: Regions) -> IntArray:
     """(n,) int64 the flat cells some group of ``reg`` holds, ascending."""

@@ -85,10 +85,6 @@ class Regions:
         out[self.cells[rows.any(axis=0)]] = True
         return out.reshape(self.shape)
 
-    def union(self) -> BoolArray:
-        """(ny, nx) bool: the cells of any group."""
-        return self.mask()
-
     def dense(self) -> BoolArray:
         """(G, ny, nx) bool: each group's cells on the whole grid."""
         out = np.zeros((len(self.groups), self.shape[0] * self.shape[1]), bool)

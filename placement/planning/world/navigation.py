@@ -151,7 +151,8 @@ def _checked(
 #: (see :func:`~placement.kernels.navigation.padded_costs`).
 Grid = tuple[FloatArray, BoolArray, float, float]
 Work = tuple[FloatArray, IntArray, BoolArray, BoolArray, IntArray]
-#: Grids kept per thread (a planner searches one world at a time; an update brings another)
+#: Grids kept per thread (a planner searches one world at a time; an update brings another): each
+#: holds about 27 bytes per cell (20 MB for the office floor's 911 x 798 window)
 GRIDS_KEPT = 2
 _kept = threading.local()
 
