@@ -18,7 +18,7 @@ from .maps.build import build_map
 from .maps.grid import Grid
 from .maps.opening import open_map
 from .maps.rmap import ReachabilityMap, save_maps
-from .planning import Certificate, PlannerConfig, PlanResult, StepResult
+from .planning import Certificate, InfeasibleStep, PlacedStep, PlannerConfig, PlanResult, StepResult
 from .planning.planner import Planner, plan
 from .robots import Arm, Robot, load_robot
 from .storage.format import BuiltMap
@@ -34,9 +34,11 @@ __all__ = [
     "Grid",
     "GridError",
     "IKResult",
+    "InfeasibleStep",
     "JointNotFound",
     "MapError",
     "PlacementError",
+    "PlacedStep",
     "PlanResult",
     "Planner",
     "PlannerConfig",

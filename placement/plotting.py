@@ -75,7 +75,6 @@ def draw_markers(
     if start is not None:
         ax.plot(start[0], start[1], "o", color="white", mec="k", ms=7)
     if step.ok:
-        assert step.base is not None and step.tcp is not None  # a planned step has both
         x, y, yaw = step.base
         r = footprint_radius or 0.3
         base = getattr(world, "base", None)

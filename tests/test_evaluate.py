@@ -9,6 +9,7 @@ import sys
 
 import pytest
 import yaml
+from support.steps import placed_step
 
 from placement.errors import PlacementError
 from placement.evaluation.evaluate import check_methods, evaluate, plan_outcome
@@ -93,16 +94,16 @@ def test_library_rejects_bad_workers_before_planning(tmp_path):
 
 
 def test_plan_outcome_names_the_first_infeasible_step():
-    from placement.planning import PlanResult, StepResult
+    from placement.planning import InfeasibleStep, PlanResult
 
     plan = PlanResult(
         "s",
         "sequential",
         {},
         [
-            StepResult(0, "pick", "box"),
-            StepResult(1, "pick", "cup", status="infeasible", reason="below threshold"),
-            StepResult(2, "place", "b", status="infeasible", reason="no IK"),
+            placed_step(0, "pick", "box"),
+            InfeasibleStep(1, "pick", "cup", reason="below threshold"),
+            InfeasibleStep(2, "place", "b", reason="no IK"),
         ],
     )
     assert plan_outcome(plan, None) == (3, "step 1 (pick cup): below threshold")

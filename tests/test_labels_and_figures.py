@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
+from support.steps import placed_step
 
 import placement
 from placement.plotting import MAX_NAME, file_name, legend_handles
@@ -112,10 +113,8 @@ def test_the_map_view_draws_weak_cells_small_and_cells_under_the_threshold_grey(
 
 
 def test_the_legend_names_the_footprint_as_it_is_drawn(pr2):
-    from placement.planning.results import StepResult
-
     labels = {
-        outline: [h.get_label() for h in legend_handles(_ok_step(StepResult), (0, 0, 0), True, outline)]
+        outline: [h.get_label() for h in legend_handles(_ok_step(), (0, 0, 0), True, outline)]
         for outline in (True, False)
     }
     assert any("footprint outline" in t for t in labels[True]) and not any("circle" in t for t in labels[True])
@@ -123,34 +122,14 @@ def test_the_legend_names_the_footprint_as_it_is_drawn(pr2):
     assert pr2.footprint is not None  # the PR2's square: what query --plot draws, so the outline entry
 
 
-def _ok_step(StepResult, target="cup", step=0, action="pick"):
-    import dataclasses
-
-    fields = {f.name for f in dataclasses.fields(StepResult)}
-    values = {
-        "step": step,
-        "action": action,
-        "target": target,
-        "ok": True,
-        "base": (0.0, 0.0, 0.0),
-        "tcp": [np.eye(4)],
-        "arm": "right",
-        "grasp": "top",
-    }
-    return StepResult(**{k: v for k, v in values.items() if k in fields})
+def _ok_step(target="cup", step=0, action="pick"):
+    return placed_step(step, action, target)
 
 
 def test_figure_file_names_have_no_comma_and_a_bounded_length():
-    from placement.planning.results import StepResult
-
-    assert (
-        file_name(_ok_step(StepResult, "drawer_left,drawer_right", 0, "reach"))
-        == "step00_reach_drawer_left_or_drawer_right.png"
-    )
-    assert file_name(_ok_step(StepResult, "cup 1/ü", 3)) == "step03_pick_cup-1.png"
-    long = [
-        file_name(_ok_step(StepResult, ",".join(f"trajectory_{k}" for k in range(n)), 1, "reach")) for n in (200, 201)
-    ]
+    assert file_name(_ok_step("drawer_left,drawer_right", 0, "reach")) == "step00_reach_drawer_left_or_drawer_right.png"
+    assert file_name(_ok_step("cup 1/ü", 3)) == "step03_pick_cup-1.png"
+    long = [file_name(_ok_step(",".join(f"trajectory_{k}" for k in range(n)), 1, "reach")) for n in (200, 201)]
     assert all(re.fullmatch(r"[A-Za-z0-9._-]+", n) and len(n) <= MAX_NAME + 20 for n in long)
     assert long[0] != long[1]  # cut names stay distinct
 

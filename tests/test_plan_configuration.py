@@ -166,25 +166,29 @@ def test_verify_checks_the_whole_configuration(planned, pr2):
     _, result = planned
     assert result.verify(pr2) == []
     s = result.steps[0]
-    keep = (dict(s.joints), s.resting)
-    try:
-        # a step that holds its torso elsewhere: the configuration carries it, the FK sees the TCP move
-        s.joints["torso_lift_joint"] = 0.2
-        assert s.configuration()["joints"]["torso_lift_joint"] == 0.2
-        assert any("TCP off by 5.0 cm" in p for p in result.verify(pr2))
-        s.joints.update(keep[0])
-        # the idle arm outside its limits
-        other = next(a for a in s.resting.idle if a != s.arm)
-        name = pr2.arm(other).joints[1]  # a shoulder lift, limited
-        idle = {other: s.resting.idle[other] | {name: float(pr2.arm(other).upper[1]) + 0.1}}
-        s.resting = replace(keep[1], idle=idle)
-        assert any(f"idle arm {other}: {name} outside their limits" in p for p in result.verify(pr2))
-        # a joint left out, and a base frame the robot does not have
-        s.resting = replace(keep[1], other={j: v for j, v in keep[1].other.items() if j != "head_pan_joint"})
-        assert any("joints missing ['head_pan_joint']" in p for p in result.verify(pr2))
-        s.resting = replace(keep[1], base_frame="base_link")
-        assert any("base frame base_link, not base_footprint" in p for p in result.verify(pr2))
-    finally:
-        s.joints.update(keep[0])
-        s.resting = keep[1]
+
+    def problems(**changes):
+        """verify's problems with the first step changed (the plan itself stays as it is)."""
+        return replace(result, steps=[replace(s, **changes), *result.steps[1:]]).verify(pr2)
+
+    # a step that holds its torso elsewhere: the configuration carries it, the FK sees the TCP move
+    raised = replace(s, joints=s.joints | {"torso_lift_joint": 0.2})
+    assert raised.configuration()["joints"]["torso_lift_joint"] == 0.2
+    assert any("TCP off by 5.0 cm" in p for p in problems(joints=raised.joints))
+    # the idle arm outside its limits
+    other = next(a for a in s.resting.idle if a != s.arm)
+    name = pr2.arm(other).joints[1]  # a shoulder lift, limited
+    idle = {other: s.resting.idle[other] | {name: float(pr2.arm(other).upper[1]) + 0.1}}
+    assert any(
+        f"idle arm {other}: {name} outside their limits" in p for p in problems(resting=replace(s.resting, idle=idle))
+    )
+    # a joint left out, and a base frame the robot does not have
+    other_joints = {j: v for j, v in s.resting.other.items() if j != "head_pan_joint"}
+    assert any(
+        "joints missing ['head_pan_joint']" in p for p in problems(resting=replace(s.resting, other=other_joints))
+    )
+    assert any(
+        "base frame base_link, not base_footprint" in p
+        for p in problems(resting=replace(s.resting, base_frame="base_link"))
+    )
     assert result.verify(pr2) == []

@@ -1,15 +1,14 @@
 import math
 
 import pytest
+from support.steps import placed_step
 
-from placement.planning import PlanResult, StepResult
+from placement.planning import InfeasibleStep, PlanResult
 from placement.planning.task_time import task_time
 
 
 def _step(pr2, arm, base, q, travel):
-    return StepResult(
-        0, "pick", "x", arm=arm, base=tuple(base), joints=dict(zip(pr2.arm(arm).joints, q)), travel_time_s=travel
-    )
+    return placed_step(arm=arm, base=tuple(base), joints=dict(zip(pr2.arm(arm).joints, q)), travel_time_s=travel)
 
 
 def test_literal_two_steps(pr2):
@@ -33,6 +32,6 @@ def test_literal_two_steps(pr2):
 
 
 def test_failed_task_has_no_time(pr2):
-    failed = StepResult(0, "pick", "x", status="infeasible", reason="out of reach")
+    failed = InfeasibleStep(0, "pick", "x", reason="out of reach")
     assert task_time(pr2, PlanResult("s", "sequential", {}, [failed]), (0, 0, 0)) is None
     assert task_time(pr2, None, (0, 0, 0)) is None

@@ -18,8 +18,9 @@ import pinocchio as pin
 import pytest
 from support.fk import model_fk
 from support.robots import random_configs
+from support.steps import placed_step
 
-from placement.planning import PlanResult, StepResult
+from placement.planning import PlacedStep, PlanResult
 from placement.planning.results import Cost, configuration_problems
 from placement.planning.task_time import task_time
 from placement.planning.verification.configuration import resting
@@ -55,7 +56,7 @@ def fk_world_tcp(robot, arm: str, joints: dict[str, float], base) -> np.ndarray:
     return root @ data.oMf[model.getFrameId(a.tip_frame)].homogeneous @ a.tcp_offset
 
 
-def raised_step(robot, seed: int = 3, torso: float = RAISED) -> StepResult:
+def raised_step(robot, seed: int = 3, torso: float = RAISED) -> PlacedStep:
     """A planned right-arm step of two TCP poses reached by random arm configurations with the torso
     at ``torso``, the other arm tucked (its idle) as the planner's configuration says."""
     arm = robot.arm("right")
@@ -63,7 +64,7 @@ def raised_step(robot, seed: int = 3, torso: float = RAISED) -> StepResult:
     r = resting(robot, "right")
     fixed = {TORSO: torso}
     tcp = np.stack([fk_world_tcp(robot, "right", r.idle["left"] | dict(zip(arm.joints, q)) | fixed, BASE) for q in qs])
-    return StepResult(
+    return PlacedStep(
         0,
         "pick",
         "cup",
@@ -81,7 +82,7 @@ def raised_step(robot, seed: int = 3, torso: float = RAISED) -> StepResult:
     )
 
 
-def plan_of(*steps: StepResult) -> PlanResult:
+def plan_of(*steps: PlacedStep) -> PlanResult:
     return PlanResult("s", "sequential", {"name": "pr2"}, list(steps))
 
 
@@ -91,7 +92,7 @@ def path(request):
     return request.param
 
 
-def variant(s: StepResult, path: str, **joints: float) -> StepResult:
+def variant(s: PlacedStep, path: str, **joints: float) -> PlacedStep:
     """``s`` with its fixed joints changed, checked along ``path``."""
     return replace(s, joints=s.joints | joints, resting=s.resting if path == "configuration" else None)
 
@@ -166,10 +167,8 @@ def test_task_time_adds_the_torso_in_parallel(pr2):
     home = pr2.arm("right").home
     joints = dict(zip(pr2.arm("right").joints, map(float, home)))
 
-    def still(i: int, torso: float) -> StepResult:
-        return StepResult(
-            i, "pick", "x", arm="right", base=(0.0, 0.0, 0.0), joints=joints | {TORSO: torso}, travel_time_s=0.0
-        )
+    def still(i: int, torso: float) -> PlacedStep:
+        return placed_step(i, "pick", "x", arm="right", joints=joints | {TORSO: torso})
 
     t = task_time(pr2, plan_of(still(0, 0.0), still(1, 0.26)), (0.0, 0.0, 0.0))
     v = urdf_limit(pr2, TORSO)["velocity"]

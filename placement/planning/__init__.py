@@ -2,7 +2,7 @@
 
 from placement.planning.methods import DEFAULT_METHOD, METHODS
 from placement.planning.planner import Planner, plan
-from placement.planning.results import Certificate, PlanResult, StepResult
+from placement.planning.results import Certificate, InfeasibleStep, PlacedStep, PlanResult, StepResult
 from placement.planning.settings import PLANNER_KEYS, PlannerConfig
 from placement.scene import Scene, SceneError, load_scene, parse_scene, save_scene
 
@@ -10,7 +10,9 @@ __all__ = [
     "DEFAULT_METHOD",
     "METHODS",
     "Certificate",
+    "InfeasibleStep",
     "PLANNER_KEYS",
+    "PlacedStep",
     "PlanResult",
     "Planner",
     "PlannerConfig",

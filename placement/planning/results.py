@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import KW_ONLY, dataclass, field
-from typing import Any, Literal, TypeVar
+from dataclasses import KW_ONLY, dataclass, field, replace
+from typing import Any, Literal, Self
 
 import numpy as np
 
@@ -30,9 +30,6 @@ from placement.planning.verification import (
 )
 from placement.robots import Robot, matrix_to_pose
 from placement.scene import Scene
-
-T = TypeVar("T")
-
 
 #: a step's status: "ok" (planned and verified) or "infeasible" (with a ``reason`` and a ``diagnosis``)
 StepStatus = Literal["ok", "infeasible"]
@@ -117,32 +114,14 @@ class Cost:
         return self.navigation + self.manipulation + self.heuristic
 
 
-@dataclass
-class StepResult:
-    """One step: either planned (``status`` "ok") or infeasible with a ``reason``.
+@dataclass(frozen=True)
+class StepOutcome:
+    """What every step's result has, planned or not (the base of :class:`PlacedStep` and
+    :class:`InfeasibleStep`; a step's type is :data:`StepResult`).
 
     Attributes:
-        step, action, target: which step (index, "pick"/"place", object or place location name).
-        arm, grasp: the chosen arm and candidate trajectory name.
-        base: (x [m], y [m], yaw [rad]) of the base frame on the floor.
-        tcp: (P, 4, 4) TCP poses in the world frame, pre-pose first.
-        q: (n,) the arm's IK solution for the last TCP pose [rad or m]; qs: (P, n) the solutions of
-            every pose of ``tcp``; joints: every arm joint (at the last pose), then every joint the
-            preset holds fixed at the value this step holds it (a torso set per step; within the
-            URDF limits, not necessarily the preset's), by name [rad or m].
-        clearance_m: smallest distance [m] between the arm and the scene over the trajectory, from
-            the planner's collision check (None without one).
-        manipulability: the IRM value at the placement (dimensionless). cost: Eq. 6's terms.
-        travel_time_s: navigation cost / v_max [s]. timings_ms: per stage [ms].
-        diagnosis: of an infeasible step, why (see :func:`placement.planning.methods.explain.explain`).
-        trajectory: the chosen TCP trajectory's name (a place's: ``GRASP@yawDEG``, see
-            :mod:`placement.planning.problems.transfer`; default ``grasp``).
-        object: the object a pick takes or a place sets down (None for a reach).
-        placed_pose: a place's (4, 4) world pose of the object set down; support: the obstacle it
-            stands on (None: none under it).
-        resting: what the step assumes of the rest of the robot (base frame, idle arms, other
-            joints; :mod:`placement.planning.verification.configuration`), None for results made without it
-            (then the JSON has no ``configuration``).
+        step, action, target: which step (index, "pick"/"place"/"reach", object or place location name).
+        timings_ms: time per stage [ms].
         tried: placements the IK search tried; not part of the JSON.
         maps: the step's layers when they were kept (plots); not part of the JSON.
     """
@@ -151,24 +130,81 @@ class StepResult:
     action: str
     target: str
     _: KW_ONLY  # the rest by name: their order is not part of the interface
-    status: StepStatus = "ok"
-    reason: str | None = None
-    arm: str | None = None
-    grasp: str | None = None
-    base: tuple[float, float, float] | None = None
-    tcp: np.ndarray | None = None
-    q: np.ndarray | None = None
-    joints: dict[str, float] = field(default_factory=dict)
-    manipulability: float | None = None
-    cost: Cost | None = None
-    travel_time_s: float | None = None
     timings_ms: dict[str, float] = field(default_factory=dict)
-    maps: StepMaps | None = field(default=None, repr=False)
-    # after the fields of the first release: callers that pass fields by position keep working
+    tried: int = 0
+    maps: StepMaps | None = field(default=None, repr=False, compare=False)
+
+    def timed(self, **ms: float) -> Self:
+        """A copy with the stages ``ms`` [ms] set in (added to) its :attr:`timings_ms`."""
+        return replace(self, timings_ms=self.timings_ms | ms)
+
+    def _timings_json(self) -> dict[str, float]:
+        return {k: round(v, 3) for k, v in self.timings_ms.items()}
+
+
+@dataclass(frozen=True, kw_only=True)
+class InfeasibleStep(StepOutcome):
+    """A step no placement was verified for: why, in one line (``reason``) and as data (``diagnosis``,
+    see :func:`placement.planning.methods.explain.explain`)."""
+
+    status: Literal["infeasible"] = field(default="infeasible", init=False)
+    reason: str
+    diagnosis: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> Literal[False]:
+        return False
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "step": self.step,
+            "action": self.action,
+            "target": self.target,
+            "status": self.status,
+            "reason": self.reason,
+            "diagnosis": self.diagnosis,
+            "timings_ms": self._timings_json(),
+        }
+
+
+@dataclass(frozen=True, kw_only=True)
+class PlacedStep(StepOutcome):
+    """A planned and verified step.
+
+    Attributes:
+        arm, grasp: the chosen arm and candidate trajectory name.
+        base: (x [m], y [m], yaw [rad]) of the base frame on the floor.
+        tcp: (P, 4, 4) TCP poses in the world frame, pre-pose first.
+        q: (n,) the arm's IK solution for the last TCP pose [rad or m]; qs: (P, n) the solutions of
+            every pose of ``tcp`` (None: ``q`` at every pose); joints: every arm joint (at the last
+            pose), then every joint the preset holds fixed at the value this step holds it (a torso
+            set per step; within the URDF limits, not necessarily the preset's), by name [rad or m].
+        manipulability: the IRM value at the placement (dimensionless). cost: Eq. 6's terms.
+        travel_time_s: navigation cost / v_max [s].
+        clearance_m: smallest distance [m] between the arm and the scene over the trajectory, from
+            the planner's collision check (None without one).
+        trajectory: the chosen TCP trajectory's name (a place's: ``GRASP@yawDEG``, see
+            :mod:`placement.planning.problems.transfer`; None: ``grasp``).
+        object: the object a pick takes or a place sets down (None for a reach).
+        placed_pose: a place's (4, 4) world pose of the object set down; support: the obstacle it
+            stands on (None: none under it).
+        resting: what the step assumes of the rest of the robot (base frame, idle arms, other
+            joints; :mod:`placement.planning.verification.configuration`), None for results made without it
+            (then the JSON has no ``configuration``).
+    """
+
+    status: Literal["ok"] = field(default="ok", init=False)
+    arm: str
+    grasp: str
+    base: tuple[float, float, float]
+    tcp: np.ndarray
+    q: np.ndarray
+    joints: dict[str, float]
+    manipulability: float
+    cost: Cost
+    travel_time_s: float
     qs: np.ndarray | None = None
     clearance_m: float | None = None
-    diagnosis: dict[str, Any] | None = None
-    tried: int = 0
     trajectory: str | None = None
     object: str | None = None
     placed_pose: np.ndarray | None = None
@@ -176,30 +212,12 @@ class StepResult:
     resting: Resting | None = None
 
     @property
-    def ok(self) -> bool:
-        return self.status == "ok"
-
-    def need(self, value: T | None, what: str) -> T:
-        """``value``, a field of this step named ``what`` (PlacementError when it is None: the
-        step has no planned placement)."""
-        if value is None:
-            raise PlacementError(f"step {self.step} ({self.action} {self.target}) has no {what}: it is not planned")
-        return value
+    def ok(self) -> Literal[True]:
+        return True
 
     def to_json(self) -> dict[str, Any]:
-        timings = {k: round(v, 3) for k, v in self.timings_ms.items()}
-        if not self.ok:
-            return {
-                "step": self.step,
-                "action": self.action,
-                "target": self.target,
-                "status": self.status,
-                "reason": self.reason,
-                "diagnosis": self.diagnosis or {},
-                "timings_ms": timings,
-            }
         names = self.joints_of_arm()
-        tcp, cost = self.need(self.tcp, "tcp"), self.need(self.cost, "cost")
+        cost = self.cost
         return {
             "step": self.step,
             "action": self.action,
@@ -207,23 +225,23 @@ class StepResult:
             "arm": self.arm,
             "grasp": self.grasp,
             "trajectory": self.trajectory or self.grasp,
-            "base": [round(float(v), 6) for v in self.need(self.base, "base")],
-            "tcp": [matrix_to_pose(T) for T in tcp],
+            "base": [round(float(v), 6) for v in self.base],
+            "tcp": [matrix_to_pose(T) for T in self.tcp],
             "poses": [
                 {"pose": matrix_to_pose(T), "joints": {n: float(v) for n, v in zip(names, q)}}
-                for T, q in zip(tcp, self.pose_qs())
+                for T, q in zip(self.tcp, self.pose_qs())
             ],
             "joints": dict(self.joints),
             "clearance_m": None if self.clearance_m is None else float(self.clearance_m),
-            "manipulability": float(self.need(self.manipulability, "manipulability")),
+            "manipulability": float(self.manipulability),
             "cost": {
                 "total": cost.total,
                 "navigation": cost.navigation,
                 "manipulation": cost.manipulation,
                 "heuristic": cost.heuristic,
             },
-            "travel_time_s": float(self.need(self.travel_time_s, "travel time")),
-            "timings_ms": timings,
+            "travel_time_s": float(self.travel_time_s),
+            "timings_ms": self._timings_json(),
         } | self._extras_json()
 
     def _extras_json(self) -> dict[str, Any]:
@@ -250,21 +268,20 @@ class StepResult:
         r = self.resting
         if r is None:
             return None
-        arm = self.need(self.arm, "arm")
-        x, y, yaw = (round(float(v), 6) for v in self.need(self.base, "base"))
+        x, y, yaw = (round(float(v), 6) for v in self.base)
         holds = self.object if self.action == "place" else None
         return {
             "base": {"frame": r.base_frame, "x": x, "y": y, "yaw": yaw},
-            "arm": arm,
+            "arm": self.arm,
             "arms": {
                 a: {
-                    "state": "moving" if a == arm else "idle",
+                    "state": "moving" if a == self.arm else "idle",
                     "joints": list(names),
-                    "holds": holds if a == arm else None,
+                    "holds": holds if a == self.arm else None,
                 }
                 for a, names in r.arms.items()
             },
-            "fixed_joints": list(self.joints)[len(self.need(self.q, "q")) :],
+            "fixed_joints": list(self.joints)[len(self.q) :],
             "joints": self.whole_joints(r),
         }
 
@@ -281,16 +298,30 @@ class StepResult:
 
     def joints_of_arm(self) -> list[str]:
         """The arm's joint names, in ``q`` order (the first entries of ``joints``)."""
-        return list(self.joints)[: len(self.need(self.q, "q"))]
+        return list(self.joints)[: len(self.q)]
 
     def pose_qs(self) -> FloatArray:
         """(P, n) the arm's configuration at every TCP pose (the last one only, repeated, for
         results made without them)."""
         if self.qs is not None:
             return self.qs
-        q, tcp = self.need(self.q, "q"), self.need(self.tcp, "tcp")
-        out: FloatArray = np.repeat(np.asarray(q)[None], len(tcp), axis=0)
+        out: FloatArray = np.repeat(np.asarray(self.q)[None], len(self.tcp), axis=0)
         return out
+
+
+#: One step's result: planned (:class:`PlacedStep`, ``status`` "ok") or not
+#: (:class:`InfeasibleStep`, ``status`` "infeasible"); ``step.ok`` narrows it.
+StepResult = PlacedStep | InfeasibleStep
+
+
+def placed_steps(steps: Iterable[StepResult]) -> list[PlacedStep]:
+    """``steps``, each of them planned (PlacementError naming the first that is not)."""
+    out = []
+    for s in steps:
+        if not s.ok:
+            raise PlacementError(f"step {s.step} ({s.action} {s.target}) is not planned: {s.reason}")
+        out.append(s)
+    return out
 
 
 def robot_info(robot: Robot, arms: Iterable[str]) -> dict[str, Any]:
@@ -331,7 +362,7 @@ class PlanResult:
         return self.status == "ok"
 
     @property
-    def failed_step(self) -> StepResult | None:
+    def failed_step(self) -> InfeasibleStep | None:
         """The first infeasible step, if any."""
         return next((s for s in self.steps if not s.ok), None)
 
@@ -368,7 +399,7 @@ class PlanResult:
         for s in self.steps:
             if not s.ok:
                 continue
-            arm_name = s.need(s.arm, "arm")
+            arm_name = s.arm
             arm = robot.arm(arm_name)
             q = np.array([s.joints[j] for j in arm.joints])
             where = f"step {s.step} ({s.action} {s.target})"
@@ -380,7 +411,7 @@ class PlanResult:
             if s.qs is not None and not np.array_equal(qs[-1], q):
                 problems.append(f"{where}: the last pose's joints differ from the step's joints")
             qs[-1] = q
-            B = base_matrix(*s.need(s.base, "base"))
+            B = base_matrix(*s.base)
             problems += transfer_problems(s, self.steps, where, rot_tol=UPRIGHT_TOLERANCE)
             conf = s.configuration()
             if conf is not None:  # its fixed joints are the step's: checked there, and FK sets them
@@ -433,7 +464,7 @@ def configuration_tcp(robot: Robot, conf: dict[str, Any], q: FloatArray) -> Floa
     return world_tcp(robot, arm, pinocchio_q(robot, joints), base_matrix(b["x"], b["y"], b["yaw"]))
 
 
-def transfer_problems(s: StepResult, steps: list[StepResult], where: str, rot_tol: float) -> list[str]:
+def transfer_problems(s: PlacedStep, steps: list[StepResult], where: str, rot_tol: float) -> list[str]:
     """What is wrong with the transfer that place step ``s`` ends (empty for other steps): its pick
     (the last pick before it of the same object) must have the same arm and grasp, and the TCP's
     rotation from the grasp to the place must turn about the vertical only (the object is rigid in
@@ -441,8 +472,8 @@ def transfer_problems(s: StepResult, steps: list[StepResult], where: str, rot_to
     if s.action != "place" or s.object is None:
         return []
     before = steps[: next(i for i, x in enumerate(steps) if x is s)]
-    pick = next((p for p in reversed(before) if p.action == "pick" and p.object == s.object), None)
-    if pick is None or not pick.ok:
+    pick = next((p for p in reversed(before) if p.action == "pick" and p.ok and p.object == s.object), None)
+    if pick is None:
         return [f"{where}: no planned pick of '{s.object}' before it"]
     out = []
     if (pick.arm, pick.grasp) != (s.arm, s.grasp):

@@ -10,7 +10,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from placement.errors import PlacementError
-from placement.planning.results import PlanResult, StepResult
+from placement.planning.results import PlacedStep, PlanResult, StepResult, placed_steps
 from placement.planning.verification import joint_limits, velocity_limit
 from placement.robots import Robot
 
@@ -24,26 +24,21 @@ class Move(NamedTuple):
     joints: dict[str, float]  # joint name -> IK solution, and the fixed joints' values [rad or m]
 
 
-def move_of(step: StepResult) -> Move:
+def move_of(step: PlacedStep) -> Move:
     """A planned step as a move."""
-    return Move(
-        float(step.need(step.base, "base")[2]),
-        float(step.need(step.travel_time_s, "travel")),
-        step.need(step.arm, "arm"),
-        step.joints,
-    )
+    return Move(float(step.base[2]), float(step.travel_time_s), step.arm, step.joints)
 
 
 def plan_moves(result: PlanResult | None) -> list[Move] | None:
     """The steps of a plan as moves, or None unless the plan succeeded."""
     if result is None or not result.ok:
         return None
-    return [move_of(s) for s in result.steps]
+    return [move_of(s) for s in placed_steps(result.steps)]
 
 
 def steps_seconds(robot: Robot, steps: Sequence[StepResult], start_yaw: float) -> list[dict[str, float]]:
     """:func:`step_times` of planned steps from the base yaw ``start_yaw`` [rad]."""
-    return step_times(robot, [move_of(s) for s in steps], start_yaw)
+    return step_times(robot, [move_of(s) for s in placed_steps(steps)], start_yaw)
 
 
 def _wrap(a: float) -> float:

@@ -230,7 +230,7 @@ def plan_markers(
     sizes = {o.name: o.size for o in scene.objects}
     outline = [Point(x=x, y=y, z=0.02) for x, y in footprint_outline(robot)]
     for i, s in enumerate(result.steps):
-        if not (s.ok and s.base is not None):
+        if not s.ok:
             continue
         base = pose_message((s.base[0], s.base[1], 0.0), yaw_quaternion(s.base[2]))
 
@@ -243,10 +243,9 @@ def plan_markers(
         fp.scale.x = 0.02
         fp.points = outline
         markers.append(fp)
-        if s.tcp is not None:
-            arrow = marker("tcp", Marker.ARROW, matrix_pose(s.tcp[-1]), _color(1.0, 0.4, 0.0))
-            arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.12, 0.015, 0.015
-            markers.append(arrow)
+        arrow = marker("tcp", Marker.ARROW, matrix_pose(s.tcp[-1]), _color(1.0, 0.4, 0.0))
+        arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.12, 0.015, 0.015
+        markers.append(arrow)
         if s.placed_pose is not None and s.object in sizes:
             box = marker("object", Marker.CUBE, matrix_pose(s.placed_pose), _color(0.2, 0.8, 0.3, 0.8))
             box.scale.x, box.scale.y, box.scale.z = (float(v) for v in sizes[s.object])

@@ -348,7 +348,7 @@ def summary(result: PlanResult) -> str:
     bad = result.failed_step
     done = sum(s.ok for s in result.steps)
     if bad is None:
-        travel = sum(s.travel_time_s or 0.0 for s in result.steps)
+        travel = sum(s.travel_time_s for s in result.steps if s.ok)
         task = None if result.certificate is None else result.certificate.task_time_s
         head = f"planned {done} of {len(result.steps)} steps"
         return (

@@ -16,7 +16,7 @@ import numpy as np
 
 from placement.errors import ViewerError
 from placement.planning.problems import UPRIGHT_TOLERANCE
-from placement.planning.results import Cost, StepResult, transfer_problems
+from placement.planning.results import Cost, InfeasibleStep, PlacedStep, StepResult, transfer_problems
 from placement.planning.verification import held, joint_limits, resting
 from placement.robots import Robot, pose_to_matrix
 from placement.validation import parse_json
@@ -95,9 +95,7 @@ def parse_step(d: Any, where: str, robot: Robot) -> StepResult:
     if d.get("status", "ok") != "ok":
         _need(d.get("status") == "infeasible", f"{where}.status", "must be 'ok' or 'infeasible'")
         reason = d.get("reason")
-        return StepResult(
-            step, action, target, status="infeasible", reason=reason if isinstance(reason, str) else "no reason given"
-        )
+        return InfeasibleStep(step, action, target, reason=reason if isinstance(reason, str) else "no reason given")
     arm = _text(d, "arm", where)
     _need(arm in robot.arms, f"{where}.arm", f"no arm '{arm}' on robot '{robot.name}'; arms: {', '.join(robot.arms)}")
     bx, by, byaw = _numbers(d.get("base"), 3, f"{where}.base")
@@ -121,14 +119,16 @@ def parse_step(d: Any, where: str, robot: Robot) -> StepResult:
     _need(not missing, f"{where}.joints", f"lacks joint(s) {', '.join(missing)} of the {arm} arm")
     q = np.array([_number(joints[j], f"{where}.joints.{j}") for j in names])
     fixed = {j: _fixed_value(joints.get(j, v), robot, j, f"{where}.joints.{j}") for j, v in robot.fixed_joints.items()}
+    # what the viewer only shows: NaN when a plan does not give it
     extra = {
-        key: _number(d[key], f"{where}.{key}") if key in d else None for key in ("manipulability", "travel_time_s")
+        key: _number(d[key], f"{where}.{key}") if key in d else math.nan for key in ("manipulability", "travel_time_s")
     }
     cost = d.get("cost") if isinstance(d.get("cost"), dict) else {}
     terms = ("navigation", "manipulation", "heuristic")
-    cost = Cost(*(_number(cost[t], f"{where}.cost.{t}") for t in terms)) if all(t in cost for t in terms) else None
+    cost = Cost(*(_number(cost[t], f"{where}.cost.{t}") if t in cost else math.nan for t in terms))
     grasp = d.get("grasp") if isinstance(d.get("grasp"), str) else "?"
-    out = StepResult(
+    # the transfer: the object a pick takes or a place sets down (plans made before transfers have none)
+    return PlacedStep(
         step,
         action,
         target,
@@ -141,12 +141,10 @@ def parse_step(d: Any, where: str, robot: Robot) -> StepResult:
         manipulability=extra["manipulability"],
         cost=cost,
         travel_time_s=extra["travel_time_s"],
+        object=d.get("object") if isinstance(d.get("object"), str) else None,
+        trajectory=d.get("trajectory") if isinstance(d.get("trajectory"), str) else None,
+        resting=resting(robot, arm),
     )
-    # the transfer: the object a pick takes or a place sets down (plans made before transfers have none)
-    out.object = d.get("object") if isinstance(d.get("object"), str) else None
-    out.trajectory = d.get("trajectory") if isinstance(d.get("trajectory"), str) else None
-    out.resting = resting(robot, arm)
-    return out
 
 
 def _fixed_value(v: Any, robot: Robot, joint: str, where: str) -> float:
@@ -290,10 +288,9 @@ def check_plan(doc: dict[str, Any], steps: list[StepResult], scene: Scene, robot
         raise PlanFileError(problems[0])
 
 
-def _check_step(d: dict[str, Any], s: StepResult, scene: Scene, robot: Robot, at: str) -> None:
+def _check_step(d: dict[str, Any], s: PlacedStep, scene: Scene, robot: Robot, at: str) -> None:
     """The planned step ``s`` (read from ``d``): base in bounds, joints of the robot within limits,
     the TCP where the joints put it (the fixed joints at the step's values)."""
-    assert s.base is not None and s.arm is not None and s.tcp is not None and s.q is not None  # parse_step's
     xmin, ymin, xmax, ymax = scene.bounds
     x, y, yaw = s.base
     _need(

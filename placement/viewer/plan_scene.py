@@ -26,7 +26,7 @@ import numpy as np
 
 from placement.errors import PlacementError
 from placement.planning.problems import step_candidates, task_steps
-from placement.planning.results import StepResult, configuration_problems, configuration_tcp
+from placement.planning.results import PlacedStep, StepResult, configuration_problems, configuration_tcp
 from placement.planning.settings import PlannerConfig
 from placement.robots import Robot, pose_to_matrix
 from placement.scene import Scene
@@ -67,7 +67,7 @@ def offset_problems(doc: dict[str, Any], robot: Robot, where: str) -> list[str]:
     return out
 
 
-def configuration_agreement(conf: Any, s: StepResult, robot: Robot, at: str) -> list[str]:
+def configuration_agreement(conf: Any, s: PlacedStep, robot: Robot, at: str) -> list[str]:
     """What is wrong with a planned step's ``configuration`` (None: the plan has none; fine)."""
     if conf is None:
         return []
@@ -79,7 +79,7 @@ def configuration_agreement(conf: Any, s: StepResult, robot: Robot, at: str) -> 
         pose = [float(base[k]) for k in ("x", "y", "yaw")]
     except (KeyError, TypeError, ValueError):
         return [f"{where}.base: must give x, y and yaw"]
-    x, y, yaw = s.need(s.base, "base")
+    x, y, yaw = s.base
     if (
         abs(pose[0] - x) > TOLERANCE_M
         or abs(pose[1] - y) > TOLERANCE_M
@@ -106,18 +106,18 @@ def configuration_agreement(conf: Any, s: StepResult, robot: Robot, at: str) -> 
         problems = configuration_problems(robot, conf, where)
         if problems:
             return problems[:1]
-        arm = robot.arm(s.need(s.arm, "arm"))
+        arm = robot.arm(s.arm)
         T = configuration_tcp(robot, conf, np.array([float(joints[j]) for j in arm.joints]))
     except (KeyError, TypeError, ValueError, PlacementError) as exc:
         return [f"{where}: {str(exc).splitlines()[0][:120] or type(exc).__name__}"]
-    d, r = _off(T, s.need(s.tcp, "tcp")[-1])
+    d, r = _off(T, s.tcp[-1])
     if d > 0.01 or r > math.radians(3):
         return [f"{where}: its FK puts the TCP {_words(d, r)} from the step's last pose"]
     return []
 
 
 def scene_agreement(
-    doc_step: dict[str, Any], s: StepResult, scene: Scene, robot: Robot, config: PlannerConfig, at: str
+    doc_step: dict[str, Any], s: PlacedStep, scene: Scene, robot: Robot, config: PlannerConfig, at: str
 ) -> list[str]:
     """Whether planned step ``s`` does what the scene allows: its trajectory one of the step's
     candidates (see the module docstring), a place's placed pose where it sets the object down."""
@@ -132,7 +132,7 @@ def scene_agreement(
         return [
             f"{at}.trajectory: {str(name)[:60]!r} is not one of the scene's {len(cands)} trajectories for {step.action} {step.target}"
         ]
-    tcp = s.need(s.tcp, "tcp")
+    tcp = s.tcp
     if len(tcp) != len(cand.poses):
         return [f"{at}.tcp: {len(tcp)} poses, but trajectory {name!r} of the scene has {len(cand.poses)}"]
     for k, (got, want) in enumerate(zip(tcp, cand.poses)):

@@ -5,6 +5,7 @@ as floor layers (each switchable, with its colour scale)."""
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Iterable
 from typing import TYPE_CHECKING, cast
@@ -117,7 +118,6 @@ class PlanView:
             self.draw_layers(index)
             self.draw_placements(index)
             if s.ok:
-                assert s.base is not None  # a planned step has it
                 self.robot_drawing.show(s.base, step_config(self.robot, s))  # the step's torso included
             else:
                 self.robot_drawing.visible = False
@@ -130,14 +130,14 @@ class PlanView:
     def describe(self, s: StepResult) -> str:
         if not s.ok:
             return f"**{title(s)}**"
-        assert s.base is not None  # a planned step has it
         x, y, yaw = s.base
         lines = [f"**{title(s)}**", f"base x {x:.2f} m, y {y:.2f} m, yaw {np.degrees(yaw):.0f} deg"]
-        if s.manipulability is not None:
+        # a plan file may leave these out (read as NaN)
+        if math.isfinite(s.manipulability):
             lines.append(f"manipulability {s.manipulability:.4f}")
-        if s.cost is not None:
+        if math.isfinite(s.cost.total):
             lines.append(f"cost {s.cost.total:.3f} (Eq. 6, dimensionless)")
-        if s.travel_time_s is not None:
+        if math.isfinite(s.travel_time_s):
             lines.append(f"travel {s.travel_time_s:.1f} s")
         return "  \n".join(lines)
 
@@ -179,7 +179,6 @@ class PlanView:
             for name in ("footprint", "heading", "tcp", "path"):
                 scene.add_frame(f"/plan/{name}", show_axes=False, visible=False)
             return
-        assert s.base is not None and s.tcp is not None  # a planned step has them
         x, y, yaw = s.base
         scene.add_line_segments(
             "/plan/footprint",
@@ -199,7 +198,7 @@ class PlanView:
 
     def overview(self) -> None:
         """Every planned placement as a thin ring with its step number, and the straight tour between them."""
-        ok = [(s.step, s.base) for s in self.steps if s.ok and s.base is not None]  # a planned step has its base
+        ok = [(s.step, s.base) for s in self.steps if s.ok]
         rings = [ring_segments(0.12, 0.01, 16) + np.array([*b[:2], 0.0], np.float32) for _, b in ok]
         scene = self.server.scene
         scene.add_line_segments(
@@ -229,7 +228,7 @@ class PlanView:
     def base_path(self, index: int) -> npt.NDArray[np.float64]:
         """(m, 3) points [m] of the base path to step ``index`` (at z = 2 cm, above the layers)."""
         s = self.steps[index]
-        assert s.base is not None  # drawn for planned steps only
+        assert s.ok  # drawn for planned steps only
         cells = getattr(s.maps, "path", None) if s.maps is not None else None
         if cells is not None and len(cells) and self.world is not None:
             xs, ys = self.world.nav.centres()

@@ -21,7 +21,7 @@ if TYPE_CHECKING:
 
     import viser
 
-    from placement.planning.results import StepResult
+    from placement.planning.results import PlacedStep
     from placement.robots import Robot
 
 log = logging.getLogger("placement")
@@ -137,14 +137,13 @@ class RobotDrawing:
             self.frame.visible = True
 
 
-def step_config(robot: Robot, step: StepResult) -> npt.NDArray[np.float64]:
+def step_config(robot: Robot, step: PlacedStep) -> npt.NDArray[np.float64]:
     """Pinocchio configuration (model.nq,) of a planned ``step`` at its last TCP pose: its whole
     configuration (:meth:`~placement.planning.StepResult.whole_joints`), so the arm at its IK
     solution, the fixed joints at the step's values (a torso raised for this step is drawn raised),
     the other arms idle and the rest neutral; a step without :attr:`resting` gets the planner's."""
-    arm = step.need(step.arm, "arm")
-    r = step.resting if step.resting is not None else resting(robot, arm)
-    joints = step.whole_joints(r) | dict(zip(robot.arm(arm).joints, map(float, step.need(step.q, "q"))))
+    r = step.resting if step.resting is not None else resting(robot, step.arm)
+    joints = step.whole_joints(r) | dict(zip(robot.arm(step.arm).joints, map(float, step.q)))
     return pinocchio_q(robot, joints)
 
 

@@ -26,6 +26,17 @@ from visualization_msgs.msg import MarkerArray
 
 from placement.ros.node import qos
 
+#: History depth of the peer's readers of the node's latched topics. The node keeps one message
+#: (depth 1, as a latched topic should), but a reader's own history holds what arrived while the
+#: test did not spin (e.g. while it planned the same scene itself to compare): with a depth of 1
+#: two plans in that time were one, and the tests that count plans waited for one that never came.
+KEPT = 100
+
+#: Longest wait [s] for the node to start or to answer. A wait ends as soon as what it waits for
+#: arrives: the bound only matters on a machine so loaded that the node's first planner (maps read,
+#: IK warmed) takes minutes, where a shorter one failed tests that would have passed.
+WAIT_S = 180.0
+
 #: ROS 2 environment of both sides: discovery on this machine only.
 LOCAL = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_LOCALHOST_ONLY": "1"}
 
@@ -55,7 +66,7 @@ class NodeProcess:
         for line in self.proc.stderr:
             self.lines.append(line.rstrip("\n"))
 
-    def ready(self, timeout: float = 60.0) -> float:
+    def ready(self, timeout: float = WAIT_S) -> float:
         """Seconds until the node said it is ready (AssertionError with its stderr if it did not)."""
         t0 = time.perf_counter()
         while time.perf_counter() - t0 < timeout:
@@ -93,9 +104,9 @@ class Peer:
         self.reach: list[PoseStamped] = []
         n = self.node
         n.create_subscription(String, f"{base}/status", lambda m: self.status.append(json.loads(m.data)), qos(100))
-        n.create_subscription(String, f"{base}/plan", lambda m: self.plans.append(json.loads(m.data)), qos(1, True))
-        n.create_subscription(Path, f"{base}/base_poses", self.paths.append, qos(1, True))
-        n.create_subscription(MarkerArray, f"{base}/markers", self.markers.append, qos(1, True))
+        n.create_subscription(String, f"{base}/plan", lambda m: self.plans.append(json.loads(m.data)), qos(KEPT, True))
+        n.create_subscription(Path, f"{base}/base_poses", self.paths.append, qos(KEPT, True))
+        n.create_subscription(MarkerArray, f"{base}/markers", self.markers.append, qos(KEPT, True))
         n.create_subscription(PoseStamped, f"{base}/reach_base", self.reach.append, qos(10))
         self.map = n.create_publisher(OccupancyGrid, "/map", qos(1, True))
         self.scene = n.create_publisher(String, f"{base}/scene", qos(10))
@@ -110,7 +121,7 @@ class Peer:
         self.node.destroy_node()
         rclpy.shutdown(context=self.context)
 
-    def spin_until(self, cond: Callable[[], Any], timeout: float = 30.0) -> Any:
+    def spin_until(self, cond: Callable[[], Any], timeout: float = WAIT_S) -> Any:
         end = time.perf_counter() + timeout
         while time.perf_counter() < end:
             if cond():
@@ -118,7 +129,7 @@ class Peer:
             self.executor.spin_once(timeout_sec=0.02)
         return cond()
 
-    def connected(self, publisher: Any, timeout: float = 20.0) -> None:
+    def connected(self, publisher: Any, timeout: float = WAIT_S) -> None:
         assert self.spin_until(lambda: publisher.get_subscription_count() > 0, timeout), "the node never subscribed"
 
     def object(self, name: str) -> Any:
@@ -131,7 +142,7 @@ class Peer:
     def statuses(self, source: str) -> list[dict[str, Any]]:
         return [s for s in self.status if s["source"] == source]
 
-    def publish_and_wait(self, publish: Callable[[], None], source: str, timeout: float = 60.0) -> dict[str, Any]:
+    def publish_and_wait(self, publish: Callable[[], None], source: str, timeout: float = WAIT_S) -> dict[str, Any]:
         """Publish, then wait for the next status line from ``source``; when it is applied, also for
         the plan it leads to (its status line and the plan, path and markers). Returns the status line."""
         before = len(self.statuses(source))
@@ -143,7 +154,7 @@ class Peer:
             self.wait_plan(plans, timeout)
         return line
 
-    def wait_plan(self, plans_before: int, timeout: float = 60.0) -> dict[str, Any]:
+    def wait_plan(self, plans_before: int, timeout: float = WAIT_S) -> dict[str, Any]:
         """Wait for the plan after ``plans_before`` plan status lines, and its messages."""
         assert self.spin_until(lambda: len(self.statuses("plan")) > plans_before, timeout), "no plan"
         status = self.statuses("plan")[plans_before]
@@ -152,7 +163,7 @@ class Peer:
             assert self.spin_until(lambda: min(len(self.plans), len(self.paths), len(self.markers)) >= n, timeout)
         return status
 
-    def plan_now(self, timeout: float = 60.0) -> Trigger.Response:
+    def plan_now(self, timeout: float = WAIT_S) -> Trigger.Response:
         assert self.trigger.wait_for_service(timeout_sec=timeout)
         future = self.trigger.call_async(Trigger.Request())
         assert self.spin_until(future.done, timeout), "plan_now did not answer"

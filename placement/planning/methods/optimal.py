@@ -69,14 +69,14 @@ from placement.planning.program import (
     time_cells,
     time_yaws,
 )
-from placement.planning.results import StepMaps, StepResult
+from placement.planning.results import InfeasibleStep, StepMaps, StepResult
 from placement.planning.torso import start_torso, torso_joint
 from placement.planning.world import extract_path, navigation_cost
 
 log = logging.getLogger(__name__)
 
 
-def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], StepResult | None]:
+def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], InfeasibleStep | None]:
     """Solve ``dp`` until its cheapest chain verifies: (the chain, each step's verified placement,
     None), or (None, [], the infeasible result saying why); when the time budget runs out, (the
     chain, the placements verified along it so far, the first step not verified)."""
@@ -88,7 +88,7 @@ def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], St
         return (chain if picks else None), picks, infeasible(step, dp.ctx.budget_words())
 
 
-def _solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], StepResult | None]:
+def _solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], InfeasibleStep | None]:
     ctx = dp.ctx
     steps = ctx.problems.steps
     chain = dp.solve()
@@ -169,8 +169,7 @@ def plan_dynamic(
         dp = DynamicProgram(ctx, start, neighbourhood, exact_repairs, priced)
     except BudgetSpent:  # the regions of every step took the whole budget
         spent = infeasible(ctx.problems.steps[0], ctx.budget_words())
-        spent.timings_ms = {"total": (time.perf_counter() - t0) * 1e3}
-        return [spent]
+        return [replace(spent, timings_ms={"total": (time.perf_counter() - t0) * 1e3})]
     dp.local = dp.program.lazy = local
     chain, picks, failure = solve_verified(dp)
     if (
@@ -182,7 +181,7 @@ def plan_dynamic(
         # (not with torso settings: the program held the lift, the bound takes every setting)
         ctx.problems.bounds[("maps", start)] = dp.first_total
     if failure is not None and not failure.timings_ms:
-        failure.timings_ms = {"total": (time.perf_counter() - t0) * 1e3}
+        failure = replace(failure, timings_ms={"total": (time.perf_counter() - t0) * 1e3})
     if chain is None:
         if failure is None:
             return []
@@ -208,8 +207,7 @@ def plan_dynamic(
         dp.repairs_local,
         ms,
     )
-    for s in out:
-        s.timings_ms = {"total": ms / len(out)}
+    out = [replace(s, timings_ms={"total": ms / len(out)}) for s in out]
     return out if failure is None else [*out, failure]
 
 
@@ -252,7 +250,7 @@ def results(
     """The step results of a verified chain: each step's travel [m] is its label less the previous
     step's, its node cost and its torso term (the chain's legs are shortest paths from the previous cell)."""
     nav = ctx.world.nav
-    out = []
+    out: list[StepResult] = []
     prev_label, prev_cell = 0.0, start
     for i, (flat, g, v) in enumerate(zip(chain.cells, chain.groups, picks)):
         step = ctx.problems.steps[i]
@@ -264,13 +262,13 @@ def results(
         if keep_maps:
             navc, pred = navigation_cost(ctx.world.factor, ctx.world.feasible, prev_cell, nav.resolution)
             manip = np.max([p.full_value(nav.shape) for p in ctx.problems.options(i)], axis=0)
-            r.maps = StepMaps(navc, np.zeros(nav.shape), manip, None, extract_path(pred, (iy, ix)))
+            r = replace(r, maps=StepMaps(navc, np.zeros(nav.shape), manip, None, extract_path(pred, (iy, ix))))
         out.append(r)
         prev_label, prev_cell = chain.labels[i], (iy, ix)
     return out
 
 
-def why_not(ctx: PlanningContext, dp: DynamicProgram) -> StepResult:
+def why_not(ctx: PlanningContext, dp: DynamicProgram) -> InfeasibleStep:
     """The infeasible result of the first step no chain reaches, and why."""
     steps = ctx.problems.steps
     i = next(k for k, layer in enumerate(dp.layers) if not np.isfinite(layer.labels).any())

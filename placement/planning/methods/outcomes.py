@@ -8,14 +8,14 @@ from typing import Any
 from placement.planning.arrays import BasePose, FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.problems import Option, Step, height_range
-from placement.planning.results import Cost, StepResult
+from placement.planning.results import Cost, InfeasibleStep, PlacedStep
 from placement.planning.torso import robot_at
 from placement.planning.verification import resting
 
 
-def infeasible(step: Step, reason: str, diagnosis: dict[str, Any] | None = None) -> StepResult:
+def infeasible(step: Step, reason: str, diagnosis: dict[str, Any] | None = None) -> InfeasibleStep:
     """The result of a step that could not be planned, with its ``reason`` (one line)."""
-    return StepResult(step.index, step.action, step.target, status="infeasible", reason=reason, diagnosis=diagnosis)
+    return InfeasibleStep(step.index, step.action, step.target, reason=reason, diagnosis=diagnosis or {})
 
 
 def unreachable_reason(ctx: PlanningContext, opts: Sequence[Option]) -> str:
@@ -45,7 +45,7 @@ def placed(
     value: float,
     timings: dict[str, float],
     clearance_m: float | None = None,
-) -> StepResult:
+) -> PlacedStep:
     """The result of a verified placement: weighted Eq. 6 terms, joints by name (``qs`` (P, n): the
     arm at every pose of the trajectory), travel time [s], clearance [m] (None without a collision
     check), and the rest of the robot's configuration as the collision check assumed it (the other
@@ -57,7 +57,7 @@ def placed(
     joints.update(robot_at(ctx, o.torso).fixed_joints)
     cost = Cost(cfg.lambda_n * nav_c, cfg.lambda_m / value, cfg.lambda_nh * heur_c)
     c = o.candidate
-    return StepResult(
+    return PlacedStep(
         step.index,
         step.action,
         step.target,

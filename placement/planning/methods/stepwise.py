@@ -10,6 +10,7 @@ from __future__ import annotations
 import time
 from abc import abstractmethod
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -21,7 +22,7 @@ from placement.planning.methods.outcomes import infeasible, placed, unreachable_
 from placement.planning.methods.ranking import Ranked, combined_map
 from placement.planning.methods.search import search_placement
 from placement.planning.problems import Option, Step, per_arm_values
-from placement.planning.results import StepMaps, StepResult
+from placement.planning.results import InfeasibleStep, StepMaps, StepResult
 from placement.planning.torso import held_setting, start_torso, torso_seconds
 from placement.planning.world import costs_at, extract_path, navigation_cost
 
@@ -69,14 +70,13 @@ def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell
         else:
             t0 = time.perf_counter()
             result, cell = plan_step(ctx, method, step, prev_cell, prev_q, keep_maps, torso=torso)
-            result.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
-            results = [result]
+            results = [result.timed(total=(time.perf_counter() - t0) * 1e3)]
         out += results
         if not results[-1].ok or cell is None:
             break
         prev_cell = cell
         for r in results:
-            if r.arm is not None and r.q is not None:
+            if r.ok:
                 prev_q[r.arm] = r.q
             torso = held_torso(ctx, r, torso)
         i += len(results)
@@ -112,7 +112,7 @@ def plan_transfer(
         # no arm and grasp reaches the place anywhere: the place is what fails (as the whole-task methods
         # say), after the pick planned alone
         first, cell = plan_step(ctx, method, pick, prev_cell, prev_q, keep_maps, None, torso)
-        first.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
+        first = first.timed(total=(time.perf_counter() - t0) * 1e3)
         if not first.ok or cell is None:
             return [first], None
         opts = problems.options(place.index)
@@ -124,33 +124,32 @@ def plan_transfer(
         if failed and ctx.out_of_budget():
             return [infeasible(pick, ctx.budget_words())], None
         if not allowed:
-            result = StepResult(
+            result = InfeasibleStep(
                 pick.index,
                 pick.action,
                 pick.target,
-                status="infeasible",
                 reason=transfer_reason(ctx, pick, place, failed),
                 diagnosis={"place": place.target, "transfers": transfer_diagnosis(failed)},
                 timings_ms={"total": (time.perf_counter() - t0) * 1e3},
             )
             return [result], None
         first, cell = plan_step(ctx, method, pick, prev_cell, prev_q, keep_maps, allowed, torso)
-        if not first.ok or cell is None or first.arm is None or first.q is None:
-            if failed:
-                first.reason = (first.reason or "") + (
-                    f" (not tried: {excluded_words(failed)}, which cannot set '{pick.target}' down at '{place.target}')"
+        if not first.ok or cell is None:
+            if failed and not first.ok:
+                first = replace(
+                    first,
+                    reason=first.reason
+                    + f" (not tried: {excluded_words(failed)}, which cannot set '{pick.target}' down at '{place.target}')",
                 )
-            first.timings_ms["total"] = (time.perf_counter() - t0) * 1e3
-            return [first], None
+            return [first.timed(total=(time.perf_counter() - t0) * 1e3)], None
         t1 = time.perf_counter()
         pair = (first.arm, first.grasp)
         at = held_torso(ctx, first, torso)
         second, cell = plan_step(ctx, method, place, cell, {**prev_q, first.arm: first.q}, keep_maps, {pair}, at)
-        second.timings_ms["total"] = (time.perf_counter() - t1) * 1e3
+        second = second.timed(total=(time.perf_counter() - t1) * 1e3)
         if second.ok:
-            first.timings_ms["total"] = (t1 - t0) * 1e3
-            first.timings_ms["manipulation"] = first.timings_ms.get("manipulation", 0.0) + irms_ms
-            return [first, second], cell
+            manipulation = first.timings_ms.get("manipulation", 0.0) + irms_ms
+            return [first.timed(total=(t1 - t0) * 1e3, manipulation=manipulation), second], cell
         failed[pair] = second.reason or "infeasible"
 
 
@@ -268,22 +267,19 @@ def plan_step(
             timings,
             found.clearance_m,
         )
-        result.maps = maps
-        result.tried = search.tried
-        return result, (iy, ix)
+        return replace(result, maps=maps, tried=search.tried), (iy, ix)
     reason, diagnosis = explain(ctx, fixed, step, opts, search, "" if ranked else unreachable_reason(ctx, opts))
-    result = StepResult(
+    failure = InfeasibleStep(
         step.index,
         step.action,
         step.target,
-        status="infeasible",
         reason=reason,
         diagnosis=diagnosis,
         timings_ms=timings,
         maps=maps,
+        tried=search.tried if search else 0,
     )
-    result.tried = search.tried if search else 0
-    return result, None
+    return failure, None
 
 
 def held_torso(ctx: PlanningContext, result: StepResult, before: float | None) -> float | None:

@@ -53,7 +53,7 @@ def certify(ctx: PlanningContext, method: RegionSource, start: Cell, steps: list
         except BudgetSpent:
             bound_m, stopped = math.nan, f"not computed: {ctx.budget()[0]} ran out"
     ok = bool(steps) and len(steps) == len(ctx.problems.steps) and all(s.ok for s in steps)
-    travel = sum(float(s.travel_time_s or 0.0) for s in steps) if ok else None
+    travel = sum(float(s.travel_time_s) for s in steps if s.ok) if ok else None
     task = None
     if ok:
         task = sum(x["step_s"] for x in steps_seconds(ctx.robot, steps, float(ctx.scene.start[2])))

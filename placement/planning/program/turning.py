@@ -217,7 +217,7 @@ def time_yaws(
     ctx = dp.ctx
     robot = ctx.robot
     arm_s = _arm_seconds(dp, steps)
-    travel_s = [float(s.travel_time_s or 0.0) for s in steps]
+    travel_s = [float(s.travel_time_s) if s.ok else 0.0 for s in steps]
     nav = ctx.world.nav
     xs, ys = nav.centres()
     yaws: list[FloatArray] = []

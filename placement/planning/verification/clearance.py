@@ -135,5 +135,5 @@ def scene_clearance(robot: Robot, scene: Scene, steps: Sequence[Any]) -> list[st
     a polygon base keeps the scene's ``footprint_padding``, a round one its radius (which has its
     margin in it)."""
     padding = PlannerConfig.from_overrides(scene.planner, str(scene.source or scene.name)).footprint_padding
-    bases = [(f"step {s.step} ({s.action} {s.target})", s.base) for s in steps if s.ok and s.base is not None]
+    bases = [(f"step {s.step} ({s.action} {s.target})", s.base) for s in steps if s.ok]
     return clearance_problems(robot, scene, bases, padding if robot.footprint is not None else 0.0)
