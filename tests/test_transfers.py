@@ -325,7 +325,7 @@ def test_a_place_only_one_arm_reaches_decides_the_arm_of_the_pick(maps_dir, tmp_
     """A PR2 towing a cart (1.235 m long) fits the 0.8 m corridor facing north only; the place in
     the table's north-east corner is then 0.35 m right of the base: the right arm reaches it, the
     left does not. The pick on its own would take the left arm; the transfer takes the right."""
-    from placement.planning.methods.stepwise import plan_step
+    from placement.planning.methods.stepwise import Holding, plan_step
     from placement.robots.preset import PRESET_DIR
 
     preset = yaml.safe_load((PRESET_DIR / "pr2.yaml").read_text())
@@ -334,13 +334,11 @@ def test_a_place_only_one_arm_reaches_decides_the_arm_of_the_pick(maps_dir, tmp_
     (tmp_path / "corridor.yaml").write_text(CORRIDOR.replace("PRESET", str(tmp_path / "pr2_cart.yaml")))
     planner = Planner(unbudgeted(load_scene(tmp_path / "corridor.yaml")), "sequential", maps=maps_dir)
     pick, place = planner.problems.steps
-    home = {a: planner.robot.arm(a).home.copy() for a in planner.maps}
     ctx, method = planner.context, planner.method
-    alone, _ = plan_step(ctx, method, pick, planner.start_cell(), home, False)
+    start = Holding.start(ctx, planner.start_cell())
+    alone, _ = plan_step(ctx, method, pick, start, False)
     assert alone.ok and alone.arm == "left"
-    left, _ = plan_step(
-        ctx, method, place, planner.start_cell(), home, False, {("left", "top"), ("left", "top-flipped")}
-    )
+    left, _ = plan_step(ctx, method, place, start, False, {("left", "top"), ("left", "top-flipped")})
     assert not left.ok
     result = planner.plan()
     assert result.ok, [s.reason for s in result.steps if not s.ok]
@@ -357,17 +355,21 @@ def test_evaluation_counts_transfer_faults(maps_dir, pr2):
     result = Planner(scene, maps=maps_dir).plan()
     assert result.ok and transfer_faults(result) == 0
     place = result.steps[1]
-    arm, grasp = place.arm, place.grasp
-    place.grasp = "top" if grasp == "top-flipped" else "top-flipped"
-    assert transfer_faults(result) == 1
-    place.arm = "left" if arm == "right" else "right"
-    assert transfer_faults(result) == 1  # one problem line for both (arm and grasp)
-    place.arm, place.grasp = arm, grasp
+
+    def with_place(**changes):
+        """The plan with its place step changed."""
+        steps = list(result.steps)
+        steps[1] = replace(place, **changes)
+        return replace(result, steps=steps)
+
+    other_grasp = "top" if place.grasp == "top-flipped" else "top-flipped"
+    assert transfer_faults(with_place(grasp=other_grasp)) == 1
+    other_arm = "left" if place.arm == "right" else "right"
+    assert transfer_faults(with_place(grasp=other_grasp, arm=other_arm)) == 1  # one problem line for both
     tilted = np.array(place.tcp)
     tilted[-1][:3, :3] = tilted[-1][:3, :3] @ quaternion_matrix([math.sin(0.1), 0.0, 0.0, math.cos(0.1)])
-    place.tcp = tilted
-    assert transfer_faults(result) == 1
-    assert any("set down tilted 11.5 deg" in p for p in result.verify(pr2))
+    assert transfer_faults(with_place(tcp=tilted)) == 1
+    assert any("set down tilted 11.5 deg" in p for p in with_place(tcp=tilted).verify(pr2))
 
 
 def test_the_viewer_refuses_a_plan_whose_place_changes_the_grasp(maps_dir, tmp_path):

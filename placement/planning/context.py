@@ -146,6 +146,11 @@ class PlanningContext:
         option's ``torso``; None: the arm's own map) is infeasible (dimensionless)."""
         return self.thresholds.at(arm, torso)
 
+    def option_threshold(self, o: Option) -> float:
+        """The map value below which a placement of option ``o`` (its arm at its torso setting) is
+        infeasible (dimensionless)."""
+        return self.thresholds.of(o)
+
     def threshold_words(self, arm: str) -> str:
         """``arm``'s threshold in words: one value, or one per torso setting of a map built once per
         setting ("0.0123 at torso 0, 0.0151 at torso 0.4")."""

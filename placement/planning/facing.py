@@ -48,7 +48,7 @@ def facing_yaw(
     if not fits.any():
         return None
     best = float(values[fits].max())  # the cell's best among the yaws the footprint allows
-    keep = fits & (values >= max(ctx.threshold(o.arm, o.torso), (1.0 - share) * best)) & (values > 0)
+    keep = fits & (values >= max(ctx.option_threshold(o), (1.0 - share) * best)) & (values > 0)
     if not keep.any():
         return None
     tx, ty = float(o.candidate.poses[-1][0, 3]), float(o.candidate.poses[-1][1, 3])

@@ -78,6 +78,16 @@ def option_map(ctx: PlanningContext, o: Option) -> ReachabilityMap:
     return ctx.problems.map_for(o.arm, o.torso)
 
 
+def option_robot(ctx: PlanningContext, o: Option) -> Robot:
+    """The robot an option's IK runs on: :func:`robot_at` its torso setting."""
+    return robot_at(ctx, o.torso)
+
+
+def option_collisions(ctx: PlanningContext, o: Option) -> SceneCollision | None:
+    """The collision check of an option's placements: :func:`collisions_at` its torso setting."""
+    return collisions_at(ctx, o.torso)
+
+
 def start_torso(ctx: PlanningContext) -> float | None:
     """The torso value [m or rad; a posture's index] the robot starts with: the preset's (None without
     torso records)."""

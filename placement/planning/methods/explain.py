@@ -103,7 +103,7 @@ def _hint(
     if fixed:
         return f"{inside}, but the map marks none of the fixed placements beside the tables reached for it"
     return (
-        f"{inside}, but the map values there stay below {arm}'s threshold {ctx.threshold(o.arm, o.torso):.4g} "
+        f"{inside}, but the map values there stay below {arm}'s threshold {ctx.option_threshold(o):.4g} "
         f"(a lower planner.threshold_quantile would help)"
     )
 

@@ -9,7 +9,7 @@ from placement.planning.arrays import BasePose, FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.problems import Option, Step, height_range
 from placement.planning.results import Cost, InfeasibleStep, PlacedStep
-from placement.planning.torso import robot_at
+from placement.planning.torso import option_robot
 from placement.planning.verification import resting
 
 
@@ -54,7 +54,7 @@ def placed(
     arm = ctx.robot.arm(o.arm)
     q = qs[-1]
     joints = {name: float(v) for name, v in zip(arm.joints, q)}
-    joints.update(robot_at(ctx, o.torso).fixed_joints)
+    joints.update(option_robot(ctx, o).fixed_joints)
     cost = Cost(cfg.lambda_n * nav_c, cfg.lambda_m / value, cfg.lambda_nh * heur_c)
     c = o.candidate
     return PlacedStep(

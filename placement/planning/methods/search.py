@@ -30,7 +30,7 @@ from placement.planning.facing import facing_yaw
 from placement.planning.methods.ranking import Ranked, combined_cost
 from placement.planning.problems import Option, Step, yaw_values
 from placement.planning.settings import PlannerConfig
-from placement.planning.torso import collisions_at, option_map, robot_at
+from placement.planning.torso import option_collisions, option_map, option_robot
 from placement.planning.verification import TrajectoryIK, base_matrix, trajectory_ik
 from placement.robots import Robot
 
@@ -140,7 +140,7 @@ def other_yaws(
     out: list[Ranked] = []
     values: dict[tuple[int, int, float], float] = {}
     for k, o in enumerate(opts):
-        thr = np.float32(ctx.threshold(o.arm, o.torso))
+        thr = np.float32(ctx.option_threshold(o))
         local = np.flatnonzero(o.value.ravel() >= thr)
         cells = o.window.to_global(local, nx)
         iy, ix = np.divmod(cells, nx)
@@ -194,7 +194,7 @@ def search_placement(
         base = (float(xs[ix]), float(ys[iy]), yaw)
         witness = getattr(option_map(ctx, o), "witness_q", None)
         t = time.perf_counter()
-        ik = trajectory_ik(robot_at(ctx, o.torso), o.arm, o.candidate.poses, base, prev_q[o.arm], witness, cfg)
+        ik = trajectory_ik(option_robot(ctx, o), o.arm, o.candidate.poses, base, prev_q[o.arm], witness, cfg)
         out.ik_ms += (time.perf_counter() - t) * 1e3
         if not ik.ok:
             f = Failure(r.option, (iy, ix), yaw, "ik", ik.failed_pose, ik.residual_m, ik.residual_rad)
@@ -204,7 +204,7 @@ def search_placement(
         clearance = None
         if collisions is not None:
             t = time.perf_counter()
-            checker = collisions_at(ctx, o.torso)
+            checker = option_collisions(ctx, o)
             assert checker is not None
             check = checker.check(o.arm, ik.qs, base, **ctx.collision_args(step, o))
             out.collision_ms += (time.perf_counter() - t) * 1e3

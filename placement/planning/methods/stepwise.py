@@ -10,7 +10,7 @@ from __future__ import annotations
 import time
 from abc import abstractmethod
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -22,12 +22,37 @@ from placement.planning.methods.outcomes import infeasible, placed, unreachable_
 from placement.planning.methods.ranking import Ranked, combined_map
 from placement.planning.methods.search import search_placement
 from placement.planning.problems import Option, Step, per_arm_values
-from placement.planning.results import InfeasibleStep, StepMaps, StepResult
+from placement.planning.results import InfeasibleStep, PlacedStep, StepMaps, StepResult
 from placement.planning.torso import held_setting, start_torso, torso_seconds
 from placement.planning.world import costs_at, extract_path, navigation_cost
 
 #: An (arm, grasp) pair a transfer commits to.
 Pair = tuple[str, str | None]
+
+
+@dataclass(frozen=True)
+class Holding:
+    """What the robot holds between the steps of a step-by-step plan.
+
+    Attributes:
+        cell: the base's (iy, ix) cell, where the next step's travel starts.
+        q: arm -> its joints [rad or m] after its last step (the next IK's seed; home at first).
+        torso: the torso value [m or rad; a posture's index] the lift holds (None without torso
+            settings): moving it for a step costs time (:func:`torso_ranked`).
+    """
+
+    cell: Cell
+    q: Mapping[str, FloatArray]
+    torso: float | None
+
+    @classmethod
+    def start(cls, ctx: PlanningContext, cell: Cell) -> Holding:
+        """At ``cell`` with every arm home and the lift where the robot starts."""
+        return cls(cell, {arm: ctx.robot.arm(arm).home.copy() for arm in ctx.maps}, start_torso(ctx))
+
+    def after(self, ctx: PlanningContext, step: PlacedStep, cell: Cell) -> Holding:
+        """What the robot holds after planned ``step`` at ``cell``."""
+        return Holding(cell, {**self.q, step.arm: step.q}, held_setting(ctx, step.joints, self.torso))
 
 
 class StepwiseMethod(Method):
@@ -54,9 +79,7 @@ def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell
     """Plan the steps in order from ``start_cell``, each from the previous placement; a pick and its
     place as one transfer (:func:`plan_transfer`); stops at the first infeasible step (it is the
     last result)."""
-    prev_cell = start_cell
-    prev_q = {arm: ctx.robot.arm(arm).home.copy() for arm in ctx.maps}
-    torso = start_torso(ctx)
+    holding = Holding.start(ctx, start_cell)
     steps = ctx.problems.steps
     out: list[StepResult] = []
     i = 0
@@ -66,35 +89,26 @@ def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell
             out.append(infeasible(step, ctx.budget_words()))
             break
         if step.action == "pick" and i + 1 < len(steps) and steps[i + 1].pick == i:
-            results, cell = plan_transfer(ctx, method, step, steps[i + 1], prev_cell, prev_q, keep_maps, torso)
+            results, cell = plan_transfer(ctx, method, step, steps[i + 1], holding, keep_maps)
         else:
             t0 = time.perf_counter()
-            result, cell = plan_step(ctx, method, step, prev_cell, prev_q, keep_maps, torso=torso)
+            result, cell = plan_step(ctx, method, step, holding, keep_maps)
             results = [result.timed(total=(time.perf_counter() - t0) * 1e3)]
         out += results
         if not results[-1].ok or cell is None:
             break
-        prev_cell = cell
         for r in results:
             if r.ok:
-                prev_q[r.arm] = r.q
-            torso = held_torso(ctx, r, torso)
+                holding = holding.after(ctx, r, cell)
         i += len(results)
     return out
 
 
 def plan_transfer(
-    ctx: PlanningContext,
-    method: StepwiseMethod,
-    pick: Step,
-    place: Step,
-    prev_cell: Cell,
-    prev_q: Mapping[str, FloatArray],
-    keep_maps: bool,
-    torso: float | None = None,
+    ctx: PlanningContext, method: StepwiseMethod, pick: Step, place: Step, holding: Holding, keep_maps: bool
 ) -> tuple[list[StepResult], Cell | None]:
-    """A pick and its place with the same arm and grasp (``torso``: the torso value [m] the robot
-    holds before the pick, None without torso settings; the place may hold another).
+    """A pick and its place with the same arm and grasp, from what the robot is ``holding`` before the
+    pick (the place may hold the torso at another value).
 
     The pick may use only the (arm, grasp) pairs with which the maps reach a place pose of the
     object (:meth:`StepProblems.pairs`); the place then uses the pick's pair only. When that place
@@ -111,7 +125,7 @@ def plan_transfer(
     if not viable and picks:
         # no arm and grasp reaches the place anywhere: the place is what fails (as the whole-task methods
         # say), after the pick planned alone
-        first, cell = plan_step(ctx, method, pick, prev_cell, prev_q, keep_maps, None, torso)
+        first, cell = plan_step(ctx, method, pick, holding, keep_maps)
         first = first.timed(total=(time.perf_counter() - t0) * 1e3)
         if not first.ok or cell is None:
             return [first], None
@@ -133,7 +147,7 @@ def plan_transfer(
                 timings_ms={"total": (time.perf_counter() - t0) * 1e3},
             )
             return [result], None
-        first, cell = plan_step(ctx, method, pick, prev_cell, prev_q, keep_maps, allowed, torso)
+        first, cell = plan_step(ctx, method, pick, holding, keep_maps, allowed)
         if not first.ok or cell is None:
             if failed and not first.ok:
                 first = replace(
@@ -144,8 +158,7 @@ def plan_transfer(
             return [first.timed(total=(time.perf_counter() - t0) * 1e3)], None
         t1 = time.perf_counter()
         pair = (first.arm, first.grasp)
-        at = held_torso(ctx, first, torso)
-        second, cell = plan_step(ctx, method, place, cell, {**prev_q, first.arm: first.q}, keep_maps, {pair}, at)
+        second, cell = plan_step(ctx, method, place, holding.after(ctx, first, cell), keep_maps, {pair})
         second = second.timed(total=(time.perf_counter() - t1) * 1e3)
         if second.ok:
             manipulation = first.timings_ms.get("manipulation", 0.0) + irms_ms
@@ -192,16 +205,14 @@ def plan_step(
     ctx: PlanningContext,
     method: StepwiseMethod,
     step: Step,
-    prev_cell: Cell,
-    prev_q: Mapping[str, FloatArray],
+    holding: Holding,
     keep_maps: bool,
     pairs: set[Pair] | None = None,
-    torso: float | None = None,
 ) -> tuple[StepResult, Cell | None]:
-    """The best verified placement of one step (or an infeasible result) and its cell; ``pairs``:
-    the (arm, grasp) pairs the step may use (default all); ``torso``: the torso value [m] the robot
-    holds (None without torso settings): another one's lift time joins the Eq. 6 cost as travel
-    (lambda_n times the metres the base would drive meanwhile)."""
+    """The best verified placement of one step from what the robot is ``holding`` (or an infeasible
+    result) and its cell; ``pairs``: the (arm, grasp) pairs the step may use (default all). Another
+    torso value than the one held costs its lift time in the Eq. 6 cost as travel (lambda_n times the
+    metres the base would drive meanwhile)."""
     ctx = ctx.for_step(step.index)
     cfg, problems, world = ctx.config, ctx.problems, ctx.world
     nav = world.nav
@@ -220,18 +231,18 @@ def plan_step(
     needed = None if keep_maps or fixed else problems.feasible_region(step.index, opts)
     t = time.perf_counter()
     if needed is None:
-        nav_cost, pred = navigation_cost(world.factor, world.feasible, prev_cell, nav.resolution)
+        nav_cost, pred = navigation_cost(world.factor, world.feasible, holding.cell, nav.resolution)
     else:  # the candidate cells' costs only (inf elsewhere, as the search leaves them)
         at = np.flatnonzero(needed)
         nav_cost = np.full(nav.shape, np.inf)
-        nav_cost.flat[at] = costs_at(world.factor, world.feasible, prev_cell, nav.resolution, at)[0]
+        nav_cost.flat[at] = costs_at(world.factor, world.feasible, holding.cell, nav.resolution, at)[0]
         pred = None
     timings["navigation"] = (time.perf_counter() - t) * 1e3
     t = time.perf_counter()
     heur = problems.heuristic(step.index + 1, needed) if steer else np.zeros(nav.shape)
     timings["heuristic"] = (time.perf_counter() - t) * 1e3
     t = time.perf_counter()
-    ranked = torso_ranked(ctx, opts, method.rank(ctx, opts, nav_cost, heur), torso, fixed)
+    ranked = torso_ranked(ctx, opts, method.rank(ctx, opts, nav_cost, heur), holding.torso, fixed)
     timings["combine"] = (time.perf_counter() - t) * 1e3
     maps = None
     if keep_maps:
@@ -242,7 +253,7 @@ def plan_step(
         maps = StepMaps(nav_cost, heur, manip, combined)
     t = time.perf_counter()
     more = method.more(ctx, opts, nav_cost, heur)
-    search = search_placement(ctx, step, opts, ranked, more, nav_cost, heur, prev_q) if ranked else None
+    search = search_placement(ctx, step, opts, ranked, more, nav_cost, heur, holding.q) if ranked else None
     found = search.found if search is not None else None
     # the whole search, and within it the IK solves and the collision checks
     timings["search"] = (time.perf_counter() - t) * 1e3
@@ -282,11 +293,6 @@ def plan_step(
     return failure, None
 
 
-def held_torso(ctx: PlanningContext, result: StepResult, before: float | None) -> float | None:
-    """The torso value [m] the robot holds after ``result`` (``before`` if it planned nothing)."""
-    return held_setting(ctx, result.joints, before) if result.ok else before
-
-
 def torso_ranked(
     ctx: PlanningContext, opts: Sequence[Option], ranked: list[Ranked], torso: float | None, fixed: bool
 ) -> list[Ranked]:
@@ -307,4 +313,4 @@ def torso_ranked(
     return out
 
 
-__all__ = ["StepwiseMethod", "excluded_words", "plan_step", "plan_stepwise", "plan_transfer"]
+__all__ = ["Holding", "StepwiseMethod", "excluded_words", "plan_step", "plan_stepwise", "plan_transfer"]

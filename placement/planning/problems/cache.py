@@ -135,6 +135,10 @@ class StepProblems:
         infeasible (dimensionless)."""
         return self.thresholds.at(arm, torso)
 
+    def option_threshold(self, o: Option) -> float:
+        """The threshold of option ``o``: its arm's at its torso setting (dimensionless)."""
+        return self.thresholds.of(o)
+
     def relaxed(self, i: int) -> float:
         """The factor (0, 1] step i's thresholds are multiplied by: 1 when some option keeps its threshold
         on some base cell, else :data:`RELAX` times the best ratio of a map value to its threshold (the
@@ -143,7 +147,7 @@ class StepProblems:
         if i not in self._relaxed:
 
             def best(opts: Sequence[Option]) -> float:
-                ratios = [float(o.value.max()) / self.threshold(o.arm, o.torso) for o in opts if o.value.size]
+                ratios = [float(o.value.max()) / self.option_threshold(o) for o in opts if o.value.size]
                 return max(ratios, default=0.0)
 
             # the options at hand first (a held lift's): one that keeps its threshold settles it, without
@@ -219,7 +223,7 @@ class StepProblems:
         return {
             (o.arm, o.candidate.grasp)
             for o in self.options(i)
-            if o.value.size and float(o.value.max()) >= self.threshold(o.arm, o.torso) * self.relaxed(i)
+            if o.value.size and float(o.value.max()) >= self.option_threshold(o) * self.relaxed(i)
         }
 
     def feasible_region(self, i: int, options: Sequence[Option] | None = None) -> BoolArray:
@@ -227,7 +231,7 @@ class StepProblems:
         default all of the step's) reach their arm's threshold."""
         mask = np.zeros(self.world.nav.shape, dtype=bool)
         for o in self.options(i) if options is None else options:
-            mask[o.window.slices] |= o.value >= self.threshold(o.arm, o.torso) * self.relaxed(i)
+            mask[o.window.slices] |= o.value >= self.option_threshold(o) * self.relaxed(i)
         return mask
 
     @property

@@ -101,6 +101,10 @@ class Thresholds:
         """The threshold of ``arm`` at torso value ``torso`` [m or rad] (None: its own map's)."""
         return threshold_at(self.arms, self.settings, self.default, arm, torso)
 
+    def of(self, option: Option) -> float:
+        """The threshold of ``option``: its arm's at its torso setting."""
+        return self.at(option.arm, option.torso)
+
     def scaled(self, factor: float) -> Thresholds:
         """Every threshold multiplied by ``factor``."""
         return Thresholds(

@@ -188,7 +188,7 @@ def _compute_regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
     for o in opts:
         w = o.window
         box[index[(o.arm, o.candidate.grasp)], w.y0 - y0 : w.y1 - y0, w.x0 - x0 : w.x1 - x0] |= (
-            o.value >= ctx.threshold(o.arm, o.torso)
+            o.value >= ctx.option_threshold(o)
         )
     box &= ctx.world.feasible[y0:y1, x0:x1]
     flat = box.reshape(len(groups), -1)

@@ -18,7 +18,7 @@ from placement.planning.program.held_first import HeldFirst
 from placement.planning.program.priced_torso import settings_of, torso_regions, torso_reweighted, torso_term
 from placement.planning.program.regions import Group, Regions, held_torso, map_regions, reweighted
 from placement.planning.program.repair import Verified
-from placement.planning.torso import collisions_at, option_map, robot_at, start_torso, torso_first
+from placement.planning.torso import option_collisions, option_map, option_robot, start_torso, torso_first
 from placement.planning.verification import CheckKey, TrajectoryIK, trajectory_ik
 
 
@@ -165,7 +165,7 @@ class DynamicProgram:
         if not ik.ok:
             return None
         clearance = None
-        checker = collisions_at(ctx, o.torso)
+        checker = option_collisions(ctx, o)
         if checker is not None:
             check = None if ck is None else checks.collision.get(ck)
             if check is None:
@@ -183,7 +183,7 @@ class DynamicProgram:
         so that the answer is the placement's alone and stays valid when earlier steps change (see
         :mod:`placement.planning.verification.verdicts`)."""
         witness = getattr(option_map(self.ctx, o), "witness_q", None)
-        robot = robot_at(self.ctx, o.torso)
+        robot = option_robot(self.ctx, o)
         home = self.ctx.robot.arm(o.arm).home
         return trajectory_ik(robot, o.arm, o.candidate.poses, base, home, witness, self.ctx.config)
 

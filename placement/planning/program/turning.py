@@ -226,7 +226,7 @@ def time_yaws(
         o = dp.options(i, chain.groups[i])[v.option]
         iy, ix = divmod(chain.cells[i], nav.shape[1])
         value, fits = cell_yaws(ctx, o, float(xs[ix]), float(ys[iy]), chain.cells[i])
-        thr = YAW_THRESHOLD_SHARE * ctx.for_step(i).threshold(o.arm, o.torso)
+        thr = YAW_THRESHOLD_SHARE * ctx.for_step(i).option_threshold(o)
         keep = fits & (value >= thr) & (value > 0) & (_turn(ctx.yaws, np.full(1, v.base[2])) > 1e-9)
         yaws.append(np.concatenate([[v.base[2]], ctx.yaws[keep]]))  # the kept yaw is candidate 0
         values.append(np.concatenate([[v.value], value[keep].astype(float)]))
