@@ -1,6 +1,7 @@
 """Planning on real building maps: every method on the tidy-up scenes of examples/buildings.
 
-For each scene (a SLAM map as published, tables at its named locations) and method: whether the whole
+For each scene (a SLAM map as published, tables at its named locations; with the generated grasps,
+``tidy_up.yaml``, and with a published grasp set, ``tidy_up_ycb.yaml``) and method: whether the whole
 task planned (else the first failing step and its reason), the task time as `evaluate` counts it,
 the planning time per placement (median of ``--runs`` fresh planners, the certificate's bound
 excluded), how far the target sits off
@@ -49,7 +50,7 @@ def main() -> None:
 
     maps = str(Path(args.maps).resolve())
     methods = args.methods.split(",")
-    scenes = sorted((ROOT / "examples/buildings").glob("*/tidy_up.yaml"))
+    scenes = sorted((ROOT / "examples/buildings").glob("*/tidy_up*.yaml"))
     rows = []
     for path in scenes:
         for m in methods:
@@ -67,7 +68,8 @@ def main() -> None:
             tt = task_time(planner.robot, result, planner.scene.start) if result.ok else None
             problems = result.verify(planner.robot) if result.ok else []
             row = {
-                "scene": path.parent.name,
+                "scene": path.parent.name
+                + ("" if path.stem == "tidy_up" else f" ({path.stem.removeprefix('tidy_up_')})"),
                 "method": m,
                 "cells": "x".join(str(v) for v in planner.world.nav.shape),
                 "planned": f"{len(placed)}/{len(planner.problems.steps)}",
@@ -95,7 +97,8 @@ def main() -> None:
     lines += ["| " + " | ".join(str(r[k]).replace("|", "/") for k in keys) + " |" for r in rows]
     text = "\n".join(lines) + "\n"
     text += (
-        f"\nScenes: examples/buildings/*/tidy_up.yaml; maps `{Path(args.maps).name}` ({args.maps}); task time as "
+        f'\nScenes: examples/buildings/*/tidy_up.yaml, and tidy_up_ycb.yaml ("(ycb)": the published DexYCB grasps, '
+        f"20 per object, examples/buildings/README.md); maps `{Path(args.maps).name}` ({args.maps}); task time as "
         "`evaluate` counts it; planning time per placement: median of "
         f"{args.runs} fresh planners, the certificate's bound excluded; off heading: median over the planned steps of the angle between the base's "
         f"heading and its last TCP position; {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
