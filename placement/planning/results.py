@@ -31,9 +31,6 @@ from placement.planning.verification import (
 from placement.robots import Robot, matrix_to_pose
 from placement.scene import Scene
 
-#: a step's status: "ok" (planned and verified) or "infeasible" (with a ``reason`` and a ``diagnosis``)
-StepStatus = Literal["ok", "infeasible"]
-
 
 @dataclass(frozen=True)
 class Certificate:
