@@ -14,7 +14,8 @@ The default path (``placement query SCENE``, method ``global``), one concept pac
                                  rejected placement repaired locally -> turns polished for the
                                  task time -> the certificate (lower bound on the travel)
         verification/            IK of every pose, collision verdicts, the robot's configuration
-      results.py                 StepResult per step, PlanResult (its to_json() is the plan document)
+      results.py                 a PlacedStep or an InfeasibleStep per step, PlanResult (its to_json()
+                                 is the plan document)
 
 The step-by-step methods (the paper's ``sequential``, ``single-step``, ``irm`` and ``fixed``,
 ``methods/stepwise.py``) rank each step's cells by Eq. 6 (``methods/ranking.py``, with the heuristic
