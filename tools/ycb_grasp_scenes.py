@@ -1,9 +1,9 @@
 """The building tidy-up scenes with a published grasp set: each YCB object grasped as DexYCB's grasps say.
 
 The grasps: ``examples/buildings/ycb_grasps/ycb_farthest_100_grasps.json``, the objects of our
-building scenes taken unchanged from ``assets/ycb_farthest_100_grasps.json`` of NVlabs/dex-ycb-toolkit
-(commit a981fb3e, GPL-3.0): per YCB object, 100 grasps of a Franka Panda hand as (4, 4) poses of the
-hand frame in the object model's frame [m]. The conversion to a scene's ``grasps`` (version 2, TCP
+building scenes from ``assets/ycb_farthest_100_grasps.json`` of NVlabs/dex-ycb-toolkit (commit
+a981fb3e, GPL-3.0; the poses as published, the file written compactly): per YCB object, 100 grasps
+of a Franka Panda hand as (4, 4) poses of the hand frame in the object model's frame [m]. The conversion to a scene's ``grasps`` (version 2, TCP
 trajectories in the object frame, see docs/scenes.md):
 
 * the Panda hand frame has z along the approach and x along the fingers' motion; our canonical TCP
