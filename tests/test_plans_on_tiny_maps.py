@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from support.budgets import unbudgeted
 from support.plans import strip_timings
 
 import placement
@@ -31,7 +31,7 @@ def unhurried(path: Path):
     """The scene at ``path`` with budgets that no load on the machine reaches (the plans must not
     depend on how busy it is)."""
     scene = load_scene(path)
-    return replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0, "time_budget_s": 3600.0})
+    return unbudgeted(scene)
 
 
 @pytest.fixture(scope="module")

@@ -7,12 +7,12 @@ from __future__ import annotations
 import json
 import math
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 from oracle_collision import IndependentCheck
+from support.budgets import unbudgeted
 from support.map_check import footprint_on_map
 
 from placement.planning import Planner
@@ -60,10 +60,7 @@ def test_a_grasp_outside_the_objects_box_is_refused():
 @pytest.mark.slow
 @pytest.mark.parametrize("path", SCENES, ids=lambda p: p.parent.name)
 def test_every_step_plans_with_a_published_grasp_and_holds(maps_dir, path):
-    scene = load_scene(path)
-    # what plans must not depend on the machine's load: no time budgets
-    scene = replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0, "time_budget_s": 3600.0})
-    planner = Planner(scene, "global", maps_dir)
+    planner = Planner(unbudgeted(load_scene(path)), "global", maps_dir)
     result = planner.plan()
     assert result.ok, result.failed_step
     assert all(s.grasp.startswith("dexycb-") for s in result.steps)

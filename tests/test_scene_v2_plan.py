@@ -3,10 +3,9 @@ by pinocchio FK, and side grasps' inverse reachability confirmed by IK."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
+from support.budgets import unbudgeted
 from support.scenes import KITCHEN
 
 from placement.maps.opening import open_map
@@ -22,9 +21,7 @@ from placement.scene.navgrid import NavGrid
 def test_kitchen_plans_with_reach_side_grasps_and_orientations(maps_dir, pr2):
     # no time budget: the plan must not depend on the machine's load
     scene = load_scene(KITCHEN)
-    planner = Planner(
-        replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0, "time_budget_s": 3600.0}), maps=maps_dir
-    )
+    planner = Planner(unbudgeted(scene), maps=maps_dir)
     result = planner.plan()
     assert result.ok, [s.reason for s in result.steps if s.status != "ok"]
     steps = result.steps

@@ -11,6 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from support.budgets import unbudgeted
 
 from placement.planning import Planner, load_scene
 from placement.planning.context import PlanningContext
@@ -37,7 +38,7 @@ def install(monkeypatch, clock: CountingClock) -> None:
 @pytest.fixture(scope="module")
 def planners(tiny_maps):
     scene = load_scene(SCENE)
-    scene = replace(scene, planner={**scene.planner, "ik_budget_ms": 60000.0, "time_budget_s": 3600.0})
+    scene = unbudgeted(scene)
     return {m: Planner(scene, m, tiny_maps) for m in ("global", "optimal", "sequential", "irm")}
 
 

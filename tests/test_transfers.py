@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import yaml
 from oracle_collision import IndependentCheck
+from support.budgets import unbudgeted
 
 from placement.collision import SceneCollision
 from placement.planning import Planner
@@ -30,11 +31,6 @@ from placement.scene.poses import quaternion_matrix, yaw_quaternion
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 METHODS = ("sequential", "single-step", "irm", "fixed", "optimal")
-NO_BUDGET = {"ik_budget_ms": 60000.0, "time_budget_s": 3600.0}  # plans must not depend on the machine's load
-
-
-def unbudgeted(scene):
-    return replace(scene, planner={**scene.planner, **NO_BUDGET})
 
 
 def assert_transfers(result) -> int:
