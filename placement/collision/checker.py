@@ -40,11 +40,12 @@ from placement.collision.bounds import base_matrix, influence_box, model_aabb
 from placement.collision.floor import floor_collision
 from placement.collision.held import HeldCheck
 from placement.collision.pairs import candidate_pairs
-from placement.collision.robot import ArmShapes, robot_geometry
-from placement.collision.scene import OccupancyCells, PieceGrid, SceneShape, scene_shapes
+from placement.collision.robot import ArmShapes, moved_joints, robot_geometry
+from placement.collision.scene import OccupancyCells, PieceGrid, SceneShape, eroded, scene_shapes
 from placement.collision.tables import CollisionResult, Instances, Operand, Pairs, ScenePieces
 from placement.errors import PlacementError
 from placement.robots import Robot
+from placement.robots.model_cache import frame_id
 
 if TYPE_CHECKING:
     from placement.collision.held import Held
@@ -98,6 +99,7 @@ class SceneCollision:
         self._scene_req.security_margin = self.padding
         self._self_req = coal.CollisionRequest()
         self._cres, self._dreq, self._dres = coal.CollisionResult(), coal.DistanceRequest(), coal.DistanceResult()
+        self._grippers: dict[str, tuple[npt.NDArray[np.int_], npt.NDArray[np.float64]] | None] = {}
         home = self.geometry.home_placements
         self._home_R = np.array([M.rotation for M in home]).reshape(-1, 3, 3)
         self._home_t = np.array([M.translation for M in home]).reshape(-1, 3)
@@ -194,6 +196,119 @@ class SceneCollision:
             free = free if free.clearance_m <= carried.clearance_m else carried
         floor = floor_collision(inst, A, lambda k: self._robot(inst, k), self.geometry.names, held, carried_at)
         return replace(free if floor is None else floor, box=box)
+
+    def gripper_collisions(
+        self,
+        arm: str,
+        tcp_poses: Sequence[npt.ArrayLike],
+        slack: float,
+        grasped: str | None = None,
+        gone: Collection[str] = (),
+    ) -> list[CollisionResult | None]:
+        """The gripper of ``arm`` alone at each trajectory's world TCP poses (each (P, 4, 4)) against the
+        scene: per trajectory, the first of its shapes that comes more than ``slack`` [m] closer to a
+        scene piece than the padding allows, as a collision (its ``clearance_m``: the padding less
+        ``slack``, which the pair's distance is below), or None (for every trajectory when the gripper
+        does not move rigidly with the TCP).
+
+        The gripper's shapes (:class:`~placement.collision.robot.ArmShapes` ``gripper``, the fingers at
+        the opening :meth:`check` holds them at) move with the TCP alone. So when one of them reaches
+        ``slack`` past the padding into a piece here, :meth:`check` finds that arm in collision for every
+        base pose and every configuration that puts each point of the gripper within ``slack`` of where it
+        is here: a planner need not compute maps or IK for such a grasp (see
+        :mod:`placement.planning.problems.screening`). Only box and cylinder pieces are tested when ``slack``
+        exceeds the padding (they are shrunk by the difference: coal takes no negative margin against
+        meshes). ``grasped`` and ``gone`` as in :meth:`check`."""
+        rigid = self._gripper_frames(arm)
+        trajectories = [np.asarray(T, dtype=float).reshape(-1, 4, 4) for T in tcp_poses]
+        out: list[CollisionResult | None] = [None] * len(trajectories)
+        if rigid is None or not trajectories:
+            return out
+        ids, rel = rigid
+        T = np.concatenate(trajectories)
+        owner = np.repeat(np.arange(len(trajectories)), [len(t) for t in trajectories])
+        first = np.concatenate([[0], np.cumsum([len(t) for t in trajectories])[:-1]])
+        A = self.geometry.base_in_model  # the base frame at the world's origin
+        M = ((A @ T)[:, None] @ rel[None]).reshape(-1, 4, 4)
+        geo = self.geometry
+        inst_ids = np.tile(ids, len(T))
+        R, t = M[:, :3, :3], M[:, :3, 3]
+        inst: Instances = {
+            "id": inst_ids,
+            "pose": np.repeat(np.arange(len(T)), len(ids)),
+            "poses": len(T),
+            "R": R,
+            "t": t,
+            "centre": np.einsum("nij,nj->ni", R, geo.centre[inst_ids]) + t,
+            "radius": geo.radius[inst_ids],
+            "extent": np.einsum("nij,nj->ni", np.abs(R), geo.half[inst_ids]),
+            "gripper": np.ones(len(inst_ids), dtype=bool),
+            "tf": {},
+        }
+        shapes = ArmShapes(ids, ids, np.zeros(0, dtype=int), np.zeros((0, 2), dtype=int))
+        scene = self._scene_in_model(A, inst)
+        pairs = self._pairs(inst, scene, shapes, grasped, frozenset(gone))
+        # closer than padding - slack: a margin when that is >= 0; else a point of the gripper lies
+        # deeper than slack - padding inside the piece, i.e. inside the piece shrunk by that much
+        margin = self.padding - max(float(slack), 0.0)
+        depth = max(-margin, 0.0)
+        req = coal.CollisionRequest()
+        req.security_margin = max(margin, 0.0)
+        near = np.flatnonzero(pairs["lb"] <= max(margin, 0.0))
+        pieces: dict[int, tuple[coal.CollisionGeometry, coal.Transform3s] | None] = {}
+        for k in near[np.lexsort((pairs["lb"][near], inst["pose"][pairs["a"][near]]))]:
+            a, b = int(pairs["a"][k]), int(pairs["b"][k])
+            c = int(owner[inst["pose"][a]])
+            if out[c] is not None:
+                continue
+            if b not in pieces:
+                piece = eroded(self._piece(scene, b), depth)
+                Tp = A @ piece.pose if piece is not None else None
+                pieces[b] = (
+                    None if piece is None or Tp is None else (piece.geometry, coal.Transform3s(Tp[:3, :3], Tp[:3, 3]))
+                )
+            hit = pieces[b]
+            if hit is None:
+                continue
+            g2, T2 = hit
+            g1, hull, exact, T1 = self._robot(inst, a)
+            if self._collide(hull, T1, g2, T2, req) and (exact or self._collide(g1, T1, g2, T2, req)):
+                name, pose = self._name(pairs, k, inst, scene)
+                assert pose is not None  # every instance here moves with its trajectory
+                out[c] = CollisionResult(False, margin, name, pose - int(first[c]))
+        return out
+
+    def gripper_reach(self, arm: str) -> float:
+        """How far [m] the gripper of ``arm`` reaches from its TCP: the largest distance from the TCP to a
+        point of its shapes' bounding spheres (0 when it does not move rigidly with the TCP). A turn of the
+        TCP by a small angle [rad] moves no point of the gripper by more than this times the angle."""
+        rigid = self._gripper_frames(arm)
+        if rigid is None:
+            return 0.0
+        ids, rel = rigid
+        geo = self.geometry
+        centres = np.einsum("gij,gj->gi", rel[:, :3, :3], geo.centre[ids]) + rel[:, :3, 3]
+        return float((np.linalg.norm(centres, axis=1) + geo.radius[ids]).max(initial=0.0))
+
+    def _gripper_frames(self, arm: str) -> tuple[npt.NDArray[np.int_], npt.NDArray[np.float64]] | None:
+        """(shape ids (G,), their poses in the TCP frame (G, 4, 4)) of ``arm``'s gripper, or None when it
+        has no shapes or the TCP is not moved by the arm's last joint (the gripper is then not rigid with it)."""
+        if arm in self._grippers:
+            return self._grippers[arm]
+        robot, geo = self.robot, self.geometry
+        a = robot.arm(arm)
+        model = robot.model
+        after_last = moved_joints(model, [a.joint_ids[-1]])
+        tip_joint = model.frames[frame_id(model, a.tip_frame)].parentJoint
+        ids = np.asarray(geo.arm_shapes(arm).gripper, dtype=int)
+        out = None
+        if len(ids) and tip_joint in after_last and all(int(geo.joint[g]) in after_last for g in ids):
+            assert a.idle is not None  # (never None: Arm.__post_init__)
+            tcp = robot.tcp_pose(arm, a.idle)  # in the base frame, the arm idle as in home_placements
+            to_tcp = np.linalg.inv(tcp) @ np.linalg.inv(geo.base_in_model)
+            out = ids, np.array([to_tcp @ geo.home_placements[int(g)].homogeneous for g in ids])
+        self._grippers[arm] = out
+        return out
 
     def _held(
         self,

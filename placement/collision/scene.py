@@ -15,7 +15,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import coal
@@ -78,6 +78,21 @@ def object_aabb(obj: SceneObject) -> npt.NDArray[np.float64]:
 def box_shape(name: str, thing: object, centre: npt.ArrayLike, size: npt.NDArray[np.float64], yaw: float) -> SceneShape:
     pose = pose_of(thing, centre, yaw)
     return SceneShape(name, coal.Box(*(float(v) for v in size)), pose, box_aabb(pose, size))
+
+
+def eroded(piece: SceneShape, depth: float) -> SceneShape | None:
+    """``piece`` shrunk by ``depth`` [m] on every side: the points at least that deep inside it (a box's or
+    a cylinder's; None for other shapes, or when nothing is that deep). ``depth`` 0: the piece itself."""
+    if depth <= 0.0:
+        return piece
+    g = piece.geometry
+    if isinstance(g, coal.Box):
+        half = np.asarray(g.halfSide, dtype=float) - depth
+        return None if half.min() <= 0 else replace(piece, geometry=coal.Box(*(2 * half)))
+    if isinstance(g, coal.Cylinder):
+        r, h = float(g.radius) - depth, float(g.halfLength) - depth
+        return None if min(r, h) <= 0 else replace(piece, geometry=coal.Cylinder(r, 2 * h))
+    return None
 
 
 def cylinder_shape(name: str, centre: npt.ArrayLike, radius: float, height: float) -> SceneShape:

@@ -17,7 +17,7 @@ from typing import Any
 from placement.collision import SceneCollision
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import FloatArray
-from placement.planning.problems import Option, Step, StepProblems, Thresholds, held_object
+from placement.planning.problems import Option, Step, StepProblems, Thresholds, held_object, step_objects
 from placement.planning.settings import PlannerConfig
 from placement.planning.world import World
 from placement.robots import Robot
@@ -161,13 +161,11 @@ class PlanningContext:
         touch the object it grasps; a place carries its object (``held``: it moves with the gripper and
         is no longer where the scene has it); objects picked before are ``gone`` (where earlier places
         set them down is not modelled as an obstacle)."""
-        gone = [s.target for s in self.problems.steps[: step.index] if s.action == "pick"]
-        if step.action == "pick":
-            return {"grasped": step.target, "gone": [g for g in gone if g != step.target]}
+        grasped, gone = step_objects(self.problems.steps, step)
         if step.action == "place" and step.carries is not None and o.candidate.object_pose is not None:
             held = held_object(self.scene.object(step.carries), o.candidate)
             return {"grasped": None, "gone": gone, "held": held}
-        return {"grasped": None, "gone": gone}
+        return {"grasped": grasped, "gone": gone}
 
 
 __all__ = ["BudgetSpent", "PlanningContext", "resident_gib"]

@@ -156,7 +156,7 @@ class Planner:
         yaws = base_yaws(cfg.yaw_steps)
         base = BaseShape.of(robot, cfg.footprint_padding, yaws)
         world = windowed_world(scene, base, cfg, robot.v_max)
-        problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening, thresholds)
+        problems = StepProblems(scene, world, rmaps, cfg, yaws, robot.gripper.max_opening, thresholds, checker)
         context = PlanningContext(
             scene, robot, rmaps, world, problems, self.method.configure(cfg), yaws, checker, thresholds
         )

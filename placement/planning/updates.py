@@ -174,7 +174,7 @@ def apply_update(ctx: PlanningContext, change: Any) -> tuple[PlanningContext, di
         timings["distance"] = (time.perf_counter() - t) * 1e3
     if world.nav != ctx.world.nav:  # another window: nothing computed on the old grid holds
         p = ctx.problems
-        problems = StepProblems(scene, world, p.maps, p.config, p.yaws, p.opening_m, p.thresholds)
+        problems = StepProblems(scene, world, p.maps, p.config, p.yaws, p.opening_m, p.thresholds, p.collisions)
     else:
         problems = ctx.problems.changed(scene, world, parsed.moved)
     if ctx.collisions is not None:

@@ -21,23 +21,13 @@ from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.methods.search import Failure, Search
-from placement.planning.problems import Option, Step, pose_reach
+from placement.planning.problems import Option, Step, pose_reach, pose_role
 from placement.planning.torso import option_map
 from placement.planning.world import World
 from placement.robots import matrix_to_pose
 
 #: A band of TCP heights (lowest, highest) [m].
 Band = tuple[float, float]
-
-
-def pose_role(action: str, index: int, count: int) -> str:
-    """The role of pose ``index`` of ``count`` in a trajectory of a ``action`` step, in words."""
-    names = {"pick": ("pre-grasp", "grasp"), "place": ("pre-place", "place")}.get(action)
-    if names and index == 0 and count > 1:
-        return names[0]
-    if names and index == count - 1:
-        return names[1]
-    return f"trajectory pose {index}"
 
 
 def orientation_words(pose: FloatArray) -> str:
@@ -131,6 +121,17 @@ def explain(
     method ranks the pre-defined placements beside the tables."""
     if not opts:
         return base_reason or "the step has no candidate trajectory", {}
+    blocked = Counter(o.blocked for o in opts if o.blocked is not None)
+    if search is None and len(opts) == sum(blocked.values()):
+        # the gripper alone rules out every candidate: neither maps nor IK were asked
+        o = next(o for o in opts if o.blocked == blocked.most_common(1)[0][0])
+        return base_reason, {
+            "arm": o.arm,
+            "trajectory": o.candidate.name,
+            "gripper_blocked": len(opts),
+            "culprit": o.blocked,
+            "hint": "another grasp, or room around the object for the gripper, would help",
+        }
     ik_fails = [f for f in search.failures if f.kind == "ik"] if search else []
     collisions: Counter[str] = search.culprits() if search else Counter()
     f: Failure | None = None
@@ -162,6 +163,7 @@ def explain(
         "collision_failures": ncol,
         "culprit": culprit,
         "stopped": search.stop if search else None,
+        "gripper_blocked": sum(blocked.values()),
         "hint": hint,
     }
     if search is None:

@@ -92,7 +92,7 @@ def rank_fixed(ctx: PlanningContext, options: Sequence[Option]) -> list[Ranked]:
     ranked = []
     for flat, yaw in placements:
         for k in range(len(options)):
-            value = values[k, flat, yaw]
+            value = values.get((k, flat, yaw), 0.0)
             if value > 0.0:
                 ranked.append((-value, k, flat, yaw))
     ranked.sort(key=lambda r: (r[0], r[1], r[2]))
@@ -104,13 +104,16 @@ def placement_values(
 ) -> dict[tuple[int, int, float], float]:
     """(option index, flat cell, yaw [rad]) -> the option's map value with the base there at that yaw
     (dimensionless), for every placement: one pass per (map, yaw) over every option of that map and
-    every placement at that yaw (the value of each is the same as its own evaluation's)."""
+    every placement at that yaw (the value of each is the same as its own evaluation's); options the
+    gripper rules out (``Option.blocked``) are left out."""
     nav = ctx.world.nav
     by_yaw: dict[float, list[int]] = {}
     for flat, yaw in placements:
         by_yaw.setdefault(yaw, []).append(flat)
     by_map: dict[int, tuple[ReachabilityMap, list[int]]] = {}
     for k, o in enumerate(options):
+        if o.blocked is not None:  # the gripper alone collides there: 0 at every placement
+            continue
         rmap = option_map(ctx, o)
         by_map.setdefault(id(rmap), (rmap, []))[1].append(k)
     out: dict[tuple[int, int, float], float] = {}

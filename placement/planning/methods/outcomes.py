@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 from typing import Any
 
@@ -18,8 +19,29 @@ def infeasible(step: Step, reason: str, diagnosis: dict[str, Any] | None = None)
     return InfeasibleStep(step.index, step.action, step.target, reason=reason, diagnosis=diagnosis or {})
 
 
+def blocked_reason(opts: Sequence[Option]) -> str:
+    """How many of the options the gripper alone rules out and the commonest culprit, in words ("" for none)."""
+    why = Counter(o.blocked for o in opts if o.blocked is not None)
+    if not why:
+        return ""
+    n = sum(why.values())
+    culprit = why.most_common(1)[0][0]
+    if n == len(opts):
+        return f"the gripper collides at every candidate ({n}) wherever the base stands, mostly {culprit}"
+    return f"{n} of {len(opts)} candidates are ruled out as the gripper alone collides there, mostly {culprit}"
+
+
 def unreachable_reason(ctx: PlanningContext, opts: Sequence[Option]) -> str:
     """Why no placement of a step keeps the threshold, in words."""
+    blocked = blocked_reason(opts)
+    if opts and all(o.blocked is not None for o in opts):
+        return blocked
+    free = [o for o in opts if o.blocked is None]
+    reason = _unreached(ctx, free)
+    return f"{reason} ({blocked})" if blocked else reason
+
+
+def _unreached(ctx: PlanningContext, opts: Sequence[Option]) -> str:
     if opts and all(o.out_of_range for o in opts):
         ranges = ", ".join(
             f"{arm} {lo:.2f}..{hi:.2f} m" for arm, (lo, hi) in ((a, height_range(m)) for a, m in ctx.maps.items())
@@ -81,4 +103,4 @@ def placed(
     )
 
 
-__all__ = ["infeasible", "placed", "unreachable_reason"]
+__all__ = ["blocked_reason", "infeasible", "placed", "unreachable_reason"]

@@ -17,7 +17,8 @@ from placement.planning.problems.manipulation import (
     yaw_values,
 )
 from placement.planning.problems.option import Option, height_range
-from placement.planning.problems.steps import Step, step_candidates, task_steps
+from placement.planning.problems.screening import step_objects
+from placement.planning.problems.steps import Step, pose_role, step_candidates, task_steps
 from placement.planning.problems.thresholds import (
     Thresholds,
     per_arm_values,
@@ -43,10 +44,12 @@ __all__ = [
     "map_variants",
     "per_arm_values",
     "pose_reach",
+    "pose_role",
     "pose_slices",
     "resolve_thresholds",
     "setting_thresholds",
     "step_candidates",
+    "step_objects",
     "task_steps",
     "threshold_at",
     "tilt_between",

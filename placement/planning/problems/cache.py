@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from placement.collision import SceneCollision
 from placement.collision.scene import object_aabb
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray, MaskArray, YawIndexArray
@@ -25,6 +26,7 @@ from placement.planning.problems.grasps import GRIPPER_OPENING, Candidate
 from placement.planning.problems.manipulation import cells_within, manipulation_maps, pose_reach
 from placement.planning.problems.option import Option, height_range
 from placement.planning.problems.refresh import refreshed_options
+from placement.planning.problems.screening import blocked_words, screen
 from placement.planning.problems.steps import Step, step_candidates, task_steps
 from placement.planning.problems.thresholds import Thresholds
 from placement.planning.problems.torso_maps import map_variants, torso_value
@@ -53,6 +55,8 @@ class StepProblems:
         opening_m: the gripper's widest opening [m] (generated grasps close across chords up to it).
         thresholds: the map thresholds (:class:`~placement.planning.problems.thresholds.Thresholds`, the
             planner's; default: ``config.threshold`` on every arm).
+        collisions: the planner's collision checker: candidates whose gripper alone collides get no map
+            (see :mod:`placement.planning.problems.screening`); None: every candidate gets its map.
     """
 
     def __init__(
@@ -64,8 +68,12 @@ class StepProblems:
         yaws: FloatArray,
         opening_m: float = GRIPPER_OPENING,
         thresholds: Thresholds | None = None,
+        collisions: SceneCollision | None = None,
     ):
         self.scene, self.world, self.maps, self.config, self.yaws = scene, world, maps, config, yaws
+        self.collisions = collisions
+        # (step, arm) -> per candidate, what rules it out by the gripper alone (words) or None
+        self._blocked: dict[tuple[int, str], list[str | None]] = {}
         self.opening_m = opening_m
         self.thresholds = thresholds if thresholds is not None else Thresholds(default=float(config.threshold))
         self.steps: list[Step] = task_steps(scene)
@@ -183,6 +191,25 @@ class StepProblems:
                 self._held[key] = self._compute_options(self.steps[i], torso)
         return self._held[key]
 
+    def blocked(self, i: int, arm: str) -> list[str | None]:
+        """Per candidate of step i: why ``arm``'s gripper alone rules it out (words), or None (cached;
+        every candidate None without a collision checker)."""
+        key = (i, arm)
+        if key not in self._blocked:
+            candidates = self.candidates(i)
+            if self.collisions is None:
+                self._blocked[key] = [None] * len(candidates)
+            else:
+                step = self.steps[i]
+                hits = screen(self.collisions, self.config, self.steps, step, arm, candidates)
+                self._blocked[key] = [
+                    None
+                    if h is None or h.culprit is None
+                    else blocked_words(h.culprit, h.pose, step.action, len(c.poses))
+                    for h, c in zip(hits, candidates)
+                ]
+        return self._blocked[key]
+
     def _compute_options(self, step: Step, torso: float | None = None) -> list[Option]:
         """The options of ``step`` for every arm and candidate, at every lift setting (``torso``: at
         that torso value [m] only)."""
@@ -193,8 +220,11 @@ class StepProblems:
         views = ((a, m) for a, ms in self.variants.items() for m in ms)
         for arm, rmap in ((a, m) for a, m in views if torso is None or torso_value(m) == torso):
             lo, hi = height_range(rmap)
+            blocked = self.blocked(step.index, arm)
             by_cells: dict[Reach, list[Candidate]] = {}  # candidates of a step share their target position
-            for cand in candidates:
+            for cand, why in zip(candidates, blocked):
+                if why is not None:
+                    continue
                 # base cells farther from the target than the target slice's reach get 0 from
                 # the kernel anyway: they are not evaluated (the results are the same)
                 key = (float(cand.poses[-1, 0, 3]), float(cand.poses[-1, 1, 3]), pose_reach(rmap, cand.poses[-1]))
@@ -211,10 +241,14 @@ class StepProblems:
                 distinct = list({c.poses.tobytes(): c for c in cands}.values())
                 maps = manipulation_maps(rmap, [c.poses for c in distinct], nav, self.yaws, cells, window, masks)
                 results.update({c.poses.tobytes(): (window, *m) for c, m in zip(distinct, maps)})
-            for cand in candidates:
+            for cand, why in zip(candidates, blocked):
                 z = cand.poses[:, 2, 3]
                 out = bool(np.any((z < lo) | (z >= hi)))
-                opts.append(Option(arm, cand, *results[cand.poses.tobytes()], out, torso_value(rmap)))
+                if why is None:
+                    opts.append(Option(arm, cand, *results[cand.poses.tobytes()], out, torso_value(rmap)))
+                else:  # no map: an empty window, 0 everywhere (as for a target no base cell reaches)
+                    nothing = np.zeros((0, 0), np.float32), np.full((0, 0), -1, np.int16)
+                    opts.append(Option(arm, cand, Window(0, 0, 0, 0), *nothing, out, torso_value(rmap), why))
         return opts
 
     def pairs(self, i: int) -> set[tuple[str, str | None]]:
@@ -257,9 +291,21 @@ class StepProblems:
         changed) they are refreshed on the cells whose allowed yaws changed (see refresh.py) when a
         step first needs them, and the heuristics are dropped. ``self`` is not modified.
         """
-        new = StepProblems(scene, world, self.maps, self.config, self.yaws, self.opening_m, self.thresholds)
+        new = StepProblems(
+            scene, world, self.maps, self.config, self.yaws, self.opening_m, self.thresholds, self.collisions
+        )
         # a moved object's place poses follow its orientation when picked: its place too
         moved = {i for i, s in enumerate(self.steps) if s.carries is not None and s.carries in moved_objects}
+        # a candidate the gripper ruled out may be free now: its culprit moved (or an obstacle changed)
+        moved |= (
+            {i for (i, _), why in self._blocked.items() if any(w is not None for w in why)}
+            if world is not self.world
+            else {
+                i
+                for (i, _), why in self._blocked.items()
+                if any(_names(w, moved_objects) for w in why if w is not None)
+            }
+        )
         if world is not self.world:  # a place rests on the obstacles: one added or removed may move it
             moved |= {
                 i
@@ -292,6 +338,11 @@ class StepProblems:
         opts = self._options[i] if i in self._options else self._stale[i][0]
         per_map = sum(len(v) for v in self.variants.values())
         return [o.candidate for o in opts[: len(opts) // max(per_map, 1)]]
+
+
+def _names(words: str, names: set[str]) -> bool:
+    """Whether a collision in words (``"LINK vs PIECE at ..."``) names one of ``names`` as its piece."""
+    return any(f" vs {n} at " in words or words.endswith(f" vs {n}") for n in names)
 
 
 def _same_places(a: Sequence[Candidate], b: Sequence[Candidate]) -> bool:

@@ -27,6 +27,9 @@ class Option:
         out_of_range: True when a pose of the trajectory is outside the map's height range.
         torso: the torso value [m] the option's map and IK hold the lift at (None: the preset's,
             for maps without a torso record; see :mod:`placement.planning.torso`).
+        blocked: the gripper alone collides along the candidate, wherever the base stands: the
+            collision in words (``"r_gripper_palm_link vs table at the grasp pose"``); its map is then
+            0 everywhere and was not computed (see :mod:`placement.planning.problems.screening`).
     """
 
     arm: str
@@ -36,6 +39,7 @@ class Option:
     yaw_index: np.ndarray
     out_of_range: bool = False
     torso: float | None = None
+    blocked: str | None = None
 
     def value_at(self, iy: int, ix: int) -> float:
         """The IRM value at grid cell (iy, ix) (0 outside the window)."""

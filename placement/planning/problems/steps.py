@@ -27,6 +27,16 @@ class Step:
     pick: int | None = None
 
 
+def pose_role(action: str, index: int, count: int) -> str:
+    """The role of pose ``index`` of ``count`` in a trajectory of a ``action`` step, in words."""
+    names = {"pick": ("pre-grasp", "grasp"), "place": ("pre-place", "place")}.get(action)
+    if names and index == 0 and count > 1:
+        return names[0]
+    if names and index == count - 1:
+        return names[1]
+    return f"trajectory pose {index}"
+
+
 def task_steps(scene: Scene) -> list[Step]:
     """Every manipulation step of the scene's task, in order (a pick, then its place; or a reach)."""
     out: list[Step] = []
