@@ -80,6 +80,44 @@ def test_candidates_evaluated_together_equal_each_alone(coarse_map):
     assert sum(int((v > 0).sum()) for v, _ in together[:8]) > 100 and not together[-1][0].any()
 
 
+def test_a_steps_maps_in_one_pass_equal_each_alone_on_its_own_cells(coarse_map):
+    """``reach_maps`` (a step's candidates at scattered targets, over the cells within any one's reach,
+    one kernel pass, each kept over its own window) gives each candidate bit for bit its own map over
+    the cells within its own reach (what the planner computed one target at a time before), and 0
+    around it; a target off the map's heights gets an empty map."""
+    from placement.planning.problems.grasps import place_candidates, top_grasps
+    from placement.planning.problems.manipulation import cells_within, pose_reach, reach_maps
+    from placement.scene.navgrid import Window
+
+    rng = np.random.default_rng(5)
+    nav = NavGrid((-2.0, -2.0), 0.05, (80, 80))
+    yaws = base_yaws(40)
+    trajs = [c.poses for c in place_candidates([0.1234, 0.2345, 0.9], 8)]
+    for _ in range(6):  # grasps at other points and heights, alone in their groups
+        x, y, z = rng.uniform(-0.2, 0.4), rng.uniform(-0.2, 0.4), rng.uniform(0.5, 1.1)
+        trajs += [c.poses for c in top_grasps([x, y, z], rng.uniform(-3, 3), [0.05, 0.1, 0.1])]
+    trajs.append(trajs[0].copy())
+    trajs[-1][:, 2, 3] += 5.0
+    union = np.unique(
+        np.concatenate([cells_within(nav, T[-1, 0, 3], T[-1, 1, 3], pose_reach(coarse_map, T[-1])) for T in trajs[:-1]])
+    )
+    masks = rng.integers(0, 2**40, (len(union), 1)).astype(np.uint64)  # some yaws blocked per cell
+    at = {int(c): k for k, c in enumerate(union)}
+    reached = 0
+    for T, (window, val, arg) in zip(trajs, reach_maps(coarse_map, trajs, nav, yaws, union, masks)):
+        r = pose_reach(coarse_map, T[-1])
+        if r < 0:
+            assert val.size == 0
+            continue
+        own = cells_within(nav, T[-1, 0, 3], T[-1, 1, 3], r)
+        v1, a1 = manipulation_map(coarse_map, T, nav, yaws, own, Window(0, 80, 0, 80), masks[[at[int(c)] for c in own]])
+        full_v, full_a = np.zeros((80, 80), np.float32), np.full((80, 80), -1, np.int16)
+        full_v[window.slices], full_a[window.slices] = val, arg
+        assert np.array_equal(full_v, v1) and np.array_equal(full_a, a1)
+        reached += int((val > 0).sum())
+    assert reached > 500
+
+
 def test_cells_beyond_the_slice_reach_are_zero(coarse_map):
     """Skipping base cells farther than the target slice's reach changes nothing: evaluated on every
     cell, those are exactly the cells left at 0 / -1."""
@@ -203,8 +241,29 @@ def test_column_skip_changes_no_result(poses, candidates):
     for bound in (np.ascontiguousarray(slices[0].max(axis=2)), np.full((12, 14), np.inf, np.float32)):
         val = np.zeros((candidates, ny, nx), np.float32)
         arg = np.full((candidates, ny, nx), -1, np.int16)
-        args = (tcp[0], tcp[1], tcp_yaw, np.array([-0.6, -0.7]), 0.1, yaws, np.array([-0.75, -0.8]), 0.1)
-        trajectory_maps(slices, bound, *args, ny, nx, cells, masks, val, arg, 0, 0)
+        trajectory_maps(
+            slices,
+            bound[None],
+            np.arange(poses, dtype=np.int64),
+            tcp[0],
+            tcp[1],
+            np.array([0, poses], dtype=np.int64),
+            np.array([0, candidates], dtype=np.int64),
+            np.arange(candidates, dtype=np.int64),
+            tcp_yaw.ravel(),
+            np.array([0], dtype=np.int64),
+            np.array([[0.0, 0.0, np.inf]]),
+            np.array([-0.6, -0.7]),
+            0.1,
+            yaws,
+            np.array([-0.75, -0.8]),
+            0.1,
+            nx,
+            cells,
+            masks,
+            val,
+            arg,
+        )
         out.append((val, arg))
     assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
     assert (out[0][0] > 0).sum() > 20

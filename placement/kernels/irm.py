@@ -23,15 +23,20 @@ CHUNK = 64  # cells per parallel task: per-task scratch, no allocation per cell
 def trajectory_maps(
     slices: npt.NDArray[np.float32],
     column_max: npt.NDArray[np.float32],
-    tcp_x: npt.NDArray[np.float64],
-    tcp_y: npt.NDArray[np.float64],
-    tcp_yaw: npt.NDArray[np.float64],
+    pose_slice: npt.NDArray[np.int64],
+    pose_x: npt.NDArray[np.float64],
+    pose_y: npt.NDArray[np.float64],
+    group_pose: npt.NDArray[np.int64],
+    group_member: npt.NDArray[np.int64],
+    member_row: npt.NDArray[np.int64],
+    member_yaw: npt.NDArray[np.float64],
+    group_column: npt.NDArray[np.int64],
+    group_disc: npt.NDArray[np.float64],
     rm_origin: npt.NDArray[np.float64],
     rm_res: float,
     base_yaws: npt.NDArray[np.float64],
     grid_origin: npt.NDArray[np.float64],
     grid_res: float,
-    ny: int,
     nx: int,
     cells: npt.NDArray[np.int64],
     masks: npt.NDArray[np.uint64],
@@ -40,51 +45,78 @@ def trajectory_maps(
     out_y0: int = 0,
     out_x0: int = 0,
 ) -> None:
-    """Min over the trajectory, max over the cell's allowed base yaws, of the map value, per base cell, for C
-    trajectories at once that share their positions and map slices and differ only in yaw.
+    """Min over the trajectory, max over the cell's allowed base yaws, of the map value, per base
+    cell, for G groups of trajectories in one pass; the trajectories of a group share their positions
+    and map slices and differ only in yaw.
 
     Candidates of one step (two top grasps, eight place yaws) hold the TCP at the same points with
     the same tilt: the rotated position of a pose seen from a base pose is computed once and the map
-    row read there serves all C of them. Each candidate's result equals its own one-trajectory
-    evaluation exactly (same arithmetic; an early exit never changes a result).
+    row read there serves every member of its group. Each member's result equals its own
+    one-trajectory evaluation exactly (same arithmetic; an early exit never changes a result).
 
     A base yaw whose first pose lands on a map column (all yaw bins at one position) whose maximum is
-    at most every candidate's best so far is skipped: no value there could beat a best (a strict
+    at most every member's best so far is skipped: no value there could beat a best (a strict
     improvement is needed), so the results are those of evaluating it.
 
     Args:
-        slices: (P, nx_rm, ny_rm, n_yaw) float32, the map slice of each TCP pose.
-        column_max: (nx_rm, ny_rm) float32, ``slices[0].max(axis=2)`` (or any upper bound of it).
-        tcp_x, tcp_y: (P,) world position of each pose [m]; tcp_yaw: (C, P) ZYX yaw of each
-            candidate's poses [rad].
+        slices: (S, nx_rm, ny_rm, n_yaw) float32, the map slices the poses read.
+        column_max: (B, nx_rm, ny_rm) float32 upper bounds, ``slice.max(axis=2)`` of some slices.
+        pose_slice: (M,) the slice of each pose; pose_x, pose_y: (M,) its world position [m].
+        group_pose: (G + 1,) group g's poses are ``group_pose[g]:group_pose[g + 1]`` (P_g of them).
+        group_member: (G + 1,) group g's members are ``group_member[g]:group_member[g + 1]`` (C_g of
+            them); member_row: (R,) the output row of each member.
+        member_yaw: (sum of C_g P_g,) the ZYX yaw [rad] of each member's poses: group by group,
+            member by member (in row order), pose by pose.
+        group_column: (G,) index into ``column_max`` of the bound of group g's first pose.
+        group_disc: (G, 3) per group (x [m], y [m], r [m]): base cells whose centre is farther than r
+            from (x, y) are not evaluated (their rows keep what the caller put there); r = inf: all.
         rm_origin: (2,) map grid lower corner (x, y) in the base frame [m]; rm_res [m].
         base_yaws: (K,) base yaws to try [rad].
-        grid_origin: (2,) navigation grid corner [m]; grid_res [m]; ny, nx its shape.
+        grid_origin: (2,) navigation grid corner [m]; grid_res [m]; nx its column count.
         cells: (N,) int64 flat indices of the base cells to evaluate (others untouched).
         masks: (N, W) uint64, the base yaws allowed on each cell (bit k & 63 of word k >> 6 is yaw
             k; a polygon footprint fits only at some yaws); a cell allowing none gets 0.
-        out_val: (C, h, w) float32, best value (0 = unreachable); out_yaw: (C, h, w) int16,
+        out_val: (rows, h, w) float32, best value (0 = unreachable); out_yaw: (rows, h, w) int16,
             index into base_yaws of the best yaw (-1 if unreachable): a window of the grid whose
             cell (0, 0) is grid cell (out_y0, out_x0); it must contain every cell of ``cells``.
     """
-    P = slices.shape[0]
+    G = group_pose.shape[0] - 1
+    n_yaw = slices.shape[3]
     nxr = slices.shape[1]
     nyr = slices.shape[2]
-    n_yaw = slices.shape[3]
     K = base_yaws.shape[0]
-    C = tcp_yaw.shape[0]
-    # per-yaw constants, shared by every cell
     cs = np.empty(K)
     sn = np.empty(K)
-    ybin = np.empty((K, P, C), dtype=np.int64)
     for k in range(K):
         cs[k] = math.cos(base_yaws[k])
         sn[k] = math.sin(base_yaws[k])
-        for p in range(P):
-            for c in range(C):
-                ybin[k, p, c] = wrap_bin(tcp_yaw[c, p] - base_yaws[k], n_yaw)
+    # per group: where its yaws and its yaw bins (K, P, C) start
+    yaw_start = np.zeros(G + 1, dtype=np.int64)
+    for g in range(G):
+        P = group_pose[g + 1] - group_pose[g]
+        C = group_member[g + 1] - group_member[g]
+        yaw_start[g + 1] = yaw_start[g] + P * C
+    ybin = np.empty(yaw_start[G] * K, dtype=np.int64)
+    for g in prange(G):
+        P = group_pose[g + 1] - group_pose[g]
+        C = group_member[g + 1] - group_member[g]
+        for k in range(K):
+            for p in range(P):
+                for c in range(C):
+                    yaw = member_yaw[yaw_start[g] + c * P + p]
+                    ybin[yaw_start[g] * K + (k * P + p) * C + c] = wrap_bin(yaw - base_yaws[k], n_yaw)
     n = cells.shape[0]
-    for chunk in prange((n + CHUNK - 1) // CHUNK):
+    chunks = (n + CHUNK - 1) // CHUNK
+    for task in prange(G * chunks):
+        g = task // chunks
+        chunk = task - g * chunks
+        p0 = group_pose[g]
+        P = group_pose[g + 1] - p0
+        r0 = group_member[g]
+        C = group_member[g + 1] - r0
+        yb0 = yaw_start[g] * K
+        b = group_column[g]
+        dx0, dy0, reach = group_disc[g, 0], group_disc[g, 1], group_disc[g, 2]
         best = np.empty(C, dtype=np.float32)
         arg = np.empty(C, dtype=np.int64)
         m = np.empty(C, dtype=np.float32)
@@ -95,10 +127,12 @@ def trajectory_maps(
             ix = cell - iy * nx
             bx = grid_origin[0] + (ix + 0.5) * grid_res
             by = grid_origin[1] + (iy + 0.5) * grid_res
+            if (bx - dx0) * (bx - dx0) + (by - dy0) * (by - dy0) > reach * reach:
+                continue
             for c in range(C):
                 best[c] = np.float32(0.0)
                 arg[c] = -1
-            floor = np.float32(0.0)  # the least best over the candidates
+            floor = np.float32(0.0)  # the least best over the members
             for k in range(K):
                 if (masks[ci, k >> 6] >> np.uint64(k & 63)) & np.uint64(1) == 0:
                     continue
@@ -109,8 +143,9 @@ def trajectory_maps(
                     alive[c] = True
                 left = C
                 for p in range(P):
-                    dx = tcp_x[p] - bx
-                    dy = tcp_y[p] - by
+                    sl = pose_slice[p0 + p]
+                    dx = pose_x[p0 + p] - bx
+                    dy = pose_y[p0 + p] - by
                     xr = co * dx + s * dy
                     yr = -s * dx + co * dy
                     jx = int(math.floor((xr - rm_origin[0]) / rm_res))
@@ -118,12 +153,12 @@ def trajectory_maps(
                     if jx < 0 or jy < 0 or jx >= nxr or jy >= nyr:
                         left = 0  # unreachable for all: m would be 0, never above best
                         break
-                    if p == 0 and column_max[jx, jy] <= floor:
-                        left = 0  # no candidate's value here can beat its best
+                    if p == 0 and column_max[b, jx, jy] <= floor:
+                        left = 0  # no member's value here can beat its best
                         break
                     for c in range(C):
                         if alive[c]:
-                            v = slices[p, jx, jy, ybin[k, p, c]]
+                            v = slices[sl, jx, jy, ybin[yb0 + (k * P + p) * C + c]]
                             if v < m[c]:
                                 m[c] = v
                             if m[c] <= best[c]:
@@ -140,5 +175,5 @@ def trajectory_maps(
                     for c in range(1, C):
                         floor = min(floor, best[c])
             for c in range(C):
-                out_val[c, iy - out_y0, ix - out_x0] = best[c]
-                out_yaw[c, iy - out_y0, ix - out_x0] = arg[c]
+                out_val[member_row[r0 + c], iy - out_y0, ix - out_x0] = best[c]
+                out_yaw[member_row[r0 + c], iy - out_y0, ix - out_x0] = arg[c]

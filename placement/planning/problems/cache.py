@@ -21,9 +21,9 @@ import numpy as np
 from placement.collision import SceneCollision
 from placement.collision.scene import object_aabb
 from placement.maps.rmap import ReachabilityMap
-from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray, MaskArray, YawIndexArray
+from placement.planning.arrays import BoolArray, FloatArray, IntArray
 from placement.planning.problems.grasps import GRIPPER_OPENING, Candidate
-from placement.planning.problems.manipulation import cells_within, manipulation_maps, pose_reach
+from placement.planning.problems.manipulation import cells_within, pose_reach, reach_maps
 from placement.planning.problems.option import Option, height_range
 from placement.planning.problems.refresh import refreshed_options
 from placement.planning.problems.screening import blocked_words, screen
@@ -215,32 +215,18 @@ class StepProblems:
         that torso value [m] only)."""
         nav = self.world.nav
         opts = []
-        near: dict[Reach, tuple[IntArray, MaskArray]] = {}  # candidates of a step share their target position
         candidates = self.candidates(step.index)
         views = ((a, m) for a, ms in self.variants.items() for m in ms)
         for arm, rmap in ((a, m) for a, m in views if torso is None or torso_value(m) == torso):
             lo, hi = height_range(rmap)
             blocked = self.blocked(step.index, arm)
-            by_cells: dict[Reach, list[Candidate]] = {}  # candidates of a step share their target position
-            for cand, why in zip(candidates, blocked):
-                if why is not None:
-                    continue
-                # base cells farther from the target than the target slice's reach get 0 from
-                # the kernel anyway: they are not evaluated (the results are the same)
-                key = (float(cand.poses[-1, 0, 3]), float(cand.poses[-1, 1, 3]), pose_reach(rmap, cand.poses[-1]))
-                if key not in near:
-                    cells = cells_within(nav, *key)
-                    cells = cells[self.world.feasible.flat[cells]]
-                    near[key] = (cells, self.world.yaw_masks(cells))
-                by_cells.setdefault(key, []).append(cand)
-            results: dict[bytes, tuple[Window, Float32Array, YawIndexArray]] = {}
-            for key, cands in by_cells.items():
-                cells, masks = near[key]
-                window = Window.around(cells, nav.shape)
-                # a place of one grasp turned by a half turn is often another grasp's place: one IRM
-                distinct = list({c.poses.tobytes(): c for c in cands}.values())
-                maps = manipulation_maps(rmap, [c.poses for c in distinct], nav, self.yaws, cells, window, masks)
-                results.update({c.poses.tobytes(): (window, *m) for c, m in zip(distinct, maps)})
+            # a place of one grasp turned by a half turn is often another grasp's place: one IRM
+            distinct = list({c.poses.tobytes(): c for c, why in zip(candidates, blocked) if why is None}.values())
+            # base cells farther from a target than its slice's reach get 0 from the kernel anyway:
+            # only those within some candidate's reach are evaluated (the results are the same)
+            cells = self._cells_near(rmap, distinct)
+            maps = reach_maps(rmap, [c.poses for c in distinct], nav, self.yaws, cells, self.world.yaw_masks(cells))
+            results = {c.poses.tobytes(): m for c, m in zip(distinct, maps)}
             for cand, why in zip(candidates, blocked):
                 z = cand.poses[:, 2, 3]
                 out = bool(np.any((z < lo) | (z >= hi)))
@@ -250,6 +236,21 @@ class StepProblems:
                     nothing = np.zeros((0, 0), np.float32), np.full((0, 0), -1, np.int16)
                     opts.append(Option(arm, cand, Window(0, 0, 0, 0), *nothing, out, torso_value(rmap), why))
         return opts
+
+    def _cells_near(self, rmap: ReachabilityMap, candidates: Sequence[Candidate]) -> IntArray:
+        """The feasible base cells within the reach of ``rmap``'s slice of some candidate's last pose
+        from that pose (a disc around their centre holding every candidate's disc)."""
+        discs = [
+            (float(c.poses[-1, 0, 3]), float(c.poses[-1, 1, 3]), pose_reach(rmap, c.poses[-1])) for c in candidates
+        ]
+        discs = [d for d in discs if d[2] >= 0]
+        if not discs:
+            return np.zeros(0, np.int64)
+        xy = np.array([d[:2] for d in discs])
+        centre = 0.5 * (xy.min(axis=0) + xy.max(axis=0))
+        radius = max(float(np.hypot(*(np.array(d[:2]) - centre))) + d[2] for d in discs)
+        cells = cells_within(self.world.nav, float(centre[0]), float(centre[1]), radius)
+        return cells[self.world.feasible.flat[cells]]
 
     def pairs(self, i: int) -> set[tuple[str, str | None]]:
         """The (arm, grasp) pairs of step i's options that keep the threshold somewhere: for a place,

@@ -103,11 +103,55 @@ def manipulation_maps(
     each other read one merged slice (:func:`_stacked`); each result is the same as its own
     evaluation. Returns (value, yaw_index) per trajectory, in order.
     """
-    g: Grid = rmap.grid
     window = window or Window(0, nav.shape[0], 0, nav.shape[1])
-    ny, nx = nav.shape
+    cells, masks = _checked(nav, yaws, cells, window, masks)
+    vals, args, _ = _evaluate(rmap, trajectories, nav, yaws, cells, window, masks, within_reach=False)
+    return [(vals[i], args[i]) for i in range(len(trajectories))]
+
+
+def reach_maps(
+    rmap: ReachabilityMap,
+    trajectories: Sequence[FloatArray],
+    nav: NavGrid,
+    yaws: FloatArray,
+    cells: IntArray,
+    masks: MaskArray,
+) -> list[tuple[Window, Float32Array, YawIndexArray]]:
+    """:func:`manipulation_maps` of a step's trajectories over ``cells`` (those within the arm's reach
+    of any of them) and their yaw ``masks``, each kept over its own window: the cells within the
+    horizontal reach of its last pose's slice (:func:`pose_reach`) of that pose, plus one cell. Cells
+    farther away read nothing from the map (0 everywhere) and are not evaluated. One kernel pass for
+    all of them. Returns (window, value, yaw_index) per trajectory, in order."""
+    window = Window.around(cells, nav.shape)
+    cells, masks = _checked(nav, yaws, cells, window, masks)
+    vals, args, discs = _evaluate(rmap, trajectories, nav, yaws, cells, window, masks, within_reach=True)
+    out = []
+    for i, (x, y, r) in enumerate(discs):
+        own = _disc_window(nav, x, y, r, window)
+        sub = (slice(own.y0 - window.y0, own.y1 - window.y0), slice(own.x0 - window.x0, own.x1 - window.x0))
+        out.append((own, vals[i][sub].copy(), args[i][sub].copy()))
+    return out
+
+
+def _disc_window(nav: NavGrid, x: float, y: float, r: float, within: Window) -> Window:
+    """The cells of ``within`` whose centres may lie within ``r`` [m] of (x, y), plus one cell (empty
+    for a negative ``r``)."""
+    if r < 0:
+        return Window(within.y0, within.y0, within.x0, within.x0)
+    res, (ox, oy) = nav.resolution, nav.origin
+    y0 = max(int(math.floor((y - r - oy) / res)) - 2, within.y0)
+    y1 = min(int(math.ceil((y + r - oy) / res)) + 2, within.y1)
+    x0 = max(int(math.floor((x - r - ox) / res)) - 2, within.x0)
+    x1 = min(int(math.ceil((x + r - ox) / res)) + 2, within.x1)
+    return Window(y0, max(y1, y0), x0, max(x1, x0))
+
+
+def _checked(
+    nav: NavGrid, yaws: FloatArray, cells: IntArray, window: Window, masks: MaskArray | None
+) -> tuple[IntArray, MaskArray]:
+    """``cells`` as int64 (all inside ``window``) and their ``masks`` (default: every yaw), checked."""
     cells = np.asarray(cells, dtype=np.int64)
-    if cells.size and not window.holds(cells, nx):
+    if cells.size and not window.holds(cells, nav.shape[1]):
         raise PlacementError("manipulation_map: a cell to evaluate lies outside the window")
     if masks is None:
         masks = np.full((len(cells), (len(yaws) + 63) // 64), np.iinfo(np.uint64).max, np.uint64)
@@ -116,43 +160,95 @@ def manipulation_maps(
         raise PlacementError(
             f"manipulation_map: yaw masks {masks.shape} do not fit {len(cells)} cells and {len(yaws)} yaws"
         )
-    out: list[IRM | None] = [None] * len(trajectories)
+    return cells, masks
+
+
+def _evaluate(
+    rmap: ReachabilityMap,
+    trajectories: Sequence[FloatArray],
+    nav: NavGrid,
+    yaws: FloatArray,
+    cells: IntArray,
+    window: Window,
+    masks: MaskArray,
+    within_reach: bool,
+) -> tuple[Float32Array, YawIndexArray, list[tuple[float, float, float]]]:
+    """(values (T, h, w), yaw indices (T, h, w), per trajectory its disc (x, y, r [m])) of the
+    trajectories over ``window``, in one kernel pass; ``within_reach``: each evaluated only on the cells
+    within its last pose's reach (its disc; r = -1 for a trajectory off the map's heights, inf without)."""
+    g: Grid = rmap.grid
+    vals = np.zeros((len(trajectories), *window.shape), np.float32)
+    args = np.full((len(trajectories), *window.shape), -1, YAW_INDEX)
+    discs: list[tuple[float, float, float]] = []
     groups: dict[tuple[PoseKey, ...], list[tuple[int, list[float]]]] = {}
     for i, T in enumerate(trajectories):
-        keyed = _pose_keys(rmap, np.asarray(T, dtype=float).reshape(-1, 4, 4))
-        if keyed is None:
-            out[i] = (np.zeros(window.shape, np.float32), np.full(window.shape, -1, YAW_INDEX))
-        else:
+        T = np.asarray(T, dtype=float).reshape(-1, 4, 4)
+        keyed = _pose_keys(rmap, T)
+        last = T[-1]
+        reach = pose_reach(rmap, last) if within_reach else math.inf
+        discs.append((float(last[0, 3]), float(last[1, 3]), reach if keyed is not None else -1.0))
+        if keyed is not None and reach >= 0:
             groups.setdefault(keyed[0], []).append((i, keyed[1]))
+    if not groups or not cells.size:
+        return vals, args, discs
+    slices: list[np.ndarray] = []
+    bounds: list[np.ndarray] = []
+    index: dict[tuple[tuple[int, ...], int, int], int] = {}
+    bound_index: dict[tuple[tuple[int, ...], int, int], int] = {}
+    pose_slice: list[int] = []
+    pose_x: list[float] = []
+    pose_y: list[float] = []
+    member_yaw: list[float] = []
+    group_pose, group_member, group_column, rows = [0], [0], [], []
+    group_disc: list[tuple[float, float, float]] = []
     for keys, members in groups.items():
         yaws_of = [m[1] for m in members]
         stacked = _stacked(keys, yaws_of)
-        slices = np.ascontiguousarray(np.stack([rmap.lowest(zs, ip, ir) for _, _, zs, ip, ir, _ in stacked]))
-        vals = np.zeros((len(members), *window.shape), np.float32)
-        args = np.full((len(members), *window.shape), -1, YAW_INDEX)
-        trajectory_maps(
-            slices,
-            rmap.column_max(*stacked[0][2:5]),
-            np.array([k[0] for k in stacked]),
-            np.array([k[1] for k in stacked]),
-            np.array([[t[k[5]] for k in stacked] for t in yaws_of], dtype=float),
-            np.array(g.origin[:2]),
-            g.resolution,
-            np.asarray(yaws, dtype=float),
-            np.array(nav.origin, dtype=float),
-            nav.resolution,
-            ny,
-            nx,
-            cells,
-            masks,
-            vals,
-            args,
-            window.y0,
-            window.x0,
-        )
-        for j, (i, _) in enumerate(members):
-            out[i] = (vals[j], args[j])
-    return [m for m in out if m is not None]  # every trajectory has its map by now
+        for x, y, zs, ip, ir, _ in stacked:
+            key = (tuple(sorted(set(zs))), ip, ir)
+            if key not in index:
+                index[key] = len(slices)
+                slices.append(rmap.lowest(zs, ip, ir))
+            pose_slice.append(index[key])
+            pose_x.append(x)
+            pose_y.append(y)
+        first = (tuple(sorted(set(stacked[0][2]))), stacked[0][3], stacked[0][4])
+        if first not in bound_index:
+            bound_index[first] = len(bounds)
+            bounds.append(rmap.column_max(*first))
+        group_column.append(bound_index[first])
+        for i, ys in members:
+            member_yaw.extend(ys[k[5]] for k in stacked)
+            rows.append(i)
+        group_pose.append(len(pose_slice))
+        group_member.append(len(rows))
+        group_disc.append(discs[members[0][0]])
+    trajectory_maps(
+        np.ascontiguousarray(np.stack(slices)),  # a step's candidates share a few dozen slices
+        np.ascontiguousarray(np.stack(bounds)),
+        np.array(pose_slice, dtype=np.int64),
+        np.array(pose_x, dtype=float),
+        np.array(pose_y, dtype=float),
+        np.array(group_pose, dtype=np.int64),
+        np.array(group_member, dtype=np.int64),
+        np.array(rows, dtype=np.int64),
+        np.array(member_yaw, dtype=float),
+        np.array(group_column, dtype=np.int64),
+        np.array(group_disc, dtype=float).reshape(-1, 3),
+        np.array(g.origin[:2]),
+        g.resolution,
+        np.asarray(yaws, dtype=float),
+        np.array(nav.origin, dtype=float),
+        nav.resolution,
+        nav.shape[1],
+        cells,
+        masks,
+        vals,
+        args,
+        window.y0,
+        window.x0,
+    )
+    return vals, args, discs
 
 
 #: Poses merged by :func:`_stacked`: (x [m], y [m], z bins, pitch bin, roll bin, index of the first pose).
