@@ -249,3 +249,47 @@ def test_map_view_threshold_and_direction(maps_dir):
         v.stop()
     with pytest.raises(ViewerError, match="--direction"):
         view_map(maps_dir, direction="sideways")
+
+
+def test_boxes_mesh_is_closed_outward_and_holds_the_boxes():
+    from placement.viewer.geometry import boxes_mesh
+
+    boxes = np.array([[0.0, 0.0, 0.1, 0.05, 0.05, 0.3], [1.0, -1.0, 0.0, 1.1, -0.9, 2.0]])
+    v, f = boxes_mesh(boxes)
+    assert v.shape == (16, 3) and f.shape == (24, 3)
+    tri = v[f].astype(float)
+    # the divergence theorem: the signed volume of a closed outward mesh is its volume
+    volume = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6
+    assert volume == pytest.approx(0.05 * 0.05 * 0.2 + 0.1 * 0.1 * 2.0, rel=1e-5)
+    edges: dict[tuple[int, int], int] = {}
+    for a, b, c in f:
+        for e in ((a, b), (b, c), (c, a)):
+            edges[e] = edges.get(e, 0) + 1
+    assert all(edges.get((b, a)) == 1 for (a, b) in edges)  # each edge once each way: closed, oriented
+    assert np.allclose(v[:8].min(axis=0), boxes[0, :3]) and np.allclose(v[:8].max(axis=0), boxes[0, 3:])
+
+
+def test_the_obstacle_cloud_is_drawn_as_its_voxel_boxes(tmp_path):
+    from support.pcd import pcd
+    from support.scenes import base_doc
+
+    from placement.scene import parse_scene
+    from placement.viewer.scene_view import draw_scene
+    from placement.viewer.server import start_server
+
+    ys, zs = np.meshgrid(np.arange(-1.0, 1.0, 0.02), np.arange(0.0, 2.0, 0.02))
+    wall = np.stack([np.full(ys.size, 0.6), ys.ravel(), zs.ravel()], axis=1)
+    (tmp_path / "room.pcd").write_bytes(pcd(wall, "binary"))
+    doc = base_doc()
+    doc["obstacle_cloud"] = {"file": "room.pcd", "voxel": 0.05}
+    scene = parse_scene(doc, tmp_path)
+    server = start_server(0)
+    try:
+        nodes = draw_scene(server, scene, 0.47)
+    finally:
+        server.stop()
+    mesh = nodes["/scene/obstacle_cloud"]
+    v = np.asarray(mesh.vertices)
+    assert len(v) == 8 * len(scene.cloud.boxes)
+    assert np.allclose(v.min(axis=0), scene.cloud.boxes[:, :3].min(axis=0))
+    assert np.allclose(v.max(axis=0), scene.cloud.boxes[:, 3:].max(axis=0))

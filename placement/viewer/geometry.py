@@ -91,6 +91,34 @@ def prism(points: npt.ArrayLike, z0: float, z1: float) -> tuple[npt.NDArray[np.f
     return verts, np.vstack(faces).astype(np.int32)
 
 
+#: The 12 outward triangles of a box over its corners numbered by bits (x: 1, y: 2, z: 4).
+_BOX_FACES = np.array(
+    [
+        [0, 2, 1], [1, 2, 3],  # z0
+        [4, 5, 6], [5, 7, 6],  # z1
+        [0, 1, 4], [1, 5, 4],  # y0
+        [2, 6, 3], [3, 6, 7],  # y1
+        [0, 4, 2], [2, 4, 6],  # x0
+        [1, 3, 5], [3, 7, 5],  # x1
+    ],
+    dtype=np.int32,
+)  # fmt: skip
+
+
+def boxes_mesh(boxes: npt.ArrayLike) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]]:
+    """One mesh of axis-aligned ``boxes`` (k, 6) (x0, y0, z0, x1, y1, z1) [m]: (8 k, 3) vertices and
+    (12 k, 3) outward triangles."""
+    b = np.asarray(boxes, dtype=float).reshape(-1, 6)
+    bits = np.arange(8)
+    corners = np.stack(
+        [np.where(bits & 1, b[:, None, 3], b[:, None, 0]), np.where(bits & 2, b[:, None, 4], b[:, None, 1]),
+         np.where(bits & 4, b[:, None, 5], b[:, None, 2])],
+        axis=2,
+    )  # fmt: skip
+    faces = _BOX_FACES[None] + 8 * np.arange(len(b), dtype=np.int32)[:, None, None]
+    return corners.reshape(-1, 3).astype(np.float32), faces.reshape(-1, 3).astype(np.int32)
+
+
 def circle(radius: float, n: int = 48) -> npt.NDArray[np.float64]:
     """(n, 2) points on a circle of ``radius`` [m] around the origin, counter-clockwise."""
     a = np.linspace(0, 2 * math.pi, n, endpoint=False)

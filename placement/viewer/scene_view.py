@@ -1,5 +1,6 @@
 """The scene drawn in a viser server: floor, obstacles and tables, the occupancy map as a floor layer,
-objects, place locations and the start pose. Node names start with ``/scene``."""
+the obstacle point cloud as its voxel boxes, objects, place locations and the start pose. Node names
+start with ``/scene``."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from placement.scene import Box, Cylinder, Polygon
 from placement.viewer.colors import Scale, layer_image
 from placement.viewer.geometry import (
     POLYGON_HEIGHT,
+    boxes_mesh,
     circle,
     footprint_segments,
     label_offset,
@@ -30,6 +32,7 @@ if TYPE_CHECKING:
     import viser
 
     from placement.scene import OccupancyMap, Scene, Shape
+    from placement.scene.cloud import VoxelCloud
 
 OCCUPIED = Scale("occupied", "", 0.0, 1.0, "Greys")
 
@@ -94,6 +97,13 @@ def draw_occupancy(server: viser.ViserServer, occupancy: OccupancyMap) -> viser.
     )
 
 
+def draw_cloud(server: viser.ViserServer, cloud: VoxelCloud) -> viser.MeshHandle:
+    """The obstacle point cloud as the arm's collision model sees it: its voxel boxes (runs of occupied
+    voxels per column), one translucent mesh; its node."""
+    v, f = boxes_mesh(cloud.boxes)
+    return server.scene.add_mesh_simple("/scene/obstacle_cloud", v, f, color=OBSTACLE, opacity=0.6, flat_shading=True)
+
+
 def draw_start(
     server: viser.ViserServer,
     start: tuple[float, float, float],
@@ -123,7 +133,7 @@ def draw_scene(
 ) -> dict[str, viser.SceneNodeHandle]:
     """Everything of ``scene`` (a :class:`placement.scene.Scene`) that does not change
     between steps. ``footprint_radius`` [m] of the robot, for the start pose. Returns the nodes of the
-    obstacles, objects and occupancy map by node name."""
+    obstacles, objects, occupancy map and obstacle cloud by node name."""
     draw_floor(server, scene.bounds)
     nodes: dict[str, viser.SceneNodeHandle] = {}
     for ob in scene.obstacles:
@@ -131,6 +141,8 @@ def draw_scene(
         nodes[name] = draw_shape(server, name, ob.shape, TABLE if ob.table else OBSTACLE)
     if scene.occupancy is not None:
         nodes["/scene/occupancy"] = draw_occupancy(server, scene.occupancy)
+    if scene.cloud is not None and len(scene.cloud.boxes):
+        nodes["/scene/obstacle_cloud"] = draw_cloud(server, scene.cloud)
     for o in scene.objects:
         assert o.orientation is not None  # SceneObject sets it (from the yaw when the file has none)
         x, y, z, w = (float(v) for v in o.orientation)  # ROS order in the scene, wxyz in viser
