@@ -18,11 +18,14 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def plain_values(ctx, options, placements):
-    """Each (placement, option) alone, as the baseline was first written."""
+    """Each (placement, option) alone, as the baseline was first written (the options the gripper rules
+    out left out: they are never tried)."""
     nav = ctx.world.nav
     out = {}
     for flat, yaw in placements:
         for k, o in enumerate(options):
+            if o.blocked is not None:
+                continue
             cell = np.array([flat], dtype=np.int64)
             v, _ = manipulation_map(
                 option_map(ctx, o), o.candidate.poses, nav, np.array([yaw]), cell, Window.around(cell, nav.shape, 0)
