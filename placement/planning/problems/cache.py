@@ -41,8 +41,6 @@ MAX_LEGS = 4096
 #: A step none of whose options keeps its threshold anywhere is planned with its thresholds lowered to
 #: this share of its best map value (relative to its threshold): see :meth:`StepProblems.relaxed`.
 RELAX = 0.5
-#: Where a candidate's target is and how far the map reaches it: (x [m], y [m], reach [m]).
-Reach = tuple[float, float, float]
 
 
 class StepProblems:

@@ -38,13 +38,16 @@ def refreshed_options(
     """``options`` of one step for the world ``now``, computed for the world ``was``; ``map_for(arm,
     torso)``: the map (view) of an arm at a torso value [m] (see :mod:`placement.planning.torso`).
 
-    Options whose reach disc saw no change of allowed yaws are returned as they are (same objects).
+    Options whose reach disc saw no change of allowed yaws are returned as they are (same objects), and
+    so are those the gripper rules out (``Option.blocked``: they have no map).
     """
     nav = now.nav
     out = list(options)
     # same arm, torso and target: same cells
     groups: dict[tuple[str, float | None, float, float, float], list[int]] = {}
     for j, o in enumerate(options):
+        if o.blocked is not None:
+            continue
         target = o.candidate.poses[-1]
         key = (o.arm, o.torso, float(target[0, 3]), float(target[1, 3]), pose_reach(map_for(o.arm, o.torso), target))
         groups.setdefault(key, []).append(j)
