@@ -66,7 +66,7 @@ def trajectory_maps(
         group_member: (G + 1,) group g's members are ``group_member[g]:group_member[g + 1]`` (C_g of
             them); member_row: (R,) the output row of each member.
         member_yaw: (sum of C_g P_g,) the ZYX yaw [rad] of each member's poses: group by group,
-            member by member (in row order), pose by pose.
+            member by member (in member order), pose by pose.
         group_column: (G,) index into ``column_max`` of the bound of group g's first pose.
         group_disc: (G, 3) per group (x [m], y [m], r [m]): base cells whose centre is farther than r
             from (x, y) are not evaluated (their rows keep what the caller put there); r = inf: all.
