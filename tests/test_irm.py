@@ -267,3 +267,19 @@ def test_column_skip_changes_no_result(poses, candidates):
         out.append((val, arg))
     assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
     assert (out[0][0] > 0).sum() > 20
+
+
+def test_targets_far_apart_get_passes_of_their_own():
+    """A step's candidates share a kernel pass when their targets lie within 0.5 m of the first one's
+    (one object's grasps and places), not across a floor (a reach step's named trajectories)."""
+    from placement.planning.problems.cache import _clusters
+    from placement.planning.problems.grasps import Candidate
+
+    def at(name, x, y):
+        T = np.eye(4)[None].repeat(2, axis=0)
+        T[:, 0, 3], T[:, 1, 3] = x, y
+        return Candidate(name, T)
+
+    a, b, c, d, e = at("a", 0, 0), at("b", 0.3, 0), at("c", 2.0, 0), at("d", 0.1, 0.1), at("e", 2.4, 0.2)
+    assert [[k.name for k in g] for g in _clusters([a, b, c, d, e])] == [["a", "b", "d"], ["c", "e"]]
+    assert _clusters([]) == []

@@ -41,6 +41,8 @@ MAX_LEGS = 4096
 #: A step none of whose options keeps its threshold anywhere is planned with its thresholds lowered to
 #: this share of its best map value (relative to its threshold): see :meth:`StepProblems.relaxed`.
 RELAX = 0.5
+#: [m] candidates whose targets lie this close share one pass of the inverse-map kernel (see _clusters).
+CLUSTER_M = 0.5
 
 
 class StepProblems:
@@ -220,11 +222,13 @@ class StepProblems:
             blocked = self.blocked(step.index, arm)
             # a place of one grasp turned by a half turn is often another grasp's place: one IRM
             distinct = list({c.poses.tobytes(): c for c, why in zip(candidates, blocked) if why is None}.values())
-            # base cells farther from a target than its slice's reach get 0 from the kernel anyway:
-            # only those within some candidate's reach are evaluated (the results are the same)
-            cells = self._cells_near(rmap, distinct)
-            maps = reach_maps(rmap, [c.poses for c in distinct], nav, self.yaws, cells, self.world.yaw_masks(cells))
-            results = {c.poses.tobytes(): m for c, m in zip(distinct, maps)}
+            results = {}
+            for near in _clusters(distinct):
+                # base cells farther from a target than its slice's reach get 0 from the kernel anyway:
+                # only those within some candidate's reach are evaluated (the results are the same)
+                cells = self._cells_near(rmap, near)
+                maps = reach_maps(rmap, [c.poses for c in near], nav, self.yaws, cells, self.world.yaw_masks(cells))
+                results.update({c.poses.tobytes(): m for c, m in zip(near, maps)})
             for cand, why in zip(candidates, blocked):
                 z = cand.poses[:, 2, 3]
                 out = bool(np.any((z < lo) | (z >= hi)))
@@ -337,6 +341,21 @@ class StepProblems:
         opts = self._options[i] if i in self._options else self._stale[i][0]
         per_map = sum(len(v) for v in self.variants.values())
         return [o.candidate for o in opts[: len(opts) // max(per_map, 1)]]
+
+
+def _clusters(candidates: Sequence[Candidate]) -> list[list[Candidate]]:
+    """``candidates`` in groups whose targets (last poses) lie within :data:`CLUSTER_M` of the group's
+    first (in order): the grasps and places of one object are one group, trajectories far apart (the
+    named trajectories of a reach step) are not, so that no group's maps span a whole floor."""
+    out: list[tuple[np.ndarray, list[Candidate]]] = []
+    for c in candidates:
+        at = c.poses[-1, :2, 3]
+        home = next((g for anchor, g in out if float(np.hypot(*(at - anchor))) <= CLUSTER_M), None)
+        if home is None:
+            out.append((at, [c]))
+        else:
+            home.append(c)
+    return [g for _, g in out]
 
 
 def _names(words: str, names: set[str]) -> bool:
