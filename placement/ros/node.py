@@ -170,7 +170,13 @@ class PlacementNode:
         for o in scene.objects if scene is not None else ():
             self._subscribe_object(o.name)
         prefix = f"{self.base.rstrip('/')}/{OBJECTS}/"
-        for topic, _types in self.node.get_topic_names_and_types():
+        try:
+            topics = self.node.get_topic_names_and_types()
+        except Exception:
+            if self.node.context.ok():
+                raise
+            return  # a SIGTERM shut the context down while this timer ran: nothing left to subscribe to
+        for topic, _types in topics:
             if topic.startswith(prefix) and "/" not in topic[len(prefix) :]:
                 self._subscribe_object(topic[len(prefix) :])
 
