@@ -21,7 +21,7 @@ from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.methods.search import Failure, Search
-from placement.planning.problems import Option, Step, pose_reach, pose_role
+from placement.planning.problems import Option, Step, blocked_summary, pose_reach, pose_role
 from placement.planning.torso import option_map
 from placement.planning.world import World
 from placement.robots import matrix_to_pose
@@ -121,10 +121,11 @@ def explain(
     method ranks the pre-defined placements beside the tables."""
     if not opts:
         return base_reason or "the step has no candidate trajectory", {}
-    blocked = Counter(o.blocked for o in opts if o.blocked is not None)
-    if search is None and len(opts) == sum(blocked.values()):
+    summary = blocked_summary(opts)
+    blocked = summary[0] if summary is not None else 0
+    if search is None and summary is not None and blocked == len(opts):
         # the gripper alone rules out every candidate: neither maps nor IK were asked
-        o = next(o for o in opts if o.blocked == blocked.most_common(1)[0][0])
+        o = summary[1]
         return base_reason, {
             "arm": o.arm,
             "trajectory": o.candidate.name,
@@ -163,7 +164,7 @@ def explain(
         "collision_failures": ncol,
         "culprit": culprit,
         "stopped": search.stop if search else None,
-        "gripper_blocked": sum(blocked.values()),
+        "gripper_blocked": blocked,
         "hint": hint,
     }
     if search is None:

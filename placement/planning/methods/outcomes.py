@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Sequence
 from typing import Any
 
 from placement.planning.arrays import BasePose, FloatArray
 from placement.planning.context import PlanningContext
-from placement.planning.problems import Option, Step, height_range
+from placement.planning.problems import Option, Step, blocked_summary, height_range
 from placement.planning.results import Cost, InfeasibleStep, PlacedStep
 from placement.planning.torso import option_robot
 from placement.planning.verification import resting
@@ -21,11 +20,11 @@ def infeasible(step: Step, reason: str, diagnosis: dict[str, Any] | None = None)
 
 def blocked_reason(opts: Sequence[Option]) -> str:
     """How many of the options the gripper alone rules out and the commonest culprit, in words ("" for none)."""
-    why = Counter(o.blocked for o in opts if o.blocked is not None)
-    if not why:
+    summary = blocked_summary(opts)
+    if summary is None:
         return ""
-    n = sum(why.values())
-    culprit = why.most_common(1)[0][0]
+    n, first = summary
+    culprit = first.blocked
     if n == len(opts):
         return f"the gripper collides at every candidate ({n}) wherever the base stands, mostly {culprit}"
     return f"{n} of {len(opts)} candidates are ruled out as the gripper alone collides there, mostly {culprit}"

@@ -17,7 +17,7 @@ from placement.planning.problems.manipulation import (
     yaw_values,
 )
 from placement.planning.problems.option import Option, height_range
-from placement.planning.problems.screening import step_objects
+from placement.planning.problems.screening import blocked_summary, step_objects
 from placement.planning.problems.steps import Step, pose_role, step_candidates, task_steps
 from placement.planning.problems.thresholds import (
     Thresholds,
@@ -37,6 +37,7 @@ __all__ = [
     "StepProblems",
     "Thresholds",
     "base_yaws",
+    "blocked_summary",
     "height_range",
     "held_object",
     "manipulation_map",

@@ -18,11 +18,13 @@ to it on the building scenes: those from below or through the table top.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 
 from placement.collision import SceneCollision
 from placement.collision.tables import CollisionResult
 from placement.planning.problems.grasps import Candidate
+from placement.planning.problems.option import Option
 from placement.planning.problems.steps import Step, pose_role
 from placement.planning.settings import PlannerConfig
 
@@ -63,4 +65,14 @@ def blocked_words(culprit: str, pose: int | None, action: str, poses: int) -> st
     return culprit if pose is None else f"{culprit} at the {pose_role(action, pose, poses)} pose"
 
 
-__all__ = ["blocked_words", "screen", "screen_slack", "step_objects"]
+def blocked_summary(opts: Sequence[Option]) -> tuple[int, Option] | None:
+    """(how many of ``opts`` the gripper rules out, the first of those with the commonest culprit), or
+    None when it rules out none."""
+    why = Counter(o.blocked for o in opts if o.blocked is not None)
+    if not why:
+        return None
+    culprit = why.most_common(1)[0][0]
+    return sum(why.values()), next(o for o in opts if o.blocked == culprit)
+
+
+__all__ = ["blocked_summary", "blocked_words", "screen", "screen_slack", "step_objects"]
