@@ -118,6 +118,42 @@ def test_a_steps_maps_in_one_pass_equal_each_alone_on_its_own_cells(coarse_map):
     assert reached > 500
 
 
+@pytest.mark.parametrize("share", [0.2, 0.5, 0.8])
+def test_maps_asked_at_least_a_value_keep_the_same_cells(coarse_map, share):
+    """``reach_maps(..., at_least=t)`` (the certificate's regions: a pass that stops at the first yaw
+    keeping t) keeps exactly the cells where the best value is at least t, at a yaw whose own value
+    (the plain arithmetic of :func:`yaw_values`) is the one returned and at least t; 0 and -1
+    elsewhere. t at a share of the best value, and at a map value itself (ties: float32 against a
+    float threshold, as the regions compare them)."""
+    from placement.planning.problems.grasps import place_candidates, top_grasps
+    from placement.planning.problems.manipulation import cells_within, pose_reach, reach_maps, yaw_values
+
+    rng = np.random.default_rng(int(share * 10))
+    nav = NavGrid((-2.0, -2.0), 0.05, (80, 80))
+    yaws = base_yaws(40)
+    trajs = [c.poses for c in place_candidates([0.1234, 0.2345, 0.9], 8)]
+    trajs += [c.poses for c in top_grasps([0.05, -0.1, 0.75], 0.7, [0.05, 0.1, 0.1])]
+    union = np.unique(
+        np.concatenate([cells_within(nav, T[-1, 0, 3], T[-1, 1, 3], pose_reach(coarse_map, T[-1])) for T in trajs])
+    )
+    masks = rng.integers(0, 2**40, (len(union), 1)).astype(np.uint64)
+    full = reach_maps(coarse_map, trajs, nav, yaws, union, masks)
+    top = max(float(v.max()) for _, v, _ in full)
+    values = np.unique(np.concatenate([v[v > 0] for _, v, _ in full]))
+    for t in (share * top, float(values[int(share * (len(values) - 1))])):
+        kept = reach_maps(coarse_map, trajs, nav, yaws, union, masks, at_least=t)
+        for T, (w, v, _), (w2, v2, a2) in zip(trajs, full, kept):
+            assert w == w2
+            assert np.array_equal(v >= t, v2 >= t) and np.array_equal(v2 > 0, v2 >= t)
+            assert np.all(a2[v2 == 0] == -1) and np.all(a2[v2 > 0] >= 0)
+            iy, ix = np.nonzero(v2)
+            if iy.size:
+                xs, ys = nav.centres()
+                got = yaw_values(coarse_map, T, xs[ix + w.x0], ys[iy + w.y0], yaws)[np.arange(iy.size), a2[iy, ix]]
+                assert np.array_equal(got, v2[iy, ix])
+        assert sum(int((v2 >= t).sum()) for _, v2, _ in kept) > 10
+
+
 def test_cells_beyond_the_slice_reach_are_zero(coarse_map):
     """Skipping base cells farther than the target slice's reach changes nothing: evaluated on every
     cell, those are exactly the cells left at 0 / -1."""

@@ -84,6 +84,28 @@ def test_an_ordinary_table_keeps_the_lift_where_it_is(tmp_path, torso_maps, pr2)
         assert times is not None and all(t["torso_s"] == 0.0 for t in times["steps"])
 
 
+@pytest.mark.parametrize("high", [False, True])
+def test_the_certificate_from_regional_maps_equals_the_one_from_full_maps(tmp_path, torso_maps, maps_dir, high):
+    """``global`` plans with the lift held and certifies over every setting: the settings it did not
+    plan with get maps that only say where the threshold is kept (``region_options``). Its bound equals
+    the one over the regions of the full maps of every setting (a fresh planner), and so does every
+    step's region, group by group; the high cup relaxes no threshold, the 0.75 m tables hold the lift."""
+    from placement.planning.program.forward import map_regions, travel_bound
+
+    path = _high_scene(tmp_path, torso_maps) if high else write_scene(tmp_path, torso_maps)
+    planner = Planner(path, "global")
+    result = planner.plan()
+    problems = planner.context.problems
+    assert problems._regional, "some setting's regions came from regional maps"
+    full = Planner(path, "global")
+    ctx, start = full.context, full.start_cell()
+    for i in range(len(problems.steps)):
+        mine, theirs = map_regions(planner.context, i, regional=True), map_regions(ctx, i)
+        assert mine.groups == theirs.groups and np.array_equal(mine.dense(), theirs.dense())
+        assert theirs.any()
+    assert result.certificate.lower_bound_s * full.robot.v_max == pytest.approx(travel_bound(ctx, start), rel=1e-12)
+
+
 def _high_scene(tmp_path, maps_dir):
     """The cup on a 1.05 m high stand: no cell of the small test maps keeps the threshold for its top
     grasps with the lift at 0.15 m or 0 m, many do at 0.31 m."""

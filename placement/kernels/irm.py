@@ -44,6 +44,8 @@ def trajectory_maps(
     out_yaw: npt.NDArray[np.int16],
     out_y0: int = 0,
     out_x0: int = 0,
+    above: float = 0.0,
+    first: bool = False,
 ) -> None:
     """Min over the trajectory, max over the cell's allowed base yaws, of the map value, per base
     cell, for G groups of trajectories in one pass; the trajectories of a group share their positions
@@ -79,6 +81,10 @@ def trajectory_maps(
         out_val: (rows, h, w) float32, best value (0 = unreachable); out_yaw: (rows, h, w) int16,
             index into base_yaws of the best yaw (-1 if unreachable): a window of the grid whose
             cell (0, 0) is grid cell (out_y0, out_x0); it must contain every cell of ``cells``.
+        above: only values above it count (below or at it: 0 and -1, as unreachable); 0: all.
+        first: stop at a cell once every member has a value above ``above``: its value and yaw are
+            then the first found, not the best (a region's test ``value > above`` in a fraction of the
+            time; with ``above`` 0: reachable or not).
     """
     G = group_pose.shape[0] - 1
     n_yaw = slices.shape[3]
@@ -130,9 +136,10 @@ def trajectory_maps(
             if (bx - dx0) * (bx - dx0) + (by - dy0) * (by - dy0) > reach * reach:
                 continue
             for c in range(C):
-                best[c] = np.float32(0.0)
+                best[c] = np.float32(above)
                 arg[c] = -1
-            floor = np.float32(0.0)  # the least best over the members
+            floor = np.float32(above)  # the least best over the members
+            found = 0  # members with a value above ``above``
             for k in range(K):
                 if (masks[ci, k >> 6] >> np.uint64(k & 63)) & np.uint64(1) == 0:
                     continue
@@ -169,11 +176,17 @@ def trajectory_maps(
                 if left > 0:
                     for c in range(C):
                         if alive[c] and m[c] > best[c]:
+                            if arg[c] < 0:
+                                found += 1
                             best[c] = m[c]
                             arg[c] = k
                     floor = best[0]
                     for c in range(1, C):
                         floor = min(floor, best[c])
+                    if first and found == C:
+                        break
             for c in range(C):
+                if arg[c] < 0:
+                    best[c] = np.float32(0.0)
                 out_val[member_row[r0 + c], iy - out_y0, ix - out_x0] = best[c]
                 out_yaw[member_row[r0 + c], iy - out_y0, ix - out_x0] = arg[c]

@@ -55,7 +55,7 @@ class Method(ABC):
     def regions(self, ctx: PlanningContext, i: int) -> Regions:
         """The cells where this method may stand for step i, per (arm, grasp) group (the
         certificate's bound ranges over them): by default where the maps keep the threshold."""
-        return map_regions(ctx, i)
+        return map_regions(ctx, i, regional=True)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"

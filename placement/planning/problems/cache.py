@@ -86,6 +86,8 @@ class StepProblems:
         self._options: dict[int, list[Option]] = {}
         # (step, torso value [m]) -> the options at that lift setting alone (see held_options)
         self._held: dict[tuple[int, float], list[Option]] = {}
+        # (step, torso value [m] or None) -> options that only say where the threshold is kept
+        self._regional: dict[tuple[int, float | None], list[Option]] = {}
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
@@ -210,9 +212,34 @@ class StepProblems:
                 ]
         return self._blocked[key]
 
-    def _compute_options(self, step: Step, torso: float | None = None) -> list[Option]:
+    def region_options(self, i: int) -> list[Option]:
+        """Step i's options as far as its regions read them (the certificate's bound, on every lift
+        setting): those :meth:`options` and :meth:`held_options` already gave, and for each setting
+        they did not, options whose maps say only where the threshold (relaxed as the step's) is kept:
+        there some value that keeps it and its yaw, the first the kernel finds (not the best), 0 and -1
+        elsewhere (:func:`~placement.planning.problems.manipulation.reach_maps` ``at_least``). The same
+        cells keep the threshold, for a fraction of the work. Cached apart: no planning reads them."""
+        factor = self.relaxed(i)  # before any map: it may compute the step's options, then used here
+        if i in self._options or i in self._stale:
+            return self.options(i)
+        if self.settings == [None]:
+            if (i, None) not in self._regional:
+                self._regional[(i, None)] = self._compute_options(self.steps[i], None, factor)
+            return self._regional[(i, None)]
+        out = []
+        for t in (t for t in self.settings if t is not None):
+            if (i, t) in self._held:
+                out += self._held[(i, t)]
+                continue
+            if (i, t) not in self._regional:
+                self._regional[(i, t)] = self._compute_options(self.steps[i], t, factor)
+            out += self._regional[(i, t)]
+        return out
+
+    def _compute_options(self, step: Step, torso: float | None = None, regional: float | None = None) -> list[Option]:
         """The options of ``step`` for every arm and candidate, at every lift setting (``torso``: at
-        that torso value [m] only)."""
+        that torso value [m] only); ``regional``: the factor on the thresholds (see :meth:`relaxed`) of
+        options that only say where they are kept (:meth:`region_options`)."""
         nav = self.world.nav
         opts = []
         candidates = self.candidates(step.index)
@@ -227,7 +254,13 @@ class StepProblems:
                 # base cells farther from a target than its slice's reach get 0 from the kernel anyway:
                 # only those within some candidate's reach are evaluated (the results are the same)
                 cells = self._cells_near(rmap, near)
-                maps = reach_maps(rmap, [c.poses for c in near], nav, self.yaws, cells, self.world.yaw_masks(cells))
+                least = None
+                if regional is not None:  # as ctx.for_step(i).option_threshold computes it
+                    kept = self.thresholds if regional >= 1.0 else self.thresholds.scaled(regional)
+                    least = kept.at(arm, torso_value(rmap))
+                maps = reach_maps(
+                    rmap, [c.poses for c in near], nav, self.yaws, cells, self.world.yaw_masks(cells), least
+                )
                 results.update({c.poses.tobytes(): m for c, m in zip(near, maps)})
             for cand, why in zip(candidates, blocked):
                 z = cand.poses[:, 2, 3]
@@ -324,6 +357,7 @@ class StepProblems:
         else:
             new._options = kept
             new._held = {k: v for k, v in self._held.items() if k[0] not in moved}
+            new._regional = {k: v for k, v in self._regional.items() if k[0] not in moved}
             # the same options and base grid: their checks stand, but near a moved object (its
             # pieces before and after the move)
             boxes = [object_aabb(o) for sc in (self.scene, scene) for o in sc.objects if o.name in moved_objects]

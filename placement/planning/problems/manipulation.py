@@ -116,15 +116,32 @@ def reach_maps(
     yaws: FloatArray,
     cells: IntArray,
     masks: MaskArray,
+    at_least: float | None = None,
 ) -> list[tuple[Window, Float32Array, YawIndexArray]]:
     """:func:`manipulation_maps` of a step's trajectories over ``cells`` (those within the arm's reach
     of any of them) and their yaw ``masks``, each kept over its own window: the cells within the
     horizontal reach of its last pose's slice (:func:`pose_reach`) of that pose, plus one cell. Cells
     farther away read nothing from the map (0 everywhere) and are not evaluated. One kernel pass for
-    all of them. Returns (window, value, yaw_index) per trajectory, in order."""
+    all of them. Returns (window, value, yaw_index) per trajectory, in order.
+
+    ``at_least`` (dimensionless): where the best value is at least that, some value at least that and
+    its yaw (the first found, not the best), else 0 and -1: the cells a threshold keeps, without the
+    best of each (a fraction of the work; ``value >= at_least`` is the same as with the best values)."""
     window = Window.around(cells, nav.shape)
     cells, masks = _checked(nav, yaws, cells, window, masks)
-    vals, args, discs = _evaluate(rmap, trajectories, nav, yaws, cells, window, masks, within_reach=True)
+    above = 0.0 if at_least is None else float(below(at_least))
+    vals, args, discs = _evaluate(
+        rmap,
+        trajectories,
+        nav,
+        yaws,
+        cells,
+        window,
+        masks,
+        within_reach=True,
+        above=above,
+        stop_early=at_least is not None,
+    )
     out = []
     for i, (x, y, r) in enumerate(discs):
         own = _disc_window(nav, x, y, r, window)
@@ -172,10 +189,13 @@ def _evaluate(
     window: Window,
     masks: MaskArray,
     within_reach: bool,
+    above: float = 0.0,
+    stop_early: bool = False,
 ) -> tuple[Float32Array, YawIndexArray, list[tuple[float, float, float]]]:
     """(values (T, h, w), yaw indices (T, h, w), per trajectory its disc (x, y, r [m])) of the
     trajectories over ``window``, in one kernel pass; ``within_reach``: each evaluated only on the cells
-    within its last pose's reach (its disc; r = -1 for a trajectory off the map's heights, inf without)."""
+    within its last pose's reach (its disc; r = -1 for a trajectory off the map's heights, inf without);
+    ``above``, ``stop_early``: as :func:`~placement.kernels.irm.trajectory_maps` takes ``above`` and ``first``."""
     g: Grid = rmap.grid
     vals = np.zeros((len(trajectories), *window.shape), np.float32)
     args = np.full((len(trajectories), *window.shape), -1, YAW_INDEX)
@@ -247,8 +267,17 @@ def _evaluate(
         args,
         window.y0,
         window.x0,
+        above,
+        stop_early,
     )
     return vals, args, discs
+
+
+def below(value: float) -> np.float32:
+    """The largest float32 below ``value``: a float32 map value v is at least ``value`` (compared as
+    numpy compares a float32 array with a float) exactly when v is above it."""
+    f = np.float32(value)
+    return np.nextafter(f, np.float32(-np.inf)) if float(f) >= value else f
 
 
 #: Poses merged by :func:`_stacked`: (x [m], y [m], z bins, pitch bin, roll bin, index of the first pose).

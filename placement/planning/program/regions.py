@@ -137,7 +137,9 @@ class Regions:
         return not np.any(self.masks[:, held] & ~other.masks[:, at])
 
 
-def map_regions(ctx: PlanningContext, i: int, hold_lift: bool = False, held: float | None = None) -> Regions:
+def map_regions(
+    ctx: PlanningContext, i: int, hold_lift: bool = False, held: float | None = None, regional: bool = False
+) -> Regions:
     """Step i's region by the maps: per (arm, grasp) group the cells where one of its options keeps
     the threshold (the cells the map-based methods may stand on), at any torso setting.
 
@@ -145,11 +147,16 @@ def map_regions(ctx: PlanningContext, i: int, hold_lift: bool = False, held: flo
     they keep the threshold on some feasible cell, all settings otherwise: ``global``'s program does
     not price the lift's motion (a PR2's lift takes 24 s end to end), so it moves it only for a step
     the maps do not serve at the held value (``optimal`` prices it: :mod:`placement.planning.program.priced_torso`). ``held``: that value [m] already found
-    by :func:`held_torso` (the options at it only; None: every setting).
+    by :func:`held_torso` (the options at it only; None: every setting). ``regional``: every setting,
+    from options that say only where the threshold is kept (the same region for less work: the
+    certificate's, :meth:`~placement.planning.problems.StepProblems.region_options`).
     """
     if hold_lift:
         held = held_torso(ctx, i)
-    opts = ctx.problems.options(i) if held is None else ctx.problems.held_options(i, held)
+    if regional:
+        opts = ctx.problems.region_options(i)
+    else:
+        opts = ctx.problems.options(i) if held is None else ctx.problems.held_options(i, held)
     return _regions(ctx.for_step(i), opts)
 
 
