@@ -29,6 +29,17 @@ def test_placement_query_console_script_equals_placement_query(tmp_path, maps_di
 
 
 @pytest.mark.slow
+def test_a_query_counts_building_its_planner_against_the_budget(tmp_path, maps_dir):
+    """With 0.1 s for the task, building the planner (scene, maps, world, slices read ahead) takes it
+    all: the query stops at its first step, which says the budget ran out (exit 3, JSON on stdout)."""
+    path = write_scene(tmp_path, maps_dir, planner={"time_budget_s": 0.1})
+    got = run("query", str(path), "--json", "-q")
+    assert got.returncode == 3, got.stderr
+    doc = json.loads(got.stdout)
+    assert "time budget of 0.1 s ran out" in doc["steps"][0]["reason"]
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "changes, words",
     [

@@ -149,3 +149,30 @@ def test_a_plan_past_its_memory_budget_at_once_stops_at_its_first_step(planners)
     steps = planner.method.plan(ctx, planner.start_cell(), False)
     assert len(steps) == 1 and not steps[0].ok
     assert "memory budget of 3 GiB ran out" in steps[0].reason
+
+
+def test_the_time_a_query_spent_building_its_planner_counts_against_its_budget(planners, monkeypatch):
+    """``plan(spent_s=...)`` gives the plan what is left of the budget: with all of it spent the plan
+    stops at its first check (the first step says the budget ran out); ``placement.plan`` and the
+    query charge the planner's construction (``construction_s``, measured), and a planner kept for
+    more plans gives each the whole budget."""
+    import time
+
+    from placement.planning import planner as planner_module
+
+    planner = planners["sequential"]
+    assert planner.construction_s > 0
+    spent = planner.plan(spent_s=3600.0)
+    assert not spent.ok and "time budget of 3600 s ran out" in spent.steps[0].reason
+    assert planner.plan().ok  # the next plan: the whole budget again
+    asked = []
+    real = planner_module.Planner.plan
+
+    def recording(self, keep_maps=False, spent_s=0.0):
+        asked.append((spent_s, self.construction_s))
+        return real(self, keep_maps, spent_s)
+
+    monkeypatch.setattr(planner_module.Planner, "plan", recording)
+    t = time.perf_counter()
+    assert planner_module.plan(unbudgeted(load_scene(SCENE)), "sequential", planner.map_path).ok
+    assert len(asked) == 1 and asked[0][0] == asked[0][1] and 0 < asked[0][0] < time.perf_counter() - t

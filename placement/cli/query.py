@@ -81,7 +81,7 @@ def query(
     if stream:
         stream_plans(planner)
         return
-    result = planner.plan(keep_maps=plot_dir is not None)
+    result = planner.plan(keep_maps=plot_dir is not None, spent_s=planner.construction_s)
     if plot_dir:
         from placement.plotting import plot_steps
 
@@ -264,7 +264,7 @@ def stream_plans(
     def first_line(exc: BaseException, data: Any = None) -> str:
         return bounded(one_line((str(exc).splitlines() or [type(exc).__name__])[0]), data)
 
-    say(planner.plan().to_json())
+    say(planner.plan(spent_s=planner.construction_s).to_json())
     for number, line, reason in stream_lines(stream if stream is not None else sys.stdin.buffer):
         change = None
         try:

@@ -120,6 +120,7 @@ class Planner:
         collisions: bool = True,
         warm: bool = True,
     ):
+        began = time.perf_counter()
         scene = scene if isinstance(scene, Scene) else load_scene(scene)
         # the planner block is checked before the maps are opened: its errors come first
         PlannerConfig.from_overrides(
@@ -135,6 +136,9 @@ class Planner:
         self._contextualise(scene, robot, rmaps)
         if warm:
             self.warm()
+        #: [s] what building this planner took (scene, robot, maps, world, warm-up): part of a task's
+        #: time when it was built for that task (see :meth:`plan`'s ``spent_s``)
+        self.construction_s = time.perf_counter() - began
 
     def warm(self) -> None:
         """Ready the planner for a fast first step: the kernels loaded (once per process), every map
@@ -299,12 +303,14 @@ class Planner:
             )
         return cell
 
-    def plan(self, keep_maps: bool = False) -> PlanResult:
+    def plan(self, keep_maps: bool = False, spent_s: float = 0.0) -> PlanResult:
         """Plan every step from the scene's start pose; with ``keep_maps`` each step's layers are
-        kept in ``StepResult.maps`` (for plots)."""
+        kept in ``StepResult.maps`` (for plots). ``spent_s``: seconds of the task's time budget
+        already spent on it (a query that built this planner for the task passes
+        :attr:`construction_s`): the plan and its certificate end within the rest."""
         self.follow_maps()
         start = self.start_cell()
-        deadline = time.perf_counter() + self.context.config.time_budget_s
+        deadline = time.perf_counter() + self.context.config.time_budget_s - max(0.0, float(spent_s))
         now = resident_gib()
         limit = None if now is None else now + self.context.config.memory_budget_gib
         timed = replace(self.context, deadline=deadline, memory_limit=limit, spent=[])
@@ -315,8 +321,10 @@ class Planner:
 
 def plan(scene: Scene | str | Path, method: str = DEFAULT_METHOD, maps: str | Path | None = None) -> PlanResult:
     """Plan a scene's whole task once: what ``Planner(scene, method, maps).plan()`` returns (its
-    ``to_json()`` is the document of ``placement query --json``, :doc:`design`)."""
-    return Planner(scene, method, maps).plan()
+    ``to_json()`` is the document of ``placement query --json``, :doc:`design`); building the planner
+    counts against the task's ``time_budget_s``."""
+    planner = Planner(scene, method, maps)
+    return planner.plan(spent_s=planner.construction_s)
 
 
 __all__ = ["DEFAULT_METHOD", "METHODS", "Planner", "default_maps_path", "mapped_arms", "plan"]
