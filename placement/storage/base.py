@@ -35,7 +35,6 @@ from placement.storage.format import (
     ROOT_KEY,
     UNSEALED_VERSION,
     WITNESS_CRC_KEY,
-    chunk_crc,
     chunk_shape,
     witness_name,
 )
@@ -201,8 +200,8 @@ class StoredMap(ABC):
         """Values (nx, ny, n_yaw) float32 (or witnesses) of the slice z = iz, pitch = ip, roll = ir,
         checked against its CRC32."""
         want = self.expected_crcs(arm, witness)[iz, ip, ir]
-        chunk = self._chunk_data(arm, iz, ip, ir, witness)
-        if chunk_crc(chunk) != want:
+        chunk, crc = self._chunk_data(arm, iz, ip, ir, witness)
+        if crc != want:
             raise self._damaged(arm, (iz, ip, ir), witness=witness)
         return chunk
 
@@ -225,9 +224,10 @@ class StoredMap(ABC):
             raise self._damaged(arm, tuple(int(i) for i in bad[0]), len(bad), witness)
         return data
 
-    def _chunk_data(self, arm: str, iz: int, ip: int, ir: int, witness: bool) -> np.ndarray:
+    def _chunk_data(self, arm: str, iz: int, ip: int, ir: int, witness: bool) -> tuple[np.ndarray, int]:
+        """The chunk and the CRC32 of its decoded bytes (computed once, as it is decoded)."""
         what = f"{'witness ' if witness else ''}chunk ({iz}, {ip}, {ir})"
-        return self._direct(arm, witness, what, lambda r: r.read(iz, ip, ir)[0])
+        return self._direct(arm, witness, what, lambda r: r.read(iz, ip, ir))
 
     def _layer_data(self, arm: str, iz: int, witness: bool) -> tuple[np.ndarray, np.ndarray]:
         return self._direct(arm, witness, f"{'witness ' if witness else ''}z layer {iz}", lambda r: r.layer(iz))
