@@ -133,6 +133,14 @@ def test_maps_asked_at_least_a_value_keep_the_same_cells(coarse_map, share):
     yaws = base_yaws(40)
     trajs = [c.poses for c in place_candidates([0.1234, 0.2345, 0.9], 8)]
     trajs += [c.poses for c in top_grasps([0.05, -0.1, 0.75], 0.7, [0.05, 0.1, 0.1])]
+    for _ in range(4):  # grasps at other points, alone in their groups (the kernel's one-member path)
+        x, y, z = rng.uniform(-0.2, 0.4), rng.uniform(-0.2, 0.4), rng.uniform(0.6, 1.0)
+        trajs.append(top_grasps([x, y, z], rng.uniform(-3, 3), [0.05, 0.1, 0.1])[0].poses)
+    for yaw in (0.3, 2.0):  # side grasps: the pre-grasp 0.1 m back along the approach (two points)
+        grasp = pose_from_zyx([[0.1 + 0.1 * yaw, -0.05, 0.85]], yaw, 0.0, 0.0)[0]
+        pre = grasp.copy()
+        pre[:3, 3] -= 0.1 * grasp[:3, 0]
+        trajs.append(np.stack([pre, grasp]))
     union = np.unique(
         np.concatenate([cells_within(nav, T[-1, 0, 3], T[-1, 1, 3], pose_reach(coarse_map, T[-1])) for T in trajs])
     )
@@ -256,7 +264,7 @@ def test_lowest_is_the_elementwise_minimum_of_the_slices(coarse_map):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("poses, candidates", [(1, 1), (1, 8), (2, 2), (3, 5)])
+@pytest.mark.parametrize("poses, candidates", [(1, 1), (2, 1), (3, 1), (1, 8), (2, 2), (3, 5)])
 def test_column_skip_changes_no_result(poses, candidates):
     """The kernel skips a base yaw whose first pose lands on a map column no higher than every
     candidate's best: on random sparse slices its results equal the kernel's without skips (an

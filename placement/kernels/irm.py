@@ -127,6 +127,8 @@ def trajectory_maps(
         arg = np.empty(C, dtype=np.int64)
         m = np.empty(C, dtype=np.float32)
         alive = np.empty(C, dtype=np.bool_)
+        pdx = np.empty(P)
+        pdy = np.empty(P)
         for ci in range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK)):
             cell = cells[ci]
             iy = cell // nx
@@ -140,6 +142,42 @@ def trajectory_maps(
                 arg[c] = -1
             floor = np.float32(above)  # the least best over the members
             found = 0  # members with a value above ``above``
+            if C == 1:  # one member (trajectories at distinct points): no per-member bookkeeping
+                for p in range(P):
+                    pdx[p] = pose_x[p0 + p] - bx
+                    pdy[p] = pose_y[p0 + p] - by
+                b1 = np.float32(above)
+                a1 = -1
+                for k in range(K):
+                    if (masks[ci, k >> 6] >> np.uint64(k & 63)) & np.uint64(1) == 0:
+                        continue
+                    co = cs[k]
+                    s = sn[k]
+                    v1 = np.float32(np.inf)
+                    for p in range(P):
+                        jx = int(math.floor(((co * pdx[p] + s * pdy[p]) - rm_origin[0]) / rm_res))
+                        jy = int(math.floor(((-s * pdx[p] + co * pdy[p]) - rm_origin[1]) / rm_res))
+                        if jx < 0 or jy < 0 or jx >= nxr or jy >= nyr:
+                            v1 = np.float32(0.0)  # unreachable: 0, never above the best
+                            break
+                        if p == 0 and column_max[b, jx, jy] <= b1:
+                            v1 = np.float32(0.0)
+                            break
+                        v = slices[pose_slice[p0 + p], jx, jy, ybin[yb0 + k * P + p]]
+                        if v < v1:
+                            v1 = v
+                        if v1 <= b1:
+                            break
+                    if v1 > b1:
+                        b1 = v1
+                        a1 = k
+                        if first:
+                            break
+                if a1 < 0:
+                    b1 = np.float32(0.0)
+                out_val[member_row[r0], iy - out_y0, ix - out_x0] = b1
+                out_yaw[member_row[r0], iy - out_y0, ix - out_x0] = a1
+                continue
             for k in range(K):
                 if (masks[ci, k >> 6] >> np.uint64(k & 63)) & np.uint64(1) == 0:
                     continue
