@@ -53,3 +53,32 @@ def test_a_step_that_gained_cells_is_computed_again():
     fresh = forward(factor, feasible, RES, start, changed, linked)
     for a, b in zip(again, fresh):
         np.testing.assert_array_equal(a.labels, b.labels)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_grouped_places_searches_side_by_side_equal_one_after_the_other(seed):
+    """A place that keeps its pick's group runs one Dijkstra per group, in threads
+    (``StepLabels.search_all``): the same labels, roots and Dijkstra indices as :meth:`search` called
+    group by group in the main thread."""
+    from placement.planning.program.forward import StepLabels, seeds_of
+
+    rng = np.random.default_rng(900 + seed)
+    linked = [False, True]
+    factor, feasible, start, regions = random_task(rng, 14, 15, 2, linked)
+    first = forward(factor, feasible, RES, start, regions[:1], linked[:1])[0]
+    width = feasible.shape[1]
+    same = {g: k for k, g in enumerate(regions[0].groups)}
+    seedings = [
+        (seeds_of(first.cells, first.labels[same[g]], width), [k]) for k, g in enumerate(regions[1].groups) if g in same
+    ]
+    assert len(seedings) >= 2
+    together, alone = StepLabels(regions[1], (factor, feasible, RES)), StepLabels(regions[1], (factor, feasible, RES))
+    together.search_all(seedings)
+    for seeds, members in seedings:
+        alone.search(seeds, members)
+    np.testing.assert_array_equal(together.labels, alone.labels)
+    np.testing.assert_array_equal(together.dijkstra, alone.dijkstra)
+    assert len(together.roots) == len(alone.roots) >= 2
+    for a, b in zip(together.roots, alone.roots):
+        np.testing.assert_array_equal(a, b)
+    assert np.isfinite(together.labels).any()

@@ -122,7 +122,7 @@ def padded_grid(
     return fac, feas, fmin, fmax
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)  # searches of one grid run side by side in threads (their own work arrays)
 def padded_costs(
     grid: tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_], float, float],
     work: tuple[

@@ -25,8 +25,10 @@ metres of free-space travel (divide by the robot's ``v_max`` for seconds).
 from __future__ import annotations
 
 import math
+import os
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
 
@@ -180,21 +182,44 @@ class StepLabels:
         """One Dijkstra from ``seeds`` ((k, 2) cells, (k,) costs [m]) labelling the groups ``members``
         (their cost plus, per member, ``extra`` [m] (default 0) and their node costs); False when it
         found nothing to label (no seed, no cell), and no Dijkstra is counted."""
+        found = self._costs(seeds, members)
+        if found is None:
+            return False
+        self._label(*found, members, extra)
+        return True
+
+    def search_all(self, seedings: Sequence[tuple[tuple[IntArray, FloatArray], Sequence[int]]]) -> None:
+        """:meth:`search` for each (seeds, members) of ``seedings``, in order; the Dijkstras (a grouped
+        place has one per arm and grasp) run side by side on the machine's cores, each in a thread with
+        its own work arrays: the same labels as one after the other."""
+        if len(seedings) < 2:
+            found = [self._costs(seeds, members) for seeds, members in seedings]
+        else:
+            found = list(_searches().map(lambda sm: self._costs(*sm), seedings))
+        for hit, (_, members) in zip(found, seedings):
+            if hit is not None:
+                self._label(*hit, members, None)
+
+    def _costs(self, seeds: tuple[IntArray, FloatArray], members: Sequence[int]) -> tuple[FloatArray, IntArray] | None:
+        """The Dijkstra of :meth:`search`: (here (n,) [m], root (n,)) on :attr:`cells`, or None."""
         cells, masks = self.cells, self.masks
         seed_cells, costs = seeds
         wanted = np.any(masks[list(members)], axis=0)
         if seed_cells.shape[0] == 0 or not wanted.any():
-            return False
+            return None
         factor, feasible, resolution = self.grid
         here = np.full(cells.size, math.inf)
         root = cells.copy()
         here[wanted], root[wanted] = costs_at(factor, feasible, seed_cells, resolution, cells[wanted], costs)
+        return here, root
+
+    def _label(self, here: FloatArray, root: IntArray, members: Sequence[int], extra: Sequence[float] | None) -> None:
+        masks = self.masks
         self.roots.append(root)
         for m, k in enumerate(members):
             plus = (0.0 if extra is None else extra[m]) + (0.0 if self.node is None else self.node[k])
             self.labels[k] = np.where(masks[k], here + plus, math.inf)
             self.dijkstra[k] = len(self.roots) - 1
-        return True
 
 
 def forward(
@@ -246,10 +271,19 @@ def forward(
         else:
             low, seed_group = lowest(out[i - 1].labels)
             seedings = [(seeds_of(out[i - 1].cells, low, width), list(range(G)))]
-        for seeds, members in seedings:
-            step.search(seeds, members)
+        step.search_all(seedings)
         out.append(Layer(step.cells, step.labels, step.roots, step.dijkstra, seed_group))
     return out
+
+
+_POOL: list[ThreadPoolExecutor] = []
+
+
+def _searches() -> ThreadPoolExecutor:
+    """The threads a step's Dijkstras share (one per core, made once: each keeps its work arrays per grid)."""
+    if not _POOL:
+        _POOL.append(ThreadPoolExecutor(max_workers=max(1, os.cpu_count() or 1), thread_name_prefix="placement-search"))
+    return _POOL[0]
 
 
 def walk(layers: Sequence[Layer], before: Callable[[int, int, int], int]) -> Chain | None:
