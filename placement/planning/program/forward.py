@@ -25,10 +25,8 @@ metres of free-space travel (divide by the robot's ``v_max`` for seconds).
 from __future__ import annotations
 
 import math
-import os
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
 
@@ -37,7 +35,7 @@ import numpy as np
 from placement.planning.arrays import BoolArray, Cell, FloatArray, IntArray
 from placement.planning.context import PlanningContext
 from placement.planning.program.regions import Group, Regions, held_torso, map_regions
-from placement.planning.world import costs_at
+from placement.planning.world import costs_at, side_by_side
 
 #: a layer type (:class:`Layer` or the priced program's)
 L = TypeVar("L")
@@ -195,7 +193,7 @@ class StepLabels:
         if len(seedings) < 2:
             found = [self._costs(seeds, members) for seeds, members in seedings]
         else:
-            found = list(_searches().map(lambda sm: self._costs(*sm), seedings))
+            found = side_by_side(lambda sm: self._costs(*sm), seedings)
         for hit, (_, members) in zip(found, seedings):
             if hit is not None:
                 self._label(*hit, members, None)
@@ -274,16 +272,6 @@ def forward(
         step.search_all(seedings)
         out.append(Layer(step.cells, step.labels, step.roots, step.dijkstra, seed_group))
     return out
-
-
-_POOL: list[ThreadPoolExecutor] = []
-
-
-def _searches() -> ThreadPoolExecutor:
-    """The threads a step's Dijkstras share (one per core, made once: each keeps its work arrays per grid)."""
-    if not _POOL:
-        _POOL.append(ThreadPoolExecutor(max_workers=max(1, os.cpu_count() or 1), thread_name_prefix="placement-search"))
-    return _POOL[0]
 
 
 def walk(layers: Sequence[Layer], before: Callable[[int, int, int], int]) -> Chain | None:

@@ -17,7 +17,7 @@ from placement.planning.world.layers import (
     world_from_occupancy,
     world_still_serves,
 )
-from placement.planning.world.navigation import costs_at, extract_path, navigation_cost, reachable_from
+from placement.planning.world.navigation import costs_at, extract_path, navigation_cost, reachable_from, side_by_side
 
 __all__ = [
     "BaseShape",
@@ -30,6 +30,7 @@ __all__ = [
     "navigation_cost",
     "reachable_from",
     "region_heuristic",
+    "side_by_side",
     "windowed_world",
     "world_from_occupancy",
     "world_still_serves",

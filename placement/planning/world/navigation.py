@@ -6,10 +6,13 @@ Distances and costs are in metres; ``cost / v_max`` is travel time in seconds.
 
 from __future__ import annotations
 
+import os
 import threading
 import weakref
 from collections import OrderedDict
-from typing import Any
+from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -197,6 +200,20 @@ def _prepared(fac: FloatArray, feas: BoolArray) -> tuple[Grid, Work]:
     while len(kept) > GRIDS_KEPT:
         kept.popitem(last=False)
     return grid, work
+
+
+_A = TypeVar("_A")
+_R = TypeVar("_R")
+_POOL: list[ThreadPoolExecutor] = []
+
+
+def side_by_side(fn: Callable[[_A], _R], items: Iterable[_A]) -> list[_R]:
+    """``[fn(x) for x in items]``, the calls run in threads, one per core (made once: each thread keeps
+    its work arrays per grid, see :func:`_prepared`). For searches (:func:`costs_at`, whose kernel
+    releases the GIL): the same results as one after the other."""
+    if not _POOL:
+        _POOL.append(ThreadPoolExecutor(max_workers=max(1, os.cpu_count() or 1), thread_name_prefix="placement-search"))
+    return list(_POOL[0].map(fn, items))
 
 
 def extract_path(pred: IntArray, goal: tuple[int, int] | IntArray) -> IntArray:
