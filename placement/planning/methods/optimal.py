@@ -75,6 +75,11 @@ from placement.planning.world import extract_path, navigation_cost
 
 log = logging.getLogger(__name__)
 
+#: Rounds of the task-time passes at most: each round moves cells then turns yaws, and the next starts
+#: from what it kept (a moved neighbour can make another move or turn pay); they stop when one gains
+#: nothing.
+POLISH_ROUNDS = 3
+
 
 def solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], InfeasibleStep | None]:
     """Solve ``dp`` until its cheapest chain verifies: (the chain, each step's verified placement,
@@ -216,22 +221,27 @@ def for_task_time(
 ) -> list[StepResult]:
     """The plan ``out`` of the verified ``chain`` after the task-time passes of
     :mod:`~placement.planning.program.turning` (``move``: the cells too), each kept only when it
-    shortens the task."""
+    shortens the task, for up to :data:`POLISH_ROUNDS` rounds."""
     ctx, start = dp.ctx, dp.start
     best = task_seconds(dp, out)
-    if move and not ctx.out_of_budget():
-        moved = time_cells(dp, chain, picks, out)
-        if moved is not None:
-            steps = results(ctx, start, dp, *moved, keep_maps)
-            seconds = task_seconds(dp, steps)
-            if seconds < best - 1e-9:
-                (chain, picks), out, best = moved, steps, seconds
-    if not ctx.out_of_budget():
-        turned = time_yaws(dp, chain, picks, out)
-        if turned is not None:
-            steps = results(ctx, start, dp, chain, turned, keep_maps)
-            if task_seconds(dp, steps) < best - 1e-9:
-                out = steps
+    for _ in range(POLISH_ROUNDS):
+        before = best
+        if move and not ctx.out_of_budget():
+            moved = time_cells(dp, chain, picks, out)
+            if moved is not None:
+                steps = results(ctx, start, dp, *moved, keep_maps)
+                seconds = task_seconds(dp, steps)
+                if seconds < best - 1e-9:
+                    (chain, picks), out, best = moved, steps, seconds
+        if not ctx.out_of_budget():
+            turned = time_yaws(dp, chain, picks, out)
+            if turned is not None:
+                steps = results(ctx, start, dp, chain, turned, keep_maps)
+                seconds = task_seconds(dp, steps)
+                if seconds < best - 1e-9:
+                    picks, out, best = turned, steps, seconds
+        if best >= before - 1e-9:
+            break
     return out
 
 
