@@ -19,7 +19,20 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import numpy.typing as npt
 
-_POOL = ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 1), thread_name_prefix="placement-chunks")
+_POOLS: list[ThreadPoolExecutor] = []
+
+
+def _pool() -> ThreadPoolExecutor:
+    """The threads that decode a layer's chunks (made on first use, and again in a forked child: the
+    parent's threads do not exist there, and its pool would wait for them forever)."""
+    if not _POOLS:
+        _POOLS.append(
+            ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 1), thread_name_prefix="placement-chunks")
+        )
+    return _POOLS[0]
+
+
+os.register_at_fork(after_in_child=_POOLS.clear)
 
 
 class ChunkReader(ABC):
@@ -67,7 +80,7 @@ class ChunkReader(ABC):
             for ir in range(n_roll):
                 crcs[ip, ir] = self.read(iz, ip, ir, out=out[:, :, :, ip, ir])[1]
 
-        for done in [_POOL.submit(row, ip) for ip in range(n_pitch)]:
+        for done in [_pool().submit(row, ip) for ip in range(n_pitch)]:
             done.result()
         return out, crcs
 

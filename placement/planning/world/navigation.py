@@ -216,6 +216,10 @@ def side_by_side(fn: Callable[[_A], _R], items: Iterable[_A]) -> list[_R]:
     return list(_POOL[0].map(fn, items))
 
 
+# a forked child has none of the parent's threads: its pool is made anew (the parent's would wait forever)
+os.register_at_fork(after_in_child=_POOL.clear)
+
+
 def extract_path(pred: IntArray, goal: tuple[int, int] | IntArray) -> IntArray:
     """Cells (m, 2) (iy, ix) from the source to ``goal`` (iy, ix) along the predecessor map."""
     ny, nx = pred.shape
