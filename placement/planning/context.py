@@ -93,7 +93,9 @@ class PlanningContext:
         if r >= 1.0:
             return self
         return replace(
-            self, config=replace(self.config, threshold=self.config.threshold * r), thresholds=self.thresholds.scaled(r)
+            self,
+            config=replace(self.config, threshold=self.config.threshold * r),
+            thresholds=self.thresholds.relaxed(r),
         )
 
     def spent_budget(self) -> tuple[str, str] | None:

@@ -32,7 +32,8 @@ def _pool() -> ThreadPoolExecutor:
     return _POOLS[0]
 
 
-os.register_at_fork(after_in_child=_POOLS.clear)
+if hasattr(os, "register_at_fork"):  # POSIX only; elsewhere nothing forks
+    os.register_at_fork(after_in_child=_POOLS.clear)
 
 
 class ChunkReader(ABC):

@@ -254,10 +254,8 @@ class StepProblems:
                 # base cells farther from a target than its slice's reach get 0 from the kernel anyway:
                 # only those within some candidate's reach are evaluated (the results are the same)
                 cells = self._cells_near(rmap, near)
-                least = None
-                if regional is not None:  # as ctx.for_step(i).option_threshold computes it
-                    kept = self.thresholds if regional >= 1.0 else self.thresholds.scaled(regional)
-                    least = kept.at(arm, torso_value(rmap))
+                # the threshold ctx.for_step(i).option_threshold gives these options
+                least = None if regional is None else self.thresholds.relaxed(regional).at(arm, torso_value(rmap))
                 maps = reach_maps(
                     rmap, [c.poses for c in near], nav, self.yaws, cells, self.world.yaw_masks(cells), least
                 )

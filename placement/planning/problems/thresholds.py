@@ -113,6 +113,11 @@ class Thresholds:
             self.default * factor,
         )
 
+    def relaxed(self, factor: float) -> Thresholds:
+        """The thresholds a step is planned with when relaxed by ``factor`` (see
+        ``StepProblems.relaxed``): these themselves at 1 or more, else :meth:`scaled` by it."""
+        return self if factor >= 1.0 else self.scaled(factor)
+
     def words(self, arm: str) -> str:
         """``arm``'s threshold in words: one value, or one per torso setting of a map built once per
         setting ("0.0123 at torso 0, 0.0151 at torso 0.4")."""

@@ -217,7 +217,8 @@ def side_by_side(fn: Callable[[_A], _R], items: Iterable[_A]) -> list[_R]:
 
 
 # a forked child has none of the parent's threads: its pool is made anew (the parent's would wait forever)
-os.register_at_fork(after_in_child=_POOL.clear)
+if hasattr(os, "register_at_fork"):  # POSIX only; elsewhere nothing forks
+    os.register_at_fork(after_in_child=_POOL.clear)
 
 
 def extract_path(pred: IntArray, goal: tuple[int, int] | IntArray) -> IntArray:
