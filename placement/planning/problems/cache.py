@@ -104,26 +104,26 @@ class StepProblems:
         self.verdicts: dict[tuple[int, int, tuple[str, str | None], float | None], Any] = {}
         #: the IK answers and collision results behind the verdicts (kept by an update where valid)
         self.checks = Checks()
-        #: (cell (iy, ix), reversed, packed targets) -> the travel costs [m] on the targets between the
-        #: cell and each of them (see :meth:`legs`); they read the world only
+        #: (cell (iy, ix), reversed, flat targets' bytes) -> the travel costs [m] between the cell and each
+        #: target (see :meth:`legs`); they read the world only
         self._legs: dict[tuple[tuple[int, int], bool, bytes], FloatArray] = {}
 
-    def legs(self, cell: tuple[int, int], targets: BoolArray, reverse: bool = False) -> FloatArray:
-        """(ny, nx) travel cost [m] from ``cell`` to every cell of ``targets`` (``reverse``: from each of
-        them to ``cell``), inf elsewhere (cached: a re-plan after an update that left the world as it
-        was repairs the same chains again)."""
+    def legs(self, cell: tuple[int, int], at: IntArray, reverse: bool = False) -> FloatArray:
+        """(n,) travel cost [m] from ``cell`` to each flat cell of ``at`` (n,) (``reverse``: from each of
+        them to ``cell``), inf where unreachable (cached: a re-plan after an update that left the world
+        as it was repairs the same chains again)."""
         cell = (int(cell[0]), int(cell[1]))
-        key = (cell, reverse, np.packbits(targets).tobytes())
+        at = np.ascontiguousarray(at, dtype=np.int64)
+        key = (cell, reverse, at.tobytes())
         hit = self._legs.get(key)
-        w = self.world
         if hit is None:
-            cost, _ = costs_at(w.factor, w.feasible, cell, w.nav.resolution, np.flatnonzero(targets), reverse=reverse)
+            w = self.world
+            hit, _ = costs_at(w.factor, w.feasible, cell, w.nav.resolution, at, reverse=reverse)
             if len(self._legs) >= MAX_LEGS:
                 self._legs.clear()
-            hit = self._legs[key] = cost
-        out: FloatArray = np.full(targets.shape, np.inf)
-        out[targets] = hit
-        return out
+            hit.flags.writeable = False  # handed out as it is kept
+            self._legs[key] = hit
+        return hit
 
     def candidates(self, i: int) -> list[Candidate]:
         """Step i's grasp or place candidates (cached: the options of every arm and torso setting, and

@@ -162,46 +162,48 @@ def time_cells(
         if not slack:
             continue
         iy0, ix0 = divmod(cells[i], nx)
-        targets = np.zeros(nav.shape, bool)
-        targets[max(iy0 - r, 0) : iy0 + r + 1, max(ix0 - r, 0) : ix0 + r + 1] = True
-        targets &= dp.regions[i].mask([g])
-        targets[iy0, ix0] = True
+        reg = dp.regions[i]
+        ys, xs = np.divmod(reg.cells[reg.masks[g]], nx)
+        near = (np.abs(ys - iy0) <= r) & (np.abs(xs - ix0) <= r)
+        flats = np.union1d(reg.cells[reg.masks[g]][near], [cells[i]]).astype(np.int64)  # ascending
         prev_cell = dp.start if i == 0 else divmod(cells[i - 1], nx)
-        into = ctx.problems.legs(prev_cell, targets)
-        out_of = None if last else ctx.problems.legs(divmod(cells[i + 1], nx), targets, reverse=True)
+        into = ctx.problems.legs(prev_cell, flats)
+        out_of = None if last else ctx.problems.legs(divmod(cells[i + 1], nx), flats, reverse=True)
 
         def cost(
-            flat: np.ndarray,
+            at: np.ndarray,
             yaw: FloatArray,
             i: int = i,
             into: FloatArray = into,
             out_of: FloatArray | None = out_of,
             prev: float = prev_yaw,
         ) -> FloatArray:
-            t = _leg_seconds(into.flat[flat], prev, yaw, arm_s[i], robot.v_max, robot.omega_max)
+            """The step time [s] into and out of step i at ``flats[at]`` with base yaws ``yaw`` [rad]."""
+            t = _leg_seconds(into[at], prev, yaw, arm_s[i], robot.v_max, robot.omega_max)
             if out_of is not None:
                 nxt = chosen[i + 1].base[2]
-                t = t + _leg_seconds(out_of.flat[flat], nxt, yaw, arm_s[i + 1], robot.v_max, robot.omega_max)
+                t = t + _leg_seconds(out_of[at], nxt, yaw, arm_s[i + 1], robot.v_max, robot.omega_max)
             return t
 
-        current = float(cost(np.array([cells[i]]), np.array([chosen[i].base[2]]))[0])
-        ys, xs = np.nonzero(targets)
+        here_at = int(np.searchsorted(flats, cells[i]))
+        current = float(cost(np.array([here_at]), np.array([chosen[i].base[2]]))[0])
+        ys, xs = np.divmod(flats, nx)
         value, yaw = _group_best(dp, i, g, ys, xs)
-        ok = (yaw >= 0) & np.isfinite(into[ys, xs]) & (out_of is None or np.isfinite(out_of[ys, xs]))
-        flats = (ys * nx + xs)[ok]
-        predicted = cost(flats, ctx.yaws[yaw[ok]])
+        ok = np.flatnonzero((yaw >= 0) & np.isfinite(into) & (out_of is None or np.isfinite(out_of)))
+        predicted = cost(ok, ctx.yaws[yaw[ok]])
         for k in np.argsort(predicted, kind="stable")[:CELL_TRIES]:
             if predicted[k] >= current - 1e-6:
                 break
-            flat = int(flats[k])
+            at = int(ok[k])
+            flat = int(flats[at])
             if flat == cells[i]:
                 continue
             found = dp.verify(i, flat, g)
-            if found is None or float(cost(np.array([flat]), np.array([found.base[2]]))[0]) >= current - 1e-6:
+            if found is None or float(cost(np.array([at]), np.array([found.base[2]]))[0]) >= current - 1e-6:
                 continue
-            labels[i] = prev_label + float(into.flat[flat]) + node_cost(dp, i, g, flat)
+            labels[i] = prev_label + float(into[at]) + node_cost(dp, i, g, flat)
             if out_of is not None:
-                new_next = labels[i] + float(out_of.flat[flat]) + node_cost(dp, i + 1, groups[i + 1], cells[i + 1])
+                new_next = labels[i] + float(out_of[at]) + node_cost(dp, i + 1, groups[i + 1], cells[i + 1])
                 shift = new_next - labels[i + 1]
                 labels[i + 1 :] = [label + shift for label in labels[i + 1 :]]
             cells[i], chosen[i], moved = flat, found, True
