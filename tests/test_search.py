@@ -7,6 +7,7 @@ import functools
 import json
 import math
 import os
+import time
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ import yaml
 from ik_oracle import find_placement, find_transfer
 from support.planning import write_scene
 
+import placement.planning.methods.stepwise as stepwise
 from placement.errors import PlacementError
 from placement.planning.planner import Planner as AnyPlanner
 from placement.planning.problems.steps import step_candidates
@@ -360,3 +362,29 @@ def test_every_generated_step_verifies_on_every_pose(tmp_path, maps_dir, pr2):
     result = Planner(path).plan()
     assert result.steps and result.verify(pr2) == []
     assert all(math.isfinite(s.manipulability) for s in result.steps if s.ok)
+
+
+def test_the_ik_budget_counts_the_verification_not_the_ranking(tmp_path, maps_dir, pr2, monkeypatch):
+    """Ranking every placement for the spread phase takes as long as the maps are large: counted
+    against the IK budget, a slower machine stopped a step that verifies at its next try."""
+    round_pr2 = str(Path(__file__).parent / "data" / "pr2_round.yaml")
+    scene = edge_scene(tmp_path, maps_dir, 0.85, 0.48, along=0.12, preset=round_pr2)
+    doc = yaml.safe_load(scene.read_text())
+    doc["planner"]["ik_budget_ms"] = 300.0  # the default (edge scenes lift it)
+    scene.write_text(yaml.safe_dump(doc))
+    real = stepwise.search_placement
+    calls = []
+
+    def slow_more(ctx, step, opts, ranked, more, *rest):  # every placement ranked in 0.4 s: past the budget
+        def slow():
+            calls.append(step.index)
+            time.sleep(0.4)
+            return more()
+
+        return real(ctx, step, opts, ranked, None if more is None else slow, *rest)
+
+    monkeypatch.setattr(stepwise, "search_placement", slow_more)
+    result = Planner(scene).plan()
+    assert calls, "the step must reach the spread phase"
+    assert result.ok and result.steps[calls[0]].tried > Planner(scene).context.config.ik_tries
+    assert result.verify(pr2) == []

@@ -48,7 +48,8 @@ class PlannerConfig:
         collision_padding: robot-scene distance below which an arm configuration collides [m].
         footprint_padding: clearance a polygon base footprint keeps from obstacles [m] (Nav2's
             footprint_padding; round bases have their margin in footprint_radius).
-        ik_budget_ms: time the IK search of one step may spend before the step is infeasible [ms].
+        ik_budget_ms: time the IK solves and collision checks of one step's placements may take before
+            the step is infeasible [ms] (ranking the placements is bounded by ``time_budget_s``).
         face_target: share of a cell's best map value a base yaw facing the step's target may give up
             (dimensionless, 0 .. 1; 0: the best yaw), see :mod:`placement.planning.facing`.
         time_polish: 1: ``global`` moves the verified placements to nearby cells and ``global`` and

@@ -109,7 +109,7 @@ PLANNER_SETTINGS: dict[str, dict[str, Any]] = {
     ),
     "ik_budget_ms": dict(
         default=300.0,
-        help="time the IK search of one step may spend [ms], >= 1 and <= 60000 (default 300)",
+        help="time the IK solves and collision checks of one step may take [ms], >= 1 and <= 60000 (default 300)",
         minimum=1.0,
         maximum=60000.0,
     ),

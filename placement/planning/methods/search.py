@@ -9,8 +9,8 @@ the groups, best first within each, so the tries spread over options, regions, y
 It learns from failures: a placement next to a failed one of the same option and a similar yaw is
 deferred to the end, and one whose target lies in the same direction but farther than a failure whose
 TCP fell short along its reach is dropped (reaching farther cannot help). It stops at the first
-verified placement, when the ``ik_budget_ms`` time budget, the task's ``time_budget_s`` or the
-``ik_cap`` tries are used up, or when every candidate was tried. The constants (``search_*``, ``ik_*``) come from the
+verified placement, when the ``ik_budget_ms`` time budget (of the IK solves and collision checks), the
+task's ``time_budget_s`` or the ``ik_cap`` tries are used up, or when every candidate was tried. The constants (``search_*``, ``ik_*``) come from the
 :class:`~placement.planning.settings.PlannerConfig` of the context.
 """
 
@@ -178,7 +178,12 @@ def search_placement(
     out = Search()
     learn = Learner(2 * math.pi / max(len(ctx.yaws), 1), ctx.robot, cfg)
     tried: set[tuple[int, int, float]] = set()
-    deadline = time.perf_counter() + cfg.ik_budget_ms * 1e-3
+
+    def over() -> bool:
+        # the budget is the verification's (IK and collision checks): ranking every placement for the
+        # spread phase takes as long as the maps are large, and counted against it, a slower machine or
+        # a cold process stopped a step that verifies at its next try (a building's first pick)
+        return out.ik_ms + out.collision_ms > cfg.ik_budget_ms
 
     def attempt(r: Ranked, o: Option, iy: int, ix: int) -> bool:
         tried.add((r.option, r.cell, r.yaw))
@@ -221,7 +226,7 @@ def search_placement(
     def spent() -> bool:
         if out.tried >= cfg.ik_cap:
             out.stop = "cap"
-        elif time.perf_counter() > deadline:
+        elif over():
             out.stop = "budget"
         elif ctx.out_of_budget():
             out.stop = "task"
@@ -278,7 +283,7 @@ def search_placement(
     if spread(more() if more is not None else ranked) or more is None:
         return out
     extra, values = other_yaws(ctx, opts, nav_cost, heuristic)
-    if not spread(extra) and out.stop == "all" and time.perf_counter() > deadline:
+    if not spread(extra) and out.stop == "all" and over():
         out.stop = "budget"
     if out.found is not None and out.found.value is None:
         r = out.found.ranked
