@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import sys
+
 import click
 
+from placement.cli import run_then_exit
 from placement.cli.lazy import LazyGroup
 from placement.process_env import configure_process
 from placement.version import __version__
@@ -29,7 +32,14 @@ def cli() -> None:
 
 def main() -> None:
     configure_process()
+    if _command(sys.argv[1:]) == "query":  # a query ends at once once it has answered
+        run_then_exit(cli, prog_name="placement")
     cli(prog_name="placement")
+
+
+def _command(args: list[str]) -> str | None:
+    """The subcommand of the command line ``args`` (its first word that is not an option)."""
+    return next((a for a in args if not a.startswith("-")), None)
 
 
 if __name__ == "__main__":

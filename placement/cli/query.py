@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any, BinaryIO
 
 import click
 
+from placement.cli import run_then_exit, spent_s
 from placement.cli.options import (
     bounded,
     emit,
@@ -81,7 +82,7 @@ def query(
     if stream:
         stream_plans(planner)
         return
-    result = planner.plan(keep_maps=plot_dir is not None, spent_s=planner.construction_s)
+    result = planner.plan(keep_maps=plot_dir is not None, spent_s=spent_s())
     if plot_dir:
         from placement.plotting import plot_steps
 
@@ -108,7 +109,7 @@ def main() -> None:
     from placement.process_env import configure_process
 
     configure_process()
-    query(prog_name="placement-query")
+    run_then_exit(query, prog_name="placement-query")
 
 
 #: (header, alignment) of the result table's columns; each is as wide as its longest entry
@@ -264,7 +265,7 @@ def stream_plans(
     def first_line(exc: BaseException, data: Any = None) -> str:
         return bounded(one_line((str(exc).splitlines() or [type(exc).__name__])[0]), data)
 
-    say(planner.plan(spent_s=planner.construction_s).to_json())
+    say(planner.plan(spent_s=spent_s()).to_json())
     for number, line, reason in stream_lines(stream if stream is not None else sys.stdin.buffer):
         change = None
         try:

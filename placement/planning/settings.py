@@ -55,9 +55,9 @@ class PlannerConfig:
         time_polish: 1: ``global`` moves the verified placements to nearby cells and ``global`` and
             ``optimal`` turn them where that shortens the task time; 0: the least travel at each cell's
             best map yaw (see :mod:`placement.planning.program.turning`).
-        time_budget_s: time planning the whole task may take [s] (a query counts building its planner
-            too, see ``Planner.plan``'s ``spent_s``); a step not verified by then is infeasible and
-            says so (:meth:`PlanningContext.out_of_budget`).
+        time_budget_s: time planning the whole task may take [s] (``placement query`` counts from its
+            start, ``placement.plan`` from building its planner, see ``Planner.plan``'s ``spent_s``); a
+            step not verified by then is infeasible and says so (:meth:`PlanningContext.out_of_budget`).
         memory_budget_gib: resident memory planning the whole task may add to the process [GiB]; a
             step not verified by then is infeasible and says so (as ``time_budget_s``).
     Fixed (not in scenes; the stages' tuning constants):

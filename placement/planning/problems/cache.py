@@ -13,7 +13,7 @@ methods of a scene (evaluation plans each scene with every method).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -36,6 +36,8 @@ from placement.planning.world import World, costs_at, reachable_from, region_heu
 from placement.scene import Scene
 from placement.scene.navgrid import Window
 
+#: Called between pieces of long work: raises (a task's budget check) to end it.
+Stop = Callable[[], None]
 #: Legs kept at most (each holds the costs on its targets only): past it the cache starts again.
 MAX_LEGS = 4096
 #: A step none of whose options keeps its threshold anywhere is planned with its thresholds lowered to
@@ -181,16 +183,17 @@ class StepProblems:
                 self._options[i] = [o for t in self.settings if t is not None for o in self.held_options(i, t)]
         return self._options[i]
 
-    def held_options(self, i: int, torso: float) -> list[Option]:
+    def held_options(self, i: int, torso: float, stop: Stop | None = None) -> list[Option]:
         """Step i's options at torso value ``torso`` [m] alone (cached; the whole-task methods plan a
         step with the lift held without the inverse maps of the other settings). Once given, the same
-        list is given again (verdicts index into it)."""
+        list is given again (verdicts index into it). ``stop``: called before each kernel pass (a
+        task's budget check, raising to end the work; nothing is kept then)."""
         key = (i, torso)
         if key not in self._held:
             if i in self._options or i in self._stale:
                 self._held[key] = [o for o in self.options(i) if o.torso == torso]
             else:
-                self._held[key] = self._compute_options(self.steps[i], torso)
+                self._held[key] = self._compute_options(self.steps[i], torso, stop=stop)
         return self._held[key]
 
     def blocked(self, i: int, arm: str) -> list[str | None]:
@@ -212,19 +215,20 @@ class StepProblems:
                 ]
         return self._blocked[key]
 
-    def region_options(self, i: int) -> list[Option]:
+    def region_options(self, i: int, stop: Stop | None = None) -> list[Option]:
         """Step i's options as far as its regions read them (the certificate's bound, on every lift
         setting): those :meth:`options` and :meth:`held_options` already gave, and for each setting
         they did not, options whose maps say only where the threshold (relaxed as the step's) is kept:
         there some value that keeps it and its yaw, the first the kernel finds (not the best), 0 and -1
         elsewhere (:func:`~placement.planning.problems.manipulation.reach_maps` ``at_least``). The same
-        cells keep the threshold, for a fraction of the work. Cached apart: no planning reads them."""
+        cells keep the threshold, for a fraction of the work. Cached apart: no planning reads them.
+        ``stop``: as :meth:`held_options` takes it."""
         factor = self.relaxed(i)  # before any map: it may compute the step's options, then used here
         if i in self._options or i in self._stale:
             return self.options(i)
         if self.settings == [None]:
             if (i, None) not in self._regional:
-                self._regional[(i, None)] = self._compute_options(self.steps[i], None, factor)
+                self._regional[(i, None)] = self._compute_options(self.steps[i], None, factor, stop)
             return self._regional[(i, None)]
         out = []
         for t in (t for t in self.settings if t is not None):
@@ -232,14 +236,17 @@ class StepProblems:
                 out += self._held[(i, t)]
                 continue
             if (i, t) not in self._regional:
-                self._regional[(i, t)] = self._compute_options(self.steps[i], t, factor)
+                self._regional[(i, t)] = self._compute_options(self.steps[i], t, factor, stop)
             out += self._regional[(i, t)]
         return out
 
-    def _compute_options(self, step: Step, torso: float | None = None, regional: float | None = None) -> list[Option]:
+    def _compute_options(
+        self, step: Step, torso: float | None = None, regional: float | None = None, stop: Stop | None = None
+    ) -> list[Option]:
         """The options of ``step`` for every arm and candidate, at every lift setting (``torso``: at
         that torso value [m] only); ``regional``: the factor on the thresholds (see :meth:`relaxed`) of
-        options that only say where they are kept (:meth:`region_options`)."""
+        options that only say where they are kept (:meth:`region_options`); ``stop``: called before
+        each kernel pass (with a hundred grasps per object one pass may take a second)."""
         nav = self.world.nav
         opts = []
         candidates = self.candidates(step.index)
@@ -251,6 +258,8 @@ class StepProblems:
             distinct = list({c.poses.tobytes(): c for c, why in zip(candidates, blocked) if why is None}.values())
             results = {}
             for near in _clusters(distinct):
+                if stop is not None:
+                    stop()
                 # base cells farther from a target than its slice's reach get 0 from the kernel anyway:
                 # only those within some candidate's reach are evaluated (the results are the same)
                 cells = self._cells_near(rmap, near)

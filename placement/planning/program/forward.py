@@ -186,14 +186,23 @@ class StepLabels:
         self._label(*found, members, extra)
         return True
 
-    def search_all(self, seedings: Sequence[tuple[tuple[IntArray, FloatArray], Sequence[int]]]) -> None:
+    def search_all(
+        self, seedings: Sequence[tuple[tuple[IntArray, FloatArray], Sequence[int]]], stop: Stop | None = None
+    ) -> None:
         """:meth:`search` for each (seeds, members) of ``seedings``, in order; the Dijkstras (a grouped
         place has one per arm and grasp) run side by side on the machine's cores, each in a thread with
-        its own work arrays: the same labels as one after the other."""
+        its own work arrays: the same labels as one after the other. ``stop`` is called before each
+        (a grouped place of a hundred grasps per object holds 200 of them: a second on a large floor)."""
+
+        def costs(sm: tuple[tuple[IntArray, FloatArray], Sequence[int]]) -> tuple[FloatArray, IntArray] | None:
+            if stop is not None:
+                stop()
+            return self._costs(*sm)
+
         if len(seedings) < 2:
-            found = [self._costs(seeds, members) for seeds, members in seedings]
+            found = [costs(sm) for sm in seedings]
         else:
-            found = side_by_side(lambda sm: self._costs(*sm), seedings)
+            found = side_by_side(costs, seedings)
         for hit, (_, members) in zip(found, seedings):
             if hit is not None:
                 self._label(*hit, members, None)
@@ -245,8 +254,8 @@ def forward(
         before: the regions ``layers`` were computed with: when step ``first`` only lost cells
             (same groups and node costs, masks a subset), its layer is the old one with those cells
             set to inf (its Dijkstras' costs do not depend on their targets), no Dijkstra.
-        stop: called before each step's searches; it raises to end the solve (the task's time
-            budget, :meth:`~placement.planning.context.PlanningContext.check_budget`).
+        stop: called before each step's searches and each search; it raises to end the solve (the
+            task's time budget, :meth:`~placement.planning.context.PlanningContext.check_budget`).
     Returns:
         one :class:`Layer` per step; a step no cell reaches has all labels inf, and so do the
         steps after it.
@@ -269,7 +278,7 @@ def forward(
         else:
             low, seed_group = lowest(out[i - 1].labels)
             seedings = [(seeds_of(out[i - 1].cells, low, width), list(range(G)))]
-        step.search_all(seedings)
+        step.search_all(seedings, stop)
         out.append(Layer(step.cells, step.labels, step.roots, step.dijkstra, seed_group))
     return out
 

@@ -154,9 +154,9 @@ def map_regions(
     if hold_lift:
         held = held_torso(ctx, i)
     if regional:
-        opts = ctx.problems.region_options(i)
+        opts = ctx.problems.region_options(i, stop=ctx.check_budget)
     else:
-        opts = ctx.problems.options(i) if held is None else ctx.problems.held_options(i, held)
+        opts = ctx.problems.options(i) if held is None else ctx.problems.held_options(i, held, ctx.check_budget)
     return _regions(ctx.for_step(i), opts)
 
 
@@ -166,7 +166,7 @@ def held_torso(ctx: PlanningContext, i: int) -> float | None:
     held = start_torso(ctx)
     if held is None:
         return None
-    opts = ctx.problems.held_options(i, held)
+    opts = ctx.problems.held_options(i, held, ctx.check_budget)
     region = _regions(ctx.for_step(i), opts)
     return held if region.any() else None
 
