@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import time
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any, BinaryIO
 
@@ -64,9 +65,13 @@ def query(
     a lower bound on its travel time, and the gaps to it. A step that cannot be done gives exit 3,
     `"status": "infeasible"` and its reason. --mcap also records the scene and the plan as ROS 2
     messages. `placement-query` is the same command as its own console script."""
+    began = time.perf_counter()
     setup_logging(verbose, quiet)
     from placement.planning import Planner
+    from placement.process_env import compile_seconds
     from placement.warmup import QUERY_COMPILE_S, announce_compilation
+
+    compiled = compile_seconds()
 
     if plot_dir:
         writable_dir(plot_dir, "--plot")
@@ -80,9 +85,9 @@ def query(
     announce_compilation(QUERY_COMPILE_S)
     planner = Planner(scene, method, maps_path)
     if stream:
-        stream_plans(planner)
+        stream_plans(planner, spent=spent_s(began, compiled))
         return
-    result = planner.plan(keep_maps=plot_dir is not None, spent_s=spent_s())
+    result = planner.plan(keep_maps=plot_dir is not None, spent_s=spent_s(began, compiled))
     if plot_dir:
         from placement.plotting import plot_steps
 
@@ -247,13 +252,14 @@ def stream_plans(
     keep_maps: bool = False,
     on_result: Callable[[PlanResult], object] | None = None,
     stream: BinaryIO | None = None,
+    spent: float | None = None,
 ) -> None:
-    """JSON lines: the first plan, then one answer per update line read from ``stream`` (default
+    """JSON lines: the first plan (with ``spent`` [s] of its time budget spent already; default: the
+    planner's construction), then one answer per update line read from ``stream`` (default
     stdin, binary), each with ``update.status`` "refused" (nothing changed; ``error``: why) or
     "applied" (``update.updated``, ``update.timings_ms``; the new plan's keys, or none and
     ``plan_error``: why planning failed; ``plan_error`` is null when it planned). Each new
     PlanResult (planned with ``keep_maps``) is also passed to ``on_result`` (the viewer shows it)."""
-    import time
 
     from placement.errors import PlacementError
     from placement.validation import one_line, parse_json
@@ -265,7 +271,7 @@ def stream_plans(
     def first_line(exc: BaseException, data: Any = None) -> str:
         return bounded(one_line((str(exc).splitlines() or [type(exc).__name__])[0]), data)
 
-    say(planner.plan(spent_s=spent_s()).to_json())
+    say(planner.plan(spent_s=planner.construction_s if spent is None else spent).to_json())
     for number, line, reason in stream_lines(stream if stream is not None else sys.stdin.buffer):
         change = None
         try:
