@@ -364,6 +364,7 @@ def test_every_generated_step_verifies_on_every_pose(tmp_path, maps_dir, pr2):
     assert all(math.isfinite(s.manipulability) for s in result.steps if s.ok)
 
 
+@pytest.mark.slow
 def test_the_ik_budget_counts_the_verification_not_the_ranking(tmp_path, maps_dir, pr2, monkeypatch):
     """Ranking every placement for the spread phase takes as long as the maps are large: counted
     against the IK budget, a slower machine stopped a step that verifies at its next try."""
