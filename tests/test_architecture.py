@@ -81,6 +81,7 @@ HELPERS = {
     "placement.version",
     "placement.method_names",
     "placement.process_env",
+    "placement.compile_clock",
 }
 BELOW_ROBOTS = {"placement.kernels", *HELPERS}
 BELOW_KINEMATICS = {"placement.robots", "placement.storage", *BELOW_ROBOTS}
@@ -97,6 +98,7 @@ ALLOWED: dict[str, set[str] | frozenset[str]] = {
     "placement.simplicity": NOTHING,
     "placement.method_names": NOTHING,
     "placement.process_env": NOTHING,
+    "placement.compile_clock": NOTHING,
     "placement.progress": {"placement.errors"},
     "placement.kernels": {"placement.errors"},
     "placement.robots": BELOW_ROBOTS,

@@ -23,9 +23,9 @@ def spent_s(began: float, compiled: float) -> float:
     """Seconds [s] of a task's time budget a query has spent so far: since the console script started
     (:data:`STARTED`; for a command run inside another program, since ``began``, its own
     ``time.perf_counter()`` at its start), less the kernels compiled on a cold cache since then (paid
-    once per install, see :func:`placement.process_env.compile_seconds`, which was ``compiled`` at
+    once per install, see :func:`placement.compile_clock.compile_seconds`, which was ``compiled`` at
     ``began``), plus :data:`RESERVE_S`: the answer is out within the budget."""
-    from placement.process_env import compile_seconds
+    from placement.compile_clock import compile_seconds
 
     start, before = (STARTED, 0.0) if _SCRIPT else (began, compiled)
     return time.perf_counter() - start - (compile_seconds() - before) + RESERVE_S

@@ -67,8 +67,8 @@ def query(
     messages. `placement-query` is the same command as its own console script."""
     began = time.perf_counter()
     setup_logging(verbose, quiet)
+    from placement.compile_clock import compile_seconds
     from placement.planning import Planner
-    from placement.process_env import compile_seconds
     from placement.warmup import QUERY_COMPILE_S, announce_compilation
 
     compiled = compile_seconds()

@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from placement.collision import SceneCollision
+from placement.compile_clock import compile_seconds
 from placement.errors import MapError, PlacementError
 from placement.maps.opening import open_map
 from placement.maps.rmap import ReachabilityMap
@@ -49,7 +50,6 @@ from placement.planning.results import PlanResult, robot_info
 from placement.planning.settings import PlannerConfig
 from placement.planning.updates import apply_update
 from placement.planning.world import BaseShape, World, windowed_world
-from placement.process_env import compile_seconds
 from placement.robots import Robot, load_robot
 from placement.scene import Scene, load_scene
 from placement.storage import map_identity, open_store

@@ -97,11 +97,12 @@ def repair(dp: RepairView, chain: Chain, i: int) -> tuple[Chain, Verified] | Non
     tried: set[tuple[int, int]] = set()
     reach = least + WINDOW_M
     extent = _extent(cells, nx)
+    # a search from afar settles about the same cells for the whole region as for a window of it:
+    # one search then serves every window (its costs are exact on every target either way)
+    far = {c: float(np.min(_octile(c, cells, nx))) >= FAR * extent for c in (prev_cell, next_cell) if c is not None}
 
     def leg(cell: tuple[int, int], window: np.ndarray, reverse: bool) -> np.ndarray:
-        # a search from afar settles about the same cells for the whole region as for a window of it:
-        # one search then serves every window (its costs are exact on every target either way)
-        if float(np.min(_octile(cell, cells, nx))) >= FAR * extent:
+        if far[cell]:
             out = ctx.problems.legs(cell, cells, reverse).copy()
             out[~window] = np.inf
             return out
