@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import stat
 from collections.abc import Hashable, Iterable, Mapping
 from pathlib import Path
@@ -262,13 +263,68 @@ def _construct_mapping(loader: UniqueKeyLoader, node: yaml.MappingNode, deep: bo
 UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 
 
+#: A number as PyYAML resolves it, in the forms whose conversion is plain ``int()`` or ``float()``
+#: (no underscores, octal, hexadecimal, sexagesimal, infinities or NaN: those take the plain path).
+_NUMBER = r"[-+]?(?:[0-9]+\.[0-9]*(?:[eE][-+][0-9]+)?|0|[1-9][0-9]*)"
+#: A whole line holding one flow sequence of such numbers as a block item or a plain key's value.
+_NUMBERS_LINE = re.compile(
+    r"^([ \t]*(?:-[ \t]+)*(?:[A-Za-z_][\w.-]*[ \t]*:[ \t]+)?(?:-[ \t]+)*)"
+    rf"\[([ \t]*{_NUMBER}(?:[ \t]*,[ \t]*{_NUMBER})*[ \t]*)\]([ \t]*(?:#.*)?)$",
+    re.MULTILINE,
+)
+_NUMBERS_TAG = "!placement-numbers"
+#: Documents from this size [bytes] are read with :func:`_numbers_first`.
+FAST_FROM = 64 * 2**10
+
+
+class _NumbersLoader(UniqueKeyLoader):
+    """:class:`UniqueKeyLoader` that reads a :data:`_NUMBERS_TAG` scalar as its list of numbers and
+    counts them."""
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self.numbers = 0
+
+
+def _construct_numbers(loader: _NumbersLoader, node: yaml.ScalarNode) -> list[int | float]:
+    loader.numbers += 1
+    return [float(t) if "." in t else int(t) for t in (t.strip() for t in str(node.value).split(","))]
+
+
+_NumbersLoader.add_constructor(_NUMBERS_TAG, _construct_numbers)
+
+
+def _numbers_first(text: str) -> Any:
+    """``text`` parsed as :class:`UniqueKeyLoader` parses it, lines of numbers in flow sequences
+    (a grasp set's poses: most of a large scene) read as one scalar each and split in Python: a
+    fraction of the time (PyYAML builds and resolves every scalar in Python).
+
+    Each such ``[..]`` becomes a tagged scalar on the same line (line numbers stay). The result is
+    kept only when every one came back as a list (none was inside a block scalar, a quoted string or
+    a comment): then each stands where the flow sequence stood, and its numbers are those PyYAML
+    resolves (:data:`_NUMBER`). Otherwise, or on any error, ``text`` is parsed as it is."""
+    tagged, count = _NUMBERS_LINE.subn(rf"\1{_NUMBERS_TAG} '\2'\3", text)
+    if count:
+        loader = _NumbersLoader(tagged)
+        try:
+            data = loader.get_single_data()
+            if loader.numbers == count:
+                return data
+        except (yaml.YAMLError, ValueError, OverflowError, RecursionError):
+            pass  # the plain parse says what is wrong, where
+        finally:
+            loader.dispose()
+    return yaml.load(text, Loader=UniqueKeyLoader)
+
+
 def parse_yaml(text: str, where: str, error: type[Exception]) -> Any:
     """Parse YAML ``text``; a syntax error or duplicate key raises ``error`` with line and column.
 
-    An empty document also raises (there is nothing to check).
+    An empty document also raises (there is nothing to check). From :data:`FAST_FROM` bytes, lines
+    of numbers are read first (:func:`_numbers_first`): the same result.
     """
     try:
-        data = yaml.load(text, Loader=UniqueKeyLoader)
+        data = _numbers_first(text) if len(text) >= FAST_FROM else yaml.load(text, Loader=UniqueKeyLoader)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         at = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
