@@ -50,6 +50,26 @@ def pitch_bin(pitch: float, n: int) -> int:
 
 
 @njit(cache=True)
+def pose_bins(
+    T: npt.NDArray[np.float64], z0: float, res: float, nz: int, n_pitch: int, n_roll: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+    """Per pose of T (n, 4, 4): its (z bin, pitch bin, roll bin) (n, 3) int64 in a grid whose z bins
+    start at ``z0`` [m] (``res`` [m] wide, z bin -1 outside [0, nz)), and its yaw (n,) [rad]: the
+    bins :func:`cell_index` gives, for many poses in one call."""
+    n = T.shape[0]
+    bins = np.empty((n, 3), dtype=np.int64)
+    yaws = np.empty(n)
+    for i in range(n):
+        yaw, pitch, roll = zyx_angles(T[i])
+        iz = int(math.floor((T[i, 2, 3] - z0) / res))
+        bins[i, 0] = iz if 0 <= iz < nz else -1
+        bins[i, 1] = pitch_bin(pitch, n_pitch)
+        bins[i, 2] = wrap_bin(roll, n_roll)
+        yaws[i] = yaw
+    return bins, yaws
+
+
+@njit(cache=True)
 def cell_index(
     T: npt.NDArray[np.float64], origin: npt.NDArray[np.float64], res: float, shape: npt.NDArray[np.int64]
 ) -> int:

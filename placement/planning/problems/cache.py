@@ -23,7 +23,7 @@ from placement.collision.scene import object_aabb
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import BoolArray, FloatArray, IntArray
 from placement.planning.problems.grasps import GRIPPER_OPENING, Candidate
-from placement.planning.problems.manipulation import cells_within, pose_reach, reach_maps
+from placement.planning.problems.manipulation import cells_within, pose_reaches, reach_maps
 from placement.planning.problems.option import Option, height_range
 from placement.planning.problems.refresh import refreshed_options
 from placement.planning.problems.screening import blocked_words, screen
@@ -282,9 +282,8 @@ class StepProblems:
     def _cells_near(self, rmap: ReachabilityMap, candidates: Sequence[Candidate]) -> IntArray:
         """The feasible base cells within the reach of ``rmap``'s slice of some candidate's last pose
         from that pose (a disc around their centre holding every candidate's disc)."""
-        discs = [
-            (float(c.poses[-1, 0, 3]), float(c.poses[-1, 1, 3]), pose_reach(rmap, c.poses[-1])) for c in candidates
-        ]
+        reaches = pose_reaches(rmap, np.array([c.poses[-1] for c in candidates])) if candidates else []
+        discs = [(float(c.poses[-1, 0, 3]), float(c.poses[-1, 1, 3]), r) for c, r in zip(candidates, reaches)]
         discs = [d for d in discs if d[2] >= 0]
         if not discs:
             return np.zeros(0, np.int64)

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from placement.errors import PlacementError
-from placement.kernels.grid import pitch_bin, wrap_bin, zyx_angles
+from placement.kernels.grid import pose_bins, zyx_angles
 from placement.kernels.irm import trajectory_maps
 from placement.maps.grid import Grid
 from placement.maps.rmap import ReachabilityMap
@@ -63,22 +63,27 @@ def manipulation_map(
     return manipulation_maps(rmap, [T], nav, yaws, cells, window, masks)[0]
 
 
+def _bins(rmap: ReachabilityMap, T: FloatArray) -> tuple[IntArray, FloatArray]:
+    """:func:`~placement.kernels.grid.pose_bins` of the poses T (n, 4, 4) in ``rmap``'s grid."""
+    g: Grid = rmap.grid
+    T = np.ascontiguousarray(T, dtype=np.float64).reshape(-1, 4, 4)
+    return pose_bins(T, float(g.origin[2]), float(g.resolution), int(g.shape[2]), int(g.shape[4]), int(g.shape[5]))
+
+
 def _pose_keys(rmap: ReachabilityMap, T: FloatArray) -> tuple[tuple[PoseKey, ...], list[float]] | None:
     """Per pose: (x, y, z bin, pitch bin, roll bin), and the yaws; None if a pose is outside the
     map's height range."""
-    g: Grid = rmap.grid
-    keys: list[PoseKey] = []
-    yaws: list[float] = []
-    for pose in T:
-        yaw, pitch, roll = zyx_angles(pose)
-        iz = int(math.floor((pose[2, 3] - g.origin[2]) / g.resolution))
-        if not 0 <= iz < g.shape[2]:
-            return None
-        keys.append(
-            (float(pose[0, 3]), float(pose[1, 3]), iz, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5]))
-        )
-        yaws.append(float(yaw))
-    return tuple(keys), yaws
+    bins, yaws = _bins(rmap, T)
+    return _keyed(T, bins, yaws)
+
+
+def _keyed(T: FloatArray, bins: IntArray, yaws: FloatArray) -> tuple[tuple[PoseKey, ...], list[float]] | None:
+    """:func:`_pose_keys` of the poses T (P, 4, 4) from their :func:`_bins`."""
+    if bins.size and bins[:, 0].min() < 0:
+        return None
+    xy = T[:, :2, 3].tolist()
+    keys = tuple((x, y, iz, ip, ir) for (x, y), (iz, ip, ir) in zip(xy, bins.tolist()))
+    return keys, yaws.tolist()
 
 
 def pose_slices(rmap: ReachabilityMap, T: FloatArray) -> list[tuple[int, int, int]]:
@@ -201,11 +206,15 @@ def _evaluate(
     args = np.full((len(trajectories), *window.shape), -1, YAW_INDEX)
     discs: list[tuple[float, float, float]] = []
     groups: dict[tuple[PoseKey, ...], list[tuple[int, list[float]]]] = {}
-    for i, T in enumerate(trajectories):
-        T = np.asarray(T, dtype=float).reshape(-1, 4, 4)
-        keyed = _pose_keys(rmap, T)
-        last = T[-1]
-        reach = pose_reach(rmap, last) if within_reach else math.inf
+    Ts = [np.asarray(T, dtype=float).reshape(-1, 4, 4) for T in trajectories]
+    ends = np.cumsum([len(T) for T in Ts])
+    # every pose's bins in one call (a step has hundreds of candidates)
+    bins, pose_yaws = _bins(rmap, np.concatenate(Ts)) if Ts else (np.zeros((0, 3), np.int64), np.zeros(0))
+    reaches = _reaches(rmap, bins[ends - 1]) if within_reach else [math.inf] * len(Ts)
+    for i, T in enumerate(Ts):
+        at = slice(ends[i] - len(T), ends[i])
+        keyed = _keyed(T, bins[at], pose_yaws[at])
+        last, reach = T[-1], reaches[i]
         discs.append((float(last[0, 3]), float(last[1, 3]), reach if keyed is not None else -1.0))
         if keyed is not None and reach >= 0:
             groups.setdefault(keyed[0], []).append((i, keyed[1]))
@@ -301,13 +310,21 @@ def pose_reach(rmap: ReachabilityMap, pose: FloatArray) -> float:
     """Largest distance [m] between a base position and the TCP ``pose`` (4, 4, world frame) at which
     the map holds any value for the pose's slice (see ``ReachabilityMap.slice_reach``); -1 if none
     (the slice is empty, or the pose is outside the map's height range)."""
-    g: Grid = rmap.grid
-    _, pitch, roll = zyx_angles(pose)
-    iz = int(math.floor((pose[2, 3] - g.origin[2]) / g.resolution))
-    if not 0 <= iz < g.shape[2]:
-        return -1.0
-    r = rmap.slice_reach(iz, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5]))
-    return r + 1e-6 if r >= 0 else r  # a micrometre of slack against rounding in the distance test
+    return pose_reaches(rmap, np.asarray(pose, dtype=float).reshape(1, 4, 4))[0]
+
+
+def pose_reaches(rmap: ReachabilityMap, poses: FloatArray) -> list[float]:
+    """:func:`pose_reach` of each of the poses (n, 4, 4)."""
+    return _reaches(rmap, _bins(rmap, poses)[0])
+
+
+def _reaches(rmap: ReachabilityMap, bins: IntArray) -> list[float]:
+    """:func:`pose_reach` of poses from their :func:`_bins`."""
+    out = []
+    for iz, ip, ir in bins.tolist():
+        r = -1.0 if iz < 0 else rmap.slice_reach(iz, ip, ir)
+        out.append(r + 1e-6 if r >= 0 else r)  # a micrometre of slack against rounding in the distance test
+    return out
 
 
 def reach_xy(g: Grid) -> float:
