@@ -266,9 +266,10 @@ UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, 
 #: A number as PyYAML resolves it, in the forms whose conversion is plain ``int()`` or ``float()``
 #: (no underscores, octal, hexadecimal, sexagesimal, infinities or NaN: those take the plain path).
 _NUMBER = r"[-+]?(?:[0-9]+\.[0-9]*(?:[eE][-+][0-9]+)?|0|[1-9][0-9]*)"
-#: A whole line holding one flow sequence of such numbers as a block item or a plain key's value.
+#: A whole line holding one flow sequence of such numbers as a block item or a plain key's value
+#: (every part of it is matched one way only: no input makes the search backtrack more than linearly).
 _NUMBERS_LINE = re.compile(
-    r"^([ \t]*(?:-[ \t]+)*(?:[A-Za-z_][\w.-]*[ \t]*:[ \t]+)?(?:-[ \t]+)*)"
+    r"^([ \t]*(?:-[ \t]+)*(?:[A-Za-z_][\w.-]*[ \t]*:[ \t]+)?)"
     rf"\[([ \t]*{_NUMBER}(?:[ \t]*,[ \t]*{_NUMBER})*[ \t]*)\]([ \t]*(?:#.*)?)$",
     re.MULTILINE,
 )

@@ -85,3 +85,30 @@ def test_a_large_grasp_set_reads_the_same_and_errors_keep_their_line(monkeypatch
     with pytest.raises(ValueError) as err:
         parse_yaml(broken, "big.yaml", ValueError)
     assert f"line {lines + 2}," in str(err.value) or f"line {lines + 1}," in str(err.value)
+
+
+@pytest.mark.parametrize(
+    "line",
+    [
+        "- " * 20_000 + "[1]x",  # dashes that two optional runs of dashes could share in n^2 ways
+        "- [" + "1, " * 20_000 + "x]",
+        "- [" + "1" * 100_000,
+        "a" * 100_000 + ": [1.5e+3" + " " * 20_000 + "x]",
+    ],
+)
+def test_hostile_lines_are_read_in_linear_time(line: str) -> None:
+    """A line that almost holds numbers costs the line search a few passes over it, not one per
+    way to split it: a document of such lines parses (or is refused) like any other."""
+    import time
+
+    from placement.validation import _NUMBERS_LINE
+
+    short, long = line[: len(line) // 10], line
+    t0 = time.perf_counter()
+    _NUMBERS_LINE.search(short)
+    t1 = time.perf_counter()
+    assert _NUMBERS_LINE.search(long) is None
+    t2 = time.perf_counter()
+    # 10x the text: 10x the time for a linear search, 100x for a quadratic one (with slack for noise)
+    assert t2 - t1 < 40 * (t1 - t0) + 0.05
+    same(line + "\n")
