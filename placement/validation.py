@@ -304,6 +304,8 @@ def _numbers_first(text: str) -> Any:
     kept only when every one came back as a list (none was inside a block scalar, a quoted string or
     a comment): then each stands where the flow sequence stood, and its numbers are those PyYAML
     resolves (:data:`_NUMBER`). Otherwise, or on any error, ``text`` is parsed as it is."""
+    if _NUMBERS_TAG in text:  # its own tags would be counted as ours
+        return yaml.load(text, Loader=UniqueKeyLoader)
     tagged, count = _NUMBERS_LINE.subn(rf"\1{_NUMBERS_TAG} '\2'\3", text)
     if count:
         loader = _NumbersLoader(tagged)

@@ -63,6 +63,7 @@ def test_random_documents_read_the_same(lines: list[str]) -> None:
         "- [1, 2]\n- [1, 2]  # [3]\n- [-0.0, 0.5e+3, 1e3]\n",
         "a: [1, 2]\na: [1, 2]\n",  # a duplicate key is refused either way
         "- [1, 2]\n- [1, 2\n",  # a syntax error
+        "x: !placement-numbers '7'\nnotes: |\n  - [1, 2]\n",  # the tag the fast path writes, in the text
     ],
 )
 def test_hard_cases_read_the_same(text: str) -> None:
