@@ -1,4 +1,4 @@
-"""ROS map_server occupancy maps (YAML + 8-bit PGM) and their rasterisation onto a planning grid.
+"""ROS map_server occupancy maps (YAML + image) and their rasterisation onto a planning grid.
 
 A map is a YAML file in the ROS ``map_server`` / nav2 format::
 
@@ -25,8 +25,10 @@ it, and :mod:`placement.scene.masks` gives them their meaning.
 
 The image is stored top row first (the top row is the largest y); :class:`OccupancyMap` flips it so
 that row 0 is the lowest y, like every other planar grid of the package (row = y, column = x).
-Only PGM images (binary ``P5`` and plain ``P2``, maxval <= 255) are read, with numpy alone; a
-rotated origin (yaw != 0) is rejected (not supported yet).
+PGM images (binary ``P5`` and plain ``P2``, maxval <= 255) are read with numpy alone, PNG, BMP and
+the other formats map_server reads through Pillow (:mod:`placement.scene.map_images`: colour
+channels averaged, transparency as map_server reads it); a rotated origin (yaw != 0) is rejected
+(not supported yet).
 """
 
 from __future__ import annotations
@@ -41,11 +43,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from placement.scene.map_images import read_map_image
 from placement.scene.pgm import MAX_IMAGE_PIXELS as MAX_IMAGE_PIXELS
 from placement.scene.pgm import MAX_PLAIN_PIXELS as MAX_PLAIN_PIXELS
 from placement.scene.pgm import OccupancyMapError as OccupancyMapError
 from placement.scene.pgm import parse_pgm as parse_pgm
-from placement.scene.pgm import read_pgm
 from placement.validation import parse_yaml, read_text, show
 
 log = logging.getLogger(__name__)
@@ -198,7 +200,7 @@ def load_occupancy_map(
     arm_height: float | None = None,
     unknown_cost: float = DEFAULT_UNKNOWN_COST,
 ) -> OccupancyMap:
-    """Load a ROS map_server map (YAML + 8-bit PGM); see the module docstring for the semantics.
+    """Load a ROS map_server map (YAML + image); see the module docstring for the semantics.
 
     ``unknown``: what unknown cells are for the base, ``occupied`` (default), ``free`` or ``cost``
     (open at ``unknown_cost`` times a free cell's travel cost); ``arm_height``: see
@@ -223,7 +225,7 @@ def load_occupancy_map(
 
 
 def load_map_image(path: str | Path) -> MapImage:
-    """Read a map_server YAML and its PGM into the OccupancyGrid values ``nav2_map_server`` would
+    """Read a map_server YAML and its image into the OccupancyGrid values ``nav2_map_server`` would
     publish (see :class:`MapImage`); the checks of :func:`load_occupancy_map`."""
     path = Path(path)
     where = str(path)
@@ -275,7 +277,7 @@ def load_map_image(path: str | Path) -> MapImage:
         found = False
     if not found:
         raise OccupancyMapError(f"{where}: image '{show(doc['image'])}' not found ({show(str(image))})")
-    pixels, maxval = read_pgm(image)
+    pixels, maxval, clear = read_map_image(image, mode)
     rows, cols = pixels.shape
     far = max(abs(ox), abs(oy), abs(ox + cols * resolution), abs(oy + rows * resolution))
     if far > MAX_COORD:
@@ -288,6 +290,9 @@ def load_map_image(path: str | Path) -> MapImage:
     # rounding made of them)
     p = _probabilities(pixels, maxval, bool(negate))
     undecided: npt.NDArray[np.bool_] = _looked_up((p >= free_t) & (p <= occ_t), pixels)
+    if clear is not None and mode == "scale":  # a pixel not fully opaque: unknown, as map_server says
+        values[clear[::-1]] = -1
+        undecided |= clear[::-1]
     values.setflags(write=False)
     undecided.setflags(write=False)
     return MapImage(values, undecided, resolution, (ox, oy, 0.0), mode, path)
