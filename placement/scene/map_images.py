@@ -14,6 +14,7 @@ from __future__ import annotations
 import io
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -30,10 +31,10 @@ _COLOUR = ("RGB", "RGBA", "LA", "P", "PA", "CMYK", "YCbCr", "La", "RGBa")
 
 def read_map_image(
     path: str | Path, mode: str = "trinary"
-) -> tuple[npt.NDArray[np.int64], int, npt.NDArray[np.bool_] | None]:
+) -> tuple[npt.NDArray[np.unsignedinteger[Any]], int, npt.NDArray[np.bool_] | None]:
     """The pixels of a map image as ``nav2_map_server`` shades them (see the module docstring).
 
-    Returns ``(sums (height, width) int64, top row first; their largest possible value; the pixels
+    Returns ``(sums (height, width) uint8 or uint16, top row first; their largest possible value; the pixels
     that are not fully opaque (height, width) bool, or None without an alpha channel)``: the shade
     of a pixel is ``sum / maxval``. A PGM is read by :func:`~placement.scene.pgm.read_pgm`.
     Raises :class:`OccupancyMapError` for an image that is not a regular file, too large
@@ -43,7 +44,7 @@ def read_map_image(
     head = read_regular(path, OccupancyMapError, f"image {path}", 2**62, "image", prefix=16)
     if head[:2] in (b"P2", b"P5"):
         pixels, maxval = read_pgm(path)
-        return pixels.astype(np.int64), maxval, None
+        return pixels, maxval, None
     data = read_regular(path, OccupancyMapError, f"image {path}", MAX_IMAGE_BYTES, "image")
     from PIL import Image, UnidentifiedImageError
 
@@ -66,7 +67,9 @@ def read_map_image(
     return _shades(img, mode, str(path))
 
 
-def _shades(img: object, mode: str, name: str) -> tuple[npt.NDArray[np.int64], int, npt.NDArray[np.bool_] | None]:
+def _shades(
+    img: object, mode: str, name: str
+) -> tuple[npt.NDArray[np.unsignedinteger[Any]], int, npt.NDArray[np.bool_] | None]:
     """:func:`read_map_image` of a decoded Pillow image ``img``."""
     from PIL import Image
 
@@ -74,20 +77,20 @@ def _shades(img: object, mode: str, name: str) -> tuple[npt.NDArray[np.int64], i
     if img.mode in _GREY:
         grey = np.asarray(img.convert("I") if img.mode == "1" else img)
         if img.mode == "1":
-            return (grey > 0).astype(np.int64), 1, None
+            return (grey > 0).astype(np.uint8), 1, None
         top = 65535 if img.mode.startswith("I") else 255
         if grey.min(initial=0) < 0 or grey.max(initial=0) > top:
             raise OccupancyMapError(f"{name}: grey values outside 0 .. {top}")
-        return grey.astype(np.int64), top, None
+        return grey.astype(np.uint16 if top > 255 else np.uint8), top, None
     if img.mode not in _COLOUR:
         raise OccupancyMapError(f"{name}: image mode {img.mode} is not supported (grey, RGB or RGBA images are)")
     alpha = img.mode in ("RGBA", "LA", "PA", "La", "RGBa") or (img.mode == "P" and "transparency" in img.info)
-    rgba = np.asarray(img.convert("RGBA" if alpha else "RGB"), dtype=np.int64)
-    sums = rgba[..., 0] + rgba[..., 1] + rgba[..., 2]
+    rgba = np.asarray(img.convert("RGBA" if alpha else "RGB"))  # uint8: sums of four fit in uint16
+    sums = rgba[..., :3].sum(axis=2, dtype=np.uint16)
     if not alpha:
         return sums, 3 * 255, None
     opacity = rgba[..., 3]
     clear = opacity != 255
     if mode == "trinary":  # the opacity is averaged in as a fourth channel
-        return sums + opacity, 4 * 255, clear
+        return sums + opacity, 4 * 255, clear  # (uint16 + uint8: uint16)
     return sums, 3 * 255, clear
