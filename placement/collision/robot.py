@@ -163,14 +163,34 @@ def adjacent(model: pin.Model, j1: int, j2: int) -> bool:
 
 
 def convex_hull(geometry: coal.CollisionGeometry) -> tuple[coal.CollisionGeometry, bool]:
-    """(convex hull of a mesh, False), or (the geometry itself, True) for primitives and convex shapes."""
+    """(convex hull of a mesh, False), or (the geometry itself, True) for primitives, convex shapes and
+    meshes that span no volume (flat, a line, a point: their own bound)."""
     if isinstance(geometry, coal.BVHModelBase):
+        if not spans_volume(np.asarray(geometry.vertices(), dtype=float)):
+            return geometry, True  # qhull inside coal ends the process on such a mesh, it does not raise
         try:
             geometry.buildConvexHull(False, "Qt")
             return geometry.convex, False
-        except Exception:  # qhull fails on flat or degenerate meshes: then the mesh is its own bound
+        except Exception:  # qhull refused the mesh: then it is its own bound
             return geometry, True
     return geometry, True
+
+
+#: A mesh thinner than this [m], or than this share of its largest extent, spans no volume for qhull.
+FLAT_M = 1e-6
+
+
+def spans_volume(vertices: npt.NDArray[np.float64]) -> bool:
+    """Whether the (n, 3) ``vertices`` [m] span three dimensions: at least 4, finite, and thicker than
+    :data:`FLAT_M` (absolute and relative to the largest extent) along every principal axis (an ArUco
+    marker's plate of 4 vertices, as the Stretch's URDF holds, is flat)."""
+    v = np.asarray(vertices, dtype=float).reshape(-1, 3)
+    if len(v) < 4 or not np.isfinite(v).all():
+        return False
+    centred = v - v.mean(axis=0)
+    axes = np.linalg.svd(centred, full_matrices=False)[2]
+    extents = np.ptp(centred @ axes.T, axis=0)  # along each principal axis, largest first
+    return bool(extents[-1] > max(FLAT_M, FLAT_M * extents[0]))
 
 
 def transform(M: pin.SE3) -> coal.Transform3s:

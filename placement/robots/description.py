@@ -39,12 +39,35 @@ MAX_URDF_BYTES = 64 * 2**20
 MAX_XACRO_BYTES = 16 * 2**20
 
 _XACRO_CHILD = r"""
-import contextlib, io, sys
-path, limit = sys.argv[1], int(sys.argv[2])
+import contextlib, io, os, sys
+path, limit, folders = sys.argv[1], int(sys.argv[2]), [f for f in sys.argv[3].split(os.pathsep) if f]
+missing = []  # what $(find) could not resolve: said alone (xacro repeats it in its own words)
 try:
     import xacro
 except ImportError:
     sys.exit(4)
+try:  # $(find PKG) without a sourced ROS 2: the package folders package:// paths resolve in
+    import ament_index_python.packages as index
+
+    _share = index.get_package_share_directory
+
+    def _found(pkg, *args, **kwargs):
+        try:
+            return _share(pkg, *args, **kwargs)
+        except Exception:
+            pass
+        for folder in folders:
+            if os.path.isdir(os.path.join(folder, pkg)):
+                return os.path.join(folder, pkg)
+        missing.append(
+            f"$(find {pkg}): package '{pkg}' not found in AMENT_PREFIX_PATH, ROS_PACKAGE_PATH or a folder "
+            "above the file; put it beside the robot's package or add its parent folder to ROS_PACKAGE_PATH"
+        )
+        raise LookupError(missing[-1])
+
+    index.get_package_share_directory = _found
+except ImportError:
+    pass
 sink = io.StringIO()
 try:
     with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
@@ -53,7 +76,8 @@ except MemoryError:
     sys.stderr.write("out of memory")
     sys.exit(3)
 except (Exception, SystemExit) as exc:
-    msg = " ".join(str(exc).split()) or " ".join(sink.getvalue().split())[:200] or type(exc).__name__
+    msg = missing[-1] if missing else None
+    msg = msg or " ".join(str(exc).split()) or " ".join(sink.getvalue().split())[:200] or type(exc).__name__
     sys.stderr.write(msg[:1000])
     sys.exit(3)
 data = text.encode("utf-8")
@@ -74,7 +98,9 @@ def _limit_child() -> None:  # runs in the child before exec
 def expand_xacro(path: Path, where: str) -> bytes:
     """The URDF text [UTF-8 bytes] of the xacro file ``path``; ``where`` starts every error line.
 
-    xacro runs in a child process bounded by :data:`XACRO_TIMEOUT` and :data:`XACRO_MEMORY`."""
+    xacro runs in a child process bounded by :data:`XACRO_TIMEOUT` and :data:`XACRO_MEMORY`. A
+    ``$(find PKG)`` resolves as in a sourced ROS 2 workspace, else to the first ``FOLDER/PKG`` of
+    :func:`package_dirs` (a vendor's package beside its dependencies, no ROS needed)."""
     if importlib.util.find_spec("xacro") is None:
         raise RobotError(f"{where}: {path} is a xacro file; expanding it needs the xacro package (pip install xacro)")
     if not Path(path).is_file():
@@ -82,7 +108,14 @@ def expand_xacro(path: Path, where: str) -> bytes:
     read_regular(path, RobotError, f"{where}: {path}", MAX_XACRO_BYTES, "xacro file")  # no FIFO, no device
     try:
         run = subprocess.run(
-            [sys.executable, "-c", _XACRO_CHILD, os.fspath(Path(path).resolve()), str(MAX_URDF_BYTES)],
+            [
+                sys.executable,
+                "-c",
+                _XACRO_CHILD,
+                os.fspath(Path(path).resolve()),
+                str(MAX_URDF_BYTES),
+                os.pathsep.join(package_dirs(path)),
+            ],
             stdin=subprocess.DEVNULL,
             capture_output=True,
             timeout=XACRO_TIMEOUT,
