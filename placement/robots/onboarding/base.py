@@ -113,8 +113,8 @@ def _shape_problem(geometry: ET.Element, urdf: Path) -> str:
                 return f"{kind} {attr} '{el.get(attr)}' (needs finite, non-zero numbers)"
         if kind == "mesh":
             path = _mesh_path(el.get("filename", ""), urdf)
-            if path is None:
-                return ""  # pinocchio reports a missing mesh itself
+            if path is None:  # one missing mesh (an accessory not installed) must not cost the others
+                return f"mesh '{el.get('filename', '')}' not found"
             try:
                 st = os.stat(path)
             except OSError as exc:
