@@ -104,6 +104,56 @@ def test_sequential_plans_beside_floor_the_base_cannot_reach(maps_dir):
     assert np.isfinite(problems.heuristic(1)[world.nav.cell(*result.steps[0].base[:2])])
 
 
+def closed_room_scene():
+    """A pick table in the open and a place table inside a room closed by walls 2 m high (no door):
+    the maps keep the threshold only on floor inside the room, which no base can drive to."""
+    from placement.scene import parse_scene
+
+    t = 0.1
+    walls = [((5.0, 1.0), (3.0 + t, t)), ((5.0, 4.0), (3.0 + t, t)), ((3.5, 2.5), (t, 3.0)), ((6.5, 2.5), (t, 3.0))]
+    return parse_scene(
+        {
+            "version": 1,
+            "bounds": [-1.0, -1.0, 8.0, 6.0],
+            "robot": {"preset": "pr2", "start": [1.0, 1.0, 0.0]},
+            "obstacles": [
+                {"name": "pick_table", "box": {"center": [1.5, 3.5, 0.36], "size": [0.8, 0.6, 0.72]}, "table": True},
+                {"name": "room_table", "box": {"center": [5.0, 2.5, 0.36], "size": [0.8, 0.6, 0.72]}, "table": True},
+            ]
+            + [
+                {"name": f"wall_{i}", "box": {"center": [x, y, 1.0], "size": [sx, sy, 2.0]}}
+                for i, ((x, y), (sx, sy)) in enumerate(walls)
+            ],
+            "objects": [{"name": "cup", "position": [1.5, 3.35, 0.77], "size": [0.06, 0.06, 0.1]}],
+            "place_locations": [{"name": "spot", "position": [5.0, 2.5, 0.8]}],
+            "task": [{"pick": "cup", "place": "spot"}],
+        }
+    )
+
+
+@pytest.mark.parametrize("method", ["global", "sequential"])
+def test_a_place_only_a_closed_room_serves_says_the_base_cannot_get_there(maps_dir, method):
+    """Every method keeps the pick and names the place: no path for the base to the cells the maps
+    allow, none of them within the base's reach (`global` called it a transfer no arm and grasp makes,
+    with an empty diagnosis; the step-by-step methods said no placement keeps the map threshold, and
+    failed the pick)."""
+    planner = Planner(closed_room_scene(), method, maps_dir)
+    result = planner.plan()
+    assert not result.ok
+    pick, place = result.steps
+    assert pick.ok and place.status == "infeasible" and place.action == "place"
+    assert "no collision-free path for the base reaches a placement of this step; " in place.reason
+    assert ", 0 of them reachable from" in place.reason and "they lie where the footprint cannot drive" in place.reason
+    d = place.diagnosis
+    if method == "global":
+        assert place.reason.startswith("no collision-free path")
+        assert d["arm"] in ("left", "right") and d["pose_role"] in ("pre-place", "place") and d["tried"] == 0
+        assert d["hint"] in place.reason
+    else:  # per arm and grasp, what failed at the place
+        assert d["place"] == "spot" and all("no collision-free path" in t["failed"] for t in d["transfers"])
+    assert result.verify(planner.robot, scene=planner.scene) == []
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["global", "optimal", "sequential"])
 def test_a_spent_time_budget_keeps_the_verified_steps_and_says_why(maps_dir, method):

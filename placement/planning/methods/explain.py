@@ -22,6 +22,7 @@ from placement.planning.arrays import FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.methods.search import Failure, Search
 from placement.planning.problems import Option, Step, blocked_summary, pose_reach, pose_role
+from placement.planning.results import InfeasibleStep
 from placement.planning.torso import option_map
 from placement.planning.world import World
 from placement.robots import matrix_to_pose
@@ -191,3 +192,31 @@ def explain(
             f"reach for arm {o.arm} by {f.residual_m * 100:.1f} cm and {f.residual_rad:.2f} rad at best"
         )
     return f"{tried}: {'; '.join(parts + [hint])}", d
+
+
+#: A step no path of the base reaches: its reason (the hint follows, see :func:`no_path_hint`).
+NO_PATH = "no collision-free path for the base reaches a placement of this step"
+
+
+def no_path_hint(cells: int, driven: int, whence: str = "the start") -> str:
+    """Where the maps keep the threshold and how much of it the base can reach from ``whence``."""
+    where = (
+        f"the maps keep the threshold on {cells} base cells around the target, {driven} of them reachable from {whence}"
+    )
+    if driven:
+        return where
+    return (
+        f"{where}: they lie where the footprint cannot drive (behind a passage narrower than it, unknown "
+        "cells or a keepout mask); occupancy_map unknown: free, or a smaller footprint, may help"
+    )
+
+
+def diagnosed(
+    ctx: PlanningContext, step: Step, opts: Sequence[Option], reason: str, hint: str, fixed: bool = False
+) -> InfeasibleStep:
+    """The infeasible result of ``step``: ``reason; hint``, with the diagnosis of :func:`explain` (the
+    pose of the options nearest their limits) and ``hint`` as its hint."""
+    _, diagnosis = explain(ctx, fixed, step, opts, None, reason)
+    if diagnosis:
+        diagnosis["hint"] = hint
+    return InfeasibleStep(step.index, step.action, step.target, reason=f"{reason}; {hint}", diagnosis=diagnosis)

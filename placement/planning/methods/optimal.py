@@ -56,7 +56,7 @@ import numpy as np
 from placement.planning.arrays import Cell
 from placement.planning.context import BudgetSpent, PlanningContext
 from placement.planning.methods.base import Method
-from placement.planning.methods.explain import explain
+from placement.planning.methods.explain import NO_PATH, diagnosed, explain, no_path_hint
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
 from placement.planning.program import (
     Chain,
@@ -288,16 +288,32 @@ def why_not(ctx: PlanningContext, dp: DynamicProgram) -> InfeasibleStep:
     if not dp.full[i].any():
         reason, diagnosis = explain(ctx, False, step, opts, None, unreachable_reason(ctx, opts))
         return infeasible(step, reason, diagnosis)
+    # the first thing that truly fails: the base's reach, the rejections, the transfer, the chain
+    reachable = ctx.problems.reachable.flat
+    full = dp.full[i].cells[dp.full[i].masks.any(axis=0)]
+    driven = int(reachable[full].sum())
+    if driven == 0:
+        return diagnosed(ctx, step, opts, NO_PATH, no_path_hint(full.size, 0))
     if dp.rejected[i] and not dp.regions[i].any():
-        return infeasible(step, f"IK or the collision check rejected all {dp.rejected[i]} placements the maps allow")
+        reason = f"IK or the collision check rejected all {dp.rejected[i]} placements the maps allow"
+        return diagnosed(ctx, step, opts, reason, "another grasp, or room around the target, would help")
+    left = dp.regions[i].cells[dp.regions[i].masks.any(axis=0)]
+    if dp.rejected[i] and not reachable[left].any():  # the rejections took every cell the base can reach
+        reason = (
+            f"IK or the collision check rejected the placements the base can reach ({dp.rejected[i]} tried, "
+            "each ruling out the cells around it)"
+        )
+        rest = "; the others lie where the footprint cannot drive" if full.size > driven else ""
+        return diagnosed(ctx, step, opts, reason, no_path_hint(full.size, driven) + rest)
     if dp.linked[i]:
-        return infeasible(
-            step,
+        reason = (
             f"no arm and grasp that picks '{step.carries}' reaches '{step.target}' "
             f"(a transfer keeps the arm and the grasp; {dp.rejected[i - 1] + dp.rejected[i]} placements "
-            "rejected by IK or the collision check)",
+            "rejected by IK or the collision check)"
         )
-    return infeasible(step, "no collision-free path for the base reaches a placement of this step")
+        return diagnosed(ctx, step, opts, reason, "another place for the object, or more grasps, would help")
+    reason = "no chain of placements of the steps before reaches a placement of this step"
+    return diagnosed(ctx, step, opts, reason, no_path_hint(full.size, driven))
 
 
 class Optimal(Method):

@@ -17,7 +17,7 @@ import numpy as np
 from placement.planning.arrays import Cell, FloatArray
 from placement.planning.context import PlanningContext
 from placement.planning.methods.base import Method
-from placement.planning.methods.explain import explain
+from placement.planning.methods.explain import NO_PATH, diagnosed, explain, no_path_hint
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
 from placement.planning.methods.ranking import Ranked, combined_map
 from placement.planning.methods.search import search_placement
@@ -133,20 +133,24 @@ def plan_transfer(
         place_ctx = ctx.for_step(place.index)
         reason, diagnosis = explain(place_ctx, False, place, opts, None, unreachable_reason(place_ctx, opts))
         return [first, infeasible(place, reason, diagnosis)], None
+    picked: StepResult | None = None  # the last pick verified (its place then failed)
     while True:
         allowed = picks - failed.keys()
         if failed and ctx.out_of_budget():
             return [infeasible(pick, ctx.budget_words())], None
         if not allowed:
+            # every pair picked failed at the place: the place is what fails (as the whole-task methods
+            # say), after the last pick verified; else the pick itself
+            step = pick if picked is None else place
             result = InfeasibleStep(
-                pick.index,
-                pick.action,
-                pick.target,
+                step.index,
+                step.action,
+                step.target,
                 reason=transfer_reason(ctx, pick, place, failed),
                 diagnosis={"place": place.target, "transfers": transfer_diagnosis(failed)},
                 timings_ms={"total": (time.perf_counter() - t0) * 1e3},
             )
-            return [result], None
+            return ([result] if picked is None else [picked, result]), None
         first, cell = plan_step(ctx, method, pick, holding, keep_maps, allowed)
         if not first.ok or cell is None:
             if failed and not first.ok:
@@ -164,6 +168,7 @@ def plan_transfer(
             manipulation = first.timings_ms.get("manipulation", 0.0) + irms_ms
             return [first.timed(total=(t1 - t0) * 1e3, manipulation=manipulation), second], cell
         failed[pair] = second.reason or "infeasible"
+        picked = first.timed(total=(t1 - t0) * 1e3)
 
 
 def excluded_words(failed: Mapping[Pair, str]) -> str:
@@ -279,7 +284,13 @@ def plan_step(
             found.clearance_m,
         )
         return replace(result, maps=maps, tried=search.tried), (iy, ix)
-    reason, diagnosis = explain(ctx, fixed, step, opts, search, "" if ranked else unreachable_reason(ctx, opts))
+    region = np.flatnonzero(needed if needed is not None else problems.feasible_region(step.index, opts))
+    if not ranked and not fixed and region.size and not np.isfinite(nav_cost.flat[region]).any():
+        # the maps reach the target, the base cannot get there from where it is
+        words = diagnosed(ctx, step, opts, NO_PATH, no_path_hint(region.size, 0, "where the base is"))
+        reason, diagnosis = words.reason, words.diagnosis
+    else:
+        reason, diagnosis = explain(ctx, fixed, step, opts, search, "" if ranked else unreachable_reason(ctx, opts))
     failure = InfeasibleStep(
         step.index,
         step.action,
