@@ -55,18 +55,14 @@ def test_rooms_plan_on_a_window_of_the_map(plans):
         assert planner.world.window is not None and wy * wx < 0.6 * ny * nx, name
 
 
-def pocket_scene():
-    """A pick table and a place table 3 m apart; behind the place table a pocket of floor closed by
-    knee-high walls (the base cannot get in, the arm reaches over them): the place step's feasible
-    region has a part there that no base can drive to."""
+def walled_scene(
+    place_table: tuple[tuple[float, float], tuple[float, float]], spot: tuple[float, float], walls, height
+):
+    """A cup on a pick table in the open, to be set down at ``spot`` on a place table ((x, y) centre,
+    (sx, sy) size [m]), with walls ``height`` [m] tall (((x, y) centre, (sx, sy) size) each)."""
     from placement.scene import parse_scene
 
-    wall = 0.1
-    walls = [  # the pocket: x 4.4 .. 6.0, y 2.35 .. 4.0, the place table its south side
-        ((5.2, 4.0 + wall / 2), (1.6 + 2 * wall, wall)),
-        ((4.4 - wall / 2, 3.2), (wall, 1.7)),
-        ((6.0 + wall / 2, 3.2), (wall, 1.7)),
-    ]
+    (px, py), (psx, psy) = place_table
     return parse_scene(
         {
             "version": 1,
@@ -74,17 +70,30 @@ def pocket_scene():
             "robot": {"preset": "pr2", "start": [1.0, 1.0, 0.0]},
             "obstacles": [
                 {"name": "pick_table", "box": {"center": [1.5, 3.5, 0.36], "size": [0.8, 0.6, 0.72]}, "table": True},
-                {"name": "place_table", "box": {"center": [5.2, 2.0, 0.36], "size": [1.6, 0.7, 0.72]}, "table": True},
+                {"name": "place_table", "box": {"center": [px, py, 0.36], "size": [psx, psy, 0.72]}, "table": True},
             ]
             + [
-                {"name": f"wall_{i}", "box": {"center": [x, y, 0.15], "size": [sx, sy, 0.3]}}
+                {"name": f"wall_{i}", "box": {"center": [x, y, height / 2], "size": [sx, sy, height]}}
                 for i, ((x, y), (sx, sy)) in enumerate(walls)
             ],
             "objects": [{"name": "cup", "position": [1.5, 3.35, 0.77], "size": [0.06, 0.06, 0.1]}],
-            "place_locations": [{"name": "spot", "position": [5.2, 2.1, 0.8]}],
+            "place_locations": [{"name": "spot", "position": [*spot, 0.8]}],
             "task": [{"pick": "cup", "place": "spot"}],
         }
     )
+
+
+def pocket_scene():
+    """A pick table and a place table 3 m apart; behind the place table a pocket of floor closed by
+    knee-high walls (the base cannot get in, the arm reaches over them): the place step's feasible
+    region has a part there that no base can drive to."""
+    wall = 0.1
+    walls = [  # the pocket: x 4.4 .. 6.0, y 2.35 .. 4.0, the place table its south side
+        ((5.2, 4.0 + wall / 2), (1.6 + 2 * wall, wall)),
+        ((4.4 - wall / 2, 3.2), (wall, 1.7)),
+        ((6.0 + wall / 2, 3.2), (wall, 1.7)),
+    ]
+    return walled_scene(((5.2, 2.0), (1.6, 0.7)), (5.2, 2.1), walls, 0.3)
 
 
 def test_sequential_plans_beside_floor_the_base_cannot_reach(maps_dir):
@@ -107,28 +116,9 @@ def test_sequential_plans_beside_floor_the_base_cannot_reach(maps_dir):
 def closed_room_scene():
     """A pick table in the open and a place table inside a room closed by walls 2 m high (no door):
     the maps keep the threshold only on floor inside the room, which no base can drive to."""
-    from placement.scene import parse_scene
-
     t = 0.1
     walls = [((5.0, 1.0), (3.0 + t, t)), ((5.0, 4.0), (3.0 + t, t)), ((3.5, 2.5), (t, 3.0)), ((6.5, 2.5), (t, 3.0))]
-    return parse_scene(
-        {
-            "version": 1,
-            "bounds": [-1.0, -1.0, 8.0, 6.0],
-            "robot": {"preset": "pr2", "start": [1.0, 1.0, 0.0]},
-            "obstacles": [
-                {"name": "pick_table", "box": {"center": [1.5, 3.5, 0.36], "size": [0.8, 0.6, 0.72]}, "table": True},
-                {"name": "room_table", "box": {"center": [5.0, 2.5, 0.36], "size": [0.8, 0.6, 0.72]}, "table": True},
-            ]
-            + [
-                {"name": f"wall_{i}", "box": {"center": [x, y, 1.0], "size": [sx, sy, 2.0]}}
-                for i, ((x, y), (sx, sy)) in enumerate(walls)
-            ],
-            "objects": [{"name": "cup", "position": [1.5, 3.35, 0.77], "size": [0.06, 0.06, 0.1]}],
-            "place_locations": [{"name": "spot", "position": [5.0, 2.5, 0.8]}],
-            "task": [{"pick": "cup", "place": "spot"}],
-        }
-    )
+    return walled_scene(((5.0, 2.5), (0.8, 0.6)), (5.0, 2.5), walls, 2.0)
 
 
 @pytest.mark.parametrize("method", ["global", "sequential"])
