@@ -212,11 +212,19 @@ def no_path_hint(cells: int, driven: int, whence: str = "the start") -> str:
 
 
 def diagnosed(
-    ctx: PlanningContext, step: Step, opts: Sequence[Option], reason: str, hint: str, fixed: bool = False
+    ctx: PlanningContext,
+    step: Step,
+    opts: Sequence[Option],
+    reason: str,
+    hint: str,
+    facts: dict[str, Any] | None = None,
+    fixed: bool = False,
 ) -> InfeasibleStep:
     """The infeasible result of ``step``: ``reason; hint``, with the diagnosis of :func:`explain` (the
-    pose of the options nearest their limits) and ``hint`` as its hint."""
+    pose of the options nearest their limits), ``hint`` as its hint and ``facts`` over its keys (what
+    the checks found: ``tried``, ``ik_failures``, ``collision_failures``, ``culprit``)."""
     _, diagnosis = explain(ctx, fixed, step, opts, None, reason)
     if diagnosis:
+        diagnosis.update(facts or {})
         diagnosis["hint"] = hint
     return InfeasibleStep(step.index, step.action, step.target, reason=f"{reason}; {hint}", diagnosis=diagnosis)

@@ -294,17 +294,20 @@ def why_not(ctx: PlanningContext, dp: DynamicProgram) -> InfeasibleStep:
     driven = int(reachable[full].sum())
     if driven == 0:
         return diagnosed(ctx, step, opts, NO_PATH, no_path_hint(full.size, 0))
+    ik, hits, culprit = ctx.problems.checks.tally(i)
+    how = f"{ik + hits} checks: {ik} failed IK, {hits} in collision" + (f", mostly {culprit}" if culprit else "")
+    facts = {"tried": ik + hits, "ik_failures": ik, "collision_failures": hits, "culprit": culprit}
     if dp.rejected[i] and not dp.regions[i].any():
-        reason = f"IK or the collision check rejected all {dp.rejected[i]} placements the maps allow"
-        return diagnosed(ctx, step, opts, reason, "another grasp, or room around the target, would help")
+        reason = f"IK or the collision check rejected all {dp.rejected[i]} placements the maps allow ({how})"
+        return diagnosed(ctx, step, opts, reason, "another grasp, or room around the target, would help", facts)
     left = dp.regions[i].cells[dp.regions[i].masks.any(axis=0)]
     if dp.rejected[i] and not reachable[left].any():  # the rejections took every cell the base can reach
         reason = (
-            f"IK or the collision check rejected the placements the base can reach ({dp.rejected[i]} tried, "
-            "each ruling out the cells around it)"
+            f"IK or the collision check rejected the placements the base can reach ({dp.rejected[i]} cells, "
+            f"each ruling out the cells around it; {how})"
         )
         rest = "; the others lie where the footprint cannot drive" if full.size > driven else ""
-        return diagnosed(ctx, step, opts, reason, no_path_hint(full.size, driven) + rest)
+        return diagnosed(ctx, step, opts, reason, no_path_hint(full.size, driven) + rest, facts)
     if dp.linked[i]:
         reason = (
             f"no arm and grasp that picks '{step.carries}' reaches '{step.target}' "

@@ -50,6 +50,15 @@ class Checks:
         }
         return Checks({k: v for k, v in self.ik.items() if k[0] not in changed_steps}, collision)
 
+    def tally(self, step: int) -> tuple[int, int, str | None]:
+        """(IK failures, collisions, the commonest collision's culprit or None) among the placements of
+        ``step`` checked so far."""
+        ik = sum(1 for k, v in self.ik.items() if k[0] == step and not v.ok)
+        hits = [r.culprit for k, r in self.collision.items() if k[0] == step and not r.free]
+        named = [c for c in hits if c]
+        culprit = max(set(named), key=named.count) if named else None
+        return ik, len(hits), culprit
+
 
 def _touches(box: tuple[float, float, float, float, float, float], boxes: FloatArray) -> bool:
     """Whether the box (x0, y0, z0, x1, y1, z1) [m] overlaps (or touches) any of ``boxes`` (k, 2, 3)."""
