@@ -10,6 +10,7 @@ base cell.
 from __future__ import annotations
 
 import math
+import weakref
 from collections import Counter
 from collections.abc import Sequence
 from typing import Any
@@ -42,11 +43,27 @@ def height_band(rmap: ReachabilityMap, pose: FloatArray) -> Band | None:
     holds any value for the orientation of ``pose`` (4, 4) (None if it holds none)."""
     g = rmap.grid
     _, pitch, roll = zyx_angles(pose)
-    ip, ir = pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5])
-    hit = [iz for iz in range(g.shape[2]) if rmap.slice(iz, ip, ir).any()]
-    if not hit:
-        return None
-    return float(g.origin[2] + hit[0] * g.resolution), float(g.origin[2] + (hit[-1] + 1) * g.resolution)
+    return _band(rmap, pitch_bin(pitch, g.shape[4]), wrap_bin(roll, g.shape[5]))
+
+
+#: Per map (as long as it lives), its :func:`_band` per (pitch bin, roll bin).
+_BANDS: weakref.WeakKeyDictionary[ReachabilityMap, dict[tuple[int, int], Band | None]] = weakref.WeakKeyDictionary()
+
+
+def _band(rmap: ReachabilityMap, ip: int, ir: int) -> Band | None:
+    """:func:`height_band` of the orientation bins (pitch ``ip``, roll ``ir``), kept with the map: it
+    reads every height's slice, and a failed step with a thousand candidates asked it for each of
+    their poses (seconds past the task's budget)."""
+    known = _BANDS.setdefault(rmap, {})
+    if (ip, ir) not in known:
+        g = rmap.grid
+        hit = [iz for iz in range(g.shape[2]) if rmap.slice(iz, ip, ir).any()]
+        known[(ip, ir)] = (
+            None
+            if not hit
+            else (float(g.origin[2] + hit[0] * g.resolution), float(g.origin[2] + (hit[-1] + 1) * g.resolution))
+        )
+    return known[(ip, ir)]
 
 
 def nearest_free_m(w: World, xy: FloatArray) -> float:

@@ -243,7 +243,11 @@ def search_placement(
         """Round-robin over the groups of ``candidates`` (see the module docstring); True when
         the search is over (found, or out of time or tries)."""
         groups: dict[tuple[int, int, int, int], list[tuple[Ranked, Cell]]] = {}
-        for r in candidates:
+        for n, r in enumerate(candidates):
+            # hundreds of thousands with a hundred grasps per object: sorting them may outlast the task
+            if n % 4096 == 4095 and ctx.out_of_budget():
+                out.stop = "task"
+                return True
             cell = usable(r)
             if cell is not None:
                 groups.setdefault(round_robin_group(cfg, opts[r.option], r, cell, xs, ys), []).append((r, cell))
@@ -280,7 +284,13 @@ def search_placement(
     if out.stop in ("budget", "cap", "task"):
         return out
     out.stop = "all"
+    if ctx.out_of_budget():
+        out.stop = "task"
+        return out
     if spread(more() if more is not None else ranked) or more is None:
+        return out
+    if ctx.out_of_budget():
+        out.stop = "task"
         return out
     extra, values = other_yaws(ctx, opts, nav_cost, heuristic)
     if not spread(extra) and out.stop == "all" and over():

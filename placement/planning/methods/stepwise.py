@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from placement.planning.arrays import Cell, FloatArray
-from placement.planning.context import PlanningContext
+from placement.planning.context import BudgetSpent, PlanningContext
 from placement.planning.methods.base import Method
 from placement.planning.methods.explain import NO_PATH, diagnosed, explain, no_path_hint
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
@@ -79,6 +79,14 @@ def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell
     """Plan the steps in order from ``start_cell``, each from the previous placement; a pick and its
     place as one transfer (:func:`plan_transfer`); stops at the first infeasible step (it is the
     last result)."""
+    ctx.problems.stop = ctx.check_budget  # every kernel pass of the plan checks the task's budget
+    try:
+        return _plan_stepwise(ctx, method, start_cell, keep_maps)
+    finally:
+        ctx.problems.stop = None
+
+
+def _plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell, keep_maps: bool) -> list[StepResult]:
     holding = Holding.start(ctx, start_cell)
     steps = ctx.problems.steps
     out: list[StepResult] = []
@@ -88,12 +96,16 @@ def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell
         if ctx.out_of_budget():
             out.append(infeasible(step, ctx.budget_words()))
             break
-        if step.action == "pick" and i + 1 < len(steps) and steps[i + 1].pick == i:
-            results, cell = plan_transfer(ctx, method, step, steps[i + 1], holding, keep_maps)
-        else:
-            t0 = time.perf_counter()
-            result, cell = plan_step(ctx, method, step, holding, keep_maps)
-            results = [result.timed(total=(time.perf_counter() - t0) * 1e3)]
+        try:
+            if step.action == "pick" and i + 1 < len(steps) and steps[i + 1].pick == i:
+                results, cell = plan_transfer(ctx, method, step, steps[i + 1], holding, keep_maps)
+            else:
+                t0 = time.perf_counter()
+                result, cell = plan_step(ctx, method, step, holding, keep_maps)
+                results = [result.timed(total=(time.perf_counter() - t0) * 1e3)]
+        except BudgetSpent:  # inside a step's ranking: the steps planned before stand
+            out.append(infeasible(step, ctx.budget_words()))
+            break
         out += results
         if not results[-1].ok or cell is None:
             break

@@ -24,7 +24,8 @@ def rank_eq6(
     ``per_option`` cheapest cells of each option and tier (default ``ik_tries``), each option's
     cells kept by its own threshold (its arm's, at its torso setting)."""
     cfg = ctx.config if per_option is None else replace(ctx.config, ik_tries=per_option)
-    return rank_by_cost(per_arm_values(options, ctx.threshold, cfg.threshold), nav_cost, heuristic, cfg, ctx.yaws)
+    values = per_arm_values(options, ctx.threshold, cfg.threshold)
+    return rank_by_cost(values, nav_cost, heuristic, cfg, ctx.yaws, ctx.check_budget)
 
 
 class Eq6Method(StepwiseMethod):

@@ -45,6 +45,9 @@ MAX_LEGS = 4096
 RELAX = 0.5
 #: [m] candidates whose targets lie this close share one pass of the inverse-map kernel (see _clusters).
 CLUSTER_M = 0.5
+#: Candidates per kernel pass at most: the budget is checked between passes, and a pass of 720 (360
+#: grasp yaws per object) took most of a second (each candidate's maps are its own either way)
+PASS_CANDIDATES = 256
 
 
 class StepProblems:
@@ -94,6 +97,9 @@ class StepProblems:
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
         self._reachable: BoolArray | None = None
+        #: called before each kernel pass when a caller gives no ``stop`` (a method's task budget check,
+        #: set for the length of its plan: the step-by-step methods ask for options in many places)
+        self.stop: Stop | None = None
         self._relaxed: dict[int, float] = {}
         #: id(options list) -> (that list, its region by the maps): see placement.planning.program.forward
         self.regions: dict[int, tuple[Sequence[Option], Any]] = {}
@@ -248,6 +254,7 @@ class StepProblems:
         options that only say where they are kept (:meth:`region_options`); ``stop``: called before
         each kernel pass (with a hundred grasps per object one pass may take a second)."""
         nav = self.world.nav
+        stop = stop or self.stop
         opts = []
         candidates = self.candidates(step.index)
         views = ((a, m) for a, ms in self.variants.items() for m in ms)
@@ -257,7 +264,9 @@ class StepProblems:
             # a place of one grasp turned by a half turn is often another grasp's place: one IRM
             distinct = list({c.poses.tobytes(): c for c, why in zip(candidates, blocked) if why is None}.values())
             results = {}
-            for near in _clusters(distinct):
+            for near in (
+                c[k : k + PASS_CANDIDATES] for c in _clusters(distinct) for k in range(0, len(c), PASS_CANDIDATES)
+            ):
                 if stop is not None:
                     stop()
                 # base cells farther from a target than its slice's reach get 0 from the kernel anyway:
