@@ -125,9 +125,9 @@ def plan_transfer(
     The pick may use only the (arm, grasp) pairs with which the maps reach a place pose of the
     object (:meth:`StepProblems.pairs`); the place then uses the pick's pair only. When that place
     does not verify, the pick is planned again without the pair, until a pair verifies both or
-    none is left: the pick step is then infeasible, and its reason says, per arm and grasp, what
-    failed at which place. Returns the pick's and the place's results (the pick's alone when
-    infeasible) and the place's cell."""
+    none is left: the place step is then infeasible after the last pick verified (the pick step when
+    none was), and its reason says, per arm and grasp, what failed at which place. Returns the pick's
+    and the place's results (the pick's alone when it is infeasible) and the place's cell."""
     problems = ctx.problems
     t0 = time.perf_counter()
     picks = {(o.arm, o.candidate.grasp) for o in problems.options(pick.index)}
