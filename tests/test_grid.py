@@ -222,6 +222,28 @@ def test_index_matches_slow_reference():
         assert g == np.ravel_multi_index((*ipos, iyaw, ip, ir), GRID.shape)
 
 
+def test_pose_bins_match_a_slow_reference():
+    """pose_bins (a step's poses in one call) against the same numpy computation from pinocchio's rpy:
+    z bin (-1 outside the grid's heights), pitch and roll bins, and the yaw."""
+    from placement.kernels.grid import pose_bins
+
+    rng = np.random.default_rng(9)
+    poses = random_poses(rng, 500, lo=(-1.0, -0.9, -0.6), hi=(1.0, 0.9, 2.2))  # some below and above
+    n_pitch, n_roll = GRID.shape[4:]
+    bins, yaws = pose_bins(poses, GRID.origin[2], GRID.resolution, GRID.shape[2], n_pitch, n_roll)
+    outside = 0
+    for T, b, y in zip(poses, bins, yaws):
+        roll, pitch, yaw = pin.rpy.matrixToRpy(T[:3, :3])
+        iz = math.floor((T[2, 3] - GRID.origin[2]) / GRID.resolution)
+        iz = iz if 0 <= iz < GRID.shape[2] else -1
+        outside += iz < 0
+        ip = min(int((pitch + math.pi / 2) // (math.pi / n_pitch)), n_pitch - 1)
+        ir = int(round(roll / (2 * math.pi / n_roll))) % n_roll
+        assert b.tolist() == [iz, ip, ir]
+        assert y == pytest.approx(yaw, abs=1e-12)
+    assert 30 < outside < 470  # both inside and outside the heights are checked
+
+
 def test_grid_rejects_bad_bins():
     import placement
 

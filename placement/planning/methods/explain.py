@@ -235,12 +235,11 @@ def diagnosed(
     reason: str,
     hint: str,
     facts: dict[str, Any] | None = None,
-    fixed: bool = False,
 ) -> InfeasibleStep:
     """The infeasible result of ``step``: ``reason; hint``, with the diagnosis of :func:`explain` (the
     pose of the options nearest their limits), ``hint`` as its hint and ``facts`` over its keys (what
     the checks found: ``tried``, ``ik_failures``, ``collision_failures``, ``culprit``)."""
-    _, diagnosis = explain(ctx, fixed, step, opts, None, reason)
+    _, diagnosis = explain(ctx, False, step, opts, None, reason)
     if diagnosis:
         diagnosis.update(facts or {})
         diagnosis["hint"] = hint

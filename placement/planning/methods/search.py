@@ -234,6 +234,13 @@ def search_placement(
             return False
         return True
 
+    def task_over() -> bool:
+        """Whether the task's budget has run out (the search then stops, saying so)."""
+        if ctx.out_of_budget():
+            out.stop = "task"
+            return True
+        return False
+
     def usable(r: Ranked) -> Cell | None:
         iy, ix = divmod(r.cell, nav.shape[1])
         # a fixed placement the base cannot get to from here, or one tried already
@@ -245,8 +252,7 @@ def search_placement(
         groups: dict[tuple[int, int, int, int], list[tuple[Ranked, Cell]]] = {}
         for n, r in enumerate(candidates):
             # hundreds of thousands with a hundred grasps per object: sorting them may outlast the task
-            if n % 4096 == 4095 and ctx.out_of_budget():
-                out.stop = "task"
+            if n % 4096 == 4095 and task_over():
                 return True
             cell = usable(r)
             if cell is not None:
@@ -284,13 +290,7 @@ def search_placement(
     if out.stop in ("budget", "cap", "task"):
         return out
     out.stop = "all"
-    if ctx.out_of_budget():
-        out.stop = "task"
-        return out
-    if spread(more() if more is not None else ranked) or more is None:
-        return out
-    if ctx.out_of_budget():
-        out.stop = "task"
+    if task_over() or spread(more() if more is not None else ranked) or more is None or task_over():
         return out
     extra, values = other_yaws(ctx, opts, nav_cost, heuristic)
     if not spread(extra) and out.stop == "all" and over():

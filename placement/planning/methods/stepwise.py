@@ -79,11 +79,8 @@ def plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell
     """Plan the steps in order from ``start_cell``, each from the previous placement; a pick and its
     place as one transfer (:func:`plan_transfer`); stops at the first infeasible step (it is the
     last result)."""
-    ctx.problems.stop = ctx.check_budget  # every kernel pass of the plan checks the task's budget
-    try:
+    with ctx.problems.stopping(ctx.check_budget):  # every kernel pass of the plan checks the task's budget
         return _plan_stepwise(ctx, method, start_cell, keep_maps)
-    finally:
-        ctx.problems.stop = None
 
 
 def _plan_stepwise(ctx: PlanningContext, method: StepwiseMethod, start_cell: Cell, keep_maps: bool) -> list[StepResult]:

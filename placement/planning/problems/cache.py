@@ -13,7 +13,8 @@ methods of a scene (evaluation plans each scene with every method).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -97,8 +98,7 @@ class StepProblems:
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
         self._reachable: BoolArray | None = None
-        #: called before each kernel pass when a caller gives no ``stop`` (a method's task budget check,
-        #: set for the length of its plan: the step-by-step methods ask for options in many places)
+        #: called before each kernel pass when a caller gives no ``stop`` (see :meth:`stopping`)
         self.stop: Stop | None = None
         self._relaxed: dict[int, float] = {}
         #: id(options list) -> (that list, its region by the maps): see placement.planning.program.forward
@@ -188,6 +188,17 @@ class StepProblems:
             else:  # setting by setting: the blocks already given by held_options are reused
                 self._options[i] = [o for t in self.settings if t is not None for o in self.held_options(i, t)]
         return self._options[i]
+
+    @contextmanager
+    def stopping(self, stop: Stop) -> Iterator[None]:
+        """Within the block, every kernel pass that no caller gave a ``stop`` calls ``stop`` first (a
+        plan's task budget check: the step-by-step methods and the certificate ask for options in many
+        places)."""
+        self.stop = stop
+        try:
+            yield
+        finally:
+            self.stop = None
 
     def held_options(self, i: int, torso: float, stop: Stop | None = None) -> list[Option]:
         """Step i's options at torso value ``torso`` [m] alone (cached; the whole-task methods plan a

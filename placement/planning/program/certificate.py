@@ -43,18 +43,16 @@ def certify(ctx: PlanningContext, method: RegionSource, start: Cell, steps: list
     bound_m = ctx.problems.bounds.get(key)
     stopped = None
     if bound_m is None:
-        ctx.problems.stop = ctx.check_budget  # every kernel pass the regions need, too
         try:
-            regions = []
-            for i in range(len(ctx.problems.steps)):
-                ctx.check_budget()
-                regions.append(method.regions(ctx, i))
-            bound_m = travel_bound(ctx, start, regions)
+            with ctx.problems.stopping(ctx.check_budget):  # every kernel pass the regions need, too
+                regions = []
+                for i in range(len(ctx.problems.steps)):
+                    ctx.check_budget()
+                    regions.append(method.regions(ctx, i))
+                bound_m = travel_bound(ctx, start, regions)
             ctx.problems.bounds[key] = bound_m
         except BudgetSpent:
             bound_m, stopped = math.nan, f"not computed: {ctx.budget()[0]} ran out"
-        finally:
-            ctx.problems.stop = None
     ok = bool(steps) and len(steps) == len(ctx.problems.steps) and all(s.ok for s in steps)
     travel = sum(float(s.travel_time_s) for s in steps if s.ok) if ok else None
     task = None

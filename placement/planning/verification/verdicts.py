@@ -17,6 +17,7 @@ object moved verifies again only near the object, and plans exactly as a fresh p
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -55,9 +56,8 @@ class Checks:
         ``step`` checked so far."""
         ik = sum(1 for k, v in self.ik.items() if k[0] == step and not v.ok)
         hits = [r.culprit for k, r in self.collision.items() if k[0] == step and not r.free]
-        named = [c for c in hits if c]
-        culprit = max(set(named), key=named.count) if named else None
-        return ik, len(hits), culprit
+        named = Counter(c for c in hits if c).most_common(1)
+        return ik, len(hits), named[0][0] if named else None
 
 
 def _touches(box: tuple[float, float, float, float, float, float], boxes: FloatArray) -> bool:
