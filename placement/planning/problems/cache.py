@@ -22,9 +22,9 @@ import numpy as np
 from placement.collision import SceneCollision
 from placement.collision.scene import object_aabb
 from placement.maps.rmap import ReachabilityMap
-from placement.planning.arrays import BoolArray, FloatArray, IntArray
+from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray
 from placement.planning.problems.grasps import GRIPPER_OPENING, Candidate
-from placement.planning.problems.manipulation import cells_within, pose_reaches, reach_maps
+from placement.planning.problems.manipulation import cells_within, manipulation_maps, pose_reaches, reach_maps
 from placement.planning.problems.option import Option, height_range
 from placement.planning.problems.refresh import refreshed_options
 from placement.planning.problems.screening import blocked_words, screen
@@ -92,8 +92,11 @@ class StepProblems:
         self._options: dict[int, list[Option]] = {}
         # (step, torso value [m]) -> the options at that lift setting alone (see held_options)
         self._held: dict[tuple[int, float], list[Option]] = {}
-        # (step, torso value [m] or None) -> options that only say where the threshold is kept
-        self._regional: dict[tuple[int, float | None], list[Option]] = {}
+        # (step, torso value [m] or None, factor on the thresholds) -> options that only say where the
+        # threshold is kept (see region_options, threshold_options)
+        self._regional: dict[tuple[int, float | None, float], list[Option]] = {}
+        # (step, torso value [m] or None) -> what threshold_options gave (one list: verdicts index into it)
+        self._thresholded: dict[tuple[int, float | None], list[Option]] = {}
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
@@ -168,9 +171,11 @@ class StepProblems:
                 ratios = [float(o.value.max()) / self.option_threshold(o) for o in opts if o.value.size]
                 return max(ratios, default=0.0)
 
-            # the options at hand first (a held lift's): one that keeps its threshold settles it, without
-            # the inverse maps of every other setting
+            # the options at hand first (a held lift's, those that say where the unrelaxed threshold is
+            # kept): one that keeps its threshold settles it, without the inverse maps of every other
+            # setting (a value of a threshold-only option keeps it: a lower bound of the best ratio)
             known = self._options.get(i) or [o for (k, _), opts in self._held.items() if k == i for o in opts]
+            known = known + [o for (k, _, f), opts in self._regional.items() if k == i and f == 1.0 for o in opts]
             ratio = best(known)
             if ratio < 1.0:
                 ratio = best(self.options(i))
@@ -244,18 +249,84 @@ class StepProblems:
         if i in self._options or i in self._stale:
             return self.options(i)
         if self.settings == [None]:
-            if (i, None) not in self._regional:
-                self._regional[(i, None)] = self._compute_options(self.steps[i], None, factor, stop)
-            return self._regional[(i, None)]
+            return self._regional_at(i, None, factor, stop)
         out = []
         for t in (t for t in self.settings if t is not None):
-            if (i, t) in self._held:
-                out += self._held[(i, t)]
-                continue
-            if (i, t) not in self._regional:
-                self._regional[(i, t)] = self._compute_options(self.steps[i], t, factor, stop)
-            out += self._regional[(i, t)]
+            out += self._held[(i, t)] if (i, t) in self._held else self._regional_at(i, t, factor, stop)
         return out
+
+    def threshold_options(self, i: int, torso: float | None = None, stop: Stop | None = None) -> list[Option]:
+        """Step i's options at torso value ``torso`` [m] (None: at every setting), index-aligned with
+        :meth:`held_options` (:meth:`options`), as a whole-task program reads them: where each keeps its
+        threshold. Unless those are computed already, their maps say only that (``Option.exact``
+        False: :meth:`region_options`' pass, a fraction of the work), and :meth:`exact_values` gives the
+        best value and yaw of the cells a program verifies; the exact options when no option of the
+        step keeps its threshold (the relaxed thresholds need each option's best). Cached: the same list
+        is given again. ``stop``: as :meth:`held_options` takes it."""
+        key = (i, torso)
+        hit = self._thresholded.get(key)
+        if hit is not None:
+            return hit
+        if not (i in self._options or i in self._stale or (torso is not None and key in self._held)):
+            views = (
+                [torso] if torso is not None or self.settings == [None] else [t for t in self.settings if t is not None]
+            )
+            parts = [self._rough(i, t, stop) for t in views]
+            if self.relaxed(i) == 1.0:
+                hit = self._thresholded[key] = [o for p in parts for o in p]
+                return hit
+        return self.options(i) if torso is None else self.held_options(i, torso, stop)
+
+    def _rough(self, i: int, torso: float | None, stop: Stop | None) -> list[Option]:
+        """Step i's options at torso value ``torso`` [m]: the exact ones if given already, else those
+        that say where the unrelaxed thresholds are kept."""
+        held = None if torso is None else self._held.get((i, torso))
+        return held if held is not None else self._regional_at(i, torso, 1.0, stop)
+
+    def _regional_at(self, i: int, torso: float | None, factor: float, stop: Stop | None) -> list[Option]:
+        """Step i's threshold-only options at torso value ``torso`` [m] (None: the maps without a torso
+        record) for the thresholds times ``factor`` (cached)."""
+        key = (i, torso, factor)
+        if key not in self._regional:
+            self._regional[key] = self._compute_options(self.steps[i], torso, factor, stop)
+        return self._regional[key]
+
+    def exact_values(self, opts: Sequence[Option], flats: IntArray) -> tuple[Float32Array, IntArray]:
+        """Each option's best map value at each flat cell of ``flats`` (n,) over the base yaws the
+        footprint allows there, and that yaw's index into the base yaws (the first of equal values; 0
+        and -1 where none reaches, off the feasible cells and for a blocked option): what an exact
+        option holds there (read from its arrays), computed by the kernel on those cells for an option
+        that says only where its threshold is kept (``Option.exact`` False). Returns (values
+        (len(opts), n) float32, yaw indices (len(opts), n) int64)."""
+        flats = np.asarray(flats, dtype=np.int64).reshape(-1)
+        nav = self.world.nav
+        values = np.zeros((len(opts), flats.size), np.float32)
+        yaw = np.full((len(opts), flats.size), -1, np.int64)
+        ys, xs = np.divmod(flats, nav.shape[1])
+        todo: dict[tuple[str, float | None], list[int]] = {}
+        for j, o in enumerate(opts):
+            if o.exact:
+                w = o.window
+                inside = (ys >= w.y0) & (ys < w.y1) & (xs >= w.x0) & (xs < w.x1)
+                values[j, inside] = o.value[ys[inside] - w.y0, xs[inside] - w.x0]
+                yaw[j, inside] = o.yaw_index[ys[inside] - w.y0, xs[inside] - w.x0]
+            elif o.blocked is None:
+                todo.setdefault((o.arm, o.torso), []).append(j)
+        live = self.world.feasible.flat[flats]
+        if not todo or not live.any():
+            return values, yaw
+        # every base cell, not only those within a target's reach: the kernel gives 0 beyond it
+        cells = np.unique(flats[live])
+        window = Window.around(cells, nav.shape)
+        masks = self.world.yaw_masks(cells)
+        at = (ys[live] - window.y0, xs[live] - window.x0)
+        for (arm, torso), js in todo.items():
+            rmap = self.map_for(arm, torso)
+            found = manipulation_maps(rmap, [opts[j].candidate.poses for j in js], nav, self.yaws, cells, window, masks)
+            for j, (v, k) in zip(js, found):
+                values[j, live] = v[at]
+                yaw[j, live] = k[at]
+        return values, yaw
 
     def _compute_options(
         self, step: Step, torso: float | None = None, regional: float | None = None, stop: Stop | None = None
@@ -293,7 +364,8 @@ class StepProblems:
                 z = cand.poses[:, 2, 3]
                 out = bool(np.any((z < lo) | (z >= hi)))
                 if why is None:
-                    opts.append(Option(arm, cand, *results[cand.poses.tobytes()], out, torso_value(rmap)))
+                    found = results[cand.poses.tobytes()]
+                    opts.append(Option(arm, cand, *found, out, torso_value(rmap), exact=regional is None))
                 else:  # no map: an empty window, 0 everywhere (as for a target no base cell reaches)
                     nothing = np.zeros((0, 0), np.float32), np.full((0, 0), -1, np.int16)
                     opts.append(Option(arm, cand, Window(0, 0, 0, 0), *nothing, out, torso_value(rmap), why))

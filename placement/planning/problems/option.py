@@ -30,6 +30,11 @@ class Option:
         blocked: the gripper alone collides along the candidate, wherever the base stands: the
             collision in words (``"r_gripper_palm_link vs table at the grasp pose"``); its map is then
             0 everywhere and was not computed (see :mod:`placement.planning.problems.screening`).
+        exact: True when ``value`` and ``yaw_index`` are each cell's best; False for an option that says
+            only where its threshold is kept (the kernel's first yaw keeping it, see
+            :meth:`~placement.planning.problems.StepProblems.threshold_options`): the same cells keep
+            the threshold, and :meth:`~placement.planning.problems.StepProblems.exact_values` gives the
+            best value and yaw of any cell.
     """
 
     arm: str
@@ -40,6 +45,7 @@ class Option:
     out_of_range: bool = False
     torso: float | None = None
     blocked: str | None = None
+    exact: bool = True
 
     def value_at(self, iy: int, ix: int) -> float:
         """The IRM value at grid cell (iy, ix) (0 outside the window)."""

@@ -153,11 +153,20 @@ def map_regions(
     """
     if hold_lift:
         held = held_torso(ctx, i)
-    if regional:
-        opts = ctx.problems.region_options(i, stop=ctx.check_budget)
-    else:
-        opts = ctx.problems.options(i) if held is None else ctx.problems.held_options(i, held, ctx.check_budget)
+    opts = ctx.problems.region_options(i, stop=ctx.check_budget) if regional else program_options(ctx, i, held)
     return _regions(ctx.for_step(i), opts)
+
+
+def program_options(ctx: PlanningContext, i: int, held: float | None = None) -> list[Option]:
+    """Step i's options (at torso value ``held`` [m] alone; None: every setting) as a whole-task program
+    reads them: its regions need only where each keeps its threshold, and verification the best value
+    and yaw of the cells it checks (:meth:`~placement.planning.problems.StepProblems.threshold_options`,
+    ``exact_values``); each option's best value everywhere when ``optimal_manipulability_weight``
+    prices it. One list per step and setting: a verified placement's option indexes into it."""
+    problems = ctx.problems
+    if ctx.config.optimal_manipulability_weight > 0:
+        return problems.options(i) if held is None else problems.held_options(i, held, ctx.check_budget)
+    return problems.threshold_options(i, held, ctx.check_budget)
 
 
 def held_torso(ctx: PlanningContext, i: int) -> float | None:
@@ -166,9 +175,8 @@ def held_torso(ctx: PlanningContext, i: int) -> float | None:
     held = start_torso(ctx)
     if held is None:
         return None
-    opts = ctx.problems.held_options(i, held, ctx.check_budget)
-    region = _regions(ctx.for_step(i), opts)
-    return held if region.any() else None
+    opts = program_options(ctx, i, held)  # before for_step: its relaxed thresholds read these first
+    return held if _regions(ctx.for_step(i), opts).any() else None
 
 
 def _regions(ctx: PlanningContext, opts: Sequence[Option]) -> Regions:
@@ -236,4 +244,13 @@ def reweighted(ctx: PlanningContext, i: int, reg: Regions) -> Regions:
     return replace(reg, node=node_costs(reg, weight, best))
 
 
-__all__ = ["Group", "Regions", "best_values", "held_torso", "map_regions", "node_costs", "reweighted"]
+__all__ = [
+    "Group",
+    "Regions",
+    "best_values",
+    "held_torso",
+    "map_regions",
+    "node_costs",
+    "program_options",
+    "reweighted",
+]

@@ -16,7 +16,7 @@ from placement.planning.problems import Option, Step
 from placement.planning.program.forward import Chain, Layer, Program, WholeTaskProgram, linked_steps, travel_bound
 from placement.planning.program.held_first import HeldFirst
 from placement.planning.program.priced_torso import settings_of, torso_regions, torso_reweighted, torso_term
-from placement.planning.program.regions import Group, Regions, held_torso, map_regions, reweighted
+from placement.planning.program.regions import Group, Regions, held_torso, map_regions, program_options, reweighted
 from placement.planning.program.repair import Verified
 from placement.planning.torso import option_collisions, option_map, option_robot, start_torso, torso_first
 from placement.planning.verification import CheckKey, TrajectoryIK, trajectory_ik
@@ -120,24 +120,25 @@ class DynamicProgram:
         step = ctx.problems.steps[i]
         group = self.regions[i].groups[g]
         opts = self.options(i, g)
-        order = sorted(
-            (k for k, o in enumerate(opts) if (o.arm, o.candidate.grasp) == group),
-            key=lambda k: -opts[k].value_at(iy, ix),
-        )
+        members = [k for k, o in enumerate(opts) if (o.arm, o.candidate.grasp) == group]
+        # each member's best value and yaw at the cell (the options may say only where they keep the threshold)
+        got, yaw_of = ctx.problems.exact_values([opts[k] for k in members], np.array([flat]))
+        value = {k: float(v) for k, v in zip(members, got[:, 0])}
+        best_yaw = {k: int(a) for k, a in zip(members, yaw_of[:, 0])}
+        order = sorted(members, key=lambda k: -value[k])
         order = [
             k
             for k in order
-            if opts[k].value_at(iy, ix) >= ctx.threshold(opts[k].arm, opts[k].torso)
-            and (hold is None or opts[k].torso == hold)
+            if value[k] >= ctx.threshold(opts[k].arm, opts[k].torso) and (hold is None or opts[k].torso == hold)
         ]
         found = None
         for k in torso_first(opts, order, self.torso):
             o = opts[k]
-            x, y, best = float(xs[ix]), float(ys[iy]), float(ctx.yaws[o.yaw_at(iy, ix)])
+            x, y, best = float(xs[ix]), float(ys[iy]), float(ctx.yaws[best_yaw[k]])
             face = facing_yaw(ctx, o, x, y, flat, best)
             tries: list[tuple[CheckKey, float, float]] = [] if face is None else [((i, hold, k, flat, True), *face)]
-            for ck, yaw, value in [*tries, ((i, hold, k, flat, False), best, o.value_at(iy, ix))]:
-                found = self._check(ck, step, o, k, (x, y, yaw), value)
+            for ck, yaw, value_k in [*tries, ((i, hold, k, flat, False), best, value[k])]:
+                found = self._check(ck, step, o, k, (x, y, yaw), value_k)
                 if found is not None:
                     break
             if found is not None:
@@ -206,8 +207,7 @@ class DynamicProgram:
     def options(self, i: int, g: int) -> list[Option]:
         """The options step i's group g is verified with (a ``Verified``'s index is into them): those
         at :meth:`setting`, or all of them."""
-        hold = self.setting(i, g)
-        return self.ctx.problems.options(i) if hold is None else self.ctx.problems.held_options(i, hold)
+        return program_options(self.ctx, i, self.setting(i, g))
 
     def torso_m(self, chain: Chain, i: int) -> float:
         """The torso term [m] in step i's label of ``chain`` (0 unless the program prices the torso)."""

@@ -107,16 +107,13 @@ def _group_best(dp: DynamicProgram, i: int, g: int, ys: np.ndarray, xs: np.ndarr
     group = dp.regions[i].groups[g]
     best = np.zeros(ys.size)
     yaw = np.full(ys.size, -1, dtype=np.int64)
-    for o in dp.options(i, g):
-        if (o.arm, o.candidate.grasp) != group:
-            continue
-        w = o.window
-        inside = (ys >= w.y0) & (ys < w.y1) & (xs >= w.x0) & (xs < w.x1)
-        v = np.zeros(ys.size)
-        v[inside] = o.value[ys[inside] - w.y0, xs[inside] - w.x0]
+    flats = ys * dp.ctx.world.nav.shape[1] + xs
+    members = [o for o in dp.options(i, g) if (o.arm, o.candidate.grasp) == group]
+    values, yaws = dp.ctx.problems.exact_values(members, flats)
+    for v, k in zip(values, yaws):
         better = v > best
         best[better] = v[better]
-        yaw[better & inside] = o.yaw_index[ys[better & inside] - w.y0, xs[better & inside] - w.x0]
+        yaw[better] = k[better]
     return best, yaw
 
 

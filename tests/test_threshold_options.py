@@ -1,0 +1,71 @@
+"""The whole-task program's options that say only where each keeps its threshold
+(``StepProblems.threshold_options``: the kernel stops at the first yaw keeping it) hold the same regions
+as the exact options, and ``exact_values`` gives every cell's best value and yaw as the exact options
+hold them: a plan verifies the same cells in the same order with either."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from placement.planning import Planner
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = [ROOT / "examples" / "table_clearing.yaml", ROOT / "examples" / "buildings" / "wrs_arena" / "tidy_up_ycb.yaml"]
+
+
+def _same(o):
+    """What an option and its threshold-only twin share."""
+    return o.arm, o.candidate.grasp, o.torso, o.window, o.blocked
+
+
+@pytest.mark.parametrize("scene", SCENES, ids=lambda p: p.stem)
+def test_threshold_options_keep_the_exact_regions_values_and_yaws(tiny_maps, scene):
+    rough = Planner(scene, "global", tiny_maps, warm=False).problems
+    exact = Planner(scene, "global", tiny_maps, warm=False).problems
+    checked = 0
+    for i in range(len(rough.steps)):
+        fast = rough.threshold_options(i)
+        full = exact.options(i)
+        assert len(fast) == len(full)
+        if rough.relaxed(i) < 1.0:  # no option keeps its threshold: the exact options are given
+            assert fast is rough.options(i)
+            continue
+        assert not any(o.exact for o in fast if o.blocked is None and o.value.size)
+        nx = rough.world.nav.shape[1]
+        for f, e in zip(fast, full):
+            assert _same(f) == _same(e)
+            np.testing.assert_array_equal(f.candidate.poses, e.candidate.poses)
+            thr = exact.option_threshold(e)
+            assert np.array_equal(f.value >= thr, e.value >= thr)
+            if not e.value.size:
+                continue
+            # every cell of the window, and cells off it (0 and -1 there)
+            local = np.arange(e.value.size)
+            flats = np.concatenate([e.window.to_global(local, nx), [0, rough.world.feasible.size - 1]])
+            values, yaws = rough.exact_values([f, e], flats)
+            expect_v = np.concatenate([e.value.ravel(), [0.0, 0.0]]).astype(np.float32)
+            expect_k = np.concatenate([e.yaw_index.ravel(), [-1, -1]]).astype(np.int64)
+            for v, k in zip(values, yaws):
+                np.testing.assert_array_equal(v, expect_v)
+                np.testing.assert_array_equal(k, expect_k)
+            checked += int((e.value >= thr).sum())
+    assert checked > 100
+
+
+def test_a_plan_from_threshold_options_is_the_plan_from_exact_options(tiny_maps):
+    """The default plans the same placements whether its steps' exact options were computed before
+    (by another method on the same planner) or not."""
+    scene = SCENES[1]
+    fresh = Planner(scene, "global", tiny_maps, warm=False)
+    first = fresh.plan()
+    primed = Planner(scene, "global", tiny_maps, warm=False)
+    for i in range(len(primed.problems.steps)):
+        primed.problems.options(i)  # every step's exact options, as `sequential` computes them
+    second = primed.plan()
+    assert [(s.status, s.arm, s.grasp, s.base) for s in first.steps] == [
+        (s.status, s.arm, s.grasp, s.base) for s in second.steps
+    ]
+    assert any(s.status == "ok" for s in first.steps)
