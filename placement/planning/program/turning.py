@@ -184,10 +184,16 @@ def time_cells(
 
         here_at = int(np.searchsorted(flats, cells[i]))
         current = float(cost(np.array([here_at]), np.array([chosen[i].base[2]]))[0])
-        ys, xs = np.divmod(flats, nx)
+        # the cost with no turn bounds it at every yaw: a cell whose legs alone take the current time
+        # is never tried (the tries below stop there), and needs no map value
+        floor = np.maximum(into / robot.v_max, arm_s[i])
+        if out_of is not None:
+            floor = floor + np.maximum(out_of / robot.v_max, arm_s[i + 1])
+        near = np.flatnonzero(np.isfinite(floor) & (floor < current - 1e-6))
+        ys, xs = np.divmod(flats[near], nx)
         value, yaw = _group_best(dp, i, g, ys, xs)
-        ok = np.flatnonzero((yaw >= 0) & np.isfinite(into) & (out_of is None or np.isfinite(out_of)))
-        predicted = cost(ok, ctx.yaws[yaw[ok]])
+        ok = near[yaw >= 0]
+        predicted = cost(ok, ctx.yaws[yaw[yaw >= 0]])
         for k in np.argsort(predicted, kind="stable")[:CELL_TRIES]:
             if predicted[k] >= current - 1e-6:
                 break
