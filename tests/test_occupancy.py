@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+
 import numpy as np
 import pytest
-from support.occupancy import EXPECTED, EXPECTED_NEGATE, write_map, write_pgm
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from support.occupancy import EXPECTED, EXPECTED_NEGATE, PIXELS, write_map, write_pgm
 
 from placement.errors import PlacementError
 from placement.scene.occupancy import (
@@ -54,6 +60,35 @@ def test_pgm_maxval_scales(tmp_path):
     assert load_occupancy_map(tmp_path / "m.yaml").occupied.tolist() == [[True, False, True]]
 
 
+@pytest.mark.parametrize("kind", ["P5", "P2"])
+def test_a_16_bit_pgm_is_the_map_of_its_8_bit_twin(kind, tmp_path):
+    """maxval 65535: two bytes per pixel, most significant first; each 8-bit value v scaled to
+    257 v (the same shade) gives the same map, and values between them shade by value / maxval."""
+    eight = write_map(tmp_path, kind=kind)
+    pixels = np.array(PIXELS, dtype=np.int64) * 257
+    write_pgm(tmp_path / "wide.pgm", pixels.tolist(), kind=kind, maxval=65535)
+    (tmp_path / "wide.yaml").write_text(eight.read_text().replace("floor.pgm", "wide.pgm"))
+    got, maxval = parse_pgm((tmp_path / "wide.pgm").read_bytes())
+    assert maxval == 65535 and got.dtype == np.uint16 and np.array_equal(got, pixels)
+    np.testing.assert_array_equal(load_occupancy_map(tmp_path / "wide.yaml").occupied, EXPECTED)
+    # 0.5 of the range: p = 0.5, between the thresholds: unknown (occupied); just below free_thresh: free
+    write_pgm(tmp_path / "wide.pgm", [[32767, 65535 - int(0.19 * 65535)]], kind=kind, maxval=65535)
+    (tmp_path / "wide.yaml").write_text("image: wide.pgm\nresolution: 1\norigin: [0, 0, 0]\n")
+    assert load_occupancy_map(tmp_path / "wide.yaml").occupied.tolist() == [[True, False]]
+
+
+def test_a_rotated_origin_is_read_as_nav2_reads_it(tmp_path, caplog):
+    """Nav2's costmap and AMCL place the image unrotated at the origin's x and y: the same map as with
+    yaw 0, and a warning naming the file and the yaw."""
+    flat = load_occupancy_map(write_map(tmp_path, origin=[1.0, 2.0, 0.0]))
+    with caplog.at_level("WARNING"):
+        turned = load_occupancy_map(write_map(tmp_path, origin=[1.0, 2.0, 0.3]))
+    np.testing.assert_array_equal(turned.occupied, flat.occupied)
+    assert turned.origin == flat.origin == (1.0, 2.0, 0.0)
+    assert "origin yaw 0.3 rad ignored, as Nav2's costmap and AMCL ignore it" in caplog.text
+    assert "floor.yaml" in caplog.text
+
+
 @pytest.mark.parametrize(
     "data, message",
     [
@@ -62,9 +97,11 @@ def test_pgm_maxval_scales(tmp_path):
         (b"P5\n4 3\n", "header ends early"),
         (b"P5\n4 x3\n255\n" + bytes(12), "header field b'x3' is not a positive integer"),
         (b"P5\n0 3\n255\n", "size 0 x 3"),
-        (b"P5\n2 1\n65535\n" + bytes(4), "16-bit) PGM is not supported"),
+        (b"P5\n2 1\n65535\n" + bytes(3), "raster truncated: 3 bytes for 2 x 1 = 2 pixels of 2 bytes"),
+        (b"P5\n2 1\n65536\n" + bytes(4), "maxval 65536 (1 .. 65535)"),
+        (b"P2\n2 1\n1000\n1 10000\n", "more than 4 digits exceeds maxval 1000"),
         (b"P6\n1 1\n255\n" + bytes(3), "not a PGM image"),
-        (b"\x89PNG\r\n\x1a\n", "PNG images are not supported"),
+        (b"\x89PNG\r\n\x1a\n", "a PNG image, not a PGM"),
         (b"P2\n2 2\n255\n1 2 3\n", "3 values for 2 x 2 = 4 pixels"),
         (b"P2\n2 1\n100\n1 200\n", "pixel value 200 exceeds maxval 100"),
         (b"P2\n2 1\n255\n1 -2\n", "not a non-negative integer"),
@@ -80,7 +117,6 @@ def test_malformed_pgm(data, message):
 @pytest.mark.parametrize(
     "overrides, message",
     [
-        ({"origin": [1.0, 2.0, 0.3]}, "origin yaw 0.3 rad is not supported yet"),
         ({"image": "missing.pgm"}, "image 'missing.pgm' not found"),
         ({"image": None}, "missing key 'image'"),
         ({"resolution": 0}, "'resolution' must be > 0"),
@@ -146,3 +182,29 @@ def test_rasterize_occupancy_outside_is_occupied_when_asked():
                 bool,
             ),
         )
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    data=st.data(),
+    maxval=st.sampled_from([1, 15, 255, 256, 1000, 65535]),
+    kind=st.sampled_from(["P5", "P2"]),
+    shape=st.tuples(st.integers(1, 6), st.integers(1, 6)),
+)
+def test_any_pgm_parses_to_its_pixels(data, maxval, kind, shape):
+    """Random rasters of any maxval (one byte per pixel up to 255, two above) come back as written."""
+    pixels = data.draw(arrays(np.int64, shape, elements=st.integers(0, maxval)))
+    with tempfile.TemporaryDirectory() as tmp:
+        got, top = parse_pgm(write_pgm(Path(tmp) / "m.pgm", pixels.tolist(), kind=kind, maxval=maxval).read_bytes())
+    assert top == maxval and got.dtype == (np.uint16 if maxval > 255 else np.uint8)
+    np.testing.assert_array_equal(got, pixels)
+
+
+def test_a_16_bit_pgm_pillow_writes_parses_to_its_pixels(tmp_path):
+    """An independent writer: Pillow's 16-bit PGM of random grey values."""
+    Image = pytest.importorskip("PIL.Image")
+    values = np.random.default_rng(5).integers(0, 65536, (7, 9)).astype(np.uint16)
+    Image.fromarray(values).save(tmp_path / "m.pgm")  # mode I;16: P5 with maxval 65535
+    got, top = parse_pgm((tmp_path / "m.pgm").read_bytes())
+    assert top == 65535
+    np.testing.assert_array_equal(got, values)

@@ -25,10 +25,11 @@ it, and :mod:`placement.scene.masks` gives them their meaning.
 
 The image is stored top row first (the top row is the largest y); :class:`OccupancyMap` flips it so
 that row 0 is the lowest y, like every other planar grid of the package (row = y, column = x).
-PGM images (binary ``P5`` and plain ``P2``, maxval <= 255) are read with numpy alone, PNG, BMP and
+PGM images (binary ``P5`` and plain ``P2``, 8-bit or 16-bit) are read with numpy alone, PNG, BMP and
 the other formats map_server reads through Pillow (:mod:`placement.scene.map_images`: colour
-channels averaged, transparency as map_server reads it); a rotated origin (yaw != 0) is rejected
-(not supported yet).
+channels averaged, transparency as map_server reads it). A rotated origin (yaw != 0): map_server
+publishes it, but Nav2's costmap and AMCL place the image unrotated at the origin's x and y, and so
+the robot localises in that frame; the planner does the same, and a warning says so.
 """
 
 from __future__ import annotations
@@ -206,7 +207,8 @@ def load_occupancy_map(
     (open at ``unknown_cost`` times a free cell's travel cost); ``arm_height``: see
     :class:`OccupancyMap` [m].
     Raises :class:`OccupancyMapError` for a missing or malformed YAML or image, an unsupported
-    mode or image format, or a rotated origin (yaw != 0, not supported yet).
+    mode or image format. A rotated origin (yaw != 0) is read as Nav2's costmap and AMCL read it: the
+    image unrotated at the origin's x and y (a warning says so).
     """
     if unknown not in UNKNOWN_POLICIES:
         raise OccupancyMapError(f"unknown cells may be {' or '.join(UNKNOWN_POLICIES)}, got {show(unknown)}")
@@ -252,9 +254,14 @@ def load_map_image(path: str | Path) -> MapImage:
     if not isinstance(origin, list) or len(origin) != 3:
         raise OccupancyMapError(f"{where}: 'origin' must be [x, y, yaw] (3 finite numbers), got {show(origin)}")
     ox, oy, oyaw = (_number({"origin": v}, "origin", where, -MAX_COORD, MAX_COORD) for v in origin)
-    if oyaw != 0.0:
-        raise OccupancyMapError(
-            f"{where}: origin yaw {oyaw} rad is not supported yet (only 0); rotate the image instead"
+    if oyaw != 0.0:  # map_server publishes it; Nav2's costmap and AMCL place the image unrotated
+        log.warning(
+            "%s: origin yaw %g rad ignored, as Nav2's costmap and AMCL ignore it: the image lies unrotated with "
+            "its lower-left corner at (%g, %g)",
+            where,
+            oyaw,
+            ox,
+            oy,
         )
     negate = doc.get("negate", 0)
     if isinstance(negate, float) or negate not in (0, 1):

@@ -1,17 +1,22 @@
-"""8-bit PGM images (binary ``P5`` and plain ``P2``), the images of ROS occupancy maps, decoded with
-numpy alone: the header is checked against the size bounds before the raster is read or anything is
-allocated for it."""
+"""PGM images (binary ``P5`` and plain ``P2``, 8-bit or 16-bit), the images of ROS occupancy maps,
+decoded with numpy alone: the header is checked against the size bounds before the raster is read or
+anything is allocated for it. A maxval above 255 stores two bytes per pixel, the most significant
+first (the Netpbm format); ``nav2_map_server`` shades such a pixel by its value over maxval too."""
 
 from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from placement.errors import PlacementError
 from placement.validation import read_regular
+
+#: Largest maxval of a PGM (Netpbm: below 65536; above 255, two bytes per pixel).
+MAX_MAXVAL = 65535
 
 #: Bounds checked before anything is allocated: the image's pixels (a binary P5 image; a plain P2 one
 #: is text parsed in Python, so it gets fewer).
@@ -36,12 +41,10 @@ def _pgm_header(data: bytes, name: str) -> tuple[bytes, int, int, int, int]:
     """(magic, width, height, maxval, offset of the byte after maxval) of a PGM, checked against the
     size bounds; raises :class:`OccupancyMapError` naming ``name``."""
     if data[:4] == b"\x89PNG":
-        raise OccupancyMapError(f"{name}: PNG images are not supported; convert the map to an 8-bit PGM (P5 or P2)")
+        raise OccupancyMapError(f"{name}: a PNG image, not a PGM (read_map_image reads both)")
     magic = data[:2]
     if magic not in (b"P5", b"P2"):
-        raise OccupancyMapError(
-            f"{name}: not a PGM image (magic {magic!r}, expected b'P5' or b'P2'); only 8-bit PGM maps are supported"
-        )
+        raise OccupancyMapError(f"{name}: not a PGM image (magic {magic!r}, expected b'P5' or b'P2')")
     # header: magic, width, height, maxval, separated by whitespace and '#' comments
     pos = 2
     fields: list[int] = []
@@ -74,12 +77,8 @@ def _pgm_header(data: bytes, name: str) -> tuple[bytes, int, int, int, int]:
     width, height, maxval = fields
     if width < 1 or height < 1:
         raise _malformed(name, f"size {width} x {height}")
-    if not 1 <= maxval <= 255:
-        if maxval > 255:
-            raise OccupancyMapError(
-                f"{name}: {maxval + 1}-level (16-bit) PGM is not supported; only 8-bit (maxval <= 255)"
-            )
-        raise _malformed(name, f"maxval {maxval}")
+    if not 1 <= maxval <= MAX_MAXVAL:
+        raise _malformed(name, f"maxval {maxval} (1 .. {MAX_MAXVAL})")
     limit = MAX_IMAGE_PIXELS if magic == b"P5" else MAX_PLAIN_PIXELS
     if width * height > limit:
         raise OccupancyMapError(
@@ -90,24 +89,30 @@ def _pgm_header(data: bytes, name: str) -> tuple[bytes, int, int, int, int]:
     return magic, width, height, maxval, pos
 
 
-def parse_pgm(data: bytes, name: str = "image") -> tuple[npt.NDArray[np.uint8], int]:
-    """Decode an 8-bit PGM (binary ``P5`` or plain ``P2``) of at most :data:`MAX_IMAGE_PIXELS` pixels
-    (:data:`MAX_PLAIN_PIXELS` for ``P2``).
+def parse_pgm(data: bytes, name: str = "image") -> tuple[npt.NDArray[np.unsignedinteger[Any]], int]:
+    """Decode a PGM (binary ``P5`` or plain ``P2``, maxval up to 65535) of at most
+    :data:`MAX_IMAGE_PIXELS` pixels (:data:`MAX_PLAIN_PIXELS` for ``P2``).
 
-    Returns ``(pixels, maxval)``: pixels (height, width) uint8 in file order (top row first).
-    Raises :class:`OccupancyMapError` naming ``name`` for anything malformed or unsupported.
+    Returns ``(pixels, maxval)``: pixels (height, width) in file order (top row first), uint8 for a
+    maxval up to 255, else uint16. Raises :class:`OccupancyMapError` naming ``name`` for anything
+    malformed or unsupported.
     """
     magic, width, height, maxval, pos = _pgm_header(data, name)
     n = width * height
+    wide = maxval > 255
     if magic == b"P5":
         if pos >= len(data) or data[pos : pos + 1] not in (b" ", b"\t", b"\n", b"\r", b"\x0b", b"\x0c"):
             raise _malformed(name, "no whitespace between maxval and the raster")
         raster = memoryview(data)[pos + 1 :]
-        if len(raster) < n:
-            raise _malformed(name, f"raster truncated: {len(raster)} bytes for {width} x {height} = {n} pixels")
-        if bytes(raster[n:]).strip(_WS):
-            raise _malformed(name, f"{len(raster) - n} bytes of trailing data after the raster")
-        pixels: np.ndarray = np.frombuffer(raster, dtype=np.uint8, count=n).reshape(height, width).copy()
+        size = 2 * n if wide else n
+        if len(raster) < size:
+            raise _malformed(
+                name, f"raster truncated: {len(raster)} bytes for {width} x {height} = {n} pixels of {size // n} bytes"
+            )
+        if bytes(raster[size:]).strip(_WS):
+            raise _malformed(name, f"{len(raster) - size} bytes of trailing data after the raster")
+        kind = np.dtype(">u2") if wide else np.dtype(np.uint8)
+        pixels: np.ndarray = np.frombuffer(raster, dtype=kind, count=n).reshape(height, width).copy()
     else:
         text = re.sub(rb"#[^\n]*", b" ", data[pos:])
         tokens = text.split()
@@ -115,25 +120,26 @@ def parse_pgm(data: bytes, name: str = "image") -> tuple[npt.NDArray[np.uint8], 
             raise _malformed(name, f"{len(tokens)} values for {width} x {height} = {n} pixels")
         if not all(t.isdigit() for t in tokens):
             raise _malformed(name, "the raster holds a value that is not a non-negative integer")
-        if any(len(t) > 3 for t in tokens):
-            raise _malformed(name, f"a pixel value of more than 3 digits exceeds maxval {maxval}")
+        digits = len(str(maxval))
+        if any(len(t) > digits for t in tokens):
+            raise _malformed(name, f"a pixel value of more than {digits} digits exceeds maxval {maxval}")
         values = np.array([int(t) for t in tokens], dtype=np.int64)
         pixels = values.reshape(height, width)
     if pixels.max(initial=0) > maxval:
         raise _malformed(name, f"pixel value {int(pixels.max())} exceeds maxval {maxval}")
-    return pixels.astype(np.uint8), maxval
+    return pixels.astype(np.uint16 if wide else np.uint8), maxval
 
 
-def read_pgm(path: str | Path) -> tuple[npt.NDArray[np.uint8], int]:
-    """Read an 8-bit PGM file: ``(pixels (height, width) uint8, top row first, maxval)``.
+def read_pgm(path: str | Path) -> tuple[npt.NDArray[np.unsignedinteger[Any]], int]:
+    """Read a PGM file: ``(pixels (height, width) uint8 or uint16, top row first, maxval)``.
 
     Only a regular file is read, and its header first: an image over the pixel bounds is refused
     before its raster is read or anything is allocated for it."""
     path = Path(path)
     head = read_regular(path, OccupancyMapError, f"image {path}", 2**62, "image", prefix=_HEADER_BYTES)
-    magic, width, height, _, pos = _pgm_header(head, str(path))
+    magic, width, height, maxval, pos = _pgm_header(head, str(path))
     n = width * height
-    most = pos + 1 + n + _HEADER_BYTES if magic == b"P5" else pos + 8 * n + 2**20
+    most = pos + 1 + (2 if maxval > 255 else 1) * n + _HEADER_BYTES if magic == b"P5" else pos + 8 * n + 2**20
     try:
         data = read_regular(path, OccupancyMapError, f"image {path}", most, "image")
     except OccupancyMapError as exc:

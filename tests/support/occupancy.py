@@ -16,10 +16,10 @@ EXPECTED_NEGATE = np.array([[True, True, True, False], [True, False, True, True]
 
 def write_pgm(path, pixels=PIXELS, kind="P5", maxval=255):
     h, w = len(pixels), len(pixels[0])
-    if kind == "P5":
-        path.write_bytes(
-            f"P5\n# written by the test\n{w} {h}\n{maxval}\n".encode() + bytes(v for row in pixels for v in row)
-        )
+    if kind == "P5":  # above maxval 255: two bytes per pixel, most significant first
+        width = 2 if maxval > 255 else 1
+        raster = b"".join(int(v).to_bytes(width, "big") for row in pixels for v in row)
+        path.write_bytes(f"P5\n# written by the test\n{w} {h}\n{maxval}\n".encode() + raster)
     else:
         body = "\n".join(" ".join(str(v) for v in row) for row in pixels)
         path.write_text(f"P2\n# plain PGM\n{w} {h}\n# maxval next\n{maxval}\n{body}\n")
