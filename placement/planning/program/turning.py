@@ -101,20 +101,19 @@ def _arm_seconds(dp: DynamicProgram, steps: Sequence[StepResult]) -> list[float]
     return [x["arm_s"] for x in steps_seconds(dp.ctx.robot, steps, float(dp.ctx.scene.start[2]))]
 
 
-def _group_best(dp: DynamicProgram, i: int, g: int, ys: np.ndarray, xs: np.ndarray) -> tuple[FloatArray, np.ndarray]:
-    """The best map value over step i's options of group g at cells (ys, xs), and that option's best
-    yaw index there (-1 where none reaches)."""
+def _group_best(dp: DynamicProgram, i: int, g: int, flats: np.ndarray) -> np.ndarray:
+    """(n,) the base yaw index of the best map value over step i's options of group g at each flat
+    cell of ``flats`` (n,) (-1 where none reaches)."""
     group = dp.regions[i].groups[g]
-    best = np.zeros(ys.size)
-    yaw = np.full(ys.size, -1, dtype=np.int64)
-    flats = ys * dp.ctx.world.nav.shape[1] + xs
+    best = np.zeros(flats.size, np.float32)
+    yaw = np.full(flats.size, -1, dtype=np.int64)
     members = [o for o in dp.options(i, g) if (o.arm, o.candidate.grasp) == group]
     values, yaws = dp.ctx.problems.exact_values(members, flats)
-    for v, k in zip(values, yaws):
+    for v, k in zip(values, yaws):  # the first option of an equal value keeps the cell, as before
         better = v > best
         best[better] = v[better]
         yaw[better] = k[better]
-    return best, yaw
+    return yaw
 
 
 def _leg_seconds(
@@ -190,8 +189,7 @@ def time_cells(
         if out_of is not None:
             floor = floor + np.maximum(out_of / robot.v_max, arm_s[i + 1])
         near = np.flatnonzero(np.isfinite(floor) & (floor < current - 1e-6))
-        ys, xs = np.divmod(flats[near], nx)
-        value, yaw = _group_best(dp, i, g, ys, xs)
+        yaw = _group_best(dp, i, g, flats[near])
         ok = near[yaw >= 0]
         predicted = cost(ok, ctx.yaws[yaw[yaw >= 0]])
         for k in np.argsort(predicted, kind="stable")[:CELL_TRIES]:
