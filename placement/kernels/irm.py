@@ -93,12 +93,9 @@ def trajectory_maps(
     K = base_yaws.shape[0]
     cs = np.empty(K)
     sn = np.empty(K)
-    # the rotation scaled to map cells: a product where a division per lookup cost a sixth of the time
     for k in range(K):
-        cs[k] = math.cos(base_yaws[k]) / rm_res
-        sn[k] = math.sin(base_yaws[k]) / rm_res
-    ox = rm_origin[0] / rm_res
-    oy = rm_origin[1] / rm_res
+        cs[k] = math.cos(base_yaws[k])
+        sn[k] = math.sin(base_yaws[k])
     # per group: where its yaws and its yaw bins (K, P, C) start
     yaw_start = np.zeros(G + 1, dtype=np.int64)
     for g in range(G):
@@ -158,8 +155,8 @@ def trajectory_maps(
                     s = sn[k]
                     v1 = np.float32(np.inf)
                     for p in range(P):
-                        jx = int(math.floor(co * pdx[p] + s * pdy[p] - ox))
-                        jy = int(math.floor(-s * pdx[p] + co * pdy[p] - oy))
+                        jx = int(math.floor(((co * pdx[p] + s * pdy[p]) - rm_origin[0]) / rm_res))
+                        jy = int(math.floor(((-s * pdx[p] + co * pdy[p]) - rm_origin[1]) / rm_res))
                         if jx < 0 or jy < 0 or jx >= nxr or jy >= nyr:
                             v1 = np.float32(0.0)  # unreachable: 0, never above the best
                             break
@@ -194,8 +191,10 @@ def trajectory_maps(
                     sl = pose_slice[p0 + p]
                     dx = pose_x[p0 + p] - bx
                     dy = pose_y[p0 + p] - by
-                    jx = int(math.floor(co * dx + s * dy - ox))
-                    jy = int(math.floor(-s * dx + co * dy - oy))
+                    xr = co * dx + s * dy
+                    yr = -s * dx + co * dy
+                    jx = int(math.floor((xr - rm_origin[0]) / rm_res))
+                    jy = int(math.floor((yr - rm_origin[1]) / rm_res))
                     if jx < 0 or jy < 0 or jx >= nxr or jy >= nyr:
                         left = 0  # unreachable for all: m would be 0, never above best
                         break

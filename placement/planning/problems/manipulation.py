@@ -363,15 +363,13 @@ def yaw_values(
     out = np.full((bx.size, yaws.size), np.inf, np.float32)
     if len(keys) < len(poses):
         return np.zeros_like(out)
-    # scaled to map cells as the kernel scales them (the same products, the same bins)
-    cs, sn = np.cos(yaws)[None] / g.resolution, np.sin(yaws)[None] / g.resolution
-    ox, oy = g.origin[0] / g.resolution, g.origin[1] / g.resolution
+    cs, sn = np.cos(yaws)[None], np.sin(yaws)[None]
     n_yaw = g.shape[3]
     for pose, key in zip(poses, keys):
         sl = rmap.slice(*key)
         dx, dy = pose[0, 3] - bx[:, None], pose[1, 3] - by[:, None]
-        jx = np.floor(cs * dx + sn * dy - ox).astype(np.int64)
-        jy = np.floor(-sn * dx + cs * dy - oy).astype(np.int64)
+        jx = np.floor((cs * dx + sn * dy - g.origin[0]) / g.resolution).astype(np.int64)
+        jy = np.floor((-sn * dx + cs * dy - g.origin[1]) / g.resolution).astype(np.int64)
         tcp_yaw = zyx_angles(pose)[0]
         jb = np.mod(np.floor((tcp_yaw - yaws) * (n_yaw / (2 * math.pi)) + 0.5).astype(np.int64), n_yaw)
         inside = (jx >= 0) & (jy >= 0) & (jx < sl.shape[0]) & (jy < sl.shape[1])
