@@ -59,3 +59,25 @@ def test_the_heuristic_is_its_plain_definition(seed):
         assert np.isinf(got[~targets]).all()
     else:
         assert (got == 0).all()
+
+
+def test_the_cached_heuristic_holds_values_on_every_cell_asked_for(tiny_maps):
+    """A pick planned again with other grasps reads the next step's heuristic on other cells: the
+    cached costs (computed on the first cells only, inf elsewhere) are computed again over both, and
+    equal the whole map's on each cell asked for (the step-by-step methods called a re-planned pick
+    unreachable)."""
+    from pathlib import Path
+
+    from placement.planning import Planner
+
+    scene = Path(__file__).resolve().parents[1] / "examples" / "table_clearing.yaml"
+    problems = Planner(scene, "sequential", tiny_maps, warm=False).problems
+    whole = problems.heuristic(1)
+    finite = np.flatnonzero(np.isfinite(whole) & (whole > 0))
+    assert finite.size > 20
+    first, second = np.zeros(whole.shape, bool), np.zeros(whole.shape, bool)
+    first.flat[finite[: finite.size // 2]] = True
+    second.flat[finite[finite.size // 2 :]] = True
+    for at in (first, second, first):
+        got = problems.heuristic(1, at)
+        np.testing.assert_allclose(got[at], whole[at], rtol=1e-12, atol=0)

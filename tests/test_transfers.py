@@ -385,3 +385,56 @@ def test_the_viewer_refuses_a_plan_whose_place_changes_the_grasp(maps_dir, tmp_p
     path.write_text(json.dumps(doc))
     with pytest.raises(PlanFileError, match=r"steps\[1\]: placed by arm \w+ with grasp top(-flipped)?, picked by"):
         load_checked_plan(path, scene)
+
+
+BOARD_AND_BIN = """
+version: 2
+resolution: 0.05
+bounds: [0, 0, 5, 4]
+robot: {preset: pr2, start: [2.5, 0.8, 0.0]}
+obstacles:
+  - {name: pick_table, table: true, box: {center: [1.5, 2.0, 0.375], size: [0.6, 0.6, 0.75]}}
+  # a board over the cup: a hand from above meets it
+  - {name: board, box: {center: [1.5, 2.0, 0.99], size: [0.6, 0.6, 0.04]}}
+  - {name: place_table, table: true, box: {center: [3.5, 2.0, 0.375], size: [0.6, 0.6, 0.75]}}
+  # a bin on the place table, its walls 0.06 .. 0.16 m from the place: only a hand from above fits
+  - {name: wall_e, box: {center: [3.61, 2.0, 0.85], size: [0.10, 0.32, 0.20]}}
+  - {name: wall_w, box: {center: [3.39, 2.0, 0.85], size: [0.10, 0.32, 0.20]}}
+  - {name: wall_n, box: {center: [3.5, 2.11, 0.85], size: [0.12, 0.10, 0.20]}}
+  - {name: wall_s, box: {center: [3.5, 1.89, 0.85], size: [0.12, 0.10, 0.20]}}
+objects:
+  - name: cup
+    position: [1.5, 2.0, 0.85]
+    yaw: 0.0
+    size: [0.06, 0.06, 0.20]
+    grasps:
+      - name: top
+        poses: [[0.0, 0.0, 0.16, 0.70710678, 0.70710678, 0.0, 0.0], [0.0, 0.0, 0.06, 0.70710678, 0.70710678, 0.0, 0.0]]
+      - name: side
+        poses:
+          - [0.13, 0.0, 0.0, 0.704415463, -0.061634853, -0.704415463, 0.061634853]
+          - [0.03, 0.0, 0.0, 0.704415463, -0.061634853, -0.704415463, 0.061634853]
+place_locations:
+  - {name: bin, position: [3.5, 2.0, 0.85]}
+task:
+  - {pick: cup, place: bin}
+"""
+
+
+@pytest.mark.parametrize("method", ["global", "optimal", "sequential", "single-step"])
+def test_a_place_no_grasp_of_the_pick_fits_names_the_transfer_at_the_place(maps_dir, tmp_path, method):
+    """The board lets only a side grasp pick the cup; the bin's walls let only a top grasp set it
+    down. Every method keeps the verified pick and names the place: no grasp that picks it sets it
+    down there, because the gripper meets the bin's walls at every place pose (the step-by-step
+    methods said the pick's gripper hit the board; the whole-task ones gave no reason per grasp)."""
+    (tmp_path / "bin.yaml").write_text(BOARD_AND_BIN)
+    planner = Planner(tmp_path / "bin.yaml", method, maps_dir)
+    result = planner.plan()
+    pick, place = result.steps
+    assert pick.ok and pick.grasp == "side", getattr(pick, "reason", "")
+    assert result.verify(planner.robot, scene=planner.scene) == []
+    assert not place.ok and place.step == 1
+    assert place.reason.startswith("no grasp of 'cup' lets the arm that picks it set it down at 'bin'")
+    assert "grasp side: the gripper collides at every place pose" in place.reason and " vs wall_" in place.reason
+    transfers = place.diagnosis["transfers"]
+    assert {t["grasp"] for t in transfers} == {"side"} and all("vs wall_" in t["failed"] for t in transfers)

@@ -50,6 +50,7 @@ import logging
 import math
 import time
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -58,6 +59,7 @@ from placement.planning.context import BudgetSpent, PlanningContext
 from placement.planning.methods.base import Method
 from placement.planning.methods.explain import NO_PATH, diagnosed, explain, no_path_hint
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
+from placement.planning.methods.transfer_words import transfer_diagnosis, transfer_reason
 from placement.planning.program import (
     Chain,
     DynamicProgram,
@@ -296,7 +298,7 @@ def why_not(ctx: PlanningContext, dp: DynamicProgram) -> InfeasibleStep:
         return diagnosed(ctx, step, opts, NO_PATH, no_path_hint(full.size, 0))
     ik, hits, culprit = ctx.problems.checks.tally(i)
     how = f"{ik + hits} checks: {ik} failed IK, {hits} in collision" + (f", mostly {culprit}" if culprit else "")
-    facts = {"tried": ik + hits, "ik_failures": ik, "collision_failures": hits, "culprit": culprit}
+    facts: dict[str, Any] = {"tried": ik + hits, "ik_failures": ik, "collision_failures": hits, "culprit": culprit}
     if dp.rejected[i] and not dp.regions[i].any():
         reason = f"IK or the collision check rejected all {dp.rejected[i]} placements the maps allow ({how})"
         return diagnosed(ctx, step, opts, reason, "another grasp, or room around the target, would help", facts)
@@ -308,13 +310,16 @@ def why_not(ctx: PlanningContext, dp: DynamicProgram) -> InfeasibleStep:
         )
         rest = "; the others lie where the footprint cannot drive" if full.size > driven else ""
         return diagnosed(ctx, step, opts, reason, no_path_hint(full.size, driven) + rest, facts)
-    if dp.linked[i]:
-        reason = (
-            f"no arm and grasp that picks '{step.carries}' reaches '{step.target}' "
-            f"(a transfer keeps the arm and the grasp; {dp.rejected[i - 1] + dp.rejected[i]} placements "
-            "rejected by IK or the collision check)"
-        )
-        return diagnosed(ctx, step, opts, reason, "another place for the object, or more grasps, would help")
+    if dp.linked[i]:  # per pair that picks: what stops it at the place (the step-by-step methods' words)
+        pick = steps[i - 1]
+        places = {g for g, m in zip(dp.full[i].groups, dp.full[i].masks) if m.any()}
+        rejected = f"IK or the collision check rejected the placements the maps allow ({how})"
+        failed = {
+            g: (rejected if g in places else "") for g, m in zip(dp.full[i - 1].groups, dp.full[i - 1].masks) if m.any()
+        }
+        reason = transfer_reason(ctx, pick, step, failed, opts)
+        facts["transfers"] = transfer_diagnosis(failed, opts)
+        return diagnosed(ctx, step, opts, reason, "another place for the object, or more grasps, would help", facts)
     reason = "no chain of placements of the steps before reaches a placement of this step"
     return diagnosed(ctx, step, opts, reason, no_path_hint(full.size, driven))
 

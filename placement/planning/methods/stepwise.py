@@ -21,13 +21,11 @@ from placement.planning.methods.explain import NO_PATH, diagnosed, explain, no_p
 from placement.planning.methods.outcomes import infeasible, placed, unreachable_reason
 from placement.planning.methods.ranking import Ranked, combined_map
 from placement.planning.methods.search import search_placement
+from placement.planning.methods.transfer_words import Pair, excluded_words, transfer_diagnosis, transfer_reason
 from placement.planning.problems import Option, Step, per_arm_values
 from placement.planning.results import InfeasibleStep, PlacedStep, StepMaps, StepResult
 from placement.planning.torso import held_setting, start_torso, torso_seconds
 from placement.planning.world import costs_at, extract_path, navigation_cost
-
-#: An (arm, grasp) pair a transfer commits to.
-Pair = tuple[str, str | None]
 
 
 @dataclass(frozen=True)
@@ -123,8 +121,10 @@ def plan_transfer(
     object (:meth:`StepProblems.pairs`); the place then uses the pick's pair only. When that place
     does not verify, the pick is planned again without the pair, until a pair verifies both or
     none is left: the place step is then infeasible after the last pick verified (the pick step when
-    none was), and its reason says, per arm and grasp, what failed at which place. Returns the pick's
-    and the place's results (the pick's alone when it is infeasible) and the place's cell."""
+    none was), and its reason says, per arm and grasp, what failed at which place
+    (:mod:`.transfer_words`). When no pair the place allows picks but another pair does, that pick is
+    kept and the place is the step that fails. Returns the pick's and the place's results (the
+    pick's alone when it is infeasible) and the place's cell."""
     problems = ctx.problems
     t0 = time.perf_counter()
     picks = {(o.arm, o.candidate.grasp) for o in problems.options(pick.index)}
@@ -143,6 +143,20 @@ def plan_transfer(
         reason, diagnosis = explain(place_ctx, False, place, opts, None, unreachable_reason(place_ctx, opts))
         return [first, infeasible(place, reason, diagnosis)], None
     picked: StepResult | None = None  # the last pick verified (its place then failed)
+
+    def no_transfer(at_pick: bool) -> InfeasibleStep:
+        """The place (the pick, ``at_pick``, when no pick verified) infeasible: no pair does both."""
+        step = pick if at_pick else place
+        opts = problems.options(place.index)
+        return InfeasibleStep(
+            step.index,
+            step.action,
+            step.target,
+            reason=transfer_reason(ctx, pick, place, failed, opts),
+            diagnosis={"place": place.target, "transfers": transfer_diagnosis(failed, opts)},
+            timings_ms={"total": (time.perf_counter() - t0) * 1e3},
+        )
+
     while True:
         allowed = picks - failed.keys()
         if failed and ctx.out_of_budget():
@@ -150,19 +164,22 @@ def plan_transfer(
         if not allowed:
             # every pair picked failed at the place: the place is what fails (as the whole-task methods
             # say), after the last pick verified; else the pick itself
-            step = pick if picked is None else place
-            result = InfeasibleStep(
-                step.index,
-                step.action,
-                step.target,
-                reason=transfer_reason(ctx, pick, place, failed),
-                diagnosis={"place": place.target, "transfers": transfer_diagnosis(failed)},
-                timings_ms={"total": (time.perf_counter() - t0) * 1e3},
-            )
-            return ([result] if picked is None else [picked, result]), None
+            return ([picked] if picked is not None else []) + [no_transfer(picked is None)], None
         first, cell = plan_step(ctx, method, pick, holding, keep_maps, allowed)
         if not first.ok or cell is None:
-            if failed and not first.ok:
+            if failed and not first.ok and first.tried == 0:
+                # no pair the place allows picks (the gripper or the maps rule them out): when a pair the
+                # place rules out picks, what truly fails is the transfer, at the place (as the
+                # whole-task methods say), after that pick
+                alone, _ = plan_step(ctx, method, pick, holding, keep_maps, set(failed))
+                if alone.ok:
+                    return [alone.timed(total=(time.perf_counter() - t0) * 1e3), no_transfer(False)], None
+                first = replace(
+                    first,
+                    reason=f"{first.reason} (and {excluded_words(failed)}, which cannot set '{pick.target}' down at "
+                    f"'{place.target}': {alone.reason})",
+                )
+            elif failed and not first.ok:
                 first = replace(
                     first,
                     reason=first.reason
@@ -178,41 +195,6 @@ def plan_transfer(
             return [first.timed(total=(t1 - t0) * 1e3, manipulation=manipulation), second], cell
         failed[pair] = second.reason or "infeasible"
         picked = first.timed(total=(t1 - t0) * 1e3)
-
-
-def excluded_words(failed: Mapping[Pair, str]) -> str:
-    """ "arm left: top, top-flipped; arm right: top" for the (arm, grasp) pairs of ``failed``."""
-    arms: dict[str, list[str]] = {}
-    for arm, grasp in sorted(failed, key=lambda p: (p[0], str(p[1]))):
-        arms.setdefault(arm, []).append(str(grasp))
-    return "; ".join(f"arm {a}: {', '.join(g)}" for a, g in arms.items())
-
-
-def transfer_reason(ctx: PlanningContext, pick: Step, place: Step, failed: Mapping[Pair, str]) -> str:
-    """Why no (arm, grasp) of ``pick`` sets its object down at ``place``, in one line."""
-    unreached = {p: r for p, r in failed.items() if not r}
-    tried = {p: r for p, r in failed.items() if r}
-    parts = []
-    if unreached:
-        arms = sorted({a for a, _ in unreached})
-        parts.append(
-            f"{excluded_words(unreached)}: no base placement reaches a place pose with the map threshold "
-            + ", ".join(ctx.threshold_words(a) + (f" (arm {a})" if len(arms) > 1 else "") for a in arms)
-        )
-    for p, r in tried.items():
-        parts.append(f"arm {p[0]}, grasp {p[1]}: picked, but the place failed: {r}")
-    return (
-        f"no grasp of '{pick.target}' lets the arm that picks it set it down at '{place.target}' "
-        f"(a transfer keeps the arm and the grasp): {'; '.join(parts)}"
-    )
-
-
-def transfer_diagnosis(failed: Mapping[Pair, str]) -> list[dict[str, str | None]]:
-    """Per (arm, grasp) pair: why its place failed (JSON)."""
-    return [
-        {"arm": a, "grasp": g, "failed": r or "no place pose keeps the map threshold"}
-        for (a, g), r in sorted(failed.items(), key=lambda kv: (kv[0][0], str(kv[0][1])))
-    ]
 
 
 def plan_step(
@@ -333,4 +315,4 @@ def torso_ranked(
     return out
 
 
-__all__ = ["Holding", "StepwiseMethod", "excluded_words", "plan_step", "plan_stepwise", "plan_transfer"]
+__all__ = ["Holding", "StepwiseMethod", "plan_step", "plan_stepwise", "plan_transfer"]

@@ -100,6 +100,8 @@ class StepProblems:
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
+        # step -> the cells its heuristic for given cells holds values on (the others are inf)
+        self._heuristic_at: dict[int, BoolArray] = {}
         self._reachable: BoolArray | None = None
         #: called before each kernel pass when a caller gives no ``stop`` (see :meth:`stopping`)
         self.stop: Stop | None = None
@@ -411,12 +413,22 @@ class StepProblems:
 
     def heuristic(self, i: int, at: BoolArray | None = None) -> FloatArray:
         """Navigation cost [m] towards step i's feasible regions that the base can reach (cached);
-        ``at``: optional (ny, nx) bool of the cells that will be read (see :func:`region_heuristic`)."""
+        ``at``: optional (ny, nx) bool of the cells that will be read (see :func:`region_heuristic`):
+        a call that reads cells the cached costs left out computes them again over both."""
         key = (i, at is None)
-        if key not in self._heuristic:
+        hit = self._heuristic.get(key)
+        if hit is not None and at is not None:
+            covered = self._heuristic_at[i]
+            if (at & ~covered).any():  # a pick planned again with other grasps reads other cells
+                at, hit = at | covered, None
+        if hit is None:
             region = self.feasible_region(i)
-            self._heuristic[key] = region_heuristic(region, self.world, self.config.min_region, at, self.reachable)
-        return self._heuristic[key]
+            hit = self._heuristic[key] = region_heuristic(
+                region, self.world, self.config.min_region, at, self.reachable
+            )
+            if at is not None:
+                self._heuristic_at[i] = at
+        return hit
 
     def changed(self, scene: Scene, world: World, moved_objects: set[str]) -> StepProblems:
         """A cache for the changed ``scene`` (and ``world``) that keeps what the change left valid.
@@ -466,6 +478,7 @@ class StepProblems:
             # ... and only the cells the start reaches: a start moved to another part of the floor changes them
             if self._reachable is not None and np.array_equal(new.reachable, self._reachable):
                 new._heuristic = {k: h for k, h in self._heuristic.items() if k[0] not in stale}
+                new._heuristic_at = {k: a for k, a in self._heuristic_at.items() if k not in stale}
         return new
 
     def _candidates_of(self, i: int) -> list[Candidate]:
