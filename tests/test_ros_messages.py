@@ -104,7 +104,7 @@ def test_any_grid_is_read_or_refused_in_one_line(w, h, data, res, origin, frame,
         (dict(width=0, height=3, data=[]), "the grid is empty"),
         (dict(resolution=0.0), "resolution 0 m"),
         (dict(frame="odom"), "pose in 'odom', expected the map frame 'map'"),
-        (dict(yaw=0.5), "the origin is rotated"),
+        (dict(tilt=0.5), "the origin is tilted"),
         (dict(data=[0, 101, 0, 0]), "values must be -1 (unknown) or 0..100, got 0..101"),
         (dict(x=float("nan")), "not finite"),
         (dict(x=2e6), "beyond +-1e+06 m"),
@@ -116,8 +116,8 @@ def test_a_bad_grid_is_refused_naming_the_problem(change, words):
     msg.info.width, msg.info.height = change.get("width", 2), change.get("height", 2)
     msg.info.resolution = change.get("resolution", 0.1)
     msg.info.origin.position.x = change.get("x", 0.0)
-    yaw = change.get("yaw", 0.0)
-    msg.info.origin.orientation.z, msg.info.origin.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+    tilt = change.get("tilt", 0.0)
+    msg.info.origin.orientation.x, msg.info.origin.orientation.w = math.sin(tilt / 2), math.cos(tilt / 2)
     msg.data = change.get("data", [0, 0, 0, 0])
     with pytest.raises(RosInputError, match=".*") as err:
         occupancy_of(msg, "map")
@@ -279,3 +279,20 @@ def test_a_reach_question_leaves_the_live_plan_as_it_was(maps_dir):
     assert not far.ok and "no base placement reaches the target" in far.reason
     assert strip_timings(live.plan().to_json()) == before
     assert live.planner.scene.task == load_scene(arena / "tidy_up.yaml").task
+
+
+def test_a_grid_turned_about_z_is_read_as_nav2_reads_it(caplog):
+    """map_server publishes a map YAML's origin yaw; Nav2's costmap and AMCL place the grid unrotated:
+    the same cells as at yaw 0, and a warning with the yaw."""
+    grids = []
+    for yaw in (0.0, 0.5):
+        msg = OccupancyGrid()
+        msg.header.frame_id = "map"
+        msg.info.width, msg.info.height, msg.info.resolution = 3, 2, 0.1
+        msg.info.origin.position.x, msg.info.origin.position.y = 1.0, -2.0
+        msg.info.origin.orientation.z, msg.info.origin.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        msg.data = [0, 100, -1, 0, 0, 100]
+        with caplog.at_level("WARNING"):
+            grids.append(occupancy_of(msg, "map"))
+    assert grids[1].origin == grids[0].origin and np.array_equal(grids[1].occupied, grids[0].occupied)
+    assert "origin yaw 0.5 rad ignored" in caplog.text

@@ -283,12 +283,12 @@ def test_invalid_scene(mutate, message, tmp_path):
         (FULL_SCENE.replace("yaw: 0.3", "yaw: [0.3"), "invalid YAML at line 14"),
         ("", "the scene is empty"),
         ("- 1\n- 2\n", "expected a mapping, got a list"),
-        (FULL_SCENE.replace("occupancy_map: floor.yaml", "occupancy_map: floor_rotated.yaml"), "occupancy_map: "),
+        (FULL_SCENE.replace("occupancy_map: floor.yaml", "occupancy_map: floor_negate.yaml"), "occupancy_map: "),
     ],
 )
 def test_invalid_scene_file(text, message, tmp_path):
     write_map(tmp_path)
-    write_map(tmp_path, "floor_rotated", origin=[0.0, 0.0, 0.5])
+    write_map(tmp_path, "floor_negate", negate=2)
     path = tmp_path / "scene.yaml"
     path.write_text(text)
     with pytest.raises(SceneError) as err:

@@ -14,6 +14,7 @@ Units are ROS's: metres, radians, quaternions x y z w, z up.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 
@@ -34,6 +35,8 @@ from placement.scene.grid_values import OCCUPIED_PERCENT, GridValues
 from placement.scene.occupancy import DEFAULT_UNKNOWN_COST, MAX_COORD, MAX_IMAGE_PIXELS
 from placement.scene.poses import UNIT_TOLERANCE, matrix_yaw, normalised, quaternion_matrix, yaw_quaternion
 from placement.validation import strict_json
+
+log = logging.getLogger(__name__)
 
 #: Most cells an OccupancyGrid may hold (the limit of a map image in a scene file).
 MAX_GRID_CELLS = MAX_IMAGE_PIXELS
@@ -101,8 +104,9 @@ def grid_of(msg: OccupancyGrid, frame: str | None) -> GridValues:
     """The checked values of a ``nav_msgs/OccupancyGrid`` (``frame`` None: any frame but none).
 
     Refused: no frame or another, a size whose cells do not match ``data``, more than
-    :data:`MAX_GRID_CELLS` cells, a resolution outside :data:`RESOLUTION_RANGE`, a rotated or
-    non-finite origin, values outside -1..100.
+    :data:`MAX_GRID_CELLS` cells, a resolution outside :data:`RESOLUTION_RANGE`, a tilted or
+    non-finite origin, values outside -1..100. An origin turned about z is read as Nav2's costmap and
+    AMCL read it (the grid unrotated at its x and y), with a warning.
     """
     what = "/map"
     if frame is None:
@@ -126,8 +130,14 @@ def grid_of(msg: OccupancyGrid, frame: str | None) -> GridValues:
             f"{what}: resolution {res:g} m, expected {RESOLUTION_RANGE[0]:g} to {RESOLUTION_RANGE[1]:g} m"
         )
     position, q = pose_of(info.origin, f"{what}: origin")
-    if abs(abs(float(q[3])) - 1.0) > 1e-9:
-        raise RosInputError(f"{what}: the origin is rotated (quaternion {list(q)}); only an unrotated map is supported")
+    if abs(float(q[0])) > 1e-9 or abs(float(q[1])) > 1e-9:
+        raise RosInputError(f"{what}: the origin is tilted (quaternion {list(q)}); a map lies in the floor's plane")
+    if abs(abs(float(q[3])) - 1.0) > 1e-9:  # as Nav2's costmap and AMCL: the grid unrotated at the origin
+        log.warning(
+            "%s: origin yaw %.6g rad ignored, as Nav2's costmap and AMCL ignore it: the grid lies unrotated",
+            what,
+            2.0 * math.atan2(float(q[2]), float(q[3])),
+        )
     far = max(abs(position[0]), abs(position[1])) + max(w, h) * res
     if far > MAX_COORD:
         raise RosInputError(f"{what}: the map reaches {far:.3g} m from the origin, beyond +-{MAX_COORD:g} m")
