@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from placement.planning import Planner
+from placement.planning.problems import cache
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = [ROOT / "examples" / "table_clearing.yaml", ROOT / "examples" / "buildings" / "wrs_arena" / "tidy_up_ycb.yaml"]
@@ -22,7 +23,8 @@ def _same(o):
 
 
 @pytest.mark.parametrize("scene", SCENES, ids=lambda p: p.stem)
-def test_threshold_options_keep_the_exact_regions_values_and_yaws(tiny_maps, scene):
+def test_threshold_options_keep_the_exact_regions_values_and_yaws(tiny_maps, scene, monkeypatch):
+    monkeypatch.setattr(cache, "THRESHOLD_PASS_FROM", 1)  # every step, however few its candidates
     rough = Planner(scene, "global", tiny_maps, warm=False).problems
     exact = Planner(scene, "global", tiny_maps, warm=False).problems
     checked = 0
@@ -57,10 +59,13 @@ def test_threshold_options_keep_the_exact_regions_values_and_yaws(tiny_maps, sce
 
 def test_a_plan_from_threshold_options_is_the_plan_from_exact_options(tiny_maps):
     """The default plans the same placements whether its steps' exact options were computed before
-    (by another method on the same planner) or not."""
+    (by another method on the same planner) or not; the published grasps' places (160 candidates) are
+    planned from threshold-only options, the picks (20) from exact ones."""
     scene = SCENES[1]
     fresh = Planner(scene, "global", tiny_maps, warm=False)
     first = fresh.plan()
+    kinds = {s.action: {o.exact for o in fresh.problems.threshold_options(s.index)} for s in fresh.problems.steps}
+    assert kinds["pick"] == {True} and False in kinds["place"]
     primed = Planner(scene, "global", tiny_maps, warm=False)
     for i in range(len(primed.problems.steps)):
         primed.problems.options(i)  # every step's exact options, as `sequential` computes them

@@ -46,6 +46,10 @@ MAX_LEGS = 4096
 RELAX = 0.5
 #: [m] candidates whose targets lie this close share one pass of the inverse-map kernel (see _clusters).
 CLUSTER_M = 0.5
+#: Candidates of a step from which a whole-task program reads threshold-only options (see
+#: threshold_options): the pass saves about 40 % of the kernel's work, and each verified cell then
+#: costs a small kernel call of its own, which a step of few candidates does not win back
+THRESHOLD_PASS_FROM = 32
 #: Candidates per kernel pass at most: the budget is checked between passes, and a pass of 720 (360
 #: grasp yaws per object) took most of a second (each candidate's maps are its own either way)
 PASS_CANDIDATES = 256
@@ -260,16 +264,18 @@ class StepProblems:
     def threshold_options(self, i: int, torso: float | None = None, stop: Stop | None = None) -> list[Option]:
         """Step i's options at torso value ``torso`` [m] (None: at every setting), index-aligned with
         :meth:`held_options` (:meth:`options`), as a whole-task program reads them: where each keeps its
-        threshold. Unless those are computed already, their maps say only that (``Option.exact``
-        False: :meth:`region_options`' pass, a fraction of the work), and :meth:`exact_values` gives the
-        best value and yaw of the cells a program verifies; the exact options when no option of the
-        step keeps its threshold (the relaxed thresholds need each option's best). Cached: the same list
-        is given again. ``stop``: as :meth:`held_options` takes it."""
+        threshold. For a step of :data:`THRESHOLD_PASS_FROM` candidates or more, unless the exact options
+        are computed already, their maps say only that (``Option.exact`` False: :meth:`region_options`'
+        pass, a fraction of the work), and :meth:`exact_values` gives the best value and yaw of the cells
+        a program verifies; the exact options for fewer candidates, and when no option of the step keeps
+        its threshold (the relaxed thresholds need each option's best). Cached: the same list is given
+        again. ``stop``: as :meth:`held_options` takes it."""
         key = (i, torso)
         hit = self._thresholded.get(key)
         if hit is not None:
             return hit
-        if not (i in self._options or i in self._stale or (torso is not None and key in self._held)):
+        exact = i in self._options or i in self._stale or (torso is not None and key in self._held)
+        if not exact and len(self.candidates(i)) >= THRESHOLD_PASS_FROM:
             views = (
                 [torso] if torso is not None or self.settings == [None] else [t for t in self.settings if t is not None]
             )
