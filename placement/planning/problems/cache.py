@@ -256,10 +256,7 @@ class StepProblems:
             return self.options(i)
         if self.settings == [None]:
             return self._regional_at(i, None, factor, stop)
-        out = []
-        for t in (t for t in self.settings if t is not None):
-            out += self._held[(i, t)] if (i, t) in self._held else self._regional_at(i, t, factor, stop)
-        return out
+        return [o for t in self.settings if t is not None for o in self._rough(i, t, factor, stop)]
 
     def threshold_options(self, i: int, torso: float | None = None, stop: Stop | None = None) -> list[Option]:
         """Step i's options at torso value ``torso`` [m] (None: at every setting), index-aligned with
@@ -279,17 +276,17 @@ class StepProblems:
             views = (
                 [torso] if torso is not None or self.settings == [None] else [t for t in self.settings if t is not None]
             )
-            parts = [self._rough(i, t, stop) for t in views]
+            parts = [self._rough(i, t, 1.0, stop) for t in views]
             if self.relaxed(i) == 1.0:
                 hit = self._thresholded[key] = [o for p in parts for o in p]
                 return hit
         return self.options(i) if torso is None else self.held_options(i, torso, stop)
 
-    def _rough(self, i: int, torso: float | None, stop: Stop | None) -> list[Option]:
+    def _rough(self, i: int, torso: float | None, factor: float, stop: Stop | None) -> list[Option]:
         """Step i's options at torso value ``torso`` [m]: the exact ones if given already, else those
-        that say where the unrelaxed thresholds are kept."""
+        that say where the thresholds times ``factor`` are kept."""
         held = None if torso is None else self._held.get((i, torso))
-        return held if held is not None else self._regional_at(i, torso, 1.0, stop)
+        return held if held is not None else self._regional_at(i, torso, factor, stop)
 
     def _regional_at(self, i: int, torso: float | None, factor: float, stop: Stop | None) -> list[Option]:
         """Step i's threshold-only options at torso value ``torso`` [m] (None: the maps without a torso
