@@ -19,7 +19,7 @@ from placement.kernels.grid import wrap_bin
 CHUNK = 64  # cells per parallel task: per-task scratch, no allocation per cell
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)  # runs in a background thread: planning.problems.background
 def trajectory_maps(
     slices: npt.NDArray[np.float32],
     column_max: npt.NDArray[np.float32],

@@ -57,6 +57,11 @@ class Method(ABC):
         certificate's bound ranges over them): by default where the maps keep the threshold."""
         return map_regions(ctx, i, regional=True)
 
+    def prefetch_regions(self, ctx: PlanningContext, i: int) -> None:
+        """Start what :meth:`regions` ``(ctx, i)`` will compute, its kernel passes in the background
+        (:meth:`~placement.planning.problems.StepProblems.prefetch_regions`)."""
+        ctx.problems.prefetch_regions(i, ctx.check_budget)
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
 

@@ -155,6 +155,9 @@ class Fixed(StepwiseMethod):
     def regions(self, ctx: PlanningContext, i: int) -> Regions:
         return fixed_regions(ctx, i)
 
+    def prefetch_regions(self, ctx: PlanningContext, i: int) -> None:
+        return None  # its placements need no kernel pass
+
     def rank(
         self, ctx: PlanningContext, options: Sequence[Option], nav_cost: FloatArray, heuristic: FloatArray
     ) -> list[Ranked]:

@@ -24,7 +24,7 @@ from placement.collision.scene import object_aabb
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray
 from placement.planning.problems.grasps import GRIPPER_OPENING, Candidate
-from placement.planning.problems.manipulation import cells_within, manipulation_maps, pose_reaches, reach_maps
+from placement.planning.problems.manipulation import cells_within, later_reach_maps, manipulation_maps, pose_reaches
 from placement.planning.problems.option import Option, height_range
 from placement.planning.problems.refresh import refreshed_options
 from placement.planning.problems.screening import blocked_words, screen
@@ -101,6 +101,8 @@ class StepProblems:
         self._regional: dict[tuple[int, float | None, float], list[Option]] = {}
         # (step, torso value [m] or None) -> what threshold_options gave (one list: verdicts index into it)
         self._thresholded: dict[tuple[int, float | None], list[Option]] = {}
+        # (step, torso value [m] or None, threshold factor or None: exact) -> options started by prefetch
+        self._pending: dict[tuple[int, float | None, float | None], Callable[[], list[Option]]] = {}
         # options computed for another world (obstacles changed since): refreshed when used
         self._stale: dict[int, tuple[list[Option], World]] = {}
         self._heuristic: dict[tuple[int, bool], FloatArray] = {}
@@ -339,18 +341,64 @@ class StepProblems:
         """The options of ``step`` for every arm and candidate, at every lift setting (``torso``: at
         that torso value [m] only); ``regional``: the factor on the thresholds (see :meth:`relaxed`) of
         options that only say where they are kept (:meth:`region_options`); ``stop``: called before
-        each kernel pass (with a hundred grasps per object one pass may take a second)."""
+        each kernel pass (with a hundred grasps per object one pass may take a second). Those
+        :meth:`prefetch` started are waited for."""
+        key = (step.index, torso, regional)
+        pending = self._pending.pop(key, None)
+        if pending is not None:
+            return pending()
+        return self._launch_options(step, torso, regional, stop, background=False)()
+
+    def prefetch(self, i: int, torso: float | None, exact: bool = False, stop: Stop | None = None) -> None:
+        """Start computing what :meth:`threshold_options` ``(i, torso)`` will read (``exact``: what
+        :meth:`held_options` ``(i, torso)`` will; torso None: :meth:`options`), its kernel passes in the
+        background thread (:mod:`~placement.planning.problems.background`), so that a whole-task program
+        makes one step's kernel arguments while the kernel runs for the step before. The options are
+        the same; nothing is started for what is cached or started already. ``stop``: as
+        :meth:`held_options` takes it (when it raises, what was started stays started)."""
+        if i in self._options or i in self._stale or (i, torso) in self._thresholded:
+            return
+        settings = (
+            [torso] if torso is not None or self.settings == [None] else [t for t in self.settings if t is not None]
+        )
+        keys: list[tuple[int, float | None, float | None]]
+        if not exact and len(self.candidates(i)) >= THRESHOLD_PASS_FROM:
+            keys = [(i, t, 1.0) for t in settings if (i, t, 1.0) not in self._regional and (i, t) not in self._held]
+        else:
+            keys = [(i, t, None) for t in settings if t is None or (i, t) not in self._held]
+        for key in keys:
+            if key not in self._pending:
+                self._pending[key] = self._launch_options(self.steps[i], key[1], key[2], stop)
+
+    def prefetch_regions(self, i: int, stop: Stop | None = None) -> None:
+        """Start computing what :meth:`region_options` ``(i)`` will read, as :meth:`prefetch` does for
+        :meth:`threshold_options`; only once the step's threshold factor is known (:meth:`relaxed` may
+        need every exact option)."""
+        factor = self._relaxed.get(i)
+        if factor is None or i in self._options or i in self._stale:
+            return
+        for t in [None] if self.settings == [None] else [t for t in self.settings if t is not None]:
+            key = (i, t, factor)
+            if (t is None or (i, t) not in self._held) and key not in self._regional and key not in self._pending:
+                self._pending[key] = self._launch_options(self.steps[i], t, factor, stop)
+
+    def _launch_options(
+        self, step: Step, torso: float | None, regional: float | None, stop: Stop | None, background: bool = True
+    ) -> Callable[[], list[Option]]:
+        """:meth:`_compute_options`, its kernel passes started (in the background thread when
+        ``background``): returns the function that waits for them and gives the options."""
         nav = self.world.nav
         stop = stop or self.stop
-        opts = []
         candidates = self.candidates(step.index)
         views = ((a, m) for a, ms in self.variants.items() for m in ms)
+        low = np.array([float(c.poses[:, 2, 3].min()) for c in candidates])
+        high = np.array([float(c.poses[:, 2, 3].max()) for c in candidates])
+        passes = []
         for arm, rmap in ((a, m) for a, m in views if torso is None or torso_value(m) == torso):
-            lo, hi = height_range(rmap)
             blocked = self.blocked(step.index, arm)
             # a place of one grasp turned by a half turn is often another grasp's place: one IRM
             distinct = list({c.poses.tobytes(): c for c, why in zip(candidates, blocked) if why is None}.values())
-            results = {}
+            maps = []
             for near in (
                 c[k : k + PASS_CANDIDATES] for c in _clusters(distinct) for k in range(0, len(c), PASS_CANDIDATES)
             ):
@@ -361,20 +409,38 @@ class StepProblems:
                 cells = self._cells_near(rmap, near)
                 # the threshold ctx.for_step(i).option_threshold gives these options
                 least = None if regional is None else self.thresholds.relaxed(regional).at(arm, torso_value(rmap))
-                maps = reach_maps(
-                    rmap, [c.poses for c in near], nav, self.yaws, cells, self.world.yaw_masks(cells), least
+                found = later_reach_maps(
+                    rmap, [c.poses for c in near], nav, self.yaws, cells, self.world.yaw_masks(cells), least, background
                 )
-                results.update({c.poses.tobytes(): m for c, m in zip(near, maps)})
-            for cand, why in zip(candidates, blocked):
-                z = cand.poses[:, 2, 3]
-                out = bool(np.any((z < lo) | (z >= hi)))
-                if why is None:
-                    found = results[cand.poses.tobytes()]
-                    opts.append(Option(arm, cand, *found, out, torso_value(rmap), exact=regional is None))
-                else:  # no map: an empty window, 0 everywhere (as for a target no base cell reaches)
-                    nothing = np.zeros((0, 0), np.float32), np.full((0, 0), -1, np.int16)
-                    opts.append(Option(arm, cand, Window(0, 0, 0, 0), *nothing, out, torso_value(rmap), why))
-        return opts
+                maps.append((near, found))
+            passes.append((arm, rmap, blocked, maps))
+
+        def options() -> list[Option]:
+            opts = []
+            for arm, rmap, blocked, maps in passes:
+                results = {}
+                for near, found in maps:
+                    results.update({c.poses.tobytes(): m for c, m in zip(near, found())})
+                lo, hi = height_range(rmap)
+                outside = (low < lo) | (high >= hi)  # some pose beyond the map's heights
+                for cand, why, out in zip(candidates, blocked, outside.tolist()):
+                    if why is None:
+                        opts.append(
+                            Option(
+                                arm,
+                                cand,
+                                *results[cand.poses.tobytes()],
+                                out,
+                                torso_value(rmap),
+                                exact=regional is None,
+                            )
+                        )
+                    else:  # no map: an empty window, 0 everywhere (as for a target no base cell reaches)
+                        nothing = np.zeros((0, 0), np.float32), np.full((0, 0), -1, np.int16)
+                        opts.append(Option(arm, cand, Window(0, 0, 0, 0), *nothing, out, torso_value(rmap), why))
+            return opts
+
+        return options
 
     def _cells_near(self, rmap: ReachabilityMap, candidates: Sequence[Candidate]) -> IntArray:
         """The feasible base cells within the reach of ``rmap``'s slice of some candidate's last pose

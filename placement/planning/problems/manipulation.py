@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -13,6 +13,7 @@ from placement.kernels.irm import trajectory_maps
 from placement.maps.grid import Grid
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import YAW_INDEX, Float32Array, FloatArray, IntArray, MaskArray, YawIndexArray
+from placement.planning.problems.background import behind
 from placement.scene.navgrid import NavGrid, Window
 
 #: A pose's map lookup: (x [m], y [m], z bin, pitch bin, roll bin).
@@ -110,7 +111,9 @@ def manipulation_maps(
     """
     window = window or Window(0, nav.shape[0], 0, nav.shape[1])
     cells, masks = _checked(nav, yaws, cells, window, masks)
-    vals, args, _ = _evaluate(rmap, trajectories, nav, yaws, cells, window, masks, within_reach=False)
+    vals, args, _, call = _kernel_pass(rmap, trajectories, nav, yaws, cells, window, masks, within_reach=False)
+    if call is not None:
+        call()
     return [(vals[i], args[i]) for i in range(len(trajectories))]
 
 
@@ -132,10 +135,25 @@ def reach_maps(
     ``at_least`` (dimensionless): where the best value is at least that, some value at least that and
     its yaw (the first found, not the best), else 0 and -1: the cells a threshold keeps, without the
     best of each (a fraction of the work; ``value >= at_least`` is the same as with the best values)."""
+    return later_reach_maps(rmap, trajectories, nav, yaws, cells, masks, at_least, background=False)()
+
+
+def later_reach_maps(
+    rmap: ReachabilityMap,
+    trajectories: Sequence[FloatArray],
+    nav: NavGrid,
+    yaws: FloatArray,
+    cells: IntArray,
+    masks: MaskArray,
+    at_least: float | None = None,
+    background: bool = True,
+) -> Callable[[], list[tuple[Window, Float32Array, YawIndexArray]]]:
+    """:func:`reach_maps`, its kernel pass started in the background thread (``background``, see
+    :mod:`.background`): returns the function that waits for the pass and gives the maps."""
     window = Window.around(cells, nav.shape)
     cells, masks = _checked(nav, yaws, cells, window, masks)
     above = 0.0 if at_least is None else float(below(at_least))
-    vals, args, discs = _evaluate(
+    vals, args, discs, call = _kernel_pass(
         rmap,
         trajectories,
         nav,
@@ -147,12 +165,19 @@ def reach_maps(
         above=above,
         stop_early=at_least is not None,
     )
-    out = []
-    for i, (x, y, r) in enumerate(discs):
-        own = _disc_window(nav, x, y, r, window)
-        sub = (slice(own.y0 - window.y0, own.y1 - window.y0), slice(own.x0 - window.x0, own.x1 - window.x0))
-        out.append((own, vals[i][sub].copy(), args[i][sub].copy()))
-    return out
+    wait = behind(call, background) if call is not None else None
+
+    def maps() -> list[tuple[Window, Float32Array, YawIndexArray]]:
+        if wait is not None:
+            wait()
+        out = []
+        for i, (x, y, r) in enumerate(discs):
+            own = _disc_window(nav, x, y, r, window)
+            sub = (slice(own.y0 - window.y0, own.y1 - window.y0), slice(own.x0 - window.x0, own.x1 - window.x0))
+            out.append((own, vals[i][sub].copy(), args[i][sub].copy()))
+        return out
+
+    return maps
 
 
 def _disc_window(nav: NavGrid, x: float, y: float, r: float, within: Window) -> Window:
@@ -185,7 +210,7 @@ def _checked(
     return cells, masks
 
 
-def _evaluate(
+def _kernel_pass(
     rmap: ReachabilityMap,
     trajectories: Sequence[FloatArray],
     nav: NavGrid,
@@ -196,11 +221,12 @@ def _evaluate(
     within_reach: bool,
     above: float = 0.0,
     stop_early: bool = False,
-) -> tuple[Float32Array, YawIndexArray, list[tuple[float, float, float]]]:
-    """(values (T, h, w), yaw indices (T, h, w), per trajectory its disc (x, y, r [m])) of the
-    trajectories over ``window``, in one kernel pass; ``within_reach``: each evaluated only on the cells
-    within its last pose's reach (its disc; r = -1 for a trajectory off the map's heights, inf without);
-    ``above``, ``stop_early``: as :func:`~placement.kernels.irm.trajectory_maps` takes ``above`` and ``first``."""
+) -> tuple[Float32Array, YawIndexArray, list[tuple[float, float, float]], Callable[[], None] | None]:
+    """(values (T, h, w), yaw indices (T, h, w), per trajectory its disc (x, y, r [m]), the kernel call
+    that fills the first two or None when there is nothing to evaluate) of the trajectories over
+    ``window``, in one kernel pass; ``within_reach``: each evaluated only on the cells within its last
+    pose's reach (its disc; r = -1 for a trajectory off the map's heights, inf without); ``above``,
+    ``stop_early``: as :func:`~placement.kernels.irm.trajectory_maps` takes ``above`` and ``first``."""
     g: Grid = rmap.grid
     vals = np.zeros((len(trajectories), *window.shape), np.float32)
     args = np.full((len(trajectories), *window.shape), -1, YAW_INDEX)
@@ -219,7 +245,7 @@ def _evaluate(
         if keyed is not None and reach >= 0:
             groups.setdefault(keyed[0], []).append((i, keyed[1]))
     if not groups or not cells.size:
-        return vals, args, discs
+        return vals, args, discs, None
     slices: list[np.ndarray] = []
     bounds: list[np.ndarray] = []
     index: dict[tuple[tuple[int, ...], int, int], int] = {}
@@ -252,7 +278,7 @@ def _evaluate(
         group_pose.append(len(pose_slice))
         group_member.append(len(rows))
         group_disc.append(discs[members[0][0]])
-    trajectory_maps(
+    kernel_args = (
         np.ascontiguousarray(np.stack(slices)),  # a step's candidates share a few dozen slices
         np.ascontiguousarray(np.stack(bounds)),
         np.array(pose_slice, dtype=np.int64),
@@ -279,7 +305,7 @@ def _evaluate(
         above,
         stop_early,
     )
-    return vals, args, discs
+    return vals, args, discs, lambda: trajectory_maps(*kernel_args)
 
 
 def below(value: float) -> np.float32:

@@ -18,7 +18,7 @@ from typing import Protocol
 from placement.planning.arrays import Cell
 from placement.planning.context import BudgetSpent, PlanningContext
 from placement.planning.program.forward import travel_bound
-from placement.planning.program.regions import Regions
+from placement.planning.program.regions import PREFETCH_STEPS, Regions
 from placement.planning.results import Certificate, StepResult
 from placement.planning.task_time import steps_seconds
 
@@ -35,6 +35,10 @@ class RegionSource(Protocol):
         """Step ``i``'s regions."""
         ...
 
+    def prefetch_regions(self, ctx: PlanningContext, i: int) -> None:
+        """Start what :meth:`regions` ``(ctx, i)`` will compute (its kernel passes in the background)."""
+        ...
+
 
 def certify(ctx: PlanningContext, method: RegionSource, start: Cell, steps: list[StepResult]) -> Certificate:
     """The certificate of the plan ``steps`` that ``method`` made from ``start``."""
@@ -46,8 +50,11 @@ def certify(ctx: PlanningContext, method: RegionSource, start: Cell, steps: list
         try:
             with ctx.problems.stopping(ctx.check_budget):  # every kernel pass the regions need, too
                 regions = []
-                for i in range(len(ctx.problems.steps)):
+                n = len(ctx.problems.steps)
+                for i in range(n):
                     ctx.check_budget()
+                    for ahead in range(i, min(i + PREFETCH_STEPS + 1, n)):
+                        method.prefetch_regions(ctx, ahead)
                     regions.append(method.regions(ctx, i))
                 bound_m = travel_bound(ctx, start, regions)
             ctx.problems.bounds[key] = bound_m

@@ -14,6 +14,9 @@ from placement.planning.context import PlanningContext
 from placement.planning.problems import Option
 from placement.planning.torso import start_torso
 
+#: Steps whose options a program starts ahead of the one it asks for: their kernel passes run in the
+#: background while it reads this step's (see StepProblems.prefetch)
+PREFETCH_STEPS = 2
 #: An (arm, grasp) pair: what a pick commits its place to.
 Group = tuple[str, str | None]
 
@@ -169,6 +172,14 @@ def program_options(ctx: PlanningContext, i: int, held: float | None = None) -> 
     return problems.threshold_options(i, held, ctx.check_budget)
 
 
+def prefetch_program_options(ctx: PlanningContext, i: int, held: float | None = None) -> None:
+    """Start computing what :func:`program_options` ``(ctx, i, held)`` will give, its kernel passes in
+    the background (:meth:`~placement.planning.problems.StepProblems.prefetch`): a program asks for its
+    steps one after the other, and each step's arguments are made while the step before is computed."""
+    exact = ctx.config.optimal_manipulability_weight > 0
+    ctx.problems.prefetch(i, held, exact, ctx.check_budget)
+
+
 def held_torso(ctx: PlanningContext, i: int) -> float | None:
     """The torso value [m] the robot starts with if step i's options there keep the threshold on a
     feasible cell (the step is planned with the lift held there, see :func:`map_regions`), else None."""
@@ -245,12 +256,14 @@ def reweighted(ctx: PlanningContext, i: int, reg: Regions) -> Regions:
 
 
 __all__ = [
+    "PREFETCH_STEPS",
     "Group",
     "Regions",
     "best_values",
     "held_torso",
     "map_regions",
     "node_costs",
+    "prefetch_program_options",
     "program_options",
     "reweighted",
 ]

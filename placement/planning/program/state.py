@@ -16,7 +16,16 @@ from placement.planning.problems import Option, Step
 from placement.planning.program.forward import Chain, Layer, Program, WholeTaskProgram, linked_steps, travel_bound
 from placement.planning.program.held_first import HeldFirst
 from placement.planning.program.priced_torso import settings_of, torso_regions, torso_reweighted, torso_term
-from placement.planning.program.regions import Group, Regions, held_torso, map_regions, program_options, reweighted
+from placement.planning.program.regions import (
+    PREFETCH_STEPS,
+    Group,
+    Regions,
+    held_torso,
+    map_regions,
+    prefetch_program_options,
+    program_options,
+    reweighted,
+)
 from placement.planning.program.repair import Verified
 from placement.planning.torso import option_collisions, option_map, option_robot, start_torso, torso_first
 from placement.planning.verification import CheckKey, TrajectoryIK, trajectory_ik
@@ -65,6 +74,8 @@ class DynamicProgram:
             self.full = []
             for i in range(len(steps)):
                 ctx.check_budget()
+                for ahead in range(i, min(i + PREFETCH_STEPS + 1, len(steps))):
+                    prefetch_program_options(ctx, ahead, held)
                 self.hold.append(held_torso(ctx, i))
                 self.full.append(map_regions(ctx, i, held=self.hold[-1]))
             self.program = Program(w.factor, w.feasible, w.nav.resolution, start, self.linked)

@@ -1,0 +1,69 @@
+"""The inverse-map kernel in a background thread (``placement.planning.problems.background``): options a
+program prefetched, their kernel passes run while the next step's arguments are made, equal those
+computed in place, bit for bit; a call's exception reaches whoever waits for it."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from placement.planning import Planner
+from placement.planning.problems import background, cache
+
+ROOT = Path(__file__).resolve().parents[1]
+ARENA = ROOT / "examples" / "buildings" / "wrs_arena" / "tidy_up_ycb.yaml"
+
+
+def test_a_call_runs_in_the_background_thread_and_its_error_reaches_the_wait(tiny_maps):
+    Planner(ARENA, "global", tiny_maps)  # warm: numba chooses its threading layer
+    if not background.concurrent():
+        pytest.skip("numba's threading layer here does not take kernels from two threads")
+    where: list[str] = []
+    wait = background.behind(lambda: where.append(threading.current_thread().name))
+    wait()
+    assert where == [where[0]] and where[0].startswith("placement-kernel")
+
+    def fails() -> None:
+        raise ValueError("bad slice")
+
+    wait = background.behind(fails)
+    with pytest.raises(ValueError, match="bad slice"):
+        wait()
+    here: list[str] = []
+    background.behind(lambda: here.append(threading.current_thread().name), background=False)
+    assert here == [threading.current_thread().name]  # not in the background: run where it is called
+
+
+@pytest.mark.parametrize("exact", [False, True], ids=["threshold", "exact"])
+def test_prefetched_options_equal_those_computed_in_place(tiny_maps, monkeypatch, exact):
+    """Every step of a building scene, prefetched all at once (the kernel passes queued behind each
+    other) and then read, against a planner that computes them when asked: the same options, windows,
+    values and yaws."""
+    monkeypatch.setattr(cache, "THRESHOLD_PASS_FROM", 1)  # threshold passes on every step
+    ahead = Planner(ARENA, "global", tiny_maps).problems
+    plain = Planner(ARENA, "global", tiny_maps).problems
+    steps = range(len(ahead.steps))
+    for i in steps:
+        ahead.prefetch(i, None, exact)  # every torso setting
+    assert len(ahead._pending) >= len(ahead.steps)  # started, not yet read
+    compared = 0
+    for i in steps:
+        got = ahead.options(i) if exact else ahead.threshold_options(i)
+        want = plain.options(i) if exact else plain.threshold_options(i)
+        assert len(got) == len(want)
+        for g, w in zip(got, want):
+            assert (g.arm, g.candidate.grasp, g.window, g.blocked, g.exact) == (
+                w.arm,
+                w.candidate.grasp,
+                w.window,
+                w.blocked,
+                w.exact,
+            )
+            np.testing.assert_array_equal(g.value, w.value)
+            np.testing.assert_array_equal(g.yaw_index, w.yaw_index)
+            compared += int((w.value > 0).sum())
+    assert not ahead._pending  # every started pass was read
+    assert compared > 1000
