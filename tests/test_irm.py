@@ -104,7 +104,7 @@ def test_a_steps_maps_in_one_pass_equal_each_alone_on_its_own_cells(coarse_map):
     masks = rng.integers(0, 2**40, (len(union), 1)).astype(np.uint64)  # some yaws blocked per cell
     at = {int(c): k for k, c in enumerate(union)}
     reached = 0
-    for T, (window, val, arg) in zip(trajs, reach_maps(coarse_map, trajs, nav, yaws, union, masks)):
+    for T, (window, val, arg) in zip(trajs, reach_maps(coarse_map, trajs, nav, yaws, union, masks)()):
         r = pose_reach(coarse_map, T[-1])
         if r < 0:
             assert val.size == 0
@@ -145,11 +145,11 @@ def test_maps_asked_at_least_a_value_keep_the_same_cells(coarse_map, share):
         np.concatenate([cells_within(nav, T[-1, 0, 3], T[-1, 1, 3], pose_reach(coarse_map, T[-1])) for T in trajs])
     )
     masks = rng.integers(0, 2**40, (len(union), 1)).astype(np.uint64)
-    full = reach_maps(coarse_map, trajs, nav, yaws, union, masks)
+    full = reach_maps(coarse_map, trajs, nav, yaws, union, masks)()
     top = max(float(v.max()) for _, v, _ in full)
     values = np.unique(np.concatenate([v[v > 0] for _, v, _ in full]))
     for t in (share * top, float(values[int(share * (len(values) - 1))])):
-        kept = reach_maps(coarse_map, trajs, nav, yaws, union, masks, at_least=t)
+        kept = reach_maps(coarse_map, trajs, nav, yaws, union, masks, at_least=t)()
         for T, (w, v, _), (w2, v2, a2) in zip(trajs, full, kept):
             assert w == w2
             assert np.array_equal(v >= t, v2 >= t) and np.array_equal(v2 > 0, v2 >= t)

@@ -24,7 +24,7 @@ from placement.collision.scene import object_aabb
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray
 from placement.planning.problems.grasps import GRIPPER_OPENING, Candidate
-from placement.planning.problems.manipulation import cells_within, later_reach_maps, manipulation_maps, pose_reaches
+from placement.planning.problems.manipulation import cells_within, manipulation_maps, pose_reaches, reach_maps
 from placement.planning.problems.option import Option, height_range
 from placement.planning.problems.refresh import refreshed_options
 from placement.planning.problems.screening import blocked_words, screen
@@ -409,7 +409,7 @@ class StepProblems:
                 cells = self._cells_near(rmap, near)
                 # the threshold ctx.for_step(i).option_threshold gives these options
                 least = None if regional is None else self.thresholds.relaxed(regional).at(arm, torso_value(rmap))
-                found = later_reach_maps(
+                found = reach_maps(
                     rmap, [c.poses for c in near], nav, self.yaws, cells, self.world.yaw_masks(cells), least, background
                 )
                 maps.append((near, found))

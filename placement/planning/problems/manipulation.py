@@ -125,31 +125,19 @@ def reach_maps(
     cells: IntArray,
     masks: MaskArray,
     at_least: float | None = None,
-) -> list[tuple[Window, Float32Array, YawIndexArray]]:
+    background: bool = False,
+) -> Callable[[], list[tuple[Window, Float32Array, YawIndexArray]]]:
     """:func:`manipulation_maps` of a step's trajectories over ``cells`` (those within the arm's reach
     of any of them) and their yaw ``masks``, each kept over its own window: the cells within the
     horizontal reach of its last pose's slice (:func:`pose_reach`) of that pose, plus one cell. Cells
     farther away read nothing from the map (0 everywhere) and are not evaluated. One kernel pass for
-    all of them. Returns (window, value, yaw_index) per trajectory, in order.
+    all of them, started here (in the background thread when ``background``, see :mod:`.background`).
+    Returns the function that waits for the pass and gives (window, value, yaw_index) per trajectory,
+    in order.
 
     ``at_least`` (dimensionless): where the best value is at least that, some value at least that and
     its yaw (the first found, not the best), else 0 and -1: the cells a threshold keeps, without the
     best of each (a fraction of the work; ``value >= at_least`` is the same as with the best values)."""
-    return later_reach_maps(rmap, trajectories, nav, yaws, cells, masks, at_least, background=False)()
-
-
-def later_reach_maps(
-    rmap: ReachabilityMap,
-    trajectories: Sequence[FloatArray],
-    nav: NavGrid,
-    yaws: FloatArray,
-    cells: IntArray,
-    masks: MaskArray,
-    at_least: float | None = None,
-    background: bool = True,
-) -> Callable[[], list[tuple[Window, Float32Array, YawIndexArray]]]:
-    """:func:`reach_maps`, its kernel pass started in the background thread (``background``, see
-    :mod:`.background`): returns the function that waits for the pass and gives the maps."""
     window = Window.around(cells, nav.shape)
     cells, masks = _checked(nav, yaws, cells, window, masks)
     above = 0.0 if at_least is None else float(below(at_least))
