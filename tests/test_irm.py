@@ -327,3 +327,32 @@ def test_targets_far_apart_get_passes_of_their_own():
     a, b, c, d, e = at("a", 0, 0), at("b", 0.3, 0), at("c", 2.0, 0), at("d", 0.1, 0.1), at("e", 2.4, 0.2)
     assert [[k.name for k in g] for g in _clusters([a, b, c, d, e])] == [["a", "b", "d"], ["c", "e"]]
     assert _clusters([]) == []
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_farthest_reached_is_the_farthest_corner_of_a_reached_cell(seed):
+    """The slice reach kernel against numpy: every reached (x, y) cell's farthest corner, the largest;
+    -1 for an empty slice; grids that hold the origin or lie to one side of it."""
+    from placement.kernels.irm import farthest_reached
+
+    rng = np.random.default_rng(seed)
+    nx, ny, nyaw = rng.integers(1, 30, 3)
+    values = rng.random((nx, ny, nyaw)).astype(np.float32)
+    values[values < rng.uniform(0.5, 1.0)] = 0.0
+    x0, y0, res = rng.uniform(-1.5, 0.5), rng.uniform(-1.5, 0.5), rng.uniform(0.02, 0.2)
+    jx, jy = np.nonzero(values.any(axis=2))
+    xs = x0 + res * np.stack([jx, jx + 1])
+    ys = y0 + res * np.stack([jy, jy + 1])
+    want = np.sqrt(np.abs(xs).max(axis=0) ** 2 + np.abs(ys).max(axis=0) ** 2).max() if jx.size else -1.0
+    assert farthest_reached(values, x0, y0, res) == want
+    assert farthest_reached(np.zeros((nx, ny, nyaw), np.float32), x0, y0, res) == -1.0
+
+
+@pytest.mark.parametrize("shape", [(1, 1, 1), (42, 43, 20), (7, 3, 9)])
+def test_column_maxima_is_numpys_max_over_the_yaw_bins(shape):
+    from placement.kernels.irm import column_maxima
+
+    values = np.random.default_rng(sum(shape)).random(shape).astype(np.float32)
+    values[values < 0.7] = 0.0
+    got = column_maxima(values)
+    assert got.dtype == np.float32 and np.array_equal(got, values.max(axis=2))

@@ -19,6 +19,45 @@ from placement.kernels.grid import wrap_bin
 CHUNK = 64  # cells per parallel task: per-task scratch, no allocation per cell
 
 
+@njit(cache=True)
+def column_maxima(values: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
+    """(nx, ny) float32: the maximum of ``values`` (nx, ny, n_yaw) over its last axis (a slice's bound
+    per (x, y) cell, which the kernel skips base yaws with; numpy reduces a short last axis slowly)."""
+    nx, ny, nyaw = values.shape
+    out = np.empty((nx, ny), dtype=np.float32)
+    for jx in range(nx):
+        for jy in range(ny):
+            m = values[jx, jy, 0]
+            for k in range(1, nyaw):
+                v = values[jx, jy, k]
+                if v > m:
+                    m = v
+            out[jx, jy] = m
+    return out
+
+
+@njit(cache=True)
+def farthest_reached(values: npt.NDArray[np.float32], x0: float, y0: float, res: float) -> float:
+    """Largest distance [m] from the origin to a point of a cell of ``values`` (nx, ny, n_yaw) holding
+    a value other than 0 at some yaw bin, the grid's lower corner at (``x0``, ``y0``) [m] and its cells
+    ``res`` [m] wide (a slice's reach: a pose farther than this from the base reads 0 at every base
+    yaw); -1 if no cell holds one."""
+    nx, ny, nyaw = values.shape
+    far = -1.0
+    for jx in range(nx):
+        fx = max(abs(x0 + jx * res), abs(x0 + (jx + 1) * res))
+        for jy in range(ny):
+            fy = max(abs(y0 + jy * res), abs(y0 + (jy + 1) * res))
+            d = math.sqrt(fx * fx + fy * fy)
+            if d <= far:
+                continue
+            for k in range(nyaw):
+                if values[jx, jy, k] != 0:
+                    far = d
+                    break
+    return far
+
+
 @njit(cache=True, parallel=True, nogil=True)  # runs in a background thread: planning.problems.background
 def trajectory_maps(
     slices: npt.NDArray[np.float32],

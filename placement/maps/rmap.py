@@ -10,6 +10,7 @@ import numpy.typing as npt
 
 from placement.errors import GridError, MapError, PlacementError
 from placement.kernels.grid import cell_indices
+from placement.kernels.irm import column_maxima, farthest_reached
 from placement.maps.array_checks import check_arrays
 from placement.maps.grid import Grid
 from placement.maps.quantiles import estimate_quantiles, quantile_value
@@ -286,7 +287,7 @@ class ReachabilityMap:
         key = (tuple(sorted({int(z) for z in zs})), int(ip), int(ir))
         hit = self._shared.column_max.get(key)
         if hit is None:
-            hit = np.ascontiguousarray(self.lowest(*key).max(axis=2))
+            hit = column_maxima(self.lowest(*key))
             hit.flags.writeable = False
             self._shared.column_max[key] = hit
         return hit
@@ -298,15 +299,8 @@ class ReachabilityMap:
         key = (int(iz), int(ip), int(ir))
         r = self._reach.get(key)
         if r is None:
-            hit = np.nonzero(self.slice(*key).any(axis=2))
-            if hit[0].size == 0:
-                r = -1.0
-            else:
-                g = self.grid
-                # the farthest corner of each reached cell
-                xs = g.origin[0] + g.resolution * np.stack([hit[0], hit[0] + 1])
-                ys = g.origin[1] + g.resolution * np.stack([hit[1], hit[1] + 1])
-                r = float(np.sqrt(np.max(np.abs(xs), axis=0) ** 2 + np.max(np.abs(ys), axis=0) ** 2).max())
+            g = self.grid
+            r = farthest_reached(self.slice(*key), float(g.origin[0]), float(g.origin[1]), float(g.resolution))
             self._reach[key] = r
         return r
 

@@ -176,8 +176,13 @@ class StepProblems:
         if i not in self._relaxed:
 
             def best(opts: Sequence[Option]) -> float:
-                ratios = [float(o.value.max()) / self.option_threshold(o) for o in opts if o.value.size]
-                return max(ratios, default=0.0)
+                ratio = 0.0
+                for o in opts:
+                    if o.value.size:
+                        ratio = max(ratio, float(o.value.max()) / self.option_threshold(o))
+                        if ratio >= 1.0:  # settled: the thresholds stand
+                            break
+                return ratio
 
             # the options at hand first (a held lift's, those that say where the unrelaxed threshold is
             # kept): one that keeps its threshold settles it, without the inverse maps of every other
@@ -391,8 +396,11 @@ class StepProblems:
         stop = stop or self.stop
         candidates = self.candidates(step.index)
         views = ((a, m) for a, ms in self.variants.items() for m in ms)
-        low = np.array([float(c.poses[:, 2, 3].min()) for c in candidates])
-        high = np.array([float(c.poses[:, 2, 3].max()) for c in candidates])
+        # each candidate's lowest and highest pose [m] (a step has hundreds of candidates)
+        heights = np.concatenate([c.poses[:, 2, 3] for c in candidates]) if candidates else np.zeros(0)
+        firsts = np.cumsum([0] + [len(c.poses) for c in candidates[:-1]]).astype(np.int64)
+        low = np.minimum.reduceat(heights, firsts) if candidates else heights
+        high = np.maximum.reduceat(heights, firsts) if candidates else heights
         passes = []
         for arm, rmap in ((a, m) for a, m in views if torso is None or torso_value(m) == torso):
             blocked = self.blocked(step.index, arm)
