@@ -287,6 +287,7 @@ def test_column_skip_changes_no_result(poses, candidates):
         arg = np.full((candidates, ny, nx), -1, np.int16)
         trajectory_maps(
             slices,
+            np.zeros((0, 0, 0), np.uint64),
             bound[None],
             np.arange(poses, dtype=np.int64),
             tcp[0],
@@ -356,3 +357,62 @@ def test_column_maxima_is_numpys_max_over_the_yaw_bins(shape):
     values[values < 0.7] = 0.0
     got = column_maxima(values)
     assert got.dtype == np.float32 and np.array_equal(got, values.max(axis=2))
+
+
+@pytest.mark.parametrize("poses", [1, 2, 3])
+def test_a_threshold_pass_reading_yaw_bits_gives_what_it_gives_reading_values(poses):
+    """A ``first`` pass of one-member groups reads which yaw bins lie above the threshold
+    (``yaw_bits``: a bit per bin) until a yaw keeps every pose above it, and only then that yaw's
+    values: on random sparse slices its values and yaws equal those of the pass reading values, bit
+    for bit, and ``yaw_bits`` is numpy's comparison in float32."""
+    from placement.kernels.irm import trajectory_maps, yaw_bits
+
+    rng = np.random.default_rng(poses)
+    slices = rng.random((poses, 12, 14, 20)).astype(np.float32)
+    slices[slices < 0.5] = 0.0
+    slices = np.round(slices * 16) / 16  # values equal to the threshold: not above it
+    above = float(np.float32(0.5625))
+    bits = np.stack([yaw_bits(s, above) for s in slices])
+    weights = np.uint64(1) << np.arange(20, dtype=np.uint64)
+    assert np.array_equal(bits, ((slices > np.float32(above)) * weights).sum(axis=3, dtype=np.uint64))
+    G = 6  # six one-member groups at their own points
+    tcp = rng.uniform(-0.2, 0.2, (2, G * poses))
+    yaws = base_yaws(36)
+    ny, nx = 16, 15
+    cells = np.sort(rng.choice(ny * nx, 150, replace=False)).astype(np.int64)
+    masks = rng.integers(0, 2**36, (150, 1)).astype(np.uint64)
+    out = []
+    for given in (np.zeros((0, 0, 0), np.uint64), bits):
+        val = np.zeros((G, ny, nx), np.float32)
+        arg = np.full((G, ny, nx), -1, np.int16)
+        trajectory_maps(
+            slices,
+            given,
+            slices.max(axis=3)[:1],
+            np.tile(np.arange(poses, dtype=np.int64), G),
+            tcp[0],
+            tcp[1],
+            np.arange(0, G * poses + 1, poses, dtype=np.int64),
+            np.arange(G + 1, dtype=np.int64),
+            np.arange(G, dtype=np.int64),
+            np.linspace(-3.0, 3.0, G * poses),  # each pose its own TCP yaw [rad]
+            np.zeros(G, dtype=np.int64),
+            np.array([[0.0, 0.0, np.inf]] * G),
+            np.array([-0.6, -0.7]),
+            0.1,
+            yaws,
+            np.array([-0.75, -0.8]),
+            0.1,
+            nx,
+            cells,
+            masks,
+            val,
+            arg,
+            0,
+            0,
+            above,
+            True,
+        )
+        out.append((val, arg))
+    assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
+    assert (out[0][0] > above).sum() > 20 and ((out[0][0] == 0) & (out[0][1] == -1)).sum() > 20

@@ -37,6 +37,24 @@ def column_maxima(values: npt.NDArray[np.float32]) -> npt.NDArray[np.float32]:
 
 
 @njit(cache=True)
+def yaw_bits(values: npt.NDArray[np.float32], above: float) -> npt.NDArray[np.uint64]:
+    """(nx, ny) uint64: per (x, y) cell of ``values`` (nx, ny, n_yaw), n_yaw <= 64, bit b set when
+    yaw bin b holds a value above ``above`` (compared in float32, as the kernel compares): what a
+    threshold pass reads, an eighth of a slice's bytes."""
+    nx, ny, nyaw = values.shape
+    out = np.zeros((nx, ny), dtype=np.uint64)
+    a = np.float32(above)
+    for jx in range(nx):
+        for jy in range(ny):
+            w = np.uint64(0)
+            for k in range(nyaw):
+                if values[jx, jy, k] > a:
+                    w |= np.uint64(1) << np.uint64(k)
+            out[jx, jy] = w
+    return out
+
+
+@njit(cache=True)
 def farthest_reached(values: npt.NDArray[np.float32], x0: float, y0: float, res: float) -> float:
     """Largest distance [m] from the origin to a point of a cell of ``values`` (nx, ny, n_yaw) holding
     a value other than 0 at some yaw bin, the grid's lower corner at (``x0``, ``y0``) [m] and its cells
@@ -61,6 +79,7 @@ def farthest_reached(values: npt.NDArray[np.float32], x0: float, y0: float, res:
 @njit(cache=True, parallel=True, nogil=True)  # runs in a background thread: planning.problems.background
 def trajectory_maps(
     slices: npt.NDArray[np.float32],
+    bits: npt.NDArray[np.uint64],
     column_max: npt.NDArray[np.float32],
     pose_slice: npt.NDArray[np.int64],
     pose_x: npt.NDArray[np.float64],
@@ -101,6 +120,10 @@ def trajectory_maps(
 
     Args:
         slices: (S, nx_rm, ny_rm, n_yaw) float32, the map slices the poses read.
+        bits: (S, nx_rm, ny_rm) uint64, :func:`yaw_bits` of each slice for ``above``, read instead of
+            the slices by a ``first`` pass of a one-member group until a yaw keeps every pose above
+            ``above`` (whose values are then read: the same results, an eighth of the bytes read);
+            (0, 0, 0): the slices are read.
         column_max: (B, nx_rm, ny_rm) float32 upper bounds, ``slice.max(axis=2)`` of some slices.
         pose_slice: (M,) the slice of each pose; pose_x, pose_y: (M,) its world position [m].
         group_pose: (G + 1,) group g's poses are ``group_pose[g]:group_pose[g + 1]`` (P_g of them).
@@ -152,6 +175,7 @@ def trajectory_maps(
                     ybin[yaw_start[g] * K + (k * P + p) * C + c] = wrap_bin(yaw - base_yaws[k], n_yaw)
     n = cells.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
+    one = np.uint64(1)
     for task in prange(G * chunks):
         g = task // chunks
         chunk = task - g * chunks
@@ -168,6 +192,9 @@ def trajectory_maps(
         alive = np.empty(C, dtype=np.bool_)
         pdx = np.empty(P)
         pdy = np.empty(P)
+        pjx = np.empty(P, dtype=np.int64)
+        pjy = np.empty(P, dtype=np.int64)
+        by_bits = first and C == 1 and bits.shape[0] > 0
         for ci in range(chunk * CHUNK, min(n, (chunk + 1) * CHUNK)):
             cell = cells[ci]
             iy = cell // nx
@@ -192,6 +219,28 @@ def trajectory_maps(
                         continue
                     co = cs[k]
                     s = sn[k]
+                    if by_bits:  # the first yaw whose every pose lies above ``above``: bits, then values
+                        kept = True
+                        for p in range(P):
+                            jx = int(math.floor(((co * pdx[p] + s * pdy[p]) - rm_origin[0]) / rm_res))
+                            jy = int(math.floor(((-s * pdx[p] + co * pdy[p]) - rm_origin[1]) / rm_res))
+                            if jx < 0 or jy < 0 or jx >= nxr or jy >= nyr:
+                                kept = False
+                                break
+                            if (bits[pose_slice[p0 + p], jx, jy] >> np.uint64(ybin[yb0 + k * P + p])) & one == 0:
+                                kept = False
+                                break
+                            pjx[p] = jx
+                            pjy[p] = jy
+                        if kept:
+                            b1 = np.float32(np.inf)
+                            for p in range(P):
+                                v = slices[pose_slice[p0 + p], pjx[p], pjy[p], ybin[yb0 + k * P + p]]
+                                if v < b1:
+                                    b1 = v
+                            a1 = k
+                            break
+                        continue
                     v1 = np.float32(np.inf)
                     for p in range(P):
                         jx = int(math.floor(((co * pdx[p] + s * pdy[p]) - rm_origin[0]) / rm_res))

@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 from placement.errors import GridError, MapError, PlacementError
 from placement.kernels.grid import cell_indices
-from placement.kernels.irm import column_maxima, farthest_reached
+from placement.kernels.irm import column_maxima, farthest_reached, yaw_bits
 from placement.maps.array_checks import check_arrays
 from placement.maps.grid import Grid
 from placement.maps.quantiles import estimate_quantiles, quantile_value
@@ -48,6 +48,8 @@ class _Shared:
         self.lowest: dict[tuple[tuple[int, ...], int, int], np.ndarray] = {}
         #: the same keys -> that slice's maximum over the yaw bins (see ``column_max``)
         self.column_max: dict[tuple[tuple[int, ...], int, int], np.ndarray] = {}
+        #: (the same keys, a threshold) -> which yaw bins of each (x, y) cell lie above it (see ``yaw_bits``)
+        self.yaw_bits: dict[tuple[tuple[tuple[int, ...], int, int], float], np.ndarray] = {}
         self.quantiles = quantiles
         self.views: dict[float, ReachabilityMap] = {} if views is None else views
 
@@ -290,6 +292,18 @@ class ReachabilityMap:
             hit = column_maxima(self.lowest(*key))
             hit.flags.writeable = False
             self._shared.column_max[key] = hit
+        return hit
+
+    def yaw_bits(self, zs: Sequence[int], ip: int, ir: int, above: float) -> np.ndarray:
+        """(nx, ny) uint64: bit b of a cell set when yaw bin b of :meth:`lowest` ``(zs, ip, ir)`` holds a
+        value above ``above`` (float32 comparison; a map of at most 64 yaw bins); cached, read-only: what
+        a threshold pass of the inverse-map kernel reads."""
+        key = ((tuple(sorted({int(z) for z in zs})), int(ip), int(ir)), float(above))
+        hit = self._shared.yaw_bits.get(key)
+        if hit is None:
+            hit = yaw_bits(self.lowest(*key[0]), float(above))
+            hit.flags.writeable = False
+            self._shared.yaw_bits[key] = hit
         return hit
 
     def slice_reach(self, iz: int, ip: int, ir: int) -> float:

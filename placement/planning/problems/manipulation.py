@@ -235,6 +235,9 @@ def _kernel_pass(
     if not groups or not cells.size:
         return vals, args, discs, None
     slices: list[np.ndarray] = []
+    # a threshold pass reads which yaw bins lie above the threshold, 1 bit each (at most 64 bins)
+    by_bits = stop_early and g.shape[3] <= 64
+    bits: list[np.ndarray] = []
     bounds: list[np.ndarray] = []
     index: dict[tuple[tuple[int, ...], int, int], int] = {}
     bound_index: dict[tuple[tuple[int, ...], int, int], int] = {}
@@ -252,6 +255,8 @@ def _kernel_pass(
             if key not in index:
                 index[key] = len(slices)
                 slices.append(rmap.lowest(zs, ip, ir))
+                if by_bits:
+                    bits.append(rmap.yaw_bits(zs, ip, ir, above))
             pose_slice.append(index[key])
             pose_x.append(x)
             pose_y.append(y)
@@ -268,6 +273,7 @@ def _kernel_pass(
         group_disc.append(discs[members[0][0]])
     kernel_args = (
         np.ascontiguousarray(np.stack(slices)),  # a step's candidates share a few dozen slices
+        np.ascontiguousarray(np.stack(bits)) if bits else np.zeros((0, 0, 0), np.uint64),
         np.ascontiguousarray(np.stack(bounds)),
         np.array(pose_slice, dtype=np.int64),
         np.array(pose_x, dtype=float),
