@@ -263,14 +263,53 @@ def test_lowest_is_the_elementwise_minimum_of_the_slices(coarse_map):
     assert np.array_equal(coarse_map.lowest((3,), ip, ir), coarse_map.slice(3, ip, ir))
 
 
+def run_kernel(slices, bits, bound, groups, members, tcp, member_yaw, yaws, cells, masks, above=0.0, first=False):
+    """``trajectory_maps`` on a 16 x 15 grid of 0.1 m cells at (-0.75, -0.8) with maps of 0.1 m cells at
+    (-0.6, -0.7): ``groups`` (G,) poses per group (pose p of a group reads slice p), ``members`` (G,)
+    members per group, every group's bound ``bound`` (nx_rm, ny_rm), no disc. Returns (values, yaws)
+    (rows, 16, 15)."""
+    from placement.kernels.irm import trajectory_maps
+
+    rows = int(sum(members))
+    val = np.zeros((rows, 16, 15), np.float32)
+    arg = np.full((rows, 16, 15), -1, np.int16)
+    trajectory_maps(
+        slices,
+        bits,
+        bound[None],
+        np.concatenate([np.arange(p, dtype=np.int64) for p in groups]),
+        tcp[0],
+        tcp[1],
+        np.concatenate([[0], np.cumsum(groups)]).astype(np.int64),
+        np.concatenate([[0], np.cumsum(members)]).astype(np.int64),
+        np.arange(rows, dtype=np.int64),
+        member_yaw,
+        np.zeros(len(groups), dtype=np.int64),
+        np.array([[0.0, 0.0, np.inf]] * len(groups)),
+        np.array([-0.6, -0.7]),
+        0.1,
+        yaws,
+        np.array([-0.75, -0.8]),
+        0.1,
+        15,
+        cells,
+        masks,
+        val,
+        arg,
+        0,
+        0,
+        above,
+        first,
+    )
+    return val, arg
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("poses, candidates", [(1, 1), (2, 1), (3, 1), (1, 8), (2, 2), (3, 5)])
 def test_column_skip_changes_no_result(poses, candidates):
     """The kernel skips a base yaw whose first pose lands on a map column no higher than every
     candidate's best: on random sparse slices its results equal the kernel's without skips (an
     upper bound that never holds) bit for bit, values and best yaws."""
-    from placement.kernels.irm import trajectory_maps
-
     rng = np.random.default_rng(poses * 10 + candidates)
     slices = rng.random((poses, 12, 14, 8)).astype(np.float32)
     slices[slices < 0.6] = 0.0  # sparse, like a map's slices
@@ -278,38 +317,13 @@ def test_column_skip_changes_no_result(poses, candidates):
     tcp = rng.uniform(-0.2, 0.2, (2, poses))
     tcp_yaw = rng.uniform(-math.pi, math.pi, (candidates, poses))
     yaws = base_yaws(36)
-    ny, nx = 16, 15
-    cells = np.sort(rng.choice(ny * nx, 150, replace=False)).astype(np.int64)
+    cells = np.sort(rng.choice(16 * 15, 150, replace=False)).astype(np.int64)
     masks = rng.integers(0, 2**62, (150, 1)).astype(np.uint64)
-    out = []
-    for bound in (np.ascontiguousarray(slices[0].max(axis=2)), np.full((12, 14), np.inf, np.float32)):
-        val = np.zeros((candidates, ny, nx), np.float32)
-        arg = np.full((candidates, ny, nx), -1, np.int16)
-        trajectory_maps(
-            slices,
-            np.zeros((0, 0, 0), np.uint64),
-            bound[None],
-            np.arange(poses, dtype=np.int64),
-            tcp[0],
-            tcp[1],
-            np.array([0, poses], dtype=np.int64),
-            np.array([0, candidates], dtype=np.int64),
-            np.arange(candidates, dtype=np.int64),
-            tcp_yaw.ravel(),
-            np.array([0], dtype=np.int64),
-            np.array([[0.0, 0.0, np.inf]]),
-            np.array([-0.6, -0.7]),
-            0.1,
-            yaws,
-            np.array([-0.75, -0.8]),
-            0.1,
-            nx,
-            cells,
-            masks,
-            val,
-            arg,
-        )
-        out.append((val, arg))
+    nobits = np.zeros((0, 0, 0), np.uint64)
+    out = [
+        run_kernel(slices, nobits, bound, [poses], [candidates], tcp, tcp_yaw.ravel(), yaws, cells, masks)
+        for bound in (np.ascontiguousarray(slices[0].max(axis=2)), np.full((12, 14), np.inf, np.float32))
+    ]
     assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
     assert (out[0][0] > 0).sum() > 20
 
@@ -365,7 +379,7 @@ def test_a_threshold_pass_reading_yaw_bits_gives_what_it_gives_reading_values(po
     (``yaw_bits``: a bit per bin) until a yaw keeps every pose above it, and only then that yaw's
     values: on random sparse slices its values and yaws equal those of the pass reading values, bit
     for bit, and ``yaw_bits`` is numpy's comparison in float32."""
-    from placement.kernels.irm import trajectory_maps, yaw_bits
+    from placement.kernels.irm import yaw_bits
 
     rng = np.random.default_rng(poses)
     slices = rng.random((poses, 12, 14, 20)).astype(np.float32)
@@ -378,41 +392,14 @@ def test_a_threshold_pass_reading_yaw_bits_gives_what_it_gives_reading_values(po
     G = 6  # six one-member groups at their own points
     tcp = rng.uniform(-0.2, 0.2, (2, G * poses))
     yaws = base_yaws(36)
-    ny, nx = 16, 15
-    cells = np.sort(rng.choice(ny * nx, 150, replace=False)).astype(np.int64)
+    cells = np.sort(rng.choice(16 * 15, 150, replace=False)).astype(np.int64)
     masks = rng.integers(0, 2**36, (150, 1)).astype(np.uint64)
-    out = []
-    for given in (np.zeros((0, 0, 0), np.uint64), bits):
-        val = np.zeros((G, ny, nx), np.float32)
-        arg = np.full((G, ny, nx), -1, np.int16)
-        trajectory_maps(
-            slices,
-            given,
-            slices.max(axis=3)[:1],
-            np.tile(np.arange(poses, dtype=np.int64), G),
-            tcp[0],
-            tcp[1],
-            np.arange(0, G * poses + 1, poses, dtype=np.int64),
-            np.arange(G + 1, dtype=np.int64),
-            np.arange(G, dtype=np.int64),
-            np.linspace(-3.0, 3.0, G * poses),  # each pose its own TCP yaw [rad]
-            np.zeros(G, dtype=np.int64),
-            np.array([[0.0, 0.0, np.inf]] * G),
-            np.array([-0.6, -0.7]),
-            0.1,
-            yaws,
-            np.array([-0.75, -0.8]),
-            0.1,
-            nx,
-            cells,
-            masks,
-            val,
-            arg,
-            0,
-            0,
-            above,
-            True,
+    member_yaw = np.linspace(-3.0, 3.0, G * poses)  # each pose its own TCP yaw [rad]
+    out = [
+        run_kernel(
+            slices, given, slices[0].max(axis=2), [poses] * G, [1] * G, tcp, member_yaw, yaws, cells, masks, above, True
         )
-        out.append((val, arg))
+        for given in (np.zeros((0, 0, 0), np.uint64), bits)
+    ]
     assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
     assert (out[0][0] > above).sum() > 20 and ((out[0][0] == 0) & (out[0][1] == -1)).sum() > 20
