@@ -261,9 +261,7 @@ class StepProblems:
         factor = self.relaxed(i)  # before any map: it may compute the step's options, then used here
         if i in self._options or i in self._stale:
             return self.options(i)
-        if self.settings == [None]:
-            return self._regional_at(i, None, factor, stop)
-        return [o for t in self.settings if t is not None for o in self._rough(i, t, factor, stop)]
+        return [o for t in self._views(None) for o in self._rough(i, t, factor, stop)]
 
     def threshold_options(self, i: int, torso: float | None = None, stop: Stop | None = None) -> list[Option]:
         """Step i's options at torso value ``torso`` [m] (None: at every setting), index-aligned with
@@ -280,14 +278,18 @@ class StepProblems:
             return hit
         exact = i in self._options or i in self._stale or (torso is not None and key in self._held)
         if not exact and len(self.candidates(i)) >= THRESHOLD_PASS_FROM:
-            views = (
-                [torso] if torso is not None or self.settings == [None] else [t for t in self.settings if t is not None]
-            )
-            parts = [self._rough(i, t, 1.0, stop) for t in views]
+            parts = [self._rough(i, t, 1.0, stop) for t in self._views(torso)]
             if self.relaxed(i) == 1.0:
                 hit = self._thresholded[key] = [o for p in parts for o in p]
                 return hit
         return self.options(i) if torso is None else self.held_options(i, torso, stop)
+
+    def _views(self, torso: float | None) -> list[float | None]:
+        """The torso values [m] whose maps a step's options at ``torso`` read: that one, or every
+        setting for None (the maps without a torso record: [None])."""
+        if torso is not None or self.settings == [None]:
+            return [torso]
+        return [t for t in self.settings if t is not None]
 
     def _rough(self, i: int, torso: float | None, factor: float, stop: Stop | None) -> list[Option]:
         """Step i's options at torso value ``torso`` [m]: the exact ones if given already, else those
@@ -363,9 +365,7 @@ class StepProblems:
         :meth:`held_options` takes it (when it raises, what was started stays started)."""
         if i in self._options or i in self._stale or (i, torso) in self._thresholded:
             return
-        settings = (
-            [torso] if torso is not None or self.settings == [None] else [t for t in self.settings if t is not None]
-        )
+        settings = self._views(torso)
         keys: list[tuple[int, float | None, float | None]]
         if not exact and len(self.candidates(i)) >= THRESHOLD_PASS_FROM:
             keys = [(i, t, 1.0) for t in settings if (i, t, 1.0) not in self._regional and (i, t) not in self._held]
@@ -382,7 +382,7 @@ class StepProblems:
         factor = self._relaxed.get(i)
         if factor is None or i in self._options or i in self._stale:
             return
-        for t in [None] if self.settings == [None] else [t for t in self.settings if t is not None]:
+        for t in self._views(None):
             key = (i, t, factor)
             if (t is None or (i, t) not in self._held) and key not in self._regional and key not in self._pending:
                 self._pending[key] = self._launch_options(self.steps[i], t, factor, stop)
