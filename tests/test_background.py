@@ -14,11 +14,11 @@ from placement.planning import Planner
 from placement.planning.problems import background, cache
 
 ROOT = Path(__file__).resolve().parents[1]
-ARENA = ROOT / "examples" / "buildings" / "wrs_arena" / "tidy_up_ycb.yaml"
+SCENE = ROOT / "examples" / "table_clearing.yaml"
 
 
 def test_a_call_runs_in_the_background_thread_and_its_error_reaches_the_wait(tiny_maps):
-    Planner(ARENA, "global", tiny_maps)  # warm: numba chooses its threading layer
+    Planner(SCENE, "global", tiny_maps)  # warm: numba chooses its threading layer
     if not background.concurrent():
         pytest.skip("numba's threading layer here does not take kernels from two threads")
     where: list[str] = []
@@ -39,12 +39,12 @@ def test_a_call_runs_in_the_background_thread_and_its_error_reaches_the_wait(tin
 
 @pytest.mark.parametrize("exact", [False, True], ids=["threshold", "exact"])
 def test_prefetched_options_equal_those_computed_in_place(tiny_maps, monkeypatch, exact):
-    """Every step of a building scene, prefetched all at once (the kernel passes queued behind each
+    """Every step of a scene, prefetched all at once (the kernel passes queued behind each
     other) and then read, against a planner that computes them when asked: the same options, windows,
     values and yaws."""
     monkeypatch.setattr(cache, "THRESHOLD_PASS_FROM", 1)  # threshold passes on every step
-    ahead = Planner(ARENA, "global", tiny_maps).problems
-    plain = Planner(ARENA, "global", tiny_maps).problems
+    ahead = Planner(SCENE, "global", tiny_maps).problems
+    plain = Planner(SCENE, "global", tiny_maps).problems
     steps = range(len(ahead.steps))
     for i in steps:
         ahead.prefetch(i, None, exact)  # every torso setting
