@@ -153,6 +153,8 @@ def _solve_verified(dp: DynamicProgram) -> tuple[Chain | None, list[Verified], I
             dp.remove(*f)
             if dp.exact_repairs is None or dp.repairs < dp.exact_repairs:
                 dp.reject_around(*f)
+            if dp.local:  # a repair's rejected candidates: the next chain need not find them again
+                dp.forget_rejected(f[0])
         chain = dp.solve(failed[0][0])
 
 

@@ -126,6 +126,23 @@ class Regions:
         masks[g, near] = False
         return replace(self, masks=masks)
 
+    def without_cells(self, off: dict[int, Sequence[int]]) -> Regions:
+        """These regions with each group g of ``off`` off at its flat cells ``off[g]`` (cells not among
+        :attr:`cells` are ignored)."""
+        masks = self.masks.copy()
+        for g, flats in off.items():
+            want = np.asarray(flats, np.int64)
+            at = np.minimum(np.searchsorted(self.cells, want), max(self.cells.size - 1, 0))
+            if self.cells.size:
+                masks[g, at[self.cells[at] == want]] = False
+        return replace(self, masks=masks)
+
+    def without_group(self, g: int) -> Regions:
+        """These regions with group g off everywhere."""
+        masks = self.masks.copy()
+        masks[g] = False
+        return replace(self, masks=masks)
+
     def within(self, other: Regions) -> bool:
         """Whether every (group, cell) of these regions is one of ``other``'s (same groups and grid)."""
         if self.groups != other.groups or self.shape != other.shape:

@@ -30,6 +30,12 @@ from placement.planning.program.repair import Verified
 from placement.planning.torso import option_collisions, option_map, option_robot, start_torso, torso_first
 from placement.planning.verification import CheckKey, TrajectoryIK, trajectory_ik
 
+#: distinct cells of a (step, group, torso setting) rejected, none verified, after which a rejection
+#: (once rejections remove neighbourhoods) probes the group's whole region (:meth:`DynamicProgram.hopeless`)
+PROBE_AFTER = 16
+#: sectors around a group's region whose best cell by map value a probe verifies
+PROBE_SECTORS = 12
+
 
 class DynamicProgram:
     """One plan's program: regions (changed by repairs), layers, the verified and rejected placements.
@@ -93,6 +99,12 @@ class DynamicProgram:
         self.coarse = False
         self.solves = 0
         self.first_total = math.inf  # the first solve's optimum [m]
+        #: per (step, group, torso value held or None): the distinct cells verification rejected,
+        #: and whether one verified (True), or a probe found none (False: see :meth:`hopeless`)
+        self.tally: dict[tuple[int, Group, float | None], set[int]] = {}
+        self.settled: dict[tuple[int, Group, float | None], bool] = {}
+        #: (step, group, torso value) dropped whole by a probe
+        self.dropped: list[tuple[int, Group, float | None]] = []
         #: a rejected placement is first moved to the least detour that verifies (:mod:`.repair`)
         self.local = False
         self.repairs_local = 0
@@ -122,8 +134,18 @@ class DynamicProgram:
         first, see :mod:`placement.planning.torso`)."""
         hold = self.setting(i, g)
         key = (i, flat, self.regions[i].groups[g], hold)
-        if key in self.verified:
-            return self.verified[key]
+        if key not in self.verified:
+            self.verified[key] = self._verify(i, flat, g, hold)
+        found = self.verified[key]
+        group_key = (i, self.regions[i].groups[g], hold)
+        if found is not None:
+            self.settled[group_key] = True
+        else:
+            self.tally.setdefault(group_key, set()).add(flat)
+        return found
+
+    def _verify(self, i: int, flat: int, g: int, hold: float | None) -> Verified | None:
+        """:meth:`verify` of a (step, cell, group) not checked before (``hold``: its torso setting)."""
         ctx = self.ctx.for_step(i)
         nav = ctx.world.nav
         iy, ix = divmod(flat, nav.shape[1])
@@ -154,7 +176,6 @@ class DynamicProgram:
                     break
             if found is not None:
                 break
-        self.verified[key] = found
         return found
 
     def check_at(self, i: int, g: int, k: int, base: tuple[float, float, float], value: float) -> Verified | None:
@@ -208,6 +229,67 @@ class DynamicProgram:
         if count:
             self.rejected[i] += 1
             self.repairs += 1
+        # ``global`` (local repairs) probes from the start, ``optimal`` once it removes neighbourhoods
+        if count and (late or self.local) and self.hopeless(i, g):
+            self.dropped.append((i, self.regions[i].groups[g], self.setting(i, g)))
+            self.regions[i] = self.regions[i].without_group(g)
+            self.coarse = True
+
+    def forget_rejected(self, i: int) -> None:
+        """Take every (cell, group) of step i that verification rejected out of its region (those a
+        repair tried too), not counted as repairs: the program's next chain cannot stand on them."""
+        reg = self.regions[i]
+        rows = {(group, self.setting(i, g)): g for g, group in enumerate(reg.groups)}
+        off: dict[int, list[int]] = {}
+        for (step, flat, group, hold), v in self.verified.items():
+            g = rows.get((group, hold)) if step == i and v is None else None
+            if g is not None:
+                off.setdefault(g, []).append(flat)
+        if off:
+            self.regions[i] = reg.without_cells(off)
+
+    def hopeless(self, i: int, g: int) -> bool:
+        """Whether step i's group g verifies nowhere, as far as a probe tells: once
+        :data:`PROBE_AFTER` distinct cells of it were rejected and none verified, the best cell by map
+        value in each of :data:`PROBE_SECTORS` sectors around its region's centre is verified, and the
+        group is hopeless when none of them verifies (a grasp whose fingers meet the table wherever the
+        base stands, a place whose forearm meets the counter's edge: rejections that a map of the arm
+        alone cannot foresee, and that otherwise take the program through the group's region cell by
+        cell). A heuristic: the plan may then miss a group's rare verifying cells, never a verified plan
+        (when no chain is left, the caller solves again over every group, :meth:`exact_again`)."""
+        reg = self.regions[i]
+        key = (i, reg.groups[g], self.setting(i, g))
+        if key in self.settled:
+            return not self.settled[key]
+        if len(self.tally.get(key, ())) < PROBE_AFTER:
+            return False
+        self.settled[key] = False  # the probe's own rejections do not probe again
+        for flat in self.probe_cells(i, g):
+            if self.verify(i, flat, g) is not None:
+                return False
+        return True
+
+    def probe_cells(self, i: int, g: int) -> list[int]:
+        """Step i's group g's cells a probe verifies: in each of :data:`PROBE_SECTORS` equal sectors
+        around the centre of the group's region, the cell of the best map value (any option of the
+        group), in sector order."""
+        reg = self.regions[i]
+        cells = reg.cells[reg.masks[g]]
+        if not cells.size:
+            return []
+        opts = self.options(i, g)
+        members = [o for o in opts if (o.arm, o.candidate.grasp) == reg.groups[g]]
+        values, _ = self.ctx.problems.exact_values(members, cells)
+        best = values.max(axis=0)
+        ys, xs = np.divmod(cells, reg.shape[1])
+        angle = np.arctan2(ys - ys.mean(), xs - xs.mean())
+        sector = np.minimum(((angle + math.pi) / (2 * math.pi) * PROBE_SECTORS).astype(int), PROBE_SECTORS - 1)
+        out = []
+        for s in range(PROBE_SECTORS):
+            k = np.flatnonzero(sector == s)
+            if k.size:
+                out.append(int(cells[k[np.argmax(best[k])]]))
+        return out
 
     def setting(self, i: int, g: int) -> float | None:
         """The torso setting step i's group g is verified at: the group's own (the priced program),
@@ -243,6 +325,7 @@ class DynamicProgram:
         removing neighbours again (when removing them left no chain)."""
         self.exact_repairs, self.coarse = None, False
         self.regions = self.weighted()
+        self.dropped = []
         for (i, flat, group, hold), v in self.verified.items():
             if v is not None or i >= len(self.full):
                 continue
