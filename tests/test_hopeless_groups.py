@@ -118,10 +118,7 @@ def test_probe_cells_are_each_sectors_best_cell(solved):
 def test_without_cells_turns_off_the_named_cells_only():
     # cells 1, 4, 7, 9 of a 2 x 5 grid; group 0 holds all, group 1 the last two
     reg = Regions(
-        (("left", "a"), ("right", "a")),
-        np.array([1, 4, 7, 9]),
-        np.array([[1, 1, 1, 1], [0, 0, 1, 1]], bool),
-        (2, 5),
+        (("left", "a"), ("right", "a")), np.array([1, 4, 7, 9]), np.array([[1, 1, 1, 1], [0, 0, 1, 1]], bool), (2, 5)
     )
     out = reg.without_cells({0: [4, 8, 1], 1: [9, 0]})  # 8 and 0 are not cells: ignored
     assert out.masks.tolist() == [[False, False, True, True], [False, False, True, False]]
