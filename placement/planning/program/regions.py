@@ -4,7 +4,7 @@ step's options keeps its arm's map threshold (the regions of the whole-task prog
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -126,7 +126,7 @@ class Regions:
         masks[g, near] = False
         return replace(self, masks=masks)
 
-    def without_cells(self, off: dict[int, Sequence[int]]) -> Regions:
+    def without_cells(self, off: Mapping[int, Sequence[int]]) -> Regions:
         """These regions with each group g of ``off`` off at its flat cells ``off[g]`` (cells not among
         :attr:`cells` are ignored)."""
         masks = self.masks.copy()
