@@ -6,6 +6,11 @@ PY ?= .venv/bin/python
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
 export OMP_WAIT_POLICY ?= PASSIVE
 
+# pytest rewrites the asserts of ~320 test modules on each run (10 s of each worker's collection)
+# unless it may cache them as bytecode: with PYTHONDONTWRITEBYTECODE (set in some containers) the
+# bytecode goes to a cache outside the working tree instead.
+PYTEST = $(if $(PYTHONDONTWRITEBYTECODE),env -u PYTHONDONTWRITEBYTECODE PYTHONPYCACHEPREFIX=$(CURDIR)/.venv/pycache) $(PY) -m pytest
+
 .PHONY: install constraints lint test test-all coverage maps maps-armar6 maps-tiago demo bench bench-kitchen bench-eval eval robots clean docs
 
 install: .venv/installed $(NUMBA_CACHE_DIR)/warm
@@ -39,12 +44,12 @@ lint: install
 # enumeration, parsers, the CLI through click's runner), two pytest-xdist workers, a test file on one
 # worker (--dist loadfile: pyproject.toml). Run it while editing.
 test: install
-	$(PY) -m pytest -q -n 2 -m "not slow"
+	$(PYTEST) -q -n 2 -m "not slow"
 
 # Both tiers: the fast one and the integration tier marked `slow` (map builds, the docs build, Chromium,
 # the warm-up, the ROS 2 node, commands as subprocesses, whole scenes); what CI runs.
 test-all: install
-	$(PY) -m pytest -q -n 2
+	$(PYTEST) -q -n 2
 
 # Line coverage of placement/ (pytest-cov, .coveragerc): the suite, then the kernel reference tests again
 # with the numba JIT off (compiled kernels run as machine code coverage cannot see; these tests are fast

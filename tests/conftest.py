@@ -163,16 +163,21 @@ def maps_dir(pr2, tmp_path_factory, worker_id):
 
 
 @pytest.fixture(scope="session")
-def tiny_maps(pr2, tmp_path_factory):
-    """Tiny PR2 maps (both arms; 150 k samples, 0.15 m cells, 10 x 5 x 10 bins: 3 s) for the fast
-    tier's whole plans: coarse, but every example scene plans on them."""
-    built = {
-        arm: placement.build_map(pr2, arm, samples=150_000, seed=1, resolution=0.15, bins=(10, 5, 10), progress=False)
-        for arm in ("right", "left")
-    }
-    folder = tmp_path_factory.mktemp("tiny-maps") / "pr2"
-    placement.save_maps(folder, pr2, built)
-    return folder
+def tiny_maps(pr2, tmp_path_factory, worker_id):
+    """Tiny PR2 maps (both arms; 150 k samples, 0.15 m cells, 10 x 5 x 10 bins: 4-9 s) for the fast
+    tier's whole plans: coarse, but every example scene plans on them. Built once per run, by the
+    first pytest-xdist worker that needs them (read-only for every test)."""
+
+    def build(folder: Path) -> None:
+        built = {
+            arm: placement.build_map(
+                pr2, arm, samples=150_000, seed=1, resolution=0.15, bins=(10, 5, 10), progress=False
+            )
+            for arm in ("right", "left")
+        }
+        placement.save_maps(folder / "pr2", pr2, built)
+
+    return built_once(run_dir(tmp_path_factory, worker_id), "tiny-maps", build) / "pr2"
 
 
 @pytest.fixture(scope="module")
