@@ -11,6 +11,7 @@ from dataclasses import replace
 import pytest
 
 from placement.planning import Planner
+from placement.planning.methods.optimal import DynamicProgram, solve_verified
 from placement.scene import parse_scene
 
 WALL = 0.1
@@ -76,3 +77,28 @@ def test_rejections_of_every_placement_the_base_can_reach_say_the_rest_lie_where
     assert step.reason.startswith("IK or the collision check rejected the placements the base can reach ("), step.reason
     assert step.reason.endswith("; the others lie where the footprint cannot drive"), step.reason
     assert step.diagnosis["tried"] == step.diagnosis["ik_failures"] > 0
+
+
+def test_groups_the_probes_dropped_come_back_once_and_are_searched_cell_by_cell(maps_dir):
+    """``global`` drops a group a probe finds no verifying cell of (``DynamicProgram.hopeless``); when
+    that leaves no chain, the program is solved again over every group, once, and drops none again:
+    the step is said to be infeasible for what truly rejected it."""
+    planner = Planner(reach_scene([]), "global", maps_dir)
+    ctx = planner.context
+    config = replace(ctx.config, ik_pos_tol_m=1e-300, ik_rot_tol_rad=1e-300, ik_budget_ms=60_000.0)
+    ctx = replace(ctx, config=config, deadline=time.perf_counter() + 300.0, spent=[])
+    dp = DynamicProgram(ctx, planner.start_cell(), 1, config.global_exact_repairs)
+    dp.local = dp.program.lazy = True
+    dropped_before = []
+    real = dp.exact_again
+
+    def counted():
+        dropped_before.append(list(dp.dropped))
+        return real()
+
+    dp.exact_again = counted  # type: ignore[method-assign]
+    chain, picks, failure = solve_verified(dp)
+    assert chain is None and not picks and failure is not None
+    assert len(dropped_before) == 1 and dropped_before[0], "the probes dropped the groups, once"
+    assert not dp.probing and not dp.dropped
+    assert failure.reason.startswith("IK or the collision check rejected all "), failure.reason

@@ -105,6 +105,9 @@ class DynamicProgram:
         self.settled: dict[tuple[int, Group, float | None], bool] = {}
         #: (step, group, torso value) dropped whole by a probe
         self.dropped: list[tuple[int, Group, float | None]] = []
+        #: whether a hopeless group is dropped (not after :meth:`exact_again`: what the probes dropped
+        #: left no chain, so the groups are searched cell by cell)
+        self.probing = True
         #: a rejected placement is first moved to the least detour that verifies (:mod:`.repair`)
         self.local = False
         self.repairs_local = 0
@@ -230,7 +233,7 @@ class DynamicProgram:
             self.rejected[i] += 1
             self.repairs += 1
         # ``global`` (local repairs) probes from the start, ``optimal`` once it removes neighbourhoods
-        if count and (late or self.local) and self.hopeless(i, g):
+        if count and self.probing and (late or self.local) and self.hopeless(i, g):
             self.dropped.append((i, self.regions[i].groups[g], self.setting(i, g)))
             self.regions[i] = self.regions[i].without_group(g)
             self.coarse = True
@@ -256,7 +259,8 @@ class DynamicProgram:
         base stands, a place whose forearm meets the counter's edge: rejections that a map of the arm
         alone cannot foresee, and that otherwise take the program through the group's region cell by
         cell). A heuristic: the plan may then miss a group's rare verifying cells, never a verified plan
-        (when no chain is left, the caller solves again over every group, :meth:`exact_again`)."""
+        (when no chain is left, the caller solves again over every group, :meth:`exact_again`, and
+        drops none after that)."""
         reg = self.regions[i]
         key = (i, reg.groups[g], self.setting(i, g))
         if key in self.settled:
@@ -325,7 +329,7 @@ class DynamicProgram:
         removing neighbours again (when removing them left no chain)."""
         self.exact_repairs, self.coarse = None, False
         self.regions = self.weighted()
-        self.dropped = []
+        self.dropped, self.probing = [], False
         for (i, flat, group, hold), v in self.verified.items():
             if v is not None or i >= len(self.full):
                 continue
