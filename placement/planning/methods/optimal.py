@@ -301,23 +301,25 @@ def why_not(ctx: PlanningContext, dp: DynamicProgram) -> InfeasibleStep:
     ik, hits, culprit = ctx.problems.checks.tally(i)
     how = f"{ik + hits} checks: {ik} failed IK, {hits} in collision" + (f", mostly {culprit}" if culprit else "")
     facts: dict[str, Any] = {"tried": ik + hits, "ik_failures": ik, "collision_failures": hits, "culprit": culprit}
-    if dp.rejected[i] and not dp.regions[i].any():
-        reason = f"IK or the collision check rejected all {dp.rejected[i]} placements the maps allow ({how})"
+    # (cell, group) placements of the step verification rejected (the program removed them all by now:
+    # a chain is sought over every group, less only these, before a step is called infeasible)
+    rejected = sum(1 for (k, _, _, _), v in dp.verified.items() if k == i and v is None)
+    if rejected and not dp.regions[i].any():
+        reason = f"IK or the collision check rejected all {rejected} placements the maps allow ({how})"
         return diagnosed(ctx, step, opts, reason, "another grasp, or room around the target, would help", facts)
     left = dp.regions[i].cells[dp.regions[i].masks.any(axis=0)]
-    if dp.rejected[i] and not reachable[left].any():  # the rejections took every cell the base can reach
+    if rejected and not reachable[left].any():  # the rejections took every cell the base can reach
         reason = (
-            f"IK or the collision check rejected the placements the base can reach ({dp.rejected[i]} cells, "
-            f"each ruling out the cells around it; {how})"
+            f"IK or the collision check rejected the placements the base can reach ({rejected} placements; {how})"
         )
         rest = "; the others lie where the footprint cannot drive" if full.size > driven else ""
         return diagnosed(ctx, step, opts, reason, no_path_hint(full.size, driven) + rest, facts)
     if dp.linked[i]:  # per pair that picks: what stops it at the place (the step-by-step methods' words)
         pick = steps[i - 1]
         places = {g for g, m in zip(dp.full[i].groups, dp.full[i].masks) if m.any()}
-        rejected = f"IK or the collision check rejected the placements the maps allow ({how})"
+        said = f"IK or the collision check rejected the placements the maps allow ({how})"
         failed = {
-            g: (rejected if g in places else "") for g, m in zip(dp.full[i - 1].groups, dp.full[i - 1].masks) if m.any()
+            g: (said if g in places else "") for g, m in zip(dp.full[i - 1].groups, dp.full[i - 1].masks) if m.any()
         }
         reason = transfer_reason(ctx, pick, step, failed, opts)
         facts["transfers"] = transfer_diagnosis(failed, opts)
