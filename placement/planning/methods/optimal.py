@@ -309,9 +309,7 @@ def why_not(ctx: PlanningContext, dp: DynamicProgram) -> InfeasibleStep:
         return diagnosed(ctx, step, opts, reason, "another grasp, or room around the target, would help", facts)
     left = dp.regions[i].cells[dp.regions[i].masks.any(axis=0)]
     if rejected and not reachable[left].any():  # the rejections took every cell the base can reach
-        reason = (
-            f"IK or the collision check rejected the placements the base can reach ({rejected} placements; {how})"
-        )
+        reason = f"IK or the collision check rejected the placements the base can reach ({rejected} placements; {how})"
         rest = "; the others lie where the footprint cannot drive" if full.size > driven else ""
         return diagnosed(ctx, step, opts, reason, no_path_hint(full.size, driven) + rest, facts)
     if dp.linked[i]:  # per pair that picks: what stops it at the place (the step-by-step methods' words)
