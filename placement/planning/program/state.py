@@ -232,8 +232,7 @@ class DynamicProgram:
         if count:
             self.rejected[i] += 1
             self.repairs += 1
-        # ``global`` (local repairs) probes from the start, ``optimal`` once it removes neighbourhoods
-        if count and self.probing and (late or self.local) and self.hopeless(i, g):
+        if count and self.gives_up(i, g, late):
             self.dropped.append((i, self.regions[i].groups[g], self.setting(i, g)))
             self.regions[i] = self.regions[i].without_group(g)
             self.coarse = True
@@ -250,6 +249,12 @@ class DynamicProgram:
                 off.setdefault(g, []).append(flat)
         if off:
             self.regions[i] = reg.without_cells(off)
+
+    def gives_up(self, i: int, g: int, late: bool = False) -> bool:
+        """Whether step i's group g is to be dropped: :meth:`hopeless`, asked by ``global`` (local
+        repairs) from the start, by ``optimal`` once its rejections remove neighbourhoods (``late``),
+        and by neither after :meth:`exact_again`."""
+        return self.probing and (late or self.local) and self.hopeless(i, g)
 
     def hopeless(self, i: int, g: int) -> bool:
         """Whether step i's group g verifies nowhere, as far as a probe tells: once
