@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -31,22 +32,24 @@ def _module_name(path: Path) -> str:
     return ".".join(parts)
 
 
-def _imports(path: Path) -> list[tuple[str, list[str]]]:
-    """(absolute module, imported names) of every import in the file, relative ones resolved."""
+@functools.cache
+def _imports(path: Path) -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """(absolute module, imported names) of every import in the file, relative ones resolved (parsed
+    once per run: every module is read by several tests)."""
     tree = ast.parse(path.read_text())
     package = _module_name(path) if path.name == "__init__.py" else _module_name(path).rsplit(".", 1)[0]
-    out = []
+    out: list[tuple[str, tuple[str, ...]]] = []
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            out += [(a.name, []) for a in node.names]
+            out += [(a.name, ()) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
             base = node.module or ""
             if node.level:
                 anchor = package.split(".")
                 anchor = anchor[: len(anchor) - node.level + 1]
                 base = ".".join(anchor + ([base] if base else []))
-            out.append((base, [a.name for a in node.names]))
-    return out
+            out.append((base, tuple(a.name for a in node.names)))
+    return tuple(out)
 
 
 MODULES = {_module_name(p): p for p in _modules("placement")}
