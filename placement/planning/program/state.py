@@ -241,12 +241,11 @@ class DynamicProgram:
         """Take every (cell, group) of step i that verification rejected out of its region (those a
         repair tried too), not counted as repairs: the program's next chain cannot stand on them."""
         reg = self.regions[i]
-        rows = {(group, self.setting(i, g)): g for g, group in enumerate(reg.groups)}
-        off: dict[int, list[int]] = {}
-        for (step, flat, group, hold), v in self.verified.items():
-            g = rows.get((group, hold)) if step == i and v is None else None
-            if g is not None:
-                off.setdefault(g, []).append(flat)
+        off = {}
+        for g, group in enumerate(reg.groups):
+            flats = self.tally.get((i, group, self.setting(i, g)))
+            if flats:
+                off[g] = sorted(flats)
         if off:
             self.regions[i] = reg.without_cells(off)
 
