@@ -19,8 +19,8 @@ from support.budgets import unbudgeted
 
 from placement.planning import Planner, load_scene
 from placement.planning.methods.optimal import DynamicProgram, solve_verified
-from placement.planning.program.regions import Regions
 from placement.planning.program import state
+from placement.planning.program.regions import Regions
 from placement.planning.program.state import PROBE_AFTER, PROBE_SECTORS
 
 KITCHEN = Path(__file__).resolve().parents[1] / "examples" / "kitchen.yaml"
