@@ -31,7 +31,8 @@ from placement.planning.torso import option_collisions, option_map, option_robot
 from placement.planning.verification import CheckKey, TrajectoryIK, trajectory_ik
 
 #: distinct cells of a (step, group, torso setting) rejected, none verified, after which a rejection
-#: (once rejections remove neighbourhoods) probes the group's whole region (:meth:`DynamicProgram.hopeless`)
+#: probes the group's whole region (:meth:`DynamicProgram.hopeless`; when, :meth:`DynamicProgram.gives_up`)
+#: and ``optimal`` removes the rejections around it (:meth:`DynamicProgram.reject_around`)
 PROBE_AFTER = 16
 #: sectors around a group's region whose best cell by map value a probe verifies
 PROBE_SECTORS = 12
