@@ -98,9 +98,11 @@ maps-tiago: install
 maps/tiago/zarr.json:
 	$(MAKE) maps-tiago
 
-# The torso kitchens (high shelf, low table) planned by PR2 and TIAGo: docs/bench/kitchen_plan.md.
+# The torso kitchens (high shelf, low table) planned by PR2 and TIAGo: docs/bench/kitchen_plan.md; the
+# version 2 kitchen example (drawer, side grasps, the lying can): docs/bench/kitchen_example.md.
 bench-kitchen: install maps/pr2/zarr.json maps/tiago/zarr.json
 	$(PY) tools/bench_kitchen.py examples/kitchen_torso.yaml examples/kitchen_torso_tiago.yaml
+	$(PY) tools/bench_kitchen.py examples/kitchen.yaml --out docs/bench/kitchen_example.md
 
 bench: install maps/pr2/zarr.json maps/armar6/zarr.json
 	$(PY) tools/bench.py

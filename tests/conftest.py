@@ -149,17 +149,8 @@ def maps_dir(pr2, tmp_path_factory, worker_id):
     """Small PR2 maps (both arms) shared by the planning tests: built once per run, by the first
     pytest-xdist worker that needs them (read-only for every test)."""
 
-    def build(folder: Path) -> None:
-        built = {
-            arm: placement.build_map(
-                pr2, arm, samples=700_000, seed=1, resolution=0.1, bins=(10, 5, 10), progress=False
-            )
-            for arm in ("right", "left")
-        }
-        placement.save_maps(folder / "pr2", pr2, built)
-
     # not ".../maps/pr2": scenes without a 'maps' key look for maps/pr2 in every parent of their folder
-    return built_once(run_dir(tmp_path_factory, worker_id), "planning-maps", build) / "pr2"
+    return _shared_pr2_maps(pr2, tmp_path_factory, worker_id, "planning-maps", 700_000, 0.1)
 
 
 @pytest.fixture(scope="session")
@@ -168,16 +159,23 @@ def tiny_maps(pr2, tmp_path_factory, worker_id):
     tier's whole plans: coarse, but every example scene plans on them. Built once per run, by the
     first pytest-xdist worker that needs them (read-only for every test)."""
 
+    return _shared_pr2_maps(pr2, tmp_path_factory, worker_id, "tiny-maps", 150_000, 0.15)
+
+
+def _shared_pr2_maps(pr2, tmp_path_factory, worker_id, name: str, samples: int, resolution: float) -> Path:
+    """PR2 maps of both arms (``samples``, ``resolution`` [m] cells, 10 x 5 x 10 bins, seed 1) in
+    ``<run>/<name>/pr2``, built by the first pytest-xdist worker that asks and read by the others."""
+
     def build(folder: Path) -> None:
         built = {
             arm: placement.build_map(
-                pr2, arm, samples=150_000, seed=1, resolution=0.15, bins=(10, 5, 10), progress=False
+                pr2, arm, samples=samples, seed=1, resolution=resolution, bins=(10, 5, 10), progress=False
             )
             for arm in ("right", "left")
         }
         placement.save_maps(folder / "pr2", pr2, built)
 
-    return built_once(run_dir(tmp_path_factory, worker_id), "tiny-maps", build) / "pr2"
+    return built_once(run_dir(tmp_path_factory, worker_id), name, build) / "pr2"
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,9 @@
 """Plan the torso kitchens with every whole-task and step-by-step method and write the table.
 
     python tools/bench_kitchen.py [--out docs/bench/kitchen_plan.md] SCENE ...
+    python tools/bench_kitchen.py examples/kitchen.yaml --out docs/bench/kitchen_example.md
+
+(``make bench-kitchen`` runs both: the torso kitchens, and the version 2 kitchen example.)
 
 Per scene and method: the steps planned, the independent check of the whole plan (pinocchio FK of
 every pose with the step's lift value, the transfers, the step configuration: ``PlanResult.verify``),

@@ -303,7 +303,7 @@ def why_not(ctx: PlanningContext, dp: DynamicProgram) -> InfeasibleStep:
     facts: dict[str, Any] = {"tried": ik + hits, "ik_failures": ik, "collision_failures": hits, "culprit": culprit}
     # (cell, group) placements of the step verification rejected (the program removed them all by now:
     # a chain is sought over every group, less only these, before a step is called infeasible)
-    rejected = sum(1 for (k, _, _, _), v in dp.verified.items() if k == i and v is None)
+    rejected = dp.rejected_at(i)
     if rejected and not dp.regions[i].any():
         reason = f"IK or the collision check rejected all {rejected} placements the maps allow ({how})"
         return diagnosed(ctx, step, opts, reason, "another grasp, or room around the target, would help", facts)

@@ -250,6 +250,10 @@ class DynamicProgram:
         if off:
             self.regions[i] = reg.without_cells(off)
 
+    def rejected_at(self, i: int) -> int:
+        """How many (cell, group, torso setting) placements of step i verification rejected."""
+        return sum(len(flats) for (k, _, _), flats in self.tally.items() if k == i)
+
     def gives_up(self, i: int, g: int, late: bool = False) -> bool:
         """Whether step i's group g is to be dropped: :meth:`hopeless`, asked by ``global`` (local
         repairs) from the start, by ``optimal`` once its rejections remove neighbourhoods (``late``),
