@@ -46,6 +46,39 @@ class PinIK:
         self.ref = robot.reference_q()
         pin.framesForwardKinematics(self.model, self.data, robot.full_q(arm, a.home, self.ref))
         self.oMbase = pin.SE3(self.data.oMf[robot.base_frame_id])
+        first = a.joint_ids[0]
+        #: the first arm joint's origin in the base frame [m]: no arm joint moves it
+        self.shoulder = (self.oMbase.actInv(self.data.oMi[first])).translation.copy()
+        self.reach_m = self._reach()
+
+    def _reach(self) -> float:
+        """An upper bound [m] of the distance from the first arm joint's origin to the TCP at any
+        configuration: a revolute joint keeps the distance to the next joint's origin, a prismatic one
+        adds its longest travel (inf for any other chain: the bound is then not used)."""
+        m, ids = self.model, list(self.a.joint_ids)
+        if len(ids) != self.a.dof:
+            return math.inf
+        total = 0.0
+        for k, j in enumerate(ids):
+            kind = m.joints[j].shortname()
+            if kind in ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned"):
+                total += max(abs(float(self.a.lower[k])), abs(float(self.a.upper[k])))
+            elif not kind.startswith(("JointModelR", "JointModelRevolute")):
+                return math.inf
+            nxt = ids[k + 1] if k + 1 < len(ids) else None
+            if nxt is not None:
+                if m.parents[nxt] != j:
+                    return math.inf
+                total += float(np.linalg.norm(m.jointPlacements[nxt].translation))
+        frame = m.frames[self.tcp]
+        if frame.parentJoint != ids[-1]:
+            return math.inf
+        return total + float(np.linalg.norm(frame.placement.translation))
+
+    def out_of_reach(self, T_base: np.ndarray) -> bool:
+        """Whether no configuration puts the TCP within the position tolerance of the pose ``T_base``
+        (4, 4, base frame): it lies farther from the first joint than the arm reaches."""
+        return float(np.linalg.norm(T_base[:3, 3] - self.shoulder)) > self.reach_m + POS_TOL
 
     def solve(self, T_base: np.ndarray, q0: np.ndarray, iters: int = 80):
         """(success, q (n,)) for the TCP pose ``T_base`` (4, 4) in the base frame, from q0."""
@@ -200,7 +233,10 @@ def find_placement(
             T = trajectories[k]
             lo = np.where(ik.a.continuous, -math.pi, ik.a.lower)
             hi = np.where(ik.a.continuous, math.pi, ik.a.upper)
-            for q in [ik.a.home] + [rng.uniform(lo, hi) for _ in range(restarts - 1)]:
+            starts = [ik.a.home] + [rng.uniform(lo, hi) for _ in range(restarts - 1)]
+            if any(ik.out_of_reach(Binv @ pose) for pose in T):  # no start could reach it
+                continue
+            for q in starts:
                 ok, qs = True, []
                 for pose in T:
                     ok, q = ik.solve(Binv @ pose, q)

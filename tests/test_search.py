@@ -389,3 +389,18 @@ def test_the_ik_budget_counts_the_verification_not_the_ranking(tmp_path, maps_di
     assert calls, "the step must reach the spread phase"
     assert result.ok and result.steps[calls[0]].tried > Planner(scene).context.config.ik_tries
     assert result.verify(pr2) == []
+
+
+@pytest.mark.parametrize("arm", ["right", "left"])
+def test_the_oracles_reach_bound_holds_at_random_configurations(pr2, arm):
+    """The oracle skips the IK of a pose farther from the arm's first joint than the arm reaches: at
+    random configurations within the limits the TCP never lies farther than that bound, which is at
+    most 1 cm above the farthest seen (it prunes)."""
+    from ik_oracle import PinIK
+
+    ik = PinIK(pr2, arm)
+    a = pr2.arm(arm)
+    rng = np.random.default_rng(7)
+    lo, hi = np.where(a.continuous, -math.pi, a.lower), np.where(a.continuous, math.pi, a.upper)
+    far = max(float(np.linalg.norm(pr2.tcp_pose(arm, rng.uniform(lo, hi))[:3, 3] - ik.shoulder)) for _ in range(2000))
+    assert far <= ik.reach_m < far + 0.01
