@@ -27,6 +27,9 @@ from placement.scene.navgrid import NavGrid, Window
 _warm = False
 #: Share of the task's ``time_budget_s`` the slices may be read for when a planner is built.
 PREFETCH_SHARE = 0.2
+#: A step's witness slices in one map are read when the planner is built if they are at most this many
+#: (see :func:`prefetch_slices`)
+WITNESS_SLICES = 16
 
 
 def warm_kernels(problems: StepProblems, robot: Robot) -> None:
@@ -52,21 +55,33 @@ def warm_kernels(problems: StepProblems, robot: Robot) -> None:
 
 
 def prefetch_slices(problems: StepProblems, seconds: float = math.inf) -> bool:
-    """Read (and check) every map slice the task's candidates will use, and the witnesses of those
-    slices (the IK starts there), for at most about ``seconds`` [s] (checked between steps; the
-    slices not read then are read on first use, the plans are the same); True when all were read."""
+    """Read (and check) every map slice the task's candidates will use, and the witnesses (the IK
+    starts there) of a step's slices in a map where they are at most :data:`WITNESS_SLICES`, for at most
+    about ``seconds`` [s] (checked between steps; the slices not read then are read on first use, the
+    plans are the same); True when all were read.
+
+    A step verifies a few placements, each reading the witness slice of its option's first pose: of
+    a step's few slices it reads most, of its hundreds (published grasps, a place's yaws) a few, which
+    are read when a verification needs them (the DexYCB lab's 1,200 witness slices, of which its plan
+    used 37)."""
     end = time.perf_counter() + seconds
     views = [m for maps in problems.variants.values() for m in maps]
     read: set[tuple[int, tuple[int, int, int]]] = set()
     for i in range(len(problems.steps)):
         if time.perf_counter() > end:
             return False
-        for cand in problems.candidates(i):
-            for k, rmap in enumerate(views):
-                for key in pose_slices(rmap, cand.poses):
-                    if (k, key) not in read:  # a place's hundreds of yaws share slices
-                        read.add((k, key))
-                        rmap.slice(*key)
+        candidates = problems.candidates(i)
+        if not candidates:
+            continue
+        poses = np.concatenate([c.poses for c in candidates])
+        for k, rmap in enumerate(views):
+            keys = dict.fromkeys(pose_slices(rmap, poses))  # a place's hundreds of yaws share slices
+            few = len(keys) <= WITNESS_SLICES
+            for key in keys:
+                if (k, key) not in read:
+                    read.add((k, key))
+                    rmap.slice(*key)
+                    if few:
                         rmap.witness_slice(*key)
     return True
 

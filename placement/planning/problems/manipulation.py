@@ -88,9 +88,10 @@ def _keyed(T: FloatArray, bins: IntArray, yaws: FloatArray) -> tuple[tuple[PoseK
 
 
 def pose_slices(rmap: ReachabilityMap, T: FloatArray) -> list[tuple[int, int, int]]:
-    """The (z, pitch, roll) bins of the map slices the poses T (P, 4, 4) read (those in range)."""
-    keyed = _pose_keys(rmap, np.asarray(T, dtype=float).reshape(-1, 4, 4))
-    return [] if keyed is None else [k[2:] for k in keyed[0]]
+    """The (z, pitch, roll) bins of the map slices the poses T (P, 4, 4) read, in order, of those in
+    the map's height range (fewer than P when some pose is not)."""
+    bins, _ = _bins(rmap, np.asarray(T, dtype=float).reshape(-1, 4, 4))
+    return [(iz, ip, ir) for iz, ip, ir in bins[bins[:, 0] >= 0].tolist()]
 
 
 def manipulation_maps(
