@@ -17,7 +17,7 @@ import numpy as np
 from placement.kinematics.ik import solve_ik
 from placement.planning.context import PlanningContext
 from placement.planning.methods import rank_by_cost
-from placement.planning.problems import Option, StepProblems, manipulation_maps, pose_slices, step_candidates
+from placement.planning.problems import Option, StepProblems, distinct_slices, manipulation_maps, step_candidates
 from placement.planning.settings import PlannerConfig
 from placement.planning.torso import collisions_at, torso_value
 from placement.planning.world import navigation_cost
@@ -67,6 +67,7 @@ def prefetch_slices(problems: StepProblems, seconds: float = math.inf) -> bool:
     end = time.perf_counter() + seconds
     views = [m for maps in problems.variants.values() for m in maps]
     read: set[tuple[int, tuple[int, int, int]]] = set()
+    witnessed: set[tuple[int, tuple[int, int, int]]] = set()
     for i in range(len(problems.steps)):
         if time.perf_counter() > end:
             return False
@@ -75,14 +76,15 @@ def prefetch_slices(problems: StepProblems, seconds: float = math.inf) -> bool:
             continue
         poses = np.concatenate([c.poses for c in candidates])
         for k, rmap in enumerate(views):
-            keys = dict.fromkeys(pose_slices(rmap, poses))  # a place's hundreds of yaws share slices
+            keys = distinct_slices(rmap, poses)  # a place's hundreds of yaws share slices
             few = len(keys) <= WITNESS_SLICES
             for key in keys:
                 if (k, key) not in read:
                     read.add((k, key))
                     rmap.slice(*key)
-                    if few:
-                        rmap.witness_slice(*key)
+                if few and (k, key) not in witnessed:
+                    witnessed.add((k, key))
+                    rmap.witness_slice(*key)
     return True
 
 

@@ -10,6 +10,7 @@ manipulation map (:mod:`.manipulation`, the paper's section IV-B), judged agains
 from placement.planning.problems.cache import StepProblems
 from placement.planning.problems.manipulation import (
     base_yaws,
+    distinct_slices,
     manipulation_map,
     manipulation_maps,
     pose_reach,
@@ -38,6 +39,7 @@ __all__ = [
     "Thresholds",
     "base_yaws",
     "blocked_summary",
+    "distinct_slices",
     "height_range",
     "held_object",
     "manipulation_map",

@@ -94,6 +94,18 @@ def pose_slices(rmap: ReachabilityMap, T: FloatArray) -> list[tuple[int, int, in
     return [(iz, ip, ir) for iz, ip, ir in bins[bins[:, 0] >= 0].tolist()]
 
 
+def distinct_slices(rmap: ReachabilityMap, T: FloatArray) -> list[tuple[int, int, int]]:
+    """The distinct (z, pitch, roll) bins of the map slices the poses T (P, 4, 4) in the map's height
+    range read, ascending (a step's hundreds of candidates share a few dozen)."""
+    bins, _ = _bins(rmap, np.asarray(T, dtype=float).reshape(-1, 4, 4))
+    n_pitch, n_roll = int(rmap.grid.shape[4]), int(rmap.grid.shape[5])
+    code = np.unique((bins[:, 0] * n_pitch + bins[:, 1]) * n_roll + bins[:, 2] if bins.size else bins[:, 0])
+    code = code[code >= 0]  # a pose below or above the map's heights has z bin -1
+    iz, rest = np.divmod(code, n_pitch * n_roll)
+    ip, ir = np.divmod(rest, n_roll)
+    return list(zip(iz.tolist(), ip.tolist(), ir.tolist()))
+
+
 def manipulation_maps(
     rmap: ReachabilityMap,
     trajectories: Sequence[FloatArray],

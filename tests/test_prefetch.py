@@ -1,0 +1,73 @@
+"""What a planner reads when it is built: every map slice of its candidates, and the witness slices of
+a step's slices in a map only where they are few (placement/planning/prepare.py)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import placement
+from placement.maps.grid import pose_from_zyx
+from placement.maps.rmap import ReachabilityMap
+from placement.planning import Planner
+from placement.planning.prepare import WITNESS_SLICES
+from placement.planning.problems import distinct_slices, pose_slices
+
+ROOT = Path(__file__).resolve().parents[1]
+YCB = ROOT / "examples" / "buildings" / "wrs_arena" / "tidy_up_ycb.yaml"
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_distinct_slices_are_the_set_of_every_poses_slice(tiny_maps, pr2, seed):
+    """Against pose_slices pose by pose: random poses, some below or above the map's heights (none
+    of their slices), each (z, pitch, roll) bin once, ascending."""
+    rmap = placement.open_map(tiny_maps, "right", pr2)
+    rng = np.random.default_rng(seed)
+    n = 400
+    T = pose_from_zyx(
+        np.column_stack([rng.uniform(-2, 2, n), rng.uniform(-2, 2, n), rng.uniform(-1.0, 3.0, n)]),
+        rng.uniform(-math.pi, math.pi, n),
+        rng.uniform(-math.pi / 2, math.pi / 2, n),
+        rng.uniform(-math.pi, math.pi, n),
+    )
+    want = sorted({key for pose in T for key in pose_slices(rmap, pose[None])})
+    assert distinct_slices(rmap, T) == want
+    assert 0 < len(want) < n and len(pose_slices(rmap, T)) < n  # some poses off the heights
+    assert distinct_slices(rmap, T[:0]) == []
+
+
+def test_only_a_steps_few_witness_slices_are_read_before_planning(tiny_maps, monkeypatch):
+    """The published grasps' arena on the tiny maps: every slice of every candidate is read when the
+    planner is built, a witness slice only when its step's slices in that map are at most
+    WITNESS_SLICES (its places' hundreds are not); the plan is the plan of a planner built without
+    reading anything."""
+    asked: dict[str, set] = {"slice": set(), "witness_slice": set()}
+    for name, kept in asked.items():
+        method = getattr(ReachabilityMap, name)
+
+        def reading(self, *key, method=method, kept=kept):
+            kept.add((self.arm, self.torso_value, tuple(int(k) for k in key)))
+            return method(self, *key)
+
+        monkeypatch.setattr(ReachabilityMap, name, reading)
+    planner = Planner(YCB, "global", tiny_maps)
+    problems = planner.problems
+    values, witnesses, skipped = set(), set(), 0
+    for i in range(len(problems.steps)):
+        poses = np.concatenate([c.poses for c in problems.candidates(i)])
+        for rmap in (m for maps in problems.variants.values() for m in maps):
+            keys = {(rmap.arm, rmap.torso_value, k) for k in distinct_slices(rmap, poses)}
+            values |= keys
+            if len(keys) <= WITNESS_SLICES:
+                witnesses |= keys
+            else:
+                skipped += 1
+    assert values <= asked["slice"] and witnesses <= asked["witness_slice"] and skipped > 0
+    # beyond the prefetch: the one witness lookup per arm of the warm-up
+    assert len(asked["witness_slice"] - witnesses) <= len(problems.variants)
+    monkeypatch.undo()
+    cold = Planner(YCB, "global", tiny_maps, warm=False).plan()
+    assert [s.base for s in planner.plan().steps] == [s.base for s in cold.steps]
