@@ -71,15 +71,9 @@ def _bins(rmap: ReachabilityMap, T: FloatArray) -> tuple[IntArray, FloatArray]:
     return pose_bins(T, float(g.origin[2]), float(g.resolution), int(g.shape[2]), int(g.shape[4]), int(g.shape[5]))
 
 
-def _pose_keys(rmap: ReachabilityMap, T: FloatArray) -> tuple[tuple[PoseKey, ...], list[float]] | None:
-    """Per pose: (x, y, z bin, pitch bin, roll bin), and the yaws; None if a pose is outside the
-    map's height range."""
-    bins, yaws = _bins(rmap, T)
-    return _keyed(T, bins, yaws)
-
-
 def _keyed(T: FloatArray, bins: IntArray, yaws: FloatArray) -> tuple[tuple[PoseKey, ...], list[float]] | None:
-    """:func:`_pose_keys` of the poses T (P, 4, 4) from their :func:`_bins`."""
+    """Per pose of T (P, 4, 4), from its :func:`_bins` and yaws [rad]: (x [m], y [m], z bin, pitch bin,
+    roll bin), and the yaws; None if a pose is outside the map's height range."""
     if bins.size and bins[:, 0].min() < 0:
         return None
     xy = T[:, :2, 3].tolist()
