@@ -34,7 +34,7 @@ def test_the_makers_armar6_plans_a_room_first_try(tmp_path):
     preset.write_text(render(propose(urdf, preset)))
     robot = placement.load_robot(preset)
     built = {
-        arm: placement.build_map(robot, arm, samples=250_000, seed=1, resolution=0.15, completion=True, progress=False)
+        arm: placement.build_map(robot, arm, samples=150_000, seed=1, resolution=0.15, completion=True, progress=False)
         for arm in robot.arms
     }
     placement.save_maps(tmp_path / "maps", robot, built)

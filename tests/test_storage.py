@@ -108,6 +108,45 @@ def test_chunking_one_chunk_per_irm_slice(tmp_path, pr2, right_map, fmt):
     np.testing.assert_array_equal(rmap.slice(2, 1, 3), right_map.values[:, :, 2, :, 1, 3])
 
 
+def test_zarr_reads_the_chunks_written_directly_as_its_own(tmp_path, pr2, right_map):
+    """A map's chunks are written without zarr (placement.storage.zarr.write_chunks): zarr reads the
+    values and witnesses back equal to what was saved, and the same arrays written by zarr itself
+    store the same chunk files (no chunk of fill values) with the same decoded bytes."""
+    import zarr
+    from zarr.codecs import BloscCodec, Crc32cCodec
+
+    from placement.storage.zarr import write_chunks
+
+    path = placement.save_maps(map_path(tmp_path, "zarr"), pr2, {"right": right_map}, "zarr")
+    group = zarr.open_group(str(path), mode="r")
+    np.testing.assert_array_equal(group["right"][...], right_map.values)
+    witness = group["right.witness"][...]
+    np.testing.assert_array_equal(witness, placement.open_map(path, "right").witness)
+    values = right_map.values.copy()
+    values[:, :, 1] = 0.0  # a layer of fill chunks: stored by neither
+    mine = zarr.open_group(str(tmp_path / "mine"), mode="w", zarr_format=3)
+    theirs = zarr.open_group(str(tmp_path / "theirs"), mode="w", zarr_format=3)
+    for group_, name in ((mine, "mine"), (theirs, "theirs")):
+        arr = group_.create_array(
+            "a",
+            shape=values.shape,
+            dtype="float32",
+            chunks=group["right"].chunks,
+            compressors=[BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()],
+            fill_value=0.0,
+        )
+        if name == "theirs":
+            arr[...] = values
+        else:
+            write_chunks(tmp_path / "mine" / "a", values, 0.0)
+    files = [
+        sorted(p.relative_to(tmp_path / n) for p in (tmp_path / n / "a" / "c").rglob("*") if p.is_file())
+        for n in ("mine", "theirs")
+    ]
+    assert files[0] == files[1] and len(files[0]) < values.shape[2] * values.shape[4] * values.shape[5]
+    np.testing.assert_array_equal(zarr.open_group(str(tmp_path / "mine"), mode="r")["a"][...], values)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("fmt", FORMATS)
 def test_saving_another_arm_keeps_the_first(tmp_path, pr2, right_map, left_map, fmt):

@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import zlib
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -34,6 +35,13 @@ def _pool() -> ThreadPoolExecutor:
 
 if hasattr(os, "register_at_fork"):  # POSIX only; elsewhere nothing forks
     os.register_at_fork(after_in_child=_POOLS.clear)
+
+
+def each_layer(task: Callable[[int], None], layers: int) -> None:
+    """``task(iz)`` for every z layer ``iz`` in ``range(layers)`` on the chunk threads (the codecs
+    release the GIL), its first exception raised here."""
+    for done in [_pool().submit(task, iz) for iz in range(layers)]:
+        done.result()
 
 
 class ChunkReader(ABC):

@@ -27,7 +27,7 @@ from zarr.storage import LocalStore
 
 from placement.errors import MapError
 from placement.storage.base import ROOT_KEY, ArmArrays, Backend, StoredMap, chunk_shape, opened
-from placement.storage.chunks import ChunkReader
+from placement.storage.chunks import ChunkReader, each_layer
 from placement.storage.digest import seal
 from placement.storage.files import META_LIMIT, read_bounded
 from placement.storage.format import witness_name
@@ -145,6 +145,33 @@ def count_chunks(array_dir: Path) -> int:
     return sum(len(files) for _, _, files in os.walk(chunk_dir))
 
 
+def write_chunks(folder: Path, array: npt.NDArray[Any], fill: float | int) -> None:
+    """Store every (z, pitch, roll) chunk of ``array`` (nx, ny, nz, n_yaw, n_pitch, n_roll) that is not
+    all ``fill`` in the array directory ``folder`` as zarr stores it with :data:`CODECS`: its C-order
+    little-endian bytes, blosc (zstd, level 3, byte shuffle), the crc32c of those (4 bytes, little
+    endian), at ``c/0/0/<iz>/0/<ip>/<ir>``; a chunk of ``fill`` alone is not stored (zarr's default).
+    Zarr reads the array as the one it would write (tests/test_storage.py), in a quarter of the time:
+    zarr's own writes took 1-2 ms per chunk, most of a small map's build."""
+    dtype = array.dtype.newbyteorder("<")
+    _, _, nz, _, n_pitch, n_roll = array.shape
+
+    def layer(iz: int) -> None:
+        for ip in range(n_pitch):
+            made = False
+            for ir in range(n_roll):
+                chunk = array[:, :, iz, :, ip, ir]
+                if (chunk == fill).all():
+                    continue
+                body = blosc.compress(np.ascontiguousarray(chunk, dtype=dtype), b"zstd", 3, blosc.SHUFFLE)
+                where = folder / "c" / "0" / "0" / str(iz) / "0" / str(ip)
+                if not made:
+                    where.mkdir(parents=True, exist_ok=True)
+                    made = True
+                (where / str(ir)).write_bytes(body + google_crc32c.value(body).to_bytes(4, "little"))
+
+    each_layer(layer, nz)
+
+
 class ZarrBackend(Backend):
     name = "zarr"
     suffix = ""
@@ -165,8 +192,8 @@ class ZarrBackend(Backend):
                 fill_value=0.0,
                 dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
             )
-            arr[...] = values
-            wit = group.create_array(
+            write_chunks(path / arm, values, 0.0)
+            group.create_array(
                 witness_name(arm),
                 shape=witness.shape,
                 dtype=witness.dtype,
@@ -175,7 +202,7 @@ class ZarrBackend(Backend):
                 fill_value=np.iinfo(witness.dtype).max,
                 dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
             )
-            wit[...] = witness
+            write_chunks(path / witness_name(arm), witness, np.iinfo(witness.dtype).max)
             meta = dict(meta)
             meta["stored_chunks"] = count_chunks(path / arm)
             meta["stored_witness_chunks"] = count_chunks(path / witness_name(arm))
