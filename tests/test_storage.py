@@ -147,6 +147,37 @@ def test_zarr_reads_the_chunks_written_directly_as_its_own(tmp_path, pr2, right_
     np.testing.assert_array_equal(zarr.open_group(str(tmp_path / "mine"), mode="r")["a"][...], values)
 
 
+def test_a_failed_layer_leaves_no_writer_running():
+    """each_layer (the writes of a save) raises a layer's error only once no other layer runs: the
+    caller then removes the half-written map, and no thread writes into it afterwards."""
+    import threading
+    import time
+
+    from placement.storage.chunks import each_layer
+
+    running, ended = set(), []
+    lock = threading.Lock()
+
+    def task(iz: int) -> None:
+        with lock:
+            running.add(iz)
+        try:
+            if iz == 0:
+                raise OSError("No space left on device")
+            time.sleep(0.05)
+        finally:
+            with lock:
+                running.discard(iz)
+                ended.append(iz)
+
+    with pytest.raises(OSError, match="No space left"):
+        each_layer(task, 12)
+    assert running == set() and 0 in ended and len(ended) == len(set(ended))
+    done = len(ended)
+    time.sleep(0.1)
+    assert running == set() and len(ended) == done  # nothing started after the raise
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("fmt", FORMATS)
 def test_saving_another_arm_keeps_the_first(tmp_path, pr2, right_map, left_map, fmt):

@@ -15,7 +15,7 @@ import os
 import zlib
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
 import numpy as np
 import numpy.typing as npt
@@ -39,9 +39,18 @@ if hasattr(os, "register_at_fork"):  # POSIX only; elsewhere nothing forks
 
 def each_layer(task: Callable[[int], None], layers: int) -> None:
     """``task(iz)`` for every z layer ``iz`` in ``range(layers)`` on the chunk threads (the codecs
-    release the GIL), its first exception raised here."""
-    for done in [_pool().submit(task, iz) for iz in range(layers)]:
-        done.result()
+    release the GIL). The first exception is raised here once no task runs any more: after a failed
+    layer none has started, the others have ended (a failed save's caller removes what they wrote,
+    and nothing writes there after it)."""
+    futures = [_pool().submit(task, iz) for iz in range(layers)]
+    try:
+        for done in futures:
+            done.result()
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        wait(futures)
+        raise
 
 
 class ChunkReader(ABC):

@@ -14,7 +14,7 @@ import json
 import os
 from collections.abc import Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import google_crc32c
 import numpy as np
@@ -38,7 +38,21 @@ if TYPE_CHECKING:
 
 #: the codecs of every array this package writes (anything else is not one of its maps)
 CODECS = ("bytes", "blosc", "crc32c")
+#: the blosc settings of those codecs (what the arrays record, and what write_chunks compresses with)
+BLOSC_CNAME: Literal["zstd"] = "zstd"
+BLOSC_LEVEL = 3
 _BLOSC_HEADER = 16
+
+
+def chunk_file(folder: Path | str, iz: int, ip: int, ir: int) -> str:
+    """The file of chunk (iz, ip, ir) in the chunk folder (``<array>/c``) of an array chunked one
+    (z, pitch, roll) slice per chunk: zarr's default keys, ``0/0/<iz>/0/<ip>/<ir>``."""
+    return os.path.join(folder, "0", "0", str(iz), "0", str(ip), str(ir))
+
+
+def _compressors() -> list[Any]:
+    """The codecs after ``bytes`` of every array this package writes (see :data:`CODECS`)."""
+    return [BloscCodec(cname=BLOSC_CNAME, clevel=BLOSC_LEVEL, shuffle="shuffle"), Crc32cCodec()]
 
 
 class BoundedStore(LocalStore):
@@ -69,11 +83,11 @@ class ChunkFiles(ChunkReader):
 
     def __init__(self, folder: Path, shape: tuple[int, ...], dtype: npt.DTypeLike, fill: float | np.generic) -> None:
         super().__init__(shape, dtype, fill)
-        self.prefix = os.path.join(folder, "0", "0", "")
+        self.folder = folder
 
     def decoded(self, iz: int, ip: int, ir: int) -> npt.NDArray[np.uint8] | None:
         try:
-            data = read_bounded(f"{self.prefix}{iz}/0/{ip}/{ir}", self.limit)
+            data = read_bounded(chunk_file(self.folder, iz, ip, ir), self.limit)
         except (FileNotFoundError, NotADirectoryError):
             return None
         if len(data) < _BLOSC_HEADER + 4:
@@ -148,26 +162,26 @@ def count_chunks(array_dir: Path) -> int:
 def write_chunks(folder: Path, array: npt.NDArray[Any], fill: float | int) -> None:
     """Store every (z, pitch, roll) chunk of ``array`` (nx, ny, nz, n_yaw, n_pitch, n_roll) that is not
     all ``fill`` in the array directory ``folder`` as zarr stores it with :data:`CODECS`: its C-order
-    little-endian bytes, blosc (zstd, level 3, byte shuffle), the crc32c of those (4 bytes, little
-    endian), at ``c/0/0/<iz>/0/<ip>/<ir>``; a chunk of ``fill`` alone is not stored (zarr's default).
+    little-endian bytes, blosc (:data:`BLOSC_CNAME`, :data:`BLOSC_LEVEL`, byte shuffle), the crc32c
+    of those (4 bytes, little endian), at :func:`chunk_file`; a chunk of ``fill`` alone is not stored
+    (zarr's default).
     Zarr reads the array as the one it would write (tests/test_storage.py), in a quarter of the time:
     zarr's own writes took 1-2 ms per chunk, most of a small map's build."""
     dtype = array.dtype.newbyteorder("<")
     _, _, nz, _, n_pitch, n_roll = array.shape
 
+    cname = BLOSC_CNAME.encode()
+
     def layer(iz: int) -> None:
         for ip in range(n_pitch):
-            made = False
             for ir in range(n_roll):
                 chunk = array[:, :, iz, :, ip, ir]
                 if (chunk == fill).all():
                     continue
-                body = blosc.compress(np.ascontiguousarray(chunk, dtype=dtype), b"zstd", 3, blosc.SHUFFLE)
-                where = folder / "c" / "0" / "0" / str(iz) / "0" / str(ip)
-                if not made:
-                    where.mkdir(parents=True, exist_ok=True)
-                    made = True
-                (where / str(ir)).write_bytes(body + google_crc32c.value(body).to_bytes(4, "little"))
+                body = blosc.compress(np.ascontiguousarray(chunk, dtype=dtype), cname, BLOSC_LEVEL, blosc.SHUFFLE)
+                where = Path(chunk_file(folder / "c", iz, ip, ir))
+                where.parent.mkdir(parents=True, exist_ok=True)
+                where.write_bytes(body + google_crc32c.value(body).to_bytes(4, "little"))
 
     each_layer(layer, nz)
 
@@ -188,7 +202,7 @@ class ZarrBackend(Backend):
                 shape=values.shape,
                 dtype="float32",
                 chunks=chunk_shape(values.shape),
-                compressors=[BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()],
+                compressors=_compressors(),
                 fill_value=0.0,
                 dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
             )
@@ -198,7 +212,7 @@ class ZarrBackend(Backend):
                 shape=witness.shape,
                 dtype=witness.dtype,
                 chunks=chunk_shape(values.shape),
-                compressors=[BloscCodec(cname="zstd", clevel=3, shuffle="shuffle"), Crc32cCodec()],
+                compressors=_compressors(),
                 fill_value=np.iinfo(witness.dtype).max,
                 dimension_names=["x", "y", "z", "yaw", "pitch", "roll"],
             )
