@@ -128,3 +128,34 @@ def test_a_moved_object_that_blocked_a_grasp_frees_it_again(tmp_path, maps_dir):
     assert all(o.blocked is not None and " vs box " in o.blocked for o in planner.problems.options(0))
     planner.update({"objects": [{"name": "box", "position": [2.5, 2.2, 0.8]}]})
     assert all(o.blocked is None for o in planner.problems.options(0))
+
+
+def test_a_twin_hands_screen_is_its_own_with_its_own_links_named(tmp_path, pr2):
+    """The PR2's hands are one gripper twice: the right hand's screen, renamed, is what the left hand's
+    own would be, on random TCP poses around the table (many in it), with and without the slack."""
+    path = tmp_path / "scene.yaml"
+    path.write_text(yaml.safe_dump(scene_doc("pr2", 0.6)))
+    checker = SceneCollision(pr2, load_scene(path), padding=0.02)
+    assert checker.gripper_twin("left") == "right" and checker.gripper_twin("right") is None
+    rng = np.random.default_rng(5)
+    poses = []
+    for _ in range(300):
+        T = np.eye(4)
+        T[:3, :3] = turned(rng, rng.uniform(0.0, math.pi))
+        T[:3, 3] = rng.uniform([0.2, -0.6, 0.55], [1.0, 0.6, 0.95])
+        back = np.eye(4)
+        back[2, 3] = -0.1  # a pre-grasp 10 cm back along the approach
+        poses.append(np.stack([T @ back, T]))
+    for slack in (0.0, 0.01):
+        right = checker.gripper_collisions("right", poses, slack)
+        left = checker.gripper_collisions("left", poses, slack)
+        assert checker.twin_results(right, "right", "left") == left
+        assert sum(h is not None for h in left) >= 30 and sum(h is None for h in left) >= 30
+        assert all(h.culprit.startswith("l_gripper") for h in left if h is not None)
+    # a hand whose shapes sit a micrometre elsewhere is no twin: it gets its own screen
+    ids, rel = checker._gripper_frames("left")
+    moved = rel.copy()
+    moved[0, 0, 3] += 1e-6
+    other = SceneCollision(pr2, load_scene(path), padding=0.02)
+    other._grippers["left"] = (ids, moved)
+    assert other.gripper_twin("left") is None

@@ -54,6 +54,10 @@ if TYPE_CHECKING:
 #: Distances are measured up to this [m]; a free trajectory farther from everything reports it.
 CLEARANCE_CAP = 0.2
 
+#: [m] how far two grippers' shapes may lie apart in the TCP frame and still be twins (see
+#: SceneCollision.gripper_twin): forward kinematics' rounding, a millionth of any screen's slack.
+TWIN_TOL_M = 1e-9
+
 #: Scenes of at least this many pieces are bucketed on a grid (fewer: every piece is bounded per check).
 GRID_PIECES = 64
 
@@ -100,6 +104,7 @@ class SceneCollision:
         self._self_req = coal.CollisionRequest()
         self._cres, self._dreq, self._dres = coal.CollisionResult(), coal.DistanceRequest(), coal.DistanceResult()
         self._grippers: dict[str, tuple[npt.NDArray[np.int_], npt.NDArray[np.float64]] | None] = {}
+        self._twins: dict[str, str | None] = {}
         home = self.geometry.home_placements
         self._home_R = np.array([M.rotation for M in home]).reshape(-1, 3, 3)
         self._home_t = np.array([M.translation for M in home]).reshape(-1, 3)
@@ -276,6 +281,67 @@ class SceneCollision:
                 name, pose = self._name(pairs, k, inst, scene)
                 assert pose is not None  # every instance here moves with its trajectory
                 out[c] = CollisionResult(False, margin, name, pose - int(first[c]))
+        return out
+
+    def gripper_twin(self, arm: str) -> str | None:
+        """The first arm (in the robot's order, before ``arm``) whose gripper is ``arm``'s over again, or
+        None: the same shapes (kind, mesh and scale, bounds), in the same order, at the same poses in the
+        TCP frame (within :data:`TWIN_TOL_M` [m], far below any screen's slack). :meth:`gripper_collisions`
+        then answers both alike, but for the culprit's link (:meth:`twin_results`): a two-armed robot's
+        screen is made once for both hands."""
+        if arm in self._twins:
+            return self._twins[arm]
+        mine = self._gripper_frames(arm)
+        found = None
+        for other in self.robot.arms:
+            if other == arm:
+                break
+            theirs = self._gripper_frames(other)
+            if mine is None or theirs is None or len(mine[0]) != len(theirs[0]):
+                continue
+            if self._shape_keys(mine[0]) == self._shape_keys(theirs[0]) and np.allclose(
+                mine[1], theirs[1], rtol=0.0, atol=TWIN_TOL_M
+            ):
+                found = other
+                break
+        self._twins[arm] = found
+        return found
+
+    def _shape_keys(self, ids: npt.NDArray[np.int_]) -> list[tuple[object, ...]]:
+        """What makes robot shapes ``ids`` the shapes they are: kind, mesh file, vertex and triangle
+        counts, and the local bounds and mesh scale (to :data:`TWIN_TOL_M`)."""
+        geo, out = self.geometry, []
+        for g in ids:
+            o = geo.geom.geometryObjects[int(g)]
+            counts = [getattr(o.geometry, attr, None) for attr in ("num_vertices", "num_tris")]
+            bounds = np.concatenate([geo.centre[g], geo.half[g], [geo.radius[g]], np.asarray(o.meshScale)])
+            out.append(
+                (
+                    type(o.geometry).__name__,
+                    str(o.meshPath),
+                    tuple(c() if callable(c) else c for c in counts),
+                    bool(geo.exact[g]),
+                    tuple(int(v) for v in np.round(bounds / TWIN_TOL_M)),
+                )
+            )
+        return out
+
+    def twin_results(
+        self, hits: Sequence[CollisionResult | None], twin: str, arm: str
+    ) -> list[CollisionResult | None]:
+        """:meth:`gripper_collisions` of ``arm`` from those of its :meth:`gripper_twin` ``twin``: the same,
+        each culprit named by ``arm``'s link."""
+        ours, theirs = self._gripper_frames(arm), self._gripper_frames(twin)
+        assert ours is not None and theirs is not None
+        names = self.geometry.names
+        link = {names[int(t)]: names[int(o)] for t, o in zip(theirs[0], ours[0])}
+        out: list[CollisionResult | None] = []
+        for h in hits:
+            if h is None or h.culprit is None:
+                out.append(h)
+                continue
+            part, _, piece = h.culprit.partition(" vs ")
+            out.append(replace(h, culprit=f"{link.get(part, part)} vs {piece}"))
         return out
 
     def gripper_reach(self, arm: str) -> float:

@@ -21,6 +21,7 @@ import numpy as np
 
 from placement.collision import SceneCollision
 from placement.collision.scene import object_aabb
+from placement.collision.tables import CollisionResult
 from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import BoolArray, Float32Array, FloatArray, IntArray
 from placement.planning.problems.grasps import GRIPPER_OPENING, Candidate
@@ -84,6 +85,8 @@ class StepProblems:
         self.collisions = collisions
         # (step, arm) -> per candidate, what rules it out by the gripper alone (words) or None
         self._blocked: dict[tuple[int, str], list[str | None]] = {}
+        #: the gripper screens behind ``_blocked`` (a twin hand's is read from them)
+        self._screened: dict[tuple[int, str], list[CollisionResult | None]] = {}
         self.opening_m = opening_m
         self.thresholds = thresholds if thresholds is not None else Thresholds(default=float(config.threshold))
         self.steps: list[Step] = task_steps(scene)
@@ -241,7 +244,13 @@ class StepProblems:
                 self._blocked[key] = [None] * len(candidates)
             else:
                 step = self.steps[i]
-                hits = screen(self.collisions, self.config, self.steps, step, arm, candidates)
+                twin = self.collisions.gripper_twin(arm)
+                if twin is not None:  # the other hand's screen, its culprits renamed
+                    self.blocked(i, twin)
+                    hits = self.collisions.twin_results(self._screened[i, twin], twin, arm)
+                else:
+                    hits = screen(self.collisions, self.config, self.steps, step, arm, candidates)
+                self._screened[key] = hits
                 self._blocked[key] = [
                     None
                     if h is None or h.culprit is None
