@@ -326,9 +326,7 @@ class SceneCollision:
             )
         return out
 
-    def twin_results(
-        self, hits: Sequence[CollisionResult | None], twin: str, arm: str
-    ) -> list[CollisionResult | None]:
+    def twin_results(self, hits: Sequence[CollisionResult | None], twin: str, arm: str) -> list[CollisionResult | None]:
         """:meth:`gripper_collisions` of ``arm`` from those of its :meth:`gripper_twin` ``twin``: the same,
         each culprit named by ``arm``'s link."""
         ours, theirs = self._gripper_frames(arm), self._gripper_frames(twin)
