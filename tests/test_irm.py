@@ -263,18 +263,39 @@ def test_lowest_is_the_elementwise_minimum_of_the_slices(coarse_map):
     assert np.array_equal(coarse_map.lowest((3,), ip, ir), coarse_map.slice(3, ip, ir))
 
 
+def test_the_slab_holds_each_lowest_slice_once_and_stays_valid_as_it_grows(coarse_map):
+    g = coarse_map.grid
+    keys = [((z,), ip, ir) for z in range(g.shape[2]) for ip in (0, g.shape[4] - 1) for ir in (0, 3)]
+    keys += [((1, 2), 0, 0), ((2, 1), 0, 0)]  # one key in two orders: one row
+    slab, rows = coarse_map.stacked(keys[:5])
+    first = slab[rows].copy()
+    grown, all_rows = coarse_map.stacked(keys)
+    assert grown is not slab and grown.shape[0] >= len(keys) - 1
+    assert np.array_equal(all_rows[:5], rows) and all_rows[-1] == all_rows[-2]
+    assert len(set(all_rows.tolist())) == len(keys) - 1
+    for key, row in zip(keys, all_rows):
+        assert np.array_equal(grown[row], coarse_map.lowest(*key))
+    assert np.array_equal(slab[rows], first)  # the slab given out before is as it was
+    again, same = coarse_map.stacked(keys[::-1])
+    assert again is grown and np.array_equal(same, all_rows[::-1])
+
+
 def run_kernel(slices, bits, bound, groups, members, tcp, member_yaw, yaws, cells, masks, above=0.0, first=False):
     """``trajectory_maps`` on a 16 x 15 grid of 0.1 m cells at (-0.75, -0.8) with maps of 0.1 m cells at
     (-0.6, -0.7): ``groups`` (G,) poses per group (pose p of a group reads slice p), ``members`` (G,)
-    members per group, every group's bound ``bound`` (nx_rm, ny_rm), no disc. Returns (values, yaws)
-    (rows, 16, 15)."""
+    members per group, every group's bound ``bound`` (nx_rm, ny_rm), no disc; the slices in a slab
+    of twice as many rows, shuffled among rows of noise. Returns (values, yaws) (rows, 16, 15)."""
     from placement.kernels.irm import trajectory_maps
 
     rows = int(sum(members))
     val = np.zeros((rows, 16, 15), np.float32)
     arg = np.full((rows, 16, 15), -1, np.int16)
+    shuffle = np.random.default_rng(len(slices)).permutation(2 * len(slices))
+    slab = np.random.default_rng(0).random((2 * len(slices), *slices.shape[1:])).astype(np.float32)
+    slab[shuffle[: len(slices)]] = slices
     trajectory_maps(
-        slices,
+        slab,
+        shuffle[: len(slices)].astype(np.int64),
         bits,
         bound[None],
         np.concatenate([np.arange(p, dtype=np.int64) for p in groups]),

@@ -79,6 +79,7 @@ def farthest_reached(values: npt.NDArray[np.float32], x0: float, y0: float, res:
 @njit(cache=True, parallel=True, nogil=True)  # runs in a background thread: planning.problems.background
 def trajectory_maps(
     slices: npt.NDArray[np.float32],
+    slice_row: npt.NDArray[np.int64],
     bits: npt.NDArray[np.uint64],
     column_max: npt.NDArray[np.float32],
     pose_slice: npt.NDArray[np.int64],
@@ -119,7 +120,9 @@ def trajectory_maps(
     improvement is needed), so the results are those of evaluating it.
 
     Args:
-        slices: (S, nx_rm, ny_rm, n_yaw) float32, the map slices the poses read.
+        slices: (R, nx_rm, ny_rm, n_yaw) float32, map slices: the pass's slice s is
+            ``slices[slice_row[s]]`` (a slab of the map's slices, :meth:`ReachabilityMap.stacked`).
+        slice_row: (S,) int64, the row of ``slices`` of each of the pass's S slices.
         bits: (S, nx_rm, ny_rm) uint64, :func:`yaw_bits` of each slice for ``above``, read instead of
             the slices by a ``first`` pass of a one-member group until a yaw keeps every pose above
             ``above`` (whose values are then read: the same results, an eighth of the bytes read);
@@ -173,6 +176,9 @@ def trajectory_maps(
                 for c in range(C):
                     yaw = member_yaw[yaw_start[g] + c * P + p]
                     ybin[yaw_start[g] * K + (k * P + p) * C + c] = wrap_bin(yaw - base_yaws[k], n_yaw)
+    pose_row = np.empty(pose_slice.shape[0], dtype=np.int64)
+    for p in range(pose_slice.shape[0]):
+        pose_row[p] = slice_row[pose_slice[p]]
     n = cells.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
     one = np.uint64(1)
@@ -235,7 +241,7 @@ def trajectory_maps(
                         if kept:
                             b1 = np.float32(np.inf)
                             for p in range(P):
-                                v = slices[pose_slice[p0 + p], pjx[p], pjy[p], ybin[yb0 + k * P + p]]
+                                v = slices[pose_row[p0 + p], pjx[p], pjy[p], ybin[yb0 + k * P + p]]
                                 if v < b1:
                                     b1 = v
                             a1 = k
@@ -251,7 +257,7 @@ def trajectory_maps(
                         if p == 0 and column_max[b, jx, jy] <= b1:
                             v1 = np.float32(0.0)
                             break
-                        v = slices[pose_slice[p0 + p], jx, jy, ybin[yb0 + k * P + p]]
+                        v = slices[pose_row[p0 + p], jx, jy, ybin[yb0 + k * P + p]]
                         if v < v1:
                             v1 = v
                         if v1 <= b1:
@@ -276,7 +282,7 @@ def trajectory_maps(
                     alive[c] = True
                 left = C
                 for p in range(P):
-                    sl = pose_slice[p0 + p]
+                    sl = pose_row[p0 + p]
                     dx = pose_x[p0 + p] - bx
                     dy = pose_y[p0 + p] - by
                     xr = co * dx + s * dy

@@ -50,6 +50,10 @@ class _Shared:
         self.column_max: dict[tuple[tuple[int, ...], int, int], np.ndarray] = {}
         #: (the same keys, a threshold) -> which yaw bins of each (x, y) cell lie above it (see ``yaw_bits``)
         self.yaw_bits: dict[tuple[tuple[tuple[int, ...], int, int], float], np.ndarray] = {}
+        #: the slab of :meth:`ReachabilityMap.stacked` (rows of lowest slices, grown by doubling) and
+        #: each key's row in it
+        self.slab: np.ndarray | None = None
+        self.slab_rows: dict[tuple[tuple[int, ...], int, int], int] = {}
         self.quantiles = quantiles
         self.views: dict[float, ReachabilityMap] = {} if views is None else views
 
@@ -282,6 +286,36 @@ class ReachabilityMap:
             hit.flags.writeable = False
             self._shared.lowest[key] = hit
         return hit
+
+    def stacked(self, keys: Sequence[tuple[Sequence[int], int, int]]) -> tuple[np.ndarray, np.ndarray]:
+        """(slab (R, nx, ny, n_yaw) float32, rows (len(keys),) int64): :meth:`lowest` of each key
+        ``(zs, ip, ir)`` is ``slab[rows[k]]``. The slab keeps every slice stacked so far, each copied in
+        once: a kernel pass reads its slices from it instead of a stack of its own (tens of MB per
+        step, copied anew for every pass). Rows are only ever added: a slab given out stays valid
+        while a larger one replaces it (a kernel running in the background keeps reading the old)."""
+        shared = self._shared
+        out = np.empty(len(keys), dtype=np.int64)
+        new: dict[tuple[tuple[int, ...], int, int], int] = {}  # key -> its row, in order
+        first = len(shared.slab_rows)
+        for k, (zs, ip, ir) in enumerate(keys):
+            key = (tuple(sorted({int(z) for z in zs})), int(ip), int(ir))
+            row = shared.slab_rows.get(key)
+            if row is None:
+                row = new.setdefault(key, first + len(new))
+            out[k] = row
+        if new:
+            rows = [self.lowest(*key) for key in new]
+            slab = shared.slab
+            if slab is None or slab.shape[0] < first + len(new):
+                grown = np.empty((max(16, 2 * (first + len(new))), *rows[0].shape), dtype=np.float32)
+                if slab is not None:
+                    grown[:first] = slab[:first]
+                slab = shared.slab = grown
+            for k, (key, values) in enumerate(zip(new, rows)):
+                slab[first + k] = values
+                shared.slab_rows[key] = first + k
+        assert shared.slab is not None or not len(keys)
+        return (shared.slab if shared.slab is not None else np.zeros((0, 0, 0, 0), np.float32)), out
 
     def column_max(self, zs: Sequence[int], ip: int, ir: int) -> np.ndarray:
         """(nx, ny) float32: the maximum over the yaw bins of :meth:`lowest` ``(zs, ip, ir)`` (cached;

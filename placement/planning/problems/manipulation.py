@@ -241,7 +241,7 @@ def _kernel_pass(
             groups.setdefault(keyed[0], []).append((i, keyed[1]))
     if not groups or not cells.size:
         return vals, args, discs, None
-    slices: list[np.ndarray] = []
+    slices: list[tuple[tuple[int, ...], int, int]] = []  # (z bins, pitch bin, roll bin) per slice
     # a threshold pass reads which yaw bins lie above the threshold, 1 bit each (at most 64 bins)
     by_bits = stop_early and g.shape[3] <= 64
     bits: list[np.ndarray] = []
@@ -261,7 +261,7 @@ def _kernel_pass(
             key = (tuple(sorted(set(zs))), ip, ir)
             if key not in index:
                 index[key] = len(slices)
-                slices.append(rmap.lowest(zs, ip, ir))
+                slices.append(key)
                 if by_bits:
                     bits.append(rmap.yaw_bits(zs, ip, ir, above))
             pose_slice.append(index[key])
@@ -278,8 +278,10 @@ def _kernel_pass(
         group_pose.append(len(pose_slice))
         group_member.append(len(rows))
         group_disc.append(discs[members[0][0]])
+    slab, slice_row = rmap.stacked(slices)  # a step's candidates share a few dozen slices
     kernel_args = (
-        np.ascontiguousarray(np.stack(slices)),  # a step's candidates share a few dozen slices
+        slab,
+        slice_row,
         np.ascontiguousarray(np.stack(bits)) if bits else np.zeros((0, 0, 0), np.uint64),
         np.ascontiguousarray(np.stack(bounds)),
         np.array(pose_slice, dtype=np.int64),
