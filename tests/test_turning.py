@@ -113,3 +113,35 @@ def test_more_rounds_of_the_passes_take_no_longer(maps_dir, monkeypatch):
         assert thrice <= once + 1e-9, path
         shorter += thrice < once - 1e-6
     assert shorter >= 1
+
+
+@pytest.mark.slow
+def test_a_step_searched_again_with_what_it_read_before_is_skipped_and_the_plan_is_the_same(maps_dir, monkeypatch):
+    """``time_cells`` skips a step whose search would read what it read when it last found nothing
+    (its key in ``settled``): on the building scenes the plans equal those that search every step in
+    every round, and steps were skipped."""
+    import placement.planning.methods.optimal as optimal
+    from placement.planning.program import turning
+
+    searched = turning.time_cells
+    skipped = 0
+
+    def counting(dp, chain, picks, steps, settled=None):
+        nonlocal skipped
+        keys = dict(settled or {})
+        out = searched(dp, chain, picks, steps, settled)
+        skipped += sum(1 for i, k in keys.items() if (settled or {}).get(i) == k)
+        return out
+
+    plans = {}
+    for name, wrapper in (
+        ("skipping", counting),
+        ("every step", lambda dp, c, p, s, settled=None: searched(dp, c, p, s)),
+    ):
+        monkeypatch.setattr(optimal, "time_cells", wrapper)
+        plans[name] = [
+            [(s.arm, s.grasp, tuple(s.base)) for s in Planner(path, "global", maps_dir).plan().steps]
+            for path in BUILDINGS
+        ]
+    assert plans["skipping"] == plans["every step"]
+    assert skipped >= 1

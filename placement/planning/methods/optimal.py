@@ -228,10 +228,11 @@ def for_task_time(
     shortens the task, for up to :data:`POLISH_ROUNDS` rounds."""
     ctx, start = dp.ctx, dp.start
     best = task_seconds(dp, out)
+    settled: dict[int, tuple[object, ...]] = {}  # steps whose cell search found nothing, and what it read
     for _ in range(POLISH_ROUNDS):
         before = best
         if move and not ctx.out_of_budget():
-            moved = time_cells(dp, chain, picks, out)
+            moved = time_cells(dp, chain, picks, out, settled)
             if moved is not None:
                 steps = results(ctx, start, dp, *moved, keep_maps)
                 seconds = task_seconds(dp, steps)

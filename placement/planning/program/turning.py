@@ -126,10 +126,17 @@ def _leg_seconds(
 
 
 def time_cells(
-    dp: DynamicProgram, chain: Chain, picks: Sequence[Verified], steps: Sequence[StepResult]
+    dp: DynamicProgram,
+    chain: Chain,
+    picks: Sequence[Verified],
+    steps: Sequence[StepResult],
+    settled: dict[int, tuple[object, ...]] | None = None,
 ) -> tuple[Chain, list[Verified]] | None:
     """The chain with steps moved to nearby cells where that shortens the task (see the module
-    docstring), and their placements; None when no step moved."""
+    docstring), and their placements; None when no step moved. ``settled`` (kept by the caller
+    across rounds): per step, what it read (its neighbours' cells, groups, placements, legs and arm
+    times) when it last found no shorter cell; a step that reads the same again is not searched again
+    (it would find the same: every input of its search is in that key)."""
     ctx = dp.ctx
     robot = ctx.robot
     nav = ctx.world.nav
@@ -146,6 +153,14 @@ def time_cells(
         prev_yaw = float(ctx.scene.start[2]) if i == 0 else chosen[i - 1].base[2]
         prev_label = 0.0 if i == 0 else labels[i - 1]
         last = i + 1 == n
+        around = range(max(i - 1, 0), min(i + 2, n))
+        key = (
+            tuple((cells[j], groups[j], chosen[j].option, chosen[j].base) for j in around),
+            tuple(labels[j] - (0.0 if j == 0 else labels[j - 1]) for j in around),
+            tuple(arm_s[j] for j in around),
+        )
+        if settled is not None and settled.get(i) == key:
+            continue
         # legs whose travel outlasts the turn and the arm: the chain's cell already has the least
         # travel between its neighbours (the program's optimum), so no cell can shorten them
         here = chosen[i].base[2]
@@ -156,6 +171,8 @@ def time_cells(
             turn_out = _turn(np.full(1, here), np.full(1, chosen[i + 1].base[2]))[0] / robot.omega_max
             slack = slack or max(turn_out, arm_s[i + 1]) > out_s
         if not slack:
+            if settled is not None:
+                settled[i] = key
             continue
         iy0, ix0 = divmod(cells[i], nx)
         reg = dp.regions[i]
@@ -209,6 +226,8 @@ def time_cells(
                 labels[i + 1 :] = [label + shift for label in labels[i + 1 :]]
             cells[i], chosen[i], moved = flat, found, True
             break
+        if settled is not None and chosen[i] is picks[i] and cells[i] == chain.cells[i]:
+            settled[i] = key  # no shorter cell: the same search finds none again
     return (Chain(cells, groups, labels), chosen) if moved else None
 
 
