@@ -74,3 +74,36 @@ def test_a_plan_from_threshold_options_is_the_plan_from_exact_options(tiny_maps)
         (s.status, s.arm, s.grasp, s.base) for s in second.steps
     ]
     assert any(s.status == "ok" for s in first.steps)
+
+
+def test_exact_values_are_computed_once_per_cell_and_read_again(tiny_maps, monkeypatch):
+    """``exact_values`` keeps what it computed per option: asked again for cells it has (in another
+    order, mixed with new ones) it gives the same values and yaws, and runs the kernel on the new
+    cells only."""
+    problems = Planner(SCENES[1], "global", tiny_maps, warm=False).problems
+    i = next(k for k, s in enumerate(problems.steps) if s.action == "place")
+    opts = [o for o in problems.threshold_options(i) if not o.exact and o.blocked is None and o.value.size][:6]
+    assert opts
+    nx = problems.world.nav.shape[1]
+    w = opts[0].window
+    flats = w.to_global(np.arange(w.shape[0] * w.shape[1]), nx)
+    first, half = flats[::2], flats[1::2]
+    v1, k1 = problems.exact_values(opts, first)
+    asked = []
+    computed = cache.manipulation_maps
+
+    def counting(rmap, trajectories, nav, yaws, cells, *args, **kwargs):
+        asked.append(np.asarray(cells).copy())
+        return computed(rmap, trajectories, nav, yaws, cells, *args, **kwargs)
+
+    monkeypatch.setattr(cache, "manipulation_maps", counting)
+    both = np.concatenate([half, first[::-1]])
+    v2, k2 = problems.exact_values(opts, both)
+    np.testing.assert_array_equal(v2[:, half.size :], v1[:, ::-1])
+    np.testing.assert_array_equal(k2[:, half.size :], k1[:, ::-1])
+    assert asked and not np.isin(np.concatenate(asked), first).any()  # only the new cells
+    fresh = Planner(SCENES[1], "global", tiny_maps, warm=False).problems
+    same = [o2 for o2 in fresh.threshold_options(i) if not o2.exact and o2.blocked is None and o2.value.size][:6]
+    v3, k3 = fresh.exact_values(same, both)  # a planner that computes them all at once
+    np.testing.assert_array_equal(v2, v3)
+    np.testing.assert_array_equal(k2, k3)

@@ -129,6 +129,9 @@ class StepProblems:
         #: (cell (iy, ix), reversed, flat targets' bytes) -> the travel costs [m] between the cell and each
         #: target (see :meth:`legs`); they read the world only
         self._legs: dict[tuple[tuple[int, int], bool, bytes], FloatArray] = {}
+        #: id(option) -> (option, and over its window: which cells exact_values computed, their best
+        #: values and yaw indices)
+        self._exact: dict[int, tuple[Option, BoolArray, Float32Array, IntArray]] = {}
 
     def legs(self, cell: tuple[int, int], at: IntArray, reverse: bool = False) -> FloatArray:
         """(n,) travel cost [m] from ``cell`` to each flat cell of ``at`` (n,) (``reverse``: from each of
@@ -338,18 +341,55 @@ class StepProblems:
         live = self.world.feasible.flat[flats]
         if not todo or not live.any():
             return values, yaw
-        # every base cell, not only those within a target's reach: the kernel gives 0 beyond it
-        cells = np.unique(flats[live])
-        window = Window.around(cells, nav.shape)
-        masks = self.world.yaw_masks(cells)
-        at = (ys[live] - window.y0, xs[live] - window.x0)
         for (arm, torso), js in todo.items():
-            rmap = self.map_for(arm, torso)
-            found = manipulation_maps(rmap, [opts[j].candidate.poses for j in js], nav, self.yaws, cells, window, masks)
-            for j, (v, k) in zip(js, found):
-                values[j, live] = v[at]
-                yaw[j, live] = k[at]
+            # each option's cells within its window (0 beyond, where its last pose is out of reach),
+            # computed once: the kernel runs on those no call has asked for yet
+            kept = [self._exact_kept(opts[j]) for j in js]
+            need: list[IntArray] = []
+            for o, (known, _, _) in zip((opts[j] for j in js), kept):
+                w = o.window
+                inside = live & (ys >= w.y0) & (ys < w.y1) & (xs >= w.x0) & (xs < w.x1)
+                unknown = inside.copy()
+                unknown[inside] = ~known[ys[inside] - w.y0, xs[inside] - w.x0]
+                need.append(flats[unknown])
+            cells = np.unique(np.concatenate(need))
+            if cells.size:
+                window = Window.around(cells, nav.shape)
+                masks = self.world.yaw_masks(cells)
+                ask = [k for k, n in enumerate(need) if n.size]
+                rmap = self.map_for(arm, torso)
+                found = manipulation_maps(
+                    rmap, [opts[js[k]].candidate.poses for k in ask], nav, self.yaws, cells, window, masks
+                )
+                cy, cx = np.divmod(cells, nav.shape[1])
+                for k, (v, a) in zip(ask, found):
+                    o, (known, kv, ka) = opts[js[k]], kept[k]
+                    w = o.window
+                    at = (cy >= w.y0) & (cy < w.y1) & (cx >= w.x0) & (cx < w.x1)
+                    local = (cy[at] - w.y0, cx[at] - w.x0)
+                    kv[local] = v[cy[at] - window.y0, cx[at] - window.x0]
+                    ka[local] = a[cy[at] - window.y0, cx[at] - window.x0]
+                    known[local] = True
+            for j, (_, kv, ka) in zip(js, kept):
+                w = opts[j].window
+                inside = live & (ys >= w.y0) & (ys < w.y1) & (xs >= w.x0) & (xs < w.x1)
+                values[j, inside] = kv[ys[inside] - w.y0, xs[inside] - w.x0]
+                yaw[j, inside] = ka[ys[inside] - w.y0, xs[inside] - w.x0]
         return values, yaw
+
+    def _exact_kept(self, o: Option) -> tuple[BoolArray, Float32Array, IntArray]:
+        """(known (h, w), best value (h, w), its yaw index (h, w)) over option ``o``'s window: what
+        :meth:`exact_values` computed for it so far (kept with the option, which no one changes)."""
+        hit = self._exact.get(id(o))
+        if hit is None or hit[0] is not o:  # the option is kept with it: its id is not reused meanwhile
+            shape = o.window.shape
+            hit = self._exact[id(o)] = (
+                o,
+                np.zeros(shape, bool),
+                np.zeros(shape, np.float32),
+                np.full(shape, -1, np.int64),
+            )
+        return hit[1], hit[2], hit[3]
 
     def _compute_options(
         self, step: Step, torso: float | None = None, regional: float | None = None, stop: Stop | None = None
