@@ -148,6 +148,7 @@ def warm(work: Path, say: Callable[[str], object] = print) -> dict[str, float]:
     Planner(scenes[0], "global", paths["hdf5"]).plan()
     rmap = open_map(paths["zarr"], "right", robot).load()
     check_map(robot, rmap, samples=3)
+    rmap.polar_bound((0,), 0, 0)  # the kernel's skip table (made by the planner only for large steps)
     for index in ("isotropy", "volume"):
         extended_manipulability(robot, "right", robot.arm("right").home, index=index)
     rmap.value(robot.tcp_pose("right", robot.arm("right").home))

@@ -280,12 +280,21 @@ def test_the_slab_holds_each_lowest_slice_once_and_stays_valid_as_it_grows(coars
     assert again is grown and np.array_equal(same, all_rows[::-1])
 
 
-def run_kernel(slices, bits, bound, groups, members, tcp, member_yaw, yaws, cells, masks, above=0.0, first=False):
+def run_kernel(
+    slices, bits, bound, groups, members, tcp, member_yaw, yaws, cells, masks, above=0.0, first=False, polar=False
+):
     """``trajectory_maps`` on a 16 x 15 grid of 0.1 m cells at (-0.75, -0.8) with maps of 0.1 m cells at
     (-0.6, -0.7): ``groups`` (G,) poses per group (pose p of a group reads slice p), ``members`` (G,)
     members per group, every group's bound ``bound`` (nx_rm, ny_rm), no disc; the slices in a slab
-    of twice as many rows, shuffled among rows of noise. Returns (values, yaws) (rows, 16, 15)."""
-    from placement.kernels.irm import trajectory_maps
+    of twice as many rows, shuffled among rows of noise; ``polar``: with each slice's polar bound (40
+    rows per metre). Returns (values, yaws) (rows, 16, 15)."""
+    from placement.kernels.irm import POLAR_ANGLES, polar_bound, trajectory_maps
+
+    tables = (
+        np.stack([polar_bound(s, -0.6, -0.7, 0.1, 40.0, POLAR_ANGLES) for s in slices])
+        if polar
+        else np.zeros((0, 0, 0), np.float32)
+    )
 
     rows = int(sum(members))
     val = np.zeros((rows, 16, 15), np.float32)
@@ -297,6 +306,8 @@ def run_kernel(slices, bits, bound, groups, members, tcp, member_yaw, yaws, cell
         slab,
         shuffle[: len(slices)].astype(np.int64),
         bits,
+        tables,
+        40.0,
         bound[None],
         np.concatenate([np.arange(p, dtype=np.int64) for p in groups]),
         tcp[0],
@@ -424,3 +435,60 @@ def test_a_threshold_pass_reading_yaw_bits_gives_what_it_gives_reading_values(po
     ]
     assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
     assert (out[0][0] > above).sum() > 20 and ((out[0][0] == 0) & (out[0][1] == -1)).sum() > 20
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_polar_bound_holds_for_every_point_and_yaw_a_pose_can_read(seed):
+    """``polar_bound`` against brute force: random points of a slice's cells (cell edges and corners
+    among them) and random yaws, each read as the kernel reads it (the cell holding the point, the yaw
+    bin of the angle): the table at the point's distance and relative angle (the angle less the
+    point's bearing) is at least the value read, on grids around the origin and to one side of it."""
+    from placement.kernels.grid import wrap_bin
+    from placement.kernels.irm import polar_bound
+
+    rng = np.random.default_rng(seed)
+    nx, ny, nyaw = (int(v) for v in rng.integers(2, 25, 3))
+    values = rng.random((nx, ny, nyaw)).astype(np.float32)
+    values[values < 0.7] = 0.0
+    x0, y0, res = rng.uniform(-1.5, 0.3), rng.uniform(-1.5, 0.3), rng.uniform(0.03, 0.15)
+    per_m, n_angle = rng.uniform(5.0, 80.0), int(rng.integers(8, 100))
+    table = polar_bound(values, x0, y0, res, per_m, n_angle)
+    n = 20_000
+    jx, jy = rng.integers(0, nx, n), rng.integers(0, ny, n)
+    fx, fy = rng.random(n), rng.random(n)
+    fx[: n // 4] = 0.0  # on a cell's lower edge or corner
+    fy[n // 8 : n // 4] = 0.0
+    px, py = x0 + (jx + fx) * res, y0 + (jy + fy) * res
+    inside = (np.floor((px - x0) / res) == jx) & (np.floor((py - y0) / res) == jy)
+    angle = rng.uniform(-4 * math.pi, 4 * math.pi, n)
+    read = values[jx, jy, [wrap_bin(a, nyaw) for a in angle]]
+    row = (np.hypot(px, py) * per_m).astype(int)
+    k = np.floor((angle - np.arctan2(py, px)) / (2 * math.pi / n_angle)).astype(int) % n_angle
+    assert (row < table.shape[0]).all()
+    assert (table[row, k] >= read)[inside].all()
+    assert (table > 0).mean() < 0.9 or values.mean() > 0.2  # a bound, not everything
+
+
+@pytest.mark.parametrize(
+    "poses, candidates, first", [(1, 1, False), (2, 1, True), (3, 1, False), (2, 4, True), (3, 5, False), (1, 8, True)]
+)
+def test_skipping_by_the_polar_bound_changes_no_result(poses, candidates, first):
+    """Cells where some pose of a member reads at most the threshold at every base yaw by the polar
+    bound are left unread: on random sparse slices the values and yaws equal the kernel's without the
+    bound bit for bit, with and without a threshold, one-member and many-member groups."""
+    rng = np.random.default_rng(poses * 100 + candidates)
+    slices = rng.random((poses, 12, 14, 8)).astype(np.float32)
+    slices[slices < 0.75] = 0.0
+    slices = np.round(slices * 8) / 8
+    tcp = rng.uniform(-0.3, 0.3, (2, 3 * poses))
+    tcp_yaw = rng.uniform(-math.pi, math.pi, (3 * candidates * poses))
+    yaws = base_yaws(36)
+    cells = np.sort(rng.choice(16 * 15, 180, replace=False)).astype(np.int64)
+    masks = rng.integers(0, 2**36, (180, 1)).astype(np.uint64)
+    above = 0.75 if first else 0.0
+    bound = np.ascontiguousarray(slices[0].max(axis=2))
+    nobits = np.zeros((0, 0, 0), np.uint64)
+    args = (slices, nobits, bound, [poses] * 3, [candidates] * 3, tcp, tcp_yaw, yaws, cells, masks, above, first)
+    plain, skipping = run_kernel(*args), run_kernel(*args, polar=True)
+    assert np.array_equal(plain[0], skipping[0]) and np.array_equal(plain[1], skipping[1])
+    assert (plain[0] > above).sum() > 10 and (plain[0][:, cells // 15, cells % 15] == 0).sum() > 10

@@ -71,3 +71,30 @@ def test_only_a_steps_few_witness_slices_are_read_before_planning(tiny_maps, mon
     monkeypatch.undo()
     cold = Planner(YCB, "global", tiny_maps, warm=False).plan()
     assert [s.base for s in planner.plan().steps] == [s.base for s in cold.steps]
+
+
+def test_the_polar_bounds_of_the_large_steps_are_made_when_the_planner_is_built(tiny_maps, monkeypatch):
+    """A built planner holds the polar bounds of the slices of its steps with many candidates (the
+    published grasps' places), at the torso value it starts with; one built without them makes them
+    as its kernel passes need them, and plans the same."""
+    from placement.planning import prepare
+    from placement.planning.problems.cache import THRESHOLD_PASS_FROM
+
+    built = Planner(YCB, "global", tiny_maps)
+    problems = built.problems
+    large = [i for i in range(len(problems.steps)) if len(problems.candidates(i)) >= THRESHOLD_PASS_FROM]
+    assert large and len(large) < len(problems.steps)  # the places, not the picks
+    for maps in problems.variants.values():
+        rmap = maps[0]
+        poses = np.concatenate([c.poses for i in large for c in problems.candidates(i)])
+        corner = (float(rmap.grid.origin[0]), float(rmap.grid.origin[1]))
+        made = {key for (c, key) in rmap._shared.polar if c == corner}
+        assert {((z,), p, r) for z, p, r in distinct_slices(rmap, poses)} <= made
+    monkeypatch.setattr(prepare, "prefetch_polar", lambda ctx, seconds=0.0: True)
+    monkeypatch.setattr("placement.planning.planner.prefetch_polar", lambda ctx, seconds=0.0: True)
+    lazy = Planner(YCB, "global", tiny_maps)
+    assert all(not m._shared.polar for maps in lazy.problems.variants.values() for m in maps)
+    first, second = built.plan(), lazy.plan()
+    assert [(s.status, s.arm, s.grasp, s.base) for s in first.steps] == [
+        (s.status, s.arm, s.grasp, s.base) for s in second.steps
+    ]

@@ -76,11 +76,94 @@ def farthest_reached(values: npt.NDArray[np.float32], x0: float, y0: float, res:
     return far
 
 
+#: Bins of the relative angle (a pose's yaw less its bearing from the base) in a slice's polar bound
+POLAR_ANGLES = 64
+
+
+@njit(cache=True, nogil=True)  # may be made in the background thread (planning.problems.manipulation)
+def polar_bound(
+    values: npt.NDArray[np.float32], x0: float, y0: float, res: float, rows_per_m: float, n_angle: int
+) -> npt.NDArray[np.float32]:
+    """(R, n_angle) float32: an upper bound of what a TCP pose reads from the slice ``values`` (nx, ny,
+    n_yaw; its grid's lower corner at (``x0``, ``y0``) [m], cells ``res`` [m] wide) at any base yaw,
+    by the pose's distance d [m] from the base and its relative angle (its yaw less its bearing
+    atan2(dy, dx) from the base [rad]): row ``int(d * rows_per_m)``, bin ``floor(angle / (2 pi /
+    n_angle)) mod n_angle``; a distance past the last row reads 0 everywhere.
+
+    Turning the base turns a pose's position and its yaw in the base frame by the same angle, so
+    neither its distance nor its relative angle changes: a cell of the base grid whose pose's entry
+    is at most a threshold keeps it at no base yaw, and the inverse-map kernel skips it with one
+    lookup instead of a scan of every base yaw. Each map value is entered at its cell centre's
+    distance and relative angle, then spread over every bin a point of its cell and an angle of its
+    yaw bin can fall in (the cell's half-diagonal in distance and bearing, half a yaw bin, one bin
+    of slack on each side), so the bound holds for every point the kernel may read, whatever the
+    rounding."""
+    nx, ny, nyaw = values.shape
+    two_pi = 2.0 * math.pi
+    w = two_pi / nyaw
+    da = two_pi / n_angle
+    h = 0.5 * math.sqrt(2.0) * res
+    fx = max(abs(x0), abs(x0 + nx * res))
+    fy = max(abs(y0), abs(y0 + ny * res))
+    spread = int(math.ceil(h * rows_per_m)) + 1
+    rows = int(math.sqrt(fx * fx + fy * fy) * rows_per_m) + spread + 2
+    centre = np.zeros((rows, n_angle), dtype=np.float32)
+    for jx in range(nx):
+        cx = x0 + (jx + 0.5) * res
+        for jy in range(ny):
+            cy = y0 + (jy + 0.5) * res
+            row = int(math.sqrt(cx * cx + cy * cy) * rows_per_m)
+            bearing = math.atan2(cy, cx)
+            for b in range(nyaw):
+                v = values[jx, jy, b]
+                if v <= 0:
+                    continue
+                k = int(math.floor((b * w - bearing) / da)) % n_angle
+                if k < 0:
+                    k += n_angle
+                if v > centre[row, k]:
+                    centre[row, k] = v
+    turned = np.zeros((rows, n_angle), dtype=np.float32)
+    ring = np.zeros(3 * n_angle, dtype=np.float32)  # a row three times over: windows need no modulo
+    live = np.zeros(rows, dtype=np.bool_)
+    for r in range(rows):
+        m = np.float32(0.0)
+        for k in range(n_angle):
+            m = max(m, centre[r, k])
+        if m <= 0:
+            continue
+        live[r] = True
+        near = r / rows_per_m  # the least distance of a cell centre entered in this row
+        bearing = math.asin(h / near) if near > h else math.pi
+        half = int(math.ceil((0.5 * w + bearing) / da)) + 1
+        if 2 * half + 1 >= n_angle:
+            for k in range(n_angle):
+                turned[r, k] = m
+            continue
+        for k in range(n_angle):
+            ring[k] = ring[k + n_angle] = ring[k + 2 * n_angle] = centre[r, k]
+        for k in range(n_angle):
+            m = np.float32(0.0)
+            for j in range(n_angle + k - half, n_angle + k + half + 1):
+                m = max(m, ring[j])
+            turned[r, k] = m
+    out = np.zeros((rows, n_angle), dtype=np.float32)
+    for j in range(rows):
+        if not live[j]:
+            continue
+        for r in range(max(j - spread, 0), min(j + spread + 1, rows)):
+            for k in range(n_angle):
+                out[r, k] = max(out[r, k], turned[j, k])
+    return out
+
+
 @njit(cache=True, parallel=True, nogil=True)  # runs in a background thread: planning.problems.background
 def trajectory_maps(
     slices: npt.NDArray[np.float32],
     slice_row: npt.NDArray[np.int64],
     bits: npt.NDArray[np.uint64],
+    polar: npt.NDArray[np.float32],
+    polar_rows_per_m: float,
     column_max: npt.NDArray[np.float32],
     pose_slice: npt.NDArray[np.int64],
     pose_x: npt.NDArray[np.float64],
@@ -127,6 +210,9 @@ def trajectory_maps(
             the slices by a ``first`` pass of a one-member group until a yaw keeps every pose above
             ``above`` (whose values are then read: the same results, an eighth of the bytes read);
             (0, 0, 0): the slices are read.
+        polar: (S, R, A) float32, :func:`polar_bound` of each slice at ``polar_rows_per_m`` rows per
+            metre: a base cell where some pose of a member reads at most ``above`` there leaves that
+            member's value 0 unread, and one where every member's does is skipped; (0, 0, 0): none.
         column_max: (B, nx_rm, ny_rm) float32 upper bounds, ``slice.max(axis=2)`` of some slices.
         pose_slice: (M,) the slice of each pose; pose_x, pose_y: (M,) its world position [m].
         group_pose: (G + 1,) group g's poses are ``group_pose[g]:group_pose[g + 1]`` (P_g of them).
@@ -182,6 +268,9 @@ def trajectory_maps(
     n = cells.shape[0]
     chunks = (n + CHUNK - 1) // CHUNK
     one = np.uint64(1)
+    n_rows = polar.shape[1]
+    angle_bins = polar.shape[2] / (2.0 * math.pi)
+    n_angle = polar.shape[2]
     for task in prange(G * chunks):
         g = task // chunks
         chunk = task - g * chunks
@@ -196,6 +285,9 @@ def trajectory_maps(
         arg = np.empty(C, dtype=np.int64)
         m = np.empty(C, dtype=np.float32)
         alive = np.empty(C, dtype=np.bool_)
+        dead = np.zeros(C, dtype=np.bool_)
+        prow = np.empty(P, dtype=np.int64)
+        pbear = np.empty(P)
         pdx = np.empty(P)
         pdy = np.empty(P)
         pjx = np.empty(P, dtype=np.int64)
@@ -213,7 +305,34 @@ def trajectory_maps(
                 best[c] = np.float32(above)
                 arg[c] = -1
             floor = np.float32(above)  # the least best over the members
-            found = 0  # members with a value above ``above``
+            found = 0  # members with a value above ``above`` (or none by the polar bound)
+            if polar.shape[0] > 0:  # members some pose of which reads at most ``above`` at every yaw
+                for p in range(P):
+                    pdx[p] = pose_x[p0 + p] - bx
+                    pdy[p] = pose_y[p0 + p] - by
+                    prow[p] = int(math.sqrt(pdx[p] * pdx[p] + pdy[p] * pdy[p]) * polar_rows_per_m)
+                    pbear[p] = math.atan2(pdy[p], pdx[p])
+                for c in range(C):
+                    dead[c] = False
+                    for p in range(P):
+                        row = prow[p]
+                        if row >= n_rows:
+                            dead[c] = True
+                            break
+                        rel = member_yaw[yaw_start[g] + c * P + p] - pbear[p]
+                        k = int(math.floor(rel * angle_bins)) % n_angle
+                        if k < 0:
+                            k += n_angle
+                        if polar[pose_slice[p0 + p], row, k] <= above:
+                            dead[c] = True
+                            break
+                    if dead[c]:
+                        found += 1
+                if found == C:
+                    for c in range(C):
+                        out_val[member_row[r0 + c], iy - out_y0, ix - out_x0] = 0.0
+                        out_yaw[member_row[r0 + c], iy - out_y0, ix - out_x0] = -1
+                    continue
             if C == 1:  # one member (trajectories at distinct points): no per-member bookkeeping
                 for p in range(P):
                     pdx[p] = pose_x[p0 + p] - bx
@@ -277,10 +396,12 @@ def trajectory_maps(
                     continue
                 co = cs[k]
                 s = sn[k]
+                left = C
                 for c in range(C):
                     m[c] = np.float32(np.inf)
-                    alive[c] = True
-                left = C
+                    alive[c] = not dead[c]
+                    if dead[c]:
+                        left -= 1
                 for p in range(P):
                     sl = pose_row[p0 + p]
                     dx = pose_x[p0 + p] - bx
@@ -312,9 +433,10 @@ def trajectory_maps(
                                 found += 1
                             best[c] = m[c]
                             arg[c] = k
-                    floor = best[0]
-                    for c in range(1, C):
-                        floor = min(floor, best[c])
+                    floor = np.float32(np.inf)
+                    for c in range(C):
+                        if not dead[c]:
+                            floor = min(floor, best[c])
                     if first and found == C:
                         break
             for c in range(C):

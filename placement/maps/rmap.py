@@ -10,7 +10,7 @@ import numpy.typing as npt
 
 from placement.errors import GridError, MapError, PlacementError
 from placement.kernels.grid import cell_indices
-from placement.kernels.irm import column_maxima, farthest_reached, yaw_bits
+from placement.kernels.irm import POLAR_ANGLES, column_maxima, farthest_reached, polar_bound, yaw_bits
 from placement.maps.array_checks import check_arrays
 from placement.maps.grid import Grid
 from placement.maps.quantiles import estimate_quantiles, quantile_value
@@ -34,6 +34,11 @@ __all__ = [
 ]
 
 
+#: Rows of a polar bound per map cell width (see ReachabilityMap.polar_bound): finer rows blur a
+#: value over less distance, at a larger table
+POLAR_ROWS_PER_CELL = 4
+
+
 class _Shared:
     """What an opened map and its views share: the arrays and chunks read so far and the value
     distribution (a shifted torso view shares them; a per-setting view has its own), and the views made
@@ -54,6 +59,8 @@ class _Shared:
         #: each key's row in it
         self.slab: np.ndarray | None = None
         self.slab_rows: dict[tuple[tuple[int, ...], int, int], int] = {}
+        #: ((grid corner x, y [m]), the same keys) -> that slice's polar bound (see ``polar_bound``)
+        self.polar: dict[tuple[tuple[float, float], tuple[tuple[int, ...], int, int]], np.ndarray] = {}
         self.quantiles = quantiles
         self.views: dict[float, ReachabilityMap] = {} if views is None else views
 
@@ -338,6 +345,30 @@ class ReachabilityMap:
             hit = yaw_bits(self.lowest(*key[0]), float(above))
             hit.flags.writeable = False
             self._shared.yaw_bits[key] = hit
+        return hit
+
+    @property
+    def polar_rows_per_m(self) -> float:
+        """Rows per metre of :meth:`polar_bound`'s tables: four per map cell."""
+        return POLAR_ROWS_PER_CELL / float(self.grid.resolution)
+
+    def polar_bound(self, zs: Sequence[int], ip: int, ir: int, lowest: np.ndarray | None = None) -> np.ndarray:
+        """(R, :data:`~placement.kernels.irm.POLAR_ANGLES`) float32: the polar bound of :meth:`lowest`
+        ``(zs, ip, ir)`` (:func:`~placement.kernels.irm.polar_bound`, :attr:`polar_rows_per_m` rows per
+        metre: a pose's most by its distance from the base and its yaw less its bearing); cached,
+        read-only. A view whose grid corner moved in x or y has its own. ``lowest``: that slice, when
+        the caller has it (a kernel pass in the background thread reads it from the slab it was given,
+        and reads no chunk)."""
+        g = self.grid
+        corner = (float(g.origin[0]), float(g.origin[1]))
+        key = (corner, (tuple(sorted({int(z) for z in zs})), int(ip), int(ir)))
+        hit = self._shared.polar.get(key)
+        if hit is None:
+            res = float(g.resolution)
+            values = self.lowest(*key[1]) if lowest is None else lowest
+            hit = polar_bound(values, corner[0], corner[1], res, self.polar_rows_per_m, POLAR_ANGLES)
+            hit.flags.writeable = False
+            self._shared.polar[key] = hit
         return hit
 
     def slice_reach(self, iz: int, ip: int, ir: int) -> float:

@@ -43,7 +43,7 @@ from placement.maps.rmap import ReachabilityMap
 from placement.planning.arrays import Cell, FloatArray
 from placement.planning.context import PlanningContext, resident_gib
 from placement.planning.methods import DEFAULT_METHOD, METHODS, Method, method_named
-from placement.planning.prepare import PREFETCH_SHARE, prefetch_slices, warm_checks, warm_kernels
+from placement.planning.prepare import PREFETCH_SHARE, prefetch_polar, prefetch_slices, warm_checks, warm_kernels
 from placement.planning.problems import StepProblems, Thresholds, base_yaws
 from placement.planning.program import certify
 from placement.planning.results import PlanResult, robot_info
@@ -149,7 +149,9 @@ class Planner:
         check per arm. The constructor calls it unless given ``warm=False``; planning without it
         gives the same plans, its first step paying for what this does."""
         warm_kernels(self.context.problems, self.robot)
-        prefetch_slices(self.context.problems, PREFETCH_SHARE * self.context.config.time_budget_s)
+        budget = PREFETCH_SHARE * self.context.config.time_budget_s
+        if prefetch_slices(self.context.problems, budget):
+            prefetch_polar(self.context, budget / 2)
         warm_checks(self.context)
 
     def _contextualise(self, scene: Scene, robot: Robot, rmaps: dict[str, ReachabilityMap]) -> None:

@@ -18,8 +18,9 @@ from placement.kinematics.ik import solve_ik
 from placement.planning.context import PlanningContext
 from placement.planning.methods import rank_by_cost
 from placement.planning.problems import Option, StepProblems, distinct_slices, manipulation_maps, step_candidates
+from placement.planning.problems.cache import THRESHOLD_PASS_FROM
 from placement.planning.settings import PlannerConfig
-from placement.planning.torso import collisions_at, torso_value
+from placement.planning.torso import collisions_at, start_torso, torso_value
 from placement.planning.world import navigation_cost
 from placement.robots import Robot
 from placement.scene.navgrid import NavGrid, Window
@@ -85,6 +86,30 @@ def prefetch_slices(problems: StepProblems, seconds: float = math.inf) -> bool:
                 if few and (k, key) not in witnessed:
                     witnessed.add((k, key))
                     rmap.witness_slice(*key)
+    return True
+
+
+def prefetch_polar(ctx: PlanningContext, seconds: float = math.inf) -> bool:
+    """Make the polar bounds (:meth:`~placement.maps.rmap.ReachabilityMap.polar_bound`) of the slices of
+    the steps with at least :data:`~placement.planning.problems.cache.THRESHOLD_PASS_FROM` candidates, in
+    the maps at the torso value the robot starts with, for at most about ``seconds`` [s]: the kernel
+    passes that read them (a published grasp set's places) start with them made, the bound skipping
+    the base cells no base yaw serves. Any not made here are made on first use (the plans are the same).
+    True when all were made."""
+    end = time.perf_counter() + seconds
+    problems = ctx.problems
+    held = start_torso(ctx)
+    views = [m for maps in problems.variants.values() for m in maps if torso_value(m) == held]
+    for i in range(len(problems.steps)):
+        candidates = problems.candidates(i)
+        if len(candidates) < THRESHOLD_PASS_FROM:
+            continue
+        poses = np.concatenate([c.poses for c in candidates])
+        for rmap in views:
+            for key in distinct_slices(rmap, poses):
+                if time.perf_counter() > end:
+                    return False
+                rmap.polar_bound((key[0],), key[1], key[2])
     return True
 
 

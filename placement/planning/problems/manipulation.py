@@ -16,6 +16,9 @@ from placement.planning.arrays import YAW_INDEX, Float32Array, FloatArray, IntAr
 from placement.planning.problems.background import behind
 from placement.scene.navgrid import NavGrid, Window
 
+#: (group, base cell) pairs per map slice from which a kernel pass reads the slices' polar bounds: each
+#: table takes about as long to make as the kernel spends on this many pairs' unreachable share
+POLAR_PAYS = 2400
 #: A pose's map lookup: (x [m], y [m], z bin, pitch bin, roll bin).
 PoseKey = tuple[float, float, int, int, int]
 #: An inverse reachability map over a window: value (h, w) float32, best yaw's index (h, w) int64.
@@ -279,10 +282,13 @@ def _kernel_pass(
         group_member.append(len(rows))
         group_disc.append(discs[members[0][0]])
     slab, slice_row = rmap.stacked(slices)  # a step's candidates share a few dozen slices
-    kernel_args = (
+    polar = len(groups) * cells.size >= POLAR_PAYS * len(slices)
+    kernel_args = [
         slab,
         slice_row,
         np.ascontiguousarray(np.stack(bits)) if bits else np.zeros((0, 0, 0), np.uint64),
+        np.zeros((0, 0, 0), np.float32),  # the polar bounds, read where the kernel runs (below)
+        rmap.polar_rows_per_m,
         np.ascontiguousarray(np.stack(bounds)),
         np.array(pose_slice, dtype=np.int64),
         np.array(pose_x, dtype=float),
@@ -307,8 +313,14 @@ def _kernel_pass(
         window.x0,
         above,
         stop_early,
-    )
-    return vals, args, discs, lambda: trajectory_maps(*kernel_args)
+    ]
+
+    def call() -> None:
+        if polar:  # made where they are missing (the planner makes its steps' tables when it is built)
+            kernel_args[3] = np.stack([rmap.polar_bound(*key, lowest=slab[row]) for key, row in zip(slices, slice_row)])
+        trajectory_maps(*kernel_args)
+
+    return vals, args, discs, call
 
 
 def below(value: float) -> np.float32:
