@@ -78,7 +78,7 @@ def test_the_polar_bounds_of_the_large_steps_are_made_when_the_planner_is_built(
     published grasps' places), at the torso value it starts with; one built without them makes them
     as its kernel passes need them, and plans the same."""
     from placement.planning import prepare
-    from placement.planning.problems.cache import THRESHOLD_PASS_FROM
+    from placement.planning.problems import THRESHOLD_PASS_FROM
 
     built = Planner(YCB, "global", tiny_maps)
     problems = built.problems

@@ -17,8 +17,14 @@ import numpy as np
 from placement.kinematics.ik import solve_ik
 from placement.planning.context import PlanningContext
 from placement.planning.methods import rank_by_cost
-from placement.planning.problems import Option, StepProblems, distinct_slices, manipulation_maps, step_candidates
-from placement.planning.problems.cache import THRESHOLD_PASS_FROM
+from placement.planning.problems import (
+    THRESHOLD_PASS_FROM,
+    Option,
+    StepProblems,
+    distinct_slices,
+    manipulation_maps,
+    step_candidates,
+)
 from placement.planning.settings import PlannerConfig
 from placement.planning.torso import collisions_at, start_torso, torso_value
 from placement.planning.world import navigation_cost

@@ -7,7 +7,7 @@ manipulation map (:mod:`.manipulation`, the paper's section IV-B), judged agains
 (:mod:`.cache`) keeps them per step for a live planner and says what a scene change invalidates.
 """
 
-from placement.planning.problems.cache import StepProblems
+from placement.planning.problems.cache import THRESHOLD_PASS_FROM, StepProblems
 from placement.planning.problems.manipulation import (
     base_yaws,
     distinct_slices,
@@ -32,6 +32,7 @@ from placement.planning.problems.torso_maps import map_variants, torso_record, t
 from placement.planning.problems.transfer import UPRIGHT_TOLERANCE, held_object, tilt_between
 
 __all__ = [
+    "THRESHOLD_PASS_FROM",
     "UPRIGHT_TOLERANCE",
     "Option",
     "Step",
