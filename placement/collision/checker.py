@@ -310,7 +310,8 @@ class SceneCollision:
     def _shape_keys(self, ids: npt.NDArray[np.int_]) -> list[tuple[object, ...]]:
         """What makes robot shapes ``ids`` the shapes they are: kind, mesh file, vertex and triangle
         counts, and the local bounds and mesh scale (to :data:`TWIN_TOL_M`)."""
-        geo, out = self.geometry, []
+        geo = self.geometry
+        out: list[tuple[object, ...]] = []
         for g in ids:
             o = geo.geom.geometryObjects[int(g)]
             counts = [getattr(o.geometry, attr, None) for attr in ("num_vertices", "num_tris")]

@@ -283,11 +283,8 @@ def _kernel_pass(
         group_disc.append(discs[members[0][0]])
     slab, slice_row = rmap.stacked(slices)  # a step's candidates share a few dozen slices
     polar = len(groups) * cells.size >= POLAR_PAYS * len(slices)
-    kernel_args = [
-        slab,
-        slice_row,
-        np.ascontiguousarray(np.stack(bits)) if bits else np.zeros((0, 0, 0), np.uint64),
-        np.zeros((0, 0, 0), np.float32),  # the polar bounds, read where the kernel runs (below)
+    head = (slab, slice_row, np.ascontiguousarray(np.stack(bits)) if bits else np.zeros((0, 0, 0), np.uint64))
+    kernel_args = (  # after the polar bounds, made where the kernel runs (below)
         rmap.polar_rows_per_m,
         np.ascontiguousarray(np.stack(bounds)),
         np.array(pose_slice, dtype=np.int64),
@@ -313,12 +310,13 @@ def _kernel_pass(
         window.x0,
         above,
         stop_early,
-    ]
+    )
 
     def call() -> None:
+        tables = np.zeros((0, 0, 0), np.float32)
         if polar:  # made where they are missing (the planner makes its steps' tables when it is built)
-            kernel_args[3] = np.stack([rmap.polar_bound(*key, lowest=slab[row]) for key, row in zip(slices, slice_row)])
-        trajectory_maps(*kernel_args)
+            tables = np.stack([rmap.polar_bound(*key, lowest=slab[row]) for key, row in zip(slices, slice_row)])
+        trajectory_maps(*(*head, tables, *kernel_args))
 
     return vals, args, discs, call
 
