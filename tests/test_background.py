@@ -67,3 +67,31 @@ def test_prefetched_options_equal_those_computed_in_place(tiny_maps, monkeypatch
             compared += int((w.value > 0).sum())
     assert not ahead._pending  # every started pass was read
     assert compared > 1000
+
+
+@pytest.mark.parametrize("method", ["sequential", "fixed"])
+def test_a_step_by_step_plan_prefetches_the_next_steps_and_plans_the_same(tiny_maps, monkeypatch, method):
+    """A step-by-step method starts the kernel passes of the steps after the current one: a plan with
+    them started equals one that computes each step's options when asked, and the passes it started
+    were all read."""
+    from placement.planning.methods import stepwise
+
+    scene = ROOT / "examples" / "buildings" / "wrs_arena" / "tidy_up_ycb.yaml"
+    started: list[int] = []
+    prefetch = cache.StepProblems.prefetch
+
+    def counting(self, i, torso, exact=False, stop=None):
+        started.append(i)
+        return prefetch(self, i, torso, exact, stop)
+
+    monkeypatch.setattr(cache.StepProblems, "prefetch", counting)
+    ahead = Planner(scene, method, tiny_maps)
+    first = ahead.plan()
+    assert max(started) >= 2 and not ahead.problems._pending
+    monkeypatch.setattr(stepwise, "PREFETCH_AHEAD", 0)
+    second = Planner(scene, method, tiny_maps).plan()
+    assert [
+        (s.status, getattr(s, "arm", None), getattr(s, "base", None), getattr(s, "reason", None)) for s in first.steps
+    ] == [
+        (s.status, getattr(s, "arm", None), getattr(s, "base", None), getattr(s, "reason", None)) for s in second.steps
+    ]

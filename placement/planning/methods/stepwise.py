@@ -27,6 +27,9 @@ from placement.planning.results import InfeasibleStep, PlacedStep, StepMaps, Ste
 from placement.planning.torso import held_setting, start_torso, torso_seconds
 from placement.planning.world import costs_at, extract_path, navigation_cost
 
+#: Steps after the current one whose kernel passes a step-by-step plan starts in the background.
+PREFETCH_AHEAD = 2
+
 
 @dataclass(frozen=True)
 class Holding:
@@ -214,6 +217,11 @@ def plan_step(
     nav = world.nav
     timings: dict[str, float] = {}
     t = time.perf_counter()
+    # this step's and the next two steps' kernel passes in the background (their arguments made now,
+    # each step's while the kernel runs the one before): this step reads its options while the next
+    # steps' are computed, and the options are the same
+    for ahead in range(step.index, min(step.index + PREFETCH_AHEAD + 1, len(problems.steps))):
+        problems.prefetch(ahead, None, exact=True, stop=ctx.check_budget)
     opts = problems.options(step.index)
     if pairs is not None:
         opts = [o for o in opts if (o.arm, o.candidate.grasp) in pairs]
