@@ -69,9 +69,8 @@ def test_prefetched_options_equal_those_computed_in_place(tiny_maps, monkeypatch
     assert compared > 1000
 
 
-@pytest.mark.parametrize("method", ["sequential", "fixed"])
-def test_a_step_by_step_plan_prefetches_the_next_steps_and_plans_the_same(tiny_maps, monkeypatch, method):
-    """A step-by-step method starts the kernel passes of the steps after the current one: a plan with
+def test_a_step_by_step_plan_prefetches_the_next_steps_and_plans_the_same(tiny_maps, monkeypatch):
+    """A step-by-step method (``sequential``; the others plan their steps alike) starts the kernel passes of the steps after the current one: a plan with
     them started equals one that computes each step's options when asked, and the passes it started
     were all read."""
     from placement.planning.methods import stepwise
@@ -85,11 +84,11 @@ def test_a_step_by_step_plan_prefetches_the_next_steps_and_plans_the_same(tiny_m
         return prefetch(self, i, torso, exact, stop)
 
     monkeypatch.setattr(cache.StepProblems, "prefetch", counting)
-    ahead = Planner(scene, method, tiny_maps)
+    ahead = Planner(scene, "sequential", tiny_maps)
     first = ahead.plan()
     assert max(started) >= 2 and not ahead.problems._pending
     monkeypatch.setattr(stepwise, "PREFETCH_AHEAD", 0)
-    second = Planner(scene, method, tiny_maps).plan()
+    second = Planner(scene, "sequential", tiny_maps).plan()
     assert [
         (s.status, getattr(s, "arm", None), getattr(s, "base", None), getattr(s, "reason", None)) for s in first.steps
     ] == [
