@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from placement.collision.bounds import box_distance, boxes_distance
 from placement.collision.robot import ArmShapes
 from placement.collision.tables import Instances, Pairs, ScenePieces
+from placement.kernels.broadphase import scene_pair_bounds, self_pair_bounds
 
 
 def candidate_pairs(
@@ -27,27 +27,24 @@ def candidate_pairs(
     A pair's bound is the larger of two, each no more than its distance: bounding sphere against the
     piece's box (or two spheres), and the axis-aligned box around the robot shape's own box against
     the piece's box (or two such boxes). The box is the tighter one for long links lying along an
-    axis of the model (a forearm, a gripper above a table top): those pairs are not given to coal."""
-    centre, ext, radius = inst["centre"], inst["extent"], inst["radius"]
-    lb = np.maximum(
-        box_distance(centre, scene["aabb"]) - radius[:, None], boxes_distance(centre, ext, scene["aabb"])
-    )  # (N, S)
-    if gone:
-        lb[:, [i for i, o in enumerate(scene["objects"]) if o in gone]] = np.inf
-    if grasped is not None:
-        held = np.array([o == grasped for o in scene["objects"]], dtype=bool)
-        lb[np.ix_(inst["gripper"], held)] = np.inf
-    a, b = np.nonzero(lb <= cap)
+    axis of the model (a forearm, a gripper above a table top): those pairs are not given to coal.
+    The bounds come from :mod:`placement.kernels.broadphase` (numpy's arithmetic, term for term)."""
+    objects = scene["objects"]
+    skipped = np.array([o in gone for o in objects], dtype=bool)
+    held = np.array([grasped is not None and o == grasped for o in objects], dtype=bool)
+    centre = np.ascontiguousarray(inst["centre"], dtype=float)
+    ext = np.ascontiguousarray(inst["extent"], dtype=float)
+    radius = np.ascontiguousarray(inst["radius"], dtype=float)
+    aabb = np.ascontiguousarray(scene["aabb"], dtype=float).reshape(-1, 2, 3)
+    gripper = np.ascontiguousarray(inst["gripper"], dtype=bool)
+    a, b, lb = scene_pair_bounds(centre, ext, radius, aabb, skipped, gripper, held, float(cap))
     sa, sb = self_instances(shapes, inst["poses"], ngeoms)
-    c, r = centre, radius
-    gap = np.maximum(np.abs(c[sa] - c[sb]) - ext[sa] - ext[sb], 0.0)
-    self_lb = np.maximum(np.linalg.norm(c[sa] - c[sb], axis=1) - r[sa] - r[sb], np.linalg.norm(gap, axis=1))
-    keep = self_lb <= cap
+    keep, self_lb = self_pair_bounds(centre, ext, radius, sa.astype(np.int64), sb.astype(np.int64), float(cap))
     return {
         "a": np.concatenate([a, sa[keep]]),
         "b": np.concatenate([b, sb[keep]]),
-        "self": np.concatenate([np.zeros(len(a), bool), np.ones(int(keep.sum()), bool)]),
-        "lb": np.concatenate([lb[a, b], self_lb[keep]]),
+        "self": np.concatenate([np.zeros(len(a), bool), np.ones(len(keep), bool)]),
+        "lb": np.concatenate([lb, self_lb]),
     }
 
 
