@@ -76,17 +76,18 @@ def test_a_step_by_step_plan_prefetches_the_next_steps_and_plans_the_same(tiny_m
     from placement.planning.methods import stepwise
 
     scene = ROOT / "examples" / "buildings" / "wrs_arena" / "tidy_up_ycb.yaml"
-    started: list[int] = []
-    prefetch = cache.StepProblems.prefetch
+    started: list[tuple[int, bool]] = []  # (step, in the background) of every pass launched
+    launch = cache.StepProblems._launch_options
 
-    def counting(self, i, torso, exact=False, stop=None):
-        started.append(i)
-        return prefetch(self, i, torso, exact, stop)
+    def counting(self, step, torso, regional, stop, background=True):
+        started.append((step.index, background))
+        return launch(self, step, torso, regional, stop, background)
 
-    monkeypatch.setattr(cache.StepProblems, "prefetch", counting)
+    monkeypatch.setattr(cache.StepProblems, "_launch_options", counting)
     ahead = Planner(scene, "sequential", tiny_maps)
     first = ahead.plan()
-    assert max(started) >= 2 and not ahead.problems._pending
+    # the later steps' passes were started in the background, and every one started was read
+    assert {i for i, bg in started if bg} >= {1, 2} and not ahead.problems._pending
     monkeypatch.setattr(stepwise, "PREFETCH_AHEAD", 0)
     second = Planner(scene, "sequential", tiny_maps).plan()
     assert [

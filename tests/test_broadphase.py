@@ -7,11 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from support.collision import scene_doc
+from support.collision import box_distance, boxes_distance, scene_doc
 
 import placement.collision.pairs as pairs_module
 from placement.collision import SceneCollision
-from placement.collision.bounds import box_distance, boxes_distance
 from placement.collision.pairs import self_instances
 from placement.kernels.broadphase import scene_pair_bounds, self_pair_bounds
 from placement.scene import load_scene

@@ -1,4 +1,5 @@
-"""The broad phase's lower bounds never exceed the distances coal measures (placement/collision/pairs.py)."""
+"""The broad phase's lower bounds never exceed the distances coal measures (placement/collision/pairs.py,
+placement/kernels/broadphase.py)."""
 
 from __future__ import annotations
 
@@ -8,17 +9,22 @@ import pytest
 from support.planning import write_scene
 
 from placement.collision import SceneCollision
-from placement.collision.bounds import base_matrix, boxes_distance
+from placement.collision.bounds import base_matrix
+from placement.kernels.broadphase import scene_pair_bounds
 from placement.scene import load_scene
 
 
-def test_boxes_distance_is_coals_box_distance():
+def test_the_box_bound_is_coals_box_distance():
+    """The kernel's bound of a shape whose sphere says nothing (an infinite radius) is its box's
+    distance to the piece's box, as coal measures it."""
     rng = np.random.default_rng(3)
+    no = np.zeros(1, bool)
     for _ in range(200):
         c, e = rng.uniform(-1, 1, 3), rng.uniform(0.01, 0.5, 3)
         lo = rng.uniform(-1, 1, 3)
         hi = lo + rng.uniform(0.01, 0.8, 3)
-        got = boxes_distance(c[None], e[None], np.array([[lo, hi]]))[0, 0]
+        _, _, lb = scene_pair_bounds(c[None], e[None], np.array([np.inf]), np.array([[lo, hi]]), no, no, no, np.inf)
+        got = lb[0]
         req, res = coal.DistanceRequest(), coal.DistanceResult()
         want = coal.distance(
             coal.Box(*(2 * e)),

@@ -17,25 +17,6 @@ def base_matrix(x: float, y: float, yaw: float) -> npt.NDArray[np.float64]:
     return B
 
 
-def box_distance(centres: npt.NDArray[np.float64], aabb: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """(N, S) distances [m] from points (N, 3) to boxes (S, 2, 3) (0 inside)."""
-    lo, hi = aabb[None, :, 0], aabb[None, :, 1]
-    p = centres[:, None, :]
-    out: npt.NDArray[np.float64] = np.linalg.norm(np.maximum(lo - p, 0.0) + np.maximum(p - hi, 0.0), axis=2)
-    return out
-
-
-def boxes_distance(
-    centres: npt.NDArray[np.float64], extents: npt.NDArray[np.float64], aabb: npt.NDArray[np.float64]
-) -> npt.NDArray[np.float64]:
-    """(N, S) distances [m] between boxes of ``centres`` (N, 3) [m] and half ``extents`` (N, 3) [m] and
-    boxes ``aabb`` (S, 2, 3) [m] (0 where they overlap), all axis-aligned."""
-    c, e = centres[:, None, :], extents[:, None, :]
-    gap = np.maximum(aabb[None, :, 0] - (c + e), 0.0) + np.maximum((c - e) - aabb[None, :, 1], 0.0)
-    out: npt.NDArray[np.float64] = np.linalg.norm(gap, axis=2)
-    return out
-
-
 def model_aabb(aabb: npt.NDArray[np.float64], A: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """(S, 2, 3) boxes ``aabb`` (S, 2, 3) moved by ``A`` (4, 4), bounded again by axis-aligned boxes."""
     corners = np.where(_CORNERS[None], aabb[:, None, 1], aabb[:, None, 0])  # (S, 8, 3)

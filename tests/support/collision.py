@@ -40,3 +40,19 @@ def with_occupancy(scene):
     occ[:, 5] = True  # x in [-1.5, -1.4)
     occ[12, 30] = occ[27, 29] = True  # posts at (1.05, -0.75), (0.95, 0.75)
     return dataclasses.replace(scene, occupancy=OccupancyMap(occ, 0.1, (-2.0, -2.0, 0.0), arm_height=3.0))
+
+
+def box_distance(centres, aabb):
+    """(N, S) distances [m] from points (N, 3) to boxes (S, 2, 3) (0 inside), in numpy: the reference of
+    the broad phase's sphere bound (placement/kernels/broadphase.py)."""
+    lo, hi = aabb[None, :, 0], aabb[None, :, 1]
+    p = centres[:, None, :]
+    return np.linalg.norm(np.maximum(lo - p, 0.0) + np.maximum(p - hi, 0.0), axis=2)
+
+
+def boxes_distance(centres, extents, aabb):
+    """(N, S) distances [m] between boxes of ``centres`` (N, 3) and half ``extents`` (N, 3) and boxes
+    ``aabb`` (S, 2, 3) (0 where they overlap), in numpy: the reference of the broad phase's box bound."""
+    c, e = centres[:, None, :], extents[:, None, :]
+    gap = np.maximum(aabb[None, :, 0] - (c + e), 0.0) + np.maximum((c - e) - aabb[None, :, 1], 0.0)
+    return np.linalg.norm(gap, axis=2)

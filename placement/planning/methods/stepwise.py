@@ -130,6 +130,7 @@ def plan_transfer(
     pick's alone when it is infeasible) and the place's cell."""
     problems = ctx.problems
     t0 = time.perf_counter()
+    prefetch_from(ctx, pick.index)  # the place's passes run while the pick's options are read
     picks = {(o.arm, o.candidate.grasp) for o in problems.options(pick.index)}
     viable = problems.pairs(place.index)
     irms_ms = (time.perf_counter() - t0) * 1e3  # the pick's and the place's IRMs: manipulation work
@@ -200,6 +201,16 @@ def plan_transfer(
         picked = first.timed(total=(t1 - t0) * 1e3)
 
 
+def prefetch_from(ctx: PlanningContext, i: int) -> None:
+    """Start the kernel passes of step i and the :data:`PREFETCH_AHEAD` steps after it in the
+    background (their arguments made now, each step's while the kernel runs the one before): a step
+    ranks and verifies while the next steps' options are computed, the same options. Steps computed
+    or started already are skipped."""
+    problems = ctx.problems
+    for ahead in range(i, min(i + PREFETCH_AHEAD + 1, len(problems.steps))):
+        problems.prefetch(ahead, None, exact=True, stop=ctx.check_budget)
+
+
 def plan_step(
     ctx: PlanningContext,
     method: StepwiseMethod,
@@ -217,11 +228,7 @@ def plan_step(
     nav = world.nav
     timings: dict[str, float] = {}
     t = time.perf_counter()
-    # this step's and the next two steps' kernel passes in the background (their arguments made now,
-    # each step's while the kernel runs the one before): this step reads its options while the next
-    # steps' are computed, and the options are the same
-    for ahead in range(step.index, min(step.index + PREFETCH_AHEAD + 1, len(problems.steps))):
-        problems.prefetch(ahead, None, exact=True, stop=ctx.check_budget)
+    prefetch_from(ctx, step.index)
     opts = problems.options(step.index)
     if pairs is not None:
         opts = [o for o in opts if (o.arm, o.candidate.grasp) in pairs]
