@@ -41,8 +41,8 @@ def test_distinct_slices_are_the_set_of_every_poses_slice(tiny_maps, pr2, seed):
 
 def test_only_a_steps_few_witness_slices_are_read_before_planning(tiny_maps, monkeypatch):
     """The published grasps' arena on the tiny maps: every slice of every candidate is read when the
-    planner is built, a witness slice only when its step's slices in that map are at most
-    WITNESS_SLICES (its places' hundreds are not); the plan is the plan of a planner built without
+    planner is built (one by one or together), a witness slice only when its step's slices in that map
+    are at most WITNESS_SLICES (its places' hundreds are not); the plan is the plan of a planner built without
     reading anything."""
     asked: dict[str, set] = {"slice": set(), "witness_slice": set()}
     for name, kept in asked.items():
@@ -53,6 +53,16 @@ def test_only_a_steps_few_witness_slices_are_read_before_planning(tiny_maps, mon
             return method(self, *key)
 
         monkeypatch.setattr(ReachabilityMap, name, reading)
+    read_slices = ReachabilityMap.read_slices
+
+    def reading_together(self, keys, witness=False):
+        keys = list(keys)
+        asked["witness_slice" if witness else "slice"].update(
+            (self.arm, self.torso_value, tuple(int(k) for k in key)) for key in keys
+        )
+        return read_slices(self, keys, witness)
+
+    monkeypatch.setattr(ReachabilityMap, "read_slices", reading_together)
     planner = Planner(YCB, "global", tiny_maps)
     problems = planner.problems
     values, witnesses, skipped = set(), set(), 0

@@ -108,6 +108,23 @@ def test_chunking_one_chunk_per_irm_slice(tmp_path, pr2, right_map, fmt):
     np.testing.assert_array_equal(rmap.slice(2, 1, 3), right_map.values[:, :, 2, :, 1, 3])
 
 
+def test_slices_read_together_are_the_slices(saved, right_map):
+    """read_slices (the chunk threads) caches what slice() reads, values and witnesses, in either backend."""
+    _, path = saved
+    g = right_map.grid.shape
+    keys = [(z, p, r) for z in range(g[2]) for p in range(g[4]) for r in range(0, g[5], 3)]
+    together = placement.open_map(path, "right")
+    together.read_slices(keys)
+    together.read_slices(keys[:3], witness=True)
+    one = placement.open_map(path, "right")
+    for iz, ip, ir in keys:
+        got = together._slices[(iz, ip, ir)]  # read by read_slices, not by slice() below
+        np.testing.assert_array_equal(got, right_map.values[:, :, iz, :, ip, ir])
+        assert together.slice(iz, ip, ir) is got
+    for key in keys[:3]:
+        np.testing.assert_array_equal(together._witness_slices[key], one.witness_slice(*key))
+
+
 def test_zarr_reads_the_chunks_written_directly_as_its_own(tmp_path, pr2, right_map):
     """A map's chunks are written without zarr (placement.storage.zarr.write_chunks): zarr reads the
     values and witnesses back equal to what was saved, and the same arrays written by zarr itself

@@ -200,6 +200,20 @@ def test_damage_is_named_as_such(damaged):
 
 
 @pytest.mark.slow
+def test_slices_read_together_fail_on_the_damaged_one(damaged):
+    """read_slices reads on the chunk threads: a damaged chunk among sound ones is one MapError."""
+    path, (iz, ip, ir), name = damaged
+    if name == "deleted":
+        pytest.skip("fails at open")
+    rmap = placement.open_map(path, "right")
+    g = rmap.grid.shape
+    keys = [(z, p, r) for z in range(g[2]) for p in range(g[4]) for r in range(g[5])]
+    with pytest.raises(MapError) as exc:
+        rmap.read_slices(keys)
+    assert "\n" not in str(exc.value)
+
+
+@pytest.mark.slow
 def test_maps_info_full_fails_with_one_line(damaged):
     path, _, _ = damaged
     p = subprocess.run(

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any, cast
 
 import numpy as np
@@ -18,6 +18,7 @@ from placement.maps.torso import TorsoSettings, allowed_value, settings_from_met
 from placement.maps.witness import plain_samples, witness_configs
 from placement.robots import Robot
 from placement.storage import StoredMap
+from placement.storage.chunks import each_of
 from placement.storage.output import MapOutput, check_target, save_maps
 from placement.storage.validate import TCP_TOLERANCE, check_root, validate_arm, validate_robot
 
@@ -273,6 +274,24 @@ class ReachabilityMap:
             "npt.NDArray[np.float64]",
             witness_configs(self.robot.arm(self.arm), self.stored_grid, self._seed, self._plain, np.array([w]))[0],
         )
+
+    def read_slices(self, keys: Iterable[tuple[int, int, int]], witness: bool = False) -> None:
+        """Read the slices (or witness slices) at ``keys`` (iz, ip, ir) not read yet, on the chunk
+        threads (the codecs release the GIL: a step's hundreds of slices in about half the time): what
+        :meth:`slice` (:meth:`witness_slice`) of each reads and caches, any damaged chunk's MapError
+        raised here."""
+        if (self._full_witness if witness else self._full) is not None:
+            return
+        cache = self._witness_slices if witness else self._slices
+        todo = sorted({(int(iz), int(ip), int(ir)) for iz, ip, ir in keys}.difference(cache))
+
+        def read(key: tuple[int, int, int]) -> None:
+            cache[key] = self.store.read_chunk(self.array, *key, witness=witness)
+
+        if len(todo) > 1:
+            each_of(read, todo)
+        elif todo:
+            read(todo[0])
 
     def slice(self, iz: int, ip: int, ir: int) -> np.ndarray:
         """Values (nx, ny, n_yaw) at z bin iz, pitch bin ip, roll bin ir (one stored chunk)."""

@@ -84,14 +84,11 @@ def prefetch_slices(problems: StepProblems, seconds: float = math.inf) -> bool:
         poses = np.concatenate([c.poses for c in candidates])
         for k, rmap in enumerate(views):
             keys = distinct_slices(rmap, poses)  # a place's hundreds of yaws share slices
-            few = len(keys) <= WITNESS_SLICES
-            for key in keys:
-                if (k, key) not in read:
-                    read.add((k, key))
-                    rmap.slice(*key)
-                if few and (k, key) not in witnessed:
-                    witnessed.add((k, key))
-                    rmap.witness_slice(*key)
+            rmap.read_slices(key for key in keys if (k, key) not in read)
+            read.update((k, key) for key in keys)
+            if len(keys) <= WITNESS_SLICES:
+                rmap.read_slices((key for key in keys if (k, key) not in witnessed), witness=True)
+                witnessed.update((k, key) for key in keys)
     return True
 
 

@@ -14,13 +14,15 @@ from __future__ import annotations
 import os
 import zlib
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor, wait
+from typing import TypeVar
 
 import numpy as np
 import numpy.typing as npt
 
 _POOLS: list[ThreadPoolExecutor] = []
+T = TypeVar("T")
 
 
 def _pool() -> ThreadPoolExecutor:
@@ -42,7 +44,13 @@ def each_layer(task: Callable[[int], None], layers: int) -> None:
     release the GIL). The first exception is raised here once no task runs any more: after a failed
     layer none has started, the others have ended (a failed save's caller removes what they wrote,
     and nothing writes there after it)."""
-    futures = [_pool().submit(task, iz) for iz in range(layers)]
+    each_of(task, range(layers))
+
+
+def each_of(task: Callable[[T], None], items: Iterable[T]) -> None:
+    """``task(item)`` for every item on the chunk threads, as :func:`each_layer` runs its layers (the
+    first exception raised here once no task runs any more)."""
+    futures = [_pool().submit(task, item) for item in items]
     try:
         for done in futures:
             done.result()
