@@ -166,3 +166,49 @@ def test_optimal_takes_a_hopeless_groups_rejections_in_threes_for_the_same_optim
     one_by_one, reference = solved()
     assert chain.total == pytest.approx(reference.total, rel=1e-12)
     assert dp.solves < one_by_one.solves
+
+
+def test_a_repair_stops_at_a_group_its_probe_gives_up(tiny_maps, monkeypatch):
+    """A repair of one group (a transfer's) verifies no cell of it after ``gives_up`` said the probe
+    found none (the kitchen's lying can on the tiny maps: repairs that end so do occur); the plan
+    still plans."""
+    import importlib
+
+    import placement.planning.methods.optimal as optimal
+
+    repair_module = importlib.import_module("placement.planning.program.repair")
+    real = repair_module.repair
+    stopped = []
+
+    def watched(dp, chain, i):
+        calls: list[tuple[str, int, bool]] = []
+        verify, gives_up = dp.verify, dp.gives_up
+
+        def v(step, flat, g):
+            out = verify(step, flat, g)
+            calls.append(("verify", g, out is not None))
+            return out
+
+        def up(step, g, late=False):
+            out = gives_up(step, g, late)
+            calls.append(("gives_up", g, out))
+            return out
+
+        dp.verify, dp.gives_up = v, up
+        try:
+            out = real(dp, chain, i)
+        finally:
+            del dp.verify, dp.gives_up
+        given = {g for what, g, said in calls if what == "gives_up" and said}
+        for g in given:
+            at = next(k for k, c in enumerate(calls) if c == ("gives_up", g, True))
+            # the probe's own verifications come before its verdict; none after it
+            assert not any(what == "verify" and gg == g for what, gg, _ in calls[at + 1 :])
+        stopped.extend(given)
+        return out
+
+    monkeypatch.setattr(optimal, "repair", watched)
+    scene = unbudgeted(load_scene(KITCHEN))
+    plan = Planner(scene, "global", tiny_maps).plan()
+    assert stopped, "the scene must exercise a repair that gives a group up"
+    assert plan.ok

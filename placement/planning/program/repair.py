@@ -10,7 +10,10 @@ step to the cell of its region that adds the least travel between its neighbours
 ``global_repair_candidates``): two Dijkstras (one from ``c[i-1]``, one to ``c[i+1]`` on the reversed
 grid) and a few IK calls instead of a solve. A transfer's pick and place keep their group. The legs
 into and out of the new cell are exact. When no candidate verifies, the caller removes the
-rejection and solves again.
+rejection and solves again. A group whose probe finds it hopeless
+(:meth:`~placement.planning.program.state.DynamicProgram.gives_up`, asked after each rejection) gets
+no further candidates: the next cells along the detour fail as the last did, and the caller drops
+the group (the published grasps' lab: 456 verifications -> 301, the same plan).
 
 The two searches are asked only for the region's cells whose detour cannot exceed the least one by
 more than ``WINDOW_M`` (by a lower bound: octile distances times the least slowdown), a window that
@@ -64,6 +67,8 @@ class RepairView(Protocol):
 
     def verify(self, i: int, flat: int, g: int) -> Verified | None: ...
 
+    def gives_up(self, i: int, g: int, late: bool = False) -> bool: ...
+
 
 def node_cost(dp: RepairView, i: int, g: int, flat: int) -> float:
     """Step i's node term [m] at cell ``flat`` in group g (0 without one)."""
@@ -110,6 +115,7 @@ def repair(dp: RepairView, chain: Chain, i: int) -> tuple[Chain, Verified] | Non
         out[window] = ctx.problems.legs(cell, cells[window], reverse)
         return out
 
+    given_up: set[int] = set()  # groups a probe found hopeless during this repair
     while len(tried) < count:
         # only the region's cells whose detour bound is within ``reach`` are searched: a cell outside
         # detours more than ``reach`` [m], so those within rank exactly as they would among all
@@ -125,11 +131,18 @@ def repair(dp: RepairView, chain: Chain, i: int) -> tuple[Chain, Verified] | Non
             score[score > reach] = np.inf
         for k, g in _best(score, reg, held, groups, count):
             flat = int(cells[k])
-            if (flat, g) in tried:
+            if (flat, g) in tried or g in given_up:
                 continue
             tried.add((flat, g))
             v = dp.verify(i, flat, g)
             if v is None:
+                if dp.gives_up(i, g):
+                    # its probe verified nothing around the region: the next cells of the group, a
+                    # step further along the same detour, fail as this one did (a forearm over the
+                    # table's edge), and the caller drops the group
+                    given_up.add(g)
+                    if len(given_up) == len(groups):
+                        return None
                 if len(tried) >= count:
                     break
                 continue
