@@ -189,8 +189,8 @@ def test_a_repair_stops_at_a_group_its_probe_gives_up(tiny_maps, monkeypatch):
             calls.append(("verify", g, out is not None))
             return out
 
-        def up(step, g, late=False):
-            out = gives_up(step, g, late)
+        def up(step, g, late=False, after=PROBE_AFTER):
+            out = gives_up(step, g, late, after)
             calls.append(("gives_up", g, out))
             return out
 

@@ -11,9 +11,10 @@ step to the cell of its region that adds the least travel between its neighbours
 grid) and a few IK calls instead of a solve. A transfer's pick and place keep their group. The legs
 into and out of the new cell are exact. When no candidate verifies, the caller removes the
 rejection and solves again. A group whose probe finds it hopeless
-(:meth:`~placement.planning.program.state.DynamicProgram.gives_up`, asked after each rejection) gets
-no further candidates: the next cells along the detour fail as the last did, and the caller drops
-the group (the published grasps' lab: 456 verifications -> 301, the same plan).
+(:meth:`~placement.planning.program.state.DynamicProgram.gives_up`, asked once a repair rejected
+:data:`REPAIR_PROBE_AFTER` of its cells) gets no further candidates: the next cells along the detour
+fail as the last did, and the caller drops the group (the lab with 100 published grasps per object:
+456 verifications -> 209, the kitchen 347 -> 214; the same plans on the building scenes).
 
 The two searches are asked only for the region's cells whose detour cannot exceed the least one by
 more than ``WINDOW_M`` (by a lower bound: octile distances times the least slowdown), a window that
@@ -40,6 +41,9 @@ from placement.planning.verification import TrajectoryIK
 
 #: the detour [m] beyond the least bound that a repair searches first (doubled while nothing verifies)
 WINDOW_M = 0.5
+#: rejections of a group after which a repair asks its probe (fewer than a plan's: a repair's cells
+#: lie along one detour, and fail together)
+REPAIR_PROBE_AFTER = 4
 #: a search from a cell at least this many times the region's extent away covers the whole region at
 #: once (see :func:`repair`)
 FAR = 4.0
@@ -67,7 +71,7 @@ class RepairView(Protocol):
 
     def verify(self, i: int, flat: int, g: int) -> Verified | None: ...
 
-    def gives_up(self, i: int, g: int, late: bool = False) -> bool: ...
+    def gives_up(self, i: int, g: int, late: bool = False, after: int = ...) -> bool: ...
 
 
 def node_cost(dp: RepairView, i: int, g: int, flat: int) -> float:
@@ -136,7 +140,7 @@ def repair(dp: RepairView, chain: Chain, i: int) -> tuple[Chain, Verified] | Non
             tried.add((flat, g))
             v = dp.verify(i, flat, g)
             if v is None:
-                if dp.gives_up(i, g):
+                if dp.gives_up(i, g, after=REPAIR_PROBE_AFTER):
                     # its probe verified nothing around the region: the next cells of the group, a
                     # step further along the same detour, fail as this one did (a forearm over the
                     # table's edge), and the caller drops the group

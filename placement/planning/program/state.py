@@ -254,13 +254,13 @@ class DynamicProgram:
         """How many (cell, group, torso setting) placements of step i verification rejected."""
         return sum(len(flats) for (k, _, _), flats in self.tally.items() if k == i)
 
-    def gives_up(self, i: int, g: int, late: bool = False) -> bool:
+    def gives_up(self, i: int, g: int, late: bool = False, after: int = PROBE_AFTER) -> bool:
         """Whether step i's group g is to be dropped: :meth:`hopeless`, asked by ``global`` (local
         repairs) from the start, by ``optimal`` once its rejections remove neighbourhoods (``late``),
         and by neither after :meth:`exact_again`."""
-        return self.probing and (late or self.local) and self.hopeless(i, g)
+        return self.probing and (late or self.local) and self.hopeless(i, g, after)
 
-    def hopeless(self, i: int, g: int) -> bool:
+    def hopeless(self, i: int, g: int, after: int = PROBE_AFTER) -> bool:
         """Whether step i's group g verifies nowhere, as far as a probe tells: once
         :data:`PROBE_AFTER` distinct cells of it were rejected and none verified, the best cell by map
         value in each of :data:`PROBE_SECTORS` sectors around its region's centre is verified, and the
@@ -274,7 +274,7 @@ class DynamicProgram:
         key = (i, reg.groups[g], self.setting(i, g))
         if key in self.settled:
             return not self.settled[key]
-        if len(self.tally.get(key, ())) < PROBE_AFTER:
+        if len(self.tally.get(key, ())) < after:
             return False
         self.settled[key] = False  # the probe's own rejections do not probe again
         for flat in self.probe_cells(i, g):
