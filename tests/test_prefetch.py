@@ -108,3 +108,41 @@ def test_the_polar_bounds_of_the_large_steps_are_made_when_the_planner_is_built(
     assert [(s.status, s.arm, s.grasp, s.base) for s in first.steps] == [
         (s.status, s.arm, s.grasp, s.base) for s in second.steps
     ]
+
+
+LOADS = """
+import importlib, json, pkgutil, sys
+import placement.kernels
+from placement.planning import Planner
+
+def loaded():
+    out = set()
+    for info in pkgutil.iter_modules(placement.kernels.__path__):
+        module = importlib.import_module(f"placement.kernels.{info.name}")
+        for name, obj in vars(module).items():
+            if hasattr(obj, "overloads") and hasattr(obj, "py_func"):
+                out |= {f"{info.name}.{name}{tuple(sig)}" for sig in obj.overloads}
+    return out
+
+planner = Planner(sys.argv[1], sys.argv[2], sys.argv[3])
+before = loaded()
+assert planner.plan().ok
+print(json.dumps(sorted(loaded() - before)))
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["global", "sequential"])
+def test_a_built_planner_plans_without_loading_a_kernel(tiny_maps, method):
+    """In a fresh process, the kernels a plan calls are loaded from numba's cache when the planner is
+    built (a few milliseconds each), with the array types the plan passes them: none while it plans."""
+    import json
+    import subprocess
+    import sys
+
+    scene = ROOT / "examples" / "table_clearing.yaml"
+    p = subprocess.run(
+        [sys.executable, "-c", LOADS, str(scene), method, str(tiny_maps)], capture_output=True, text=True, cwd=ROOT
+    )
+    assert p.returncode == 0, p.stderr[-3000:]
+    assert json.loads(p.stdout.splitlines()[-1]) == []

@@ -14,6 +14,9 @@ import time
 
 import numpy as np
 
+from placement.kernels.footprint import pose_blocked
+from placement.kernels.grid import zyx_angles
+from placement.kernels.irm import column_maxima, farthest_reached, yaw_bits
 from placement.kinematics.ik import solve_ik
 from placement.planning.context import PlanningContext
 from placement.planning.methods import rank_by_cost
@@ -27,7 +30,7 @@ from placement.planning.problems import (
 )
 from placement.planning.settings import PlannerConfig
 from placement.planning.torso import collisions_at, start_torso, torso_value
-from placement.planning.world import navigation_cost
+from placement.planning.world import costs_at, navigation_cost
 from placement.robots import Robot
 from placement.scene.navgrid import NavGrid, Window
 
@@ -47,6 +50,11 @@ def warm_kernels(problems: StepProblems, robot: Robot) -> None:
     nav = NavGrid((0.0, 0.0), 0.05, (3, 3))
     ones = np.ones(nav.shape)
     cost, _ = navigation_cost(ones, np.ones(nav.shape, bool), (1, 1), nav.resolution, targets=np.eye(3, dtype=bool))
+    # a world's layers are read-only, a type of their own to numba (its search keeps their padded grid)
+    frozen, free = ones.copy(), np.ones(nav.shape, bool)
+    frozen.flags.writeable = free.flags.writeable = False
+    costs_at(frozen, free, (1, 1), nav.resolution, np.array([0, 8]))
+    _load_small_kernels()
     step = problems.steps[0]
     cand = step_candidates(problems.scene, step, problems.config, problems.opening_m)[0]
     for arm, rmap in problems.maps.items():
@@ -59,6 +67,25 @@ def warm_kernels(problems: StepProblems, robot: Robot) -> None:
         a = robot.arm(arm)
         solve_ik(robot, arm, robot.tcp_pose(arm, a.home), a.home, seeds=1, max_iter=1)
     _warm = True
+
+
+def _load_small_kernels() -> None:
+    """Call the small kernels a plan calls on the array types it passes them (map slices read-only
+    where merged, writable as read; a world's read-only layers): loading each from numba's cache
+    costs a few milliseconds in a fresh process, which the first plan should not pay."""
+    writable = np.zeros((2, 2, 2), np.float32)
+    frozen = writable.copy()
+    frozen.flags.writeable = False
+    for values in (writable, frozen):
+        column_maxima(values)
+        yaw_bits(values, 0.5)
+        farthest_reached(values, 0.0, 0.0, 0.1)
+    zyx_angles(np.eye(4))
+    touched = np.zeros((3, 3), bool)
+    square = np.array([[0.0, 0.0], [0.1, 0.0], [0.1, 0.1], [0.0, 0.1]])
+    pose_blocked(touched, 0.0, 0.0, 0.05, square, 0.0)
+    touched.flags.writeable = False
+    pose_blocked(touched, 0.0, 0.0, 0.05, square, 0.0)
 
 
 def prefetch_slices(problems: StepProblems, seconds: float = math.inf) -> bool:
