@@ -56,7 +56,8 @@ class _Shared:
         self.column_max: dict[tuple[tuple[int, ...], int, int], np.ndarray] = {}
         #: (the same keys, a threshold) -> which yaw bins of each (x, y) cell lie above it (see ``yaw_bits``)
         self.yaw_bits: dict[tuple[tuple[tuple[int, ...], int, int], float], np.ndarray] = {}
-        #: the slab of :meth:`ReachabilityMap.stacked` (rows of lowest slices, grown by doubling) and
+        #: the slab of :meth:`ReachabilityMap.stacked` (rows of lowest slices, grown to the slices read
+        #: or by doubling) and
         #: each key's row in it
         self.slab: np.ndarray | None = None
         self.slab_rows: dict[tuple[tuple[int, ...], int, int], int] = {}
@@ -333,7 +334,12 @@ class ReachabilityMap:
             rows = [self.lowest(*key) for key in new]
             slab = shared.slab
             if slab is None or slab.shape[0] < first + len(new):
-                grown = np.empty((max(16, 2 * (first + len(new))), *rows[0].shape), dtype=np.float32)
+                need = first + len(new)
+                # as many rows as slices were read (a planner reads its task's slices when it is built)
+                # and a quarter more for merged ones, at least twice the rows: growing copies every
+                # row again (rows not written are pages never touched)
+                rows_for = max(2 * need, len(shared.slices) + len(shared.slices) // 4)
+                grown = np.empty((max(16, rows_for), *rows[0].shape), dtype=np.float32)
                 if slab is not None:
                     grown[:first] = slab[:first]
                 slab = shared.slab = grown
