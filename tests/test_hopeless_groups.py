@@ -212,3 +212,16 @@ def test_a_repair_stops_at_a_group_its_probe_gives_up(tiny_maps, monkeypatch):
     plan = Planner(scene, "global", tiny_maps).plan()
     assert stopped, "the scene must exercise a repair that gives a group up"
     assert plan.ok
+
+
+def test_a_groups_members_are_its_options_in_order(solved):
+    """Against a plain scan: each group's option indices, per options list (cached per list)."""
+    _, dp, _ = solved
+    for i in range(len(dp.regions)):
+        reg = dp.regions[i]
+        for g, group in enumerate(reg.groups):
+            opts = dp.options(i, g)
+            want = [k for k, o in enumerate(opts) if (o.arm, o.candidate.grasp) == group]
+            assert dp.members(opts, group) == want
+            assert dp.members(list(opts), group) == want  # another list of the same options
+    assert dp.members([], ("left", "no such grasp")) == []

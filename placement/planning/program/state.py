@@ -117,6 +117,8 @@ class DynamicProgram:
         #: a chain and the placements verified along it from its first step on (the partial plan
         #: a method keeps when the time budget runs out)
         self.verified_prefix: tuple[Chain | None, list[Verified]] = (None, [])
+        #: id of an options list -> (that list, group -> its members' indices): see :meth:`members`
+        self._members: dict[int, tuple[list[Option], dict[Group, list[int]]]] = {}
 
     def solve(self, first: int = 0) -> Chain | None:
         """The cheapest chain over the current regions, recomputing the layers from step ``first``
@@ -157,7 +159,7 @@ class DynamicProgram:
         step = ctx.problems.steps[i]
         group = self.regions[i].groups[g]
         opts = self.options(i, g)
-        members = [k for k, o in enumerate(opts) if (o.arm, o.candidate.grasp) == group]
+        members = self.members(opts, group)
         # each member's best value and yaw at the cell (the options may say only where they keep the threshold)
         got, yaw_of = ctx.problems.exact_values([opts[k] for k in members], np.array([flat]))
         value = {k: float(v) for k, v in zip(members, got[:, 0])}
@@ -291,7 +293,7 @@ class DynamicProgram:
         if not cells.size:
             return []
         opts = self.options(i, g)
-        members = [o for o in opts if (o.arm, o.candidate.grasp) == reg.groups[g]]
+        members = [opts[k] for k in self.members(opts, reg.groups[g])]
         values, _ = self.ctx.problems.exact_values(members, cells)
         best = values.max(axis=0)
         ys, xs = np.divmod(cells, reg.shape[1])
@@ -303,6 +305,19 @@ class DynamicProgram:
             if k.size:
                 out.append(int(cells[k[np.argmax(best[k])]]))
         return out
+
+    def members(self, opts: list[Option], group: Group) -> list[int]:
+        """The indices of ``opts`` (a step's options as :meth:`options` gives them) of ``group`` (arm,
+        grasp), in order (per list, cached: a place of a hundred grasps holds thousands of options,
+        and each verification asks)."""
+        key = id(opts)
+        hit = self._members.get(key)
+        if hit is None or hit[0] is not opts:  # the list is kept with them: its id is not reused meanwhile
+            by_group: dict[Group, list[int]] = {}
+            for k, o in enumerate(opts):
+                by_group.setdefault((o.arm, o.candidate.grasp), []).append(k)
+            hit = self._members[key] = (opts, by_group)
+        return hit[1].get(group, [])
 
     def setting(self, i: int, g: int) -> float | None:
         """The torso setting step i's group g is verified at: the group's own (the priced program),

@@ -107,7 +107,8 @@ def _group_best(dp: DynamicProgram, i: int, g: int, flats: np.ndarray) -> np.nda
     group = dp.regions[i].groups[g]
     best = np.zeros(flats.size, np.float32)
     yaw = np.full(flats.size, -1, dtype=np.int64)
-    members = [o for o in dp.options(i, g) if (o.arm, o.candidate.grasp) == group]
+    opts = dp.options(i, g)
+    members = [opts[k] for k in dp.members(opts, group)]
     values, yaws = dp.ctx.problems.exact_values(members, flats)
     for v, k in zip(values, yaws):  # the first option of an equal value keeps the cell, as before
         better = v > best
