@@ -147,8 +147,10 @@ def test_a_place_only_a_closed_room_serves_says_the_base_cannot_get_there(maps_d
 @pytest.mark.slow
 @pytest.mark.parametrize("method", ["global", "optimal", "sequential"])
 def test_a_spent_time_budget_keeps_the_verified_steps_and_says_why(maps_dir, method):
-    """With 0.1 s for the whole task, the plan stops soon after: the steps verified by then are kept,
-    and the first one not verified says which budget ran out and how to raise it."""
+    """With 0.1 s for the whole task, 0.09 s of it spent before the plan starts (as a query's planner
+    construction is counted), the plan stops soon after: the steps verified by then are kept, and the
+    first one not verified says which budget ran out and how to raise it. (The whole budget planned
+    the office's six steps on a fast machine.)"""
     import dataclasses
     import time
 
@@ -157,7 +159,7 @@ def test_a_spent_time_budget_keeps_the_verified_steps_and_says_why(maps_dir, met
     scene = load_scene(next(p for p in BUILDINGS if p.parent.name == "willow_office"))  # ~1 s on the full map
     planner = Planner(dataclasses.replace(scene, planner={"time_budget_s": 0.1}), method, maps_dir)
     t = time.perf_counter()
-    result = planner.plan()
+    result = planner.plan(spent_s=0.09)
     assert time.perf_counter() - t < 2.0
     assert not result.ok
     *done, failed = result.steps
