@@ -57,8 +57,7 @@ class _Shared:
         #: (the same keys, a threshold) -> which yaw bins of each (x, y) cell lie above it (see ``yaw_bits``)
         self.yaw_bits: dict[tuple[tuple[tuple[int, ...], int, int], float], np.ndarray] = {}
         #: the slab of :meth:`ReachabilityMap.stacked` (rows of lowest slices, grown to the slices read
-        #: or by doubling) and
-        #: each key's row in it
+        #: or by doubling) and each key's row in it
         self.slab: np.ndarray | None = None
         self.slab_rows: dict[tuple[tuple[int, ...], int, int], int] = {}
         #: ((grid corner x, y [m]), the same keys) -> that slice's polar bound (see ``polar_bound``)

@@ -259,7 +259,7 @@ class DynamicProgram:
     def gives_up(self, i: int, g: int, late: bool = False, after: int = PROBE_AFTER) -> bool:
         """Whether step i's group g is to be dropped: :meth:`hopeless`, asked by ``global`` (local
         repairs) from the start, by ``optimal`` once its rejections remove neighbourhoods (``late``),
-        and by neither after :meth:`exact_again`."""
+        and by neither after :meth:`exact_again`; ``after``: as :meth:`hopeless` takes it."""
         return self.probing and (late or self.local) and self.hopeless(i, g, after)
 
     def hopeless(self, i: int, g: int, after: int = PROBE_AFTER) -> bool:
@@ -271,7 +271,8 @@ class DynamicProgram:
         alone cannot foresee, and that otherwise take the program through the group's region cell by
         cell). A heuristic: the plan may then miss a group's rare verifying cells, never a verified plan
         (when no chain is left, the caller solves again over every group, :meth:`exact_again`, and
-        drops none after that)."""
+        drops none after that). ``after``: the rejected cells that start a probe (a repair's
+        :data:`~placement.planning.program.repair.REPAIR_PROBE_AFTER` asks sooner)."""
         reg = self.regions[i]
         key = (i, reg.groups[g], self.setting(i, g))
         if key in self.settled:
