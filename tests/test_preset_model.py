@@ -225,3 +225,20 @@ def test_ignore_collisions_names_two_different_links(tmp_path):
 )
 def test_bad_ignore_collisions(tmp_path, value, words):
     message(tmp_path, changed(pr2_mapping(), ignore_collisions=value), PresetError, *words)
+
+
+def test_mimic_joints_are_the_urdfs_and_no_actuated_joint(pr2):
+    """The robot's mimic joints are those its URDF declares (against a plain ElementTree reading of the
+    file), and the configuration's actuated joints leave them out (the PR2's finger joints follow one)."""
+    import xml.etree.ElementTree as ET
+
+    from placement.planning.verification.configuration import actuated_joints
+
+    root = ET.parse(pr2.urdf_path).getroot()
+    want = {j.get("name") for j in root.iter("joint") if j.find("mimic") is not None}
+    assert want and pr2.mimic_joints == want
+    actuated = actuated_joints(pr2)
+    assert not set(actuated) & want
+    model = pr2.model
+    one_dof = {model.names[j] for j in range(1, model.njoints) if model.joints[j].nv == 1}
+    assert set(actuated) == one_dof - want

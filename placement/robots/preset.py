@@ -283,6 +283,12 @@ class Robot:
         """Arm names, in preset order."""
         return list(self._arms)
 
+    @property
+    def mimic_joints(self) -> frozenset[str]:
+        """The URDF's mimic joints (each follows another; the model keeps no record of them), of the
+        bytes the robot was built from."""
+        return frozenset(self._mimic)
+
     def arm(self, name: str) -> Arm:
         """The arm called ``name``; raises :class:`ArmNotFound` naming the alternatives."""
         try:

@@ -21,8 +21,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from functools import lru_cache
-from pathlib import Path
 from typing import cast
 
 import numpy as np
@@ -30,8 +28,7 @@ import pinocchio as pin
 
 from placement.planning.arrays import FloatArray
 from placement.robots import Robot
-from placement.robots.description import expand_xacro, is_xacro
-from placement.robots.model_cache import fk_data, frame_id, mimic_joints
+from placement.robots.model_cache import fk_data, frame_id
 
 
 @dataclass(frozen=True)
@@ -59,16 +56,8 @@ def actuated_joints(robot: Robot) -> list[str]:
     """Names of the model's joints of one degree of freedom that are not mimic joints, model order.
     (Joints of several degrees of freedom, a floating or planar root, are not joints of a preset.)"""
     model = robot.model
-    mimic = _mimic_joints(robot.urdf_path, robot.urdf_sha256)
+    mimic = robot.mimic_joints
     return [model.names[j] for j in range(1, model.njoints) if model.joints[j].nv == 1 and model.names[j] not in mimic]
-
-
-@lru_cache(maxsize=8)
-def _mimic_joints(urdf: Path, sha256: str) -> frozenset[str]:
-    """The mimic joints of the URDF at ``urdf`` (``sha256``: of the bytes the robot was built from,
-    so an edited file is read again). The robot's model keeps no record of them."""
-    data = expand_xacro(urdf, "mimic joints") if is_xacro(urdf) else Path(urdf).read_bytes()
-    return frozenset(mimic_joints(data))
 
 
 def joint_values(robot: Robot, q: FloatArray, names: list[str]) -> dict[str, float]:
