@@ -231,3 +231,51 @@ def test_costs_at_literal_corridor():
     assert costs_at(np.ones((1, 5)), blocked, [(0, 1)], 0.1, np.zeros(0, np.int64))[0].size == 0
     with pytest.raises(PlacementError, match="outside"):
         costs_at(np.ones((1, 5)), blocked, [(0, 1)], 0.1, np.array([5]))
+
+
+EIGHT = np.ones((3, 3), dtype=bool)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_components_equal_scipy_labels_and_boxes(seed):
+    """Against ``scipy.ndimage.label`` (3 x 3 structure) and ``find_objects`` on random masks of any
+    density: the same labels in the same raster order, the same boxes."""
+    from placement.kernels.navigation import components8
+
+    rng = np.random.default_rng(seed)
+    for _ in range(40):
+        ny, nx = (int(v) for v in rng.integers(1, 30, 2))
+        mask = rng.random((ny, nx)) < rng.uniform(0.05, 0.95)
+        want, n = ndimage.label(mask, structure=EIGHT)
+        labels, boxes = components8(mask)
+        assert np.array_equal(labels, want) and len(boxes) == n
+        got = [(slice(int(a), int(b)), slice(int(c), int(d))) for a, b, c, d in boxes]
+        assert got == ndimage.find_objects(want)
+
+
+def test_components_literal():
+    # 4 x 6 mask; diagonal neighbours join (8-connected):
+    #   X . . X X .
+    #   . X . . . .
+    #   . . . . . X
+    #   X X . . X .
+    mask = np.array([[1, 0, 0, 1, 1, 0], [0, 1, 0, 0, 0, 0], [0, 0, 0, 0, 0, 1], [1, 1, 0, 0, 1, 0]], dtype=bool)
+    from placement.kernels.navigation import component_of, components8
+
+    labels, boxes = components8(mask)
+    assert labels.tolist() == [[1, 0, 0, 2, 2, 0], [0, 1, 0, 0, 0, 0], [0, 0, 0, 0, 0, 3], [4, 4, 0, 0, 3, 0]]
+    assert boxes.tolist() == [[0, 2, 0, 2], [0, 1, 3, 5], [2, 4, 4, 6], [3, 4, 0, 2]]
+    assert component_of(mask, 3, 4).tolist() == (labels == 3).tolist()
+    assert not component_of(mask, 0, 1).any()  # off the mask: nothing
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_component_of_a_cell_is_its_scipy_label(seed):
+    from placement.kernels.navigation import component_of
+
+    rng = np.random.default_rng(100 + seed)
+    mask = rng.random((40, 35)) < 0.6
+    labels, _ = ndimage.label(mask, structure=EIGHT)
+    for y, x in rng.integers(0, 35, (20, 2)):
+        want = labels == labels[y, x] if mask[y, x] else np.zeros_like(mask)
+        assert np.array_equal(component_of(mask, int(y), int(x)), want)

@@ -1,4 +1,4 @@
-"""Navigation kernels on a 2D grid: exact distance transform and 8-connected shortest paths.
+"""Navigation kernels on a 2D grid: exact distance transform, 8-connected components and shortest paths.
 
 Grids are (ny, nx) arrays, row = y index, column = x index, cell size ``res`` metres.
 """
@@ -82,6 +82,75 @@ def distance_transform(occupied: npt.NDArray[np.bool_], res: float) -> npt.NDArr
         for y in range(ny):
             out[y, x] = math.sqrt(d[y]) * res
     return out
+
+
+@njit(cache=True)
+def _fill(
+    mask: npt.NDArray[np.bool_], labels: npt.NDArray[np.int32], stack: npt.NDArray[np.int64], y: int, x: int, n: int
+) -> tuple[int, int, int, int]:
+    """Label ``n`` on the unlabelled 8-connected cells of ``mask`` reached from (``y``, ``x``) (on the
+    mask, unlabelled), a flood fill with ``stack`` (ny nx,) as its work; returns their box (y0, y1,
+    x0, x1), half-open."""
+    ny, nx = mask.shape
+    labels[y, x] = n
+    y0, y1, x0, x1 = y, y + 1, x, x + 1
+    stack[0] = y * nx + x
+    top = 1
+    while top > 0:
+        top -= 1
+        u = stack[top]
+        uy = u // nx
+        ux = u - uy * nx
+        for vy in range(max(uy - 1, 0), min(uy + 2, ny)):
+            for vx in range(max(ux - 1, 0), min(ux + 2, nx)):
+                if mask[vy, vx] and labels[vy, vx] == 0:
+                    labels[vy, vx] = n
+                    stack[top] = vy * nx + vx
+                    top += 1
+                    y0 = min(y0, vy)
+                    y1 = max(y1, vy + 1)
+                    x0 = min(x0, vx)
+                    x1 = max(x1, vx + 1)
+    return y0, y1, x0, x1
+
+
+@njit(cache=True)
+def components8(mask: npt.NDArray[np.bool_]) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.int64]]:
+    """The 8-connected components of ``mask`` (ny, nx): labels (ny, nx) int32, 1..n in the raster
+    order of each component's first cell (0 off the mask), and boxes (n, 4) int64, each component's
+    rows y0..y1 and columns x0..x1 (half-open), as ``scipy.ndimage.label`` with a 3 x 3 structure
+    and ``find_objects`` give them (flood fills from each unlabelled cell in raster order)."""
+    ny, nx = mask.shape
+    labels = np.zeros((ny, nx), dtype=np.int32)
+    stack = np.empty(ny * nx, dtype=np.int64)
+    boxes = np.empty((16, 4), dtype=np.int64)
+    n = 0
+    for y in range(ny):
+        for x in range(nx):
+            if not mask[y, x] or labels[y, x] != 0:
+                continue
+            if n == boxes.shape[0]:
+                grown = np.empty((2 * n, 4), dtype=np.int64)
+                grown[:n] = boxes
+                boxes = grown
+            n += 1
+            y0, y1, x0, x1 = _fill(mask, labels, stack, y, x, n)
+            boxes[n - 1, 0] = y0
+            boxes[n - 1, 1] = y1
+            boxes[n - 1, 2] = x0
+            boxes[n - 1, 3] = x1
+    return labels, boxes[:n].copy()
+
+
+@njit(cache=True)
+def component_of(mask: npt.NDArray[np.bool_], y: int, x: int) -> npt.NDArray[np.bool_]:
+    """(ny, nx) bool: the 8-connected component of ``mask`` holding cell (``y``, ``x``) (nothing when
+    that cell is off the mask): one flood fill, its work the component's size."""
+    ny, nx = mask.shape
+    labels = np.zeros((ny, nx), dtype=np.int32)
+    if mask[y, x]:
+        _fill(mask, labels, np.empty(ny * nx, dtype=np.int64), y, x, 1)
+    return labels == 1
 
 
 @njit(cache=True, inline="always")

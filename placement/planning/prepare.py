@@ -17,6 +17,7 @@ import numpy as np
 from placement.kernels.footprint import pose_blocked
 from placement.kernels.grid import zyx_angles
 from placement.kernels.irm import column_maxima, farthest_reached, yaw_bits
+from placement.kernels.navigation import component_of, components8
 from placement.kinematics.ik import solve_ik
 from placement.planning.context import PlanningContext
 from placement.planning.methods import rank_by_cost
@@ -83,9 +84,11 @@ def _load_small_kernels() -> None:
     zyx_angles(np.eye(4))
     touched = np.zeros((3, 3), bool)
     square = np.array([[0.0, 0.0], [0.1, 0.0], [0.1, 0.1], [0.0, 0.1]])
-    pose_blocked(touched, 0.0, 0.0, 0.05, square, 0.0)
-    touched.flags.writeable = False
-    pose_blocked(touched, 0.0, 0.0, 0.05, square, 0.0)
+    for read_only in (False, True):
+        touched.flags.writeable = not read_only
+        pose_blocked(touched, 0.0, 0.0, 0.05, square, 0.0)
+        component_of(touched, 1, 1)
+        components8(touched)
 
 
 def prefetch_slices(problems: StepProblems, seconds: float = math.inf) -> bool:

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
+from placement.kernels.navigation import components8
 from placement.planning.world.layers import World
-from placement.planning.world.navigation import EIGHT, costs_at, navigation_cost
+from placement.planning.world.navigation import costs_at, navigation_cost
 
 
 def region_heuristic(
@@ -36,18 +36,18 @@ def region_heuristic(
     # the regions are labelled within their bounding box (a step's regions lie near its target): the
     # same components, numbered in the same raster order, without passes over the whole grid
     y0, x0 = int(ys.min()), int(xs.min())
-    labels, n = ndimage.label(region[y0 : int(ys.max()) + 1, x0 : int(xs.max()) + 1], structure=EIGHT)
+    labels, boxes = components8(np.ascontiguousarray(region[y0 : int(ys.max()) + 1, x0 : int(xs.max()) + 1]))
+    n = len(boxes)
     sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
     keep = [lab + 1 for lab in range(n) if sizes[lab] >= min_region * sizes.sum()]
     area = sum(sizes[lab - 1] for lab in keep)
-    boxes = ndimage.find_objects(labels)
     at = None if targets is None else np.flatnonzero(targets)
     if at is not None:  # as the whole maps have it: inf off the cells read
         total = np.full(world.nav.shape, np.inf)
         total.flat[at] = 0.0
     for lab in keep:
-        rows, cols = boxes[lab - 1]
-        cells = np.argwhere(labels[rows, cols] == lab) + (y0 + rows.start, x0 + cols.start)
+        r0, r1, c0, c1 = (int(v) for v in boxes[lab - 1])
+        cells = np.argwhere(labels[r0:r1, c0:c1] == lab) + (y0 + r0, x0 + c0)
         centroid = cells.mean(axis=0)
         centre = cells[np.argmin(((cells - centroid) ** 2).sum(axis=1))]
         if at is None:

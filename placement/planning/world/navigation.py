@@ -16,15 +16,11 @@ from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
 
 from placement.errors import PlacementError
-from placement.kernels.navigation import distance_transform, padded_costs, padded_grid
+from placement.kernels.navigation import component_of, distance_transform, padded_costs, padded_grid
 from placement.planning.arrays import BoolArray, FloatArray, IntArray
 from placement.scene.navgrid import NavGrid
-
-#: 8-connected, as the base moves (placement.kernels.navigation)
-EIGHT = np.ones((3, 3), dtype=bool)
 
 
 def reachable_from(feasible: BoolArray, nav: NavGrid, x: float, y: float) -> BoolArray:
@@ -36,8 +32,7 @@ def reachable_from(feasible: BoolArray, nav: NavGrid, x: float, y: float) -> Boo
         return feasible.copy()
     if not feasible[cell]:
         return feasible.copy()
-    labels, _ = ndimage.label(feasible, structure=EIGHT)
-    out: BoolArray = labels == labels[cell]
+    out: BoolArray = component_of(np.ascontiguousarray(feasible, dtype=np.bool_), int(cell[0]), int(cell[1]))
     return out
 
 
