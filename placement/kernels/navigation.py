@@ -150,7 +150,8 @@ def component_of(mask: npt.NDArray[np.bool_], y: int, x: int) -> npt.NDArray[np.
     labels = np.zeros((ny, nx), dtype=np.int32)
     if mask[y, x]:
         _fill(mask, labels, np.empty(ny * nx, dtype=np.int64), y, x, 1)
-    return labels == 1
+    out: npt.NDArray[np.bool_] = labels == 1
+    return out
 
 
 @njit(cache=True, inline="always")
