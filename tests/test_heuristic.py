@@ -13,8 +13,11 @@ from placement.planning.settings import PlannerConfig
 from placement.planning.world.footprints import BaseShape
 from placement.planning.world.heuristic import region_heuristic
 from placement.planning.world.layers import world_from_occupancy
-from placement.planning.world.navigation import EIGHT, navigation_cost
+from placement.planning.world.navigation import navigation_cost
 from placement.scene.navgrid import NavGrid
+
+#: 8-connected, as the base moves: the reference's structure
+EIGHT = np.ones((3, 3), dtype=bool)
 
 
 def plain_heuristic(region, world, min_region, reachable=None):
