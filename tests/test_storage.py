@@ -165,12 +165,12 @@ def test_zarr_reads_the_chunks_written_directly_as_its_own(tmp_path, pr2, right_
 
 
 def test_a_failed_layer_leaves_no_writer_running():
-    """each_layer (the writes of a save) raises a layer's error only once no other layer runs: the
+    """each_of (the layer writes of a save) raises a layer's error only once no other layer runs: the
     caller then removes the half-written map, and no thread writes into it afterwards."""
     import threading
     import time
 
-    from placement.storage.chunks import each_layer
+    from placement.storage.chunks import each_of
 
     running, ended = set(), []
     lock = threading.Lock()
@@ -188,7 +188,7 @@ def test_a_failed_layer_leaves_no_writer_running():
                 ended.append(iz)
 
     with pytest.raises(OSError, match="No space left"):
-        each_layer(task, 12)
+        each_of(task, range(12))
     assert running == set() and 0 in ended and len(ended) == len(set(ended))
     done = len(ended)
     time.sleep(0.1)

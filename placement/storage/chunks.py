@@ -39,17 +39,11 @@ if hasattr(os, "register_at_fork"):  # POSIX only; elsewhere nothing forks
     os.register_at_fork(after_in_child=_POOLS.clear)
 
 
-def each_layer(task: Callable[[int], None], layers: int) -> None:
-    """``task(iz)`` for every z layer ``iz`` in ``range(layers)`` on the chunk threads (the codecs
-    release the GIL). The first exception is raised here once no task runs any more: after a failed
-    layer none has started, the others have ended (a failed save's caller removes what they wrote,
-    and nothing writes there after it)."""
-    each_of(task, range(layers))
-
-
 def each_of(task: Callable[[T], None], items: Iterable[T]) -> None:
-    """``task(item)`` for every item on the chunk threads, as :func:`each_layer` runs its layers (the
-    first exception raised here once no task runs any more)."""
+    """``task(item)`` for every item (a save's z layers, a planner's slices) on the chunk threads (the
+    codecs release the GIL). The first exception is raised here once no task runs any more: after a
+    failed item none has started, the others have ended (a failed save's caller removes what they
+    wrote, and nothing writes there after it)."""
     futures = [_pool().submit(task, item) for item in items]
     try:
         for done in futures:
@@ -106,8 +100,7 @@ class ChunkReader(ABC):
             for ir in range(n_roll):
                 crcs[ip, ir] = self.read(iz, ip, ir, out=out[:, :, :, ip, ir])[1]
 
-        for done in [_pool().submit(row, ip) for ip in range(n_pitch)]:
-            done.result()
+        each_of(row, range(n_pitch))
         return out, crcs
 
     def whole(self) -> tuple[np.ndarray, np.ndarray]:

@@ -27,7 +27,7 @@ from zarr.storage import LocalStore
 
 from placement.errors import MapError
 from placement.storage.base import ROOT_KEY, ArmArrays, Backend, StoredMap, chunk_shape, opened
-from placement.storage.chunks import ChunkReader, each_layer
+from placement.storage.chunks import ChunkReader, each_of
 from placement.storage.digest import seal
 from placement.storage.files import META_LIMIT, read_bounded
 from placement.storage.format import witness_name
@@ -183,7 +183,7 @@ def write_chunks(folder: Path, array: npt.NDArray[Any], fill: float | int) -> No
                 where.parent.mkdir(parents=True, exist_ok=True)
                 where.write_bytes(body + google_crc32c.value(body).to_bytes(4, "little"))
 
-    each_layer(layer, nz)
+    each_of(layer, range(nz))
 
 
 class ZarrBackend(Backend):
